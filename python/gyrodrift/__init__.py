@@ -1,0 +1,22 @@
+"""gyrodrift: random-drift removal for optical gyroscopes, and the evidence that it works.
+
+The public API is re-exported here; `gyrodrift.reference` holds the numpy/PyWavelets
+reference implementations written straight from the equations, against which the C++
+core (`gyrodrift._core`) is tested.
+"""
+
+from __future__ import annotations
+
+import pkgutil as _pkgutil
+
+# Lets a development build of the extension (`scripts/dev-build`, PYTHONPATH=python:build/<dir>/py)
+# supply gyrodrift._core next to the pure-Python sources. Installed wheels are unaffected.
+__path__ = _pkgutil.extend_path(__path__, __name__)
+
+__version__ = "0.1.0"
+
+# --- foundation (issue 2): simulator, AR(2) identification, AR and AR(2)-Kalman filters ---
+# --- wavelets (issue 3) ---
+# --- Allan / PSD / analysis (issue 4) ---
+# --- IMU processor, codecs, replay (issue 5) ---
+# --- alignment (issue 6) ---

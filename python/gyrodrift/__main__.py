@@ -1,0 +1,5 @@
+import sys
+
+from gyrodrift.cli import main
+
+sys.exit(main())
