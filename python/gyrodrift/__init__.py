@@ -16,6 +16,11 @@ __path__ = _pkgutil.extend_path(__path__, __name__)
 __version__ = "0.1.0"
 
 # --- foundation (issue 2): simulator, AR(2) identification, AR and AR(2)-Kalman filters ---
+from gyrodrift.simulate import GyroRecord as GyroRecord
+from gyrodrift.simulate import ImuRecord as ImuRecord
+from gyrodrift.simulate import NoiseTerms as NoiseTerms
+from gyrodrift.simulate import simulate as simulate
+from gyrodrift.simulate import simulate_imu as simulate_imu
 # --- wavelets (issue 3) ---
 # --- Allan / PSD / analysis (issue 4) ---
 # --- IMU processor, codecs, replay (issue 5) ---
