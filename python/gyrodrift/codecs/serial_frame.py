@@ -1,0 +1,229 @@
+"""Serial IMU frame (42 bytes, little-endian): encoder and resynchronising stream parser.
+
+Twin of include/gyrodrift/serial_frame.hpp (same layout, same resync rules, same counters).
+Layout (offset size field): 0 1 sync0=0xA5 | 1 1 sync1=0x5A | 2 1 type (0x01 input,
+0x81 output) | 3 1 len=36 | 4 2 seq u16 | 6 2 flags u16 | 8 8 t_us u64 | 16 24 6 x float32
+(gyro x y z rad/s, accel x y z m/s^2) | 40 2 CRC-16/CCITT-FALSE over bytes 2..39.
+The CRC comes from the standard library (binascii.crc_hqx: poly 0x1021, no reflection;
+init 0xFFFF gives CCITT-FALSE), independent of the C++ table implementation.
+"""
+
+from __future__ import annotations
+
+import binascii
+import struct
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+SYNC0 = 0xA5
+SYNC1 = 0x5A
+TYPE_INPUT = 0x01
+TYPE_OUTPUT = 0x81
+PAYLOAD_LEN = 36
+FRAME_SIZE = 42
+CRC_OFFSET = 40
+
+_BODY = struct.Struct("<BBBBHHQ6f")  # bytes 0..39
+_CRC = struct.Struct("<H")
+# numpy view of a frame, for vectorised encoding of whole recordings
+FRAME_DTYPE = np.dtype(
+    [
+        ("sync0", "u1"),
+        ("sync1", "u1"),
+        ("type", "u1"),
+        ("len", "u1"),
+        ("seq", "<u2"),
+        ("flags", "<u2"),
+        ("t_us", "<u8"),
+        ("values", "<f4", (6,)),
+        ("crc", "<u2"),
+    ]
+)
+assert FRAME_DTYPE.itemsize == FRAME_SIZE
+
+
+def crc16_ccitt_false(data: bytes | bytearray | memoryview) -> int:
+    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, xorout 0); check value 0x29B1."""
+    return binascii.crc_hqx(bytes(data), 0xFFFF)
+
+
+@dataclass
+class ImuFrame:
+    seq: int
+    t_us: int
+    values: tuple[float, ...]  # gyro x y z (rad/s), accel x y z (m/s^2), as float32 values
+    frame_type: int = TYPE_INPUT
+    flags: int = 0
+
+
+def encode_frame(
+    seq: int,
+    t_us: int,
+    values: npt.ArrayLike,
+    *,
+    frame_type: int = TYPE_INPUT,
+    flags: int = 0,
+) -> bytes:
+    """One 42-byte frame. values: 6 numbers, stored as float32."""
+    v = np.asarray(values, dtype=np.float64).reshape(-1)
+    if v.size != 6:
+        raise ValueError(f"values: expected 6 channels, got {v.size}")
+    if frame_type not in (TYPE_INPUT, TYPE_OUTPUT):
+        raise ValueError(f"type: expected 0x01 or 0x81, got {frame_type:#x}")
+    body = _BODY.pack(
+        SYNC0, SYNC1, frame_type, PAYLOAD_LEN, seq & 0xFFFF, flags & 0xFFFF, int(t_us), *v.tolist()
+    )
+    return body + _CRC.pack(crc16_ccitt_false(body[2:]))
+
+
+def encode_frames(
+    seq: npt.ArrayLike,
+    t_us: npt.ArrayLike,
+    values: npt.ArrayLike,
+    *,
+    frame_type: int = TYPE_INPUT,
+    flags: npt.ArrayLike = 0,
+) -> bytes:
+    """n frames back to back (vectorised layout; CRC per frame)."""
+    vals = np.asarray(values, dtype=np.float32)
+    if vals.ndim != 2 or vals.shape[1] != 6:
+        raise ValueError(f"values: expected shape (n, 6), got {vals.shape}")
+    n = vals.shape[0]
+    rec = np.zeros(n, dtype=FRAME_DTYPE)
+    rec["sync0"] = SYNC0
+    rec["sync1"] = SYNC1
+    rec["type"] = frame_type
+    rec["len"] = PAYLOAD_LEN
+    rec["seq"] = np.asarray(seq, dtype=np.int64) & 0xFFFF
+    rec["flags"] = np.asarray(flags, dtype=np.int64) & 0xFFFF
+    rec["t_us"] = np.asarray(t_us, dtype=np.uint64)
+    rec["values"] = vals
+    raw = rec.view(np.uint8).reshape(n, FRAME_SIZE)
+    rec["crc"] = [crc16_ccitt_false(raw[i, 2:CRC_OFFSET].tobytes()) for i in range(n)]
+    return rec.tobytes()
+
+
+class FrameError(ValueError):
+    """A byte string that is not exactly one valid frame."""
+
+
+def decode_frame(frame: bytes | bytearray | memoryview) -> ImuFrame:
+    """Decodes exactly one frame; raises FrameError with the reason otherwise."""
+    b = bytes(frame)
+    if len(b) != FRAME_SIZE:
+        raise FrameError(f"expected {FRAME_SIZE} bytes, got {len(b)}")
+    s0, s1, typ, ln, seq, flags, t_us, *vals = _BODY.unpack_from(b)
+    if (s0, s1) != (SYNC0, SYNC1):
+        raise FrameError(f"bad sync {s0:#04x} {s1:#04x}")
+    if typ not in (TYPE_INPUT, TYPE_OUTPUT) or ln != PAYLOAD_LEN:
+        raise FrameError(f"bad header type={typ:#04x} len={ln}")
+    (crc,) = _CRC.unpack_from(b, CRC_OFFSET)
+    if crc != crc16_ccitt_false(b[2:CRC_OFFSET]):
+        raise FrameError("CRC mismatch")
+    return ImuFrame(seq=seq, t_us=t_us, values=tuple(vals), frame_type=typ, flags=flags)
+
+
+def _valid_header(typ: int, ln: int) -> bool:
+    return typ in (TYPE_INPUT, TYPE_OUTPUT) and ln == PAYLOAD_LEN
+
+
+@dataclass
+class ParserStats:
+    bytes_in: int = 0
+    frames_ok: int = 0
+    discarded_bytes: int = 0
+    garbage_bytes: int = 0
+    bad_header: int = 0
+    crc_errors: int = 0
+    truncated: int = 0
+
+
+@dataclass
+class FrameParser:
+    """Stream parser with the C++ parser's rules and counters (unbounded buffer here).
+
+    Invariant: bytes_in == FRAME_SIZE * frames_ok + discarded_bytes + buffered.
+    """
+
+    stats: ParserStats = field(default_factory=ParserStats)
+    _buf: bytearray = field(default_factory=bytearray)
+
+    @property
+    def buffered(self) -> int:
+        return len(self._buf)
+
+    def feed(self, data: bytes | bytearray | memoryview) -> list[ImuFrame]:
+        """Adds bytes and returns every frame completed by them."""
+        self._buf += data
+        self.stats.bytes_in += len(data)
+        out: list[ImuFrame] = []
+        while True:
+            frame = self._next()
+            if frame is None:
+                return out
+            out.append(frame)
+
+    def finish(self) -> None:
+        """End of stream: buffered bytes can no longer complete a frame."""
+        if not self._buf:
+            return
+        if self._buf[0] == SYNC0:
+            self.stats.truncated += 1
+        else:
+            self.stats.garbage_bytes += len(self._buf)
+        self._discard(len(self._buf))
+
+    def _discard(self, n: int) -> None:
+        del self._buf[:n]
+        self.stats.discarded_bytes += n
+
+    def _hunt(self) -> bool:
+        b = self._buf
+        if len(b) == 1:
+            if b[0] == SYNC0:
+                return False
+            k = 1
+        else:
+            k = 1
+            while k < len(b):
+                if b[k] == SYNC0 and (k + 1 == len(b) or b[k + 1] == SYNC1):
+                    break
+                k += 1
+        self.stats.garbage_bytes += k
+        self._discard(k)
+        return len(self._buf) >= 2
+
+    def _next(self) -> ImuFrame | None:
+        while True:
+            b = self._buf
+            if not b:
+                return None
+            if len(b) < 2 or b[0] != SYNC0 or b[1] != SYNC1:
+                if not self._hunt():
+                    return None
+                continue
+            if len(b) < 4:
+                return None
+            if not _valid_header(b[2], b[3]):
+                self.stats.bad_header += 1
+                self._discard(2)
+                continue
+            if len(b) < FRAME_SIZE:
+                return None
+            try:
+                frame = decode_frame(b[:FRAME_SIZE])
+            except FrameError:
+                for k in range(2, FRAME_SIZE - 3):
+                    if b[k] == SYNC0 and b[k + 1] == SYNC1 and _valid_header(b[k + 2], b[k + 3]):
+                        self.stats.truncated += 1
+                        self._discard(k)
+                        break
+                else:
+                    self.stats.crc_errors += 1
+                    self._discard(FRAME_SIZE)
+                continue
+            del b[:FRAME_SIZE]
+            self.stats.frames_ok += 1
+            return frame
