@@ -1,0 +1,195 @@
+// Real-time sliding-window wavelet prefilter (paper 004, sec. 2.2), one per channel.
+//
+// Definition (the reference, per input sample once the window is full):
+//   w   = the last N inputs, oldest first (N = WindowN, a power of two)
+//   ext = [w, reverse(w)]                       (symmetric extension to 2N, then periodic)
+//   c   = periodized J-level DWT of ext          (pywt.wavedec(ext, w, "periodization", J))
+//   forced mode:    all detail coefficients set to zero
+//   soft/hard mode: sigma = median(|cD_1|) / 0.6745, t = sigma * sqrt(2 ln N) (paper 000,
+//                   sec. 2.3), pywt.threshold(cD_j, t, "soft"|"hard") for j = 1..J
+//   output = inverse DWT(c)[N - 1]               (the filtered newest sample)
+//
+// Start-up: for the first N-1 accepted samples the window is not full and the paper does
+// not filter ("the first N-1 samples are not processed"): step() returns the input
+// unchanged and ready() is false. From the N-th accepted sample on, every output is filtered.
+//
+// Bad input: a NaN/Inf sample is NOT inserted into the window; fault_count() is
+// incremented and step() returns the previous output (0 before any output). The window,
+// the start-up count and the filter state are untouched, so the next finite sample
+// continues exactly as if the bad one had not arrived.
+//
+// Streaming: forced denoising of the newest sample is linear in the window, so it is an
+// N-tap FIR filter y = sum_i taps[i] w[i] (taps derived once at construction from the lifting
+// transform: with the orthogonal DWT F and the approximation projector P_J, taps =
+// S^T F^T P_J F e_{N-1}, S the extension). Threshold modes recompute the window transform.
+//
+// Fixed capacity, no heap, noexcept, deterministic. Invalid configurations (level outside
+// 1..max for this window and wavelet) leave status() != Ok; step() then passes inputs through.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "lifting_transform.hpp"
+
+namespace gyrodrift {
+
+enum class WaveletMode : std::uint8_t { forced = 0, soft = 1, hard = 2 };
+
+enum class RealtimeWaveletStatus : std::uint8_t {
+  ok = 0,
+  level_out_of_range,  // level < 1, or (filter_length - 1) * 2^level > 2N (pywt dwt_max_level)
+  bad_mode,
+};
+
+// Largest level allowed for a 2N-sample extended window: pywt.dwt_max_level(2N, filter_len).
+constexpr int realtime_wavelet_max_level(std::size_t window, WaveletKind w) noexcept {
+  int level = 0;
+  const auto flen = static_cast<std::size_t>(wavelet_filter_length(w) - 1);
+  while (level < kMaxWaveletLevel && (flen << static_cast<unsigned>(level + 1)) <= 2 * window) ++level;
+  return level;
+}
+
+template <class Scalar, std::size_t WindowN>
+class RealtimeWavelet {
+  static_assert(WindowN >= 4 && (WindowN & (WindowN - 1)) == 0, "WindowN must be a power of two >= 4");
+
+ public:
+  static constexpr std::size_t kWindow = WindowN;
+
+  explicit RealtimeWavelet(WaveletKind wavelet = WaveletKind::db8, int level = 5,
+                           WaveletMode mode = WaveletMode::forced) noexcept
+      : wavelet_(wavelet), level_(level), mode_(mode) {
+    if (level < 1 || level > realtime_wavelet_max_level(WindowN, wavelet)) {
+      status_ = RealtimeWaveletStatus::level_out_of_range;
+    } else if (mode != WaveletMode::forced && mode != WaveletMode::soft && mode != WaveletMode::hard) {
+      status_ = RealtimeWaveletStatus::bad_mode;
+    }
+    compute_taps();
+    reset();
+  }
+
+  // Filters one sample (see the file comment for start-up and NaN/Inf behaviour).
+  Scalar step(Scalar x) noexcept {
+    if (!std::isfinite(x)) {
+      ++faults_;
+      return last_out_;
+    }
+    buf_[pos_] = x;  // doubled circular buffer: the window is always buf_[pos_+1 .. pos_+N]
+    buf_[pos_ + WindowN] = x;
+    pos_ = (pos_ + 1) % WindowN;
+    if (count_ < WindowN) ++count_;
+    if (count_ < WindowN || status_ != RealtimeWaveletStatus::ok) {
+      last_out_ = x;
+      return x;
+    }
+    const Scalar* w = &buf_[pos_];  // oldest .. newest
+    last_out_ = mode_ == WaveletMode::forced ? fir(w) : threshold(w);
+    return last_out_;
+  }
+
+  void reset() noexcept {
+    std::fill(buf_, buf_ + 2 * WindowN, Scalar(0));
+    pos_ = 0;
+    count_ = 0;
+    faults_ = 0;
+    last_out_ = Scalar(0);
+  }
+
+  bool ready() const noexcept { return count_ >= WindowN; }
+  RealtimeWaveletStatus status() const noexcept { return status_; }
+  std::uint32_t fault_count() const noexcept { return faults_; }
+  WaveletKind wavelet() const noexcept { return wavelet_; }
+  int level() const noexcept { return level_; }
+  WaveletMode mode() const noexcept { return mode_; }
+
+  // Forced-mode equivalent FIR: y[n] = sum_i taps()[i] * x[n - (N-1) + i] (oldest first).
+  const Scalar* taps() const noexcept { return taps_; }
+
+  // Full recompute of the window (the reference algorithm) on an explicit window,
+  // oldest first; used by the streaming path of threshold modes and by tests.
+  Scalar recompute(const Scalar* window) noexcept {
+    constexpr std::size_t n2 = 2 * WindowN;
+    for (std::size_t i = 0; i < WindowN; ++i) {
+      work_[i] = window[i];
+      work_[n2 - 1 - i] = window[i];
+    }
+    LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
+    const std::size_t n_approx = n2 >> static_cast<unsigned>(level_);
+    if (mode_ == WaveletMode::forced) {
+      std::fill(work_ + n_approx, work_ + n2, Scalar(0));
+    } else {
+      const Scalar t = threshold_value(work_ + WindowN);  // cD_1 = last N coefficients
+      for (std::size_t i = n_approx; i < n2; ++i) {
+        const Scalar c = work_[i];
+        const Scalar a = std::fabs(c);
+        if (mode_ == WaveletMode::hard) {
+          work_[i] = a >= t ? c : Scalar(0);  // pywt hard: zero where |c| < t
+        } else {
+          work_[i] = a > t ? std::copysign(a - t, c) : Scalar(0);
+        }
+      }
+    }
+    LiftingTransform<Scalar>::inverse(wavelet_, work_, n2, level_, scratch_);
+    return work_[WindowN - 1];
+  }
+
+ private:
+  Scalar fir(const Scalar* w) const noexcept {
+    // Four accumulators: breaks the add dependency chain, fixed order (deterministic).
+    Scalar s0 = Scalar(0), s1 = Scalar(0), s2 = Scalar(0), s3 = Scalar(0);
+    for (std::size_t i = 0; i < WindowN; i += 4) {
+      s0 += taps_[i] * w[i];
+      s1 += taps_[i + 1] * w[i + 1];
+      s2 += taps_[i + 2] * w[i + 2];
+      s3 += taps_[i + 3] * w[i + 3];
+    }
+    return (s0 + s1) + (s2 + s3);
+  }
+
+  Scalar threshold(const Scalar* w) noexcept { return recompute(w); }
+
+  // t = sigma * sqrt(2 ln N), sigma = median(|cD_1|) / 0.6745 (paper 000, sec. 2.3).
+  Scalar threshold_value(const Scalar* d1) noexcept {
+    for (std::size_t i = 0; i < WindowN; ++i) med_[i] = std::fabs(d1[i]);
+    constexpr std::size_t mid = WindowN / 2;  // N even: median = mean of the two middle values
+    std::nth_element(med_, med_ + mid, med_ + WindowN);
+    const Scalar upper = med_[mid];
+    const Scalar lower = *std::max_element(med_, med_ + mid);
+    const Scalar median = (lower + upper) * Scalar(0.5);
+    const Scalar sigma = median / Scalar(0.6745);
+    return sigma * std::sqrt(Scalar(2) * std::log(static_cast<Scalar>(WindowN)));
+  }
+
+  void compute_taps() noexcept {
+    constexpr std::size_t n2 = 2 * WindowN;
+    std::fill(taps_, taps_ + WindowN, Scalar(0));
+    if (status_ != RealtimeWaveletStatus::ok) return;
+    // Projector Q = F^T P_J F is symmetric, so row N-1 of Q is Q e_{N-1}; folding the
+    // extension (ext[i] and ext[2N-1-i] both equal w[i]) gives taps[i] = q[i] + q[2N-1-i].
+    std::fill(work_, work_ + n2, Scalar(0));
+    work_[WindowN - 1] = Scalar(1);
+    LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
+    std::fill(work_ + (n2 >> static_cast<unsigned>(level_)), work_ + n2, Scalar(0));
+    LiftingTransform<Scalar>::inverse(wavelet_, work_, n2, level_, scratch_);
+    for (std::size_t i = 0; i < WindowN; ++i) taps_[i] = work_[i] + work_[n2 - 1 - i];
+  }
+
+  WaveletKind wavelet_;
+  int level_;
+  WaveletMode mode_;
+  RealtimeWaveletStatus status_ = RealtimeWaveletStatus::ok;
+  std::size_t pos_ = 0;
+  std::size_t count_ = 0;
+  std::uint32_t faults_ = 0;
+  Scalar last_out_ = Scalar(0);
+  Scalar taps_[WindowN];
+  Scalar buf_[2 * WindowN];
+  Scalar work_[2 * WindowN];
+  Scalar scratch_[2 * WindowN];
+  Scalar med_[WindowN];
+};
+
+}  // namespace gyrodrift
