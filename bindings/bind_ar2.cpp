@@ -1,5 +1,253 @@
+// gyrodrift._core: AR(2) identification, AR filter and AR(2)-Kalman filters.
+//
+// Low-level, strict API (the Python layer gyrodrift.ar2 adds conversions and messages):
+//   ar2_fit(x: float64[n] C-contiguous, method: int) -> (a1, a2, sigma2, mean, r)
+//   ar2_kalman_batch(x, params, p0, steady_state) -> (out, faults[axes])
+//   ar_filter_batch(x, params) -> (out, faults[axes])
+// x is float32 or float64, 1-D or (n, 3), C-contiguous, taken without copy (.noconvert());
+// params is a list of 1 (all axes) or `axes` tuples (a1, a2, sigma2, mean, q, r).
+// Classes Ar2Kalman / Ar2KalmanF32 / Ar2SteadyStateKalman / Ar2SteadyStateKalmanF32 are
+// per-sample stateful filters.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <gyrodrift/ar2_kalman.hpp>
+#include <gyrodrift/ar2_model.hpp>
+#include <gyrodrift/ar2_steady_state.hpp>
+#include <gyrodrift/ar_filter.hpp>
+#include <string>
+#include <vector>
+
+#include "array_checks.hpp"
 #include "bindings.hpp"
 
 namespace gyrodrift::py_bindings {
-void bind_ar2(pybind11::module_& /*m*/) {}
+
+namespace {
+
+using Params = std::array<double, 6>;  // a1, a2, sigma2, mean, q, r
+
+template <class T>
+Ar2Model<T> model_of(const Params& p) {
+  return Ar2Model<T>{static_cast<T>(p[0]), static_cast<T>(p[1]), static_cast<T>(p[2]),
+                     static_cast<T>(p[3])};
+}
+
+[[noreturn]] void throw_status(Ar2Status s, const std::string& what) {
+  throw py::value_error(what + ": " + to_string(s));
+}
+
+template <class Filter>
+void require_ok(const Filter& f, const char* what) {
+  if (f.status() != Ar2Status::ok) throw_status(f.status(), what);
+}
+
+std::size_t axes_of(const py::array& a) {
+  return a.ndim() == 1 ? std::size_t{1} : static_cast<std::size_t>(a.shape(1));
+}
+
+// Runs one filter per axis over the rows of x (row-major, `axes` columns), GIL released.
+template <class T, class MakeFilter>
+py::tuple run_batch(const CArray<T>& x, const std::vector<Params>& params, MakeFilter make,
+                    const char* what) {
+  const std::size_t n = require_1d_or_n3(x, what);
+  const std::size_t axes = axes_of(x);
+  if (params.size() != 1 && params.size() != axes) {
+    throw py::value_error(std::string(what) + ": expected 1 or " + std::to_string(axes) +
+                          " parameter sets, got " + std::to_string(params.size()));
+  }
+  using Filter = decltype(make(Params{}));
+  std::vector<Filter> filters;
+  filters.reserve(axes);
+  for (std::size_t i = 0; i < axes; ++i) {
+    filters.push_back(make(params[params.size() == 1 ? 0 : i]));
+    require_ok(filters.back(), what);
+  }
+  std::vector<py::ssize_t> shape(x.shape(), x.shape() + x.ndim());
+  CArray<T> out(shape);
+  py::array_t<std::uint32_t> faults(static_cast<py::ssize_t>(axes));
+  const T* in = x.data();
+  T* o = out.mutable_data();
+  std::uint32_t* fc = faults.mutable_data();
+  {
+    py::gil_scoped_release release;
+    if (axes == 1) {
+      Filter& f = filters[0];
+      for (std::size_t k = 0; k < n; ++k) o[k] = f.step(in[k]);
+    } else {
+      for (std::size_t k = 0; k < n; ++k) {
+        for (std::size_t i = 0; i < axes; ++i) o[k * axes + i] = filters[i].step(in[k * axes + i]);
+      }
+    }
+  }
+  for (std::size_t i = 0; i < axes; ++i) fc[i] = filters[i].fault_count();
+  return py::make_tuple(out, faults);
+}
+
+template <class T>
+void def_batches(py::module_& m) {
+  m.def(
+      "ar2_kalman_batch",
+      [](const CArray<T>& x, const std::vector<Params>& params, double p0, bool steady_state) {
+        if (steady_state) {
+          return run_batch<T>(
+              x, params,
+              [](const Params& p) {
+                return Ar2SteadyStateKalman<T>(model_of<T>(p), static_cast<T>(p[4]), static_cast<T>(p[5]));
+              },
+              "ar2_kalman_batch (steady state)");
+        }
+        return run_batch<T>(
+            x, params,
+            [p0](const Params& p) {
+              return Ar2Kalman<T>(model_of<T>(p), static_cast<T>(p[4]), static_cast<T>(p[5]),
+                                  static_cast<T>(p0));
+            },
+            "ar2_kalman_batch");
+      },
+      py::arg("x").noconvert(), py::arg("params"), py::arg("p0") = 1.0,
+      py::arg("steady_state") = false,
+      "AR(2)-Kalman over a C-contiguous float32/float64 array (n,) or (n, 3); returns (out, faults).");
+  m.def(
+      "ar_filter_batch",
+      [](const CArray<T>& x, const std::vector<Params>& params) {
+        return run_batch<T>(
+            x, params, [](const Params& p) { return ArFilter<T>(model_of<T>(p)); }, "ar_filter_batch");
+      },
+      py::arg("x").noconvert(), py::arg("params"),
+      "AR(2) one-step-prediction filter over (n,) or (n, 3); returns (out, faults).");
+}
+
+template <class T>
+void def_kalman_class(py::module_& m, const char* name) {
+  using K = Ar2Kalman<T>;
+  py::class_<K>(m, name, "Per-sample AR(2)-Kalman filter (Joseph form).")
+      .def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r, double p0) {
+             K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r),
+                 static_cast<T>(p0));
+             require_ok(k, "Ar2Kalman");
+             return k;
+           }),
+           py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"),
+           py::arg("p0") = 1.0)
+      .def("step", [](K& k, double y) { return static_cast<double>(k.step(static_cast<T>(y))); },
+           py::arg("y"))
+      .def("process",
+           [](K& k, const CArray<T>& x) {
+             if (x.ndim() != 1) throw py::value_error("process: expected a 1-D array");
+             CArray<T> out(x.shape(0));
+             const T* in = x.data();
+             T* o = out.mutable_data();
+             const auto n = static_cast<std::size_t>(x.shape(0));
+             py::gil_scoped_release release;
+             for (std::size_t i = 0; i < n; ++i) o[i] = k.step(in[i]);
+             return out;
+           },
+           py::arg("x").noconvert())
+      .def("reset", &K::reset)
+      .def_property_readonly("fault_count", &K::fault_count)
+      .def_property_readonly("state",
+                             [](const K& k) {
+                               return py::make_tuple(static_cast<double>(k.state()(0)),
+                                                     static_cast<double>(k.state()(1)));
+                             })
+      .def_property_readonly("covariance", [](const K& k) {
+        py::array_t<double> p({2, 2});
+        for (py::ssize_t i = 0; i < 2; ++i)
+          for (py::ssize_t j = 0; j < 2; ++j) p.mutable_at(i, j) = static_cast<double>(k.covariance()(i, j));
+        return p;
+      });
+}
+
+template <class T>
+void def_steady_class(py::module_& m, const char* name) {
+  using K = Ar2SteadyStateKalman<T>;
+  py::class_<K>(m, name, "Per-sample constant-gain AR(2)-Kalman filter (DARE gain).")
+      .def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r) {
+             K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r));
+             require_ok(k, "Ar2SteadyStateKalman");
+             return k;
+           }),
+           py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"))
+      .def("step", [](K& k, double y) { return static_cast<double>(k.step(static_cast<T>(y))); },
+           py::arg("y"))
+      .def("process",
+           [](K& k, const CArray<T>& x) {
+             if (x.ndim() != 1) throw py::value_error("process: expected a 1-D array");
+             CArray<T> out(x.shape(0));
+             const T* in = x.data();
+             T* o = out.mutable_data();
+             const auto n = static_cast<std::size_t>(x.shape(0));
+             py::gil_scoped_release release;
+             for (std::size_t i = 0; i < n; ++i) o[i] = k.step(in[i]);
+             return out;
+           },
+           py::arg("x").noconvert())
+      .def("reset", &K::reset)
+      .def_property_readonly("fault_count", &K::fault_count)
+      .def_property_readonly("iterations", &K::iterations)
+      .def_property_readonly("gain", [](const K& k) {
+        return py::make_tuple(static_cast<double>(k.gain()(0)), static_cast<double>(k.gain()(1)));
+      });
+}
+
+}  // namespace
+
+void bind_ar2(py::module_& m) {
+  py::enum_<Ar2Method>(m, "Ar2Method")
+      .value("yule_walker", Ar2Method::yule_walker)
+      .value("burg", Ar2Method::burg)
+      .value("least_squares", Ar2Method::least_squares);
+  m.attr("AR2_MIN_SAMPLES") = kAr2MinSamples;
+
+  m.def(
+      "ar2_fit",
+      [](const CArray<double>& x, Ar2Method method) {
+        if (x.ndim() != 1) {
+          throw py::value_error("ar2_fit: expected a 1-D array, got ndim=" + std::to_string(x.ndim()));
+        }
+        const auto n = static_cast<std::size_t>(x.shape(0));
+        Ar2Model<double> model{};
+        Ar2Status s;
+        double r = 0.0;
+        {
+          py::gil_scoped_release release;
+          s = fit_ar2(x.data(), n, method, model);
+          if (s == Ar2Status::ok) r = ar2_residual_variance(x.data(), n, model);
+        }
+        // The status name is the first word of the message; gyrodrift.ar2 maps it to a cause.
+        if (s != Ar2Status::ok) throw py::value_error(std::string(to_string(s)) + ": AR(2) fit of " +
+                                                      std::to_string(n) + " samples rejected");
+        return py::make_tuple(model.a1, model.a2, model.sigma2, model.mean, r);
+      },
+      py::arg("x").noconvert(), py::arg("method"),
+      "Fit an AR(2) model to a C-contiguous float64 1-D array; returns (a1, a2, sigma2, mean, r).");
+
+  m.def(
+      "ar2_yule_walker_stream",
+      [](const CArray<double>& x) {
+        if (x.ndim() != 1) throw py::value_error("ar2_yule_walker_stream: expected a 1-D array");
+        Ar2YuleWalkerAccumulator<double> acc;
+        const double* d = x.data();
+        for (py::ssize_t i = 0; i < x.shape(0); ++i) acc.push(d[i]);
+        Ar2Model<double> model{};
+        const Ar2Status s = acc.fit(model);
+        if (s != Ar2Status::ok) throw py::value_error(std::string(to_string(s)) + ": streaming fit rejected");
+        return py::make_tuple(model.a1, model.a2, model.sigma2, model.mean);
+      },
+      py::arg("x").noconvert(),
+      "Streaming (sample-by-sample) Yule-Walker fit, as used on target; returns (a1, a2, sigma2, mean).");
+
+  def_batches<double>(m);
+  def_batches<float>(m);
+  def_kalman_class<double>(m, "Ar2Kalman");
+  def_kalman_class<float>(m, "Ar2KalmanF32");
+  def_steady_class<double>(m, "Ar2SteadyStateKalman");
+  def_steady_class<float>(m, "Ar2SteadyStateKalmanF32");
+}
+
 }  // namespace gyrodrift::py_bindings

@@ -1,0 +1,347 @@
+"""AR(2) drift model identification, AR filter and AR(2)-Kalman filters (C++ core).
+
+Model (paper 000 eq. 1, paper 002 eq. 1), on the demeaned rate x = y - mean:
+
+    x_k = a1 x_{k-1} + a2 x_{k-2} + r_k,   r_k ~ (0, sigma2)
+
+AR(2)-Kalman (papers 000 sec. 2.2 / 002 sec. 3): X_k = [x_k, x_{k-1}]^T, A = [[a1, a2], [1, 0]],
+B = diag(1, 0), C = [1, 0], process variance q, measurement variance r, P0 = p0 I, X0 = 0,
+gain K = P C^T (C P C^T + r)^-1 (the papers print (C P + R)^-1: erratum), Joseph update.
+
+Defaults, as the papers choose them: q = model.sigma2 (the AR(2) driving-noise variance) and
+r = model.r, "the variance of the AR(2) estimation error", taken as the mean squared one-step
+prediction error of the fitted model on the fitting record. Both are in (units of y)^2.
+With q ~ r the steady-state gain on white-like drift is about 0.6; raise r (or lower q) for
+more smoothing at the cost of lag.
+
+All heavy lifting is in gyrodrift._core (include/gyrodrift/ar2_*.hpp); the numpy oracles are in
+gyrodrift.reference.ar2.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "MIN_SAMPLES",
+    "Ar2FitError",
+    "Ar2Model",
+    "KalmanFilter",
+    "ar_filter",
+    "fit_ar2",
+    "is_stationary",
+    "kalman_filter",
+]
+
+#: Fewest samples a fit accepts (include/gyrodrift/ar2_model.hpp kAr2MinSamples).
+MIN_SAMPLES = 8
+
+_METHODS = {
+    "yule-walker": "yule-walker",
+    "yule_walker": "yule-walker",
+    "yw": "yule-walker",
+    "burg": "burg",
+    "ls": "ls",
+    "least-squares": "ls",
+    "least_squares": "ls",
+    "fb": "ls",
+}
+
+_CAUSES = ("too_short", "constant", "non_finite", "non_stationary")
+
+
+class Ar2FitError(ValueError):
+    """An AR(2) fit was rejected. ``cause`` is one of too_short, constant, non_finite,
+    non_stationary."""
+
+    def __init__(self, cause: str, detail: str) -> None:
+        self.cause = cause
+        super().__init__(f"AR(2) fit rejected ({cause.replace('_', '-')}): {detail}")
+
+
+def normalise_method(method: str) -> str:
+    key = str(method).lower()
+    if key not in _METHODS:
+        raise ValueError(f"unknown AR(2) method {method!r}; use 'yule-walker', 'burg' or 'ls'")
+    return _METHODS[key]
+
+
+def is_stationary(a1: float, a2: float) -> bool:
+    """Both roots of z^2 - a1 z - a2 strictly inside the unit circle (stationarity triangle)."""
+    return (
+        math.isfinite(a1)
+        and math.isfinite(a2)
+        and -1.0 < a2 < 1.0
+        and a1 + a2 < 1.0
+        and a2 - a1 < 1.0
+    )
+
+
+@dataclass(frozen=True)
+class Ar2Model:
+    """An identified AR(2) drift model.
+
+    Attributes:
+        a1, a2: AR coefficients (dimensionless).
+        sigma2: driving-noise variance of the method (Yule-Walker c0 - a.c, Burg final
+            prediction-error power, FB-LS residual SS / (2 (n - 2))), (units of y)^2.
+        mean: removed mean (constant drift), units of y.
+        method: "yule-walker", "burg" or "ls".
+        n: number of samples fitted (0 if the model was given by hand).
+        r: variance of the AR(2) estimation (one-step prediction) error on the fitting record,
+            (units of y)^2; the Kalman filter's default measurement variance. NaN if unknown
+            (then kalman_filter uses sigma2).
+    """
+
+    a1: float
+    a2: float
+    sigma2: float
+    mean: float = 0.0
+    method: str = "given"
+    n: int = 0
+    r: float = math.nan
+
+    def __post_init__(self) -> None:
+        for name in ("a1", "a2", "sigma2", "mean"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise ValueError(f"Ar2Model.{name} must be finite, got {getattr(self, name)!r}")
+        if self.sigma2 < 0:
+            raise ValueError(f"Ar2Model.sigma2 must be >= 0, got {self.sigma2!r}")
+
+    @property
+    def stationary(self) -> bool:
+        return is_stationary(self.a1, self.a2)
+
+    @property
+    def measurement_variance(self) -> float:
+        """Default r of the Kalman filter: self.r, or sigma2 when r is unknown."""
+        return self.r if math.isfinite(self.r) and self.r > 0 else self.sigma2
+
+
+def _core() -> Any:
+    from gyrodrift import _core as core
+
+    if not hasattr(core, "ar2_kalman_batch"):
+        raise ImportError("gyrodrift._core was built without the 'ar2' binding area")
+    return core
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
+    """A C-contiguous float32/float64 array (no copy when it already is one)."""
+    if dtype is not None:
+        dt = np.dtype(dtype)
+        if dt not in (np.float32, np.float64):
+            raise TypeError(f"dtype must be float32 or float64, got {dt}")
+    a = np.asarray(x)
+    if a.dtype.kind not in "fiu" or a.dtype == np.float16:
+        raise TypeError(
+            f"{name} must be a real numeric array (float32/float64 or integers), "
+            f"got dtype {a.dtype}"
+        )
+    if a.dtype.kind == "f" and a.dtype.itemsize > 8:
+        raise TypeError(f"{name}: dtype {a.dtype} is not supported; use float32 or float64")
+    if dtype is None:
+        dt = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    return np.ascontiguousarray(a, dtype=dt)
+
+
+def _check_shape(a: np.ndarray, name: str) -> None:
+    if a.ndim == 1 or (a.ndim == 2 and a.shape[1] == 3):
+        if a.shape[0] == 0:
+            raise ValueError(f"{name} is empty")
+        return
+    raise ValueError(f"{name} must have shape (n,) or (n, 3), got {a.shape}")
+
+
+def _models_for(model: Ar2Model | Sequence[Ar2Model], axes: int) -> list[Ar2Model]:
+    if isinstance(model, Ar2Model):
+        return [model]
+    models = list(model)
+    if len(models) != axes or not all(isinstance(m, Ar2Model) for m in models):
+        raise TypeError(
+            f"model must be an Ar2Model or a sequence of {axes} Ar2Model (one per axis)"
+        )
+    return models
+
+
+def _variance(value: float | None, default: float, name: str, positive: bool) -> float:
+    v = default if value is None else float(value)
+    if not math.isfinite(v) or v < 0 or (positive and v == 0):
+        bound = "> 0" if positive else ">= 0"
+        raise ValueError(f"{name} must be finite and {bound}, got {v!r}")
+    return v
+
+
+def _params(m: Ar2Model, q: float | None, r: float | None) -> tuple[float, ...]:
+    if not m.stationary:
+        raise ValueError(f"non-stationary AR(2) model a1={m.a1}, a2={m.a2}")
+    qv = _variance(q, m.sigma2, "q", positive=False)
+    rv = _variance(r, m.measurement_variance, "r", positive=True)
+    return (m.a1, m.a2, m.sigma2, m.mean, qv, rv)
+
+
+def _report_faults(faults: np.ndarray, what: str) -> None:
+    total = int(np.sum(faults))
+    if total:
+        warnings.warn(
+            f"{what}: {total} non-finite sample(s) (per axis {faults.tolist()}) were replaced "
+            "by the filter's prediction",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def fit_ar2(x: object, method: str = "yule-walker") -> Ar2Model | tuple[Ar2Model, ...]:
+    """Identify an AR(2) model (C++ core, float64) from a record of shape (n,) or (n, 3).
+
+    method: "yule-walker" (biased autocovariances, = statsmodels yule_walker(method="mle")),
+    "burg", or "ls" (forward-backward least squares, MATLAB `ar` default). The mean is removed
+    first and kept. For (n, 3) input, returns one model per axis.
+
+    Raises:
+        Ar2FitError (a ValueError): too short (< 8 samples), constant, NaN/Inf, or a
+            non-stationary result; the message names the cause.
+        TypeError: non-numeric input.
+    """
+    name = normalise_method(method)
+    a = _float_array(x, "x", np.float64)
+    if a.ndim == 2 and a.shape[1] == 3:
+        return tuple(fit_ar2(a[:, i], name) for i in range(3))  # type: ignore[misc]
+    if a.ndim != 1:
+        raise ValueError(f"x must have shape (n,) or (n, 3), got {a.shape}")
+    core = _core()
+    cpp_method = {
+        "yule-walker": core.Ar2Method.yule_walker,
+        "burg": core.Ar2Method.burg,
+        "ls": core.Ar2Method.least_squares,
+    }[name]
+    try:
+        a1, a2, sigma2, mean, r = core.ar2_fit(a, cpp_method)
+    except ValueError as exc:
+        cause = str(exc).split(":", 1)[0].replace("-", "_").replace(" ", "_")
+        if cause not in _CAUSES:
+            raise
+        detail = {
+            "too_short": f"{a.size} samples, at least {MIN_SAMPLES} needed",
+            "constant": "all samples are equal",
+            "non_finite": "the record contains NaN or Inf",
+            "non_stationary": "the fitted model has a root on or outside the unit circle",
+        }[cause]
+        raise Ar2FitError(cause, detail) from None
+    return Ar2Model(a1=a1, a2=a2, sigma2=sigma2, mean=mean, method=name, n=int(a.size), r=r)
+
+
+def ar_filter(x: object, model: Ar2Model | Sequence[Ar2Model], dtype: object = None) -> np.ndarray:
+    """AR filter, paper 000 sec. 2.1: y_k minus its one-step residual, i.e. the one-step AR(2)
+    prediction plus the mean. x: (n,) or (n, 3), float32/float64 kept (integers -> float64)."""
+    a = _float_array(x, "x", dtype)
+    _check_shape(a, "x")
+    axes = 1 if a.ndim == 1 else 3
+    params = [_params(m, None, None) for m in _models_for(model, axes)]
+    out, faults = _core().ar_filter_batch(a, params)
+    _report_faults(faults, "ar_filter")
+    return out
+
+
+def kalman_filter(
+    x: object,
+    model: Ar2Model | Sequence[Ar2Model],
+    q: float | None = None,
+    r: float | None = None,
+    steady_state: bool = False,
+    dtype: object = None,
+    p0: float = 1.0,
+    return_faults: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    """AR(2)-Kalman filter (C++ core) of a record of shape (n,) or (n, 3).
+
+    q, r: process / measurement variances, (units of x)^2; default model.sigma2 and model.r.
+    steady_state: constant gain from the discrete algebraic Riccati equation (solved once).
+    dtype: computation dtype, float32 or float64; default: x's float dtype, float64 for integers.
+    A float32/float64 C-contiguous input of that dtype is read without a copy.
+    NaN/Inf samples are predict-only steps; their count per axis is returned with
+    return_faults=True, otherwise reported with a RuntimeWarning.
+    """
+    a = _float_array(x, "x", dtype)
+    _check_shape(a, "x")
+    axes = 1 if a.ndim == 1 else 3
+    params = [_params(m, q, r) for m in _models_for(model, axes)]
+    p0 = _variance(p0, 1.0, "p0", positive=False)
+    out, faults = _core().ar2_kalman_batch(a, params, p0, bool(steady_state))
+    if return_faults:
+        return out, faults
+    _report_faults(faults, "kalman_filter")
+    return out
+
+
+class KalmanFilter:
+    """Stateful per-sample AR(2)-Kalman filter (C++ Ar2Kalman / Ar2SteadyStateKalman).
+
+    >>> kf = KalmanFilter(model)            # q = model.sigma2, r = model.r
+    >>> y_hat = kf.step(y)                  # one sample
+    >>> block = kf.process(samples)         # continues from the current state
+    """
+
+    def __init__(
+        self,
+        model: Ar2Model,
+        q: float | None = None,
+        r: float | None = None,
+        steady_state: bool = False,
+        dtype: object = np.float64,
+        p0: float = 1.0,
+    ) -> None:
+        if not isinstance(model, Ar2Model):
+            raise TypeError(f"model must be an Ar2Model, got {type(model).__name__}")
+        dt = np.dtype(dtype)
+        if dt not in (np.float32, np.float64):
+            raise TypeError(f"dtype must be float32 or float64, got {dt}")
+        self.model = model
+        self.dtype = dt
+        self.steady_state = bool(steady_state)
+        a1, a2, sigma2, mean, self.q, self.r = _params(model, q, r)
+        core = _core()
+        f32 = dt == np.float32
+        if self.steady_state:
+            cls = core.Ar2SteadyStateKalmanF32 if f32 else core.Ar2SteadyStateKalman
+            self._f = cls(a1, a2, sigma2, mean, self.q, self.r)
+        else:
+            cls = core.Ar2KalmanF32 if f32 else core.Ar2Kalman
+            self._f = cls(a1, a2, sigma2, mean, self.q, self.r,
+                          _variance(p0, 1.0, "p0", positive=False))
+
+    def step(self, y: float) -> float:
+        """Filter one sample; NaN/Inf -> predict-only (fault_count increments)."""
+        return float(self._f.step(float(y)))
+
+    def process(self, x: object) -> np.ndarray:
+        """Filter a 1-D block, continuing from the current state."""
+        a = _float_array(x, "x", self.dtype)
+        if a.ndim != 1:
+            raise ValueError(f"x must be 1-D, got shape {a.shape}")
+        return self._f.process(a)
+
+    def reset(self) -> None:
+        """Back to X0 = 0, P0 = p0 I, zero faults."""
+        self._f.reset()
+
+    @property
+    def fault_count(self) -> int:
+        return int(self._f.fault_count)
+
+    @property
+    def gain(self) -> tuple[float, float] | None:
+        """Constant gain of the steady-state variant (None for the full filter)."""
+        return tuple(self._f.gain) if self.steady_state else None  # type: ignore[return-value]
