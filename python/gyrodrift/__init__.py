@@ -16,6 +16,12 @@ __path__ = _pkgutil.extend_path(__path__, __name__)
 __version__ = "0.1.0"
 
 # --- foundation (issue 2): simulator, AR(2) identification, AR and AR(2)-Kalman filters ---
+from gyrodrift.ar2 import Ar2FitError as Ar2FitError
+from gyrodrift.ar2 import Ar2Model as Ar2Model
+from gyrodrift.ar2 import KalmanFilter as KalmanFilter
+from gyrodrift.ar2 import ar_filter as ar_filter
+from gyrodrift.ar2 import fit_ar2 as fit_ar2
+from gyrodrift.ar2 import kalman_filter as kalman_filter
 from gyrodrift.simulate import GyroRecord as GyroRecord
 from gyrodrift.simulate import ImuRecord as ImuRecord
 from gyrodrift.simulate import NoiseTerms as NoiseTerms
