@@ -1,5 +1,191 @@
+// Allan-variance kernels (include/gyrodrift/allan.hpp) for gyrodrift.allan.
+//   oadev_sigma2(data, m, kind)       whole array, all factors, GIL released
+//   OadevSums(m, kind)                streaming state for chunked (memory-mapped) records
+//   tau_grid(grid, max_m, per_decade) averaging-factor grids
+#include <gyrodrift/allan.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "array_checks.hpp"
 #include "bindings.hpp"
 
 namespace gyrodrift::py_bindings {
-void bind_allan(pybind11::module_& /*m*/) {}
+
+namespace {
+
+AllanInput parse_kind(const std::string& kind) {
+  if (kind == "rate") return AllanInput::rate;
+  if (kind == "phase") return AllanInput::phase;
+  throw py::value_error("kind must be 'rate' or 'phase', got '" + kind + "'");
+}
+
+template <class T>
+const T* require_1d(const CArray<T>& a, const char* what) {
+  if (a.ndim() != 1) {
+    throw py::value_error(std::string(what) + ": expected a 1-D array, got ndim=" +
+                          std::to_string(a.ndim()));
+  }
+  return a.data();
+}
+
+template <class T>
+py::tuple oadev_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_in,
+                       const std::string& kind_name) {
+  const AllanInput kind = parse_kind(kind_name);
+  const T* x = require_1d(data, "data");
+  const auto n_data = static_cast<std::size_t>(data.shape(0));
+  const std::int64_t* m_raw = require_1d(m_in, "m");
+  const auto n_m = static_cast<std::size_t>(m_in.shape(0));
+  const std::size_t max_m = oadev_max_m(n_data, kind);
+  std::vector<std::size_t> m(n_m);
+  for (std::size_t j = 0; j < n_m; ++j) {
+    if (m_raw[j] < 1 || static_cast<std::size_t>(m_raw[j]) > max_m) {
+      throw py::value_error("averaging factor m=" + std::to_string(m_raw[j]) +
+                            " does not fit a record of " + std::to_string(n_data) + " " +
+                            kind_name + " samples (1 <= m <= " + std::to_string(max_m) +
+                            " leaves at least 2 differences)");
+    }
+    m[j] = static_cast<std::size_t>(m_raw[j]);
+  }
+  py::array_t<double> sigma2(static_cast<py::ssize_t>(n_m));
+  py::array_t<std::int64_t> terms_out(static_cast<py::ssize_t>(n_m));
+  std::vector<std::size_t> terms(n_m, 0);
+  double* s2 = sigma2.mutable_data();
+  bool ok = true;
+  {
+    py::gil_scoped_release release;
+    ok = gyrodrift::oadev<T, double>(x, n_data, kind, m.data(), n_m, s2, terms.data());
+  }
+  if (!ok) {
+    require_finite(x, n_data, "data");  // names the first bad sample
+    throw py::value_error("data: the Allan sums are not finite (values too large?)");
+  }
+  std::int64_t* t = terms_out.mutable_data();
+  for (std::size_t j = 0; j < n_m; ++j) t[j] = static_cast<std::int64_t>(terms[j]);
+  return py::make_tuple(sigma2, terms_out);
+}
+
+// Streaming state for one averaging factor, long double inside (exposed as double only
+// at the end through sigma2()).
+class OadevStream {
+ public:
+  OadevStream(std::int64_t m, const std::string& kind) : kind_(parse_kind(kind)) {
+    if (m < 1) throw py::value_error("m must be >= 1, got " + std::to_string(m));
+    m_ = static_cast<std::size_t>(m);
+  }
+
+  void seed(const CArray<double>& lo, const CArray<double>& hi) {
+    if (kind_ != AllanInput::rate) throw py::value_error("seed() is for rate input only");
+    require_1d(lo, "lo");
+    require_1d(hi, "hi");
+    if (lo.shape(0) != hi.shape(0)) throw py::value_error("seed(): lo and hi differ in length");
+    const auto n = static_cast<std::size_t>(lo.shape(0));
+    require_finite(lo.data(), n, "lo");
+    require_finite(hi.data(), n, "hi");
+    py::gil_scoped_release release;
+    oadev_rate_seed(sums_, lo.data(), hi.data(), n);
+  }
+
+  void advance(const CArray<double>& y0, const CArray<double>& y1, const CArray<double>& y2) {
+    const std::size_t n = same_length(y0, y1, y2);
+    const double* a = y0.data();
+    const double* b = y1.data();
+    const double* c = y2.data();
+    require_finite(a, n, "y0");
+    require_finite(b, n, "y1");
+    require_finite(c, n, "y2");
+    py::gil_scoped_release release;
+    if (kind_ == AllanInput::rate) {
+      oadev_rate_advance(sums_, a, b, c, n);
+    } else {
+      oadev_phase_accumulate(sums_, a, b, c, n);
+    }
+  }
+
+  void finish() {
+    if (kind_ != AllanInput::rate) throw py::value_error("finish() is for rate input only");
+    oadev_rate_finish(sums_);
+  }
+
+  double sigma2() const {
+    double out = 0.0;
+    if (!oadev_sigma2(sums_, m_, out)) {
+      throw py::value_error("no finite Allan sums yet (no terms, or overflow)");
+    }
+    return out;
+  }
+
+  std::int64_t terms() const { return static_cast<std::int64_t>(sums_.terms); }
+
+ private:
+  std::size_t same_length(const CArray<double>& a, const CArray<double>& b,
+                          const CArray<double>& c) const {
+    require_1d(a, "y0");
+    require_1d(b, "y1");
+    require_1d(c, "y2");
+    if (a.shape(0) != b.shape(0) || a.shape(0) != c.shape(0)) {
+      throw py::value_error("advance(): the three chunks must have the same length");
+    }
+    return static_cast<std::size_t>(a.shape(0));
+  }
+
+  AllanInput kind_;
+  std::size_t m_{1};
+  OadevSums<long double> sums_{};
+};
+
+py::array_t<std::int64_t> tau_grid_py(const std::string& grid_name, std::int64_t max_m,
+                                       std::int64_t per_decade) {
+  TauGrid grid = TauGrid::octave;
+  if (grid_name == "octave") {
+    grid = TauGrid::octave;
+  } else if (grid_name == "decade") {
+    grid = TauGrid::decade;
+  } else if (grid_name == "all") {
+    grid = TauGrid::all;
+  } else {
+    throw py::value_error("grid must be 'octave', 'decade' or 'all', got '" + grid_name + "'");
+  }
+  if (max_m < 0) throw py::value_error("max_m must be >= 0");
+  if (per_decade < 1) throw py::value_error("per_decade must be >= 1");
+  const auto mx = static_cast<std::size_t>(max_m);
+  // Capacity: every m for "all", else at most 64 octaves / per_decade * 20 decades.
+  const std::size_t capacity =
+      grid == TauGrid::all ? mx : 64 + static_cast<std::size_t>(per_decade) * 20;
+  std::vector<std::size_t> buf(capacity);
+  const std::size_t n =
+      tau_grid(grid, mx, static_cast<std::size_t>(per_decade), buf.data(), capacity);
+  py::array_t<std::int64_t> out(static_cast<py::ssize_t>(n));
+  std::int64_t* o = out.mutable_data();
+  for (std::size_t j = 0; j < n; ++j) o[j] = static_cast<std::int64_t>(buf[j]);
+  return out;
+}
+
+}  // namespace
+
+void bind_allan(pybind11::module_& m) {
+  m.def("oadev_sigma2", &oadev_sigma2<double>, py::arg("data").noconvert(),
+        py::arg("m").noconvert(), py::arg("kind") = "rate",
+        "Overlapping Allan variance for averaging factors m (int64) of a 1-D float64 record.\n"
+        "kind='rate': (rate units)^2; kind='phase': (phase units)^2 per sample^2 (divide by\n"
+        "tau0^2). Returns (sigma2, terms). Long double sums, GIL released.");
+  m.def("oadev_sigma2", &oadev_sigma2<float>, py::arg("data").noconvert(),
+        py::arg("m").noconvert(), py::arg("kind") = "rate");
+  py::class_<OadevStream>(m, "OadevStream",
+                          "Streaming overlapping-Allan sums for one averaging factor m "
+                          "(chunked records; long double state).")
+      .def(py::init<std::int64_t, const std::string&>(), py::arg("m"), py::arg("kind") = "rate")
+      .def("seed", &OadevStream::seed, py::arg("lo").noconvert(), py::arg("hi").noconvert())
+      .def("advance", &OadevStream::advance, py::arg("y0").noconvert(),
+           py::arg("y1").noconvert(), py::arg("y2").noconvert())
+      .def("finish", &OadevStream::finish)
+      .def("sigma2", &OadevStream::sigma2)
+      .def_property_readonly("terms", &OadevStream::terms);
+  m.def("tau_grid", &tau_grid_py, py::arg("grid"), py::arg("max_m"), py::arg("per_decade") = 10,
+        "Averaging factors 1 <= m <= max_m: 'octave', 'decade' (per_decade points), 'all'.");
+}
+
 }  // namespace gyrodrift::py_bindings

@@ -7,7 +7,13 @@ C++ core is tested against; they are not the fast path.
 from __future__ import annotations
 
 # --- foundation (issue 2) ---
+from gyrodrift.reference.ar2 import ar_filter as ar_filter
+from gyrodrift.reference.ar2 import fit_ar2 as fit_ar2
+from gyrodrift.reference.ar2 import kalman_filter as kalman_filter
+from gyrodrift.reference.ar2 import steady_state_gain as steady_state_gain
 # --- wavelets (issue 3) ---
 # --- Allan (issue 4) ---
+from gyrodrift.reference.allan import oadev_phase as oadev_phase
+from gyrodrift.reference.allan import oadev_rate as oadev_rate
 # --- IMU processor / codecs (issue 5) ---
 # --- alignment (issue 6) ---

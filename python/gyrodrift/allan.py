@@ -1,0 +1,386 @@
+"""Overlapping Allan deviation with confidence intervals (IEEE Std 952-1997 Annex C,
+NIST SP 1065 sec. 5.2.4 and 5.3), on the C++ kernel include/gyrodrift/allan.hpp.
+
+- `oadev(data, rate_hz, ...)`: rate samples (deg/h, or any unit: the deviation has the same
+  unit) or phase samples (cumulative angle, kind="phase"), tau grid "octave", "decade" (M per
+  decade), "all" or explicit averaging factors. O(N) per tau, long double sums.
+- Records too large for memory: pass a `numpy.memmap` (e.g. `np.load(path, mmap_mode="r")`).
+  It is then read from its file in chunks of `chunk_samples` with plain file reads (never
+  mapped into the process), so the memory in use is bounded by 3 * chunk_samples * 8 bytes
+  (three chunk buffers: y_i, y_{i+m}, y_{i+2m}; 24 MiB at the default 2**20) plus O(#taus),
+  whatever the record length. In-memory arrays go to the kernel zero-copy (float64/float32,
+  C-contiguous) and need no memory beyond the outputs.
+- Confidence intervals: equivalent degrees of freedom from the simple approximations of
+  NIST SP 1065 Table 5 (Stein 1985) for the noise type alpha of each tau, and the chi-squared
+  interval of SP 1065 eq. 45: sigma^2 edf / chi2_{1-p/2} <= sigma_true^2 <= sigma^2 edf / chi2_{p/2}.
+"""
+
+from __future__ import annotations
+
+import math
+import mmap
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.stats
+from tqdm import tqdm
+
+from gyrodrift import _core
+
+__all__ = [
+    "ONE_SIGMA_CI",
+    "AllanResult",
+    "averaging_factors",
+    "chi2_interval",
+    "edf_simple",
+    "noise_alpha_from_slope",
+    "oadev",
+]
+
+#: Probability of the 1-sigma two-sided interval, erf(1/sqrt(2)).
+ONE_SIGMA_CI = math.erf(1.0 / math.sqrt(2.0))
+
+#: Default chunk of a memory-mapped record, samples (8 MiB per float64 buffer).
+DEFAULT_CHUNK_SAMPLES = 1 << 20
+
+#: Work (squared differences over all taus) above which progress="auto" shows a bar.
+AUTO_PROGRESS_TERMS = 300_000_000
+
+
+@dataclass(frozen=True)
+class AllanResult:
+    """Overlapping Allan deviation per tau, with its confidence interval.
+
+    Attributes:
+        tau_s: averaging times, s.
+        m: averaging factors (tau = m / rate_hz).
+        adev: deviation, in the rate unit of the input (e.g. deg/h).
+        terms: number of squared differences behind each value.
+        edf: equivalent degrees of freedom (SP 1065 Table 5).
+        alpha: power-law noise exponent used for each edf (S_y(f) ~ f^alpha).
+        ci_low, ci_high: chi-squared confidence interval of the deviation (probability `ci`).
+        ci: two-sided probability of the interval.
+        n_samples: record length (rate samples, or phase samples for kind="phase").
+        rate_hz: sample rate.
+        kind: "rate" or "phase".
+    """
+
+    tau_s: np.ndarray
+    m: np.ndarray
+    adev: np.ndarray
+    terms: np.ndarray
+    edf: np.ndarray
+    alpha: np.ndarray
+    ci_low: np.ndarray
+    ci_high: np.ndarray
+    ci: float
+    n_samples: int
+    rate_hz: float
+    kind: str
+
+    def scaled(self, factor: float) -> AllanResult:
+        """The same result with the deviation in another unit (deviation x factor > 0)."""
+        if not (factor > 0 and math.isfinite(factor)):
+            raise ValueError(f"factor must be positive and finite, got {factor!r}")
+        return AllanResult(
+            self.tau_s, self.m, self.adev * factor, self.terms, self.edf, self.alpha,
+            self.ci_low * factor, self.ci_high * factor, self.ci, self.n_samples,
+            self.rate_hz, self.kind,
+        )
+
+    def as_dict(self) -> dict[str, object]:
+        return {
+            "tau_s": self.tau_s.tolist(),
+            "m": self.m.tolist(),
+            "adev": self.adev.tolist(),
+            "terms": self.terms.tolist(),
+            "edf": self.edf.tolist(),
+            "alpha": self.alpha.tolist(),
+            "ci_low": self.ci_low.tolist(),
+            "ci_high": self.ci_high.tolist(),
+            "ci": self.ci,
+            "n_samples": self.n_samples,
+            "rate_hz": self.rate_hz,
+            "kind": self.kind,
+        }
+
+
+def _max_m(n_data: int, kind: str) -> int:
+    # At least two squared differences (allantools drops single-difference results too):
+    # rate: N - 2m + 1 >= 2; phase: Np - 2m >= 2.
+    return max((n_data - 1) // 2, 0) if kind == "rate" else max((n_data - 2) // 2, 0)
+
+
+def averaging_factors(
+    n_data: int, taus: str | np.ndarray | list[float] = "octave", *, rate_hz: float = 1.0,
+    kind: str = "rate", per_decade: int = 10,
+) -> np.ndarray:
+    """Averaging factors m (int64, increasing) for a record of n_data samples.
+
+    taus: "octave" (1, 2, 4, ...), "decade" (round(10^(k/per_decade)), duplicates removed),
+    "all" (1, 2, 3, ...), or explicit taus in seconds (rounded to m = tau * rate_hz; every one
+    must fit the record, else ValueError naming the longest tau the record supports).
+    """
+    if kind not in ("rate", "phase"):
+        raise ValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
+    max_m = _max_m(int(n_data), kind)
+    if max_m < 1:
+        raise ValueError(
+            f"record too short for Allan analysis: {n_data} {kind} samples "
+            f"(need at least {3 if kind == 'rate' else 4})"
+        )
+    if isinstance(taus, str):
+        if taus not in ("octave", "decade", "all"):
+            raise ValueError(f"taus must be 'octave', 'decade', 'all' or an array, got {taus!r}")
+        return np.asarray(_core.tau_grid(taus, max_m, per_decade), dtype=np.int64)
+    tau_arr = np.asarray(taus, dtype=np.float64)
+    if tau_arr.ndim != 1 or tau_arr.size == 0 or not np.all(np.isfinite(tau_arr)):
+        raise ValueError("taus: expected a non-empty 1-D array of finite taus in seconds")
+    m = np.unique(np.rint(tau_arr * rate_hz).astype(np.int64))
+    if m[0] < 1:
+        raise ValueError(f"tau {tau_arr.min()} s is shorter than one sample (1/{rate_hz} s)")
+    if m[-1] > max_m:
+        raise ValueError(
+            f"record too short for tau = {tau_arr.max():g} s: {n_data} samples at {rate_hz:g} Hz "
+            f"support tau <= {max_m / rate_hz:g} s (two non-overlapping clusters of 2 tau)"
+        )
+    return m
+
+
+def edf_simple(n_phase: int | np.ndarray, m: int | np.ndarray, alpha: int | np.ndarray
+               ) -> np.ndarray:
+    """Equivalent degrees of freedom of the overlapping Allan variance, NIST SP 1065 Table 5
+    (Stein 1985), for n_phase phase points (= rate samples + 1), factor m, noise exponent
+    alpha in {2, 1, 0, -1, -2} (white PM, flicker PM, white FM, flicker FM, random-walk FM).
+    """
+    n_arr, m_arr, a_arr = np.broadcast_arrays(
+        np.asarray(n_phase, dtype=np.float64), np.asarray(m, dtype=np.float64),
+        np.asarray(alpha, dtype=np.int64),
+    )
+    out = np.empty(n_arr.shape, dtype=np.float64)
+    for idx in np.ndindex(n_arr.shape):
+        n, mm, a = float(n_arr[idx]), float(m_arr[idx]), int(a_arr[idx])
+        if a == 2:
+            edf = (n + 1.0) * (n - 2.0 * mm) / (2.0 * (n - mm))
+        elif a == 1:
+            edf = math.exp(math.sqrt(math.log((n - 1.0) / (2.0 * mm))
+                                     * math.log((2.0 * mm + 1.0) * (n - 1.0) / 4.0)))
+        elif a == 0:
+            edf = ((3.0 * (n - 1.0) / (2.0 * mm) - 2.0 * (n - 2.0) / n)
+                   * (4.0 * mm * mm / (4.0 * mm * mm + 5.0)))
+        elif a == -1:
+            if mm == 1.0:
+                edf = 2.0 * (n - 2.0) / (2.3 * n - 4.9)
+            else:
+                edf = 5.0 * n * n / (4.0 * mm * (n + 3.0 * mm))
+        elif a == -2:
+            edf = (n - 2.0) / (mm * (n - 3.0) ** 2) * (
+                (n - 1.0) ** 2 - 3.0 * mm * (n - 1.0) + 4.0 * mm * mm)
+        else:
+            raise ValueError(f"alpha must be one of 2, 1, 0, -1, -2, got {a}")
+        out[idx] = edf
+    return out
+
+
+def chi2_interval(dev: np.ndarray, edf: np.ndarray, ci: float = ONE_SIGMA_CI
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Two-sided chi-squared interval of a deviation (NIST SP 1065 eq. 45), probability ci."""
+    if not 0.0 < ci < 1.0:
+        raise ValueError(f"ci must be in (0, 1), got {ci!r}")
+    dev = np.asarray(dev, dtype=np.float64)
+    edf = np.asarray(edf, dtype=np.float64)
+    p_low = (1.0 - ci) / 2.0
+    chi2_low = scipy.stats.chi2.ppf(p_low, edf)
+    chi2_high = scipy.stats.chi2.ppf(1.0 - p_low, edf)
+    var = dev * dev
+    return np.sqrt(var * edf / chi2_high), np.sqrt(var * edf / chi2_low)
+
+
+def noise_alpha_from_slope(tau_s: np.ndarray, adev: np.ndarray) -> np.ndarray:
+    """Dominant power-law noise per tau from the local log-log slope mu of sigma^2(tau)
+    (SP 1065 Table 2: mu = -alpha - 1 for -2 <= alpha <= 0; mu = -2 for alpha = 1 and 2).
+
+    mu ~ -2 maps to alpha = 2 (white phase: the angle quantization of optical gyros); mu >= 1
+    (random-walk FM and steeper, e.g. rate ramp) to alpha = -2. A single tau gives alpha = 0.
+    """
+    tau_s = np.asarray(tau_s, dtype=np.float64)
+    adev = np.asarray(adev, dtype=np.float64)
+    if tau_s.size < 2:
+        return np.zeros(tau_s.shape, dtype=np.int64)
+    mu = np.gradient(np.log(adev * adev), np.log(tau_s))
+    alpha = np.rint(-mu - 1.0)
+    alpha = np.where(mu < -1.5, 2.0, alpha)
+    return np.clip(alpha, -2, 2).astype(np.int64)
+
+
+def _file_chunks(mm: np.memmap, start: int, stop: int, chunk: int) -> Iterator[np.ndarray]:
+    """float64 copies of mm[start:stop] in pieces of at most `chunk`, read with file reads."""
+    itemsize = mm.dtype.itemsize
+    with open(mm.filename, "rb") as fh:
+        pos = start
+        while pos < stop:
+            count = min(chunk, stop - pos)
+            fh.seek(mm.offset + pos * itemsize)
+            piece = np.fromfile(fh, dtype=mm.dtype, count=count)
+            if piece.size != count:
+                raise ValueError(f"{mm.filename}: file shorter than its header says")
+            yield np.ascontiguousarray(piece, dtype=np.float64)
+            pos += count
+
+
+def _chunked_sigma2(mm: np.memmap, m_all: np.ndarray, kind: str, chunk: int,
+                    bar: tqdm) -> tuple[np.ndarray, np.ndarray]:
+    n_data = mm.shape[0]
+    sigma2 = np.empty(m_all.size)
+    terms = np.empty(m_all.size, dtype=np.int64)
+    for j, m in enumerate(int(v) for v in m_all):
+        acc = _core.OadevStream(m, kind)
+        if kind == "rate":
+            n_terms = n_data - 2 * m + 1
+            for lo, hi in zip(_file_chunks(mm, 0, m, chunk), _file_chunks(mm, m, 2 * m, chunk),
+                              strict=True):
+                acc.seed(lo, hi)
+            n_adv = n_terms - 1  # the last term is added by finish()
+        else:
+            n_terms = n_data - 2 * m
+            n_adv = n_terms
+        streams = zip(
+            _file_chunks(mm, 0, n_adv, chunk),
+            _file_chunks(mm, m, m + n_adv, chunk),
+            _file_chunks(mm, 2 * m, 2 * m + n_adv, chunk),
+            strict=True,
+        )
+        for y0, y1, y2 in streams:
+            acc.advance(y0, y1, y2)
+            bar.update(y0.size)
+        if kind == "rate":
+            acc.finish()
+            bar.update(1)
+        sigma2[j] = acc.sigma2()
+        terms[j] = acc.terms
+    return sigma2, terms
+
+
+def oadev(
+    data: np.ndarray,
+    rate_hz: float,
+    *,
+    kind: str = "rate",
+    taus: str | np.ndarray | list[float] = "octave",
+    per_decade: int = 10,
+    ci: float = ONE_SIGMA_CI,
+    alpha: int | np.ndarray | None = None,
+    chunk_samples: int | None = None,
+    progress: bool | str = "auto",
+) -> AllanResult:
+    """Overlapping Allan deviation with chi-squared confidence intervals.
+
+    Args:
+        data: 1-D rate samples (any rate unit; kind="rate") or cumulative angle samples
+            (kind="phase"; the deviation is then in angle unit per second). Angle increments
+            per sample are rate x dt: divide them by dt first (gyrodrift.io does). A
+            numpy.memmap is processed in chunks read from its file (bounded memory).
+        rate_hz: sample rate, Hz.
+        taus: "octave", "decade" (per_decade points per decade), "all", or taus in s.
+        ci: two-sided probability of the confidence interval (default 1 sigma, 0.683).
+        alpha: noise exponent for the edf (one for all taus, or one per tau); default: from
+            the local slope of the deviation (noise_alpha_from_slope).
+        chunk_samples: chunk size of the memmap path (default 2**20); forces the chunked
+            path for in-memory arrays too when given.
+        progress: tqdm bar on stderr: True, False or "auto" (when the work exceeds
+            AUTO_PROGRESS_TERMS squared differences, a few seconds).
+
+    Raises:
+        ValueError: not 1-D, too short for the taus, NaN/Inf (with their count), bad rate.
+    """
+    if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
+        raise ValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
+    if kind not in ("rate", "phase"):
+        raise ValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
+    is_memmap = isinstance(data, np.memmap)
+    arr = data if is_memmap else np.asarray(data)
+    if arr.ndim != 1:
+        raise ValueError(f"data: expected a 1-D record, got shape {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
+        raise TypeError(f"data: expected real numbers, got dtype {arr.dtype}")
+    n_data = int(arr.shape[0])
+    m = averaging_factors(n_data, taus, rate_hz=rate_hz, kind=kind, per_decade=per_decade)
+    n_terms = n_data - 2 * m + (1 if kind == "rate" else 0)
+    work = int(n_terms.sum())
+    show = (work > AUTO_PROGRESS_TERMS) if progress == "auto" else bool(progress)
+    chunked = is_memmap or chunk_samples is not None
+    with tqdm(total=work, disable=not show, unit="term", unit_scale=True,
+              desc="Allan", leave=False) as bar:
+        if chunked:
+            chunk = int(chunk_samples or DEFAULT_CHUNK_SAMPLES)
+            if chunk < 1:
+                raise ValueError(f"chunk_samples must be >= 1, got {chunk}")
+            if not (is_memmap and isinstance(arr.base, mmap.mmap) and arr.flags.c_contiguous):
+                # In-memory arrays (and views into a memmap, whose file offset numpy does not
+                # track) take the same chunked sums over views instead of file reads.
+                sigma2, terms = _chunked_in_memory(np.asarray(arr), m, kind, chunk, bar)
+            else:
+                sigma2, terms = _chunked_sigma2(arr, m, kind, chunk, bar)
+        else:
+            x = arr if arr.dtype in (np.float64, np.float32) else arr.astype(np.float64)
+            x = np.ascontiguousarray(x)
+            bad = int(np.count_nonzero(~np.isfinite(x)))
+            if bad:
+                raise ValueError(f"data: {bad} NaN/Inf samples; drop or repair them first "
+                                 "(gyrodrift.io.load_record has an explicit nan_policy)")
+            sigma2 = np.empty(m.size)
+            terms = np.empty(m.size, dtype=np.int64)
+            # A few taus per kernel call so the bar moves; each call releases the GIL.
+            for lo in range(0, m.size, 4):
+                s2, t = _core.oadev_sigma2(x, np.ascontiguousarray(m[lo:lo + 4]), kind)
+                sigma2[lo:lo + 4] = s2
+                terms[lo:lo + 4] = t
+                bar.update(int(n_terms[lo:lo + 4].sum()))
+    if kind == "phase":
+        sigma2 = sigma2 * rate_hz * rate_hz  # the kernel leaves out 1/tau0^2
+    adev = np.sqrt(sigma2)
+    tau_s = m / float(rate_hz)
+    if alpha is None:
+        alpha_arr = noise_alpha_from_slope(tau_s, adev)
+    else:
+        alpha_arr = np.broadcast_to(np.asarray(alpha, dtype=np.int64), m.shape).copy()
+    n_phase = n_data + 1 if kind == "rate" else n_data
+    edf = np.maximum(edf_simple(n_phase, m, alpha_arr), 1.0)
+    lo_ci, hi_ci = chi2_interval(adev, edf, ci)
+    return AllanResult(tau_s, m, adev, terms, edf, alpha_arr, lo_ci, hi_ci, float(ci),
+                       n_data, float(rate_hz), kind)
+
+
+def _chunked_in_memory(x: np.ndarray, m_all: np.ndarray, kind: str, chunk: int,
+                       bar: tqdm) -> tuple[np.ndarray, np.ndarray]:
+    x = np.ascontiguousarray(x, dtype=np.float64)
+    bad = int(np.count_nonzero(~np.isfinite(x)))
+    if bad:
+        raise ValueError(f"data: {bad} NaN/Inf samples; drop or repair them first")
+
+    def pieces(start: int, stop: int) -> Iterator[np.ndarray]:
+        for lo in range(start, stop, chunk):
+            yield x[lo:min(lo + chunk, stop)]
+
+    sigma2 = np.empty(m_all.size)
+    terms = np.empty(m_all.size, dtype=np.int64)
+    n_data = x.size
+    for j, m in enumerate(int(v) for v in m_all):
+        acc = _core.OadevStream(m, kind)
+        if kind == "rate":
+            for lo, hi in zip(pieces(0, m), pieces(m, 2 * m), strict=True):
+                acc.seed(lo, hi)
+            n_adv = n_data - 2 * m
+        else:
+            n_adv = n_data - 2 * m
+        for y0, y1, y2 in zip(pieces(0, n_adv), pieces(m, m + n_adv),
+                              pieces(2 * m, 2 * m + n_adv), strict=True):
+            acc.advance(y0, y1, y2)
+            bar.update(y0.size)
+        if kind == "rate":
+            acc.finish()
+            bar.update(1)
+        sigma2[j] = acc.sigma2()
+        terms[j] = acc.terms
+    return sigma2, terms
