@@ -1,0 +1,134 @@
+// The loop's processing stage: ImuProcessor<float> configured from the command line, with
+// the translation between wire frames and processor samples and the JSON counters.
+#pragma once
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include <gyrodrift/imu_processor.hpp>
+#include <gyrodrift/serial_frame.hpp>
+
+namespace gyrodrift::loop {
+
+// Command-line processor settings (one setting for the three gyros, one for the three
+// accelerometers). The AR(2) default is only a demonstration model: identify your gyro's
+// with gyrodrift.fit_ar2 and pass --gyro-ar2 / --gyro-q / --gyro-r.
+struct ProcessingOptions {
+  ChannelFilter gyro_filter = ChannelFilter::ar2_kalman;
+  ChannelFilter accel_filter = ChannelFilter::pass_through;
+  // a1, a2 (roots 0.5, 0.5: stationary), sigma2 and mean (rad/s), q and r ((rad/s)^2).
+  double a1 = 1.0, a2 = -0.25, sigma2 = 1e-10, mean = 0.0, q = 1e-10, r = 1e-8;
+  double gyro_bias = 0.0, accel_bias = 0.0;
+  double gyro_saturation = INFINITY, accel_saturation = INFINITY;
+  std::uint32_t stuck_samples = 0;
+  double sample_rate_hz = 400.0;
+  long time_tolerance_us = -1;  // -1: half a sample period
+};
+
+inline bool parse_filter(const std::string& s, ChannelFilter& f) noexcept {
+  if (s == "ar2_kalman") f = ChannelFilter::ar2_kalman;
+  else if (s == "bias_removal") f = ChannelFilter::bias_removal;
+  else if (s == "pass_through") f = ChannelFilter::pass_through;
+  else return false;
+  return true;
+}
+
+inline bool parse_csv4(const char* s, double (&v)[4]) noexcept {
+  char* end = nullptr;
+  for (int i = 0; i < 4; ++i) {
+    v[i] = std::strtod(s, &end);
+    if (end == s || !std::isfinite(v[i])) return false;
+    if (i < 3) {
+      if (*end != ',') return false;
+      s = end + 1;
+    }
+  }
+  return *end == '\0';
+}
+
+class Processing {
+ public:
+  using Proc = ImuProcessor<float>;
+
+  // Builds the processor; false (with a message) if the configuration is invalid, so a
+  // misconfigured loop refuses to start instead of rejecting every sample.
+  bool init(const ProcessingOptions& o, std::string& error) noexcept {
+    opts_ = o;
+    ImuConfig<float> cfg;
+    for (std::size_t c = 0; c < kImuChannels; ++c) {
+      ImuChannelConfig<float>& cc = cfg.channels[c];
+      const bool gyro = c < 3;
+      cc.filter = gyro ? o.gyro_filter : o.accel_filter;
+      cc.bias = static_cast<float>(gyro ? o.gyro_bias : o.accel_bias);
+      cc.saturation = static_cast<float>(gyro ? o.gyro_saturation : o.accel_saturation);
+      cc.stuck_samples = o.stuck_samples;
+      cc.model = Ar2Model<float>{static_cast<float>(o.a1), static_cast<float>(o.a2),
+                                 static_cast<float>(o.sigma2), static_cast<float>(o.mean)};
+      cc.q = static_cast<float>(o.q);
+      cc.r = static_cast<float>(o.r);
+    }
+    const double period_us = 1e6 / o.sample_rate_hz;
+    cfg.period_us = static_cast<std::uint32_t>(std::lround(period_us));
+    cfg.time_tolerance_us = static_cast<std::uint32_t>(
+        o.time_tolerance_us < 0 ? std::lround(period_us / 2.0) : o.time_tolerance_us);
+    proc_ = Proc(cfg);
+    if (proc_.status() != ImuStatus::ok) {
+      error = "invalid processor configuration (channel " + std::to_string(proc_.bad_channel()) +
+              "): check --gyro-ar2/--gyro-q/--gyro-r, biases (pass_through needs bias 0) and saturation";
+      return false;
+    }
+    return true;
+  }
+
+  // One wire sample through the processor; true if it produced an output frame.
+  bool step(const serial::ImuFrame& in, serial::ImuFrame& out) noexcept {
+    ImuSample<float> s;
+    s.seq = in.seq;
+    s.t_us = in.t_us;
+    s.values = in.values;
+    ImuOutput<float> y;
+    const std::uint16_t flags = proc_.step(s, y);
+    if ((flags & kFlagRejected) != 0U) return false;
+    out.type = serial::kTypeOutput;
+    out.seq = y.seq;
+    out.flags = y.flags;
+    out.t_us = y.t_us;
+    out.values = y.values;
+    return true;
+  }
+
+  // Processor rejections (samples that produced no output).
+  template <class F>
+  void for_each_rejection(F&& field) const {
+    const ImuHealth& h = proc_.health();
+    field("duplicate", h.duplicates);
+    field("out_of_order", h.out_of_order);
+    field("config", h.config_rejected);
+  }
+
+  template <class F>
+  void for_each_health(F&& field) const {
+    const ImuHealth& h = proc_.health();
+    field("samples_in", h.samples_in);
+    field("samples_accepted", h.samples_accepted);
+    field("seq_gaps", h.seq_gaps);
+    field("missing_samples", h.missing_samples);
+    field("seq_resyncs", h.seq_resyncs);
+    field("time_jumps", h.time_jumps);
+    field("non_finite_samples", h.non_finite_samples);
+    field("non_finite_values", h.non_finite_values);
+    field("saturated_values", h.saturated_values);
+    field("stuck_values", h.stuck_values);
+    field("filter_faults", h.filter_faults);
+  }
+
+  const ProcessingOptions& options() const noexcept { return opts_; }
+
+ private:
+  ProcessingOptions opts_{};
+  Proc proc_{ImuConfig<float>{}};
+};
+
+}  // namespace gyrodrift::loop
