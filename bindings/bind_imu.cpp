@@ -1,5 +1,357 @@
+// gyrodrift._core: IMU processor and the frame codecs (serial, CAN, SLCAN).
+//
+// Low-level, strict API (gyrodrift.imu adds the config dataclasses and messages):
+//   ImuProcessor / ImuProcessorF32(filters[6], bias[6], a1[6], a2[6], sigma2[6], mean[6],
+//       q[6], r[6], p0[6], saturation[6], stuck_samples[6], period_us, time_tolerance_us)
+//     .process(seq u16[n], t_us u64[n], values (n, 6) float64|float32)
+//         -> (out (n, 6), flags u16[n])   rows with flags & 0x8000 (rejected) are NaN
+//     .health() -> dict, .reset(), .status -> str
+//   crc16_ccitt_false(bytes) -> int
+//   serial_encode_frame(frame_type, seq, flags, t_us, values[6]) -> bytes
+//   serial_parse(data, chunk, finish) -> (frames list, stats dict)   (C++ parser, 256-B buffer)
+//   can_encode_sample(seq, flags, values[6], base_id) -> [(id, bytes)] * 4
+//   can_assemble(frames [(id, data[, extended, remote])], base_id, finish) -> (samples, stats)
+//   slcan_encode(id, data, extended, remote) -> bytes
+//   slcan_parse(data) -> (events, stats)   events: ("frame", id, data, ext, rtr, reply) |
+//                                          ("command", letter, arg, reply) | ("error", reply)
+// Arrays are C-contiguous and taken without copy (.noconvert(): a wrong dtype is a TypeError).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <gyrodrift/can_frames.hpp>
+#include <gyrodrift/crc16.hpp>
+#include <gyrodrift/imu_processor.hpp>
+#include <gyrodrift/serial_frame.hpp>
+#include <gyrodrift/slcan.hpp>
+#include <limits>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "array_checks.hpp"
 #include "bindings.hpp"
 
 namespace gyrodrift::py_bindings {
-void bind_imu(pybind11::module_& /*m*/) {}
+
+namespace {
+
+using Six = std::array<double, kImuChannels>;
+
+const char* status_name(ImuStatus s) {
+  switch (s) {
+    case ImuStatus::ok: return "ok";
+    case ImuStatus::bad_channel_config: return "bad channel config";
+    case ImuStatus::wavelet_unavailable: return "wavelet unavailable";
+  }
+  return "unknown";
+}
+
+template <class T>
+ImuConfig<T> make_config(const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
+                         const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
+                         const Six& p0, const Six& saturation,
+                         const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
+                         std::uint32_t tol_us) {
+  ImuConfig<T> cfg;
+  for (std::size_t c = 0; c < kImuChannels; ++c) {
+    if (filters[c] < 0 || filters[c] > 3) {
+      throw py::value_error("filters[" + std::to_string(c) + "]: expected 0..3 (pass_through, "
+                            "bias_removal, ar2_kalman, wavelet), got " + std::to_string(filters[c]));
+    }
+    ImuChannelConfig<T>& cc = cfg.channels[c];
+    cc.filter = static_cast<ChannelFilter>(filters[c]);
+    cc.bias = static_cast<T>(bias[c]);
+    cc.model = Ar2Model<T>{static_cast<T>(a1[c]), static_cast<T>(a2[c]), static_cast<T>(sigma2[c]),
+                           static_cast<T>(mean[c])};
+    cc.q = static_cast<T>(q[c]);
+    cc.r = static_cast<T>(r[c]);
+    cc.p0 = static_cast<T>(p0[c]);
+    cc.saturation = static_cast<T>(saturation[c]);
+    cc.stuck_samples = stuck[c];
+  }
+  cfg.period_us = period_us;
+  cfg.time_tolerance_us = tol_us;
+  return cfg;
+}
+
+py::dict health_dict(const ImuHealth& h) {
+  py::dict d;
+  d["samples_in"] = h.samples_in;
+  d["samples_accepted"] = h.samples_accepted;
+  d["duplicates"] = h.duplicates;
+  d["out_of_order"] = h.out_of_order;
+  d["config_rejected"] = h.config_rejected;
+  d["seq_gaps"] = h.seq_gaps;
+  d["missing_samples"] = h.missing_samples;
+  d["seq_resyncs"] = h.seq_resyncs;
+  d["time_jumps"] = h.time_jumps;
+  d["non_finite_samples"] = h.non_finite_samples;
+  d["non_finite_values"] = h.non_finite_values;
+  d["saturated_values"] = h.saturated_values;
+  d["stuck_values"] = h.stuck_values;
+  d["filter_faults"] = h.filter_faults;
+  return d;
+}
+
+template <class T>
+void bind_processor(py::module_& m, const char* name) {
+  using Proc = ImuProcessor<T>;
+  py::class_<Proc>(m, name)
+      .def(py::init([](const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
+                       const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
+                       const Six& p0, const Six& saturation,
+                       const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
+                       std::uint32_t tol_us) {
+             return Proc(make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
+                                        stuck, period_us, tol_us));
+           }),
+           py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
+           py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
+           py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"))
+      .def(
+          "process",
+          [](Proc& p, const CArray<std::uint16_t>& seq, const CArray<std::uint64_t>& t_us,
+             const CArray<T>& values) {
+            if (values.ndim() != 2 || values.shape(1) != static_cast<py::ssize_t>(kImuChannels)) {
+              throw py::value_error("values: expected an (n, 6) array, got ndim=" +
+                                    std::to_string(values.ndim()));
+            }
+            const auto n = static_cast<std::size_t>(values.shape(0));
+            if (seq.ndim() != 1 || t_us.ndim() != 1 || static_cast<std::size_t>(seq.shape(0)) != n ||
+                static_cast<std::size_t>(t_us.shape(0)) != n) {
+              throw py::value_error("seq and t_us: expected 1-D arrays of length " + std::to_string(n));
+            }
+            CArray<T> out({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(kImuChannels)});
+            py::array_t<std::uint16_t> flags(static_cast<py::ssize_t>(n));
+            const std::uint16_t* s = seq.data();
+            const std::uint64_t* t = t_us.data();
+            const T* v = values.data();
+            T* o = out.mutable_data();
+            std::uint16_t* f = flags.mutable_data();
+            {
+              py::gil_scoped_release release;
+              ImuSample<T> in;
+              ImuOutput<T> res;
+              for (std::size_t k = 0; k < n; ++k) {
+                in.seq = s[k];
+                in.t_us = t[k];
+                for (std::size_t c = 0; c < kImuChannels; ++c) in.values[c] = v[k * kImuChannels + c];
+                f[k] = p.step(in, res);
+                const bool rejected = (f[k] & kFlagRejected) != 0;
+                for (std::size_t c = 0; c < kImuChannels; ++c) {
+                  o[k * kImuChannels + c] = rejected ? std::numeric_limits<T>::quiet_NaN() : res.values[c];
+                }
+              }
+            }
+            return py::make_tuple(out, flags);
+          },
+          py::arg("seq").noconvert(), py::arg("t_us").noconvert(), py::arg("values").noconvert())
+      .def("health", [](const Proc& p) { return health_dict(p.health()); })
+      .def("reset", &Proc::reset)
+      .def_property_readonly("status", [](const Proc& p) { return std::string(status_name(p.status())); })
+      .def_property_readonly("bad_channel", &Proc::bad_channel);
+}
+
+const std::uint8_t* bytes_ptr(const py::bytes& b, std::size_t& n) {
+  char* p = nullptr;
+  py::ssize_t len = 0;
+  PyBytes_AsStringAndSize(b.ptr(), &p, &len);
+  n = static_cast<std::size_t>(len);
+  return reinterpret_cast<const std::uint8_t*>(p);
+}
+
+py::bytes to_bytes(const std::uint8_t* p, std::size_t n) {
+  return py::bytes(reinterpret_cast<const char*>(p), n);
+}
+
+py::dict serial_stats_dict(const serial::SerialParserStats& s) {
+  py::dict d;
+  d["bytes_in"] = s.bytes_in;
+  d["frames_ok"] = s.frames_ok;
+  d["discarded_bytes"] = s.discarded_bytes;
+  d["garbage_bytes"] = s.garbage_bytes;
+  d["bad_header"] = s.bad_header;
+  d["crc_errors"] = s.crc_errors;
+  d["truncated"] = s.truncated;
+  d["overflow_bytes"] = s.overflow_bytes;
+  return d;
+}
+
+py::dict can_stats_dict(const can::CanRxStats& s) {
+  py::dict d;
+  d["frames_in"] = s.frames_in;
+  d["frames_used"] = s.frames_used;
+  d["frames_dropped"] = s.frames_dropped;
+  d["foreign_frames"] = s.foreign_frames;
+  d["bad_dlc"] = s.bad_dlc;
+  d["orphan_frames"] = s.orphan_frames;
+  d["duplicate_frames"] = s.duplicate_frames;
+  d["complete_samples"] = s.complete_samples;
+  d["incomplete_samples"] = s.incomplete_samples;
+  return d;
+}
+
+py::dict slcan_stats_dict(const slcan::SlcanStats& s) {
+  py::dict d;
+  d["bytes_in"] = s.bytes_in;
+  d["lines"] = s.lines;
+  d["frames"] = s.frames;
+  d["commands"] = s.commands;
+  d["malformed"] = s.malformed;
+  d["overlong"] = s.overlong;
+  d["bells"] = s.bells;
+  return d;
+}
+
+py::tuple frame_tuple(const serial::ImuFrame& f) {
+  py::tuple v(kImuChannels);
+  for (std::size_t c = 0; c < kImuChannels; ++c) v[c] = static_cast<double>(f.values[c]);
+  return py::make_tuple(f.type, f.seq, f.flags, f.t_us, v);
+}
+
+}  // namespace
+
+void bind_imu(py::module_& m) {
+  bind_processor<double>(m, "ImuProcessor");
+  bind_processor<float>(m, "ImuProcessorF32");
+
+  m.def("crc16_ccitt_false", [](const py::bytes& data) {
+    std::size_t n = 0;
+    const std::uint8_t* p = bytes_ptr(data, n);
+    return crc16_ccitt_false(p, n);
+  }, py::arg("data"));
+
+  m.def("serial_encode_frame",
+        [](std::uint8_t frame_type, std::uint16_t seq, std::uint16_t flags, std::uint64_t t_us,
+           const std::array<float, kImuChannels>& values) {
+          serial::ImuFrame f;
+          f.type = frame_type;
+          f.seq = seq;
+          f.flags = flags;
+          f.t_us = t_us;
+          f.values = values;
+          std::array<std::uint8_t, serial::kFrameSize> buf{};
+          serial::encode_frame(f, buf.data(), buf.size());
+          return to_bytes(buf.data(), buf.size());
+        },
+        py::arg("frame_type"), py::arg("seq"), py::arg("flags"), py::arg("t_us"), py::arg("values"));
+
+  m.def("serial_parse",
+        [](const py::bytes& data, std::size_t chunk, bool finish) {
+          if (chunk == 0) throw py::value_error("chunk must be >= 1");
+          std::size_t n = 0;
+          const std::uint8_t* p = bytes_ptr(data, n);
+          serial::SerialFrameParser<256> parser;
+          std::vector<serial::ImuFrame> frames;
+          serial::ImuFrame f;
+          std::size_t pos = 0;
+          while (pos < n) {
+            const std::size_t want = n - pos < chunk ? n - pos : chunk;
+            pos += parser.feed(p + pos, want);  // a full buffer takes fewer: drain, then re-feed
+            while (parser.next(f)) frames.push_back(f);
+          }
+          if (finish) parser.finish();
+          py::list out;
+          for (const auto& fr : frames) out.append(frame_tuple(fr));
+          py::dict stats = serial_stats_dict(parser.stats());
+          stats["buffered"] = parser.buffered();
+          return py::make_tuple(out, stats);
+        },
+        py::arg("data"), py::arg("chunk") = 4096, py::arg("finish") = true);
+
+  m.def("can_encode_sample",
+        [](std::uint16_t seq, std::uint16_t flags, const std::array<float, kImuChannels>& values,
+           std::uint32_t base_id) {
+          can::CanSample s;
+          s.seq = seq;
+          s.flags = flags;
+          s.values = values;
+          std::array<can::CanFrame, can::kFramesPerSample> frames{};
+          can::encode_sample(s, base_id, frames);
+          py::list out;
+          for (const auto& fr : frames) out.append(py::make_tuple(fr.id, to_bytes(fr.data.data(), fr.dlc)));
+          return out;
+        },
+        py::arg("seq"), py::arg("flags"), py::arg("values"), py::arg("base_id") = can::kInputBaseId);
+
+  m.def("can_assemble",
+        [](const py::list& frames, std::uint32_t base_id, bool finish) {
+          can::CanSampleAssembler<4> assembler(base_id);
+          py::list samples;
+          for (const py::handle& item : frames) {
+            const auto t = item.cast<py::tuple>();
+            if (t.size() < 2) throw py::value_error("can_assemble: each frame is (id, data[, extended, remote])");
+            can::CanFrame fr;
+            fr.id = t[0].cast<std::uint32_t>();
+            const auto data = t[1].cast<py::bytes>();
+            std::size_t n = 0;
+            const std::uint8_t* p = bytes_ptr(data, n);
+            if (n > 8) throw py::value_error("can_assemble: classic CAN data is at most 8 bytes");
+            fr.dlc = static_cast<std::uint8_t>(n);
+            for (std::size_t i = 0; i < n; ++i) fr.data[i] = p[i];
+            if (t.size() > 2) fr.extended = t[2].cast<bool>();
+            if (t.size() > 3) fr.remote = t[3].cast<bool>();
+            can::CanSample s;
+            if (assembler.push(fr, s)) {
+              py::tuple v(kImuChannels);
+              for (std::size_t c = 0; c < kImuChannels; ++c) v[c] = static_cast<double>(s.values[c]);
+              samples.append(py::make_tuple(s.seq, s.flags, v));
+            }
+          }
+          if (finish) assembler.finish();
+          py::dict stats = can_stats_dict(assembler.stats());
+          stats["pending_frames"] = assembler.pending_frames();
+          return py::make_tuple(samples, stats);
+        },
+        py::arg("frames"), py::arg("base_id") = can::kInputBaseId, py::arg("finish") = true);
+
+  m.def("slcan_encode",
+        [](std::uint32_t id, const py::bytes& data, bool extended, bool remote) {
+          std::size_t n = 0;
+          const std::uint8_t* p = bytes_ptr(data, n);
+          if (n > 8) throw py::value_error("slcan_encode: classic CAN data is at most 8 bytes");
+          can::CanFrame fr;
+          fr.id = id;
+          fr.dlc = static_cast<std::uint8_t>(n);
+          fr.extended = extended;
+          fr.remote = remote;
+          for (std::size_t i = 0; i < n; ++i) fr.data[i] = p[i];
+          std::array<char, slcan::kMaxFrameLine> line{};
+          const std::size_t len = slcan::encode_frame(fr, line.data(), line.size());
+          if (len == 0) throw py::value_error("slcan_encode: identifier out of range");
+          return py::bytes(line.data(), len);
+        },
+        py::arg("id"), py::arg("data"), py::arg("extended") = false, py::arg("remote") = false);
+
+  m.def("slcan_parse", [](const py::bytes& data) {
+    std::size_t n = 0;
+    const std::uint8_t* p = bytes_ptr(data, n);
+    slcan::SlcanParser<> parser;
+    slcan::Event ev;
+    py::list events;
+    std::array<char, 16> reply{};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (!parser.push(p[i], ev)) continue;
+      const std::size_t rn = slcan::command_reply(ev, reply.data(), reply.size());
+      const py::bytes rep(reply.data(), rn);
+      if (ev.kind == slcan::EventKind::kFrame) {
+        events.append(py::make_tuple("frame", ev.frame.id, to_bytes(ev.frame.data.data(), ev.frame.remote ? 0 : ev.frame.dlc),
+                                     ev.frame.extended, ev.frame.remote, rep));
+      } else if (ev.kind == slcan::EventKind::kCommand) {
+        events.append(py::make_tuple("command", std::string(1, ev.command),
+                                     std::string(ev.arg.data(), ev.arg_len), rep));
+      } else {
+        events.append(py::make_tuple("error", rep));
+      }
+    }
+    py::dict stats = slcan_stats_dict(parser.stats());
+    stats["buffered"] = parser.buffered();
+    return py::make_tuple(events, stats);
+  }, py::arg("data"));
+}
+
 }  // namespace gyrodrift::py_bindings

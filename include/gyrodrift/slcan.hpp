@@ -95,11 +95,15 @@ inline bool is_command_letter(char c) noexcept {
   }
 }
 
-// Reply a device gives to a command event (what the loop writes back on its SLCAN port).
+// Reply a Lawicel device gives to an event (what the loop writes back on its SLCAN port):
+// a transmitted frame is confirmed with "z\r" (standard) or "Z\r" (extended), a command
+// with "\r" (or its data: V, v, N, F), an error or an unknown line with BEL.
 // Returns the reply length (0 if capacity is too small).
 inline std::size_t command_reply(const Event& ev, char* out, std::size_t capacity) noexcept {
   const char* reply = "\r";
-  if (ev.kind != EventKind::kCommand) {
+  if (ev.kind == EventKind::kFrame) {
+    reply = ev.frame.extended ? "Z\r" : "z\r";
+  } else if (ev.kind != EventKind::kCommand) {
     reply = "\a";
   } else if (ev.command == 'V') {
     reply = "V1013\r";
