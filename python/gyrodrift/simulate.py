@@ -17,9 +17,11 @@ How each term is made (dt = 1 / rate_hz):
 - bias instability B [deg/h]: flicker noise with two-sided PSD S(f) = B^2 / (2 pi f), made by
   shaping white Gaussian noise in the frequency domain (FFT of a record twice as long as
   requested, so the output does not wrap around; the DC bin is zero). The shaped band is
-  f in [1 / (2 T), 1 / (2 dt)] with T = n dt; the Allan deviation is within 2 % of the floor
-  sqrt(2 ln2 / pi) B = 0.664 B for 4 dt <= tau <= T / 20 (checked in tests/test_simulate.py
-  against the exact expectation of the generated spectrum).
+  f in [1 / (L dt), 1 / (2 dt)] with L >= 2 n and T = n dt. The expected Allan variance of
+  the generated process (exact sum over the shaped spectrum) is within 3 % of the floor
+  (2 ln2 / pi) B^2 (Allan deviation within 1.5 % of 0.664 B) for 4 dt <= tau <= T / 4, and
+  within 1 % for 8 dt <= tau <= T / 10; below 4 dt the sampled spectrum lifts it (+19 % at
+  tau = dt). tests/test_simulate.py checks these numbers and the generated records.
 - rate random walk K [deg/h/sqrt(h)]: cumulative sum of white increments of std
   K sqrt(dt_h) = K sqrt(dt_s) / 60 deg/h; exact discrete Allan variance
   s^2 (2 m^2 + 1) / (6 m) for tau = m dt, which tends to K^2 tau / 3.
