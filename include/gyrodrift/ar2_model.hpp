@@ -58,11 +58,13 @@ enum class Ar2Method : std::uint8_t { yule_walker = 0, burg = 1, least_squares =
 inline constexpr std::size_t kAr2MinSamples = 8;
 
 // Stationarity triangle of an AR(2): both roots of z^2 - a1 z - a2 strictly inside the
-// unit circle  <=>  |a2| < 1, a1 + a2 < 1, a2 - a1 < 1.
+// unit circle  <=>  |a2| < 1, a1 + a2 < 1, a2 - a1 < 1. "On the circle" is decided with a
+// margin of 64 eps (rounding of a fit to an exactly periodic record lands within a few eps).
 template <class Scalar>
 inline bool ar2_is_stationary(Scalar a1, Scalar a2) noexcept {
-  return std::isfinite(a1) && std::isfinite(a2) && a2 < Scalar(1) && a2 > Scalar(-1) &&
-         a1 + a2 < Scalar(1) && a2 - a1 < Scalar(1);
+  const Scalar one = Scalar(1) - Scalar(64) * std::numeric_limits<Scalar>::epsilon();
+  return std::isfinite(a1) && std::isfinite(a2) && a2 < one && a2 > -one && a1 + a2 < one &&
+         a2 - a1 < one;
 }
 
 namespace detail {

@@ -53,6 +53,8 @@ _METHODS = {
     "fb": "ls",
 }
 
+_STATIONARITY_MARGIN = 64 * float(np.finfo(np.float64).eps)
+
 _CAUSES = ("too_short", "constant", "non_finite", "non_stationary")
 
 
@@ -73,13 +75,15 @@ def normalise_method(method: str) -> str:
 
 
 def is_stationary(a1: float, a2: float) -> bool:
-    """Both roots of z^2 - a1 z - a2 strictly inside the unit circle (stationarity triangle)."""
+    """Both roots of z^2 - a1 z - a2 strictly inside the unit circle (stationarity triangle),
+    with the C++ core's margin of 64 eps for "on the circle"."""
+    one = 1.0 - _STATIONARITY_MARGIN
     return (
         math.isfinite(a1)
         and math.isfinite(a2)
-        and -1.0 < a2 < 1.0
-        and a1 + a2 < 1.0
-        and a2 - a1 < 1.0
+        and -one < a2 < one
+        and a1 + a2 < one
+        and a2 - a1 < one
     )
 
 
