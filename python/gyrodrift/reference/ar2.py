@@ -123,13 +123,14 @@ def kalman_filter(
     p0: float = 1.0,
 ) -> np.ndarray:
     """AR(2)-Kalman filter of a 1-D record, matrix form of papers 000/002 with the C^T erratum
-    fixed and the Joseph covariance update; q defaults to model.sigma2, r to model.r.
+    fixed and the Joseph covariance update; q defaults to model.sigma2, r to model.r
+    (model.sigma2 when r is unknown).
 
     NaN/Inf samples are predict-only steps (as in the C++ filter).
     """
     y = _as_record(x)
     q = model.sigma2 if q is None else float(q)
-    r = model.r if r is None else float(r)
+    r = model.measurement_variance if r is None else float(r)
     a, bqb, c = _matrices(model, q)
     eye = np.eye(2)
     state = np.zeros((2, 1))
