@@ -28,6 +28,11 @@ from gyrodrift.simulate import NoiseTerms as NoiseTerms
 from gyrodrift.simulate import simulate as simulate
 from gyrodrift.simulate import simulate_imu as simulate_imu
 # --- wavelets (issue 3) ---
+from gyrodrift.wavelet import RealtimeWavelet as RealtimeWavelet
+from gyrodrift.wavelet import forced_fir_taps as forced_fir_taps
+from gyrodrift.wavelet import wavelet_denoise as wavelet_denoise
+from gyrodrift.wavelet_packet import best_basis as best_basis
+from gyrodrift.wavelet_packet import wavelet_packet_denoise as wavelet_packet_denoise
 # --- Allan / PSD / analysis (issue 4) ---
 # --- IMU processor, codecs, replay (issue 5) ---
 # --- alignment (issue 6) ---
