@@ -151,6 +151,8 @@ def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
             f"{name} must be a real numeric array (float32/float64 or integers), "
             f"got dtype {a.dtype}"
         )
+    if a.ndim == 0:  # np.ascontiguousarray would silently make it 1-D
+        raise ValueError(f"{name} must be an array of samples, got a scalar (shape ())")
     if a.dtype.kind == "f" and a.dtype.itemsize > 8:
         raise TypeError(f"{name}: dtype {a.dtype} is not supported; use float32 or float64")
     if dtype is None:

@@ -1,0 +1,102 @@
+"""Argument handling of the AR(2) bindings: dtypes, shapes, layouts, clear errors."""
+
+from __future__ import annotations
+
+import gyrodrift
+import numpy as np
+import pytest
+from gyrodrift import Ar2Model, KalmanFilter, _core
+
+MODEL = Ar2Model(a1=0.45, a2=0.12, sigma2=0.8, mean=3.0, r=1.1)
+PARAMS = [(MODEL.a1, MODEL.a2, MODEL.sigma2, MODEL.mean, MODEL.sigma2, MODEL.r)]
+
+
+@pytest.fixture()
+def x(rng) -> np.ndarray:
+    return 3.0 + rng.normal(0.0, 1.0, (600, 3))
+
+
+@pytest.mark.parametrize("fn", [gyrodrift.kalman_filter, gyrodrift.ar_filter])
+def test_dtypes_and_shapes(fn, x) -> None:
+    for dtype in (np.float64, np.float32):
+        a = x.astype(dtype)
+        assert fn(a, MODEL).dtype == dtype
+        assert fn(a[:, 0].copy(), MODEL).dtype == dtype
+        assert fn(a, MODEL).shape == (600, 3)
+    # Integers (e.g. raw gyro counts) are filtered in float64.
+    counts = np.round(x * 10).astype(np.int32)
+    np.testing.assert_array_equal(fn(counts, MODEL), fn(counts.astype(np.float64), MODEL))
+    # Explicit computation dtype.
+    assert fn(x, MODEL, dtype=np.float32).dtype == np.float32
+    with pytest.raises(TypeError, match="float32 or float64"):
+        fn(x, MODEL, dtype=np.int16)
+    for bad in (x.astype(np.complex128), x.astype(np.float16), np.array(["1.0"] * 10), x > 0):
+        with pytest.raises(TypeError, match="dtype"):
+            fn(bad, MODEL)
+    for shape in [(600, 2), (600, 4), (10, 3, 1), ()]:
+        with pytest.raises(ValueError, match="shape"):
+            fn(np.zeros(shape), MODEL)
+    with pytest.raises(ValueError, match="empty"):
+        fn(np.zeros(0), MODEL)
+
+
+@pytest.mark.parametrize("fn", [gyrodrift.kalman_filter, gyrodrift.ar_filter])
+def test_non_contiguous_input_gives_same_result(fn, x) -> None:
+    col = x[:, 1]  # strided view
+    assert not col.flags.c_contiguous
+    np.testing.assert_array_equal(fn(col, MODEL), fn(col.copy(), MODEL))
+    fortran = np.asfortranarray(x)
+    np.testing.assert_array_equal(fn(fortran, MODEL), fn(x, MODEL))
+    rev = x[::-1]
+    np.testing.assert_array_equal(fn(rev, MODEL), fn(rev.copy(), MODEL))
+
+
+def test_input_is_not_modified(x) -> None:
+    before = x.copy()
+    x[5, 1] = np.nan
+    before[5, 1] = np.nan
+    with pytest.warns(RuntimeWarning):
+        gyrodrift.kalman_filter(x, MODEL)
+    np.testing.assert_array_equal(x, before)
+
+
+def test_core_is_strict_zero_copy(x) -> None:
+    # The low-level functions take only C-contiguous float32/float64 (no silent copies).
+    _core.ar2_kalman_batch(x, PARAMS)
+    _core.ar2_kalman_batch(x.astype(np.float32), PARAMS)
+    with pytest.raises(TypeError):
+        _core.ar2_kalman_batch(x[:, 0], PARAMS)  # strided
+    with pytest.raises(TypeError):
+        _core.ar2_kalman_batch(np.asfortranarray(x), PARAMS)
+    with pytest.raises(TypeError):
+        _core.ar2_kalman_batch(x.astype(np.int64), PARAMS)
+    with pytest.raises(ValueError, match="expected 1 or 3 parameter sets"):
+        _core.ar2_kalman_batch(x, PARAMS * 2)
+    with pytest.raises(ValueError, match=r"\(n, 3\)"):
+        _core.ar2_kalman_batch(np.zeros((5, 2)), PARAMS)
+    with pytest.raises(ValueError, match="non-stationary"):
+        _core.ar2_kalman_batch(x, [(1.5, 0.0, 1.0, 0.0, 1.0, 1.0)])
+    with pytest.raises(ValueError, match="bad argument"):
+        _core.ar2_kalman_batch(x, [(0.1, 0.0, 1.0, 0.0, 1.0, 0.0)])  # r = 0
+    with pytest.raises(ValueError, match="non-finite"):
+        _core.Ar2Kalman(0.1, 0.0, 1.0, float("inf"), 1.0, 1.0)
+
+
+def test_stateful_filter_arguments(x) -> None:
+    kf = KalmanFilter(MODEL, dtype=np.float32)
+    assert kf.process(x[:, 0]).dtype == np.float32
+    with pytest.raises(ValueError, match="1-D"):
+        kf.process(x)
+    with pytest.raises(TypeError, match="float32 or float64"):
+        KalmanFilter(MODEL, dtype=np.int32)
+    assert KalmanFilter(MODEL).gain is None
+    k0, k1 = KalmanFilter(MODEL, steady_state=True).gain
+    assert 0.0 < k0 < 1.0 and np.isfinite(k1)
+
+
+def test_large_batch_three_axes_float32(rng) -> None:
+    # 2e5 x 3 samples through the GIL-free batch path, float32 in and out, finite.
+    a = rng.normal(0.0, 1.0, (200_000, 3)).astype(np.float32)
+    out, faults = gyrodrift.kalman_filter(a, MODEL, return_faults=True)
+    assert out.dtype == np.float32 and faults.tolist() == [0, 0, 0]
+    assert np.all(np.isfinite(out))
