@@ -6,6 +6,8 @@
 //     .process(seq u16[n], t_us u64[n], values (n, 6) float64|float32)
 //         -> (out (n, 6), flags u16[n])   rows with flags & 0x8000 (rejected) are NaN
 //     .health() -> dict, .reset(), .status -> str
+//   ImuProcessorWavelet / ImuProcessorWaveletF32(..., wavelet "db4"|"db8", level, mode
+//       "forced"|"soft"|"hard"): the same with RealtimeWavelet<T, 256> as the wavelet stage
 //   crc16_ccitt_false(bytes) -> int
 //   serial_encode_frame(frame_type, seq, flags, t_us, values[6]) -> bytes
 //   serial_parse(data, chunk, finish) -> (frames list, stats dict)   (C++ parser, 256-B buffer)
@@ -25,9 +27,11 @@
 #include <gyrodrift/can_frames.hpp>
 #include <gyrodrift/crc16.hpp>
 #include <gyrodrift/imu_processor.hpp>
+#include <gyrodrift/realtime_wavelet.hpp>
 #include <gyrodrift/serial_frame.hpp>
 #include <gyrodrift/slcan.hpp>
 #include <limits>
+#include <memory>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -98,62 +102,107 @@ py::dict health_dict(const ImuHealth& h) {
 }
 
 template <class T>
-void bind_processor(py::module_& m, const char* name) {
-  using Proc = ImuProcessor<T>;
-  py::class_<Proc>(m, name)
-      .def(py::init([](const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
-                       const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
-                       const Six& p0, const Six& saturation,
-                       const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
-                       std::uint32_t tol_us) {
-             return Proc(make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
-                                        stuck, period_us, tol_us));
-           }),
-           py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
-           py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
-           py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"))
-      .def(
-          "process",
-          [](Proc& p, const CArray<std::uint16_t>& seq, const CArray<std::uint64_t>& t_us,
-             const CArray<T>& values) {
-            if (values.ndim() != 2 || values.shape(1) != static_cast<py::ssize_t>(kImuChannels)) {
-              throw py::value_error("values: expected an (n, 6) array, got ndim=" +
-                                    std::to_string(values.ndim()));
-            }
-            const auto n = static_cast<std::size_t>(values.shape(0));
-            if (seq.ndim() != 1 || t_us.ndim() != 1 || static_cast<std::size_t>(seq.shape(0)) != n ||
-                static_cast<std::size_t>(t_us.shape(0)) != n) {
-              throw py::value_error("seq and t_us: expected 1-D arrays of length " + std::to_string(n));
-            }
-            CArray<T> out({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(kImuChannels)});
-            py::array_t<std::uint16_t> flags(static_cast<py::ssize_t>(n));
-            const std::uint16_t* s = seq.data();
-            const std::uint64_t* t = t_us.data();
-            const T* v = values.data();
-            T* o = out.mutable_data();
-            std::uint16_t* f = flags.mutable_data();
-            {
-              py::gil_scoped_release release;
-              ImuSample<T> in;
-              ImuOutput<T> res;
-              for (std::size_t k = 0; k < n; ++k) {
-                in.seq = s[k];
-                in.t_us = t[k];
-                for (std::size_t c = 0; c < kImuChannels; ++c) in.values[c] = v[k * kImuChannels + c];
-                f[k] = p.step(in, res);
-                const bool rejected = (f[k] & kFlagRejected) != 0;
-                for (std::size_t c = 0; c < kImuChannels; ++c) {
-                  o[k * kImuChannels + c] = rejected ? std::numeric_limits<T>::quiet_NaN() : res.values[c];
-                }
-              }
-            }
-            return py::make_tuple(out, flags);
-          },
-          py::arg("seq").noconvert(), py::arg("t_us").noconvert(), py::arg("values").noconvert())
+using WaveletStage = RealtimeWavelet<T, 256>;
+
+template <class T>
+WaveletStage<T> make_wavelet(const std::string& wavelet, int level, const std::string& mode) {
+  WaveletKind kind = WaveletKind::db8;
+  if (wavelet == "db4") kind = WaveletKind::db4;
+  else if (wavelet != "db8") throw py::value_error("wavelet: expected 'db4' or 'db8', got '" + wavelet + "'");
+  WaveletMode m = WaveletMode::forced;
+  if (mode == "soft") m = WaveletMode::soft;
+  else if (mode == "hard") m = WaveletMode::hard;
+  else if (mode != "forced") throw py::value_error("mode: expected 'forced', 'soft' or 'hard', got '" + mode + "'");
+  WaveletStage<T> w(kind, level, m);
+  if (w.status() != RealtimeWaveletStatus::ok) {
+    throw py::value_error("wavelet level " + std::to_string(level) + " out of range for a 256-sample window");
+  }
+  return w;
+}
+
+template <class T, class Proc, class Cls>
+void def_processor_methods(Cls& cls) {
+  cls.def(
+         "process",
+         [](Proc& p, const CArray<std::uint16_t>& seq, const CArray<std::uint64_t>& t_us,
+            const CArray<T>& values) {
+           if (values.ndim() != 2 || values.shape(1) != static_cast<py::ssize_t>(kImuChannels)) {
+             throw py::value_error("values: expected an (n, 6) array, got ndim=" +
+                                   std::to_string(values.ndim()));
+           }
+           const auto n = static_cast<std::size_t>(values.shape(0));
+           if (seq.ndim() != 1 || t_us.ndim() != 1 || static_cast<std::size_t>(seq.shape(0)) != n ||
+               static_cast<std::size_t>(t_us.shape(0)) != n) {
+             throw py::value_error("seq and t_us: expected 1-D arrays of length " + std::to_string(n));
+           }
+           CArray<T> out({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(kImuChannels)});
+           py::array_t<std::uint16_t> flags(static_cast<py::ssize_t>(n));
+           const std::uint16_t* s = seq.data();
+           const std::uint64_t* t = t_us.data();
+           const T* v = values.data();
+           T* o = out.mutable_data();
+           std::uint16_t* f = flags.mutable_data();
+           {
+             py::gil_scoped_release release;
+             ImuSample<T> in;
+             ImuOutput<T> res;
+             for (std::size_t k = 0; k < n; ++k) {
+               in.seq = s[k];
+               in.t_us = t[k];
+               for (std::size_t c = 0; c < kImuChannels; ++c) in.values[c] = v[k * kImuChannels + c];
+               f[k] = p.step(in, res);
+               const bool rejected = (f[k] & kFlagRejected) != 0;
+               for (std::size_t c = 0; c < kImuChannels; ++c) {
+                 o[k * kImuChannels + c] = rejected ? std::numeric_limits<T>::quiet_NaN() : res.values[c];
+               }
+             }
+           }
+           return py::make_tuple(out, flags);
+         },
+         py::arg("seq").noconvert(), py::arg("t_us").noconvert(), py::arg("values").noconvert())
       .def("health", [](const Proc& p) { return health_dict(p.health()); })
       .def("reset", &Proc::reset)
       .def_property_readonly("status", [](const Proc& p) { return std::string(status_name(p.status())); })
       .def_property_readonly("bad_channel", &Proc::bad_channel);
+}
+
+template <class T>
+void bind_processor(py::module_& m, const char* name) {
+  using Proc = ImuProcessor<T>;
+  py::class_<Proc> cls(m, name);
+  cls.def(py::init([](const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
+                      const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
+                      const Six& p0, const Six& saturation,
+                      const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
+                      std::uint32_t tol_us) {
+            return Proc(make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
+                                       stuck, period_us, tol_us));
+          }),
+          py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
+          py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
+          py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"));
+  def_processor_methods<T, Proc>(cls);
+}
+
+template <class T>
+void bind_wavelet_processor(py::module_& m, const char* name) {
+  using Proc = ImuProcessor<T, WaveletStage<T>>;
+  py::class_<Proc> cls(m, name);
+  cls.def(py::init([](const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
+                      const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
+                      const Six& p0, const Six& saturation,
+                      const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
+                      std::uint32_t tol_us, const std::string& wavelet, int level, const std::string& mode) {
+            // The processor holds six 256-sample wavelet windows: keep it on the heap.
+            return std::make_unique<Proc>(make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0,
+                                                         saturation, stuck, period_us, tol_us),
+                                          make_wavelet<T>(wavelet, level, mode));
+          }),
+          py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
+          py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
+          py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"),
+          py::arg("wavelet"), py::arg("level"), py::arg("mode"));
+  def_processor_methods<T, Proc>(cls);
 }
 
 const std::uint8_t* bytes_ptr(const py::bytes& b, std::size_t& n) {
@@ -218,6 +267,8 @@ py::tuple frame_tuple(const serial::ImuFrame& f) {
 void bind_imu(py::module_& m) {
   bind_processor<double>(m, "ImuProcessor");
   bind_processor<float>(m, "ImuProcessorF32");
+  bind_wavelet_processor<double>(m, "ImuProcessorWavelet");
+  bind_wavelet_processor<float>(m, "ImuProcessorWaveletF32");
 
   m.def("crc16_ccitt_false", [](const py::bytes& data) {
     std::size_t n = 0;

@@ -106,6 +106,17 @@ class ImuChannelConfig:
         )
 
 
+@dataclass(frozen=True)
+class WaveletSettings:
+    """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
+    all of them. The C++ processor is built with a 256-sample window."""
+
+    wavelet: str = "db8"
+    window: int = 256
+    level: int = 5
+    mode: str = "forced"
+
+
 def _default_channels() -> list[ImuChannelConfig]:
     return [ImuChannelConfig(filter="ar2_kalman") for _ in range(3)] + [
         ImuChannelConfig() for _ in range(3)
@@ -175,15 +186,32 @@ def _as_inputs(
 class ImuProcessor:
     """The C++ ImuProcessor (float64 or float32) over whole records, stateful across calls."""
 
-    def __init__(self, config: ImuConfig, dtype: npt.DTypeLike = np.float64) -> None:
+    def __init__(
+        self,
+        config: ImuConfig,
+        dtype: npt.DTypeLike = np.float64,
+        wavelet: WaveletSettings | None = None,
+    ) -> None:
         from gyrodrift import _core  # the compiled module; imported late for clear errors
 
         config.validate()
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
             raise TypeError(f"dtype: expected float64 or float32, got {self.dtype}")
-        cls = _core.ImuProcessor if self.dtype == np.float64 else _core.ImuProcessorF32
+        f64 = self.dtype == np.float64
         ch = config.channels
+        extra: tuple[object, ...] = ()
+        if any(c.filter == "wavelet" for c in ch):
+            if wavelet is None:
+                raise ValueError("a channel uses the wavelet stage: pass wavelet=WaveletSettings()")
+            if wavelet.window != 256:
+                raise ValueError(
+                    f"wavelet.window: the C++ stage has 256 samples, got {wavelet.window}"
+                )
+            cls = _core.ImuProcessorWavelet if f64 else _core.ImuProcessorWaveletF32
+            extra = (wavelet.wavelet, wavelet.level, wavelet.mode)
+        else:
+            cls = _core.ImuProcessor if f64 else _core.ImuProcessorF32
         self._proc = cls(
             [FILTERS.index(c.filter) for c in ch],
             [c.bias for c in ch],
@@ -198,6 +226,7 @@ class ImuProcessor:
             [c.stuck_samples for c in ch],
             config.period_us,
             config.time_tolerance_us,
+            *extra,
         )
         if self._proc.status != "ok":
             where = f" (channel {self._proc.bad_channel})" if self._proc.bad_channel >= 0 else ""

@@ -35,9 +35,10 @@ from gyrodrift.imu import (
     ImuChannelConfig,
     ImuConfig,
     ImuResult,
+    WaveletSettings,
 )
 
-__all__ = ["process_imu"]
+__all__ = ["WaveletSettings", "process_imu"]
 
 
 @dataclass(frozen=True)
@@ -49,16 +50,6 @@ class _Model:
     sigma2: float
     mean: float
     r: float
-
-
-@dataclass(frozen=True)
-class WaveletSettings:
-    """Settings of the real-time wavelet stage (paper 004 sec. 2.2)."""
-
-    wavelet: str = "db8"
-    window: int = 256
-    level: int = 5
-    mode: str = "forced"
 
 
 def _channel_filter(
