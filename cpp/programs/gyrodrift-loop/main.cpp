@@ -436,13 +436,11 @@ void process_slcan_bytes(const std::uint8_t* p, std::size_t n) noexcept {
   for (std::size_t i = 0; i < n; ++i) {
     gslcan::Event ev;
     if (!g_slcan_parser.push(p[i], ev)) continue;
-    if (ev.kind == gslcan::EventKind::kFrame) {
-      handle_can_frame(ev.frame, Mode::kSlcan, -1);
-    } else {
-      std::array<char, 16> reply{};
-      const std::size_t r = gslcan::command_reply(ev, reply.data(), reply.size());
-      if (r > 0 && g_out.append(reply.data(), r)) ++g_c.slcan_replies;
-    }
+    // Lawicel replies: "z\r" confirms a frame, "\r" (or data) a command, BEL an error.
+    std::array<char, 16> reply{};
+    const std::size_t r = gslcan::command_reply(ev, reply.data(), reply.size());
+    if (r > 0 && g_out.append(reply.data(), r)) ++g_c.slcan_replies;
+    if (ev.kind == gslcan::EventKind::kFrame) handle_can_frame(ev.frame, Mode::kSlcan, -1);
   }
 }
 

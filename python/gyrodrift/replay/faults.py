@@ -1,0 +1,134 @@
+"""Fault injection for replays: which samples are dropped, corrupted, duplicated, reordered
+or delayed, decided up front from a seeded generator so a run is reproducible and the
+expected effect on the loop can be computed before anything is sent.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+FAULT_KINDS: tuple[str, ...] = ("drop", "corrupt", "duplicate", "reorder", "delay")
+
+
+@dataclass(frozen=True)
+class FaultSpec:
+    """Per-sample fault probabilities (each in [0, 1], their sum <= 1) and parameters.
+
+    drop: the sample is never sent (the loop sees a sequence gap).
+    corrupt: one bit of the sample is flipped on the wire (serial: a payload byte, so the
+        CRC fails; SLCAN: a hex digit of the GyroZ line becomes non-hex, as a line error).
+    duplicate: the sample is sent twice in a row.
+    reorder: the sample is swapped with the next one.
+    delay: the sample is sent `delay_s` later than its timestamp says (after later samples).
+    """
+
+    drop: float = 0.0
+    corrupt: float = 0.0
+    duplicate: float = 0.0
+    reorder: float = 0.0
+    delay: float = 0.0
+    delay_s: float = 0.02
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        rates = [getattr(self, k) for k in FAULT_KINDS]
+        for k, r in zip(FAULT_KINDS, rates, strict=True):
+            if not (0.0 <= r <= 1.0) or not np.isfinite(r):
+                raise ValueError(f"fault rate {k}={r} must be within [0, 1]")
+        if sum(rates) > 1.0 + 1e-12:
+            raise ValueError(f"fault rates sum to {sum(rates):.3f} > 1")
+        if not (self.delay_s >= 0.0 and np.isfinite(self.delay_s)):
+            raise ValueError(f"delay_s={self.delay_s} must be finite and >= 0")
+
+    @property
+    def any(self) -> bool:
+        return any(getattr(self, k) > 0 for k in FAULT_KINDS)
+
+    def to_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+@dataclass(frozen=True)
+class Unit:
+    """One transmission: sample `index` at record time `t_s` (already shifted if delayed)."""
+
+    index: int
+    t_s: float
+    corrupt: bool = False
+    fault: str = ""  # "", or the fault kind that produced/moved this unit
+
+
+@dataclass
+class TransmissionPlan:
+    units: list[Unit]  # in send order
+    counts: dict[str, int]  # samples affected per fault kind
+
+    @property
+    def sent_units(self) -> int:
+        return len(self.units)
+
+
+def plan_transmission(t_s: np.ndarray, spec: FaultSpec) -> TransmissionPlan:
+    """Send order of n samples with faults applied. At most one fault per sample; a sample
+    swapped by `reorder` takes its partner out of the draw (the partner is counted in
+    the swap)."""
+    n = int(t_s.shape[0])
+    counts = dict.fromkeys(FAULT_KINDS, 0)
+    if not spec.any:
+        return TransmissionPlan([Unit(i, float(t_s[i])) for i in range(n)], counts)
+    rng = np.random.default_rng(spec.seed)
+    u = rng.random(n)
+    edges = np.cumsum([getattr(spec, k) for k in FAULT_KINDS])
+    kind_idx = np.searchsorted(edges, u, side="right")  # len(FAULT_KINDS) = no fault
+    units: list[Unit] = []
+    i = 0
+    while i < n:
+        k = int(kind_idx[i])
+        kind = FAULT_KINDS[k] if k < len(FAULT_KINDS) else ""
+        t = float(t_s[i])
+        if kind == "drop":
+            counts["drop"] += 1
+        elif kind == "corrupt":
+            counts["corrupt"] += 1
+            units.append(Unit(i, t, corrupt=True, fault="corrupt"))
+        elif kind == "duplicate":
+            counts["duplicate"] += 1
+            units.append(Unit(i, t))
+            units.append(Unit(i, t, fault="duplicate"))
+        elif kind == "reorder" and i + 1 < n:
+            counts["reorder"] += 1
+            t_next = float(t_s[i + 1])
+            units.append(Unit(i + 1, t_next, fault="reorder"))
+            units.append(Unit(i, t_next, fault="reorder"))
+            i += 2
+            continue
+        elif kind == "delay":
+            counts["delay"] += 1
+            units.append(Unit(i, t + spec.delay_s, fault="delay"))
+        else:
+            units.append(Unit(i, t))
+        i += 1
+    # Delayed samples move behind everything due earlier (stable: ties keep plan order).
+    order = sorted(range(len(units)), key=lambda j: (units[j].t_s, j))
+    return TransmissionPlan([units[j] for j in order], counts)
+
+
+def corrupt_serial_frame(frame: bytes, rng: np.random.Generator) -> bytes:
+    """Flip one bit in bytes 4..39 (seq .. channels): the CRC must fail; the header stays
+    intact so the receiver discards exactly this frame (reason "crc")."""
+    b = bytearray(frame)
+    pos = int(rng.integers(4, 40))
+    b[pos] ^= 1 << int(rng.integers(0, 8))
+    return bytes(b)
+
+
+def corrupt_slcan_line(line: bytes, rng: np.random.Generator) -> bytes:
+    """Replace one data hex digit of an SLCAN frame line with a non-hex character (a serial
+    line error the adapter's parser must reject as malformed)."""
+    b = bytearray(line)
+    # "tIIIL" + 16 hex digits + CR: data digits are at 5..20.
+    pos = int(rng.integers(5, len(b) - 1))
+    b[pos] = ord("G")
+    return bytes(b)

@@ -1,0 +1,498 @@
+"""The replay harness: sends a record into the loop program (or a running target) over a
+serial line or CAN, paced like the real link, captures every output, and checks each output
+against the reference processor run offline on exactly the samples the target received.
+
+Accounting: every transmitted unit (one serial frame, or one sample's four CAN frames) ends
+in exactly one of: an output frame received, rejected on the link (CRC / malformed line),
+or rejected by the processor (duplicate, out of order, ...). `unaccounted` must be 0.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import can
+import numpy as np
+
+from gyrodrift.codecs import OUTPUT_BASE_ID, SampleAssembler, encode_sample
+from gyrodrift.codecs import encode_frames as codec_encode_frames
+from gyrodrift.imu import FLAG_CONFIG_ERROR, FLAG_DUPLICATE, FLAG_OUT_OF_ORDER, FLAG_REJECTED
+from gyrodrift.reference.imu import process_imu
+from gyrodrift.replay.faults import (
+    FaultSpec,
+    TransmissionPlan,
+    corrupt_serial_frame,
+    corrupt_slcan_line,
+    plan_transmission,
+)
+from gyrodrift.replay.processor import ProcessorSettings
+from gyrodrift.replay.transport import (
+    CAN_FRAME_BITS,
+    UART_BITS_PER_BYTE,
+    CanLink,
+    PtyPair,
+    SerialLink,
+    sleep_until_ns,
+)
+from gyrodrift.replay.wire import FRAME_LEN, TYPE_OUTPUT, Samples, decode_stream
+
+TRANSPORTS = ("serial", "slcan", "socketcan")
+LOOP_RELATIVE = Path("cpp") / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
+# An SLCAN line for one standard 8-byte frame: "t" + 3 id + 1 dlc + 16 hex + CR.
+SLCAN_LINE_BYTES = 22
+
+
+class ReplayError(RuntimeError):
+    """The replay could not run (no loop binary, target did not start, bad options)."""
+
+
+def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
+    """The gyrodrift-loop executable: `explicit`, $GYRODRIFT_LOOP, the C++ build named by
+    $GYRODRIFT_CPP_BUILD_DIR, the repo's build/*/ trees, or `gyrodrift-loop` on PATH."""
+    cands: list[Path] = []
+    if explicit:
+        cands.append(Path(explicit))
+    if os.environ.get("GYRODRIFT_LOOP"):
+        cands.append(Path(os.environ["GYRODRIFT_LOOP"]))
+    if os.environ.get("GYRODRIFT_CPP_BUILD_DIR"):
+        cands.append(Path(os.environ["GYRODRIFT_CPP_BUILD_DIR"]) / LOOP_RELATIVE)
+    repo = Path(__file__).resolve().parents[3]
+    if explicit is None:
+        cands += sorted((repo / "build").glob(f"*/{LOOP_RELATIVE.as_posix()}"),
+                        key=lambda p: p.stat().st_mtime, reverse=True)
+        on_path = shutil.which("gyrodrift-loop")
+        if on_path:
+            cands.append(Path(on_path))
+    for c in cands:
+        if c.is_file() and os.access(c, os.X_OK):
+            return c
+    if explicit:
+        raise ReplayError(f"loop binary {explicit} does not exist or is not executable")
+    raise ReplayError("cannot find gyrodrift-loop: build it (scripts/dev-build NAME gyrodrift-loop "
+                      "or cmake -DGYRODRIFT_BUILD_PROGRAMS=ON) and pass --loop-binary, or set "
+                      "GYRODRIFT_LOOP")
+
+
+@dataclass
+class ReplayOptions:
+    transport: str = "serial"  # serial | slcan | socketcan (socketcan: attach to a real bus)
+    speed: float = 1.0  # 1 = original timestamps, k = k times faster, 0 = as fast as possible
+    baud: int = 921600  # serial line rate (frame pacing; a pty ignores it)
+    can_bitrate: int = 500000  # CAN bit rate (frame pacing)
+    pace_link: bool = True  # hold each unit back by its time on the wire (paced modes)
+    loop_rate_hz: float = 400.0
+    loop_binary: str | None = None
+    loop_realtime: bool = True  # ask the loop for SCHED_FIFO + mlockall
+    attach: str | None = None  # device path / CAN interface of a running target
+    faults: FaultSpec = field(default_factory=FaultSpec)
+    processor: ProcessorSettings = field(default_factory=ProcessorSettings)
+    settle_s: float = 1.0  # stop waiting after this long without new output
+    timeout_s: float = 0.0  # 0: record duration / speed + 30 s
+    batch_frames: int = 256  # as-fast-as-possible: serial frames per write
+
+    def __post_init__(self) -> None:
+        if self.transport not in TRANSPORTS:
+            raise ValueError(f"transport must be one of {TRANSPORTS}, got {self.transport!r}")
+        if not (self.speed >= 0 and np.isfinite(self.speed)):
+            raise ValueError(f"speed must be >= 0 (0 = as fast as possible), got {self.speed}")
+        if self.transport == "socketcan" and self.attach is None:
+            raise ValueError("socketcan replays attach to a running target on a real "
+                             "interface: pass attach='can0'")
+        if self.baud <= 0 or self.can_bitrate <= 0:
+            raise ValueError("baud and can_bitrate must be > 0")
+
+    @property
+    def can(self) -> bool:
+        return self.transport in ("slcan", "socketcan")
+
+
+@dataclass
+class ReplayResult:
+    report: dict[str, Any]
+    latency_us: np.ndarray  # per received output, in output order
+    output_arrival_s: np.ndarray  # arrival time of each output, from the first write
+    loop_stats: dict[str, Any] | None
+
+    @property
+    def ok(self) -> bool:
+        return bool(self.report["ok"])
+
+
+def _unit_wire_time_ns(opt: ReplayOptions) -> int:
+    """Time one unit occupies its link: serial frame at the baud, or a sample's 4 CAN frames
+    at the bit rate (and, for SLCAN, its 4 lines at the tty baud: the slower one counts)."""
+    if opt.transport == "serial":
+        return int(FRAME_LEN * UART_BITS_PER_BYTE * 1e9 / opt.baud)
+    can_ns = 4 * CAN_FRAME_BITS * 1e9 / opt.can_bitrate
+    if opt.transport == "slcan":
+        can_ns = max(can_ns, 4 * SLCAN_LINE_BYTES * UART_BITS_PER_BYTE * 1e9 / opt.baud)
+    return int(can_ns)
+
+
+def _delivered(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """What reaches the processor, in order: unit positions, seq, t_us, values (float64).
+
+    CAN has no timestamp field: the loop derives t_us from the unwrapped sequence number
+    (signed 16-bit steps) at the nominal sample rate, and so does this."""
+    pos = np.array([k for k, u in enumerate(plan.units) if not u.corrupt], dtype=np.int64)
+    idx = np.array([plan.units[k].index for k in pos], dtype=np.int64)
+    seq = samples.seq[idx] if idx.size else np.zeros(0, np.uint16)
+    if opt.can:
+        unwrapped = np.zeros(seq.size, dtype=np.int64)
+        acc = 0
+        for k in range(seq.size):
+            if k == 0:
+                acc = int(seq[0])
+            else:
+                step = (int(seq[k]) - int(seq[k - 1])) % 65536
+                acc += step - 65536 if step >= 32768 else step
+            unwrapped[k] = acc
+        t_us = np.where(unwrapped <= 0, 0,
+                        np.floor(unwrapped * 1e6 / opt.processor.sample_rate_hz + 0.5)
+                        ).astype(np.uint64)
+    else:
+        t_us = samples.t_us[idx] if idx.size else np.zeros(0, np.uint64)
+    values = samples.channels[idx].astype(np.float64) if idx.size else np.zeros((0, 6))
+    return pos, seq, t_us, values
+
+
+class _Target:
+    """The loop program started on a pty (or nothing, when attaching to a running one)."""
+
+    def __init__(self, opt: ReplayOptions) -> None:
+        self.opt = opt
+        self.proc: subprocess.Popen[bytes] | None = None
+        self.pty: PtyPair | None = None
+        self.device = opt.attach or ""
+        self.stderr_lines: list[str] = []
+        self.stdout = b""
+
+    def start(self) -> None:
+        if self.opt.attach is not None:
+            return
+        binary = find_loop_binary(self.opt.loop_binary)
+        self.pty = PtyPair.open()
+        mode = "--serial" if self.opt.transport == "serial" else "--slcan"
+        args = [str(binary), mode, f"fd:{self.pty.master_fd}", "--baud", str(self.opt.baud),
+                "--rate-hz", repr(float(self.opt.loop_rate_hz)), *self.opt.processor.loop_args()]
+        if not self.opt.loop_realtime:
+            args.append("--no-rt")
+        self.proc = subprocess.Popen(args, pass_fds=[self.pty.master_fd],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        self.pty.close_master()  # the loop owns it now
+        self.device = self.pty.slave_path
+        ready = threading.Event()
+        assert self.proc.stderr is not None
+
+        def pump() -> None:
+            assert self.proc is not None and self.proc.stderr is not None
+            for raw in self.proc.stderr:
+                line = raw.decode(errors="replace").rstrip()
+                self.stderr_lines.append(line)
+                if '"event": "ready"' in line:
+                    ready.set()
+            ready.set()
+
+        threading.Thread(target=pump, name="loop-stderr", daemon=True).start()
+        if not ready.wait(10.0) or self.proc.poll() is not None:
+            err = "\n".join(self.stderr_lines) or "no output"
+            self.stop()
+            raise ReplayError(f"gyrodrift-loop did not start: {err}")
+
+    def stop(self, timeout_s: float = 10.0) -> dict[str, Any] | None:
+        """Close our end (the loop sees end of input), collect its JSON statistics."""
+        if self.pty is not None:
+            self.pty.close()
+        if self.proc is None:
+            return None
+        try:
+            out, _ = self.proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.proc.send_signal(signal.SIGTERM)
+            out, _ = self.proc.communicate(timeout=5.0)
+        self.stdout = out
+        try:
+            return json.loads(out.decode())
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            return None
+
+
+def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
+    """Replay `samples` into the target and check everything that comes back."""
+    if len(samples) == 0:
+        raise ValueError("nothing to replay: the record is empty")
+    if not np.all(np.diff(samples.t_us.astype(np.int64)) >= 0):
+        raise ValueError("record timestamps go backwards: cannot pace a replay")
+    plan = plan_transmission(samples.t_s, opt.faults)
+    rng = np.random.default_rng(opt.faults.seed + 1)
+    pos, d_seq, d_t_us, d_values = _delivered(samples, plan, opt)
+    ref = process_imu(d_seq, d_t_us, d_values, opt.processor.imu_config())
+    accepted = (ref.flags & FLAG_REJECTED) == 0
+    expected_pos = pos[accepted]  # unit position of each expected output, in order
+    exp_seq = d_seq[accepted]
+    exp_flags = ref.flags[accepted]
+    exp_values = ref.values[accepted]
+
+    # Payloads per unit.
+    n_units = plan.sent_units
+    payload: list[Any] = []
+    if opt.transport == "serial":
+        raw = codec_encode_frames(samples.seq, samples.t_us, samples.channels)
+        for u in plan.units:
+            frame = raw[FRAME_LEN * u.index: FRAME_LEN * (u.index + 1)]
+            payload.append(corrupt_serial_frame(frame, rng) if u.corrupt else frame)
+    else:
+        cache: dict[int, list[can.Message]] = {}
+        for u in plan.units:
+            if u.index not in cache:
+                cache[u.index] = encode_sample(int(samples.seq[u.index]),
+                                               samples.channels[u.index])
+            payload.append((cache[u.index], u.corrupt))
+
+    target = _Target(opt)
+    target.start()
+    link: SerialLink | CanLink | None = None
+    write_ns = np.zeros(n_units, dtype=np.int64)
+    try:
+        if opt.transport == "serial":
+            link = SerialLink(target.device, opt.baud)
+        else:
+            link = CanLink(opt.transport, target.device, bitrate=opt.can_bitrate,
+                           tty_baud=opt.baud)
+        wire_ns = _unit_wire_time_ns(opt) if opt.pace_link else 0
+        t_rec = np.array([u.t_s for u in plan.units], dtype=np.float64)
+        t0 = time.perf_counter_ns() + 20_000_000  # 20 ms to settle
+        sleep_until_ns(t0)
+        start_ns = time.perf_counter_ns()
+        if opt.speed > 0:
+            due = t0 + ((t_rec - t_rec[0]) / opt.speed * 1e9).astype(np.int64)
+            link_free = 0
+            for k in range(n_units):
+                # The unit is complete at the receiver when its last bit has arrived.
+                ready_ns = max(int(due[k]), link_free) + wire_ns
+                sleep_until_ns(ready_ns)
+                _send(link, payload[k], rng)
+                write_ns[k] = time.perf_counter_ns()
+                link_free = ready_ns
+        elif opt.transport == "serial":
+            assert isinstance(link, SerialLink)
+            b = max(1, opt.batch_frames)
+            for k0 in range(0, n_units, b):
+                link.write(b"".join(payload[k0:k0 + b]))
+                write_ns[k0:k0 + b] = time.perf_counter_ns()
+        else:
+            for k in range(n_units):
+                _send(link, payload[k], rng)
+                write_ns[k] = time.perf_counter_ns()
+        end_write_ns = time.perf_counter_ns()
+        # Wait for the outputs: all expected ones, or settle_s without anything new.
+        duration_s = (t_rec[-1] - t_rec[0]) / opt.speed if opt.speed > 0 else 0.0
+        deadline = time.perf_counter() + (opt.timeout_s or duration_s + 30.0)
+        expected_n = int(exp_seq.size)
+        last_count, last_change = -1, time.perf_counter()
+        while time.perf_counter() < deadline:
+            count = _output_count(link)
+            if count >= expected_n:
+                break
+            if count != last_count:
+                last_count, last_change = count, time.perf_counter()
+            elif time.perf_counter() - last_change > opt.settle_s:
+                break
+            time.sleep(0.01)
+        time.sleep(0.05)  # anything still in flight
+    finally:
+        if link is not None:
+            link.close()
+        loop_stats = target.stop()
+
+    # Outputs received, with arrival times.
+    capture_error = link.capture.error if link is not None else ""
+    if opt.transport == "serial":
+        assert isinstance(link, SerialLink)
+        stream = b"".join(c for _, c in link.capture.chunks)
+        ends = np.cumsum([len(c) for _, c in link.capture.chunks])
+        arrivals = np.array([t for t, _ in link.capture.chunks], dtype=np.int64)
+        dec = decode_stream(stream)
+        ok_type = dec.frame_type == TYPE_OUTPUT
+        got = dec.samples.take(np.nonzero(ok_type)[0])
+        got_arrival = arrivals[np.searchsorted(ends, dec.end_offset[ok_type], side="left")] \
+            if got.seq.size else np.zeros(0, np.int64)
+        link_issues = {"crc_errors": dec.crc_errors, "garbage_bytes": dec.garbage_bytes,
+                       "truncated_bytes": dec.truncated_bytes,
+                       "input_type_frames": int(np.count_nonzero(~ok_type))}
+    else:
+        assert isinstance(link, CanLink)
+        asm = SampleAssembler(base_id=OUTPUT_BASE_ID)
+        seqs, flags_l, vals, arr = [], [], [], []
+        for t_ns, m in link.capture.messages:
+            s = asm.push(m)
+            if s is not None:
+                seqs.append(s.seq)
+                flags_l.append(s.flags)
+                vals.append(list(s.values))
+                arr.append(t_ns)
+        asm.finish()
+        got = Samples(np.asarray(seqs, np.uint16), np.asarray(flags_l, np.uint16),
+                      np.zeros(len(seqs), np.uint64), np.asarray(vals, np.float32).reshape(-1, 6))
+        got_arrival = np.asarray(arr, dtype=np.int64)
+        st = asm.stats
+        link_issues = {"can_incomplete": int(st.incomplete_samples),
+                       "can_foreign_frames": int(st.foreign_frames)}
+
+    report = _build_report(samples, plan, opt, ref, d_seq, exp_seq, exp_flags, exp_values,
+                           expected_pos, got, got_arrival, write_ns, start_ns, end_write_ns,
+                           link, loop_stats, link_issues, capture_error, target)
+    n_cmp = min(got.seq.size, expected_pos.size)
+    lat = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
+    arrival_s = (got_arrival - start_ns) * 1e-9
+    return ReplayResult(report, lat, arrival_s, loop_stats)
+
+
+def _send(link: SerialLink | CanLink, unit: Any, rng: np.random.Generator) -> None:
+    if isinstance(link, SerialLink):
+        link.write(unit)
+        return
+    msgs, corrupt = unit
+    for j, m in enumerate(msgs):
+        if corrupt and j == 1:  # the GyroZ line (carries Seq) takes the line error
+            line = f"t{m.arbitration_id:03X}{m.dlc:d}{bytes(m.data).hex().upper()}\r".encode()
+            link.send_raw_line(corrupt_slcan_line(line, rng))
+        else:
+            link.send(m)
+
+
+def _output_count(link: SerialLink | CanLink) -> int:
+    if isinstance(link, SerialLink):
+        return link.received_bytes() // FRAME_LEN
+    return len(link.capture.messages) // 4
+
+
+def _pct(x: np.ndarray) -> dict[str, float]:
+    if x.size == 0:
+        return {"n": 0, "p50": float("nan"), "p90": float("nan"), "p99": float("nan"),
+                "max": float("nan")}
+    return {"n": int(x.size), "p50": float(np.percentile(x, 50)),
+            "p90": float(np.percentile(x, 90)), "p99": float(np.percentile(x, 99)),
+            "max": float(np.max(x))}
+
+
+def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, ref: Any,
+                  d_seq: np.ndarray, exp_seq: np.ndarray, exp_flags: np.ndarray,
+                  exp_values: np.ndarray, expected_pos: np.ndarray, got: Samples,
+                  got_arrival: np.ndarray, write_ns: np.ndarray, start_ns: int,
+                  end_write_ns: int, link: SerialLink | CanLink | None,
+                  loop: dict[str, Any] | None, link_issues: dict[str, int],
+                  capture_error: str, target: _Target) -> dict[str, Any]:
+    corrupted = sum(1 for u in plan.units if u.corrupt)
+    rej_flags = ref.flags[(ref.flags & FLAG_REJECTED) != 0]
+    proc_rejected = {
+        "duplicate": int(np.count_nonzero(rej_flags & FLAG_DUPLICATE)),
+        "out_of_order": int(np.count_nonzero(rej_flags & FLAG_OUT_OF_ORDER)),
+        "config": int(np.count_nonzero(rej_flags & FLAG_CONFIG_ERROR)),
+    }
+    link_reason = "crc" if opt.transport == "serial" else "can_incomplete"
+    n_got = int(got.seq.size)
+    n_exp = int(exp_seq.size)
+    n_cmp = min(n_got, n_exp)
+    seq_equal = bool(n_got == n_exp and np.array_equal(got.seq, exp_seq))
+    flags_equal = bool(n_got == n_exp and np.array_equal(got.flags, exp_flags))
+    if n_cmp:
+        err = np.abs(got.channels[:n_cmp].astype(np.float64) - exp_values[:n_cmp])
+        # NaN where both are NaN (a channel that never had a good value) counts as equal.
+        both_nan = np.isnan(got.channels[:n_cmp]) & np.isnan(exp_values[:n_cmp])
+        err = np.where(both_nan, 0.0, err)
+        max_err = [float(np.max(err[:, c])) if not np.any(np.isnan(err[:, c])) else float("inf")
+                   for c in range(6)]
+    else:
+        max_err = [float("nan")] * 6
+    sent = plan.sent_units
+    rejected_total = corrupted + sum(proc_rejected.values())
+    unaccounted = sent - rejected_total - n_got
+    lat_us = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
+    if n_got:
+        dur_s = (int(got_arrival[-1]) - start_ns) * 1e-9
+    else:
+        dur_s = float("nan")
+    send_s = (end_write_ns - start_ns) * 1e-9
+    tolerance = 1e-5  # float32 loop vs float64 reference (|values| <= ~10: ~1e-6 rounding)
+    accounting = {
+        "samples_in_record": len(samples),
+        "injected": dict(plan.counts),
+        "sent": sent,
+        "rejected_on_link": {link_reason: corrupted},
+        "rejected_by_processor": proc_rejected,
+        "outputs_expected": n_exp,
+        "outputs_received": n_got,
+        "unaccounted": int(unaccounted),
+    }
+    checks: dict[str, bool] = {
+        "accounting_balances": unaccounted == 0 and n_got == n_exp,
+        "output_seq_equal": seq_equal,
+        "output_flags_equal": flags_equal,
+        "values_within_tolerance": bool(n_cmp == n_exp and all(e <= tolerance for e in max_err)),
+        "clean_output_link": not any(link_issues.values()) and not capture_error,
+    }
+    if loop is not None:
+        rej = loop.get("rejected", {})
+        loop_link = int(rej.get("crc", 0)) if opt.transport == "serial" else \
+            int(rej.get("can_incomplete", 0))
+        checks["loop_frames_in"] = int(loop["frames_in"]) == sent - corrupted
+        checks["loop_link_rejections"] = loop_link == corrupted
+        checks["loop_processor_rejections"] = all(
+            int(rej.get(k, -1)) == v for k, v in proc_rejected.items())
+        checks["loop_frames_out"] = int(loop["frames_out"]) == n_exp
+        checks["loop_health_matches_reference"] = all(
+            int(loop.get("health", {}).get(k, -1)) == int(ref.health[k])
+            for k in ("samples_in", "samples_accepted", "seq_gaps", "missing_samples",
+                      "seq_resyncs", "time_jumps", "non_finite_samples", "saturated_values",
+                      "stuck_values"))
+        other = {k: v for k, v in rej.items()
+                 if k not in (*proc_rejected, "crc", "can_incomplete") and v}
+        if opt.transport == "slcan":
+            # A line error costs the sample's GyroZ line (malformed), orphans its GyroXY
+            # frame and leaves the accel half (2 frames) incomplete: 3 frames dropped.
+            expect = {"slcan_malformed": corrupted, "can_orphan_frames": corrupted,
+                      "can_frames_dropped": 3 * corrupted}
+            checks["loop_slcan_line_errors"] = all(
+                int(rej.get(k, 0)) == v for k, v in expect.items())
+            other = {k: v for k, v in other.items() if k not in expect}
+        checks["loop_no_other_rejections"] = not other
+    else:
+        checks["loop_stats_available"] = opt.attach is not None  # attached: none expected
+    report: dict[str, Any] = {
+        "ok": all(checks.values()),
+        "transport": opt.transport,
+        "device": target.device if opt.attach else f"pty {target.device}",
+        "speed": "as fast as possible" if opt.speed == 0 else f"{opt.speed:g}x",
+        "baud": opt.baud,
+        "can_bitrate": opt.can_bitrate if opt.can else None,
+        "loop_rate_hz": opt.loop_rate_hz,
+        "faults": opt.faults.to_dict(),
+        "processor": opt.processor.to_dict(),
+        "accounting": accounting,
+        "comparison": {"n": n_cmp, "max_abs_error": max_err, "tolerance": tolerance,
+                       "seq_equal": seq_equal, "flags_equal": flags_equal},
+        "latency_us": _pct(lat_us),
+        "throughput": {
+            "send_s": send_s,
+            "end_to_end_s": dur_s,
+            "frames_per_s_sent": sent / send_s if send_s > 0 else float("nan"),
+            "frames_per_s_end_to_end": n_got / dur_s if n_got and dur_s > 0 else float("nan"),
+        },
+        "output_link_issues": link_issues,
+        "capture_error": capture_error,
+        "reference_health": {k: int(v) for k, v in ref.health.items()},
+        "checks": checks,
+        "loop": loop,
+    }
+    return report

@@ -1,0 +1,99 @@
+"""One processor configuration, given to both sides of a replay: the loop program's command
+line (cpp/programs/gyrodrift-loop/processing.hpp) and the reference processor's ImuConfig
+(gyrodrift.reference.imu.process_imu), so the two run the same chain."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+from gyrodrift.imu import ImuChannelConfig, ImuConfig
+
+LOOP_FILTERS = ("ar2_kalman", "bias_removal", "pass_through")
+
+
+@dataclass(frozen=True)
+class ProcessorSettings:
+    """Gyro chain (all three axes) and accelerometer chain (all three axes).
+
+    The AR(2) default (a1=1.0, a2=-0.25: a double root at 0.5, stationary; sigma2, q, r in
+    (rad/s)^2) is a demonstration model; identify the real gyro with gyrodrift.fit_ar2.
+    """
+
+    gyro_filter: str = "ar2_kalman"
+    accel_filter: str = "pass_through"
+    a1: float = 1.0
+    a2: float = -0.25
+    sigma2: float = 1e-10
+    mean: float = 0.0
+    q: float = 1e-10
+    r: float = 1e-8
+    gyro_bias: float = 0.0
+    accel_bias: float = 0.0
+    gyro_saturation: float = math.inf
+    accel_saturation: float = math.inf
+    stuck_samples: int = 0
+    sample_rate_hz: float = 400.0
+    time_tolerance_us: int = -1  # -1: half a sample period
+
+    def __post_init__(self) -> None:
+        for name in ("gyro_filter", "accel_filter"):
+            if getattr(self, name) not in LOOP_FILTERS:
+                raise ValueError(f"{name} must be one of {LOOP_FILTERS}, "
+                                 f"got {getattr(self, name)!r}")
+        if not (self.sample_rate_hz > 0 and math.isfinite(self.sample_rate_hz)):
+            raise ValueError(f"sample_rate_hz must be > 0, got {self.sample_rate_hz}")
+
+    @property
+    def period_us(self) -> int:
+        return round(1e6 / self.sample_rate_hz)
+
+    @property
+    def tolerance_us(self) -> int:
+        if self.time_tolerance_us >= 0:
+            return self.time_tolerance_us
+        return math.floor(1e6 / self.sample_rate_hz / 2.0 + 0.5)  # C++ lround
+
+    def loop_args(self) -> list[str]:
+        """The gyrodrift-loop options for this configuration (repr() keeps every digit)."""
+        def num(x: float) -> str:
+            return "inf" if math.isinf(x) else repr(float(x))
+
+        return [
+            "--gyro-filter", self.gyro_filter, "--accel-filter", self.accel_filter,
+            "--gyro-ar2", ",".join(repr(float(v)) for v in (self.a1, self.a2, self.sigma2,
+                                                            self.mean)),
+            "--gyro-q", repr(float(self.q)), "--gyro-r", repr(float(self.r)),
+            "--gyro-bias", repr(float(self.gyro_bias)),
+            "--accel-bias", repr(float(self.accel_bias)),
+            "--gyro-saturation", num(self.gyro_saturation),
+            "--accel-saturation", num(self.accel_saturation),
+            "--stuck-samples", str(int(self.stuck_samples)),
+            "--sample-rate-hz", repr(float(self.sample_rate_hz)),
+            "--time-tolerance-us", str(self.tolerance_us),
+        ]
+
+    def imu_config(self) -> ImuConfig:
+        """The same chain as an ImuConfig for the reference processor. The loop stores every
+        parameter as float32, so the reference gets the float32-rounded values too."""
+        def f32(x: float) -> float:
+            import numpy as np
+
+            return float(np.float32(x))
+
+        channels = []
+        for c in range(6):
+            gyro = c < 3
+            channels.append(ImuChannelConfig(
+                filter=self.gyro_filter if gyro else self.accel_filter,
+                bias=f32(self.gyro_bias if gyro else self.accel_bias),
+                a1=f32(self.a1), a2=f32(self.a2), sigma2=f32(self.sigma2), mean=f32(self.mean),
+                q=f32(self.q), r=f32(self.r), p0=1.0,
+                saturation=f32(self.gyro_saturation if gyro else self.accel_saturation),
+                stuck_samples=int(self.stuck_samples),
+            ))
+        return ImuConfig(channels=channels, period_us=self.period_us,
+                         time_tolerance_us=self.tolerance_us)
+
+    def to_dict(self) -> dict[str, object]:
+        return asdict(self)

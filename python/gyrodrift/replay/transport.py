@@ -1,0 +1,173 @@
+"""Links between the harness and the target: a serial port (pyserial) or CAN (python-can:
+`slcan` over a serial device, or `socketcan` on a real interface).
+
+For a local replay the harness creates a pseudo-terminal pair (os.openpty): the loop
+program inherits the master side as `fd:N`; the harness opens the slave side by its path
+(/dev/pts/N) with pyserial or python-can's slcan interface, exactly as it would open
+/dev/ttyUSB0 on a bench. A reader thread timestamps every chunk/message as it arrives
+(time.perf_counter_ns, CLOCK_MONOTONIC) so latency can be computed afterwards.
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import threading
+import time
+import tty
+from dataclasses import dataclass, field
+
+import can
+import serial
+
+# Nominal bits of a classic CAN data frame with an 11-bit ID and 8 data bytes, without
+# stuffing: SOF 1 + ID 11 + RTR/IDE/r0 3 + DLC 4 + data 64 + CRC 15 + delimiters/ACK/EOF 13
+# + intermission 3 (ISO 11898-1 frame format).
+CAN_FRAME_BITS = 111
+# 8N1 UART: start + 8 data + stop bits per byte.
+UART_BITS_PER_BYTE = 10
+
+
+@dataclass
+class PtyPair:
+    master_fd: int
+    slave_fd: int
+    slave_path: str
+
+    @classmethod
+    def open(cls) -> PtyPair:
+        master, slave = os.openpty()
+        tty.setraw(slave)
+        return cls(master, slave, os.ttyname(slave))
+
+    def close_master(self) -> None:
+        if self.master_fd >= 0:
+            os.close(self.master_fd)
+            self.master_fd = -1
+
+    def close(self) -> None:
+        self.close_master()
+        if self.slave_fd >= 0:
+            os.close(self.slave_fd)
+            self.slave_fd = -1
+
+
+@dataclass
+class Capture:
+    """Everything the reader thread saw: (arrival_ns, payload) in arrival order."""
+
+    chunks: list[tuple[int, bytes]] = field(default_factory=list)
+    messages: list[tuple[int, can.Message]] = field(default_factory=list)
+    error: str = ""
+
+    @property
+    def byte_count(self) -> int:
+        return sum(len(c) for _, c in self.chunks)
+
+
+class SerialLink:
+    """A serial device opened with pyserial (raw 8N1); reads on a background thread."""
+
+    def __init__(self, path: str, baud: int) -> None:
+        try:
+            self.port = serial.Serial(path, baudrate=baud, timeout=0, write_timeout=None)
+        except (serial.SerialException, ValueError) as exc:
+            raise OSError(f"cannot open serial device {path!r} at {baud} baud: {exc}") from exc
+        self.capture = Capture()
+        self.bytes_sent = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._read_loop, name="serial-reader", daemon=True)
+        self._thread.start()
+
+    def write(self, data: bytes) -> None:
+        self.port.write(data)  # blocks until the kernel took it all (write_timeout=None)
+        self.bytes_sent += len(data)
+
+    def _read_loop(self) -> None:
+        fd = self.port.fileno()
+        chunks = self.capture.chunks
+        try:
+            while not self._stop.is_set():
+                ready, _, _ = select.select([fd], [], [], 0.05)
+                if not ready:
+                    continue
+                data = os.read(fd, 1 << 16)
+                if data:
+                    chunks.append((time.perf_counter_ns(), data))
+        except OSError as exc:  # the other side went away
+            if not self._stop.is_set():
+                self.capture.error = str(exc)
+
+    def received_bytes(self) -> int:
+        return self.capture.byte_count
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        self.port.close()
+
+
+class CanLink:
+    """python-can bus: `slcan` over a serial device (USB-CAN adapters, or a pty in tests)
+    or `socketcan` on a kernel interface (can0). Never a network-backed interface."""
+
+    def __init__(self, interface: str, channel: str, *, bitrate: int = 500000,
+                 tty_baud: int = 921600) -> None:
+        if interface not in ("slcan", "socketcan"):
+            raise ValueError(f"CAN interface must be 'slcan' or 'socketcan', got {interface!r}")
+        self.interface = interface
+        try:
+            if interface == "slcan":
+                self.bus = can.Bus(interface="slcan", channel=channel, tty_baudrate=tty_baud,
+                                   bitrate=bitrate, sleep_after_open=0)
+            else:
+                self.bus = can.Bus(interface="socketcan", channel=channel)
+        except (can.CanError, OSError, ValueError, ImportError) as exc:
+            raise OSError(f"cannot open CAN {interface} on {channel!r}: {exc}") from exc
+        self.capture = Capture()
+        self.frames_sent = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._read_loop, name="can-reader", daemon=True)
+        self._thread.start()
+
+    def send(self, msg: can.Message) -> None:
+        self.bus.send(msg)
+        self.frames_sent += 1
+
+    def send_raw_line(self, line: bytes) -> None:
+        """Bytes straight onto the adapter's serial line (slcan only): how a line error is
+        injected, since python-can only ever writes well-formed lines."""
+        if self.interface != "slcan":
+            raise ValueError("raw lines need the slcan interface")
+        port = self.bus.serialPortOrig  # python-can's pyserial port of the slcan bus
+        port.write(line)
+        port.flush()
+
+    def _read_loop(self) -> None:
+        msgs = self.capture.messages
+        try:
+            while not self._stop.is_set():
+                m = self.bus.recv(timeout=0.05)
+                if m is not None:
+                    msgs.append((time.perf_counter_ns(), m))
+        except (can.CanError, OSError, ValueError) as exc:
+            if not self._stop.is_set():
+                self.capture.error = str(exc)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+        try:
+            self.bus.shutdown()
+        except (can.CanError, OSError, ValueError):
+            pass  # the loop may already have closed its end
+
+
+def sleep_until_ns(t_ns: int, spin_ns: int = 200_000) -> None:
+    """Sleep to within spin_ns of t_ns, then spin: OS sleeps overshoot by ~50-100 us."""
+    while True:
+        rem = t_ns - time.perf_counter_ns()
+        if rem <= 0:
+            return
+        if rem > spin_ns:
+            time.sleep((rem - spin_ns) * 1e-9)
