@@ -96,6 +96,7 @@ def test_chunked_stepping_and_three_axes_match_single_axis(rng) -> None:
     )
 
 
+@pytest.mark.filterwarnings("ignore:Level value")
 @settings(max_examples=25, deadline=None)
 @given(
     wavelet=st.sampled_from(["db4", "db8"]),

@@ -23,16 +23,10 @@ MAD_TO_SIGMA = 0.6745  # median(|N(0,1)|); paper 000 sec. 2.3, Donoho & Johnston
 
 
 def pad_symmetric(x: np.ndarray, multiple: int) -> np.ndarray:
-    """Append a half-sample symmetric reflection of the tail up to a multiple of `multiple`."""
-    n = len(x)
-    n_pad = (-n) % multiple
-    if n_pad == 0:
-        return np.asarray(x, dtype=float).copy()
-    tail = []
-    for i in range(n_pad):  # x[n-1], x[n-2], ... (reflection again if the pad exceeds n)
-        k = i % (2 * n)
-        tail.append(x[n - 1 - k] if k < n else x[k - n])
-    return np.concatenate([np.asarray(x, dtype=float), np.asarray(tail, dtype=float)])
+    """Pad the end to a multiple of `multiple` by half-sample symmetric reflection
+    (x[n-1], x[n-2], ...; numpy.pad mode="symmetric")."""
+    x = np.asarray(x)
+    return np.pad(x, (0, (-len(x)) % multiple), mode="symmetric")
 
 
 def threshold_value(d1: np.ndarray, n: int) -> float:
