@@ -1,0 +1,35 @@
+// Support for the Cortex-M4F gate programs (cpp/cortex_m/use_*.cpp).
+//
+// Each use_<name>.cpp defines `extern "C" int app_main(void)`, which the reset handler
+// (startup.cpp) calls after initialising RAM and enabling the FPU. It should instantiate the
+// FLOAT version of one filter and run it on samples read through `input()` (a volatile
+// buffer, so the compiler cannot constant-fold the filter away) and pass results to `sink()`
+// (a volatile store, so they cannot be discarded). tests/test_cortex_m_gate.py builds one
+// bare-metal ELF per use_*.cpp and rejects heap, software-double and exception symbols.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+extern "C" {
+// Input samples, initialised data in RAM: the optimiser must assume a debugger or DMA may
+// have changed them. gyrodrift_cm_input_len is their count.
+extern volatile float gyrodrift_cm_input[64];
+extern const std::size_t gyrodrift_cm_input_len;
+// Output sink: every value written here is observable.
+extern volatile float gyrodrift_cm_sink;
+extern volatile std::int32_t gyrodrift_cm_sink_i32;
+// Entry point of each gate program (defined in use_<name>.cpp).
+int app_main(void);
+}
+
+namespace gyrodrift::cortex_m {
+
+// Sample i of the volatile input (wraps around the 64-entry buffer).
+inline float input(std::size_t i) noexcept { return gyrodrift_cm_input[i % 64u]; }
+
+// Publishes a result so the computation producing it cannot be removed.
+inline void sink(float value) noexcept { gyrodrift_cm_sink = value; }
+inline void sink(std::int32_t value) noexcept { gyrodrift_cm_sink_i32 = value; }
+
+}  // namespace gyrodrift::cortex_m
