@@ -12,7 +12,8 @@ NIST SP 1065 sec. 5.2.4 and 5.3), on the C++ kernel include/gyrodrift/allan.hpp.
   C-contiguous) and need no memory beyond the outputs.
 - Confidence intervals: equivalent degrees of freedom from the simple approximations of
   NIST SP 1065 Table 5 (Stein 1985) for the noise type alpha of each tau, and the chi-squared
-  interval of SP 1065 eq. 45: sigma^2 edf / chi2_{1-p/2} <= sigma_true^2 <= sigma^2 edf / chi2_{p/2}.
+  interval of SP 1065 eq. 45:
+  sigma^2 edf / chi2_{1-p/2} <= sigma_true^2 <= sigma^2 edf / chi2_{p/2}.
 """
 
 from __future__ import annotations

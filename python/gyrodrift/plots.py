@@ -1,0 +1,77 @@
+"""PNG plots of Allan deviations and PSDs (matplotlib, Agg backend: no display needed)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from gyrodrift.allan import AllanResult
+from gyrodrift.noise_id import NoiseFit, allan_model_dph
+from gyrodrift.psd import Psd, log_binned
+
+__all__ = ["plot_allan", "plot_psd"]
+
+
+def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
+               fit: NoiseFit | None = None, title: str = "Overlapping Allan deviation",
+               unit: str = "deg/h") -> Path:
+    """Log-log Allan deviation with confidence-interval error bars, one curve per result;
+    with `fit`, the identified model and its separate terms as lines."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.5), dpi=110)
+    for label, r in results:
+        err = np.vstack([r.adev - r.ci_low, r.ci_high - r.adev])
+        ax.errorbar(r.tau_s, r.adev, yerr=err, fmt="o-", ms=3, lw=1, capsize=2, label=label)
+    if fit is not None:
+        tau_lo = min(r.tau_s[0] for _, r in results)
+        tau_hi = max(r.tau_s[-1] for _, r in results)
+        tau = np.logspace(np.log10(tau_lo), np.log10(tau_hi), 200)
+        ax.plot(tau, allan_model_dph(tau, fit.q_arcsec, fit.n_deg_rthr, fit.b_deg_h,
+                                     fit.k_deg_h_rthr, fit.r_deg_h_h), "k-", lw=1.5,
+                label="IEEE 952 fit")
+        parts = {
+            f"Q = {fit.q_arcsec:.3g} arcsec": {"q_arcsec": fit.q_arcsec},
+            f"N = {fit.n_deg_rthr:.3g} deg/sqrt(h)": {"n_deg_rthr": fit.n_deg_rthr},
+            f"B = {fit.b_deg_h:.3g} deg/h": {"b_deg_h": fit.b_deg_h},
+            f"K = {fit.k_deg_h_rthr:.3g} deg/h/sqrt(h)": {"k_deg_h_rthr": fit.k_deg_h_rthr},
+            f"R = {fit.r_deg_h_h:.3g} deg/h/h": {"r_deg_h_h": fit.r_deg_h_h},
+        }
+        for label, kw in parts.items():
+            if next(iter(kw.values())) > 0:
+                ax.plot(tau, allan_model_dph(tau, **kw), "--", lw=0.8, label=label)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("tau (s)")
+    ax.set_ylabel(f"sigma(tau) ({unit})")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7)
+    out = Path(path)
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+    return out
+
+
+def plot_psd(psds: Sequence[tuple[str, Psd]], path: str | Path, *, bins_per_decade: int = 20,
+             title: str = "Welch PSD", unit: str = "deg/h") -> Path:
+    """Log-log one-sided PSDs, log-binned for display."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.0), dpi=110)
+    for label, p in psds:
+        f, s = log_binned(p.f_hz, p.psd, bins_per_decade)
+        ax.loglog(f, s, lw=1, label=label)
+    ax.set_xlabel("f (Hz)")
+    ax.set_ylabel(f"PSD (({unit})^2/Hz)")
+    ax.set_title(title)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    out = Path(path)
+    fig.tight_layout()
+    fig.savefig(out)
+    plt.close(fig)
+    return out
