@@ -27,12 +27,22 @@ from gyrodrift.simulate import ImuRecord as ImuRecord
 from gyrodrift.simulate import NoiseTerms as NoiseTerms
 from gyrodrift.simulate import simulate as simulate
 from gyrodrift.simulate import simulate_imu as simulate_imu
+
 # --- wavelets (issue 3) ---
 from gyrodrift.wavelet import RealtimeWavelet as RealtimeWavelet
 from gyrodrift.wavelet import forced_fir_taps as forced_fir_taps
 from gyrodrift.wavelet import wavelet_denoise as wavelet_denoise
 from gyrodrift.wavelet_packet import best_basis as best_basis
 from gyrodrift.wavelet_packet import wavelet_packet_denoise as wavelet_packet_denoise
+
 # --- Allan / PSD / analysis (issue 4) ---
+# isort: split
+from gyrodrift.allan import AllanResult as AllanResult
+from gyrodrift.allan import oadev as oadev
+from gyrodrift.io import load_record as load_record
+from gyrodrift.noise_id import identify_noise as identify_noise
+from gyrodrift.noise_id import paper_fit as paper_fit
+from gyrodrift.noise_id import slope_method as slope_method
+from gyrodrift.psd import welch_psd as welch_psd
 # --- IMU processor, codecs, replay (issue 5) ---
 # --- alignment (issue 6) ---

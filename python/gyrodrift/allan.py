@@ -22,12 +22,11 @@ import math
 import mmap
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.stats
 from tqdm import tqdm
-
-from gyrodrift import _core
 
 __all__ = [
     "ONE_SIGMA_CI",
@@ -38,6 +37,17 @@ __all__ = [
     "noise_alpha_from_slope",
     "oadev",
 ]
+
+def _lib() -> Any:
+    """gyrodrift._core, imported on first use so `import gyrodrift` works without it."""
+    try:
+        from gyrodrift import _core
+    except ImportError as exc:  # pragma: no cover - depends on the build
+        raise ImportError("gyrodrift._core (the C++ extension) is not built") from exc
+    if not hasattr(_core, "oadev_sigma2"):
+        raise ImportError("gyrodrift._core was built without the 'allan' binding area")
+    return _core
+
 
 #: Probability of the 1-sigma two-sided interval, erf(1/sqrt(2)).
 ONE_SIGMA_CI = math.erf(1.0 / math.sqrt(2.0))
@@ -134,7 +144,7 @@ def averaging_factors(
     if isinstance(taus, str):
         if taus not in ("octave", "decade", "all"):
             raise ValueError(f"taus must be 'octave', 'decade', 'all' or an array, got {taus!r}")
-        return np.asarray(_core.tau_grid(taus, max_m, per_decade), dtype=np.int64)
+        return np.asarray(_lib().tau_grid(taus, max_m, per_decade), dtype=np.int64)
     tau_arr = np.asarray(taus, dtype=np.float64)
     if tau_arr.ndim != 1 or tau_arr.size == 0 or not np.all(np.isfinite(tau_arr)):
         raise ValueError("taus: expected a non-empty 1-D array of finite taus in seconds")
@@ -236,7 +246,7 @@ def _chunked_sigma2(mm: np.memmap, m_all: np.ndarray, kind: str, chunk: int,
     sigma2 = np.empty(m_all.size)
     terms = np.empty(m_all.size, dtype=np.int64)
     for j, m in enumerate(int(v) for v in m_all):
-        acc = _core.OadevStream(m, kind)
+        acc = _lib().OadevStream(m, kind)
         if kind == "rate":
             n_terms = n_data - 2 * m + 1
             for lo, hi in zip(_file_chunks(mm, 0, m, chunk), _file_chunks(mm, m, 2 * m, chunk),
@@ -334,7 +344,7 @@ def oadev(
             terms = np.empty(m.size, dtype=np.int64)
             # A few taus per kernel call so the bar moves; each call releases the GIL.
             for lo in range(0, m.size, 4):
-                s2, t = _core.oadev_sigma2(x, np.ascontiguousarray(m[lo:lo + 4]), kind)
+                s2, t = _lib().oadev_sigma2(x, np.ascontiguousarray(m[lo:lo + 4]), kind)
                 sigma2[lo:lo + 4] = s2
                 terms[lo:lo + 4] = t
                 bar.update(int(n_terms[lo:lo + 4].sum()))
@@ -368,7 +378,7 @@ def _chunked_in_memory(x: np.ndarray, m_all: np.ndarray, kind: str, chunk: int,
     terms = np.empty(m_all.size, dtype=np.int64)
     n_data = x.size
     for j, m in enumerate(int(v) for v in m_all):
-        acc = _core.OadevStream(m, kind)
+        acc = _lib().OadevStream(m, kind)
         if kind == "rate":
             for lo, hi in zip(pieces(0, m), pieces(m, 2 * m), strict=True):
                 acc.seed(lo, hi)

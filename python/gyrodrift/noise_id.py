@@ -37,6 +37,7 @@ __all__ = [
     "SlopeReadout",
     "allan_model_dph",
     "identify",
+    "identify_noise",
     "paper_fit",
     "slope_method",
 ]
@@ -215,3 +216,7 @@ def slope_method(tau_s: np.ndarray, adev_dph: np.ndarray, tolerance: float = 0.1
         # sigma = K sqrt(tau / 3) with tau in h: K = line value at tau = 3 h.
         k_ = float(sig[i] * math.sqrt(3.0 * 3600.0 / tau[i]))
     return SlopeReadout(q_arcsec=q, n_deg_rthr=n, b_deg_h=b, k_deg_h_rthr=k_)
+
+
+#: Package-level name (gyrodrift.identify_noise).
+identify_noise = identify
