@@ -1,0 +1,113 @@
+"""Benchmark: gyrodrift.simulate generation speed vs allantools.noise in the same process.
+
+Prints a markdown table (ns/sample, Msamples/s, ratio vs the allantools generator of the same
+noise colour, median of repeats) and the machine. Not a test: the machine is shared and noisy.
+
+    PYTHONPATH=python python3 benchmarks/bench_simulate.py [--n 10000000] [--repeats 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import subprocess
+import time
+from collections.abc import Callable
+
+import allantools.noise
+import gyrodrift
+
+
+def median_seconds(fn: Callable[[], object], repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def machine() -> str:
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown machine"
+    fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
+    return f"{fields.get('Model name', '?').strip()}, {fields.get('CPU(s)', '?').strip()} CPUs"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--n", type=int, default=10_000_000, help="samples per record")
+    parser.add_argument(
+        "--pink-n",
+        type=int,
+        default=100_000,
+        help="samples for allantools.noise.pink (a Python loop: slow)",
+    )
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args()
+    n, pink_n = args.n, args.pink_n
+
+    cases: list[tuple[str, int, Callable[[], object], str | None]] = [
+        ("white rate (ARW N)", n, lambda: gyrodrift.simulate(n=n, n_deg_rthr=0.01), "white"),
+        ("random walk (RRW K)", n, lambda: gyrodrift.simulate(n=n, k_deg_h_rthr=0.1), "brown"),
+        ("flicker (B), FFT-shaped", n, lambda: gyrodrift.simulate(n=n, b_deg_h=0.05), None),
+        (
+            "flicker (B), FFT-shaped",
+            pink_n,
+            lambda: gyrodrift.simulate(n=pink_n, b_deg_h=0.05),
+            "pink",
+        ),
+        ("AR(2) drift", n, lambda: gyrodrift.simulate(n=n, ar2=(0.6868, -0.0213, 0.05)), None),
+        (
+            "all terms Q+N+B+K+R+bias+AR(2)",
+            n,
+            lambda: gyrodrift.simulate(
+                n=n,
+                q_deg=0.0035,
+                n_deg_rthr=0.0012,
+                b_deg_h=0.0794,
+                k_deg_h_rthr=0.01,
+                r_deg_h_h=0.001,
+                bias_deg_h=0.5,
+                ar2=(-0.034, 0.0252, 0.05),
+            ),
+            None,
+        ),
+        (
+            "static IMU, 3 gyro + 3 accel (N, bias, VRW)",
+            n // 3,
+            lambda: gyrodrift.simulate_imu(
+                n=n // 3, gyro=gyrodrift.NoiseTerms(n_deg_rthr=0.01), vrw_mps_rthr=0.02
+            ),
+            None,
+        ),
+    ]
+    peers: dict[str, Callable[[int], object]] = {
+        "white": lambda k: allantools.noise.white(k),
+        "brown": lambda k: allantools.noise.brown(k),
+        "pink": lambda k: allantools.noise.pink(k),
+    }
+
+    print(f"machine: {machine()}; numpy generation, median of {args.repeats} repeats\n")
+    print(
+        "| record | samples | gyrodrift ns/sample | gyrodrift Msamples/s "
+        "| allantools.noise peer | peer ns/sample | speed-up vs peer |"
+    )
+    print("| --- | ---: | ---: | ---: | --- | ---: | ---: |")
+    for label, count, fn, peer in cases:
+        t = median_seconds(fn, args.repeats)
+        ns = t / count * 1e9
+        row = f"| {label} | {count:.0e} | {ns:.1f} | {count / t / 1e6:.1f} "
+        if peer is None:
+            row += "| - | - | - |"
+        else:
+            tp = median_seconds(lambda p=peer, c=count: peers[p](c), args.repeats)
+            ns_p = tp / count * 1e9
+            row += f"| `{peer}` | {ns_p:.1f} | {ns_p / ns:.2f}x |"
+        print(row)
+
+
+if __name__ == "__main__":
+    main()
