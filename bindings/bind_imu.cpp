@@ -15,7 +15,7 @@
 //   can_assemble(frames [(id, data[, extended, remote])], base_id, finish) -> (samples, stats)
 //   slcan_encode(id, data, extended, remote) -> bytes
 //   slcan_parse(data) -> (events, stats)   events: ("frame", id, data, ext, rtr, reply) |
-//                                          ("command", letter, arg, reply) | ("error", reply)
+//                                          ("command", letter, arg bytes, reply) | ("error", reply)
 // Arrays are C-contiguous and taken without copy (.noconvert(): a wrong dtype is a TypeError).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -394,7 +394,7 @@ void bind_imu(py::module_& m) {
                                      ev.frame.extended, ev.frame.remote, rep));
       } else if (ev.kind == slcan::EventKind::kCommand) {
         events.append(py::make_tuple("command", std::string(1, ev.command),
-                                     std::string(ev.arg.data(), ev.arg_len), rep));
+                                     py::bytes(ev.arg.data(), ev.arg_len), rep));
       } else {
         events.append(py::make_tuple("error", rep));
       }
