@@ -13,6 +13,12 @@ import sys
 # Subcommand modules, in the order `gyrodrift --help` lists them.
 SUBCOMMAND_MODULES: list[str] = [
     "demo",
+    "replay",
+    "simulate",
+    "filter",
+    "allan",
+    "psd",
+    "compare",
 ]
 
 

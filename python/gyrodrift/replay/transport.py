@@ -169,5 +169,5 @@ def sleep_until_ns(t_ns: int, spin_ns: int = 200_000) -> None:
         rem = t_ns - time.perf_counter_ns()
         if rem <= 0:
             return
-        if rem > spin_ns:
-            time.sleep((rem - spin_ns) * 1e-9)
+        # sleep(0) in the spin releases the GIL, so the reader thread is never starved.
+        time.sleep((rem - spin_ns) * 1e-9 if rem > spin_ns else 0)

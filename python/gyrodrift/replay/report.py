@@ -1,0 +1,124 @@
+"""The replay report: a terminal table, the JSON file, and a PNG of latency and jitter."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gyrodrift.replay.harness import ReplayResult
+
+
+def _fmt(x: Any, digits: int = 1) -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, float):
+        if math.isnan(x):
+            return "-"
+        return f"{x:.{digits}f}" if abs(x) >= 1e-3 or x == 0 else f"{x:.2e}"
+    return str(x)
+
+
+def format_table(result: ReplayResult) -> str:
+    """The report as aligned text (what `gyrodrift replay` prints)."""
+    r = result.report
+    a = r["accounting"]
+    rows: list[tuple[str, str]] = [
+        ("result", "PASS" if r["ok"] else "FAIL"),
+        ("transport", f"{r['transport']} on {r['device']}, {r['speed']}, baud {r['baud']}"
+         + (f", CAN {r['can_bitrate']} bit/s" if r["can_bitrate"] else "")),
+        ("loop rate", f"{r['loop_rate_hz']:g} Hz"),
+        ("samples in record", str(a["samples_in_record"])),
+        ("injected faults", ", ".join(f"{k} {v}" for k, v in a["injected"].items() if v)
+         or "none"),
+        ("sent", str(a["sent"])),
+        ("rejected on link", ", ".join(f"{k} {v}" for k, v in a["rejected_on_link"].items())),
+        ("rejected by processor",
+         ", ".join(f"{k} {v}" for k, v in a["rejected_by_processor"].items())),
+        ("outputs expected / received", f"{a['outputs_expected']} / {a['outputs_received']}"),
+        ("unaccounted", str(a["unaccounted"])),
+    ]
+    c = r["comparison"]
+    rows.append(("max |loop - reference|",
+                 " ".join(_fmt(e, 2) for e in c["max_abs_error"])
+                 + f" (tol {c['tolerance']:.0e})"))
+    lat = r["latency_us"]
+    rows.append(("latency us p50/p90/p99/max",
+                 "/".join(_fmt(lat[k]) for k in ("p50", "p90", "p99", "max"))))
+    th = r["throughput"]
+    rows.append(("frames/s sent, end to end",
+                 f"{_fmt(th['frames_per_s_sent'], 0)}, {_fmt(th['frames_per_s_end_to_end'], 0)}"))
+    loop = r.get("loop")
+    if loop:
+        rt = loop["realtime"]
+        rows.append(("loop realtime", f"SCHED_FIFO {'yes' if rt['sched_fifo'] else 'no'}"
+                     f", mlockall {'yes' if rt['mlockall'] else 'no'}"))
+        for key in ("period_jitter_us", "wake_latency_us", "compute_us", "step_us"):
+            h = loop[key]
+            rows.append((f"loop {key.replace('_us', '')} us p50/p99/max",
+                         "/".join(_fmt(h[k], 3 if key == "step_us" else 1)
+                                  for k in ("p50", "p99", "max"))))
+        rows.append(("loop cycles / overruns", f"{loop['cycles']} / {loop['overruns']}"))
+        nz = {k: v for k, v in loop["rejected"].items() if v}
+        rows.append(("loop rejected", ", ".join(f"{k} {v}" for k, v in nz.items()) or "none"))
+    failed = [k for k, v in r["checks"].items() if not v]
+    rows.append(("failed checks", ", ".join(failed) or "none"))
+    w = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+
+
+def write_json(result: ReplayResult, path: str | Path) -> Path:
+    path = Path(path)
+
+    def clean(x: Any) -> Any:
+        if isinstance(x, float) and not math.isfinite(x):
+            return None if math.isnan(x) else ("inf" if x > 0 else "-inf")
+        if isinstance(x, dict):
+            return {k: clean(v) for k, v in x.items()}
+        if isinstance(x, list | tuple):
+            return [clean(v) for v in x]
+        if isinstance(x, np.generic):
+            return clean(x.item())
+        return x
+
+    path.write_text(json.dumps(clean(result.report), indent=2) + "\n")
+    return path
+
+
+def write_png(result: ReplayResult, path: str | Path) -> Path:
+    """Latency of every output over the run, its distribution, and the output inter-arrival
+    jitter seen by the harness with the loop's own period-jitter percentiles."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    lat = result.latency_us
+    t = result.output_arrival_s[: lat.size]
+    fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+    if lat.size:
+        ax[0].plot(t, lat, ".", ms=2)
+        ax[1].hist(lat, bins=min(100, max(10, lat.size // 20)), log=True)
+    ax[0].set(xlabel="time since first write (s)", ylabel="latency (us)",
+              title="input written -> output read")
+    ax[1].set(xlabel="latency (us)", ylabel="outputs", title="latency distribution")
+    arr = result.output_arrival_s
+    if arr.size > 2:
+        ax[2].hist(np.diff(arr) * 1e6, bins=100, log=True, label="output inter-arrival")
+    loop = result.loop_stats
+    if loop:
+        for key, style in (("p50", ":"), ("p99", "--"), ("max", "-")):
+            ax[2].axvline(loop["period_jitter_us"][key], color="k", ls=style,
+                          label=f"loop period jitter {key}")
+    ax[2].set(xlabel="us", ylabel="count", title="jitter")
+    ax[2].legend(fontsize=7)
+    fig.suptitle(f"gyrodrift replay: {result.report['transport']}, {result.report['speed']}, "
+                 f"{'PASS' if result.ok else 'FAIL'}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
