@@ -64,8 +64,8 @@ def log_binned(f_hz: np.ndarray, psd: np.ndarray, bins_per_decade: int = 20
     lo, hi = np.log10(f[0]), np.log10(f[-1])
     n_bins = max(int(np.ceil((hi - lo) * bins_per_decade)), 1)
     edges = np.logspace(lo, hi, n_bins + 1)
-    edges[-1] = np.nextafter(edges[-1], np.inf)  # include the last frequency
-    idx = np.searchsorted(edges, f, side="right") - 1
+    # logspace may round the end edges either way: clip so f[0] and f[-1] land inside.
+    idx = np.clip(np.searchsorted(edges, f, side="right") - 1, 0, n_bins - 1)
     sums = np.bincount(idx, weights=p, minlength=n_bins)
     counts = np.bincount(idx, minlength=n_bins)
     full = counts > 0

@@ -1,0 +1,107 @@
+"""`gyrodrift allan`: overlapping Allan deviation table with confidence intervals, identified
+noise terms (IEEE Std 952 NNLS, the 2006 paper's 3-term fit, slope method) and a PNG plot.
+
+Also holds the input options shared by the analysis subcommands (allan, psd, filter,
+compare): a record file (.npy, .csv, IMU log), --column, --rate, --units, --drop-nan.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+import numpy as np
+
+from gyrodrift.cli import CliError
+from gyrodrift.io import UNITS, Record, load_record
+
+
+def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
+    p.add_argument("input", nargs=None if required else "?",
+                   help="record: .npy, .csv, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
+    p.add_argument("--column", help="csv column name/index, npy column index, log gyro axis x|y|z")
+    p.add_argument("--rate", type=float, help="sample rate, Hz (required for .npy)")
+    p.add_argument("--units", choices=UNITS, default="deg/h",
+                   help="input units: rates deg/h, deg/s, rad/s; per-sample angle increments "
+                        "arcsec, deg, rad (default deg/h; IMU logs are rad/s)")
+    p.add_argument("--drop-nan", action="store_true",
+                   help="drop NaN/Inf samples (their count is reported); default: refuse")
+
+
+def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
+    try:
+        return load_record(args.input, column=args.column, rate_hz=args.rate, units=args.units,
+                           nan_policy="drop" if args.drop_nan else "refuse", mmap=mmap)
+    except (OSError, ValueError) as exc:
+        raise CliError(str(exc)) from exc
+
+
+def emit_json(payload: dict[str, Any]) -> None:
+    json.dump(payload, sys.stdout, indent=2, default=float)
+    sys.stdout.write("\n")
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser("allan", help="overlapping Allan deviation, noise terms, plot",
+                              description=__doc__.splitlines()[0])
+    add_input_args(p)
+    p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave")
+    p.add_argument("--per-decade", type=int, default=10, help="points per decade (--taus decade)")
+    p.add_argument("--ci", type=float, default=0.683, help="confidence-interval probability")
+    p.add_argument("--png", help="write a log-log plot with error bars and the fitted terms")
+    p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV")
+    p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
+    p.add_argument("--progress", choices=("auto", "always", "never"), default="auto",
+                   help="tqdm progress bar on stderr (auto: long records only)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from gyrodrift import noise_id
+    from gyrodrift.allan import oadev
+
+    rec = record_from_args(args)
+    progress: bool | str = {"auto": "auto", "always": True, "never": False}[args.progress]
+    try:
+        res = oadev(rec.rate_dph, rec.rate_hz, taus=args.taus, per_decade=args.per_decade,
+                    ci=args.ci, progress=progress)
+    except ValueError as exc:
+        raise CliError(str(exc)) from exc
+    fit = noise_id.identify(res.tau_s, res.adev, res.edf) if res.tau_s.size >= 5 else None
+    paper = noise_id.paper_fit(res.tau_s, res.adev) if res.tau_s.size >= 3 else None
+    slope = noise_id.slope_method(res.tau_s, res.adev) if res.tau_s.size >= 3 else None
+    if args.png:
+        from gyrodrift.plots import plot_allan
+
+        plot_allan([(rec.source, res)], args.png, fit=fit)
+    if args.csv_out:
+        table = np.column_stack([res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf,
+                                 res.terms])
+        np.savetxt(args.csv_out, table, delimiter=",", comments="",
+                   header="tau_s,m,adev_dph,ci_low_dph,ci_high_dph,edf,terms")
+    if args.json:
+        emit_json({"record": rec.summary(), "allan": res.as_dict(),
+                   "ieee952": None if fit is None else fit.as_dict(),
+                   "paper_fit": None if paper is None else paper.as_dict(),
+                   "slope_method": None if slope is None else slope.as_dict(),
+                   "files": {"png": args.png, "csv": args.csv_out}})
+        return 0
+    print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz"
+          + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
+    print(f"{'tau_s':>12} {'adev_dph':>12} {'ci_low':>12} {'ci_high':>12} {'edf':>10}")
+    for t, a, lo, hi, e in zip(res.tau_s, res.adev, res.ci_low, res.ci_high, res.edf,
+                               strict=True):
+        print(f"{t:12.5g} {a:12.5g} {lo:12.5g} {hi:12.5g} {e:10.4g}")
+    if fit is not None:
+        print(f"IEEE 952 fit: Q = {fit.q_arcsec:.4g} arcsec ({fit.q_deg:.4g} deg), "
+              f"N = {fit.n_deg_rthr:.4g} deg/sqrt(h), B = {fit.b_deg_h:.4g} deg/h, "
+              f"K = {fit.k_deg_h_rthr:.4g} deg/h/sqrt(h), R = {fit.r_deg_h_h:.4g} deg/h/h")
+    if paper is not None:
+        print(f"paper 2006 eq. 8 fit: Q = {paper.q_paper:.4g} (paper's 'deg' column; "
+              f"= arcsec), N = {paper.n_deg_rthr:.4g} deg/sqrt(h), B = {paper.b_deg_h:.4g} deg/h")
+    if slope is not None:
+        print("slope method: " + ", ".join(
+            f"{k} = {'n/a' if v is None else f'{v:.4g}'}" for k, v in slope.as_dict().items()))
+    return 0
