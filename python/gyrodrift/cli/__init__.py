@@ -13,7 +13,6 @@ import sys
 # Subcommand modules, in the order `gyrodrift --help` lists them.
 SUBCOMMAND_MODULES: list[str] = [
     "demo",
-    "replay",
     "simulate",
     "filter",
     "allan",
