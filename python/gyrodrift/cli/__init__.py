@@ -13,6 +13,7 @@ import sys
 # Subcommand modules, in the order `gyrodrift --help` lists them.
 SUBCOMMAND_MODULES: list[str] = [
     "demo",
+    "replay",
     "simulate",
     "filter",
     "allan",
