@@ -1,0 +1,178 @@
+"""Overlapping Allan deviation (C++ kernel via gyrodrift.allan) against allantools, the numpy
+reference from the definition, and the chunked (memory-mapped) path; EDF and chi-squared
+intervals against allantools.edf_simple / confidence_interval."""
+
+from __future__ import annotations
+
+import allantools
+import numpy as np
+import pytest
+
+from gyrodrift import allan
+from gyrodrift.reference import oadev_phase, oadev_rate
+
+# allantools forms the phase with a float64 cumulative sum (mean removed first), whose
+# rounding is ~ N * eps relative on the phase; for 2e4..1e5 samples that stays far below
+# 1e-9 on the deviation, so 1e-9 relative is the brief's bar and a real check.
+ORACLE_RTOL = 1e-9
+# Reference vs kernel: both take the long-double / pairwise route on 2e4 samples, agreement
+# is at rounding level (~1e-14); 1e-12 leaves room for numpy's summation order.
+REF_RTOL = 1e-12
+
+
+def gyro_like(rng: np.random.Generator, n: int) -> np.ndarray:
+    """White rate + random walk + large constant (Earth rate-like offset), deg/h."""
+    return 15.0 + rng.normal(0.0, 0.05, n) + np.cumsum(rng.normal(0.0, 2e-4, n))
+
+
+def test_rate_octave_equals_allantools(rng: np.random.Generator) -> None:
+    y = gyro_like(rng, 100_000)
+    res = allan.oadev(y, 100.0, taus="octave")
+    taus, dev, _, ns = allantools.oadev(y, rate=100.0, data_type="freq", taus="octave")
+    np.testing.assert_array_equal(res.tau_s, taus)
+    np.testing.assert_array_equal(res.terms, ns)
+    np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL, atol=0)
+
+
+def test_rate_decade_and_explicit_taus_equal_allantools(rng: np.random.Generator) -> None:
+    y = gyro_like(rng, 30_000)
+    res = allan.oadev(y, 10.0, taus="decade", per_decade=7)
+    _, dev, _, ns = allantools.oadev(y, rate=10.0, data_type="freq", taus=res.tau_s)
+    np.testing.assert_array_equal(res.terms, ns)
+    np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL, atol=0)
+    explicit = np.array([0.1, 0.3, 2.0, 55.5, 1000.0])
+    res2 = allan.oadev(y, 10.0, taus=explicit)
+    _, dev2, _, _ = allantools.oadev(y, rate=10.0, data_type="freq", taus=explicit)
+    np.testing.assert_allclose(res2.adev, dev2, rtol=ORACLE_RTOL, atol=0)
+
+
+def test_phase_input_equals_allantools(rng: np.random.Generator) -> None:
+    # Cumulative angle in arcsec of a 100 Hz rate record (angle = integral of rate).
+    x = np.cumsum(rng.normal(0.0, 0.3, 50_001)) / 100.0
+    res = allan.oadev(x, 100.0, kind="phase", taus="octave")
+    taus, dev, _, ns = allantools.oadev(x, rate=100.0, data_type="phase", taus="octave")
+    np.testing.assert_array_equal(res.tau_s, taus)
+    np.testing.assert_array_equal(res.terms, ns)
+    np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL, atol=0)
+
+
+def test_kernel_equals_definition_reference(rng: np.random.Generator) -> None:
+    y = gyro_like(rng, 20_000)
+    res = allan.oadev(y, 1.0, taus="decade", per_decade=5)
+    for m, dev, terms in zip(res.m, res.adev, res.terms, strict=True):
+        ref, n_ref = oadev_rate(y, int(m))
+        assert terms == n_ref
+        assert dev == pytest.approx(ref, rel=REF_RTOL)
+    x = np.concatenate([[0.0], np.cumsum(y)]) / 4.0  # phase at 4 Hz
+    resp = allan.oadev(x, 4.0, kind="phase", taus=[0.25, 1.0, 64.0])
+    for m, dev in zip(resp.m, resp.adev, strict=True):
+        # the phase route itself loses ~ |x| eps / |d2x| ~ 1e-11 here (x up to 4e4)
+        assert dev == pytest.approx(oadev_phase(x, int(m), 0.25)[0], rel=1e-9)
+
+
+def test_float32_input_matches_float64_of_same_values(rng: np.random.Generator) -> None:
+    y32 = (rng.normal(0.0, 1.0, 10_000)).astype(np.float32)
+    a = allan.oadev(y32, 1.0)
+    b = allan.oadev(y32.astype(np.float64), 1.0)
+    # Same values, same long double sums: only the order of reading differs (none).
+    np.testing.assert_allclose(a.adev, b.adev, rtol=1e-15)
+
+
+def test_memmap_chunked_equals_in_memory(tmp_path, rng: np.random.Generator) -> None:
+    y = gyro_like(rng, 200_003)
+    path = tmp_path / "rec.npy"
+    np.save(path, y)
+    mm = np.load(path, mmap_mode="r")
+    assert isinstance(mm, np.memmap)
+    whole = allan.oadev(y, 100.0, taus="decade", per_decade=4)
+    for chunk in (1, 997, 1 << 16):
+        if chunk == 1:
+            # every sample its own chunk: only for the short taus (slow otherwise)
+            part = allan.oadev(y[:3000], 100.0, taus=[0.01, 0.05, 1.0], chunk_samples=1)
+            ref = allan.oadev(y[:3000], 100.0, taus=[0.01, 0.05, 1.0])
+            # chunking only regroups long-double additions: ~1e-18 relative
+            np.testing.assert_allclose(part.adev, ref.adev, rtol=1e-14)
+            continue
+        chunked = allan.oadev(mm, 100.0, taus="decade", per_decade=4, chunk_samples=chunk)
+        np.testing.assert_allclose(chunked.adev, whole.adev, rtol=1e-14)
+        np.testing.assert_array_equal(chunked.terms, whole.terms)
+    # phase input on the chunked path
+    np.save(tmp_path / "ph.npy", np.cumsum(y[:50_000]) / 100.0)
+    mp = np.load(tmp_path / "ph.npy", mmap_mode="r")
+    a = allan.oadev(mp, 100.0, kind="phase", chunk_samples=4096)
+    b = allan.oadev(np.asarray(mp), 100.0, kind="phase")
+    np.testing.assert_allclose(a.adev, b.adev, rtol=1e-14)
+
+
+def test_memmap_with_nan_is_an_error(tmp_path, rng: np.random.Generator) -> None:
+    y = rng.normal(size=5000)
+    y[1234] = np.nan
+    np.save(tmp_path / "bad.npy", y)
+    with pytest.raises(ValueError, match="non-finite"):
+        allan.oadev(np.load(tmp_path / "bad.npy", mmap_mode="r"), 1.0, chunk_samples=1000)
+
+
+@pytest.mark.parametrize("alpha", [2, 1, 0, -1, -2])
+def test_edf_simple_equals_allantools(alpha: int) -> None:
+    n_phase = 10_001
+    for m in (1, 2, 7, 100, 1000, 4999):
+        assert allan.edf_simple(n_phase, m, alpha)[()] == pytest.approx(
+            allantools.edf_simple(n_phase, m, alpha), rel=1e-13)
+
+
+def test_confidence_interval_equals_allantools(rng: np.random.Generator) -> None:
+    y = rng.normal(0.0, 1.0, 20_000)
+    res = allan.oadev(y, 1.0, alpha=0, ci=0.9)
+    for dev, edf, lo, hi in zip(res.adev, res.edf, res.ci_low, res.ci_high, strict=True):
+        lo_ref, hi_ref = allantools.confidence_interval(dev, edf, ci=0.9)
+        assert lo == pytest.approx(lo_ref, rel=1e-12)
+        assert hi == pytest.approx(hi_ref, rel=1e-12)
+        assert lo < dev < hi
+
+
+def test_ci_coverage_on_white_noise() -> None:
+    # 1-sigma intervals must cover the true white-noise deviation sigma/sqrt(m) in about
+    # 68 % of records; 200 records give a binomial std of 3.3 %, so [0.55, 0.81] is > 3.9 sd.
+    true_sigma = 1.0
+    hits = total = 0
+    for seed in range(200):
+        y = np.random.default_rng(seed).normal(0.0, true_sigma, 2000)
+        res = allan.oadev(y, 1.0, taus=[4.0, 64.0], alpha=0)
+        truth = true_sigma / np.sqrt(res.m)
+        hits += int(np.count_nonzero((res.ci_low <= truth) & (truth <= res.ci_high)))
+        total += res.m.size
+    assert 0.55 <= hits / total <= 0.81
+
+
+def test_noise_alpha_from_slope_on_pure_terms() -> None:
+    tau = np.logspace(0, 3, 13)
+    assert set(allan.noise_alpha_from_slope(tau, 1.0 / tau)) == {2}
+    assert set(allan.noise_alpha_from_slope(tau, tau**-0.5)) == {0}
+    assert set(allan.noise_alpha_from_slope(tau, np.ones_like(tau))) == {-1}
+    assert set(allan.noise_alpha_from_slope(tau, tau**0.5)) == {-2}
+
+
+def test_bad_input_errors(rng: np.random.Generator) -> None:
+    y = rng.normal(size=100)
+    with pytest.raises(ValueError, match="too short for tau"):
+        allan.oadev(y, 1.0, taus=[60.0])
+    with pytest.raises(ValueError, match="too short"):
+        allan.oadev(y[:2], 1.0)
+    with pytest.raises(ValueError, match="1-D"):
+        allan.oadev(np.zeros((10, 2)), 1.0)
+    with pytest.raises(ValueError, match="rate_hz"):
+        allan.oadev(y, 0.0)
+    bad = y.copy()
+    bad[[3, 50]] = [np.nan, np.inf]
+    with pytest.raises(ValueError, match="2 NaN/Inf"):
+        allan.oadev(bad, 1.0)
+    with pytest.raises(TypeError):
+        allan.oadev(np.array(["a", "b", "c", "d"]), 1.0)
+
+
+def test_progress_bar_on_request(rng: np.random.Generator, capsys) -> None:
+    y = rng.normal(size=50_000)
+    allan.oadev(y, 1.0, progress=True)
+    assert "Allan" in capsys.readouterr().err
+    allan.oadev(y, 1.0, progress="auto")  # small work: no bar
+    assert "Allan" not in capsys.readouterr().err
