@@ -152,12 +152,14 @@ class RealtimeWavelet {
   Scalar threshold(const Scalar* w) noexcept { return recompute(w); }
 
   // t = sigma * sqrt(2 ln N), sigma = median(|cD_1|) / 0.6745 (paper 000, sec. 2.3).
+  // Uses scratch_ (free between the forward and the inverse transform) for the selection.
   Scalar threshold_value(const Scalar* d1) noexcept {
-    for (std::size_t i = 0; i < WindowN; ++i) med_[i] = std::fabs(d1[i]);
+    Scalar* med = scratch_;
+    for (std::size_t i = 0; i < WindowN; ++i) med[i] = std::fabs(d1[i]);
     constexpr std::size_t mid = WindowN / 2;  // N even: median = mean of the two middle values
-    std::nth_element(med_, med_ + mid, med_ + WindowN);
-    const Scalar upper = med_[mid];
-    const Scalar lower = *std::max_element(med_, med_ + mid);
+    std::nth_element(med, med + mid, med + WindowN);
+    const Scalar upper = med[mid];
+    const Scalar lower = *std::max_element(med, med + mid);
     const Scalar median = (lower + upper) * Scalar(0.5);
     const Scalar sigma = median / Scalar(0.6745);
     return sigma * std::sqrt(Scalar(2) * std::log(static_cast<Scalar>(WindowN)));
@@ -189,7 +191,6 @@ class RealtimeWavelet {
   Scalar buf_[2 * WindowN];
   Scalar work_[2 * WindowN];
   Scalar scratch_[2 * WindowN];
-  Scalar med_[WindowN];
 };
 
 }  // namespace gyrodrift
