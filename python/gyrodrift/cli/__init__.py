@@ -19,6 +19,7 @@ SUBCOMMAND_MODULES: list[str] = [
     "allan",
     "psd",
     "compare",
+    "wavelet_response",
 ]
 
 
