@@ -7,7 +7,6 @@ from __future__ import annotations
 import allantools
 import numpy as np
 import pytest
-
 from gyrodrift import allan
 from gyrodrift.reference import oadev_phase, oadev_rate
 
