@@ -58,25 +58,25 @@ class ReplayError(RuntimeError):
 def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
     """The gyrodrift-loop executable: `explicit`, $GYRODRIFT_LOOP, the C++ build named by
     $GYRODRIFT_CPP_BUILD_DIR, the repo's build/*/ trees, or `gyrodrift-loop` on PATH."""
-    cands: list[Path] = []
     if explicit:
-        cands.append(Path(explicit))
+        path = Path(explicit)
+        if path.is_file() and os.access(path, os.X_OK):
+            return path
+        raise ReplayError(f"loop binary {explicit} does not exist or is not executable")
+    cands: list[Path] = []
     if os.environ.get("GYRODRIFT_LOOP"):
         cands.append(Path(os.environ["GYRODRIFT_LOOP"]))
     if os.environ.get("GYRODRIFT_CPP_BUILD_DIR"):
         cands.append(Path(os.environ["GYRODRIFT_CPP_BUILD_DIR"]) / LOOP_RELATIVE)
     repo = Path(__file__).resolve().parents[3]
-    if explicit is None:
-        cands += sorted((repo / "build").glob(f"*/{LOOP_RELATIVE.as_posix()}"),
-                        key=lambda p: p.stat().st_mtime, reverse=True)
-        on_path = shutil.which("gyrodrift-loop")
-        if on_path:
-            cands.append(Path(on_path))
+    cands += sorted((repo / "build").glob(f"*/{LOOP_RELATIVE.as_posix()}"),
+                    key=lambda p: p.stat().st_mtime, reverse=True)
+    on_path = shutil.which("gyrodrift-loop")
+    if on_path:
+        cands.append(Path(on_path))
     for c in cands:
         if c.is_file() and os.access(c, os.X_OK):
             return c
-    if explicit:
-        raise ReplayError(f"loop binary {explicit} does not exist or is not executable")
     raise ReplayError("cannot find gyrodrift-loop: build it (scripts/dev-build NAME gyrodrift-loop "
                       "or cmake -DGYRODRIFT_BUILD_PROGRAMS=ON) and pass --loop-binary, or set "
                       "GYRODRIFT_LOOP")

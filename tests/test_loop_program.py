@@ -1,0 +1,202 @@
+"""The gyrodrift-loop program driven directly over a pty: argument errors, bad input that must
+be counted without stopping the loop, SLCAN command replies, signals and the JSON statistics.
+
+Expected values here come from the wire format and the fault we put in, never from the loop.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import select
+import signal
+import struct
+import subprocess
+import time
+import tty
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gyrodrift.replay.harness import LOOP_RELATIVE
+from gyrodrift.replay.wire import TYPE_OUTPUT, decode_stream, encode_frames, make_samples
+
+# The default processor needs a gyro model; pass-through on every channel makes the expected
+# outputs equal the inputs (bit-exact float32), which is what these transport tests want.
+PASS = ["--gyro-filter", "pass_through", "--no-rt"]
+
+
+@pytest.fixture(scope="module")
+def loop_bin(cpp_build_dir: Path) -> Path:
+    path = cpp_build_dir / LOOP_RELATIVE
+    assert path.is_file(), f"gyrodrift-loop not built at {path}"
+    return path
+
+
+class Loop:
+    """The loop on a fresh pty (master inherited as fd:N); we hold the slave side."""
+
+    def __init__(self, binary: Path, mode: str, *extra: str) -> None:
+        master, slave = os.openpty()
+        tty.setraw(slave)
+        self.fd = slave
+        self.proc = subprocess.Popen(
+            [str(binary), mode, f"fd:{master}", "--rate-hz", "1000", *extra],
+            pass_fds=[master], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        os.close(master)
+        assert self.proc.stderr is not None
+        line = self.proc.stderr.readline().decode()
+        assert '"event": "ready"' in line, line
+
+    def write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            n = os.write(self.fd, view)
+            view = view[n:]
+
+    def read_until(self, nbytes: int, timeout_s: float = 5.0) -> bytes:
+        out = bytearray()
+        end = time.monotonic() + timeout_s
+        while len(out) < nbytes and time.monotonic() < end:
+            r, _, _ = select.select([self.fd], [], [], 0.05)
+            if r:
+                out += os.read(self.fd, 65536)
+        return bytes(out)
+
+    def finish(self) -> dict:
+        os.close(self.fd)  # end of input: the loop reads EIO on its master
+        out, err = self.proc.communicate(timeout=10)
+        assert self.proc.returncode == 0, err.decode()
+        return json.loads(out)
+
+
+def _frames(n: int, seq0: int = 0, rate_hz: float = 1000.0) -> tuple[bytes, np.ndarray]:
+    rng = np.random.default_rng(7)
+    t = np.arange(n) / rate_hz
+    s = make_samples(t, rng.normal(0, 1e-3, (n, 3)), rng.normal(0, 1, (n, 3)), seq0=seq0)
+    return encode_frames(s).tobytes(), s.channels
+
+
+def test_argument_errors_exit_2(loop_bin: Path) -> None:
+    for args, needle in (
+        ([], "exactly one of"),
+        (["--serial", "fd:0", "--rate-hz", "5000"], "1..2000"),
+        (["--serial", "/nonexistent/tty"], "cannot open serial device"),
+        (["--serial", "fd:0", "--gyro-ar2", "2.0,0.0,1e-10,0"], "invalid processor"),
+        (["--serial", "fd:0", "--bogus"], "unknown argument"),
+        (["--serial", "fd:999"], "not open"),
+    ):
+        r = subprocess.run([str(loop_bin), *args], capture_output=True, timeout=10)
+        assert r.returncode == 2, args
+        assert needle in r.stderr.decode(), (args, r.stderr)
+
+
+def test_socketcan_unavailable_is_a_clear_error(loop_bin: Path) -> None:
+    # This machine's kernel has no CAN sockets (and no interface by this name anyway).
+    r = subprocess.run([str(loop_bin), "--socketcan", "gdcan_missing0"], capture_output=True,
+                       timeout=10)
+    assert r.returncode == 2
+    msg = r.stderr.decode()
+    assert "SocketCAN is not available" in msg or "no CAN interface 'gdcan_missing0'" in msg
+
+
+def test_clean_frames_pass_through_exactly(loop_bin: Path) -> None:
+    loop = Loop(loop_bin, "--serial", *PASS)
+    data, values = _frames(500)
+    loop.write(data)
+    got = loop.read_until(len(data))
+    stats = loop.finish()
+    dec = decode_stream(got)
+    assert np.all(dec.frame_type == TYPE_OUTPUT)
+    np.testing.assert_array_equal(dec.samples.seq, np.arange(500))
+    np.testing.assert_array_equal(dec.samples.channels, values)  # pass-through: bit-exact
+    assert stats["frames_in"] == stats["frames_out"] == 500
+    assert stats["bytes_in"] == stats["bytes_out"] == len(data)
+    assert stats["end_reason"] == "end_of_input"
+    assert not any(stats["rejected"].values())
+
+
+def test_bad_input_is_counted_and_never_stops_the_loop(loop_bin: Path) -> None:
+    loop = Loop(loop_bin, "--serial", *PASS)
+    good, _ = _frames(300)
+    f = [good[42 * k: 42 * (k + 1)] for k in range(300)]
+    rng = np.random.default_rng(11)
+    garbage = bytes(x for x in rng.integers(0, 256, 500, dtype=np.uint8) if x != 0xA5)
+    corrupt = bytearray(f[10])
+    corrupt[20] ^= 0x10
+    wrong_type = bytearray(f[11])
+    wrong_type[2] = 0x81
+    wrong_type[40:42] = struct.pack("<H", _crc(bytes(wrong_type[2:40])))
+    nan_frame = bytearray(f[12])
+    nan_frame[16:20] = struct.pack("<f", float("nan"))
+    nan_frame[40:42] = struct.pack("<H", _crc(bytes(nan_frame[2:40])))
+    stream = (garbage + b"".join(f[:10]) + bytes(corrupt) + bytes(wrong_type)
+              + bytes(nan_frame) + f[12][:20]  # a frame cut short by the next one
+              + b"".join(f[13:]) + f[0][:30])  # and a truncated tail
+    loop.write(stream)
+    out = loop.read_until(42 * 298)
+    stats = loop.finish()
+    rej = stats["rejected"]
+    assert rej["garbage_bytes"] == len(garbage)
+    assert rej["crc"] == 1
+    assert rej["wrong_type"] == 1
+    assert rej["truncated"] == 2  # the cut frame and the tail
+    assert stats["health"]["non_finite_samples"] == 1
+    # Frames 0..9, the NaN frame 12 and 13..299 come out: 298 outputs, seq gap at 10..11.
+    dec = decode_stream(out)
+    assert list(dec.samples.seq) == [*range(10), *range(12, 300)]
+    assert stats["frames_out"] == 298
+    assert stats["health"]["seq_gaps"] == 1 and stats["health"]["missing_samples"] == 2
+    # Pass-through holds the last good value of the NaN channel.
+    k = list(dec.samples.seq).index(12)
+    assert dec.samples.channels[k, 0] == dec.samples.channels[k - 1, 0]
+
+
+def _crc(body: bytes) -> int:
+    import binascii
+
+    return binascii.crc_hqx(body, 0xFFFF)
+
+
+def test_sigterm_prints_statistics(loop_bin: Path) -> None:
+    loop = Loop(loop_bin, "--serial", *PASS)
+    time.sleep(0.2)
+    loop.proc.send_signal(signal.SIGTERM)
+    out, _ = loop.proc.communicate(timeout=10)
+    os.close(loop.fd)
+    stats = json.loads(out)
+    assert stats["end_reason"] == "signal"
+    assert stats["frames_in"] == 0
+    # ~200 cycles at 1 kHz in 0.2 s; loose bound for a shared machine.
+    assert stats["cycles"] >= 50
+    for key in ("period_jitter_us", "wake_latency_us", "compute_us", "step_us"):
+        assert set(stats[key]) == {"n", "p50", "p99", "max"}
+    assert stats["realtime"]["sched_error"] == "not requested (--no-rt)"
+
+
+def test_idle_exit(loop_bin: Path) -> None:
+    loop = Loop(loop_bin, "--serial", *PASS, "--idle-exit-s", "0.2")
+    out, _ = loop.proc.communicate(timeout=10)
+    os.close(loop.fd)
+    assert json.loads(out)["end_reason"] == "idle"
+
+
+def test_slcan_commands_frames_and_errors(loop_bin: Path) -> None:
+    loop = Loop(loop_bin, "--slcan", *PASS)
+    loop.write(b"V\rS6\rO\r")
+    assert loop.read_until(len(b"V1013\r\r\r")) == b"V1013\r\r\r"
+    # One sample as four frames (GyroXY, GyroZ+Seq, AccelXY, AccelZ+Seq), seq 5.
+    gx, gy, gz, ax, ay, az = 0.5, -0.25, 1.0, 0.0, 2.0, 9.75
+    payloads = [struct.pack("<ff", gx, gy), struct.pack("<fHH", gz, 5, 0),
+                struct.pack("<ff", ax, ay), struct.pack("<fHH", az, 5, 0)]
+    lines = b"".join(f"t{0x100 + k:03X}8{p.hex().upper()}\r".encode()
+                     for k, p in enumerate(payloads))
+    loop.write(lines + b"tXYZ8\r")  # and a malformed line
+    expect_out = b"z\r" * 4 + b"".join(f"t{0x180 + k:03X}8{p.hex().upper()}\r".encode()
+                                      for k, p in enumerate(payloads))
+    got = loop.read_until(len(expect_out) + 1)
+    stats = loop.finish()
+    assert got == expect_out + b"\a"
+    assert stats["frames_in"] == stats["frames_out"] == 1
+    assert stats["rejected"]["slcan_malformed"] == 1
+    assert stats["can"]["slcan_commands"] == 3
