@@ -213,3 +213,31 @@ TEST_CASE("axis bank runs independent axes") {
   bank.reset();
   CHECK(bank.fault_count() == 0u);
 }
+
+TEST_CASE("covariance latch: bit-identical to the full recursion, also across faults") {
+  auto y = ar2_record(0.6868, -0.0213, 5000, 9.7, 11u);
+  for (std::size_t k : {100u, 101u, 2500u, 4000u}) y[k] = std::nan("");
+  const Ar2Model<double> m{0.6868, -0.0213, 0.083, 9.7};
+  Ar2Kalman<double> latched(m, 0.083, 0.2), plain(m, 0.083, 0.2);
+  plain.set_covariance_latch(false);
+  bool same = true, engaged_before_fault = false, released_by_fault = false;
+  for (std::size_t k = 0; k < y.size(); ++k) {
+    if (k == 99) engaged_before_fault = latched.covariance_latched();
+    same = same && latched.step(y[k]) == plain.step(y[k]);
+    if (k == 100) released_by_fault = !latched.covariance_latched();
+    same = same && latched.covariance() == plain.covariance() && latched.state() == plain.state();
+  }
+  CHECK(same);
+  CHECK(engaged_before_fault);
+  CHECK(released_by_fault);
+  CHECK(latched.covariance_latched());  // re-engages after the faults
+  CHECK(!plain.covariance_latched());
+  CHECK(latched.fault_count() == 4u);
+  // float too
+  Ar2Kalman<float> lf(Ar2Model<float>{0.6868f, -0.0213f, 0.083f, 9.7f}, 0.083f, 0.2f);
+  Ar2Kalman<float> pf(Ar2Model<float>{0.6868f, -0.0213f, 0.083f, 9.7f}, 0.083f, 0.2f);
+  pf.set_covariance_latch(false);
+  bool same_f = true;
+  for (double v : y) same_f = same_f && lf.step(static_cast<float>(v)) == pf.step(static_cast<float>(v));
+  CHECK(same_f);
+}

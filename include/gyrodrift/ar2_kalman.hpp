@@ -16,7 +16,9 @@
 // that would make the state or covariance non-finite (e.g. overflowing input) is rejected the
 // same way, so the state never becomes NaN. A filter built from an invalid configuration
 // (non-stationary model, q < 0, r <= 0, non-finite numbers; see status()) passes samples
-// through unchanged. No heap, no exceptions; step() is noexcept and branch-light.
+// through unchanged. No heap, no exceptions; step() is noexcept.
+// Speed: P, K do not depend on the data, so once P reaches its floating-point fixed point the
+// step only updates the state (set_covariance_latch(); outputs are bit-identical).
 #pragma once
 
 #include <Eigen/Core>
@@ -58,16 +60,30 @@ class Ar2Kalman {
   // Filtered sample (same units as y, mean included).
   Scalar step(Scalar y) noexcept {
     if (status_ != Ar2Status::ok) return y;
-    // Predict (P symmetric: only p00, p01, p11 are formed, then mirrored).
     const Scalar x0 = a1_ * x_(0) + a2_ * x_(1);
     const Scalar x1 = x_(0);
+    const Scalar z = y - mean_;
+    if (latched_) {
+      // Covariance at its floating-point fixed point: the recursion below would recompute
+      // exactly these P-, K and P, so only the state is updated (bit-identical output).
+      if (std::isfinite(z)) {
+        const Scalar v = z - x0;
+        const Scalar nx0 = x0 + k_(0) * v;
+        const Scalar nx1 = x1 + k_(1) * v;
+        if (std::isfinite(nx0 + nx1)) {
+          x_ << nx0, nx1;
+          return nx0 + mean_;
+        }
+      }
+      latched_ = false;  // fall through: predict-only step from the latched P
+    }
+    // Predict (P symmetric: only p00, p01, p11 are formed, then mirrored).
     const Scalar p00 = P_(0, 0), p01 = P_(0, 1), p11 = P_(1, 1);
     const Scalar m00 = a1_ * p00 + a2_ * p01;  // (A P)_00
     const Scalar m01 = a1_ * p01 + a2_ * p11;  // (A P)_01
     const Scalar pp00 = m00 * a1_ + m01 * a2_ + q_;
     const Scalar pp01 = m00;
     const Scalar pp11 = p00;
-    const Scalar z = y - mean_;
     if (std::isfinite(z)) {
       const Scalar s = pp00 + r_;  // C P- C^T + r, > 0 since r > 0 and P- >= 0
       const Scalar k0 = pp00 / s;
@@ -86,7 +102,12 @@ class Ar2Kalman {
       const Scalar np11 = j11 - j10 * k1 + r_ * k1 * k1;
       if (std::isfinite(nx0 + nx1 + np00 + np01 + np11)) {
         x_ << nx0, nx1;
+        const Matrix2 before = P_;
         store_p(np00, np01, np11);
+        if (latch_enabled_ && P_ == before) {
+          latched_ = true;
+          k_ << k0, k1;
+        }
         return nx0 + mean_;
       }
     }
@@ -97,11 +118,23 @@ class Ar2Kalman {
     return x0 + mean_;
   }
 
+  // The covariance recursion does not depend on the data: once P reaches a floating-point
+  // fixed point (P_k == P_{k-1} bit for bit) the filter skips recomputing it until a fault
+  // step perturbs P. Outputs are bit-identical either way; disable for constant per-step
+  // execution time (the worst case, e.g. for WCET budgets).
+  void set_covariance_latch(bool enabled) noexcept {
+    latch_enabled_ = enabled;
+    if (!enabled) latched_ = false;
+  }
+  bool covariance_latched() const noexcept { return latched_; }
+
   // Back to X_0 = 0, P_0 = p0 I, zero faults: identical behaviour to a new filter.
   void reset() noexcept {
     x_.setZero();
     P_ = Matrix2::Identity() * p0_;
+    k_.setZero();
     faults_ = 0;
+    latched_ = false;
   }
 
   std::uint32_t fault_count() const noexcept { return faults_; }
@@ -123,9 +156,10 @@ class Ar2Kalman {
 
   Scalar a1_, a2_, mean_, q_, r_, p0_;
   Ar2Status status_;
-  Vector2 x_;
+  Vector2 x_, k_;  // k_: gain cached while the covariance is latched
   Matrix2 P_;
   std::uint32_t faults_ = 0;
+  bool latch_enabled_ = true, latched_ = false;
 };
 
 }  // namespace gyrodrift
