@@ -53,7 +53,17 @@ inline void lift(const LiftingStep<Scalar, MaxTaps>& st, Scalar* target, const S
     return;
   }
   for (std::ptrdiff_t k = 0; k < lo; ++k) target[k] = undo ? target[k] - term(k, true) : target[k] + term(k, true);
-  if (undo) {
+  // Interior: no wrap; the 1- and 2-tap steps (all of db4/db8) get straight-line loops the
+  // compiler vectorises. The sign is folded into the coefficients (exact: negation).
+  const Scalar sign = undo ? Scalar(-1) : Scalar(1);
+  const std::ptrdiff_t f = st.first;
+  if (st.ntaps == 2) {
+    const Scalar c0 = sign * st.c[0], c1 = sign * st.c[1];
+    for (std::ptrdiff_t k = lo; k < hi; ++k) target[k] += c0 * other[k + f] + c1 * other[k + f + 1];
+  } else if (st.ntaps == 1) {
+    const Scalar c0 = sign * st.c[0];
+    for (std::ptrdiff_t k = lo; k < hi; ++k) target[k] += c0 * other[k + f];
+  } else if (undo) {
     for (std::ptrdiff_t k = lo; k < hi; ++k) target[k] -= term(k, false);
   } else {
     for (std::ptrdiff_t k = lo; k < hi; ++k) target[k] += term(k, false);
