@@ -1,0 +1,140 @@
+"""Whole alignment over arrays of increments: optional gyro prefilter (+ matching accelerometer
+delay), inertial-frame coarse alignment, then strapdown + fine-alignment KF with feedback.
+Reference for nav_align_pipeline.hpp (same order of operations, same results within 1e-9).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .attitude import dcm2euler, dcm2q, q2dcm, qmul, qnormalize, rv2q
+from .coarse import InertialCoarseAlign
+from .earth import ARCMIN, DEG, DPH, UG, earth_params
+from .fine_kf import FineAlignKF
+from .strapdown import Strapdown
+
+
+@dataclass
+class AlignConfig:
+    """Alignment settings; angles rad, rates rad/s, noise densities per sqrt(s)."""
+
+    dt_s: float = 1.0 / 400.0
+    lat_rad: float = 39.0 * DEG
+    lon_rad: float = 116.0 * DEG
+    h_m: float = 50.0
+    coarse_s: float = 60.0
+    coarse_position_integral: bool = True
+    n_states: int = 15
+    kf_every: int = 40  # samples per KF cycle (400 Hz / 40 = 10 Hz)
+    p0_phi_rad: np.ndarray = field(default_factory=lambda: np.array([1.0, 1.0, 10.0]) * DEG)
+    p0_dv_mps: float = 0.5
+    p0_dp_m: float = 1.0
+    p0_eb_rps: float = 0.02 * DPH
+    p0_db_mps2: float = 100.0 * UG
+    arw_rad_rsqs: float = 0.001 * DEG / 60.0  # gyro angle random walk (process noise)
+    vrw_mps_rsqs: float = 10.0 * UG  # accelerometer velocity random walk
+    eb_rw: float = 0.0  # gyro drift random walk (rad/s/sqrt(s))
+    db_rw: float = 0.0
+    dp_q: float = 0.0  # position process noise (m^2/s), absorbs lever-arm sway
+    zv_sigma_mps: float = 0.01  # zero-velocity measurement noise
+    floor_phi_rad: float = 0.01 * ARCMIN / 60.0
+    floor_dv_mps: float = 1e-6
+    floor_dp_m: float = 1e-6
+    floor_eb_rps: float = 1e-6 * DPH
+    floor_db_mps2: float = 0.01 * UG
+    taps: np.ndarray | None = None  # gyro prefilter taps (oldest first); None = off
+    accel_delay_samples: int = 0  # delay matching the prefilter's group delay
+
+    def coarse_samples(self) -> int:
+        return round(self.coarse_s / self.dt_s)
+
+    def p0_diag(self) -> np.ndarray:
+        parts = [np.asarray(self.p0_phi_rad) ** 2, np.full(3, self.p0_dv_mps ** 2)]
+        if self.n_states == 15:
+            parts.append(np.full(3, self.p0_dp_m ** 2))
+        parts += [np.full(3, self.p0_eb_rps ** 2), np.full(3, self.p0_db_mps2 ** 2)]
+        return np.concatenate(parts)
+
+    def q_diag(self) -> np.ndarray:
+        parts = [np.full(3, self.arw_rad_rsqs ** 2), np.full(3, self.vrw_mps_rsqs ** 2)]
+        if self.n_states == 15:
+            parts.append(np.full(3, self.dp_q))
+        parts += [np.full(3, self.eb_rw ** 2), np.full(3, self.db_rw ** 2)]
+        return np.concatenate(parts)
+
+    def floor_diag(self) -> np.ndarray:
+        parts = [np.full(3, self.floor_phi_rad ** 2), np.full(3, self.floor_dv_mps ** 2)]
+        if self.n_states == 15:
+            parts.append(np.full(3, self.floor_dp_m ** 2))
+        parts += [np.full(3, self.floor_eb_rps ** 2), np.full(3, self.floor_db_mps2 ** 2)]
+        return np.concatenate(parts)
+
+
+def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
+                            cfg: AlignConfig) -> dict[str, np.ndarray]:
+    """Plain-loop reference. Returns per-KF-update histories:
+    t_s (end of the KF cycle, from the first sample), att (pitch, roll, yaw rad), eb, db,
+    p_phi (std of phi, rad), and `coarse_cnb` (C_b^n at the end of coarse alignment)."""
+    dtheta = np.asarray(dtheta, dtype=float)
+    dv = np.asarray(dv, dtype=float)
+    n = dtheta.shape[0]
+    n_coarse = cfg.coarse_samples()
+    if dtheta.shape != (n, 3) or dv.shape != (n, 3):
+        raise ValueError("dtheta and dv must both have shape (n, 3)")
+    if n <= n_coarse:
+        raise ValueError(f"need more than {n_coarse} samples (coarse alignment), got {n}")
+    taps = None if cfg.taps is None else np.asarray(cfg.taps, dtype=float)
+    nt = 0 if taps is None else len(taps)
+    coarse = InertialCoarseAlign(n_coarse, cfg.dt_s, cfg.lat_rad, cfg.h_m,
+                                 cfg.coarse_position_integral)
+    kf: FineAlignKF | None = None
+    sd: Strapdown | None = None
+    eb = np.zeros(3)
+    db = np.zeros(3)
+    dvn_sum = np.zeros(3)
+    count = 0
+    hist: dict[str, list] = {"t_s": [], "att": [], "eb": [], "db": [], "p_phi": []}
+    coarse_cnb = np.eye(3)
+    d = cfg.accel_delay_samples
+    for k in range(n):
+        g = dtheta[k]
+        if taps is not None and k >= nt - 1:
+            g = taps @ dtheta[k - nt + 1:k + 1]
+        a = dv[k - d] if k >= d else dv[k]
+        if k < n_coarse:
+            if coarse.add(g, a):
+                coarse_cnb = coarse.solve()
+                sd = Strapdown(dcm2q(coarse_cnb), np.zeros(3), cfg.lat_rad, cfg.lon_rad, cfg.h_m)
+                kf = FineAlignKF(cfg.n_states, cfg.p0_diag(), cfg.q_diag(),
+                                 np.full(3, cfg.zv_sigma_mps ** 2), cfg.floor_diag())
+            continue
+        assert sd is not None and kf is not None
+        dvn_sum += sd.step(g - eb * cfg.dt_s, a - db * cfg.dt_s, cfg.dt_s)
+        count += 1
+        if count < cfg.kf_every:
+            continue
+        t_kf = count * cfg.dt_s
+        fn = dvn_sum / t_kf
+        ep = earth_params(sd.pos[0], sd.pos[2], sd.vn)
+        kf.predict(kf.transition(q2dcm(sd.q), fn, sd.vn, ep, sd.pos[0]), t_kf)
+        x = kf.update(sd.vn)
+        # Feedback: C_true = (I + [phi x]) C_est, v -= dv, position -= dp, biases accumulate.
+        sd.q = qnormalize(qmul(rv2q(x[0:3]), sd.q))
+        sd.vn = sd.vn - x[3:6]
+        if cfg.n_states == 15:
+            sd.pos = sd.pos - np.array([x[7] / ep.rm_h_m,
+                                        x[6] / (ep.rn_h_m * np.cos(sd.pos[0])), x[8]])
+        eb = eb + x[kf.i_eb:kf.i_eb + 3]
+        db = db + x[kf.i_db:kf.i_db + 3]
+        dvn_sum = np.zeros(3)
+        count = 0
+        hist["t_s"].append((k + 1) * cfg.dt_s)
+        hist["att"].append(dcm2euler(q2dcm(sd.q)))
+        hist["eb"].append(eb.copy())
+        hist["db"].append(db.copy())
+        hist["p_phi"].append(np.sqrt(np.diag(kf.P)[0:3]))
+    out = {key: np.array(v) for key, v in hist.items()}
+    out["coarse_cnb"] = coarse_cnb
+    return out
