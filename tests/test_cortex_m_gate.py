@@ -7,8 +7,14 @@ linked image tells whether malloc/operator new or __aeabi_d* (the Cortex-M4F FPU
 precision; every double operation becomes a libgcc call) are reachable. Compiling with
 -Wdouble-promotion -Werror additionally rejects implicit float -> double promotions.
 
+Each ELF is then RUN on an emulated STM32F405 (QEMU `netduinoplus2`, Cortex-M4 with FPU):
+the start-up code must reach app_main() with the FPU enabled, app_main() must return 0 without
+taking any fault, and the painted-stack high-water mark must fit the 8 KiB stack the linker
+script reserves. The image reports through ARM semihosting (-DGYRODRIFT_CM_SEMIHOSTING).
+
 The toolchain (Debian gcc-arm-none-eabi, libstdc++-arm-none-eabi-newlib,
-binutils-arm-none-eabi; installed by scripts/setup) is required: a missing toolchain FAILS.
+binutils-arm-none-eabi, qemu-system-arm; installed by scripts/setup) is required: a missing
+tool FAILS.
 Sizes go to build/cortex_m/sizes.json and sizes.md and are printed (pytest -s shows them).
 """
 
@@ -33,6 +39,9 @@ REPORT_DIR = REPO_ROOT / "build" / "cortex_m"
 
 FLASH_BYTES = 1024 * 1024
 RAM_BYTES = 128 * 1024
+STACK_BYTES = 0x2000  # `_stack_size` in stm32f4.ld (checked below)
+QEMU_MACHINE = "netduinoplus2"  # STM32F405: 1 MiB flash @0x08000000, 128 KiB SRAM @0x20000000
+QEMU_TIMEOUT_S = 60.0
 
 ARCH_FLAGS = ["-mcpu=cortex-m4", "-mthumb", "-mfloat-abi=hard", "-mfpu=fpv4-sp-d16"]
 CXX_FLAGS = [
@@ -54,6 +63,7 @@ CXX_FLAGS = [
     "-DNDEBUG",
     "-DEIGEN_NO_MALLOC",
     "-DEIGEN_DONT_VECTORIZE",
+    "-DGYRODRIFT_CM_SEMIHOSTING",  # startup.cpp reports exit code/stack to the emulator
     "-isystem",
     str(EIGEN_DIR),
     "-I",
@@ -98,6 +108,9 @@ class GateResult:
     data: int = 0
     bss: int = 0
     max_frame_bytes: int = 0
+    run: str = ""  # "exit" or "fault" as reported by the image under QEMU
+    exit_code: int = -1
+    stack_bytes: int = 0  # measured high-water mark
 
     @property
     def flash_bytes(self) -> int:
@@ -118,6 +131,10 @@ def toolchain() -> dict[str, str]:
                 "libstdc++-arm-none-eabi-newlib and binutils-arm-none-eabi (scripts/setup)"
             )
         tools[tool] = path
+    qemu = shutil.which("qemu-system-arm")
+    if qemu is None:
+        pytest.fail("qemu-system-arm not found: install qemu-system-arm (scripts/setup)")
+    tools["qemu"] = qemu
     if not (EIGEN_DIR / "Eigen" / "Core").exists():
         pytest.fail(f"Eigen headers not found in {EIGEN_DIR} (libeigen3-dev)")
     return tools
@@ -194,8 +211,58 @@ def build_unit(src: Path, workdir: Path) -> GateResult:
     if su.exists():
         frames = [int(line.split("\t")[1]) for line in su.read_text().splitlines() if "\t" in line]
         result.max_frame_bytes = max(frames, default=0)
+    if result.max_frame_bytes > STACK_BYTES:
+        result.reasons.append(f"stack: a {result.max_frame_bytes} B frame exceeds the stack")
+    run_on_qemu(tools["qemu"], elf, result)
     result.ok = not result.reasons
     return result
+
+
+REPORT_LINE = re.compile(
+    r"gyrodrift-cm (?P<what>exit|fault) code=0x(?P<code>[0-9a-f]{8}) sink=0x[0-9a-f]{8} "
+    r"sink_i32=0x[0-9a-f]{8} stack=0x(?P<stack>[0-9a-f]{8})"
+)
+
+
+def run_on_qemu(qemu: str, elf: Path, result: GateResult) -> None:
+    """Run the ELF on the emulated STM32F405; record exit code and stack high-water mark."""
+    cmd = [
+        qemu,
+        "-M",
+        QEMU_MACHINE,
+        "-nographic",
+        "-monitor",
+        "none",
+        "-serial",
+        "none",
+        "-semihosting-config",
+        "enable=on,target=native",
+        "-kernel",
+        str(elf),
+    ]
+    try:
+        proc = subprocess.run(
+            cmd, capture_output=True, text=True, timeout=QEMU_TIMEOUT_S, check=False
+        )
+    except subprocess.TimeoutExpired:
+        result.reasons.append(f"run: no report within {QEMU_TIMEOUT_S:.0f} s (hang or lockup)")
+        return
+    match = REPORT_LINE.search(proc.stdout + proc.stderr)  # semihosting console: stderr
+    if match is None:
+        result.reasons.append(f"run: no semihosting report (qemu exit {proc.returncode})")
+        result.log += proc.stdout[-2000:] + proc.stderr[-2000:]
+        return
+    result.run = match["what"]
+    result.exit_code = int(match["code"], 16)
+    result.stack_bytes = int(match["stack"], 16)
+    if result.run == "fault":
+        result.reasons.append("run: the core took a fault exception")
+    elif result.exit_code != 0 or proc.returncode != 0:
+        result.reasons.append(f"run: app_main returned {result.exit_code}")
+    if result.stack_bytes > STACK_BYTES:
+        result.reasons.append(
+            f"stack: used {result.stack_bytes} B > {STACK_BYTES} B reserved in stm32f4.ld"
+        )
 
 
 def gate_units() -> list[Path]:
@@ -250,14 +317,15 @@ def test_size_report(gate_results: dict[str, GateResult]) -> None:
         rows[-1].pop("log")
     table = [
         "| unit | gate | flash B | RAM B (data+bss) | flash over baseline "
-        "| largest stack frame B |",
-        "| --- | --- | ---: | ---: | ---: | ---: |",
+        f"| stack used B (of {STACK_BYTES}) | largest frame B | run on QEMU {QEMU_MACHINE} |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- |",
     ]
     for row in rows:
         table.append(
             f"| {row['unit']} | {'pass' if row['ok'] else 'FAIL: ' + '; '.join(row['reasons'])} "
             f"| {row['flash_bytes']} | {row['ram_bytes']} | {row['flash_over_baseline']} "
-            f"| {row['max_frame_bytes']} |"
+            f"| {row['stack_bytes']} | {row['max_frame_bytes']} "
+            f"| {row['run']} {row['exit_code']} |"
         )
     text = "\n".join(table)
     print("\nCortex-M4F gate (arm-none-eabi-g++ -Os, STM32F4-class 1 MiB / 128 KiB):\n" + text)
@@ -367,6 +435,38 @@ extern "C" int app_main(void) {
 """,
         "compile error",
     ),
+    # Runs into an undefined instruction: the core takes a fault, seen only by running it.
+    "hard_fault": (
+        """
+#include "support.hpp"
+extern "C" int app_main(void) {
+  if (gyrodrift::cortex_m::input(0) > -1000.0f) __builtin_trap();
+  return 0;
+}
+""",
+        "run: the core took a fault",
+    ),
+    # Reports failure through its return value.
+    "nonzero_exit": (
+        """
+#include "support.hpp"
+extern "C" int app_main(void) { return gyrodrift::cortex_m::input(0) > 0.0f ? 3 : 0; }
+""",
+        "run: app_main returned 3",
+    ),
+    # 12 KiB of stack: overflows the 8 KiB reservation (measured by the painted high-water mark).
+    "stack_overflow": (
+        """
+#include "support.hpp"
+extern "C" int app_main(void) {
+  volatile float big[3072];
+  for (std::size_t i = 0; i < 3072; ++i) big[i] = gyrodrift::cortex_m::input(i);
+  gyrodrift::cortex_m::sink(big[100]);
+  return 0;
+}
+""",
+        "stack",
+    ),
     # A throw cannot compile with -fno-exceptions.
     "throw": (
         """
@@ -381,12 +481,19 @@ extern "C" int app_main(void) {
 }
 
 
+def test_stack_budget_matches_linker_script() -> None:
+    script = (CM_DIR / "stm32f4.ld").read_text()
+    assert re.search(rf"_stack_size\s*=\s*{STACK_BYTES:#x}\s*;", script)
+
+
 def test_gate_accepts_a_good_float_unit(tmp_path: Path) -> None:
     src = tmp_path / "use_good.cpp"
     src.write_text(GOOD_UNIT)
     result = build_unit(src, tmp_path / "out")
     assert result.ok, f"{result.reasons}\n{result.log}"
     assert result.flash_bytes > 0
+    assert result.run == "exit" and result.exit_code == 0
+    assert 0 < result.stack_bytes < 1024
 
 
 @pytest.mark.parametrize("name", sorted(BAD_UNITS))

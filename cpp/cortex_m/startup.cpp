@@ -17,6 +17,8 @@ extern void (*__init_array_end[])(void);
 
 // Exit status of app_main, observable with a debugger.
 volatile int gyrodrift_cm_exit_code = -1;
+// Deepest stack use in bytes (painted-RAM high-water mark), valid after app_main returns.
+volatile std::uint32_t gyrodrift_cm_stack_bytes = 0;
 
 [[noreturn]] void Reset_Handler(void);
 [[noreturn]] void Default_Handler(void);
@@ -24,11 +26,76 @@ volatile int gyrodrift_cm_exit_code = -1;
 
 namespace {
 constexpr std::uintptr_t kCpacr = 0xE000ED88u;  // Coprocessor Access Control Register (SCB)
+
+constexpr std::uint32_t kStackPaint = 0x5AC3A55Cu;
+
+// Free RAM between .bss and the stack pointer is painted at reset; the lowest overwritten word
+// after app_main() gives the deepest stack use (high-water mark) in bytes.
+std::uint32_t stack_high_water_bytes() {
+  const std::uint32_t* word = &_ebss;
+  const auto* top = reinterpret_cast<const std::uint32_t*>(&_estack);
+  while (word < top && *word == kStackPaint) ++word;
+  return static_cast<std::uint32_t>(reinterpret_cast<std::uintptr_t>(top) -
+                                    reinterpret_cast<std::uintptr_t>(word));
 }
 
-extern "C" [[noreturn]] void Default_Handler(void) {
+#if defined(GYRODRIFT_CM_SEMIHOSTING)
+// ARM semihosting call (Semihosting for AArch32 and AArch64, v2: BKPT 0xAB on M-profile):
+// only for runs under an emulator or debugger; the gate defines GYRODRIFT_CM_SEMIHOSTING.
+int semihost(int op, const void* arg) {
+  register int r0 __asm("r0") = op;
+  register const void* r1 __asm("r1") = arg;
+  __asm volatile("bkpt 0xAB" : "+r"(r0) : "r"(r1) : "memory");
+  return r0;
+}
+
+char* put_text(char* out, const char* text) {
+  while (*text != '\0') *out++ = *text++;
+  return out;
+}
+
+char* put_hex(char* out, std::uint32_t value) {
+  for (int shift = 28; shift >= 0; shift -= 4) {
+    *out++ = "0123456789abcdef"[(value >> static_cast<unsigned>(shift)) & 0xFu];
+  }
+  return out;
+}
+
+// Prints "gyrodrift-cm <what> code=0x.. sink=0x.. sink_i32=0x..\n" and exits the emulator with
+// `code` (SYS_EXIT_EXTENDED, reason ADP_Stopped_ApplicationExit).
+[[noreturn]] void report_and_exit(const char* what, int code) {
+  char line[96];
+  char* p = put_text(line, "gyrodrift-cm ");
+  p = put_text(p, what);
+  p = put_text(p, " code=0x");
+  p = put_hex(p, static_cast<std::uint32_t>(code));
+  p = put_text(p, " sink=0x");
+  const float sink = gyrodrift_cm_sink;
+  std::uint32_t bits = 0;
+  __builtin_memcpy(&bits, &sink, sizeof bits);
+  p = put_hex(p, bits);
+  p = put_text(p, " sink_i32=0x");
+  p = put_hex(p, static_cast<std::uint32_t>(gyrodrift_cm_sink_i32));
+  p = put_text(p, " stack=0x");
+  p = put_hex(p, stack_high_water_bytes());
+  *p++ = '\n';
+  *p = '\0';
+  semihost(0x04, line);  // SYS_WRITE0
+  const std::uint32_t block[2] = {0x20026u, static_cast<std::uint32_t>(code)};
+  semihost(0x20, block);  // SYS_EXIT_EXTENDED
   for (;;) {
   }
+}
+#endif
+}  // namespace
+
+extern "C" [[noreturn]] void Default_Handler(void) {
+#if defined(GYRODRIFT_CM_SEMIHOSTING)
+  report_and_exit("fault", 0xFA);  // an exception (HardFault, UsageFault, ...) was taken
+#else
+  for (;;) {
+  }
+#endif
 }
 
 extern "C" [[noreturn]] void Reset_Handler(void) {
@@ -36,14 +103,23 @@ extern "C" [[noreturn]] void Reset_Handler(void) {
   const std::uint32_t* src = &_sidata;
   for (std::uint32_t* dst = &_sdata; dst < &_edata;) *dst++ = *src++;
   for (std::uint32_t* dst = &_sbss; dst < &_ebss;) *dst++ = 0u;
+  // Paint the free RAM below the current stack frame (64-byte margin) for the high-water mark.
+  std::uint32_t* sp = nullptr;
+  __asm volatile("mov %0, sp" : "=r"(sp));
+  for (volatile std::uint32_t* w = &_ebss; w < sp - 16;) *w++ = kStackPaint;
   // FPU on before any float instruction (ARMv7-M ARM, B3.2.20): CP10 and CP11 full access.
   *reinterpret_cast<volatile std::uint32_t*>(kCpacr) |= (0xFu << 20);
   __asm volatile("dsb\n\tisb" ::: "memory");
   for (auto** f = __preinit_array_start; f < __preinit_array_end; ++f) (**f)();
   for (auto** f = __init_array_start; f < __init_array_end; ++f) (**f)();
   gyrodrift_cm_exit_code = app_main();
+  gyrodrift_cm_stack_bytes = stack_high_water_bytes();
+#if defined(GYRODRIFT_CM_SEMIHOSTING)
+  report_and_exit("exit", gyrodrift_cm_exit_code);
+#else
   for (;;) {
   }
+#endif
 }
 
 // Vector table: initial stack pointer, then the 15 system exceptions (IRQs unused here).
