@@ -130,7 +130,10 @@ def kalman_filter(
     """
     y = _as_record(x)
     q = model.sigma2 if q is None else float(q)
-    r = model.measurement_variance if r is None else float(r)
+    if r is None:  # model.r when known, else sigma2 (duck-typed models welcome)
+        r_model = float(getattr(model, "r", math.nan))
+        r = r_model if math.isfinite(r_model) and r_model > 0 else model.sigma2
+    r = float(r)
     a, bqb, c = _matrices(model, q)
     eye = np.eye(2)
     state = np.zeros((2, 1))
