@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import allantools
 import gyrodrift
 import numpy as np
 import pytest
@@ -50,6 +51,23 @@ def overlapping_avar(x: np.ndarray, m: int) -> float:
     means = (c[m:] - c[:-m]) / m
     d = means[m:] - means[:-m]
     return float(np.mean(d**2) / 2.0)
+
+
+def test_allan_helpers_match_allantools() -> None:
+    # The test's own Allan code, checked against the established peer on the same record.
+    rec = gyrodrift.simulate(n=20_000, q_deg=0.001, n_deg_rthr=0.01, b_deg_h=0.05, seed=2)
+    for m in (1, 7, 100, 1000):
+        taus, adev, *_ = allantools.oadev(
+            rec.rate_dph, rate=RATE_HZ, data_type="freq", taus=[m * DT_S]
+        )
+        assert taus[0] == pytest.approx(m * DT_S)
+        # Same estimator, different summation order: agreement to rounding (double).
+        assert overlapping_avar(rec.rate_dph, m) == pytest.approx(adev[0] ** 2, rel=1e-9)
+        adev_nonoverlap = allantools.adev(
+            rec.rate_dph[: (rec.n // m) * m], rate=RATE_HZ, data_type="freq", taus=[m * DT_S]
+        )[1][0]
+        blocks = rec.rate_dph[: (rec.n // m) * m].reshape(-1, m).mean(axis=1)
+        assert np.mean(np.diff(blocks) ** 2) / 2 == pytest.approx(adev_nonoverlap**2, rel=1e-9)
 
 
 # --- white angle (quantization) --------------------------------------------------------------
@@ -250,8 +268,15 @@ def test_ar2_stationary_from_first_sample() -> None:
 
 
 def test_seed_reproducible_and_distinct() -> None:
-    kwargs = dict(n=5000, q_deg=0.001, n_deg_rthr=0.01, b_deg_h=0.05, k_deg_h_rthr=0.1,
-                  ar2=(0.5, 0.1, 0.02), axes=3)
+    kwargs = dict(
+        n=5000,
+        q_deg=0.001,
+        n_deg_rthr=0.01,
+        b_deg_h=0.05,
+        k_deg_h_rthr=0.1,
+        ar2=(0.5, 0.1, 0.02),
+        axes=3,
+    )
     a = gyrodrift.simulate(seed=42, **kwargs)
     b = gyrodrift.simulate(seed=42, **kwargs)
     c = gyrodrift.simulate(seed=43, **kwargs)
@@ -270,19 +295,37 @@ def test_terms_use_independent_streams() -> None:
 
 
 def test_components_sum_to_record() -> None:
-    rec = gyrodrift.simulate(n=3000, q_deg=0.001, n_deg_rthr=0.01, b_deg_h=0.05,
-                             k_deg_h_rthr=0.1, r_deg_h_h=3.0, bias_deg_h=1.0,
-                             ar2=(0.3, 0.2, 0.01), axes=2, seed=1, keep_components=True)
-    assert set(rec.components) == {"quantization", "arw", "bias_instability", "rrw", "ramp",
-                                   "bias", "ar2"}
+    rec = gyrodrift.simulate(
+        n=3000,
+        q_deg=0.001,
+        n_deg_rthr=0.01,
+        b_deg_h=0.05,
+        k_deg_h_rthr=0.1,
+        r_deg_h_h=3.0,
+        bias_deg_h=1.0,
+        ar2=(0.3, 0.2, 0.01),
+        axes=2,
+        seed=1,
+        keep_components=True,
+    )
+    assert set(rec.components) == {
+        "quantization",
+        "arw",
+        "bias_instability",
+        "rrw",
+        "ramp",
+        "bias",
+        "ar2",
+    }
     total = sum(rec.components.values())
     np.testing.assert_allclose(total, rec.rate_dph, rtol=1e-12, atol=1e-9)
 
 
 def test_multi_axis_independent() -> None:
     n = 100_000
-    rec = gyrodrift.simulate(n=n, n_deg_rthr=0.01, q_deg=0.001, ar2=(0.7, 0.1, 0.01), axes=3,
-                             seed=31)
+    rec = gyrodrift.simulate(
+        n=n, n_deg_rthr=0.01, q_deg=0.001, ar2=(0.7, 0.1, 0.01), axes=3, seed=31
+    )
     assert rec.rate_dph.shape == (n, 3) and rec.rate_dph.flags.c_contiguous
     corr = np.corrcoef(rec.rate_dph.T)
     off = corr[np.triu_indices(3, k=1)]
@@ -297,8 +340,7 @@ def test_shapes_units_and_duration() -> None:
     assert rec.dt_s == pytest.approx(0.005)
     np.testing.assert_allclose(rec.t_s[:3], [0.0, 0.005, 0.01])
     np.testing.assert_allclose(rec.rate_dps * 3600.0, rec.rate_dph, rtol=1e-15)
-    np.testing.assert_allclose(rec.rate_rads, rec.rate_dph * math.pi / 180.0 / 3600.0,
-                               rtol=1e-15)
+    np.testing.assert_allclose(rec.rate_rads, rec.rate_dph * math.pi / 180.0 / 3600.0, rtol=1e-15)
     np.testing.assert_allclose(rec.dtheta_rad, rec.rate_rads * 0.005, rtol=1e-15)
     assert isinstance(rec.terms, NoiseTerms) and rec.terms.n_deg_rthr == 0.1
 
@@ -375,8 +417,9 @@ def test_imu_heading_rotates_horizontal_earth_rate() -> None:
 def test_imu_errors() -> None:
     n = 200_000
     terms = NoiseTerms(n_deg_rthr=0.005, bias_deg_h=0.02)
-    imu = gyrodrift.simulate_imu(n=n, gyro=terms, accel_bias_mps2=[1e-3, -2e-3, 5e-4],
-                                 vrw_mps_rthr=0.03, seed=4)
+    imu = gyrodrift.simulate_imu(
+        n=n, gyro=terms, accel_bias_mps2=[1e-3, -2e-3, 5e-4], vrw_mps_rthr=0.03, seed=4
+    )
     gyro_err_dph = np.rad2deg(imu.gyro_rads - imu.gyro_true_rads) * 3600.0
     np.testing.assert_allclose(gyro_err_dph, imu.gyro_err_dph, rtol=1e-6, atol=1e-9)
     sigma_dph = 60.0 * 0.005 / math.sqrt(DT_S)
@@ -386,8 +429,9 @@ def test_imu_errors() -> None:
     accel_err = imu.accel_mps2 - imu.accel_true_mps2
     sigma_a = 0.03 / 60.0 / math.sqrt(DT_S)  # m/s^2
     assert np.var(accel_err, axis=0) / sigma_a**2 == pytest.approx(np.ones(3), abs=tol)
-    np.testing.assert_allclose(accel_err.mean(axis=0), [1e-3, -2e-3, 5e-4],
-                               atol=N_SIGMA * sigma_a / n**0.5)
+    np.testing.assert_allclose(
+        accel_err.mean(axis=0), [1e-3, -2e-3, 5e-4], atol=N_SIGMA * sigma_a / n**0.5
+    )
     # Axes independent of each other and of the accelerometers.
     corr = np.corrcoef(np.hstack([gyro_err_dph, accel_err]).T)
     assert np.all(np.abs(corr[np.triu_indices(6, k=1)]) < N_SIGMA / math.sqrt(n))
