@@ -259,3 +259,17 @@ def test_model_without_r_uses_sigma2() -> None:
         warnings.simplefilter("error")
         got = gyrodrift.kalman_filter(x, m)
     np.testing.assert_array_equal(got, gyrodrift.kalman_filter(x, m, q=2.0, r=2.0))
+
+
+@pytest.mark.parametrize("pair,r", [((0.6868, -0.0213), 1.0), ((-0.034, 0.0252), 7.5),
+                                    ((0.2297, 0.1638), 0.2)])
+def test_dc_gain_matches_step_response(pair, r) -> None:
+    # A sustained offset d from the mean comes out as G d (both variants, after the transient):
+    # the filter attenuates true rate changes; G is the documented limit of the method.
+    m = Ar2Model(a1=pair[0], a2=pair[1], sigma2=1.0, mean=2.0)
+    g = KalmanFilter(m, r=r).dc_gain
+    assert 0.0 < g < 1.0
+    x = np.full(5000, 2.0 + 3.0)
+    for ss in (False, True):
+        y = gyrodrift.kalman_filter(x, m, r=r, steady_state=ss)
+        assert y[-1] - 2.0 == pytest.approx(3.0 * g, rel=1e-9)

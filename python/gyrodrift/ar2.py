@@ -348,6 +348,17 @@ class KalmanFilter:
         return int(self._f.fault_count)
 
     @property
+    def dc_gain(self) -> float:
+        """Steady-state response to a sustained rate offset d from model.mean: the output
+        settles at mean + G d with G = u / ((1 - a1 - a2)(1 - k0) + u), u = k0 + a2 k1, from
+        the fixed point of X = A X + K (d - C A X) with the DARE gain K = (k0, k1). G < 1:
+        true rate changes are attenuated, so the filter suits drift (static) records only."""
+        m = self.model
+        k0, k1 = _core().Ar2SteadyStateKalman(m.a1, m.a2, m.sigma2, m.mean, self.q, self.r).gain
+        u = k0 + m.a2 * k1
+        return float(u / ((1.0 - m.a1 - m.a2) * (1.0 - k0) + u))
+
+    @property
     def gain(self) -> tuple[float, float] | None:
         """Constant gain of the steady-state variant (None for the full filter)."""
         return tuple(self._f.gain) if self.steady_state else None  # type: ignore[return-value]
