@@ -134,7 +134,8 @@ def main() -> None:
     t_filterpy = results[-1][1]
     t_numpy = results[-2][1]
 
-    print(f"AR(2)-Kalman benchmark; machine: {machine()}")
+    load = ", ".join(f"{v:.1f}" for v in os.getloadavg())
+    print(f"AR(2)-Kalman benchmark; machine: {machine()}; load average {load} (shared machine)")
     print(f"batch n = {n:,}; FilterPy / numpy / Python-loop n = {slow_n:,}; medians of repeats\n")
     print("| case | ns/sample/axis | M samples/s | vs FilterPy | vs numpy reference |")
     print("| --- | ---: | ---: | ---: | ---: |")
