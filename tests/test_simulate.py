@@ -94,6 +94,53 @@ def test_quantization_is_differenced_white_angle() -> None:
         assert var / (2.0 * q_deg**2) == pytest.approx(1.0, abs=tol)
 
 
+def test_pulse_counting_output_and_bounded_angle_error() -> None:
+    pulse_deg = 0.1 / 3600.0  # 0.1 arcsec per count, as the shared laser-gyro record
+    rec = gyrodrift.simulate(
+        n=100_000,
+        n_deg_rthr=0.1,
+        bias_deg_h=15.0,
+        pulse_deg=pulse_deg,
+        axes=2,
+        seed=17,
+        keep_components=True,
+    )
+    counts = rec.dtheta_deg / pulse_deg
+    np.testing.assert_allclose(counts, np.round(counts), atol=1e-6)  # whole pulses only
+    error = rec.components["pulse_quantization"]
+    true_angle = np.cumsum((rec.rate_dph - error) * DT_H, axis=0)
+    counted_angle = np.cumsum(rec.rate_dph * DT_H, axis=0)
+    angle_err = counted_angle - true_angle
+    # Counting never loses angle: the error stays within one pulse (plus summation rounding).
+    assert np.max(np.abs(angle_err)) < pulse_deg * (1.0 + 1e-6)
+    # ARW spans ~3 pulses per sample, so the error is uniform and white: variance S^2/12
+    # (sample variance of a uniform: relative SD sqrt(0.8 / n)) and no lag-1 correlation.
+    for axis in range(2):
+        e = angle_err[:, axis]
+        assert np.var(e) / (pulse_deg**2 / 12.0) == pytest.approx(
+            1.0, abs=N_SIGMA * math.sqrt(0.8 / rec.n)
+        )
+        r1 = np.corrcoef(e[1:], e[:-1])[0, 1]
+        assert abs(r1) < N_SIGMA / math.sqrt(rec.n)
+
+
+def test_pulse_counting_allan_quantization_term() -> None:
+    # Q = S / sqrt(12) (IEEE Std 952 C.1): the Allan variance of the pulse-counting error
+    # component is 3 Q^2 / tau^2, tested like the white-angle term.
+    pulse_deg = 1e-4
+    rec = gyrodrift.simulate(
+        n=400_000, n_deg_rthr=0.5, pulse_deg=pulse_deg, axes=4, seed=18, keep_components=True
+    )
+    q_deg = pulse_deg / math.sqrt(12.0)
+    err = rec.components["pulse_quantization"]
+    for m in (1, 10, 100):
+        truth = 3.0 * q_deg**2 / (m * DT_H) ** 2
+        avar, dof = allan_disjoint(err, m)
+        # Uniform (not Gaussian) angle error: the squared second difference has a slightly
+        # lighter tail, so the Gaussian chi-square spread is conservative.
+        assert avar / truth == pytest.approx(1.0, abs=chi2_tolerance(dof)), m
+
+
 # --- angle random walk -----------------------------------------------------------------------
 
 
@@ -368,6 +415,7 @@ def test_shapes_units_and_duration() -> None:
         (dict(n=100, ar2=(0.1, 0.1, -1.0)), "sigma"),
         (dict(n=100, ar2=(0.1, 0.1)), "ar2"),
         (dict(n=2.5), "integer"),
+        (dict(n=100, pulse_deg=-1e-5), "pulse_deg"),
     ],
 )
 def test_bad_arguments_raise_value_error(kwargs: dict, match: str) -> None:

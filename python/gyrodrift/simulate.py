@@ -30,6 +30,11 @@ How each term is made (dt = 1 / rate_hz):
 - AR(2) drift (papers' eq. 1) y_k = a1 y_{k-1} + a2 y_{k-2} + r_k, r_k ~ N(0, sigma^2) in deg/h;
   the two initial values are drawn from the exact stationary distribution, so the record is
   stationary from its first sample (no burn-in transient). Non-stationary (a1, a2) are rejected.
+- optional pulse counting (pulse_deg = S > 0), as a ring-laser gyro's digital output: the sum
+  of the terms is integrated to angle theta and the output per sample is
+  floor(theta_k / S) - floor(theta_{k-1} / S) pulses (random initial phase). The angle error is
+  bounded by S and, when the angle noise per sample spans several pulses, white and uniform
+  with variance S^2 / 12, i.e. quantization Q = S / sqrt(12).
 
 Each term draws from its own child stream of ``numpy.random.SeedSequence(seed)``, so adding or
 removing one term does not change the realisation of the others, and the same seed always
@@ -62,7 +67,7 @@ EARTH_RATE_RAD_S = 7.292115e-5
 
 # Order in which terms draw their child seed streams (fixed forever: changing it would change
 # every seeded record other areas rely on).
-_TERM_ORDER = ("q", "n", "b", "k", "ar2")
+_TERM_ORDER = ("q", "n", "b", "k", "ar2", "pulse")
 
 
 @dataclass(frozen=True)
@@ -77,6 +82,10 @@ class NoiseTerms:
         r_deg_h_h: rate ramp R, deg/h/h (may be negative: the sign is the ramp direction).
         bias_deg_h: constant bias, deg/h (any sign).
         ar2: (a1, a2, sigma_deg_h) of the AR(2) drift component, or None.
+        pulse_deg: if > 0, the output is pulse-counted like a ring-laser gyro: the sum of all
+            terms is integrated to angle and the output is whole pulses of this size per
+            sample (rate = counts x pulse_deg / dt). Quantization noise then has
+            Q = pulse_deg / sqrt(12) when the angle sweeps many pulses (IEEE Std 952, C.1).
     """
 
     q_deg: float = 0.0
@@ -86,9 +95,10 @@ class NoiseTerms:
     r_deg_h_h: float = 0.0
     bias_deg_h: float = 0.0
     ar2: tuple[float, float, float] | None = None
+    pulse_deg: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("q_deg", "n_deg_rthr", "b_deg_h", "k_deg_h_rthr"):
+        for name in ("q_deg", "n_deg_rthr", "b_deg_h", "k_deg_h_rthr", "pulse_deg"):
             value = getattr(self, name)
             if not _is_finite_number(value) or value < 0.0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
@@ -127,7 +137,8 @@ class GyroRecord:
         seed: the seed that reproduces it.
         components: per-term contributions in deg/h (same shape as rate_dph) when
             ``keep_components=True`` was passed, keyed "quantization", "arw",
-            "bias_instability", "rrw", "ramp", "bias", "ar2"; otherwise empty.
+            "bias_instability", "rrw", "ramp", "bias", "ar2" and "pulse_quantization" (the
+            pulse-counting error); otherwise empty.
     """
 
     rate_dph: np.ndarray
@@ -346,6 +357,18 @@ def _generate(
         zi = np.stack([a1 * init[:, 0] + a2 * init[:, 1], a2 * init[:, 0]], axis=1)
         y, _ = scipy.signal.lfilter([1.0], [1.0, -a1, -a2], drive, axis=1, zi=zi)
         add("ar2", y)
+    if terms.pulse_deg > 0.0:
+        # Pulse counting (RLG/FOG digital output): counts_k = floor(theta_k / S) -
+        # floor(theta_{k-1} / S) of the integrated angle, with a random initial phase in [0, S).
+        rng = np.random.default_rng(streams["pulse"])
+        pulse = float(terms.pulse_deg)
+        theta0 = pulse * rng.random((axes, 1))
+        theta = theta0 + np.cumsum(rate * dt_h, axis=1)
+        edges = np.floor(np.concatenate([theta0, theta], axis=1) / pulse)
+        quantized = np.diff(edges, axis=1) * (pulse / dt_h)
+        if keep_components:
+            parts["pulse_quantization"] = quantized - rate
+        rate = quantized
     return rate, parts
 
 
@@ -368,6 +391,7 @@ def simulate(
     r_deg_h_h: float = 0.0,
     bias_deg_h: float = 0.0,
     ar2: tuple[float, float, float] | None = None,
+    pulse_deg: float = 0.0,
     axes: int = 1,
     seed: int = 0,
     keep_components: bool = False,
@@ -389,6 +413,7 @@ def simulate(
         r_deg_h_h=r_deg_h_h,
         bias_deg_h=bias_deg_h,
         ar2=ar2,
+        pulse_deg=pulse_deg,
     )
     return simulate_terms(
         terms,
