@@ -12,12 +12,11 @@ namespace detail {
 constexpr std::array<std::uint16_t, 256> make_crc16_ccitt_table() noexcept {
   std::array<std::uint16_t, 256> table{};
   for (std::size_t byte = 0; byte < 256; ++byte) {
-    auto crc = static_cast<std::uint16_t>(byte << 8);
+    auto crc = static_cast<std::uint32_t>(byte << 8);  // unsigned arithmetic throughout
     for (int bit = 0; bit < 8; ++bit) {
-      crc = (crc & 0x8000U) != 0U ? static_cast<std::uint16_t>((crc << 1) ^ 0x1021U)
-                                  : static_cast<std::uint16_t>(crc << 1);
+      crc = (crc & 0x8000U) != 0U ? ((crc << 1U) ^ 0x1021U) : (crc << 1U);
     }
-    table[byte] = crc;
+    table[byte] = static_cast<std::uint16_t>(crc & 0xFFFFU);
   }
   return table;
 }
@@ -30,8 +29,9 @@ inline constexpr std::uint16_t kCrc16CcittInit = 0xFFFFU;
 inline std::uint16_t crc16_ccitt_false(const std::uint8_t* data, std::size_t n,
                                        std::uint16_t crc = kCrc16CcittInit) noexcept {
   for (std::size_t i = 0; i < n; ++i) {
-    const auto index = static_cast<std::size_t>(((crc >> 8) ^ data[i]) & 0xFFU);
-    crc = static_cast<std::uint16_t>((crc << 8) ^ detail::kCrc16CcittTable[index]);
+    const auto c = static_cast<std::uint32_t>(crc);
+    const auto index = static_cast<std::size_t>(((c >> 8U) ^ data[i]) & 0xFFU);
+    crc = static_cast<std::uint16_t>(((c << 8U) ^ detail::kCrc16CcittTable[index]) & 0xFFFFU);
   }
   return crc;
 }

@@ -240,10 +240,12 @@ class SerialFrameParser {
     return buffered() >= 2;
   }
 
-  std::array<std::uint8_t, Capacity> buf_{};
+  // The buffer is the last member, so any access past its end would leave the object
+  // (caught by AddressSanitizer when the parser lives on the heap, as in the fuzz test).
   std::size_t head_ = 0;
   std::size_t tail_ = 0;
   SerialParserStats stats_{};
+  std::array<std::uint8_t, Capacity> buf_{};
 };
 
 }  // namespace gyrodrift::serial

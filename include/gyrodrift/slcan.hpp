@@ -222,10 +222,11 @@ class SlcanParser {
     return true;
   }
 
-  std::array<char, LineCapacity> line_{};
+  // The line buffer is the last member (see SerialFrameParser): overruns leave the object.
   std::size_t len_ = 0;
   bool overlong_ = false;
   SlcanStats stats_{};
+  std::array<char, LineCapacity> line_{};
 };
 
 }  // namespace gyrodrift::slcan
