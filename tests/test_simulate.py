@@ -20,6 +20,8 @@ import numpy as np
 import pytest
 import scipy.fft
 from gyrodrift.simulate import NoiseTerms, ar2_stationary_covariance, gravity_wgs84
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 RATE_HZ = 400.0
 DT_S = 1.0 / RATE_HZ
@@ -501,3 +503,60 @@ def test_imu_per_axis_terms_and_validation() -> None:
     b = gyrodrift.simulate_imu(n=50, gyro=NoiseTerms(n_deg_rthr=0.1), vrw_mps_rthr=0.1, seed=9)
     np.testing.assert_array_equal(a.gyro_rads, b.gyro_rads)
     np.testing.assert_array_equal(a.accel_mps2, b.accel_mps2)
+
+
+# --- properties over random arguments --------------------------------------------------------
+
+_nonneg = st.floats(min_value=0.0, max_value=10.0, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    n=st.integers(min_value=2, max_value=300),
+    axes=st.integers(min_value=1, max_value=4),
+    rate_hz=st.floats(min_value=0.5, max_value=2000.0),
+    q=_nonneg,
+    arw=_nonneg,
+    b=_nonneg,
+    k=_nonneg,
+    r=st.floats(min_value=-10.0, max_value=10.0),
+    bias=st.floats(min_value=-100.0, max_value=100.0),
+    a1=st.floats(min_value=-1.9, max_value=1.9),
+    a2=st.floats(min_value=-0.95, max_value=0.95),
+    pulse=st.sampled_from([0.0, 1e-5, 1e-3]),
+    seed=st.integers(min_value=0, max_value=2**32),
+)
+def test_any_valid_arguments_give_finite_reproducible_records(
+    n: int,
+    axes: int,
+    rate_hz: float,
+    q: float,
+    arw: float,
+    b: float,
+    k: float,
+    r: float,
+    bias: float,
+    a1: float,
+    a2: float,
+    pulse: float,
+    seed: int,
+) -> None:
+    ar2 = (a1, a2, 0.1) if (a2 + a1 < 0.99 and a2 - a1 < 0.99) else None
+    kwargs = dict(
+        n=n,
+        rate_hz=rate_hz,
+        q_deg=q,
+        n_deg_rthr=arw,
+        b_deg_h=b,
+        k_deg_h_rthr=k,
+        r_deg_h_h=r,
+        bias_deg_h=bias,
+        ar2=ar2,
+        pulse_deg=pulse,
+        axes=axes,
+        seed=seed,
+    )
+    rec = gyrodrift.simulate(**kwargs)
+    assert rec.rate_dph.shape == ((n,) if axes == 1 else (n, axes))
+    assert np.all(np.isfinite(rec.rate_dph))
+    np.testing.assert_array_equal(rec.rate_dph, gyrodrift.simulate(**kwargs).rate_dph)
