@@ -92,6 +92,7 @@ class ReplayOptions:
     loop_rate_hz: float = 400.0
     loop_binary: str | None = None
     loop_realtime: bool = True  # ask the loop for SCHED_FIFO + mlockall
+    harness_realtime: bool = False  # run the harness's sender/reader threads SCHED_FIFO too
     attach: str | None = None  # device path / CAN interface of a running target
     faults: FaultSpec = field(default_factory=FaultSpec)
     processor: ProcessorSettings = field(default_factory=ProcessorSettings)
@@ -263,6 +264,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     target.start()
     link: SerialLink | CanLink | None = None
     write_ns = np.zeros(n_units, dtype=np.int64)
+    harness_rt = _harness_realtime(True) if opt.harness_realtime else "not requested"
     try:
         if opt.transport == "serial":
             link = SerialLink(target.device, opt.baud)
@@ -313,6 +315,8 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     finally:
         if link is not None:
             link.close()
+        if opt.harness_realtime:
+            _harness_realtime(False)
         loop_stats = target.stop()
 
     # Outputs received, with arrival times.
@@ -352,10 +356,24 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     report = _build_report(samples, plan, opt, ref, d_seq, exp_seq, exp_flags, exp_values,
                            expected_pos, got, got_arrival, write_ns, start_ns, end_write_ns,
                            link, loop_stats, link_issues, capture_error, target)
+    report["harness_realtime"] = harness_rt
     n_cmp = min(got.seq.size, expected_pos.size)
     lat = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
     arrival_s = (got_arrival - start_ns) * 1e-9
     return ReplayResult(report, lat, arrival_s, loop_stats)
+
+
+def _harness_realtime(on: bool) -> str:
+    """SCHED_FIFO (priority 70, below the loop's 80) for this thread and the threads it
+    starts afterwards (the link reader), or back to SCHED_OTHER. Returns what happened."""
+    try:
+        if on:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(70))
+            return "SCHED_FIFO 70"
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        return "SCHED_OTHER"
+    except (OSError, AttributeError) as exc:
+        return f"not permitted: {exc}"
 
 
 def _send(link: SerialLink | CanLink, unit: Any, rng: np.random.Generator) -> None:

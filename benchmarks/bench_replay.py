@@ -1,0 +1,184 @@
+"""Benchmark: hardware-in-the-loop replay through gyrodrift-loop on a pseudo-terminal.
+
+1. Real time: `--duration-s` (default 600 = 10 min) of 400 Hz six-channel data replayed at 1x
+   over the serial pty into the loop (SCHED_FIFO + mlockall when permitted): lost frames,
+   latency (input written -> output read), the loop's period jitter, compute per sample
+   (decode-free ImuProcessor<float> step) and per cycle (read + all steps + write).
+2. As fast as possible: serial pty throughput end to end (median of repeats), against the
+   peer run in the same process: the same frames parsed (gyrodrift.codecs.FrameParser) and
+   filtered (gyrodrift.reference.imu.process_imu) in Python. Plus SLCAN through python-can.
+
+Prints markdown tables and the machine. Not a test: the machine is shared and noisy.
+
+    PYTHONPATH=python:build/dev-NAME/py GYRODRIFT_CPP_BUILD_DIR=build/dev-NAME \
+        python3 benchmarks/bench_replay.py [--duration-s 600] [--fast-frames 200000]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import time
+
+import numpy as np
+from gyrodrift.codecs import FrameParser
+from gyrodrift.reference.imu import process_imu
+from gyrodrift.replay.harness import ReplayOptions, ReplayResult, find_loop_binary, run_replay
+from gyrodrift.replay.processor import ProcessorSettings
+from gyrodrift.replay.wire import Samples, encode_frames, make_samples
+from gyrodrift.simulate import NoiseTerms, simulate_imu
+
+
+def machine() -> str:
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown machine"
+    fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
+    return f"{fields.get('Model name', '?').strip()}, {fields.get('CPU(s)', '?').strip()} CPUs"
+
+
+def record(n: int, rate_hz: float) -> Samples:
+    rec = simulate_imu(n=n, rate_hz=rate_hz, seed=1, vrw_mps_rthr=0.02,
+                       gyro=NoiseTerms(n_deg_rthr=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)))
+    return make_samples(np.arange(n) / rate_hz, rec.gyro_rads, rec.accel_mps2)
+
+
+def settings(rate_hz: float) -> ProcessorSettings:
+    sigma2 = (0.5 * np.pi / 180 / 3600) ** 2
+    return ProcessorSettings(a1=1.0, a2=-0.25, sigma2=sigma2, q=sigma2, r=1e-10,
+                             sample_rate_hz=rate_hz)
+
+
+def yes(ok: bool) -> str:
+    return "yes" if ok else "**no**"
+
+
+def real_time(args: argparse.Namespace) -> tuple[list[str], ReplayResult]:
+    rate = 400.0
+    n = int(args.duration_s * rate)
+    res = run_replay(record(n, rate), ReplayOptions(
+        transport="serial", speed=1.0, loop_rate_hz=args.loop_rate_hz,
+        loop_binary=args.loop_binary, processor=settings(rate), harness_realtime=True))
+    rep, loop = res.report, res.loop_stats or {}
+    acc = rep["accounting"]
+    lost = acc["sent"] - acc["outputs_received"]
+    lat = rep["latency_us"]
+    jit = loop.get("period_jitter_us", {})
+    step = loop.get("step_us", {})
+    comp = loop.get("compute_us", {})
+    rt = loop.get("realtime", {})
+    rows = [
+        f"### Real time: {args.duration_s:g} s of 400 Hz six-channel data at 1x, serial pty, "
+        f"loop at {args.loop_rate_hz:g} Hz",
+        "",
+        "| metric | value | target | met |",
+        "| --- | --- | --- | --- |",
+        f"| frames sent / outputs received | {acc['sent']} / {acc['outputs_received']} | | |",
+        f"| lost frames (unaccounted) | {lost} ({acc['unaccounted']}) | 0 | {yes(lost == 0)} |",
+        f"| outputs equal to reference (max abs err) | "
+        f"{max(rep['comparison']['max_abs_error']):.2e} | <= 1e-5 | "
+        f"{yes(rep['checks']['values_within_tolerance'])} |",
+        f"| latency p50 / p99 / max (us) | {lat['p50']:.0f} / {lat['p99']:.0f} / "
+        f"{lat['max']:.0f} | p99 <= 1000 | {yes(lat['p99'] <= 1000)} |",
+        f"| loop period jitter p50 / p99 / max (us) | {jit.get('p50', float('nan')):.1f} / "
+        f"{jit.get('p99', float('nan')):.1f} / {jit.get('max', float('nan')):.1f} | "
+        f"p99 <= 200 | {yes(jit.get('p99', 1e9) <= 200)} |",
+        f"| compute per sample (ImuProcessor step) p50 / p99 / max (us) | "
+        f"{step.get('p50', float('nan')):.3f} / {step.get('p99', float('nan')):.3f} / "
+        f"{step.get('max', float('nan')):.3f} | max <= 2 | {yes(step.get('max', 1e9) <= 2)} |",
+        f"| compute per cycle incl. read/write syscalls p50 / p99 / max (us) | "
+        f"{comp.get('p50', float('nan')):.1f} / {comp.get('p99', float('nan')):.1f} / "
+        f"{comp.get('max', float('nan')):.1f} | | |",
+        f"| cycles / overruns | {loop.get('cycles')} / {loop.get('overruns')} | | |",
+        f"| SCHED_FIFO / mlockall | {rt.get('sched_fifo')} / {rt.get('mlockall')} | both | "
+        f"{yes(bool(rt.get('sched_fifo') and rt.get('mlockall')))} |",
+        f"| harness (sender + reader) scheduling | {rep.get('harness_realtime')} | | |",
+        f"| all replay checks | {'pass' if res.ok else 'FAIL'} | pass | {yes(res.ok)} |",
+    ]
+    return rows, res
+
+
+def fast(args: argparse.Namespace) -> list[str]:
+    rate = 400.0
+    n = args.fast_frames
+    rec = record(n, rate)
+    opt = ReplayOptions(transport="serial", speed=0.0, loop_rate_hz=args.loop_rate_hz,
+                        loop_binary=args.loop_binary, processor=settings(rate))
+    rates, oks = [], []
+    for _ in range(args.repeats):
+        res = run_replay(rec, opt)
+        rates.append(res.report["throughput"]["frames_per_s_end_to_end"])
+        oks.append(res.ok)
+    loop_fps = statistics.median(rates)
+    # Peer in the same process: Python parses and filters the same frames (a subset: it is
+    # slow), timed the same way (median of repeats).
+    n_peer = min(n, args.peer_frames)
+    sub = rec.take(np.arange(n_peer))
+    data = encode_frames(sub).tobytes()
+    cfg = settings(rate).imu_config()
+    peer_t = []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        frames = FrameParser().feed(data)
+        process_imu([f.seq for f in frames], [f.t_us for f in frames],
+                    np.array([f.values for f in frames]), cfg)
+        peer_t.append(time.perf_counter() - t0)
+    peer_fps = n_peer / statistics.median(peer_t)
+    # SLCAN through python-can (the Python peer of the loop's SLCAN side).
+    n_can = min(n, args.slcan_frames)
+    res_can = run_replay(rec.take(np.arange(n_can)), ReplayOptions(
+        transport="slcan", speed=0.0, loop_rate_hz=args.loop_rate_hz,
+        loop_binary=args.loop_binary, processor=settings(rate)))
+    can_fps = res_can.report["throughput"]["frames_per_s_end_to_end"]
+    return [
+        f"### As fast as possible (median of {args.repeats})",
+        "",
+        "| path | frames | ns/frame | frames/s | ratio vs Python peer | target | met |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+        f"| serial pty -> gyrodrift-loop -> pty, end to end | {n} | {1e9 / loop_fps:.0f} | "
+        f"{loop_fps:,.0f} | {loop_fps / peer_fps:.1f} | >= 200,000 | "
+        f"{yes(loop_fps >= 200_000 and all(oks))} |",
+        f"| Python peer: codecs.FrameParser + reference.imu.process_imu (offline) | {n_peer} | "
+        f"{1e9 / peer_fps:.0f} | {peer_fps:,.0f} | 1.0 | | |",
+        f"| SLCAN pty via python-can slcan -> gyrodrift-loop -> python-can | {n_can} samples "
+        f"({4 * n_can} CAN frames) | {1e9 / can_fps:.0f} | {can_fps:,.0f} samples/s | "
+        f"{can_fps / peer_fps:.2f} | | {yes(res_can.ok)} |",
+    ]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--duration-s", type=float, default=600.0)
+    parser.add_argument("--loop-rate-hz", type=float, default=2000.0,
+                        help="loop rate for both parts (2 kHz: a 400 Hz sample waits < 0.5 ms)")
+    parser.add_argument("--fast-frames", type=int, default=200_000)
+    parser.add_argument("--peer-frames", type=int, default=20_000)
+    parser.add_argument("--slcan-frames", type=int, default=5_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--loop-binary", default=None)
+    parser.add_argument("--json", default=None, help="also write the real-time report here")
+    parser.add_argument("--skip-real-time", action="store_true")
+    args = parser.parse_args()
+    args.loop_binary = str(find_loop_binary(args.loop_binary))
+    print(f"machine: {machine()}; load average at start: "
+          f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}; loop: {args.loop_binary}\n")
+    for line in fast(args):
+        print(line, flush=True)
+    print()
+    if not args.skip_real_time:
+        rows, res = real_time(args)
+        for line in rows:
+            print(line)
+        print(f"\nload average at end: {', '.join(f'{x:.1f}' for x in os.getloadavg())}")
+        if args.json:
+            with open(args.json, "w") as fh:
+                json.dump(res.report, fh, indent=1, default=str)
+
+
+if __name__ == "__main__":
+    main()
