@@ -44,5 +44,11 @@ from gyrodrift.noise_id import identify_noise as identify_noise
 from gyrodrift.noise_id import paper_fit as paper_fit
 from gyrodrift.noise_id import slope_method as slope_method
 from gyrodrift.psd import welch_psd as welch_psd
+
 # --- IMU processor, codecs, replay (issue 5) ---
+# isort: split
+from gyrodrift.replay import ReplayOptions as ReplayOptions
+from gyrodrift.replay import read_imu_log as read_imu_log
+from gyrodrift.replay import run_replay as run_replay
+from gyrodrift.replay import write_imu_log as write_imu_log
 # --- alignment (issue 6) ---
