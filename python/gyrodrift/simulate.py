@@ -126,7 +126,7 @@ class NoiseTerms:
             object.__setattr__(self, "ar2", (a1, a2, sigma))
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # array fields: identity comparison
 class GyroRecord:
     """A simulated gyro rate record.
 
@@ -185,7 +185,7 @@ class GyroRecord:
         return np.deg2rad(self.dtheta_deg)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # array fields: identity comparison
 class ImuRecord:
     """A simulated static strapdown IMU record.
 
