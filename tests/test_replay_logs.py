@@ -8,13 +8,11 @@ from pathlib import Path
 import can
 import numpy as np
 import pytest
+from gyrodrift.codecs import FrameParser
 from gyrodrift.replay.logs import FORMATS, read_imu_log, write_imu_log
 from gyrodrift.replay.wire import (
-    CanFrame,
-    assemble_can,
     crc16_ccitt_false,
     decode_stream,
-    encode_can,
     encode_frames,
     make_samples,
 )
@@ -120,18 +118,25 @@ def test_decode_stream_resynchronises(rng: np.random.Generator) -> None:
     assert dec.garbage_bytes == 17 + 42
 
 
-def test_can_frames_and_incomplete_samples(rng: np.random.Generator) -> None:
-    t_s, gyro, accel = _record(rng, 20)
-    s = make_samples(t_s, gyro, accel)
-    frames = encode_can(s)
-    assert [f[0] for f in frames[:4]] == [0x100, 0x101, 0x102, 0x103]
-    # 0x101: GyroZ float32 then Seq u16 then Flags u16, little-endian.
-    assert frames[4 + 1][1] == struct.pack("<fHH", np.float32(gyro[1, 2]), 1, 0)
-    msgs = [CanFrame(i, d, 0.0) for i, d in frames]
-    del msgs[4 * 3 + 2]  # lose the AccelXY frame of sample 3
-    asm = assemble_can(msgs)
-    assert list(asm.samples.seq) == [k for k in range(20) if k != 3]
-    assert asm.incomplete == 1
+def test_decoder_agrees_with_codecs_parser(rng: np.random.Generator) -> None:
+    t_s, gyro, accel = _record(rng, 60)
+    frames = encode_frames(make_samples(t_s, gyro, accel)).tobytes()
+    stream = b"\x00\x13" + frames[:700] + b"\xa5" + frames[700:]
+    ours = decode_stream(stream)
+    theirs = FrameParser().feed(stream)
+    assert [f.seq for f in theirs] == list(ours.samples.seq)
+    np.testing.assert_array_equal(np.array([f.values for f in theirs], np.float32),
+                                  ours.samples.channels)
+
+
+def test_can_log_frames_match_the_dbc(tmp_path: Path, rng: np.random.Generator) -> None:
+    t_s, gyro, accel = _record(rng, 5)
+    path = write_imu_log(tmp_path / "rec.log", t_s, gyro, accel)
+    msgs = list(can.LogReader(str(path)))
+    assert [m.arbitration_id for m in msgs[:4]] == [0x100, 0x101, 0x102, 0x103]
+    # Hand-checked layout of 0x101 (sample 1): GyroZ float32, Seq u16, Flags u16, little-endian.
+    assert bytes(msgs[5].data) == struct.pack("<fHH", np.float32(gyro[1, 2]), 1, 0)
+    assert all(m.timestamp == pytest.approx(t_s[k // 4], abs=1e-6) for k, m in enumerate(msgs))
 
 
 def test_incomplete_can_log_is_an_error(tmp_path: Path, rng: np.random.Generator) -> None:

@@ -13,15 +13,12 @@ from pathlib import Path
 import can
 import numpy as np
 
+from gyrodrift.codecs import INPUT_BASE_ID, SampleAssembler, encode_sample
 from gyrodrift.replay.wire import (
-    CAN_INPUT_BASE_ID,
     FRAME_LEN,
     TYPE_INPUT,
-    CanFrame,
     Samples,
-    assemble_can,
     decode_stream,
-    encode_can,
     encode_frames,
     make_samples,
 )
@@ -88,17 +85,19 @@ def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) ->
                 w.writerow([f"{t_s[k]:.6f}", int(samples.seq[k]), int(samples.flags[k]),
                             *(repr(float(v)) for v in samples.channels[k])])
     else:
-        frames = encode_can(samples, CAN_INPUT_BASE_ID)
-        t_s = np.repeat(samples.t_s, 4)
         # python-can picks the writer (CanutilsLogWriter, ASCWriter, BLFWriter) from the suffix.
         suffix = {"candump": ".log", "asc": ".asc", "blf": ".blf"}[kind]
         if path.suffix.lower() != suffix:
             raise ValueError(f"{kind} logs must end in {suffix}, got {path.name}")
+        t_s = samples.t_s
         with can.Logger(str(path)) as writer:
-            for (arb_id, data), ts in zip(frames, t_s, strict=True):
-                writer.on_message_received(can.Message(
-                    timestamp=float(ts), arbitration_id=arb_id, is_extended_id=False,
-                    data=data, channel=0))
+            for k in range(len(samples)):
+                # The DBC encoding (cantools) of the sample's four frames, all at its time.
+                for m in encode_sample(int(samples.seq[k]), samples.channels[k],
+                                       flags=int(samples.flags[k]), base_id=INPUT_BASE_ID):
+                    m.timestamp = float(t_s[k])
+                    m.channel = 0
+                    writer.on_message_received(m)
     return path
 
 
@@ -126,17 +125,31 @@ def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
         return dec.samples
     if kind == "csv":
         return _read_csv(path)
-    frames = [CanFrame(m.arbitration_id, bytes(m.data), m.timestamp)
-              for m in can.LogReader(str(path)) if not m.is_error_frame]
-    asm = assemble_can(frames, CAN_INPUT_BASE_ID)
-    if asm.incomplete or asm.foreign or asm.orphan_frames:
-        raise ValueError(f"{path}: {asm.incomplete} incomplete samples (can_incomplete), "
-                         f"{asm.orphan_frames} orphan XY frames and {asm.foreign} frames "
-                         "with foreign IDs")
-    if len(asm.samples) == 0:
+    asm = SampleAssembler(base_id=INPUT_BASE_ID)
+    seq: list[int] = []
+    flags: list[int] = []
+    values: list[tuple[float, ...]] = []
+    stamps: list[float] = []
+    for m in can.LogReader(str(path)):
+        if m.is_error_frame:
+            continue
+        s = asm.push(m)
+        if s is not None:
+            seq.append(s.seq)
+            flags.append(s.flags)
+            values.append(s.values)
+            stamps.append(m.timestamp)  # CAN carries no sample time: the log's time is it
+    asm.finish()
+    st = asm.stats
+    if st.incomplete_samples or st.orphan_frames or st.foreign_frames or st.bad_dlc:
+        raise ValueError(f"{path}: {st.incomplete_samples} incomplete samples (can_incomplete), "
+                         f"{st.orphan_frames} orphan frames, {st.foreign_frames} frames with "
+                         f"foreign IDs, {st.bad_dlc} with a bad DLC")
+    if not seq:
         raise ValueError(f"{path}: no IMU samples (CAN IDs 0x100..0x103) in the log")
-    # CAN frames carry no sample timestamp: the log's message time is it.
-    return asm.samples
+    return Samples(np.asarray(seq, np.uint16), np.asarray(flags, np.uint16),
+                   np.round(np.asarray(stamps) * 1e6).astype(np.uint64),
+                   np.asarray(values, np.float32).reshape(-1, 6))
 
 
 def _read_csv(path: Path) -> Samples:

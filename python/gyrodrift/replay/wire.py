@@ -1,15 +1,12 @@
-"""Bulk (whole-record) encoding and decoding of the issue-5 wire formats for the replay harness.
+"""Whole-record serial frames for the replay harness: wire-typed samples, encoding (through
+gyrodrift.codecs.encode_frames) and a stream decoder that also reports where each frame ended
+in the stream (the harness needs that to time each output's arrival).
 
-The per-frame codecs live in `gyrodrift.codecs` (owned by the codecs work); the harness needs
-to turn a whole record into bytes and back fast enough to drive the loop at >= 200k frames/s,
-so it packs with a numpy structured dtype and computes the CRC with `binascii.crc_hqx`
-(CRC-16/CCITT-FALSE = crc_hqx with init 0xFFFF). The tests check these against the
-per-frame codecs and against hand-checked bytes.
+The CRC is `binascii.crc_hqx` with init 0xFFFF (= CRC-16/CCITT-FALSE). The tests check the
+decoder against gyrodrift.codecs.FrameParser and hand-checked bytes.
 
 Serial frame (little-endian, 42 bytes): A5 5A | type | len=36 | seq u16 | flags u16 |
 t_us u64 | 6 x float32 (gyro x y z rad/s, accel x y z m/s^2) | CRC-16 over bytes 2..39.
-CAN (classic, 11-bit): per sample 0x100 GyroXY, 0x101 GyroZ+Seq+Flags, 0x102 AccelXY,
-0x103 AccelZ+Seq+Flags (input); 0x180..0x183 the same layout for the filtered output.
 """
 
 from __future__ import annotations
@@ -19,14 +16,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gyrodrift import codecs
+
 SYNC0 = 0xA5
 SYNC1 = 0x5A
 TYPE_INPUT = 0x01
 TYPE_OUTPUT = 0x81
 PAYLOAD_LEN = 36
 FRAME_LEN = 42
-CAN_INPUT_BASE_ID = 0x100
-CAN_OUTPUT_BASE_ID = 0x180
 
 FRAME_DTYPE = np.dtype(
     [
@@ -42,10 +39,6 @@ FRAME_DTYPE = np.dtype(
     ]
 )
 assert FRAME_DTYPE.itemsize == FRAME_LEN
-
-# CAN payloads: two float32, or float32 + seq u16 + flags u16 (little-endian, byte 0 first).
-_CAN_PAIR_DTYPE = np.dtype([("a", "<f4"), ("b", "<f4")])
-_CAN_TAIL_DTYPE = np.dtype([("a", "<f4"), ("seq", "<u2"), ("flags", "<u2")])
 
 
 def crc16_ccitt_false(data: bytes) -> int:
@@ -98,22 +91,9 @@ def make_samples(t_s: np.ndarray, gyro_rad_s: np.ndarray, accel_m_s2: np.ndarray
 
 def encode_frames(samples: Samples, frame_type: int = TYPE_INPUT) -> np.ndarray:
     """All samples as serial frames: an (n, 42) uint8 array (row i = frame i)."""
-    n = len(samples)
-    rec = np.zeros(n, dtype=FRAME_DTYPE)
-    rec["sync0"] = SYNC0
-    rec["sync1"] = SYNC1
-    rec["type"] = frame_type
-    rec["len"] = PAYLOAD_LEN
-    rec["seq"] = samples.seq
-    rec["flags"] = samples.flags
-    rec["t_us"] = samples.t_us
-    rec["ch"] = samples.channels
-    raw = rec.view(np.uint8).reshape(n, FRAME_LEN)
-    body = raw[:, 2:40]
-    crc = np.fromiter((binascii.crc_hqx(row.tobytes(), 0xFFFF) for row in body),
-                      dtype=np.uint16, count=n)
-    rec["crc"] = crc
-    return raw
+    raw = codecs.encode_frames(samples.seq, samples.t_us, samples.channels,
+                               frame_type=frame_type, flags=samples.flags)
+    return np.frombuffer(raw, dtype=np.uint8).reshape(len(samples), FRAME_LEN)
 
 
 @dataclass
@@ -170,101 +150,3 @@ def decode_stream(data: bytes) -> DecodedStream:
                       rec["ch"].astype(np.float32))
     return DecodedStream(rec["type"].copy(), samples, idx + FRAME_LEN, crc_errors, garbage,
                          truncated)
-
-
-@dataclass
-class CanFrame:
-    arbitration_id: int
-    data: bytes
-    timestamp: float = 0.0
-
-
-def encode_can(samples: Samples, base_id: int = CAN_INPUT_BASE_ID) -> list[tuple[int, bytes]]:
-    """Each sample as its 4 classic CAN frames (base+0 .. base+3), in sample order."""
-    n = len(samples)
-    ch = samples.channels
-    pairs_g = np.zeros(n, _CAN_PAIR_DTYPE)
-    pairs_g["a"], pairs_g["b"] = ch[:, 0], ch[:, 1]
-    tail_g = np.zeros(n, _CAN_TAIL_DTYPE)
-    tail_g["a"], tail_g["seq"], tail_g["flags"] = ch[:, 2], samples.seq, samples.flags
-    pairs_a = np.zeros(n, _CAN_PAIR_DTYPE)
-    pairs_a["a"], pairs_a["b"] = ch[:, 3], ch[:, 4]
-    tail_a = np.zeros(n, _CAN_TAIL_DTYPE)
-    tail_a["a"], tail_a["seq"], tail_a["flags"] = ch[:, 5], samples.seq, samples.flags
-    out: list[tuple[int, bytes]] = []
-    for k in range(n):
-        out.append((base_id, pairs_g[k].tobytes()))
-        out.append((base_id + 1, tail_g[k].tobytes()))
-        out.append((base_id + 2, pairs_a[k].tobytes()))
-        out.append((base_id + 3, tail_a[k].tobytes()))
-    return out
-
-
-@dataclass
-class CanAssembly:
-    """Samples assembled from CAN frames, plus what could not be assembled."""
-
-    samples: Samples
-    timestamp_s: np.ndarray  # arrival/log time of each sample's last frame
-    incomplete: int = 0  # samples with some but not all four frames ("can_incomplete")
-    foreign: int = 0  # frames with other IDs or lengths
-    orphan_frames: int = 0  # XY frames whose Seq frame never came (sample seq unknown)
-
-
-def assemble_can(frames: list[CanFrame], base_id: int = CAN_INPUT_BASE_ID) -> CanAssembly:
-    """Group frames into samples: XY frame then its Seq frame, gyro half + accel half.
-
-    0x100/0x102 carry no Seq, so each pairs with the Seq frame that follows it; a sample is
-    complete when the gyro and the accel half with the same Seq are both present.
-    """
-    seqs: list[int] = []
-    flags: list[int] = []
-    chans: list[list[float]] = []
-    stamps: list[float] = []
-    broken: set[int] = set()  # seqs known to be incomplete (counted once each)
-    orphans = 0
-    foreign = 0
-    pending_xy: list[bytes | None] = [None, None]  # gyro XY, accel XY
-    half: dict[int, tuple[int, int, list[float]]] = {}  # seq -> (which half, flags, values)
-    for f in frames:
-        off = f.arbitration_id - base_id
-        if off not in (0, 1, 2, 3) or len(f.data) != 8:
-            foreign += 1
-            continue
-        if off in (0, 2):
-            if pending_xy[off // 2] is not None:
-                orphans += 1  # an XY frame whose Seq frame never came
-            pending_xy[off // 2] = bytes(f.data)
-            continue
-        which = off // 2
-        xy = pending_xy[which]
-        pending_xy[which] = None
-        tail = np.frombuffer(bytes(f.data), _CAN_TAIL_DTYPE)[0]
-        seq = int(tail["seq"])
-        if xy is None:
-            half.pop(seq, None)
-            broken.add(seq)
-            continue
-        if seq in broken:
-            continue
-        pair = np.frombuffer(xy, _CAN_PAIR_DTYPE)[0]
-        values = [float(pair["a"]), float(pair["b"]), float(tail["a"])]
-        other = half.pop(seq, None)
-        if other is None or other[0] == which:
-            if other is not None:
-                broken.add(seq)  # the same half twice: cannot tell which is right
-                continue
-            half[seq] = (which, int(tail["flags"]), values)
-            continue
-        gyro, accel = (other[2], values) if other[0] == 0 else (values, other[2])
-        seqs.append(seq)
-        flags.append(int(tail["flags"]) | other[1])
-        chans.append(gyro + accel)
-        stamps.append(float(f.timestamp))
-    incomplete = len(broken | set(half))
-    orphans += sum(x is not None for x in pending_xy)
-    ts = np.asarray(stamps, dtype=np.float64)
-    samples = Samples(np.asarray(seqs, np.uint16), np.asarray(flags, np.uint16),
-                      np.round(ts * 1e6).astype(np.uint64) if ts.size else np.zeros(0, np.uint64),
-                      np.asarray(chans, np.float32).reshape(-1, 6))
-    return CanAssembly(samples, ts, incomplete, foreign, orphans)
