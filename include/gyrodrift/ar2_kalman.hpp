@@ -63,20 +63,51 @@ class Ar2Kalman {
     const Scalar x0 = a1_ * x_(0) + a2_ * x_(1);
     const Scalar x1 = x_(0);
     const Scalar z = y - mean_;
-    if (latched_) {
-      // Covariance at its floating-point fixed point: the recursion below would recompute
-      // exactly these P-, K and P, so only the state is updated (bit-identical output).
-      if (std::isfinite(z)) {
-        const Scalar v = z - x0;
-        const Scalar nx0 = x0 + k_(0) * v;
-        const Scalar nx1 = x1 + k_(1) * v;
-        if (std::isfinite(nx0 + nx1)) {
-          x_ << nx0, nx1;
-          return nx0 + mean_;
-        }
+    if (latched_ && std::isfinite(z)) {
+      // Covariance at its floating-point fixed point: the recursion in full_step() would
+      // recompute exactly these P-, K and P, so only the state is updated (bit-identical).
+      const Scalar v = z - x0;
+      const Scalar nx0 = x0 + k_(0) * v;
+      const Scalar nx1 = x1 + k_(1) * v;
+      if (std::isfinite(nx0 + nx1)) {
+        x_ << nx0, nx1;
+        return nx0 + mean_;
       }
-      latched_ = false;  // fall through: predict-only step from the latched P
     }
+    return full_step(x0, x1, z);
+  }
+
+  // The covariance recursion does not depend on the data: once P reaches a floating-point
+  // fixed point (P_k == P_{k-1} bit for bit) the filter skips recomputing it until a fault
+  // step perturbs P. Outputs are bit-identical either way; disable for constant per-step
+  // execution time (the worst case, e.g. for WCET budgets).
+  void set_covariance_latch(bool enabled) noexcept {
+    latch_enabled_ = enabled;
+    if (!enabled) latched_ = false;
+  }
+  bool covariance_latched() const noexcept { return latched_; }
+
+  // Back to X_0 = 0, P_0 = p0 I, zero faults: identical behaviour to a new filter.
+  void reset() noexcept {
+    x_.setZero();
+    P_ = Matrix2::Identity() * p0_;
+    k_.setZero();
+    faults_ = 0;
+    latched_ = false;
+  }
+
+  std::uint32_t fault_count() const noexcept { return faults_; }
+  Ar2Status status() const noexcept { return status_; }
+  const Vector2& state() const noexcept { return x_; }        // demeaned [x_k, x_{k-1}]
+  const Matrix2& covariance() const noexcept { return P_; }
+  Scalar q() const noexcept { return q_; }
+  Scalar r() const noexcept { return r_; }
+
+ private:
+  // Predict + Joseph update given the predicted state (x0, x1) and demeaned sample z; a
+  // non-finite z or update is a predict-only step.
+  Scalar full_step(Scalar x0, Scalar x1, Scalar z) noexcept {
+    latched_ = false;
     // Predict (P symmetric: only p00, p01, p11 are formed, then mirrored).
     const Scalar p00 = P_(0, 0), p01 = P_(0, 1), p11 = P_(1, 1);
     const Scalar m00 = a1_ * p00 + a2_ * p01;  // (A P)_00
@@ -118,33 +149,6 @@ class Ar2Kalman {
     return x0 + mean_;
   }
 
-  // The covariance recursion does not depend on the data: once P reaches a floating-point
-  // fixed point (P_k == P_{k-1} bit for bit) the filter skips recomputing it until a fault
-  // step perturbs P. Outputs are bit-identical either way; disable for constant per-step
-  // execution time (the worst case, e.g. for WCET budgets).
-  void set_covariance_latch(bool enabled) noexcept {
-    latch_enabled_ = enabled;
-    if (!enabled) latched_ = false;
-  }
-  bool covariance_latched() const noexcept { return latched_; }
-
-  // Back to X_0 = 0, P_0 = p0 I, zero faults: identical behaviour to a new filter.
-  void reset() noexcept {
-    x_.setZero();
-    P_ = Matrix2::Identity() * p0_;
-    k_.setZero();
-    faults_ = 0;
-    latched_ = false;
-  }
-
-  std::uint32_t fault_count() const noexcept { return faults_; }
-  Ar2Status status() const noexcept { return status_; }
-  const Vector2& state() const noexcept { return x_; }        // demeaned [x_k, x_{k-1}]
-  const Matrix2& covariance() const noexcept { return P_; }
-  Scalar q() const noexcept { return q_; }
-  Scalar r() const noexcept { return r_; }
-
- private:
   // Symmetric by construction; diagonal clamped at 0 against rounding (P is PSD in exact
   // arithmetic, Joseph form keeps it so up to rounding).
   void store_p(Scalar p00, Scalar p01, Scalar p11) noexcept {
