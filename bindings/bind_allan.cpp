@@ -4,8 +4,10 @@
 //   tau_grid(grid, max_m, per_decade) averaging-factor grids
 #include <gyrodrift/allan.hpp>
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -33,13 +35,18 @@ const T* require_1d(const CArray<T>& a, const char* what) {
 
 template <class T>
 py::tuple oadev_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_in,
-                       const std::string& kind_name) {
+                       const std::string& kind_name, const std::string& method,
+                       std::int64_t block) {
   const AllanInput kind = parse_kind(kind_name);
   const T* x = require_1d(data, "data");
   const auto n_data = static_cast<std::size_t>(data.shape(0));
   const std::int64_t* m_raw = require_1d(m_in, "m");
   const auto n_m = static_cast<std::size_t>(m_in.shape(0));
   const std::size_t max_m = oadev_max_m(n_data, kind);
+  if (method != "fused" && method != "per_tau") {
+    throw py::value_error("method must be 'fused' or 'per_tau', got '" + method + "'");
+  }
+  if (block < 16) throw py::value_error("block must be >= 16");
   std::vector<std::size_t> m(n_m);
   for (std::size_t j = 0; j < n_m; ++j) {
     if (m_raw[j] < 1 || static_cast<std::size_t>(m_raw[j]) > max_m) {
@@ -49,20 +56,31 @@ py::tuple oadev_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_in,
                             " leaves at least 2 differences)");
     }
     m[j] = static_cast<std::size_t>(m_raw[j]);
+    if (j > 0 && m[j] <= m[j - 1]) throw py::value_error("m must be strictly increasing");
   }
+  require_finite(x, n_data, "data");  // one pass; names the first bad sample
   py::array_t<double> sigma2(static_cast<py::ssize_t>(n_m));
   py::array_t<std::int64_t> terms_out(static_cast<py::ssize_t>(n_m));
   std::vector<std::size_t> terms(n_m, 0);
   double* s2 = sigma2.mutable_data();
   bool ok = true;
-  {
+  if (kind == AllanInput::rate && method == "fused") {
+    constexpr std::size_t kGroup = 64;
+    auto fused = std::make_unique<OadevFused<kGroup>>();
+    std::vector<double> work;
+    py::gil_scoped_release release;
+    for (std::size_t lo = 0; lo < n_m && ok; lo += kGroup) {
+      const std::size_t cnt = std::min(kGroup, n_m - lo);
+      ok = fused->plan(n_data, m.data() + lo, cnt, static_cast<std::size_t>(block));
+      if (!ok) break;
+      work.resize(fused->workspace_doubles());
+      ok = fused->run(x, work.data(), work.size(), s2 + lo, terms.data() + lo);
+    }
+  } else {
     py::gil_scoped_release release;
     ok = gyrodrift::oadev<T, double>(x, n_data, kind, m.data(), n_m, s2, terms.data());
   }
-  if (!ok) {
-    require_finite(x, n_data, "data");  // names the first bad sample
-    throw py::value_error("data: the Allan sums are not finite (values too large?)");
-  }
+  if (!ok) throw py::value_error("data: the Allan sums are not finite (values too large?)");
   std::int64_t* t = terms_out.mutable_data();
   for (std::size_t j = 0; j < n_m; ++j) t[j] = static_cast<std::int64_t>(terms[j]);
   return py::make_tuple(sigma2, terms_out);
@@ -168,12 +186,15 @@ py::array_t<std::int64_t> tau_grid_py(const std::string& grid_name, std::int64_t
 
 void bind_allan(pybind11::module_& m) {
   m.def("oadev_sigma2", &oadev_sigma2<double>, py::arg("data").noconvert(),
-        py::arg("m").noconvert(), py::arg("kind") = "rate",
-        "Overlapping Allan variance for averaging factors m (int64) of a 1-D float64 record.\n"
-        "kind='rate': (rate units)^2; kind='phase': (phase units)^2 per sample^2 (divide by\n"
-        "tau0^2). Returns (sigma2, terms). Long double sums, GIL released.");
+        py::arg("m").noconvert(), py::arg("kind") = "rate", py::arg("method") = "fused",
+        py::arg("block") = 4096,
+        "Overlapping Allan variance for strictly increasing averaging factors m (int64) of a\n"
+        "1-D float64/float32 record. kind='rate': (rate units)^2; kind='phase': (phase\n"
+        "units)^2 per sample^2 (divide by tau0^2). method='fused' (rate input: all factors\n"
+        "in one pass, OadevFused) or 'per_tau'. Returns (sigma2, terms). GIL released.");
   m.def("oadev_sigma2", &oadev_sigma2<float>, py::arg("data").noconvert(),
-        py::arg("m").noconvert(), py::arg("kind") = "rate");
+        py::arg("m").noconvert(), py::arg("kind") = "rate", py::arg("method") = "fused",
+        py::arg("block") = 4096);
   py::class_<OadevStream>(m, "OadevStream",
                           "Streaming overlapping-Allan sums for one averaging factor m "
                           "(chunked records; long double state).")

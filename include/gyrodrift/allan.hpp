@@ -167,6 +167,218 @@ inline bool oadev(const Scalar* data, std::size_t n_data, AllanInput kind, const
   return true;
 }
 
+// Fused multi-tau kernel for rate input (the fast path for whole records in memory).
+//
+// The per-tau kernel above streams y three times per averaging factor and is bound by its
+// long double running difference. Here every factor of a group is served from one pass:
+// the record is cut into blocks of B term indices; for block b the needed stretches of y
+// (at offsets 0, m_j, 2 m_j; nearby offsets merged into one segment) are turned into local
+// prefix sums Q of (y - level) in double (level: local mean at b), and for term b+i of
+// factor m
+//   D_{b+i} = D_b + (L_2m(i) - 2 L_m(i) + L_0(i)),   L_s(i) = Q_s[i] - Q_s[0],
+// so each factor costs three loads and a few flops per term (no dependency chain).
+// Precision: D_b is carried from block to block in long double (block increments are exact
+// differences of doubles); Q spans at most one segment (a few B samples) of level-removed
+// data, so its rounding is ~B eps sigma however long the record or however far it drifts.
+// Squares are summed per block in double, then into long double.
+// No allocation: fixed-capacity plan (MaxTaus factors) plus a caller-owned double workspace
+// of workspace_doubles() elements.
+template <std::size_t MaxTaus = 64>
+class OadevFused {
+ public:
+  static constexpr std::size_t kMaxOffsets = 2 * MaxTaus + 1;
+
+  // m: strictly increasing factors, each 1 <= m <= oadev_max_m(n_data, rate); block >= 16.
+  bool plan(std::size_t n_data, const std::size_t* m, std::size_t n_m,
+            std::size_t block) noexcept {
+    n_m_ = 0;
+    if (n_m == 0 || n_m > MaxTaus || block < 16) return false;
+    const std::size_t max_m = oadev_max_m(n_data, AllanInput::rate);
+    for (std::size_t j = 0; j < n_m; ++j) {
+      if (m[j] == 0 || m[j] > max_m || (j > 0 && m[j] <= m[j - 1])) return false;
+      m_[j] = m[j];
+      n_terms_[j] = oadev_terms(n_data, AllanInput::rate, m[j]);
+    }
+    n_data_ = n_data;
+    block_ = block;
+    // Sorted distinct offsets: merge {0}, {m_j}, {2 m_j} (both increasing).
+    std::size_t offsets[kMaxOffsets];
+    std::size_t n_off = 0;
+    offsets[n_off++] = 0;
+    std::size_t a = 0;
+    std::size_t c = 0;
+    while (a < n_m || c < n_m) {
+      const std::size_t va = a < n_m ? m[a] : static_cast<std::size_t>(-1);
+      const std::size_t vc = c < n_m ? 2 * m[c] : static_cast<std::size_t>(-1);
+      const std::size_t v = va < vc ? va : vc;
+      if (va == v) ++a;
+      if (vc == v) ++c;
+      if (v != offsets[n_off - 1]) offsets[n_off++] = v;
+    }
+    // Greedy segments: an offset within B of the previous one's stretch joins its segment.
+    n_seg_ = 0;
+    std::size_t q_total = 0;
+    for (std::size_t k = 0; k < n_off; ++k) {
+      if (n_seg_ == 0 || offsets[k] > seg_start_[n_seg_ - 1] + seg_len_[n_seg_ - 1] - 1) {
+        seg_start_[n_seg_] = offsets[k];
+        seg_len_[n_seg_] = block + 1;  // Q[0..B]
+        ++n_seg_;
+      } else {
+        seg_len_[n_seg_ - 1] = offsets[k] - seg_start_[n_seg_ - 1] + block + 1;
+      }
+    }
+    for (std::size_t k = 0; k < n_seg_; ++k) {
+      seg_q_[k] = q_total;
+      q_total += seg_len_[k];
+    }
+    workspace_ = q_total;
+    for (std::size_t j = 0; j < n_m; ++j) {
+      const std::size_t offs[3] = {0, m[j], 2 * m[j]};
+      for (std::size_t s = 0; s < 3; ++s) {
+        std::size_t k = n_seg_ - 1;
+        while (seg_start_[k] > offs[s]) --k;
+        stream_[j][s] = seg_q_[k] + (offs[s] - seg_start_[k]);
+      }
+    }
+    n_m_ = n_m;
+    return true;
+  }
+
+  std::size_t workspace_doubles() const noexcept { return workspace_; }
+
+  // Runs the planned factors over y[0..n_data); writes sigma2[j] (rate units^2) and terms[j]
+  // (may be null). False if not planned, the workspace is too small, or the data are not
+  // finite (outputs untouched).
+  template <class Scalar, class Out>
+  bool run(const Scalar* y, double* workspace, std::size_t workspace_len, Out* sigma2,
+           std::size_t* terms) noexcept {
+    if (n_m_ == 0 || workspace_len < workspace_) return false;
+    long double total{0};
+    for (std::size_t i = 0; i < n_data_; ++i) total += static_cast<long double>(y[i]);
+    if (!std::isfinite(total)) return false;
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      OadevSums<long double> seed;
+      oadev_rate_seed(seed, y, y + m_[j], m_[j]);
+      diff_[j] = seed.diff;
+      sum_sq_[j] = 0;
+    }
+    const std::size_t bsz = block_;
+    std::size_t n_active = n_m_;
+    for (std::size_t b = 0; b < n_terms_[0]; b += bsz) {
+      while (n_active > 0 && n_terms_[n_active - 1] <= b) --n_active;
+      // One offset for all streams of this block (it cancels in L_2m - 2 L_m + L_0 and in
+      // the carry): the local level at b, so drifting records keep Q small.
+      const std::size_t n_level = n_data_ - b < 64 ? n_data_ - b : 64;
+      long double level{0};
+      for (std::size_t i = 0; i < n_level; ++i) level += static_cast<long double>(y[b + i]);
+      const double mean = static_cast<double>(level / static_cast<long double>(n_level));
+      // Local prefix sums of the segments the active factors read.
+      const std::size_t reach = 2 * m_[n_active - 1];
+      for (std::size_t k = 0; k < n_seg_ && seg_start_[k] <= reach; ++k) {
+        const std::size_t start = b + seg_start_[k];
+        const std::size_t avail = n_data_ > start ? n_data_ - start : 0;
+        const std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
+        prefix_sum(y + start, len, mean, workspace + seg_q_[k]);
+      }
+      for (std::size_t j = 0; j < n_active; ++j) {
+        const std::size_t left = n_terms_[j] - b;
+        const std::size_t len = left < bsz ? left : bsz;
+        const double* p0 = workspace + stream_[j][0];
+        const double* p1 = workspace + stream_[j][1];
+        const double* p2 = workspace + stream_[j][2];
+        const double k0 = static_cast<double>(diff_[j]) - ((p2[0] - 2.0 * p1[0]) + p0[0]);
+        sum_sq_[j] += static_cast<long double>(block_sum_sq(p0, p1, p2, len, k0));
+        if (left > bsz) {  // carry D to the next block, exactly (differences of doubles)
+          diff_[j] += (static_cast<long double>(p2[bsz]) - static_cast<long double>(p2[0])) -
+                      2.0L * (static_cast<long double>(p1[bsz]) -
+                              static_cast<long double>(p1[0])) +
+                      (static_cast<long double>(p0[bsz]) - static_cast<long double>(p0[0]));
+        }
+      }
+    }
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      const long double mm = static_cast<long double>(m_[j]);
+      const long double v =
+          sum_sq_[j] / (2.0L * mm * mm * static_cast<long double>(n_terms_[j]));
+      if (!std::isfinite(v)) return false;
+      sigma2[j] = static_cast<Out>(v);
+      if (terms != nullptr) terms[j] = n_terms_[j];
+    }
+    return true;
+  }
+
+ private:
+  // Q[0] = 0, Q[t+1] = Q[t] + (y[t] - mean), t < len; four independent chains then fix-ups,
+  // so the adds pipeline instead of waiting on each other.
+  template <class Scalar>
+  static void prefix_sum(const Scalar* y, std::size_t len, double mean, double* q) noexcept {
+    q[0] = 0.0;
+    const std::size_t h = len / 4;
+    double s0 = 0.0;
+    double s1 = 0.0;
+    double s2 = 0.0;
+    double s3 = 0.0;
+    for (std::size_t t = 0; t < h; ++t) {
+      s0 += static_cast<double>(y[t]) - mean;
+      s1 += static_cast<double>(y[h + t]) - mean;
+      s2 += static_cast<double>(y[2 * h + t]) - mean;
+      s3 += static_cast<double>(y[3 * h + t]) - mean;
+      q[t + 1] = s0;
+      q[h + t + 1] = s1;
+      q[2 * h + t + 1] = s2;
+      q[3 * h + t + 1] = s3;
+    }
+    for (std::size_t t = 4 * h; t < len; ++t) {
+      s3 += static_cast<double>(y[t]) - mean;
+      q[t + 1] = s3;
+    }
+    for (std::size_t part = 1; part < 4; ++part) {
+      const std::size_t lo = part * h + 1;
+      const std::size_t hi = part == 3 ? len + 1 : (part + 1) * h + 1;
+      const double base = q[part * h];
+      for (std::size_t t = lo; t < hi; ++t) q[t] += base;
+    }
+  }
+
+  static double block_sum_sq(const double* p0, const double* p1, const double* p2,
+                             std::size_t len, double k0) noexcept {
+    double a0 = 0.0;
+    double a1 = 0.0;
+    double a2 = 0.0;
+    double a3 = 0.0;
+    std::size_t i = 0;
+    for (; i + 4 <= len; i += 4) {
+      const double v0 = k0 + ((p2[i] - 2.0 * p1[i]) + p0[i]);
+      const double v1 = k0 + ((p2[i + 1] - 2.0 * p1[i + 1]) + p0[i + 1]);
+      const double v2 = k0 + ((p2[i + 2] - 2.0 * p1[i + 2]) + p0[i + 2]);
+      const double v3 = k0 + ((p2[i + 3] - 2.0 * p1[i + 3]) + p0[i + 3]);
+      a0 += v0 * v0;
+      a1 += v1 * v1;
+      a2 += v2 * v2;
+      a3 += v3 * v3;
+    }
+    for (; i < len; ++i) {
+      const double v = k0 + ((p2[i] - 2.0 * p1[i]) + p0[i]);
+      a0 += v * v;
+    }
+    return (a0 + a1) + (a2 + a3);
+  }
+
+  std::size_t n_data_{0};
+  std::size_t block_{0};
+  std::size_t n_m_{0};
+  std::size_t n_seg_{0};
+  std::size_t workspace_{0};
+  std::size_t m_[MaxTaus]{};
+  std::size_t n_terms_[MaxTaus]{};
+  std::size_t stream_[MaxTaus][3]{};
+  std::size_t seg_start_[kMaxOffsets]{};
+  std::size_t seg_len_[kMaxOffsets]{};
+  std::size_t seg_q_[kMaxOffsets]{};
+  long double diff_[MaxTaus]{};
+  long double sum_sq_[MaxTaus]{};
+};
+
 // Averaging-factor grids. Each writes up to `capacity` strictly increasing factors
 // 1 <= m <= max_m and returns how many it wrote.
 enum class TauGrid : std::uint8_t { octave, decade, all };
