@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/realtime_wavelet_noise.hpp>
 
 #include "wavelet_test_support.hpp"
 
@@ -137,4 +138,44 @@ TEST_CASE("copies are independent (value semantics for per-channel embedding)") 
     const float x = static_cast<float>((i * 7) % 11);
     CHECK(a.step(x) == b.step(x));
   }
+}
+
+TEST_CASE("incremental median(|d1|) equals the sorted median of the oracle's d1, every step") {
+  constexpr std::size_t N = 64;
+  for (WaveletKind kind : {WaveletKind::db4, WaveletKind::db8}) {
+    const auto& h = wavelet_test::rec_lo(kind);
+    const std::size_t taps = h.size();
+    std::vector<double> g(taps);
+    for (std::size_t i = 0; i < taps; ++i) g[i] = (i % 2 == 0 ? 1.0 : -1.0) * h[taps - 1 - i];
+    gyrodrift::SlidingDetailMedian<double, N> med;
+    REQUIRE(med.configure(g.data(), taps));
+    std::vector<double> buf(2 * N, 0.0), hist;
+    std::size_t pos = 0;
+    wavelet_test::Noise noise;
+    for (int i = 0; i < 400; ++i) {
+      const double x = noise.normal() * (1.0 + 0.5 * std::sin(0.05 * i));  // non-stationary
+      hist.push_back(x);
+      buf[pos] = buf[pos + N] = x;
+      pos = (pos + 1) % N;
+      const double got = med.update(&buf[pos]);
+      if (hist.size() < N) continue;
+      std::vector<double> ext(2 * N);
+      for (std::size_t k = 0; k < N; ++k) ext[k] = ext[2 * N - 1 - k] = hist[hist.size() - N + k];
+      const auto c = wavelet_test::direct_wavedec(kind, ext, 1);
+      std::vector<double> d1(c.begin() + N, c.end());
+      for (auto& v : d1) v = std::fabs(v);
+      std::sort(d1.begin(), d1.end());
+      CHECK(std::fabs(got - 0.5 * (d1[N / 2 - 1] + d1[N / 2])) < 1e-13);
+    }
+    med.reset();
+    CHECK(med.update(buf.data()) == 0.0);  // not full after a reset
+  }
+}
+
+TEST_CASE("median estimator refuses filters it cannot stream") {
+  gyrodrift::SlidingDetailMedian<double, 16> med;
+  const double g[16] = {};
+  CHECK_FALSE(med.configure(g, 16));  // taps > N/2
+  CHECK_FALSE(med.configure(g, 3));   // odd
+  CHECK(med.update(g) == 0.0);        // unconfigured: inert
 }

@@ -29,7 +29,15 @@ constexpr int wavelet_filter_length(WaveletKind w) noexcept { return 2 * static_
 namespace detail {
 
 // (i mod h) for any int i and h >= 1.
+// Lifting offsets are a few samples, so one conditional add/sub almost always suffices;
+// the division is only for bands shorter than the offsets (deep levels of short signals).
 inline std::ptrdiff_t wrap_index(std::ptrdiff_t i, std::ptrdiff_t h) noexcept {
+  if (i >= 0) {
+    if (i < h) return i;
+    if (i < 2 * h) return i - h;
+  } else if (i >= -h) {
+    return i + h;
+  }
   const std::ptrdiff_t r = i % h;
   return r < 0 ? r + h : r;
 }

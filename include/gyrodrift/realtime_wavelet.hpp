@@ -21,7 +21,9 @@
 // Streaming: forced denoising of the newest sample is linear in the window, so it is an
 // N-tap FIR filter y = sum_i taps[i] w[i] (taps derived once at construction from the lifting
 // transform: with the orthogonal DWT F and the approximation projector P_J, taps =
-// S^T F^T P_J F e_{N-1}, S the extension). Threshold modes recompute the window transform.
+// S^T F^T P_J F e_{N-1}, S the extension). Threshold modes: median(|d1|) is maintained
+// incrementally (realtime_wavelet_noise.hpp); the window's DWT is computed by lifting and the
+// inverse is replaced by column N-1 of the DWT matrix (see threshold()).
 //
 // Fixed capacity, no heap, noexcept, deterministic. Invalid configurations (level outside
 // 1..max for this window and wavelet) leave status() != Ok; step() then passes inputs through.
@@ -33,6 +35,7 @@
 #include <cstdint>
 
 #include "lifting_transform.hpp"
+#include "realtime_wavelet_noise.hpp"
 
 namespace gyrodrift {
 
@@ -68,6 +71,7 @@ class RealtimeWavelet {
       status_ = RealtimeWaveletStatus::bad_mode;
     }
     compute_taps();
+    if (status_ == RealtimeWaveletStatus::ok && mode_ != WaveletMode::forced) configure_noise();
     reset();
   }
 
@@ -81,11 +85,12 @@ class RealtimeWavelet {
     buf_[pos_ + WindowN] = x;
     pos_ = (pos_ + 1) % WindowN;
     if (count_ < WindowN) ++count_;
+    const Scalar* w = &buf_[pos_];  // oldest .. newest
+    if (noise_ok_) median_d1_ = noise_.update(w);  // every accepted sample (streams)
     if (count_ < WindowN || status_ != RealtimeWaveletStatus::ok) {
       last_out_ = x;
       return x;
     }
-    const Scalar* w = &buf_[pos_];  // oldest .. newest
     last_out_ = mode_ == WaveletMode::forced ? fir(w) : threshold(w);
     return last_out_;
   }
@@ -96,6 +101,8 @@ class RealtimeWavelet {
     count_ = 0;
     faults_ = 0;
     last_out_ = Scalar(0);
+    median_d1_ = Scalar(0);
+    noise_.reset();
   }
 
   bool ready() const noexcept { return count_ >= WindowN; }
@@ -149,7 +156,34 @@ class RealtimeWavelet {
     return (s0 + s1) + (s2 + s3);
   }
 
-  Scalar threshold(const Scalar* w) noexcept { return recompute(w); }
+  // Threshold modes without the inverse transform. With the orthogonal DWT F and c = F ext,
+  // the full reconstruction gives ext[N-1] = x_newest = sum_k c_k F[k][N-1]; thresholding
+  // changes only details, so  y = x_newest - sum_{detail k} (c_k - T(c_k)) F[k][N-1].
+  // c - T(c) is clamp(c, -t, t) for soft and c [|c| < t] for hard thresholding; column N-1
+  // of F has only a few dozen non-zero detail entries (62 for db8, N=256, J=5).
+  Scalar threshold(const Scalar* w) noexcept {
+    if (n_col_ == 0) return recompute(w);  // capacity fallback (not reached for db4/db8)
+    constexpr std::size_t n2 = 2 * WindowN;
+    for (std::size_t i = 0; i < WindowN; ++i) {
+      work_[i] = w[i];
+      work_[n2 - 1 - i] = w[i];
+    }
+    LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
+    const Scalar t = noise_ok_ ? threshold_from_median(median_d1_) : threshold_value(work_ + WindowN);
+    Scalar removed = Scalar(0);
+    if (mode_ == WaveletMode::soft) {
+      for (std::size_t i = 0; i < n_col_; ++i) {
+        const Scalar c = work_[col_index_[i]];
+        removed += (c > t ? t : (c < -t ? -t : c)) * col_value_[i];
+      }
+    } else {
+      for (std::size_t i = 0; i < n_col_; ++i) {
+        const Scalar c = work_[col_index_[i]];
+        removed += (std::fabs(c) < t ? c : Scalar(0)) * col_value_[i];
+      }
+    }
+    return w[WindowN - 1] - removed;
+  }
 
   // t = sigma * sqrt(2 ln N), sigma = median(|cD_1|) / 0.6745 (paper 000, sec. 2.3).
   // Uses scratch_ (free between the forward and the inverse transform) for the selection.
@@ -160,9 +194,32 @@ class RealtimeWavelet {
     std::nth_element(med, med + mid, med + WindowN);
     const Scalar upper = med[mid];
     const Scalar lower = *std::max_element(med, med + mid);
-    const Scalar median = (lower + upper) * Scalar(0.5);
+    return threshold_from_median((lower + upper) * Scalar(0.5));
+  }
+
+  static Scalar threshold_from_median(Scalar median) noexcept {
     const Scalar sigma = median / Scalar(0.6745);
     return sigma * std::sqrt(Scalar(2) * std::log(static_cast<Scalar>(WindowN)));
+  }
+
+  // High-pass taps G (pywt rec_hi) read off the lifting transform's impulse responses
+  // (cD[k] = sum_i G[i] x[2k + m0 + i], m0 = 1 - taps/2), then the incremental median.
+  void configure_noise() noexcept {
+    const auto taps = static_cast<std::size_t>(wavelet_filter_length(wavelet_));
+    const std::size_t n = 4 * taps;
+    if (n > 2 * WindowN) return;  // window too short for the streaming estimate: recompute
+    Scalar g[16] = {};
+    const auto m0 = 1 - static_cast<std::ptrdiff_t>(taps / 2);
+    for (std::size_t p = 2 * taps; p < 2 * taps + 2; ++p) {
+      std::fill(work_, work_ + n, Scalar(0));
+      work_[p] = Scalar(1);
+      LiftingTransform<Scalar>::forward_level(wavelet_, work_, n, scratch_);
+      for (std::size_t k = 0; k < n / 2; ++k) {
+        const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(p) - 2 * static_cast<std::ptrdiff_t>(k) - m0;
+        if (i >= 0 && i < static_cast<std::ptrdiff_t>(taps)) g[static_cast<std::size_t>(i)] = work_[n / 2 + k];
+      }
+    }
+    noise_ok_ = noise_.configure(g, taps);
   }
 
   void compute_taps() noexcept {
@@ -177,6 +234,22 @@ class RealtimeWavelet {
     std::fill(work_ + (n2 >> static_cast<unsigned>(level_)), work_ + n2, Scalar(0));
     LiftingTransform<Scalar>::inverse(wavelet_, work_, n2, level_, scratch_);
     for (std::size_t i = 0; i < WindowN; ++i) taps_[i] = work_[i] + work_[n2 - 1 - i];
+    // Column N-1 of F restricted to details: F e_{N-1} (lifting keeps exact zeros outside
+    // the support, so the non-zero test is exact).
+    std::fill(work_, work_ + n2, Scalar(0));
+    work_[WindowN - 1] = Scalar(1);
+    LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
+    n_col_ = 0;
+    for (std::size_t k = n2 >> static_cast<unsigned>(level_); k < n2; ++k) {
+      if (work_[k] == Scalar(0)) continue;
+      if (n_col_ == kColCapacity) {
+        n_col_ = 0;  // cannot happen for db4/db8 (<= filter length per level); recompute then
+        break;
+      }
+      col_index_[n_col_] = static_cast<std::uint32_t>(k);
+      col_value_[n_col_] = work_[k];
+      ++n_col_;
+    }
   }
 
   WaveletKind wavelet_;
@@ -191,6 +264,14 @@ class RealtimeWavelet {
   Scalar buf_[2 * WindowN];
   Scalar work_[2 * WindowN];
   Scalar scratch_[2 * WindowN];
+  // <= filter length (16) non-zeros per level touch one sample; 8 levels.
+  static constexpr std::size_t kColCapacity = 16 * kMaxWaveletLevel;
+  SlidingDetailMedian<Scalar, WindowN> noise_;
+  bool noise_ok_ = false;
+  Scalar median_d1_ = Scalar(0);
+  std::size_t n_col_ = 0;
+  std::uint32_t col_index_[kColCapacity] = {};
+  Scalar col_value_[kColCapacity] = {};
 };
 
 }  // namespace gyrodrift
