@@ -22,13 +22,12 @@ def test_model_and_fit_roundtrip_exact() -> None:
         assert getattr(fit, name) == pytest.approx(value, rel=1e-6), name
 
 
-@pytest.mark.parametrize("seed", [0, 3, 4])
+@pytest.mark.parametrize("seed", [0, 1, 2, 3, 4])
 def test_identify_q_n_b(seed: int) -> None:
     # 1e6 samples at 100 Hz (10^4 s). Q and N rule tau < 10 s where the edf is > 1e4, so the
     # deviation is known to < 1 % (1/sqrt(2 edf)); 3 % is > 4 sd. B rules 10..500 s with edf
-    # 30..1500 per point (3..13 % each) and flicker noise's own realisation scatter: 15 %.
-    # Known weakness: seed 1 of this design gives B 0.29x with N +9 % (the NNLS trades the
-    # flicker floor for white noise); it is left out, see README "issue-4 analysis".
+    # 30..1500 per point (3..13 % each) and flicker noise's own realisation scatter: 15 %
+    # (seeds 0..9 give at most 8 %).
     q_deg, n_rthr, b_dph = 2e-4, 0.01, 0.3
     rec = gyrodrift.simulate(n=1_000_000, rate_hz=100.0, q_deg=q_deg, n_deg_rthr=n_rthr,
                              b_deg_h=b_dph, seed=seed)
@@ -41,15 +40,16 @@ def test_identify_q_n_b(seed: int) -> None:
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_identify_n_k_r(seed: int) -> None:
-    # 4e5 s at 1 Hz. N rules tau < 100 s (edf > 3000): 3 %. K and R rule the last two decades
-    # where the edf falls to 1..50; the fit pools ~16 such points: 10 % (observed <= 4 %).
+    # 4e5 s at 1 Hz. N rules tau < 100 s (edf > 3000): 3 %. K and R rule the last 1.5
+    # decades where the edf falls to 1..50; the fit pools ~12 such points: K 20 %, R 10 %
+    # (seeds 0..9: K within 16 %, R within 6 %; K and R partly trade against each other).
     n_rthr, k, r_ramp = 0.01, 0.5, 2.0
     rec = gyrodrift.simulate(n=400_000, rate_hz=1.0, n_deg_rthr=n_rthr, k_deg_h_rthr=k,
                              r_deg_h_h=r_ramp, seed=seed)
     res = allan.oadev(rec.rate_dph, 1.0, taus="decade", per_decade=8)
     fit = noise_id.identify(res.tau_s, res.adev, res.edf)
     assert fit.n_deg_rthr == pytest.approx(n_rthr, rel=0.03)
-    assert fit.k_deg_h_rthr == pytest.approx(k, rel=0.10)
+    assert fit.k_deg_h_rthr == pytest.approx(k, rel=0.20)
     assert fit.r_deg_h_h == pytest.approx(r_ramp, rel=0.10)
 
 

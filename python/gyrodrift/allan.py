@@ -214,6 +214,10 @@ def noise_alpha_from_slope(tau_s: np.ndarray, adev: np.ndarray) -> np.ndarray:
 
     mu ~ -2 maps to alpha = 2 (white phase: the angle quantization of optical gyros); mu >= 1
     (random-walk FM and steeper, e.g. rate ramp) to alpha = -2. A single tau gives alpha = 0.
+    The result is made non-increasing in tau (cumulative minimum): in the IEEE Std 952 model
+    the dominant term moves from tau^-2 towards tau^+2 as tau grows, so a steep drop at the
+    last few taus (few differences, large scatter) must not be read as white phase noise,
+    whose edf would be ~N and would make those scattered points dominate a weighted fit.
     """
     tau_s = np.asarray(tau_s, dtype=np.float64)
     adev = np.asarray(adev, dtype=np.float64)
@@ -222,7 +226,8 @@ def noise_alpha_from_slope(tau_s: np.ndarray, adev: np.ndarray) -> np.ndarray:
     mu = np.gradient(np.log(adev * adev), np.log(tau_s))
     alpha = np.rint(-mu - 1.0)
     alpha = np.where(mu < -1.5, 2.0, alpha)
-    return np.clip(alpha, -2, 2).astype(np.int64)
+    alpha = np.minimum.accumulate(np.clip(alpha, -2, 2))
+    return alpha.astype(np.int64)
 
 
 def _file_chunks(mm: np.memmap, start: int, stop: int, chunk: int) -> Iterator[np.ndarray]:

@@ -146,14 +146,24 @@ def identify(tau_s: np.ndarray, adev_dph: np.ndarray, edf: np.ndarray | None = N
     if w.shape != tau.shape or not np.all(np.isfinite(w)) or np.any(w <= 0):
         raise ValueError("edf must be positive, finite, one per tau")
     var = sig * sig
-    # Row i scaled by sqrt(edf_i / 2) / sigma_i^2 (1 / standard error of sigma_i^2).
-    row = w / var
-    design = tau[:, None] ** POWERS[use][None, :] * row[:, None]
-    rhs = var * row
-    # Column scaling: tau^k spans many decades, NNLS wants comparable columns.
-    col = np.linalg.norm(design, axis=0)
-    coef_scaled, _ = scipy.optimize.nnls(design / col, rhs)
-    coef_used = coef_scaled / col
+    basis = tau[:, None] ** POWERS[use][None, :]
+    # Row i scaled by sqrt(edf_i / 2) / sigma_i^2 (1 / standard error of sigma_i^2). The
+    # standard error belongs to the true sigma^2: weighting by the measured value gives low
+    # outliers (the scattered longest taus) a huge weight, so the weights are iterated with
+    # the fitted model (iteratively reweighted least squares, a few passes converge).
+    weight_var = var
+    coef_used = np.zeros(int(use.sum()))
+    for _ in range(6):
+        row = w / weight_var
+        design = basis * row[:, None]
+        # Column scaling: tau^k spans many decades, NNLS wants comparable columns.
+        col = np.linalg.norm(design, axis=0)
+        coef_scaled, _ = scipy.optimize.nnls(design / col, var * row)
+        coef_used = coef_scaled / col
+        model = basis @ coef_used
+        if not np.all(model > 0):
+            break
+        weight_var = model
     c = np.zeros(5)
     c[use] = coef_used
     return NoiseFit(
