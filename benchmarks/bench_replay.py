@@ -22,6 +22,7 @@ import os
 import statistics
 import subprocess
 import time
+from pathlib import Path
 
 import numpy as np
 from gyrodrift.codecs import FrameParser
@@ -68,7 +69,7 @@ def real_time(args: argparse.Namespace) -> tuple[list[str], ReplayResult]:
     lost = acc["sent"] - acc["outputs_received"]
     lat = rep["latency_us"]
     jit = loop.get("period_jitter_us", {})
-    step = loop.get("step_us", {})
+    step = loop.get("sample_us", {})
     comp = loop.get("compute_us", {})
     rt = loop.get("realtime", {})
     rows = [
@@ -87,7 +88,7 @@ def real_time(args: argparse.Namespace) -> tuple[list[str], ReplayResult]:
         f"| loop period jitter p50 / p99 / max (us) | {jit.get('p50', float('nan')):.1f} / "
         f"{jit.get('p99', float('nan')):.1f} / {jit.get('max', float('nan')):.1f} | "
         f"p99 <= 200 | {yes(jit.get('p99', 1e9) <= 200)} |",
-        f"| compute per sample (ImuProcessor step) p50 / p99 / max (us) | "
+        "| compute per sample (6-ch ImuProcessor step + output encode) p50 / p99 / max (us) | "
         f"{step.get('p50', float('nan')):.3f} / {step.get('p99', float('nan')):.3f} / "
         f"{step.get('max', float('nan')):.3f} | max <= 2 | {yes(step.get('max', 1e9) <= 2)} |",
         f"| compute per cycle incl. read/write syscalls p50 / p99 / max (us) | "
@@ -150,6 +151,25 @@ def fast(args: argparse.Namespace) -> list[str]:
     ]
 
 
+def cpp_bench(args: argparse.Namespace) -> list[str]:
+    """cpp/bench/bench_replay.cpp: the per-sample work with no I/O, SCHED_FIFO if permitted."""
+    exe = Path(args.loop_binary).parents[2] / "bench_replay"
+    head = ["### Per-sample compute without I/O (cpp/bench/bench_replay.cpp)", ""]
+    if not exe.is_file():
+        return [*head, f"(not built: {exe})"]
+    cmd = [str(exe), str(args.cpp_samples), "5"]
+    rt = "SCHED_FIFO 80"
+    try:
+        out = subprocess.run(["chrt", "-f", "80", *cmd], capture_output=True, text=True,
+                             check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        rt = "SCHED_OTHER"
+        out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout
+    return [*head, f"Scheduling: {rt}. Per-sample times include two clock_gettime calls.", "",
+            "| work | ns/sample (bulk, median) | samples/s | p50 ns | p99 ns | p99.99 ns "
+            "| max ns |", "| --- | --- | --- | --- | --- | --- | --- |", out.strip()]
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -160,6 +180,7 @@ def main() -> None:
     parser.add_argument("--peer-frames", type=int, default=20_000)
     parser.add_argument("--slcan-frames", type=int, default=5_000)
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--cpp-samples", type=int, default=1_000_000)
     parser.add_argument("--loop-binary", default=None)
     parser.add_argument("--json", default=None, help="also write the real-time report here")
     parser.add_argument("--skip-real-time", action="store_true")
@@ -167,6 +188,9 @@ def main() -> None:
     args.loop_binary = str(find_loop_binary(args.loop_binary))
     print(f"machine: {machine()}; load average at start: "
           f"{', '.join(f'{x:.1f}' for x in os.getloadavg())}; loop: {args.loop_binary}\n")
+    for line in cpp_bench(args):
+        print(line, flush=True)
+    print()
     for line in fast(args):
         print(line, flush=True)
     print()

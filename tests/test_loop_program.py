@@ -169,7 +169,7 @@ def test_sigterm_prints_statistics(loop_bin: Path) -> None:
     assert stats["frames_in"] == 0
     # ~200 cycles at 1 kHz in 0.2 s; loose bound for a shared machine.
     assert stats["cycles"] >= 50
-    for key in ("period_jitter_us", "wake_latency_us", "compute_us", "step_us"):
+    for key in ("period_jitter_us", "wake_latency_us", "compute_us", "sample_us"):
         assert set(stats[key]) == {"n", "p50", "p99", "max"}
     assert stats["realtime"]["sched_error"] == "not requested (--no-rt)"
 

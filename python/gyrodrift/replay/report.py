@@ -56,10 +56,10 @@ def format_table(result: ReplayResult) -> str:
         rt = loop["realtime"]
         rows.append(("loop realtime", f"SCHED_FIFO {'yes' if rt['sched_fifo'] else 'no'}"
                      f", mlockall {'yes' if rt['mlockall'] else 'no'}"))
-        for key in ("period_jitter_us", "wake_latency_us", "compute_us", "step_us"):
+        for key in ("period_jitter_us", "wake_latency_us", "compute_us", "sample_us"):
             h = loop[key]
             rows.append((f"loop {key.replace('_us', '')} us p50/p99/max",
-                         "/".join(_fmt(h[k], 3 if key == "step_us" else 1)
+                         "/".join(_fmt(h[k], 3 if key == "sample_us" else 1)
                                   for k in ("p50", "p99", "max"))))
         rows.append(("loop cycles / overruns", f"{loop['cycles']} / {loop['overruns']}"))
         nz = {k: v for k, v in loop["rejected"].items() if v}
