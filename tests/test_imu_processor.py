@@ -278,6 +278,8 @@ def test_argument_and_configuration_errors() -> None:
         p.process(seq[:9], t_us[:10], values[:10])
     with pytest.raises(ValueError, match=r"0\.\.65535"):
         p.process(seq[:10] + 70000, t_us[:10], values[:10])
+    with pytest.raises(TypeError, match="integer"):
+        p.process(seq[:10].astype(float), t_us[:10], values[:10])
     with pytest.raises(ValueError, match="channel 0"):
         ImuProcessor(ImuConfig())  # gyro AR(2) models not supplied
     with pytest.raises(ValueError, match="wavelet"):

@@ -172,6 +172,8 @@ def _as_inputs(
         raise ValueError(
             f"seq and t_us: expected shape ({v.shape[0]},), got {s.shape} and {t.shape}"
         )
+    if not np.issubdtype(s.dtype, np.integer) or not np.issubdtype(t.dtype, np.integer):
+        raise TypeError(f"seq and t_us: expected integer arrays, got {s.dtype} and {t.dtype}")
     if s.size and (s.min() < 0 or s.max() > 0xFFFF):
         raise ValueError("seq: values must be in 0..65535")
     if t.size and np.issubdtype(t.dtype, np.signedinteger) and t.min() < 0:
