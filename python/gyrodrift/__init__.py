@@ -47,6 +47,9 @@ from gyrodrift.psd import welch_psd as welch_psd
 
 # --- IMU processor, codecs, replay (issue 5) ---
 # isort: split
+from gyrodrift.imu import ImuChannelConfig as ImuChannelConfig
+from gyrodrift.imu import ImuConfig as ImuConfig
+from gyrodrift.imu import ImuProcessor as ImuProcessor
 from gyrodrift.replay import ReplayOptions as ReplayOptions
 from gyrodrift.replay import read_imu_log as read_imu_log
 from gyrodrift.replay import run_replay as run_replay

@@ -18,4 +18,6 @@ from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise
 from gyrodrift.reference.allan import oadev_phase as oadev_phase
 from gyrodrift.reference.allan import oadev_rate as oadev_rate
 # --- IMU processor / codecs (issue 5) ---
+# isort: split
+from gyrodrift.reference.imu import process_imu as process_imu
 # --- alignment (issue 6) ---
