@@ -12,6 +12,7 @@ C++ side: a tiny external CMake project in a temporary directory consumes the IN
 
 from __future__ import annotations
 
+import argparse
 import importlib
 import importlib.machinery
 import importlib.metadata
@@ -50,9 +51,18 @@ def _installed() -> bool:
 
 
 def _subcommands() -> list[str]:
-    from gyrodrift.cli import SUBCOMMAND_MODULES
+    """Subcommand names as registered by the modules in gyrodrift.cli.SUBCOMMAND_MODULES."""
+    from gyrodrift.cli import SUBCOMMAND_MODULES, build_parser
 
-    return list(SUBCOMMAND_MODULES)
+    parser = build_parser()
+    names = [
+        name
+        for action in parser._actions
+        if isinstance(action, argparse._SubParsersAction)
+        for name in action.choices
+    ]
+    assert len(names) >= len(SUBCOMMAND_MODULES), (names, SUBCOMMAND_MODULES)
+    return names
 
 
 # --- Python package ------------------------------------------------------------------------
@@ -125,14 +135,39 @@ def test_version_matches_project_metadata() -> None:
         assert importlib.metadata.version("gyrodrift") == project["version"]
 
 
-def test_installed_package_is_complete() -> None:
-    """Every source module and data file of python/gyrodrift is importable from where the
-    package actually lives (identical set of files when installed)."""
-    source_files = {
+def _package_source_files() -> set[str]:
+    """Files a wheel built from python/gyrodrift must carry: like scikit-build-core, every file
+    not ignored by git (tracked or not); without git, every file outside __pycache__."""
+    git = shutil.which("git")
+    if git and (REPO_ROOT / ".git").exists():
+        out = _run(
+            [
+                git,
+                "ls-files",
+                "--cached",
+                "--others",
+                "--exclude-standard",
+                "--",
+                "python/gyrodrift",
+            ],
+            cwd=REPO_ROOT,
+        )
+        return {
+            Path(line).relative_to("python/gyrodrift").as_posix()
+            for line in out.splitlines()
+            if line and (REPO_ROOT / line).is_file()
+        }
+    return {
         p.relative_to(SOURCE_PKG).as_posix()
         for p in SOURCE_PKG.rglob("*")
         if p.is_file() and "__pycache__" not in p.parts and p.suffix != ".pyc"
     }
+
+
+def test_installed_package_is_complete() -> None:
+    """Every source module and data file of python/gyrodrift is importable from where the
+    package actually lives (identical set of files when installed)."""
+    source_files = _package_source_files()
     assert "simulate.py" in source_files and "reference/__init__.py" in source_files
     pkg_dir = Path(gyrodrift.__file__).resolve().parent
     present = {f for f in source_files if (pkg_dir / f).is_file()}
