@@ -7,6 +7,8 @@
 #include <gyrodrift/nav_coarse_align.hpp>
 #include <gyrodrift/nav_strapdown.hpp>
 
+#include <algorithm>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -49,10 +51,13 @@ py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
                       const CArray<double>& q, const CArray<double>& r,
                       const CArray<double>& floor, const CArray<double>& taps) {
   const std::size_t n = require_n3_pair(dtheta, dv);
-  if (static_cast<long>(n) <= s.coarse_samples)
+  const long n_taps = static_cast<long>(taps.ndim() == 1 ? taps.shape(0) : 0);
+  const long warmup = n_taps > 0 ? std::max(n_taps - 1, static_cast<long>(s.accel_delay_samples))
+                                 : static_cast<long>(s.accel_delay_samples);
+  if (static_cast<long>(n) <= s.coarse_samples + warmup)
     throw py::value_error("need more samples (" + std::to_string(n) +
-                          ") than the coarse-alignment window (" +
-                          std::to_string(s.coarse_samples) + ")");
+                          ") than the prefilter warm-up plus the coarse-alignment window (" +
+                          std::to_string(warmup + s.coarse_samples) + ")");
   if (taps.ndim() != 1 || taps.shape(0) > kMaxTaps)
     throw py::value_error("taps: expected a 1-D array of at most 256 prefilter taps (empty = off)");
   require_finite(taps.data(), static_cast<std::size_t>(taps.shape(0)), "taps");
@@ -84,7 +89,8 @@ py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
         break;
       }
       if (st != AlignStatus::kKfUpdated) continue;
-      t_s.push_back(static_cast<double>(k + 1) * s.dt_s);
+      // The solution refers to the delayed (prefilter-matched) instant.
+      t_s.push_back(static_cast<double>(static_cast<long>(k) + 1 - s.accel_delay_samples) * s.dt_s);
       const Vec3 e = pipe->attitude();
       for (int i = 0; i < 3; ++i) {
         att.push_back(e(i));

@@ -54,4 +54,8 @@ from gyrodrift.replay import ReplayOptions as ReplayOptions
 from gyrodrift.replay import read_imu_log as read_imu_log
 from gyrodrift.replay import run_replay as run_replay
 from gyrodrift.replay import write_imu_log as write_imu_log
+
 # --- alignment (issue 6) ---
+# isort: split
+from gyrodrift.align import AlignConfig as AlignConfig
+from gyrodrift.align import run_alignment as run_alignment

@@ -75,8 +75,11 @@ class AlignConfig:
 def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
                             cfg: AlignConfig) -> dict[str, np.ndarray]:
     """Plain-loop reference. Returns per-KF-update histories:
-    t_s (end of the KF cycle, from the first sample), att (pitch, roll, yaw rad), eb, db,
-    p_phi (std of phi, rad), and `coarse_cnb` (C_b^n at the end of coarse alignment)."""
+    t_s (time the solution refers to: end of the KF cycle from the first input sample, minus
+    the accelerometer delay that matches the prefilter), att (pitch, roll, yaw rad), eb, db,
+    p_phi (std of phi, rad), and `coarse_cnb` (C_b^n at the end of coarse alignment).
+    Alignment starts after the warm-up max(n_taps - 1, delay) samples that fill the prefilter
+    window and the delay line (see nav_align_pipeline.hpp for why)."""
     dtheta = np.asarray(dtheta, dtype=float)
     dv = np.asarray(dv, dtype=float)
     n = dtheta.shape[0]
@@ -98,11 +101,17 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
     hist: dict[str, list] = {"t_s": [], "att": [], "eb": [], "db": [], "p_phi": []}
     coarse_cnb = np.eye(3)
     d = cfg.accel_delay_samples
-    for k in range(n):
-        g = dtheta[k]
-        if taps is not None and k >= nt - 1:
-            g = taps @ dtheta[k - nt + 1:k + 1]
-        a = dv[k - d] if k >= d else dv[k]
+    warmup = max(nt - 1, d) if nt > 0 else d
+    if n <= warmup + n_coarse:
+        raise ValueError(f"need more than {warmup + n_coarse} samples (warm-up + coarse)")
+    for k_in in range(n):
+        k = k_in - warmup
+        if k < 0:
+            continue
+        g = dtheta[k_in]
+        if taps is not None and k_in >= nt - 1:
+            g = taps @ dtheta[k_in - nt + 1:k_in + 1]
+        a = dv[k_in - d] if k_in >= d else dv[k_in]
         if k < n_coarse:
             if coarse.add(g, a):
                 coarse_cnb = coarse.solve()
@@ -130,7 +139,7 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
         db = db + x[kf.i_db:kf.i_db + 3]
         dvn_sum = np.zeros(3)
         count = 0
-        hist["t_s"].append((k + 1) * cfg.dt_s)
+        hist["t_s"].append((k_in + 1 - d) * cfg.dt_s)
         hist["att"].append(dcm2euler(q2dcm(sd.q)))
         hist["eb"].append(eb.copy())
         hist["db"].append(db.copy())

@@ -30,11 +30,22 @@ def _taps_cached(n: int, wavelet: str, level: int) -> tuple[float, ...]:
     return tuple(_forced_newest(eye[j], wavelet, level) for j in range(n))
 
 
-def realtime_wavelet_taps(n: int = 256, wavelet: str = "db4", level: int = 5) -> np.ndarray:
-    """Taps h (oldest first): y_k = sum_j h_j x_{k-N+1+j}."""
+def realtime_wavelet_taps(n: int = 256, wavelet: str = "db4", level: int = 5,
+                          source: str = "core") -> np.ndarray:
+    """Taps h (oldest first): y_k = sum_j h_j x_{k-N+1+j}.
+
+    source="core": the wavelet area's C++ RealtimeWavelet (lifting-derived taps, the filter a
+    navigation computer runs; needs the wavelet binding); source="pywt": derived here from
+    the PyWavelets definition applied to unit windows (the independent cross-check)."""
     if n < 2 ** level or n % (2 ** level):
         raise ValueError(f"window {n} must be a positive multiple of 2**level = {2 ** level}")
-    return np.array(_taps_cached(n, wavelet, level))
+    if source == "core":
+        from gyrodrift.wavelet import forced_fir_taps
+
+        return np.ascontiguousarray(forced_fir_taps(wavelet, n, level)[::-1], dtype=np.float64)
+    if source == "pywt":
+        return np.array(_taps_cached(n, wavelet, level))
+    raise ValueError(f"source must be 'core' or 'pywt', got {source!r}")
 
 
 def group_delay_dc_samples(taps: np.ndarray) -> float:

@@ -20,6 +20,7 @@ SUBCOMMAND_MODULES: list[str] = [
     "psd",
     "compare",
     "wavelet_response",
+    "align",
 ]
 
 

@@ -20,4 +20,10 @@ from gyrodrift.reference.allan import oadev_rate as oadev_rate
 # --- IMU processor / codecs (issue 5) ---
 # isort: split
 from gyrodrift.reference.imu import process_imu as process_imu
+
 # --- alignment (issue 6) ---
+# isort: split
+from gyrodrift.align.coarse import InertialCoarseAlign as InertialCoarseAlign
+from gyrodrift.align.fine_kf import FineAlignKF as FineAlignKF
+from gyrodrift.align.pipeline import run_alignment_reference as run_alignment_reference
+from gyrodrift.align.strapdown import Strapdown as Strapdown
