@@ -61,6 +61,14 @@ def main() -> None:
         ),
         ("AR(2) drift", n, lambda: gyrodrift.simulate(n=n, ar2=(0.6868, -0.0213, 0.05)), None),
         (
+            "ARW + bias, RLG pulse counting (0.1 arcsec)",
+            n,
+            lambda: gyrodrift.simulate(
+                n=n, n_deg_rthr=0.01, bias_deg_h=15.0, pulse_deg=0.1 / 3600.0
+            ),
+            None,
+        ),
+        (
             "all terms Q+N+B+K+R+bias+AR(2)",
             n,
             lambda: gyrodrift.simulate(
