@@ -2,7 +2,8 @@
 per-sample window recompute, in the same process; plus the lifting DWT vs pywt.wavedec.
 
 Prints a markdown table (ns/sample/axis, samples/s, speed-up vs the PyWavelets recompute;
-medians of repeats) and the machine. Not a test: the machine is shared and noisy.
+medians of repeats) and the machine. Times are thread CPU time (time.thread_time), so time
+spent preempted on the shared machine does not count. Not a test.
 
     PYTHONPATH=python:build/<dir>/py python3 benchmarks/bench_wavelet.py [--repeats 5]
 """
@@ -25,9 +26,9 @@ from gyrodrift.wavelet import wavedec
 def median_seconds(fn: Callable[[], object], repeats: int) -> float:
     times = []
     for _ in range(repeats):
-        t0 = time.perf_counter()
+        t0 = time.thread_time()
         fn()
-        times.append(time.perf_counter() - t0)
+        times.append(time.thread_time() - t0)
     return statistics.median(times)
 
 

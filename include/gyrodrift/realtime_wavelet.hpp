@@ -21,9 +21,11 @@
 // Streaming: forced denoising of the newest sample is linear in the window, so it is an
 // N-tap FIR filter y = sum_i taps[i] w[i] (taps derived once at construction from the lifting
 // transform: with the orthogonal DWT F and the approximation projector P_J, taps =
-// S^T F^T P_J F e_{N-1}, S the extension). Threshold modes: median(|d1|) is maintained
-// incrementally (realtime_wavelet_noise.hpp); the window's DWT is computed by lifting and the
-// inverse is replaced by column N-1 of the DWT matrix (see threshold()).
+// S^T F^T P_J F e_{N-1}, S the extension). Threshold modes: the level-1 coefficients of the
+// extended window come from FIR streams (interior ones) plus ~2 x filter-length boundary
+// coefficients, median(|d1|) is maintained incrementally (realtime_wavelet_noise.hpp),
+// levels 2..J are lifted from the level-1 approximations, and the inverse transform is
+// replaced by column N-1 of the DWT matrix (see threshold()).
 //
 // Fixed capacity, no heap, noexcept, deterministic. Invalid configurations (level outside
 // 1..max for this window and wavelet) leave status() != Ok; step() then passes inputs through.
@@ -86,7 +88,10 @@ class RealtimeWavelet {
     pos_ = (pos_ + 1) % WindowN;
     if (count_ < WindowN) ++count_;
     const Scalar* w = &buf_[pos_];  // oldest .. newest
-    if (noise_ok_) median_d1_ = noise_.update(w);  // every accepted sample (streams)
+    if (noise_ok_) {  // threshold modes: level-1 streams advance on every accepted sample
+      median_d1_ = noise_.update(w);
+      t_ = approx_.update(w);
+    }
     if (count_ < WindowN || status_ != RealtimeWaveletStatus::ok) {
       last_out_ = x;
       return x;
@@ -103,6 +108,8 @@ class RealtimeWavelet {
     last_out_ = Scalar(0);
     median_d1_ = Scalar(0);
     noise_.reset();
+    approx_.reset();
+    t_ = 0;
   }
 
   bool ready() const noexcept { return count_ >= WindowN; }
@@ -164,12 +171,22 @@ class RealtimeWavelet {
   Scalar threshold(const Scalar* w) noexcept {
     if (n_col_ == 0) return recompute(w);  // capacity fallback (not reached for db4/db8)
     constexpr std::size_t n2 = 2 * WindowN;
-    for (std::size_t i = 0; i < WindowN; ++i) {
-      work_[i] = w[i];
-      work_[n2 - 1 - i] = w[i];
+    Scalar t = Scalar(0);
+    if (noise_ok_) {
+      // Level 1 from the streams (interior values) plus the boundary coefficients; levels
+      // 2..J by lifting on the assembled approximation band.
+      approx_.assemble(w, t_, work_);
+      noise_.assemble(w, work_ + WindowN);
+      if (level_ > 1) LiftingTransform<Scalar>::forward(wavelet_, work_, WindowN, level_ - 1, scratch_);
+      t = threshold_from_median(median_d1_);
+    } else {
+      for (std::size_t i = 0; i < WindowN; ++i) {
+        work_[i] = w[i];
+        work_[n2 - 1 - i] = w[i];
+      }
+      LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
+      t = threshold_value(work_ + WindowN);
     }
-    LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
-    const Scalar t = noise_ok_ ? threshold_from_median(median_d1_) : threshold_value(work_ + WindowN);
     Scalar removed = Scalar(0);
     if (mode_ == WaveletMode::soft) {
       for (std::size_t i = 0; i < n_col_; ++i) {
@@ -209,6 +226,7 @@ class RealtimeWavelet {
     const std::size_t n = 4 * taps;
     if (n > 2 * WindowN) return;  // window too short for the streaming estimate: recompute
     Scalar g[16] = {};
+    Scalar h[16] = {};
     const auto m0 = 1 - static_cast<std::ptrdiff_t>(taps / 2);
     for (std::size_t p = 2 * taps; p < 2 * taps + 2; ++p) {
       std::fill(work_, work_ + n, Scalar(0));
@@ -216,10 +234,13 @@ class RealtimeWavelet {
       LiftingTransform<Scalar>::forward_level(wavelet_, work_, n, scratch_);
       for (std::size_t k = 0; k < n / 2; ++k) {
         const std::ptrdiff_t i = static_cast<std::ptrdiff_t>(p) - 2 * static_cast<std::ptrdiff_t>(k) - m0;
-        if (i >= 0 && i < static_cast<std::ptrdiff_t>(taps)) g[static_cast<std::size_t>(i)] = work_[n / 2 + k];
+        if (i >= 0 && i < static_cast<std::ptrdiff_t>(taps)) {
+          h[static_cast<std::size_t>(i)] = work_[k];
+          g[static_cast<std::size_t>(i)] = work_[n / 2 + k];
+        }
       }
     }
-    noise_ok_ = noise_.configure(g, taps);
+    noise_ok_ = noise_.configure(g, taps) && approx_.configure(h, taps);
   }
 
   void compute_taps() noexcept {
@@ -266,7 +287,9 @@ class RealtimeWavelet {
   Scalar scratch_[2 * WindowN];
   // <= filter length (16) non-zeros per level touch one sample; 8 levels.
   static constexpr std::size_t kColCapacity = 16 * kMaxWaveletLevel;
-  SlidingDetailMedian<Scalar, WindowN> noise_;
+  SlidingDetailMedian<Scalar, WindowN> noise_;  // level-1 details + median(|d1|)
+  Level1Stream<Scalar, WindowN> approx_;         // level-1 approximations
+  std::size_t t_ = 0;                            // stream index of the newest sample
   bool noise_ok_ = false;
   Scalar median_d1_ = Scalar(0);
   std::size_t n_col_ = 0;
