@@ -152,7 +152,7 @@ void def_kalman_class(py::module_& m, const char* name) {
              const T* in = x.data();
              T* o = out.mutable_data();
              const auto n = static_cast<std::size_t>(x.shape(0));
-             py::gil_scoped_release release;
+             // The GIL stays held: it serialises concurrent calls on this (mutable) object.
              for (std::size_t i = 0; i < n; ++i) o[i] = k.step(in[i]);
              return out;
            },
@@ -191,7 +191,7 @@ void def_steady_class(py::module_& m, const char* name) {
              const T* in = x.data();
              T* o = out.mutable_data();
              const auto n = static_cast<std::size_t>(x.shape(0));
-             py::gil_scoped_release release;
+             // The GIL stays held: it serialises concurrent calls on this (mutable) object.
              for (std::size_t i = 0; i < n; ++i) o[i] = k.step(in[i]);
              return out;
            },

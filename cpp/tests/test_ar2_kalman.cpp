@@ -124,8 +124,12 @@ TEST_CASE("invalid configuration: status names it, samples pass through") {
 }
 
 TEST_CASE("steady-state gain is a fixed point of the Riccati recursion") {
+  // a1 = 0 makes the gain repeat on consecutive Riccati steps while P still moves (a
+  // convergence test on the gain alone stopped there: regression case).
+  const Ar2Model<double> models[] = {{0.6868, -0.0213, 1.0, 0.0}, {0.0, 0.5, 1.0, 0.0},
+                                     {0.0, -0.9, 1.0, 0.0}, {1.5, -0.7, 1.0, 0.0}};
+  for (const auto& m : models)
   for (double r : {0.01, 1.0, 100.0, 1e4}) {
-    const Ar2Model<double> m{0.6868, -0.0213, 1.0, 0.0};
     Ar2SteadyStateKalman<double> s(m, 1.0, r);
     REQUIRE(s.status() == Ar2Status::ok);
     // One more predict/update from the converged predicted covariance returns the same P-.
@@ -139,6 +143,14 @@ TEST_CASE("steady-state gain is a fixed point of the Riccati recursion") {
     CHECK(f00 == doctest::Approx(P(1, 1)).epsilon(1e-12));
     CHECK(s.gain()(0) == doctest::Approx(k0).epsilon(1e-15));
   }
+}
+
+TEST_CASE("float steady-state gain close to the double one") {
+  const Ar2SteadyStateKalman<double> d(Ar2Model<double>{0.0, 0.5, 1.0, 0.0}, 1.0, 1.0);
+  const Ar2SteadyStateKalman<float> f(Ar2Model<float>{0.0f, 0.5f, 1.0f, 0.0f}, 1.0f, 1.0f);
+  REQUIRE(f.status() == Ar2Status::ok);
+  CHECK(std::fabs(static_cast<double>(f.gain()(0)) - d.gain()(0)) < 1e-6);
+  CHECK(std::fabs(static_cast<double>(f.gain()(1)) - d.gain()(1)) < 1e-6);
 }
 
 TEST_CASE("identification: statuses name the rejection cause") {

@@ -3,8 +3,8 @@
 // Riccati equation (prediction form)
 //   P = A P A^T + diag(q, 0) - A P C^T (C P C^T + r)^-1 C P A^T,
 // solved once at construction by iterating the filter's own predict/Joseph-update recursion
-// from P = I until the gain error, extrapolated from the contraction rate of successive
-// gain changes, is <= 64 eps relative (at most
+// from P = I until the covariance error, extrapolated from the contraction rate of successive
+// changes, is <= 64 eps relative (at most
 // kAr2RiccatiMaxIterations steps; status() reports not_converged otherwise).
 // step() is then two multiply-adds per state: X- = A X, X = X- + K (z - C X-).
 // NaN/Inf input: predict only + fault counter, as in Ar2Kalman.
@@ -74,8 +74,8 @@ class Ar2SteadyStateKalman {
   void solve(Scalar q, Scalar r) noexcept {
     const Scalar tol = Scalar(64) * std::numeric_limits<Scalar>::epsilon();
     Scalar p00 = Scalar(1), p01 = Scalar(0), p11 = Scalar(1);  // P_0 = I (filtered form)
-    Scalar k0_prev = std::numeric_limits<Scalar>::quiet_NaN(), k1_prev = k0_prev;
-    Scalar d_prev = std::numeric_limits<Scalar>::infinity();
+    const Scalar inf = std::numeric_limits<Scalar>::infinity();
+    Scalar d1 = inf, d2 = inf;  // the two previous covariance changes
     for (std::uint32_t it = 1; it <= kAr2RiccatiMaxIterations; ++it) {
       const Scalar m00 = a1_ * p00 + a2_ * p01;
       const Scalar m01 = a1_ * p01 + a2_ * p11;
@@ -88,27 +88,33 @@ class Ar2SteadyStateKalman {
       const Scalar g = Scalar(1) - k0;
       const Scalar j00 = g * pp00, j01 = g * pp01;
       const Scalar j10 = pp01 - k1 * pp00, j11 = pp11 - k1 * pp01;
-      p00 = j00 * g + r * k0 * k0;
-      p01 = j01 - j00 * k1 + r * k0 * k1;
-      p11 = j11 - j10 * k1 + r * k1 * k1;
-      if (p00 < Scalar(0)) p00 = Scalar(0);
-      if (p11 < Scalar(0)) p11 = Scalar(0);
-      if (!std::isfinite(p00 + p01 + p11)) {
+      Scalar n00 = j00 * g + r * k0 * k0;
+      const Scalar n01 = j01 - j00 * k1 + r * k0 * k1;
+      Scalar n11 = j11 - j10 * k1 + r * k1 * k1;
+      if (n00 < Scalar(0)) n00 = Scalar(0);
+      if (n11 < Scalar(0)) n11 = Scalar(0);
+      if (!std::isfinite(n00 + n01 + n11)) {
         status_ = Ar2Status::non_finite;
         return;
       }
-      // Linear convergence: with d_k the gain change and rho = d_k / d_{k-1} the contraction
-      // rate, the remaining error is about d_k rho / (1 - rho); stop when that is below tol,
-      // or when the change is at the rounding floor (a few eps).
-      const Scalar scale = std::fabs(k0) + std::fabs(k1) + std::numeric_limits<Scalar>::min();
-      const Scalar d = std::fabs(k0 - k0_prev) + std::fabs(k1 - k1_prev);
-      const Scalar rho = d / d_prev;
-      d_prev = d;
-      const bool same = (d <= Scalar(4) * std::numeric_limits<Scalar>::epsilon() * scale) ||
+      // Convergence is judged on the whole covariance (the gain alone can repeat on two
+      // consecutive steps while P still moves, e.g. a1 = 0). Linear convergence: with d the
+      // change of P and rho its contraction rate (the larger of the last two ratios, so an
+      // alternating sequence cannot fake a fast rate), the remaining error is about
+      // d rho / (1 - rho); stop when that is below tol, or at the rounding floor.
+      const Scalar d = std::fabs(n00 - p00) + std::fabs(n01 - p01) + std::fabs(n11 - p11);
+      const Scalar scale = std::fabs(n00) + std::fabs(n01) + std::fabs(n11) +
+                           std::numeric_limits<Scalar>::min();
+      const Scalar r1 = d / d1, r2 = d1 / d2;
+      const Scalar rho = r1 > r2 ? r1 : r2;
+      d2 = d1;
+      d1 = d;
+      p00 = n00;
+      p01 = n01;
+      p11 = n11;
+      const bool done = (d <= Scalar(4) * std::numeric_limits<Scalar>::epsilon() * scale) ||
                         (rho < Scalar(1) && d * rho <= tol * scale * (Scalar(1) - rho));
-      k0_prev = k0;
-      k1_prev = k1;
-      if (same) {
+      if (done) {
         k_ << k0, k1;
         p_pred_ << pp00, pp01, pp01, pp11;
         iterations_ = it;

@@ -348,6 +348,20 @@ class KalmanFilter:
         return int(self._f.fault_count)
 
     @property
+    def state(self) -> tuple[float, float]:
+        """Demeaned state estimate (x_k, x_{k-1}) (full filter only; zeros before any step)."""
+        if self.steady_state:
+            raise AttributeError("state is exposed by the full filter only")
+        return tuple(self._f.state)  # type: ignore[return-value]
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Current 2x2 state covariance P (full filter only)."""
+        if self.steady_state:
+            raise AttributeError("covariance is exposed by the full filter only")
+        return np.asarray(self._f.covariance)
+
+    @property
     def dc_gain(self) -> float:
         """Steady-state response to a sustained rate offset d from model.mean: the output
         settles at mean + G d with G = u / ((1 - a1 - a2)(1 - k0) + u), u = k0 + a2 k1, from
