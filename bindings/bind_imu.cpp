@@ -50,6 +50,7 @@ const char* status_name(ImuStatus s) {
     case ImuStatus::ok: return "ok";
     case ImuStatus::bad_channel_config: return "bad channel config";
     case ImuStatus::wavelet_unavailable: return "wavelet unavailable";
+    case ImuStatus::bad_timing: return "period_us is 0 while the timestamp check is on";
   }
   return "unknown";
 }

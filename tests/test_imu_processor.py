@@ -290,6 +290,10 @@ def test_argument_and_configuration_errors() -> None:
         ImuProcessor(bad)
     with pytest.raises(ValueError, match="filter"):
         ImuProcessor(ImuConfig(channels=[ImuChannelConfig(filter="median")] * 6))
+    timing = config_for(values)
+    timing.period_us = 0
+    with pytest.raises(ValueError, match="period_us is 0"):
+        ImuProcessor(timing)
     with pytest.raises(TypeError, match="float64 or float32"):
         ImuProcessor(cfg, dtype=np.int32)
 

@@ -226,6 +226,11 @@ TEST_CASE("invalid configuration rejects every sample") {
   auto cfg2 = test_config<float>();
   cfg2.channels[5].saturation = -1.0F;
   CHECK(ImuProcessor<float>(cfg2).status() == ImuStatus::bad_channel_config);
+  auto cfg4 = test_config<float>();
+  cfg4.period_us = 0;
+  CHECK(ImuProcessor<float>(cfg4).status() == ImuStatus::bad_timing);
+  cfg4.time_tolerance_us = 0;  // check off: a zero period is fine
+  CHECK(ImuProcessor<float>(cfg4).status() == ImuStatus::ok);
   auto cfg3 = test_config<float>();
   cfg3.channels[1].model.a1 = 2.5F;  // non-stationary
   ImuProcessor<float> p3(cfg3);

@@ -122,6 +122,7 @@ enum class ImuStatus : std::uint8_t {
   bad_channel_config,   // Kalman model/q/r invalid, bad saturation, unknown filter
   wavelet_unavailable,  // a channel asks for the wavelet, but the Wavelet type is NoWavelet
                         // or the wavelet prototype's status() is not ok
+  bad_timing,           // timestamp check on (time_tolerance_us > 0) with period_us == 0
 };
 
 // Placeholder wavelet stage: lets ImuProcessor<Scalar> compile without the wavelet header;
@@ -310,6 +311,7 @@ class ImuProcessor {
       }
     }
     if (wants_wavelet && static_cast<int>(wavelet_prototype.status()) != 0) return ImuStatus::wavelet_unavailable;
+    if (config_.time_tolerance_us != 0 && config_.period_us == 0) return ImuStatus::bad_timing;
     return ImuStatus::ok;
   }
 
