@@ -176,7 +176,7 @@ class RealtimeWavelet {
       // Level 1 from the streams (interior values) plus the boundary coefficients; levels
       // 2..J by lifting on the assembled approximation band.
       approx_.assemble(w, t_, work_);
-      noise_.assemble(w, work_ + WindowN);
+      noise_.assemble(work_ + WindowN);
       if (level_ > 1) LiftingTransform<Scalar>::forward(wavelet_, work_, WindowN, level_ - 1, scratch_);
       t = threshold_from_median(median_d1_);
     } else {

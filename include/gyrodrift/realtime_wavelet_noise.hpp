@@ -84,12 +84,25 @@ class Level1Stream {
 
   // The full band c[0..N) of the current (full) window whose newest sample has index t.
   void assemble(const Scalar* w, std::size_t t, Scalar* out) const noexcept {
-    const std::size_t s = t + 1 - N;
+    assemble_interior(t, out);
     for (std::size_t k = 0; k < k1_lo_; ++k) out[k] = direct(w, k);
-    for (std::size_t k = k1_lo_; k <= k1_hi_; ++k) out[k] = u_ring_[(s + 2 * k) & (N - 1)];
     for (std::size_t k = k1_hi_ + 1; k < k2_lo_; ++k) out[k] = direct(w, k);
-    for (std::size_t k = k2_lo_; k <= k2_hi_; ++k) out[k] = v_ring_[(t + N - 2 * k) & (N - 1)];
     for (std::size_t k = k2_hi_ + 1; k < N; ++k) out[k] = direct(w, k);
+  }
+
+  // Only the interior coefficients (ring values) of that band.
+  void assemble_interior(std::size_t t, Scalar* out) const noexcept {
+    const std::size_t s = t + 1 - N;
+    for (std::size_t k = k1_lo_; k <= k1_hi_; ++k) out[k] = u_ring_[(s + 2 * k) & (N - 1)];
+    for (std::size_t k = k2_lo_; k <= k2_hi_; ++k) out[k] = v_ring_[(t + N - 2 * k) & (N - 1)];
+  }
+
+  // Boundary indices, in increasing order: [0, k1_lo), (k1_hi, k2_lo), (k2_hi, N).
+  template <class Fn>
+  void for_each_boundary(Fn&& fn) const noexcept {
+    for (std::size_t k = 0; k < k1_lo_; ++k) fn(k);
+    for (std::size_t k = k1_hi_ + 1; k < k2_lo_; ++k) fn(k);
+    for (std::size_t k = k2_hi_ + 1; k < N; ++k) fn(k);
   }
 
   std::size_t taps_ = 0;
@@ -159,18 +172,20 @@ class SlidingDetailMedian {
       std::sort(v_sorted_[pv], v_sorted_[pv] + v_n_[pv]);
       v_init_[pv] = true;
     }
-    // Boundary coefficients (insertion-sorted; about 2 x taps of them).
+    // Boundary coefficients: kept signed for assemble(), and insertion-sorted by magnitude
+    // (about 2 x taps of them).
     std::size_t nb = 0;
-    for (std::size_t k = 0; k < N; ++k) {
-      if (st.interior(k)) continue;
-      const Scalar a = std::fabs(st.direct(w, k));
+    st.for_each_boundary([&](std::size_t k) noexcept {
+      const Scalar d = st.direct(w, k);
+      bnd_signed_[nb] = d;
+      const Scalar a = std::fabs(d);
       std::size_t j = nb++;
       while (j > 0 && bnd_[j - 1] > a) {
         bnd_[j] = bnd_[j - 1];
         --j;
       }
       bnd_[j] = a;
-    }
+    });
     // N even: median = mean of ranks N/2 - 1 and N/2 (0-based) of the union.
     Scalar lo = Scalar(0), hi = Scalar(0);
     select_pair(u_sorted_[pu], u_n_[pu], v_sorted_[pv], v_n_[pv], bnd_, nb, kHalf - 1, lo, hi);
@@ -178,7 +193,11 @@ class SlidingDetailMedian {
   }
 
   // The signed level-1 detail band of the current full window (after update()).
-  void assemble(const Scalar* w, Scalar* out) const noexcept { d1_.assemble(w, t_, out); }
+  void assemble(Scalar* out) const noexcept {
+    d1_.assemble_interior(t_, out);
+    std::size_t i = 0;
+    d1_.for_each_boundary([&](std::size_t k) noexcept { out[k] = bnd_signed_[i++]; });
+  }
   bool full() const noexcept { return full_; }
 
  private:
@@ -274,6 +293,7 @@ class SlidingDetailMedian {
   bool u_init_[2] = {false, false};
   bool v_init_[2] = {false, false};
   Scalar bnd_[4 * MaxTaps] = {};
+  Scalar bnd_signed_[4 * MaxTaps] = {};
 };
 
 }  // namespace gyrodrift
