@@ -155,6 +155,107 @@ class OadevStream {
   OadevSums<long double> sums_{};
 };
 
+// Fused multi-tau sums for a record read in pieces (memory-mapped files): plan, seeds,
+// consecutive term ranges with one window of y per segment, finish.
+class OadevFusedStream {
+ public:
+  OadevFusedStream(std::int64_t n_data, const CArray<std::int64_t>& m_in, std::int64_t block)
+      : fused_(std::make_unique<OadevFused<64>>()) {
+    const std::int64_t* m_raw = require_1d(m_in, "m");
+    const auto n_m = static_cast<std::size_t>(m_in.shape(0));
+    if (n_data < 3 || block < 16 || n_m == 0 || n_m > 64) {
+      throw py::value_error("OadevFusedStream: need n_data >= 3, block >= 16, 1..64 factors");
+    }
+    std::vector<std::size_t> m(n_m);
+    for (std::size_t j = 0; j < n_m; ++j) {
+      if (m_raw[j] < 1) throw py::value_error("m must be >= 1");
+      m[j] = static_cast<std::size_t>(m_raw[j]);
+    }
+    n_data_ = static_cast<std::size_t>(n_data);
+    if (!fused_->plan(n_data_, m.data(), n_m, static_cast<std::size_t>(block))) {
+      throw py::value_error("OadevFusedStream: m must be strictly increasing and fit the record");
+    }
+    work_.resize(fused_->workspace_doubles());
+    fused_->reset_sums();
+  }
+
+  py::list segments() const {
+    py::list out;
+    for (std::size_t k = 0; k < fused_->segments(); ++k) {
+      out.append(py::make_tuple(fused_->segment_start(k), fused_->segment_span(k)));
+    }
+    return out;
+  }
+
+  void seed(std::size_t j, const CArray<double>& lo, const CArray<double>& hi) {
+    require_1d(lo, "lo");
+    require_1d(hi, "hi");
+    if (j >= fused_->factors()) throw py::value_error("seed(): factor index out of range");
+    if (lo.shape(0) != hi.shape(0)) throw py::value_error("seed(): lo and hi differ in length");
+    const auto n = static_cast<std::size_t>(lo.shape(0));
+    require_finite(lo.data(), n, "lo");
+    require_finite(hi.data(), n, "hi");
+    fused_->seed_add(j, lo.data(), hi.data(), n);
+  }
+
+  void process(std::size_t b_begin, std::size_t b_end, const py::list& windows) {
+    const std::size_t n_seg = fused_->segments();
+    if (static_cast<std::size_t>(py::len(windows)) != n_seg) {
+      throw py::value_error("process(): need one window per segment");
+    }
+    if (b_begin != next_) throw py::value_error("process(): term ranges must be consecutive");
+    std::vector<CArray<double>> keep;
+    std::vector<const double*> bases(n_seg, nullptr);
+    keep.reserve(n_seg);
+    for (std::size_t k = 0; k < n_seg; ++k) {
+      keep.push_back(windows[k].cast<CArray<double>>());
+      const CArray<double>& w = keep.back();
+      require_1d(w, "window");
+      const std::size_t start = b_begin + fused_->segment_start(k);
+      const std::size_t end_needed =
+          std::min(n_data_, b_end + fused_->segment_start(k) + fused_->segment_span(k));
+      const std::size_t need = end_needed > start ? end_needed - start : 0;
+      const auto have = static_cast<std::size_t>(w.shape(0));
+      if (have < need) {
+        throw py::value_error("process(): window " + std::to_string(k) + " has " +
+                              std::to_string(have) + " samples, needs " + std::to_string(need));
+      }
+      require_finite(w.data(), have, "window");
+      bases[k] = w.data();
+    }
+    bool ok = false;
+    {
+      py::gil_scoped_release release;
+      ok = fused_->process_blocks(bases.data(), b_begin, b_end, work_.data(), work_.size());
+    }
+    if (!ok) throw py::value_error("process(): b_begin/b_end must be multiples of the block");
+    next_ = b_end;
+  }
+
+  py::tuple finish() const {
+    const std::size_t n_m = fused_->factors();
+    if (next_ < fused_->n_terms(0)) throw py::value_error("finish(): not all terms processed");
+    py::array_t<double> sigma2(static_cast<py::ssize_t>(n_m));
+    py::array_t<std::int64_t> terms_out(static_cast<py::ssize_t>(n_m));
+    std::vector<std::size_t> terms(n_m);
+    if (!fused_->finish(sigma2.mutable_data(), terms.data())) {
+      throw py::value_error("the Allan sums are not finite (values too large?)");
+    }
+    std::int64_t* t = terms_out.mutable_data();
+    for (std::size_t j = 0; j < n_m; ++j) t[j] = static_cast<std::int64_t>(terms[j]);
+    return py::make_tuple(sigma2, terms_out);
+  }
+
+  std::size_t block() const { return fused_->block(); }
+  std::size_t n_terms0() const { return fused_->n_terms(0); }
+
+ private:
+  std::unique_ptr<OadevFused<64>> fused_;
+  std::vector<double> work_;
+  std::size_t n_data_{0};
+  std::size_t next_{0};
+};
+
 py::array_t<std::int64_t> tau_grid_py(const std::string& grid_name, std::int64_t max_m,
                                        std::int64_t per_decade) {
   TauGrid grid = TauGrid::octave;
@@ -205,6 +306,19 @@ void bind_allan(pybind11::module_& m) {
       .def("finish", &OadevStream::finish)
       .def("sigma2", &OadevStream::sigma2)
       .def_property_readonly("terms", &OadevStream::terms);
+  py::class_<OadevFusedStream>(m, "OadevFusedStream",
+                               "Fused multi-tau Allan sums over a record read in pieces.")
+      .def(py::init<std::int64_t, const CArray<std::int64_t>&, std::int64_t>(),
+           py::arg("n_data"), py::arg("m").noconvert(), py::arg("block") = 4096)
+      .def("segments", &OadevFusedStream::segments,
+           "[(start, span)]: segment k of block b reads y[b + start : b + start + span]")
+      .def("seed", &OadevFusedStream::seed, py::arg("j"), py::arg("lo").noconvert(),
+           py::arg("hi").noconvert())
+      .def("process", &OadevFusedStream::process, py::arg("b_begin"), py::arg("b_end"),
+           py::arg("windows"))
+      .def("finish", &OadevFusedStream::finish)
+      .def_property_readonly("block", &OadevFusedStream::block)
+      .def_property_readonly("n_terms0", &OadevFusedStream::n_terms0);
   m.def("tau_grid", &tau_grid_py, py::arg("grid"), py::arg("max_m"), py::arg("per_decade") = 10,
         "Averaging factors 1 <= m <= max_m: 'octave', 'decade' (per_decade points), 'all'.");
 }

@@ -256,21 +256,55 @@ class OadevFused {
     long double total{0};
     for (std::size_t i = 0; i < n_data_; ++i) total += static_cast<long double>(y[i]);
     if (!std::isfinite(total)) return false;
-    for (std::size_t j = 0; j < n_m_; ++j) {
-      OadevSums<long double> seed;
-      oadev_rate_seed(seed, y, y + m_[j], m_[j]);
-      diff_[j] = seed.diff;
+    reset_sums();
+    for (std::size_t j = 0; j < n_m_; ++j) seed_add(j, y, y + m_[j], m_[j]);
+    const Scalar* bases[kMaxOffsets];
+    for (std::size_t k = 0; k < n_seg_; ++k) bases[k] = y + seg_start_[k];
+    if (!process_blocks(bases, 0, n_terms_[0], workspace, workspace_len)) return false;
+    return finish(sigma2, terms);
+  }
+
+  // Streaming use (records read piece by piece, e.g. from a file):
+  //   reset_sums(); seed_add(j, &y[k], &y[m_j + k], n) for k covering [0, m_j) of every j;
+  //   process_blocks(...) over consecutive term ranges; finish(...).
+  // The result equals run() bit for bit when b_begin is a multiple of block().
+  void reset_sums() noexcept {
+    for (std::size_t j = 0; j < MaxTaus; ++j) {
+      diff_[j] = 0;
       sum_sq_[j] = 0;
     }
+  }
+
+  template <class Scalar>
+  void seed_add(std::size_t j, const Scalar* lo, const Scalar* hi, std::size_t n) noexcept {
+    if (j >= n_m_) return;
+    OadevSums<long double> part;
+    oadev_rate_seed(part, lo, hi, n);
+    diff_[j] += part.diff;
+  }
+
+  // Term indices [b_begin, b_end) (both multiples of block() except b_end >= n_terms(0) for
+  // the last range; ranges in order). seg_base[k] points at y[b_begin + segment_start(k)]; it must give access up
+  // to y[min(n_data, b_end + segment_start(k) + segment_span(k)) - 1] (segments starting
+  // beyond the data are not read).
+  template <class Scalar>
+  bool process_blocks(const Scalar* const* seg_base, std::size_t b_begin, std::size_t b_end,
+                      double* workspace, std::size_t workspace_len) noexcept {
+    if (n_m_ == 0 || workspace_len < workspace_ || b_begin % block_ != 0) return false;
+    if (b_end % block_ != 0 && b_end < n_terms_[0]) return false;
     const std::size_t bsz = block_;
     std::size_t n_active = n_m_;
-    for (std::size_t b = 0; b < n_terms_[0]; b += bsz) {
+    const std::size_t stop = b_end < n_terms_[0] ? b_end : n_terms_[0];
+    for (std::size_t b = b_begin; b < stop; b += bsz) {
       while (n_active > 0 && n_terms_[n_active - 1] <= b) --n_active;
+      const std::size_t rel = b - b_begin;
       // One offset for all streams of this block (it cancels in L_2m - 2 L_m + L_0 and in
       // the carry): the local level at b, so drifting records keep Q small.
       const std::size_t n_level = n_data_ - b < 64 ? n_data_ - b : 64;
       long double level{0};
-      for (std::size_t i = 0; i < n_level; ++i) level += static_cast<long double>(y[b + i]);
+      for (std::size_t i = 0; i < n_level; ++i) {
+        level += static_cast<long double>(seg_base[0][rel + i]);
+      }
       const double mean = static_cast<double>(level / static_cast<long double>(n_level));
       // Local prefix sums of the segments the active factors read.
       const std::size_t reach = 2 * m_[n_active - 1];
@@ -278,7 +312,7 @@ class OadevFused {
         const std::size_t start = b + seg_start_[k];
         const std::size_t avail = n_data_ > start ? n_data_ - start : 0;
         const std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
-        prefix_sum(y + start, len, mean, workspace + seg_q_[k]);
+        prefix_sum(seg_base[k] + rel, len, mean, workspace + seg_q_[k]);
       }
       for (std::size_t j = 0; j < n_active; ++j) {
         const std::size_t left = n_terms_[j] - b;
@@ -296,16 +330,33 @@ class OadevFused {
         }
       }
     }
+    return true;
+  }
+
+  template <class Out>
+  bool finish(Out* sigma2, std::size_t* terms) const noexcept {
     for (std::size_t j = 0; j < n_m_; ++j) {
       const long double mm = static_cast<long double>(m_[j]);
       const long double v =
           sum_sq_[j] / (2.0L * mm * mm * static_cast<long double>(n_terms_[j]));
       if (!std::isfinite(v)) return false;
-      sigma2[j] = static_cast<Out>(v);
+    }
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      const long double mm = static_cast<long double>(m_[j]);
+      sigma2[j] = static_cast<Out>(sum_sq_[j] /
+                                   (2.0L * mm * mm * static_cast<long double>(n_terms_[j])));
       if (terms != nullptr) terms[j] = n_terms_[j];
     }
     return true;
   }
+
+  std::size_t block() const noexcept { return block_; }
+  std::size_t factors() const noexcept { return n_m_; }
+  std::size_t n_terms(std::size_t j) const noexcept { return j < n_m_ ? n_terms_[j] : 0; }
+  std::size_t segments() const noexcept { return n_seg_; }
+  std::size_t segment_start(std::size_t k) const noexcept { return seg_start_[k]; }
+  // Samples of y one block of segment k reads beyond its start: span + block.
+  std::size_t segment_span(std::size_t k) const noexcept { return seg_len_[k] - 1; }
 
  private:
   // Q[0] = 0, Q[t+1] = Q[t] + (y[t] - mean), t < len; four independent chains then fix-ups,

@@ -5,11 +5,15 @@ NIST SP 1065 sec. 5.2.4 and 5.3), on the C++ kernel include/gyrodrift/allan.hpp.
   unit) or phase samples (cumulative angle, kind="phase"), tau grid "octave", "decade" (M per
   decade), "all" or explicit averaging factors. O(N) per tau, long double sums.
 - Records too large for memory: pass a `numpy.memmap` (e.g. `np.load(path, mmap_mode="r")`).
-  It is then read from its file in chunks of `chunk_samples` with plain file reads (never
-  mapped into the process), so the memory in use is bounded by 3 * chunk_samples * 8 bytes
-  (three chunk buffers: y_i, y_{i+m}, y_{i+2m}; 24 MiB at the default 2**20) plus O(#taus),
-  whatever the record length. In-memory arrays go to the kernel zero-copy (float64/float32,
-  C-contiguous) and need no memory beyond the outputs.
+  It is then read from its file with plain file reads (never mapped into the process), so the
+  memory in use stays bounded whatever the record length: rate input runs the fused kernel
+  over term ranges with one window per segment, windows of about 3 * chunk_samples * 8
+  bytes in all plus the segments' spans (a few blocks each); measured peak (tracemalloc)
+  about 4 * chunk_samples * 8 bytes, 32 MiB at the default chunk_samples = 2**20; phase
+  input runs the per-tau kernel on three chunk buffers (y_i, y_{i+m}, y_{i+2m}),
+  3 * chunk_samples * 8 bytes. In-memory arrays go to the kernel zero-copy
+  (float64/float32, C-contiguous); the fused kernel's workspace is (segments x block)
+  doubles, under 1 MB for octave taus.
 - Confidence intervals: equivalent degrees of freedom from the simple approximations of
   NIST SP 1065 Table 5 (Stein 1985) for the noise type alpha of each tau, and the chi-squared
   interval of SP 1065 eq. 45:
@@ -245,8 +249,54 @@ def _file_chunks(mm: np.memmap, start: int, stop: int, chunk: int) -> Iterator[n
             pos += count
 
 
+def _read_range(fh: Any, mm: np.memmap, start: int, stop: int) -> np.ndarray:
+    """float64 copy of mm[start:stop] (clipped to the record) read from the open file."""
+    stop = min(stop, mm.shape[0])
+    if stop <= start:
+        return np.empty(0)
+    fh.seek(mm.offset + start * mm.dtype.itemsize)
+    piece = np.fromfile(fh, dtype=mm.dtype, count=stop - start)
+    if piece.size != stop - start:
+        raise ValueError(f"{mm.filename}: file shorter than its header says")
+    return np.ascontiguousarray(piece, dtype=np.float64)
+
+
+def _chunked_fused_rate(mm: np.memmap, m_all: np.ndarray, chunk: int, bar: tqdm
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """Rate input from a file: the fused kernel over term ranges of W samples, one window
+    per segment (memory ~ segments x W x 8 bytes, W ~ 3 chunk / segments)."""
+    n_data = mm.shape[0]
+    sigma2 = np.empty(m_all.size)
+    terms = np.empty(m_all.size, dtype=np.int64)
+    with open(mm.filename, "rb") as fh:
+        for lo in range(0, m_all.size, 64):
+            group = np.ascontiguousarray(m_all[lo:lo + 64])
+            st = _lib().OadevFusedStream(n_data, group)
+            segs = st.segments()
+            for j, m in enumerate(int(v) for v in group):
+                for a, b in zip(_file_chunks(mm, 0, m, chunk), _file_chunks(mm, m, 2 * m, chunk),
+                                strict=True):
+                    st.seed(j, a, b)
+                del a, b  # loop variables would keep the last two chunks alive
+            block = st.block
+            width = max(block, (3 * chunk // len(segs)) // block * block)
+            n_terms0 = st.n_terms0
+            group_terms = n_data - 2 * group + 1
+            for b0 in range(0, n_terms0, width):
+                b1 = min(b0 + width, n_terms0)
+                windows = [_read_range(fh, mm, b0 + start, b1 + start + span)
+                           for start, span in segs]
+                st.process(b0, b1, windows)
+                del windows  # before the next range is read: one set of windows at a time
+                bar.update(int(np.clip(group_terms - b0, 0, b1 - b0).sum()))
+            sigma2[lo:lo + group.size], terms[lo:lo + group.size] = st.finish()
+    return sigma2, terms
+
+
 def _chunked_sigma2(mm: np.memmap, m_all: np.ndarray, kind: str, chunk: int,
                     bar: tqdm) -> tuple[np.ndarray, np.ndarray]:
+    if kind == "rate":
+        return _chunked_fused_rate(mm, m_all, chunk, bar)
     n_data = mm.shape[0]
     sigma2 = np.empty(m_all.size)
     terms = np.empty(m_all.size, dtype=np.int64)
