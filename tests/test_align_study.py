@@ -220,3 +220,13 @@ def test_cli_study_writes_tables_and_plots(tmp_path: Path, capsys) -> None:
 def test_cli_user_errors_exit_2(argv: list[str], tmp_path: Path, capsys) -> None:
     assert main([*argv, "--out", str(tmp_path)]) == 2
     assert "gyrodrift align: error:" in capsys.readouterr().err
+
+
+def test_vectorised_misalignment_equals_scalar_definition(rng: np.random.Generator) -> None:
+    from gyrodrift.align import euler2dcm, misalignment
+    from gyrodrift.align.study import misalignment_batch
+
+    att = rng.uniform(-0.5, 0.5, (20, 3))
+    c_true = np.array([euler2dcm(a + rng.normal(0, 1e-3, 3)) for a in att])
+    ref = np.array([misalignment(euler2dcm(a), c) for a, c in zip(att, c_true, strict=True)])
+    assert np.abs(misalignment_batch(att, c_true) - ref).max() < 1e-15
