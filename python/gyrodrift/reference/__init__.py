@@ -11,6 +11,8 @@ from gyrodrift.reference.ar2 import ar_filter as ar_filter
 from gyrodrift.reference.ar2 import fit_ar2 as fit_ar2
 from gyrodrift.reference.ar2 import kalman_filter as kalman_filter
 from gyrodrift.reference.ar2 import steady_state_gain as steady_state_gain
+
+# isort: split
 # --- wavelets (issue 3) ---
 from gyrodrift.reference.wavelet import realtime_wavelet as realtime_wavelet
 from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise
