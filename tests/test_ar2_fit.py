@@ -10,7 +10,7 @@ import gyrodrift.reference as ref
 import numpy as np
 import pytest
 from conftest import SHARED_DATA
-from gyrodrift import Ar2FitError, _core
+from gyrodrift import Ar2FitError, Ar2Model, _core
 from statsmodels.regression.linear_model import burg, yule_walker
 
 # Papers' published AR(2) pairs: 000 eq. 6 (RLG) and 002 table 1 (three FOGs).
@@ -192,3 +192,17 @@ def test_fit_real_laser_gyro_record() -> None:
         assert got.sigma2 == pytest.approx(want.sigma2, rel=tol)
         assert got.r == pytest.approx(want.r, rel=tol)
         assert got.stationary
+
+
+def test_root_modulus_flags_trending_records() -> None:
+    # Closed form check: complex roots have modulus sqrt(-a2); real roots the larger |root|.
+    assert Ar2Model(a1=0.2, a2=-0.5, sigma2=1.0).root_modulus == pytest.approx(math.sqrt(0.5))
+    assert Ar2Model(a1=0.5, a2=0.14, sigma2=1.0).root_modulus == pytest.approx(0.7)
+    # A rate-random-walk record (non-stationary) is fitted (YW/Burg cannot return a
+    # non-stationary model) but its root modulus sits next to 1; white noise is far from it.
+    walk = gyrodrift.simulate(n=50_000, k_deg_h_rthr=5.0, seed=8).rate_dph
+    white = gyrodrift.simulate(n=50_000, n_deg_rthr=0.01, seed=8).rate_dph
+    assert gyrodrift.fit_ar2(walk, "burg").root_modulus > 0.99
+    # White noise: a1, a2 ~ N(0, 1/n) (std 4.5e-3); complex roots have modulus sqrt(-a2), so
+    # 5 std of a2 (0.022) bounds it by 0.15.
+    assert gyrodrift.fit_ar2(white, "burg").root_modulus < 0.15

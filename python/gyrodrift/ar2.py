@@ -11,8 +11,8 @@ gain K = P C^T (C P C^T + r)^-1 (the papers print (C P + R)^-1: erratum), Joseph
 Defaults, as the papers choose them: q = model.sigma2 (the AR(2) driving-noise variance) and
 r = model.r, "the variance of the AR(2) estimation error", taken as the mean squared one-step
 prediction error of the fitted model on the fitting record. Both are in (units of y)^2.
-With q ~ r the steady-state gain on white-like drift is about 0.6; raise r (or lower q) for
-more smoothing at the cost of lag.
+With q = r the steady-state gain on white-like drift is about 0.5 (half the STD); raise r (or
+lower q) for more smoothing at the cost of lag and of attenuating true rate changes (dc_gain).
 
 All heavy lifting is in gyrodrift._core (include/gyrodrift/ar2_*.hpp); the numpy oracles are in
 gyrodrift.reference.ar2.
@@ -121,6 +121,13 @@ class Ar2Model:
     @property
     def stationary(self) -> bool:
         return is_stationary(self.a1, self.a2)
+
+    @property
+    def root_modulus(self) -> float:
+        """Largest modulus of the roots of z^2 - a1 z - a2 (< 1 for a stationary model). Yule-Walker
+        and Burg always return a stationary model; a trending (ramp, random-walk) record shows
+        up as a modulus close to 1, where the drift model and the filter's dc_gain degrade."""
+        return float(np.max(np.abs(np.roots([1.0, -self.a1, -self.a2]))))
 
     @property
     def measurement_variance(self) -> float:
