@@ -284,3 +284,46 @@ TEST_CASE("fused kernel rejects bad plans and data, allocates nothing") {
                     static_cast<std::size_t*>(nullptr)));
   CHECK(out2[0] == -1.0);
 }
+
+TEST_CASE("fused streaming API in term ranges equals run(), bit for bit") {
+  const auto y = record(50000, 7.0, 11);
+  std::size_t m[64] = {};
+  const std::size_t n_m = gyrodrift::tau_grid(
+      gyrodrift::TauGrid::octave, gyrodrift::oadev_max_m(y.size(), AllanInput::rate), 0, m, 64);
+  auto whole = std::make_unique<gyrodrift::OadevFused<64>>();
+  REQUIRE(whole->plan(y.size(), m, n_m, 256));
+  std::vector<double> work(whole->workspace_doubles());
+  double ref[64] = {};
+  REQUIRE(whole->run(y.data(), work.data(), work.size(), ref,
+                     static_cast<std::size_t*>(nullptr)));
+
+  auto parts = std::make_unique<gyrodrift::OadevFused<64>>();
+  REQUIRE(parts->plan(y.size(), m, n_m, 256));
+  parts->reset_sums();
+  for (std::size_t j = 0; j < n_m; ++j) {  // seeds in pieces of 100
+    for (std::size_t k = 0; k < m[j]; k += 100) {
+      parts->seed_add(j, y.data() + k, y.data() + m[j] + k, std::min<std::size_t>(100, m[j] - k));
+    }
+  }
+  // Each range gets its own copies of the windows (as a file reader would), then they die.
+  const std::size_t n_terms0 = parts->n_terms(0);
+  CHECK_FALSE(parts->process_blocks(static_cast<const double* const*>(nullptr), 100, 200,
+                                    work.data(), work.size()));  // not a block multiple
+  for (std::size_t b0 = 0; b0 < n_terms0; b0 += 768) {
+    const std::size_t b1 = std::min(b0 + 768, n_terms0);
+    std::vector<std::vector<double>> windows(parts->segments());
+    std::vector<const double*> bases(parts->segments());
+    for (std::size_t k = 0; k < parts->segments(); ++k) {
+      const std::size_t lo = b0 + parts->segment_start(k);
+      const std::size_t hi = std::min(y.size(), b1 + parts->segment_start(k) +
+                                                    parts->segment_span(k));
+      if (hi > lo) windows[k].assign(y.begin() + static_cast<std::ptrdiff_t>(lo),
+                                     y.begin() + static_cast<std::ptrdiff_t>(hi));
+      bases[k] = windows[k].data();
+    }
+    REQUIRE(parts->process_blocks(bases.data(), b0, b1, work.data(), work.size()));
+  }
+  double got[64] = {};
+  REQUIRE(parts->finish(got, static_cast<std::size_t*>(nullptr)));
+  for (std::size_t j = 0; j < n_m; ++j) CHECK(got[j] == ref[j]);
+}
