@@ -49,6 +49,11 @@ def test_non_contiguous_input_gives_same_result(fn, x) -> None:
     np.testing.assert_array_equal(fn(fortran, MODEL), fn(x, MODEL))
     rev = x[::-1]
     np.testing.assert_array_equal(fn(rev, MODEL), fn(rev.copy(), MODEL))
+    swapped = x.astype(x.dtype.newbyteorder())  # non-native byte order: converted
+    np.testing.assert_array_equal(fn(swapped, MODEL), fn(x, MODEL))
+    readonly = x.copy()
+    readonly.flags.writeable = False
+    np.testing.assert_array_equal(fn(readonly, MODEL), fn(x, MODEL))
 
 
 def test_input_is_not_modified(x) -> None:
