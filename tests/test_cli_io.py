@@ -1,0 +1,77 @@
+"""gyrodrift.io.load_record: formats, columns, units, NaN policy, memory mapping."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from gyrodrift import io
+from gyrodrift.replay.logs import write_imu_log
+
+
+def test_npy_1d_is_memory_mapped_2d_column(tmp_path) -> None:
+    x = np.random.default_rng(0).normal(size=1000)
+    np.save(tmp_path / "a.npy", x)
+    rec = io.load_record(tmp_path / "a.npy", rate_hz=10.0)
+    assert isinstance(rec.rate_dph, np.memmap)  # large records stay on disk
+    np.testing.assert_array_equal(np.asarray(rec.rate_dph), x)
+    np.save(tmp_path / "b.npy", np.column_stack([x, 2 * x, 3 * x]))
+    rec2 = io.load_record(tmp_path / "b.npy", rate_hz=10.0, column=2)
+    np.testing.assert_array_equal(rec2.rate_dph, 3 * x)
+    with pytest.raises(ValueError, match="choose a column"):
+        io.load_record(tmp_path / "b.npy", rate_hz=10.0)
+    with pytest.raises(ValueError, match="out of range"):
+        io.load_record(tmp_path / "b.npy", rate_hz=10.0, column=5)
+
+
+@pytest.mark.parametrize(("units", "factor"), [
+    ("deg/h", 1.0), ("deg/s", 3600.0), ("rad/s", 180.0 / math.pi * 3600.0),
+    # increments per sample at 50 Hz: x [unit] / 0.02 s -> deg/h
+    ("arcsec", 1.0 / 3600.0 * 50.0 * 3600.0), ("deg", 50.0 * 3600.0),
+    ("rad", 180.0 / math.pi * 50.0 * 3600.0),
+])
+def test_units(tmp_path, units: str, factor: float) -> None:
+    x = np.linspace(-1.0, 1.0, 101)
+    np.save(tmp_path / "u.npy", x)
+    rec = io.load_record(tmp_path / "u.npy", rate_hz=50.0, units=units)
+    np.testing.assert_allclose(rec.rate_dph, x * factor, rtol=1e-15)
+    assert rec.units_in == units
+
+
+def test_csv_without_header_and_bad_cells(tmp_path) -> None:
+    path = tmp_path / "n.csv"
+    path.write_text("0.0,1.5\n0.1,2.5\n0.2,oops\n0.3,4.5\n")
+    with pytest.raises(ValueError, match="1 of 4 samples are NaN/Inf"):
+        io.load_record(path, column=1, rate_hz=10.0)
+    rec = io.load_record(path, column=1, rate_hz=10.0, nan_policy="drop")
+    np.testing.assert_array_equal(rec.rate_dph, [1.5, 2.5, 4.5])
+    assert rec.n_dropped == 1 and rec.n_total == 4
+
+
+def test_replay_csv_and_binary_logs(tmp_path) -> None:
+    n = 200
+    t_s = np.arange(n) / 100.0
+    gyro = np.column_stack([np.full(n, 1e-4), np.full(n, 2e-4), np.linspace(0, 1e-3, n)])
+    accel = np.zeros((n, 3))
+    for name in ("imu.csv", "imu.bin"):
+        write_imu_log(tmp_path / name, t_s, gyro, accel)
+        rec = io.load_record(tmp_path / name, column="y")
+        assert rec.rate_hz == pytest.approx(100.0, rel=1e-6)
+        # float32 on the wire: 1e-7 relative
+        np.testing.assert_allclose(rec.rate_dph, 2e-4 * 180 / math.pi * 3600, rtol=1e-6)
+    with pytest.raises(ValueError, match="gyro axes"):
+        io.load_record(tmp_path / "imu.bin", column="w")
+
+
+def test_unsupported_and_empty(tmp_path) -> None:
+    (tmp_path / "x.txt").write_text("1\n2\n")
+    with pytest.raises(ValueError, match="unsupported file type"):
+        io.load_record(tmp_path / "x.txt", rate_hz=1.0)
+    (tmp_path / "e.csv").write_text("")
+    with pytest.raises(ValueError, match="empty"):
+        io.load_record(tmp_path / "e.csv", rate_hz=1.0)
+    with pytest.raises(FileNotFoundError):
+        io.load_record(tmp_path / "none.csv")
+    with pytest.raises(ValueError, match="unknown units"):
+        io.load_record(tmp_path / "x.txt", units="furlong/fortnight")
