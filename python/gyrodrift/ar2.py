@@ -249,8 +249,9 @@ def fit_ar2(x: object, method: str = "yule-walker") -> Ar2Model | tuple[Ar2Model
         detail = {
             "too_short": f"{a.size} samples, at least {MIN_SAMPLES} needed",
             "constant": "all samples are equal",
-            "non_finite": "the record contains NaN or Inf",
-            "non_stationary": "the fitted model has a root on or outside the unit circle",
+            "non_finite": "the record contains NaN or Inf (or values whose sum overflows)",
+            "non_stationary": "the fitted model has a root on or outside the unit circle "
+            "(or its normal equations are singular)",
         }[cause]
         raise Ar2FitError(cause, detail) from None
     return Ar2Model(a1=a1, a2=a2, sigma2=sigma2, mean=mean, method=name, n=int(a.size), r=r)
