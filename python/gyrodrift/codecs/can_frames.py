@@ -113,9 +113,7 @@ class SampleAssembler:
 
     @property
     def pending_frames(self) -> int:
-        return sum(s.held for s in self._table.values()) + sum(
-            p is not None for p in self._pending
-        )
+        return sum(s.held for s in self._table.values()) + sum(p is not None for p in self._pending)
 
     def push(self, msg: can.Message) -> CanSample | None:
         st = self.stats
