@@ -206,3 +206,9 @@ def test_root_modulus_flags_trending_records() -> None:
     # White noise: a1, a2 ~ N(0, 1/n) (std 4.5e-3); complex roots have modulus sqrt(-a2), so
     # 5 std of a2 (0.022) bounds it by 0.15.
     assert gyrodrift.fit_ar2(white, "burg").root_modulus < 0.15
+
+
+def test_python_constants_match_cpp() -> None:
+    from gyrodrift.ar2 import MIN_SAMPLES
+
+    assert _core.AR2_MIN_SAMPLES == MIN_SAMPLES
