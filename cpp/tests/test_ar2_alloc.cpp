@@ -72,6 +72,15 @@ void check_all_filters() {
 
 }  // namespace
 
+TEST_CASE("the counter is live in this executable (so a zero below can fail)") {
+  AllocationScope scope;
+  int* p = new int(7);
+  asm volatile("" : : "g"(p) : "memory");  // keep the allocation observable
+  delete p;
+  const long allocs = scope.allocations();
+  CHECK(allocs == 1);
+}
+
 TEST_CASE("AR(2) filters: 1e6 steps x 3 axes allocate nothing (double)") { check_all_filters<double>(); }
 TEST_CASE("AR(2) filters: 1e6 steps x 3 axes allocate nothing (float)") { check_all_filters<float>(); }
 
