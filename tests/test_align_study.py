@@ -138,17 +138,18 @@ def test_prefilter_helps_when_kf_noise_is_taken_from_raw_scatter() -> None:
     the per-sample scatter of a quantized gyro with dither residue, the raw-gyro filter is
     told the gyro is ~100x noisier than its true ARW and its heading converges slower; the
     prefilter removes that scatter, so its filter converges faster (same data)."""
-    st = StudyConfig(scenario="static", runs=2, minutes=8.0, rate_hz=100.0, kf_noise="samples",
+    st = StudyConfig(scenario="static", runs=4, minutes=8.0, rate_hz=100.0, kf_noise="samples",
                      errors=ImuErrors(gyro_lsb_arcsec=0.1, dither_residue_arcsec=2.0,
                                       dither_hz=(17.0, 19.0, 23.0)))
     res, _ = run_study(st)
-    # Distance from the final value at 6 min of fine alignment (how far from converged each
-    # filter still is): observed 277/24 arcsec raw vs 123/10 prefiltered; require a clear
-    # (1.5x) improvement in both paired runs.
-    k = int(np.searchsorted(res[False].t_fine_s, 360.0))
-    gap_raw = np.abs(res[False].psi[:, k] - res[False].psi[:, -1])
-    gap_pre = np.abs(res[True].psi[:, k] - res[True].psi[:, -1])
-    assert np.all(1.5 * gap_pre < gap_raw)
+    # RMS distance from the final heading over 2..6 min of fine alignment (how far from
+    # converged each filter still is), over the 4 runs: observed 200-340 arcsec raw vs
+    # 90-115 arcsec prefiltered over seeds 1, 2, 3, 2014; require a 1.5x improvement.
+    rms = {}
+    for pre, r in res.items():
+        sel = (r.t_fine_s >= 120.0) & (r.t_fine_s <= 360.0)
+        rms[pre] = np.sqrt(np.mean((r.psi[:, sel] - r.psi[:, -1:]) ** 2))
+    assert 1.5 * rms[True] < rms[False]
 
 
 # ---------------------------------------------------------------- PSINS reader and real data

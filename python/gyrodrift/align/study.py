@@ -56,6 +56,7 @@ class StudyConfig:
     kf_noise: str = "spec"  # "spec" or "samples" (raw per-sample scatter, see imu_errors)
     seed: int = 2014
     accel_delay: bool = True  # delay the accelerometers by the prefilter's group delay
+    offset_s: float = 60.0  # runs start at a random offset in [0, offset_s] of the truth
 
 
 @dataclass
@@ -86,18 +87,27 @@ def _cfg(sc: Scenario, st: StudyConfig, prefilter: bool, arw: float, vrw: float,
 
 def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
               progress: bool = False) -> tuple[dict[bool, ConfigResult], dict[str, float]]:
-    """Monte Carlo over st.runs seeded records; returns per-configuration results (keyed by
-    prefilter on/off) and the theory values."""
+    """Monte Carlo over st.runs seeded records (each with its own noise and rocking phase);
+    returns per-configuration results (keyed by prefilter on/off) and the theory values."""
     sc = scenario(st.scenario)
     dt = 1.0 / st.rate_hz
     n = round(st.minutes * 60.0 * st.rate_hz)
     if n <= round(st.coarse_s * st.rate_hz) + 2 * round(st.rate_hz / st.kf_hz):
         raise ValueError(f"--minutes {st.minutes} leaves no fine alignment after the "
                          f"{st.coarse_s:g} s coarse alignment")
-    dth0, dv0 = _truth(sc, n, dt)
     taps = realtime_wavelet_taps()
+    delay = round(group_delay_dc_samples(taps)) if st.accel_delay else 0
+    # Both configurations align the same stretch of motion: the prefiltered pipeline first
+    # spends len(taps) - 1 samples filling its window and then runs `delay` samples late, so
+    # the raw pipeline starts `lead` samples later in the same record. Each run starts at a
+    # random offset within the first minute of one long truth record (random rocking phase at
+    # the start of coarse alignment, which matters on a swaying base).
+    lead = len(taps) - 1 - delay
+    n_off = round(st.offset_s * st.rate_hz)
+    dth0, dv0 = _truth(sc, n + n_off + lead, dt)
+    rng = np.random.default_rng(st.seed)
+    offsets = rng.integers(0, n_off + 1, st.runs)
     results: dict[bool, ConfigResult] = {}
-    truth_cache: dict[bool, np.ndarray] = {}
     t_hist: dict[bool, np.ndarray] = {}
     iterator = range(st.runs)
     if progress:
@@ -107,9 +117,16 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
     psi_all: dict[bool, list[np.ndarray]] = {c: [] for c in configs}
     lvl_all: dict[bool, list[np.ndarray]] = {c: [] for c in configs}
     wall = dict.fromkeys(configs, 0.0)
+    cnb_mean = np.zeros((3, 3))
     for r in iterator:
-        dth, dv = add_imu_errors(dth0, dv0, dt, st.errors, seed=st.seed * 1000 + r)
+        off = int(offsets[r])
+        sl = slice(off, off + n + lead)
+        dth_all, dv_all = add_imu_errors(dth0[sl], dv0[sl], dt, st.errors,
+                                         seed=st.seed * 1000 + r)
         for pre in configs:
+            first = 0 if pre else lead
+            dth = np.ascontiguousarray(dth_all[first:first + n])
+            dv = np.ascontiguousarray(dv_all[first:first + n])
             if st.kf_noise == "samples":
                 src = apply_fir(dth, taps) if pre else dth
                 arw, vrw = kf_noise_from_samples(src, dv, dt)
@@ -121,21 +138,23 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
             wall[pre] += time.perf_counter() - t0
             if out["failed"]:
                 raise RuntimeError(f"alignment failed in run {r} ({st.scenario}, prefilter={pre})")
-            t_hist[pre] = out["t_s"]
-            if pre not in truth_cache:
-                truth_cache[pre] = truth_at(sc, out["t_s"])["cnb"]
-            phi = misalignment_batch(out["att"], truth_cache[pre])
+            t_abs = out["t_s"] + (off + first) * dt
+            t_hist[pre] = t_abs - off * dt
+            cnb = truth_at(sc, t_abs)["cnb"]
+            cnb_mean += cnb.mean(axis=0)
+            phi = misalignment_batch(out["att"], cnb)
             psi_all[pre].append(phi[:, 2])
             lvl_all[pre].append(phi[:, :2])
     for pre in configs:
         t_fine = t_hist[pre] - t_hist[pre][0] + 1.0 / st.kf_hz  # time since fine start
-        psi = np.array(psi_all[pre])
+        m = min(len(p) for p in psi_all[pre])
+        psi = np.array([p[:m] for p in psi_all[pre]])
         results[pre] = ConfigResult(
             label="wavelet prefilter" if pre else "raw gyro",
-            t_fine_s=t_fine, psi=psi, level=np.array(lvl_all[pre]),
-            conv_s=np.array([convergence_time_s(t_fine, p) for p in psi]),
+            t_fine_s=t_fine[:m], psi=psi, level=np.array([v[:m] for v in lvl_all[pre]]),
+            conv_s=np.array([convergence_time_s(t_fine[:m], p) for p in psi]),
             wall_s=wall[pre], samples=n * st.runs)
-    return results, theory(sc, st, truth_cache[configs[0]])
+    return results, theory(sc, st, cnb_mean[None] / (st.runs * len(configs)))
 
 
 def misalignment_batch(att: np.ndarray, cnb_true: np.ndarray) -> np.ndarray:
