@@ -17,6 +17,7 @@ namespace {
 RealtimeWavelet<float, 256> g_forced(WaveletKind::db4, 5, WaveletMode::forced);
 RealtimeWavelet<float, 256> g_soft(WaveletKind::db8, 5, WaveletMode::soft);
 RealtimeWavelet<float, 256> g_hard(WaveletKind::db8, 5, WaveletMode::hard);
+RealtimeWavelet<float, 256, false> g_lean(WaveletKind::db4, 5);
 float g_data[512];
 float g_scratch[512];
 }  // namespace
@@ -28,7 +29,7 @@ TEST_CASE("step, reset and the transform are allocation-free") {
     AllocationScope scope;
     for (int i = 0; i < 600; ++i) {
       const float x = static_cast<float>((i * 37) % 101) * 0.01F;
-      acc += g_forced.step(x) + g_soft.step(x) + g_hard.step(x);
+      acc += g_forced.step(x) + g_soft.step(x) + g_hard.step(x) + g_lean.step(x);
     }
     g_forced.reset();
     acc += g_forced.step(1.0F);

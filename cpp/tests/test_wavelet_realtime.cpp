@@ -179,3 +179,23 @@ TEST_CASE("median estimator refuses filters it cannot stream") {
   CHECK_FALSE(med.configure(g, 3));   // odd
   CHECK(med.update(g) == 0.0);        // unconfigured: inert
 }
+
+TEST_CASE("forced-only variant: same output as the full filter, 5N scalars of state") {
+  using Lean = gyrodrift::RealtimeWavelet<float, 256, false>;
+  using Full = gyrodrift::RealtimeWavelet<float, 256>;
+  static Lean lean(WaveletKind::db4, 5);
+  static Full full(WaveletKind::db4, 5);
+  REQUIRE(lean.status() == RealtimeWaveletStatus::ok);
+  for (std::size_t i = 0; i < 256; ++i) CHECK(lean.taps()[i] == full.taps()[i]);
+  wavelet_test::Noise g;
+  for (int i = 0; i < 700; ++i) {
+    const float x = static_cast<float>(g.normal());
+    CHECK(lean.step(x) == full.step(x));
+  }
+  // taps N + window 2N + scratch 2N, plus a few words of bookkeeping.
+  CHECK(sizeof(Lean) <= 5 * 256 * sizeof(float) + 128);
+  MESSAGE("per-channel state, float N=256: forced-only " << sizeof(Lean) << " B, full " << sizeof(Full) << " B");
+  Lean soft(WaveletKind::db4, 5, WaveletMode::soft);
+  CHECK(soft.status() == RealtimeWaveletStatus::bad_mode);
+  CHECK(soft.step(3.0F) == 3.0F);
+}

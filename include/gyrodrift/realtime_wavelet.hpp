@@ -35,6 +35,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "lifting_transform.hpp"
 #include "realtime_wavelet_noise.hpp"
@@ -57,7 +58,13 @@ constexpr int realtime_wavelet_max_level(std::size_t window, WaveletKind w) noex
   return level;
 }
 
-template <class Scalar, std::size_t WindowN>
+namespace detail {
+struct NoThresholdState {};  // forced-only filters carry no threshold-mode state
+}  // namespace detail
+
+// ThresholdModes = false gives a forced-only filter (soft/hard refused with bad_mode) that
+// keeps just the taps, the window and one scratch buffer: 5N scalars instead of ~15N.
+template <class Scalar, std::size_t WindowN, bool ThresholdModes = true>
 class RealtimeWavelet {
   static_assert(WindowN >= 4 && (WindowN & (WindowN - 1)) == 0, "WindowN must be a power of two >= 4");
 
@@ -69,11 +76,14 @@ class RealtimeWavelet {
       : wavelet_(wavelet), level_(level), mode_(mode) {
     if (level < 1 || level > realtime_wavelet_max_level(WindowN, wavelet)) {
       status_ = RealtimeWaveletStatus::level_out_of_range;
-    } else if (mode != WaveletMode::forced && mode != WaveletMode::soft && mode != WaveletMode::hard) {
+    } else if (mode != WaveletMode::forced &&
+               (!ThresholdModes || (mode != WaveletMode::soft && mode != WaveletMode::hard))) {
       status_ = RealtimeWaveletStatus::bad_mode;
     }
     compute_taps();
-    if (status_ == RealtimeWaveletStatus::ok && mode_ != WaveletMode::forced) configure_noise();
+    if constexpr (ThresholdModes) {
+      if (status_ == RealtimeWaveletStatus::ok && mode_ != WaveletMode::forced) configure_noise();
+    }
     reset();
   }
 
@@ -88,9 +98,11 @@ class RealtimeWavelet {
     pos_ = (pos_ + 1) % WindowN;
     if (count_ < WindowN) ++count_;
     const Scalar* w = &buf_[pos_];  // oldest .. newest
-    if (noise_ok_) {  // threshold modes: level-1 streams advance on every accepted sample
-      median_d1_ = noise_.update(w);
-      t_ = approx_.update(w);
+    if constexpr (ThresholdModes) {
+      if (noise_ok_) {  // threshold modes: level-1 streams advance on every accepted sample
+        median_d1_ = noise_.update(w);
+        t_ = approx_.update(w);
+      }
     }
     if (count_ < WindowN || status_ != RealtimeWaveletStatus::ok) {
       last_out_ = x;
@@ -107,8 +119,10 @@ class RealtimeWavelet {
     faults_ = 0;
     last_out_ = Scalar(0);
     median_d1_ = Scalar(0);
-    noise_.reset();
-    approx_.reset();
+    if constexpr (ThresholdModes) {
+      noise_.reset();
+      approx_.reset();
+    }
     t_ = 0;
   }
 
@@ -125,6 +139,7 @@ class RealtimeWavelet {
   // Full recompute of the window (the reference algorithm) on an explicit window,
   // oldest first; used by the streaming path of threshold modes and by tests.
   Scalar recompute(const Scalar* window) noexcept {
+    static_assert(ThresholdModes, "recompute() needs the work buffer of the full filter");
     constexpr std::size_t n2 = 2 * WindowN;
     for (std::size_t i = 0; i < WindowN; ++i) {
       work_[i] = window[i];
@@ -169,6 +184,14 @@ class RealtimeWavelet {
   // c - T(c) is clamp(c, -t, t) for soft and c [|c| < t] for hard thresholding; column N-1
   // of F has only a few dozen non-zero detail entries (62 for db8, N=256, J=5).
   Scalar threshold(const Scalar* w) noexcept {
+    if constexpr (!ThresholdModes) {
+      return w[WindowN - 1];  // unreachable: the constructor refuses threshold modes
+    } else {
+      return threshold_impl(w);
+    }
+  }
+
+  Scalar threshold_impl(const Scalar* w) noexcept {
     if (n_col_ == 0) return recompute(w);  // capacity fallback (not reached for db4/db8)
     constexpr std::size_t n2 = 2 * WindowN;
     Scalar t = Scalar(0);
@@ -245,30 +268,38 @@ class RealtimeWavelet {
 
   void compute_taps() noexcept {
     constexpr std::size_t n2 = 2 * WindowN;
+    // Forced-only filters borrow the (not yet started) window buffer as work space.
+    Scalar* work = ThresholdModes ? work_ : buf_;
     std::fill(taps_, taps_ + WindowN, Scalar(0));
     if (status_ != RealtimeWaveletStatus::ok) return;
     // Projector Q = F^T P_J F is symmetric, so row N-1 of Q is Q e_{N-1}; folding the
     // extension (ext[i] and ext[2N-1-i] both equal w[i]) gives taps[i] = q[i] + q[2N-1-i].
-    std::fill(work_, work_ + n2, Scalar(0));
-    work_[WindowN - 1] = Scalar(1);
-    LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
-    std::fill(work_ + (n2 >> static_cast<unsigned>(level_)), work_ + n2, Scalar(0));
-    LiftingTransform<Scalar>::inverse(wavelet_, work_, n2, level_, scratch_);
-    for (std::size_t i = 0; i < WindowN; ++i) taps_[i] = work_[i] + work_[n2 - 1 - i];
+    std::fill(work, work + n2, Scalar(0));
+    work[WindowN - 1] = Scalar(1);
+    LiftingTransform<Scalar>::forward(wavelet_, work, n2, level_, scratch_);
+    std::fill(work + (n2 >> static_cast<unsigned>(level_)), work + n2, Scalar(0));
+    LiftingTransform<Scalar>::inverse(wavelet_, work, n2, level_, scratch_);
+    for (std::size_t i = 0; i < WindowN; ++i) taps_[i] = work[i] + work[n2 - 1 - i];
+    if constexpr (ThresholdModes) compute_column();
+  }
+
+  void compute_column() noexcept {
+    constexpr std::size_t n2 = 2 * WindowN;
+    Scalar* work = work_;
     // Column N-1 of F restricted to details: F e_{N-1} (lifting keeps exact zeros outside
     // the support, so the non-zero test is exact).
-    std::fill(work_, work_ + n2, Scalar(0));
-    work_[WindowN - 1] = Scalar(1);
-    LiftingTransform<Scalar>::forward(wavelet_, work_, n2, level_, scratch_);
+    std::fill(work, work + n2, Scalar(0));
+    work[WindowN - 1] = Scalar(1);
+    LiftingTransform<Scalar>::forward(wavelet_, work, n2, level_, scratch_);
     n_col_ = 0;
     for (std::size_t k = n2 >> static_cast<unsigned>(level_); k < n2; ++k) {
-      if (work_[k] == Scalar(0)) continue;
+      if (work[k] == Scalar(0)) continue;
       if (n_col_ == kColCapacity) {
         n_col_ = 0;  // cannot happen for db4/db8 (<= filter length per level); recompute then
         break;
       }
       col_index_[n_col_] = static_cast<std::uint32_t>(k);
-      col_value_[n_col_] = work_[k];
+      col_value_[n_col_] = work[k];
       ++n_col_;
     }
   }
@@ -283,12 +314,14 @@ class RealtimeWavelet {
   Scalar last_out_ = Scalar(0);
   Scalar taps_[WindowN];
   Scalar buf_[2 * WindowN];
-  Scalar work_[2 * WindowN];
+  Scalar work_[ThresholdModes ? 2 * WindowN : 1];
   Scalar scratch_[2 * WindowN];
   // <= filter length (16) non-zeros per level touch one sample; 8 levels.
-  static constexpr std::size_t kColCapacity = 16 * kMaxWaveletLevel;
-  SlidingDetailMedian<Scalar, WindowN> noise_;  // level-1 details + median(|d1|)
-  Level1Stream<Scalar, WindowN> approx_;         // level-1 approximations
+  static constexpr std::size_t kColCapacity = ThresholdModes ? 16 * kMaxWaveletLevel : 1;
+  template <class T>
+  using IfThreshold = std::conditional_t<ThresholdModes, T, detail::NoThresholdState>;
+  IfThreshold<SlidingDetailMedian<Scalar, WindowN>> noise_;  // level-1 details + median(|d1|)
+  IfThreshold<Level1Stream<Scalar, WindowN>> approx_;         // level-1 approximations
   std::size_t t_ = 0;                            // stream index of the newest sample
   bool noise_ok_ = false;
   Scalar median_d1_ = Scalar(0);
