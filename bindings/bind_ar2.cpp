@@ -1,7 +1,7 @@
 // gyrodrift._core: AR(2) identification, AR filter and AR(2)-Kalman filters.
 //
 // Low-level, strict API (the Python layer gyrodrift.ar2 adds conversions and messages):
-//   ar2_fit(x: float64[n] C-contiguous, method: int) -> (a1, a2, sigma2, mean, r)
+//   ar2_fit(x: float32/float64[n] C-contiguous, method) -> (a1, a2, sigma2, mean, r)
 //   ar2_kalman_batch(x, params, p0, steady_state) -> (out, faults[axes])
 //   ar_filter_batch(x, params) -> (out, faults[axes])
 // x is float32 or float64, 1-D or (n, 3), C-contiguous, taken without copy (.noconvert());
@@ -204,6 +204,35 @@ void def_steady_class(py::module_& m, const char* name) {
       });
 }
 
+template <class T>
+void def_fit(py::module_& m) {
+  m.def(
+      "ar2_fit",
+      [](const CArray<T>& x, Ar2Method method) {
+        if (x.ndim() != 1) {
+          throw py::value_error("ar2_fit: expected a 1-D array, got ndim=" + std::to_string(x.ndim()));
+        }
+        const auto n = static_cast<std::size_t>(x.shape(0));
+        Ar2Model<T> model{};
+        Ar2Status s;
+        T r = T(0);
+        {
+          py::gil_scoped_release release;
+          s = fit_ar2(x.data(), n, method, model);
+          if (s == Ar2Status::ok) r = ar2_residual_variance(x.data(), n, model);
+        }
+        // The status name is the first word of the message; gyrodrift.ar2 maps it to a cause.
+        if (s != Ar2Status::ok) throw py::value_error(std::string(to_string(s)) + ": AR(2) fit of " +
+                                                      std::to_string(n) + " samples rejected");
+        return py::make_tuple(static_cast<double>(model.a1), static_cast<double>(model.a2),
+                              static_cast<double>(model.sigma2), static_cast<double>(model.mean),
+                              static_cast<double>(r));
+      },
+      py::arg("x").noconvert(), py::arg("method"),
+      "Fit an AR(2) model to a C-contiguous 1-D array, computing in its dtype (float32 as on "
+      "target, or float64); returns (a1, a2, sigma2, mean, r).");
+}
+
 }  // namespace
 
 void bind_ar2(py::module_& m) {
@@ -213,28 +242,8 @@ void bind_ar2(py::module_& m) {
       .value("least_squares", Ar2Method::least_squares);
   m.attr("AR2_MIN_SAMPLES") = kAr2MinSamples;
 
-  m.def(
-      "ar2_fit",
-      [](const CArray<double>& x, Ar2Method method) {
-        if (x.ndim() != 1) {
-          throw py::value_error("ar2_fit: expected a 1-D array, got ndim=" + std::to_string(x.ndim()));
-        }
-        const auto n = static_cast<std::size_t>(x.shape(0));
-        Ar2Model<double> model{};
-        Ar2Status s;
-        double r = 0.0;
-        {
-          py::gil_scoped_release release;
-          s = fit_ar2(x.data(), n, method, model);
-          if (s == Ar2Status::ok) r = ar2_residual_variance(x.data(), n, model);
-        }
-        // The status name is the first word of the message; gyrodrift.ar2 maps it to a cause.
-        if (s != Ar2Status::ok) throw py::value_error(std::string(to_string(s)) + ": AR(2) fit of " +
-                                                      std::to_string(n) + " samples rejected");
-        return py::make_tuple(model.a1, model.a2, model.sigma2, model.mean, r);
-      },
-      py::arg("x").noconvert(), py::arg("method"),
-      "Fit an AR(2) model to a C-contiguous float64 1-D array; returns (a1, a2, sigma2, mean, r).");
+  def_fit<double>(m);
+  def_fit<float>(m);
 
   m.def(
       "ar2_yule_walker_stream",

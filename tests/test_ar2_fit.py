@@ -168,7 +168,11 @@ def test_fit_three_axes_and_bad_arguments() -> None:
     with pytest.raises(TypeError, match="dtype"):
         gyrodrift.fit_ar2(np.array(["a"] * 20))
     with pytest.raises(TypeError):
-        _core.ar2_fit(np.arange(20, dtype=np.float32), _core.Ar2Method.burg)  # strict: no convert
+        _core.ar2_fit(np.arange(20, dtype=np.int64), _core.Ar2Method.burg)  # strict: no convert
+    with pytest.raises(TypeError):
+        _core.ar2_fit(np.arange(40.0)[::2], _core.Ar2Method.burg)  # strided: no silent copy
+    with pytest.raises(TypeError, match="float32 or float64"):
+        gyrodrift.fit_ar2(rec.rate_dph[:, 0], "burg", dtype=np.int32)
 
 
 def test_fit_real_laser_gyro_record() -> None:
@@ -212,3 +216,20 @@ def test_python_constants_match_cpp() -> None:
     from gyrodrift.ar2 import MIN_SAMPLES
 
     assert _core.AR2_MIN_SAMPLES == MIN_SAMPLES
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("pair", PAPER_PAIRS)
+def test_float32_fit_as_on_target(pair: tuple[float, float], method: str) -> None:
+    # The float32 C++ fit (firmware arithmetic) against the float64 reference on the same
+    # float32 samples. Float sums of 2e4 terms: typical relative error sqrt(n) eps ~ 1e-5
+    # (observed <= 5e-6); bound 1e-4 absolute on coefficients, 1e-4 relative otherwise.
+    x32 = _record(*pair, n=20_000, seed=11).astype(np.float32)
+    got = gyrodrift.fit_ar2(x32, method, dtype=np.float32)
+    want = ref.fit_ar2(x32.astype(np.float64), method)
+    assert abs(got.a1 - want.a1) < 1e-4 and abs(got.a2 - want.a2) < 1e-4
+    for name in ("sigma2", "r", "mean"):
+        assert getattr(got, name) == pytest.approx(getattr(want, name), rel=1e-4)
+    # Default: float32 input is fitted in float64 (then it matches the reference to 1e-12).
+    default = gyrodrift.fit_ar2(x32, method)
+    assert abs(default.a1 - want.a1) < 1e-12 and abs(default.a2 - want.a2) < 1e-12
