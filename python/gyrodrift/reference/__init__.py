@@ -16,9 +16,12 @@ from gyrodrift.reference.ar2 import steady_state_gain as steady_state_gain
 # --- wavelets (issue 3) ---
 from gyrodrift.reference.wavelet import realtime_wavelet as realtime_wavelet
 from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise
+
+# isort: split
 # --- Allan (issue 4) ---
 from gyrodrift.reference.allan import oadev_phase as oadev_phase
 from gyrodrift.reference.allan import oadev_rate as oadev_rate
+
 # --- IMU processor / codecs (issue 5) ---
 # isort: split
 from gyrodrift.reference.imu import process_imu as process_imu
