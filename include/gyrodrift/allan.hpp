@@ -253,9 +253,8 @@ class OadevFused {
   bool run(const Scalar* y, double* workspace, std::size_t workspace_len, Out* sigma2,
            std::size_t* terms) noexcept {
     if (n_m_ == 0 || workspace_len < workspace_) return false;
-    long double total{0};
-    for (std::size_t i = 0; i < n_data_; ++i) total += static_cast<long double>(y[i]);
-    if (!std::isfinite(total)) return false;
+    // No separate finiteness pass: every sample enters the smallest factor's differences,
+    // so a NaN/Inf makes its sum non-finite and finish() refuses it.
     reset_sums();
     for (std::size_t j = 0; j < n_m_; ++j) seed_add(j, y, y + m_[j], m_[j]);
     const Scalar* bases[kMaxOffsets];

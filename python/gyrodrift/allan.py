@@ -391,18 +391,24 @@ def oadev(
         else:
             x = arr if arr.dtype in (np.float64, np.float32) else arr.astype(np.float64)
             x = np.ascontiguousarray(x)
-            if not np.isfinite(np.sum(x, dtype=np.float64)):  # no temporary of N bools
-                bad = int(np.count_nonzero(~np.isfinite(x)))
-                if bad:
-                    raise ValueError(f"data: {bad} NaN/Inf samples; drop or repair them first "
-                                     "(gyrodrift.io.load_record has an explicit nan_policy)")
             sigma2 = np.empty(m.size)
             terms = np.empty(m.size, dtype=np.int64)
             # One fused pass over all taus; with a bar, groups of 8 taus so that it moves
-            # (each group is one more pass over the record). Each call releases the GIL.
+            # (each group is one more pass over the record). Each call releases the GIL;
+            # the binding checks finiteness in its first pass, the count is made here only
+            # for the error message.
             group = 8 if show else m.size
             for lo in range(0, m.size, group):
-                s2, t = _lib().oadev_sigma2(x, np.ascontiguousarray(m[lo:lo + group]), kind)
+                try:
+                    s2, t = _lib().oadev_sigma2(x, np.ascontiguousarray(m[lo:lo + group]),
+                                                kind)
+                except ValueError as exc:
+                    bad = int(np.count_nonzero(~np.isfinite(x)))
+                    if bad:
+                        raise ValueError(
+                            f"data: {bad} NaN/Inf samples; drop or repair them first "
+                            "(gyrodrift.io.load_record has an explicit nan_policy)") from exc
+                    raise
                 sigma2[lo:lo + group] = s2
                 terms[lo:lo + group] = t
                 bar.update(int(n_terms[lo:lo + group].sum()))
