@@ -191,7 +191,9 @@ def test_simulate_format_flag_and_bad_suffix(tmp_path: Path, capsys) -> None:
 
 def test_compare_cli_default_record(tmp_path: Path, capsys) -> None:
     out_dir = tmp_path / "cmp"
-    out = run_json(["compare", "--out-dir", out_dir], capsys)
+    code, text, err = run(["compare", "--out-dir", out_dir, "--json"], capsys)
+    assert code == 0 and "compare" in err  # the tqdm bar over the five signals
+    out = json.loads(text)
     rows = {r["signal"]: r for r in out["rows"]}
     assert set(rows) == {"original", "db8 wavelet", "bior3.7 wavelet packet", "AR model",
                          "AR(2)-Kalman"}

@@ -20,6 +20,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--out-dir", default="compare_out", help="report directory")
     p.add_argument("--seed", type=int, default=None, help="seed of the default record")
     p.add_argument("--json", action="store_true")
+    p.add_argument("--progress", choices=("always", "never"), default="always",
+                   help="tqdm progress bar on stderr (the default run takes a few seconds)")
     p.set_defaults(func=run)
 
 
@@ -37,7 +39,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             rec = record_from_args(args, mmap=False)
             x, rate, source = np.asarray(rec.rate_dph), rec.rate_hz, rec.source
-        report = compare.run_compare(x, rate, out_dir=args.out_dir, source=source)
+        report = compare.run_compare(x, rate, out_dir=args.out_dir, source=source,
+                                     progress=args.progress == "always")
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     if args.json:
