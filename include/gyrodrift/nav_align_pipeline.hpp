@@ -164,9 +164,8 @@ class AlignPipeline {
     const Vec3 fn = dvn_sum_ / t_kf;
     EarthParams<Scalar> ep;
     ep.update(sd_.pos()(0), sd_.pos()(2), sd_.vn());
-    typename Kf::MatN f;
-    Kf::transition(q2dcm(sd_.q()), fn, ep, sd_.pos()(0), f);
-    if (!kf_.predict(f, t_kf) || !kf_.update(sd_.vn())) {
+    Kf::transition(q2dcm(sd_.q()), fn, ep, sd_.pos()(0), f_);
+    if (!kf_.predict(f_, t_kf) || !kf_.update(sd_.vn())) {
       failed_ = true;
       return AlignStatus::kFailed;
     }
@@ -211,6 +210,7 @@ class AlignPipeline {
   InertialCoarseAlign<Scalar> coarse_;
   Strapdown<Scalar> sd_;
   Kf kf_;
+  typename Kf::MatN f_;  // transition matrix workspace (a member: keeps step()'s frame small)
   VecN p0_, q_, floor_;
   Vec3 r_;
   Vec3 dvn_sum_ = Vec3::Zero();

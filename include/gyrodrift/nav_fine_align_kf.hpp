@@ -81,16 +81,24 @@ class FineAlignKF {
 
   bool predict(const MatN& f, Scalar t_s) noexcept {
     if (!f.allFinite() || !(t_s > Scalar(0))) return false;
-    const MatN ft = f * t_s;
     // lazyProduct: coefficient-based fixed-size products, so no GEMM blocking workspace (which
-    // could fall back to the heap) is compiled in; 15^3 MACs at 10 Hz are negligible.
-    const MatN phi = MatN::Identity() + ft + Scalar(0.5) * ft.lazyProduct(ft);
-    const MatN phi_q = phi * q_.asDiagonal();
-    const MatN qk = Scalar(0.5) * (phi_q.lazyProduct(phi.transpose()) + MatN(q_.asDiagonal())) * t_s;
-    const MatN phi_p = phi.lazyProduct(P_);
-    const MatN p_new = phi_p.lazyProduct(phi.transpose()) + qk;
-    if (!p_new.allFinite()) return false;
-    P_ = p_new;
+    // could fall back to the heap) is compiled in; 15^3 MACs at 10 Hz are negligible. The
+    // N x N temporaries are members (ws_*), not stack frames: on a Cortex-M4F the float
+    // 15-state filter would otherwise need ~5.5 KiB of stack in this function.
+    MatN& ft = ws_a_;
+    MatN& phi = ws_b_;
+    MatN& tmp = ws_c_;
+    ft = f * t_s;
+    phi.noalias() = ft.lazyProduct(ft);
+    phi = MatN::Identity() + ft + Scalar(0.5) * phi;
+    ft.noalias() = phi * q_.asDiagonal();  // ft now holds Phi Q
+    tmp.noalias() = ft.lazyProduct(phi.transpose());  // Phi Q Phi^T
+    tmp += MatN(q_.asDiagonal());
+    tmp *= Scalar(0.5) * t_s;  // Q_k (trapezoid)
+    ft.noalias() = phi.lazyProduct(P_);  // Phi P
+    tmp.noalias() += ft.lazyProduct(phi.transpose());  // P_new = Phi P Phi^T + Q_k
+    if (!tmp.allFinite()) return false;
+    P_ = tmp;
     hygiene();
     return true;
   }
@@ -127,11 +135,15 @@ class FineAlignKF {
       }
     }
     const Eigen::Matrix<Scalar, N, 3> k = kt.transpose();
-    MatN a = MatN::Identity();
+    MatN& a = ws_a_;
+    MatN& a_p = ws_b_;
+    MatN& p_new = ws_c_;
+    a.setIdentity();
     a.template middleCols<3>(3) -= k;
-    const MatN a_p = a.lazyProduct(P_);
+    a_p.noalias() = a.lazyProduct(P_);
     const Eigen::Matrix<Scalar, N, 3> k_r = k * R_;
-    const MatN p_new = a_p.lazyProduct(a.transpose()) + k_r.lazyProduct(k.transpose());
+    p_new.noalias() = a_p.lazyProduct(a.transpose());
+    p_new.noalias() += k_r.lazyProduct(k.transpose());
     const VecN x = k * z;
     if (!p_new.allFinite() || !x.allFinite()) return false;
     P_ = p_new;
@@ -152,6 +164,7 @@ class FineAlignKF {
   }
 
   MatN P_;
+  MatN ws_a_, ws_b_, ws_c_;  // workspace of predict()/update() (see predict())
   VecN q_;
   VecN floor_;
   Mat3 R_;
