@@ -24,6 +24,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 
 namespace gyrodrift {
 
@@ -151,11 +152,11 @@ class SlidingDetailMedian {
     // First-half interior, parity of s: tau = s + 2k, k in [k1_lo, k1_hi].
     const int pu = static_cast<int>(s & 1u);
     const std::size_t tau_lo = s + 2 * st.k1_lo_, tau_hi = s + 2 * st.k1_hi_;
-    if (!u_init_[pu] || !slide(u_sorted_[pu], u_n_[pu], std::fabs(st.u_ring_[(tau_lo - 2) & (N - 1)]),
-                                std::fabs(st.u_ring_[tau_hi & (N - 1)]))) {
+    if (!u_init_[pu] || !slide(u_sorted_[pu], u_n_[pu], mag(st.u_ring_[(tau_lo - 2) & (N - 1)]),
+                                mag(st.u_ring_[tau_hi & (N - 1)]))) {
       u_n_[pu] = 0;
       for (std::size_t tau = tau_lo; tau <= tau_hi; tau += 2) {
-        u_sorted_[pu][u_n_[pu]++] = std::fabs(st.u_ring_[tau & (N - 1)]);
+        u_sorted_[pu][u_n_[pu]++] = mag(st.u_ring_[tau & (N - 1)]);
       }
       std::sort(u_sorted_[pu], u_sorted_[pu] + u_n_[pu]);
       u_init_[pu] = true;
@@ -163,11 +164,11 @@ class SlidingDetailMedian {
     // Second-half interior, parity of t: sig = t + N - 2k, k in [k2_lo, k2_hi].
     const int pv = static_cast<int>(t & 1u);
     const std::size_t sig_lo = t + N - 2 * st.k2_hi_, sig_hi = t + N - 2 * st.k2_lo_;
-    if (!v_init_[pv] || !slide(v_sorted_[pv], v_n_[pv], std::fabs(st.v_ring_[(sig_lo - 2) & (N - 1)]),
-                                std::fabs(st.v_ring_[sig_hi & (N - 1)]))) {
+    if (!v_init_[pv] || !slide(v_sorted_[pv], v_n_[pv], mag(st.v_ring_[(sig_lo - 2) & (N - 1)]),
+                                mag(st.v_ring_[sig_hi & (N - 1)]))) {
       v_n_[pv] = 0;
       for (std::size_t sig = sig_lo; sig <= sig_hi; sig += 2) {
-        v_sorted_[pv][v_n_[pv]++] = std::fabs(st.v_ring_[sig & (N - 1)]);
+        v_sorted_[pv][v_n_[pv]++] = mag(st.v_ring_[sig & (N - 1)]);
       }
       std::sort(v_sorted_[pv], v_sorted_[pv] + v_n_[pv]);
       v_init_[pv] = true;
@@ -178,7 +179,7 @@ class SlidingDetailMedian {
     st.for_each_boundary([&](std::size_t k) noexcept {
       const Scalar d = st.direct(w, k);
       bnd_signed_[nb] = d;
-      const Scalar a = std::fabs(d);
+      const Scalar a = mag(d);
       std::size_t j = nb++;
       while (j > 0 && bnd_[j - 1] > a) {
         bnd_[j] = bnd_[j - 1];
@@ -201,6 +202,13 @@ class SlidingDetailMedian {
   bool full() const noexcept { return full_; }
 
  private:
+  // |c| with NaN (an overflowed stream on absurd input, |x| ~ 1e38 in float) mapped to +Inf,
+  // so the sorted arrays keep a strict weak order; finite data is unaffected.
+  static Scalar mag(Scalar c) noexcept {
+    const Scalar a = std::fabs(c);
+    return a == a ? a : std::numeric_limits<Scalar>::infinity();
+  }
+
   // Sorted array: erase one copy of `out` and insert `in`. False if `out` is not found
   // (non-finite intermediate values); the caller then rebuilds the class from the ring.
   static bool slide(Scalar* a, std::size_t n, Scalar out, Scalar in) noexcept {
