@@ -2,8 +2,8 @@
 //
 // Low-level, strict API (the Python layer gyrodrift.ar2 adds conversions and messages):
 //   ar2_fit(x: float32/float64[n] C-contiguous, method) -> (a1, a2, sigma2, mean, r)
-//   ar2_kalman_batch(x, params, p0, steady_state) -> (out, faults[axes])
-//   ar_filter_batch(x, params) -> (out, faults[axes])
+//   ar2_kalman_batch(x, params, p0, steady_state, out=None) -> (out, faults[axes])
+//   ar_filter_batch(x, params, out=None) -> (out, faults[axes])
 // x is float32 or float64, 1-D or (n, 3), C-contiguous, taken without copy (.noconvert());
 // params is a list of 1 (all axes) or `axes` tuples (a1, a2, sigma2, mean, q, r).
 // Classes Ar2Kalman / Ar2KalmanF32 / Ar2SteadyStateKalman / Ar2SteadyStateKalmanF32 are
@@ -12,6 +12,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <array>
 #include <cstddef>
 #include <cstdint>
@@ -53,7 +54,7 @@ std::size_t axes_of(const py::array& a) {
 // Runs one filter per axis over the rows of x (row-major, `axes` columns), GIL released.
 template <class T, class MakeFilter>
 py::tuple run_batch(const CArray<T>& x, const std::vector<Params>& params, MakeFilter make,
-                    const char* what) {
+                    const char* what, const py::object& out_obj) {
   const std::size_t n = require_1d_or_n3(x, what);
   const std::size_t axes = axes_of(x);
   if (params.size() != 1 && params.size() != axes) {
@@ -68,7 +69,21 @@ py::tuple run_batch(const CArray<T>& x, const std::vector<Params>& params, MakeF
     require_ok(filters.back(), what);
   }
   std::vector<py::ssize_t> shape(x.shape(), x.shape() + x.ndim());
-  CArray<T> out(shape);
+  CArray<T> out;
+  if (out_obj.is_none()) {
+    out = CArray<T>(shape);
+  } else {
+    // Caller-owned output (may be x itself: each sample is read before it is overwritten).
+    if (!py::isinstance<CArray<T>>(out_obj)) {
+      throw py::type_error(std::string(what) + ": out must be a C-contiguous " +
+                           (sizeof(T) == 4 ? "float32" : "float64") + " array like x");
+    }
+    out = py::reinterpret_borrow<CArray<T>>(out_obj);
+    if (out.ndim() != x.ndim() || !std::equal(shape.begin(), shape.end(), out.shape())) {
+      throw py::value_error(std::string(what) + ": out must have the shape of x");
+    }
+    if (!out.writeable()) throw py::value_error(std::string(what) + ": out is read-only");
+  }
   py::array_t<std::uint32_t> faults(static_cast<py::ssize_t>(axes));
   const T* in = x.data();
   T* o = out.mutable_data();
@@ -101,14 +116,15 @@ template <class T>
 void def_batches(py::module_& m) {
   m.def(
       "ar2_kalman_batch",
-      [](const CArray<T>& x, const std::vector<Params>& params, double p0, bool steady_state) {
+      [](const CArray<T>& x, const std::vector<Params>& params, double p0, bool steady_state,
+         const py::object& out) {
         if (steady_state) {
           return run_batch<T>(
               x, params,
               [](const Params& p) {
                 return Ar2SteadyStateKalman<T>(model_of<T>(p), static_cast<T>(p[4]), static_cast<T>(p[5]));
               },
-              "ar2_kalman_batch (steady state)");
+              "ar2_kalman_batch (steady state)", out);
         }
         return run_batch<T>(
             x, params,
@@ -116,18 +132,19 @@ void def_batches(py::module_& m) {
               return Ar2Kalman<T>(model_of<T>(p), static_cast<T>(p[4]), static_cast<T>(p[5]),
                                   static_cast<T>(p0));
             },
-            "ar2_kalman_batch");
+            "ar2_kalman_batch", out);
       },
       py::arg("x").noconvert(), py::arg("params"), py::arg("p0") = 1.0,
-      py::arg("steady_state") = false,
+      py::arg("steady_state") = false, py::arg("out") = py::none(),
       "AR(2)-Kalman over a C-contiguous float32/float64 array (n,) or (n, 3); returns (out, faults).");
   m.def(
       "ar_filter_batch",
-      [](const CArray<T>& x, const std::vector<Params>& params) {
+      [](const CArray<T>& x, const std::vector<Params>& params, const py::object& out) {
         return run_batch<T>(
-            x, params, [](const Params& p) { return ArFilter<T>(model_of<T>(p)); }, "ar_filter_batch");
+            x, params, [](const Params& p) { return ArFilter<T>(model_of<T>(p)); }, "ar_filter_batch",
+            out);
       },
-      py::arg("x").noconvert(), py::arg("params"),
+      py::arg("x").noconvert(), py::arg("params"), py::arg("out") = py::none(),
       "AR(2) one-step-prediction filter over (n,) or (n, 3); returns (out, faults).");
 }
 

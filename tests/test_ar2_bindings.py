@@ -105,3 +105,27 @@ def test_large_batch_three_axes_float32(rng) -> None:
     out, faults = gyrodrift.kalman_filter(a, MODEL, return_faults=True)
     assert out.dtype == np.float32 and faults.tolist() == [0, 0, 0]
     assert np.all(np.isfinite(out))
+
+
+@pytest.mark.parametrize("fn", [gyrodrift.kalman_filter, gyrodrift.ar_filter])
+def test_out_argument(fn, x) -> None:
+    for dtype in (np.float64, np.float32):
+        a = x.astype(dtype)
+        want = fn(a, MODEL)
+        out = np.empty_like(a)
+        got = fn(a, MODEL, out=out)
+        assert got is out
+        np.testing.assert_array_equal(out, want)
+        inplace = a.copy()
+        fn(inplace, MODEL, out=inplace)  # each sample is read before it is overwritten
+        np.testing.assert_array_equal(inplace, want)
+    with pytest.raises(TypeError, match="out must be"):
+        fn(x, MODEL, out=np.empty(x.shape, np.float32))  # dtype differs from the computation
+    with pytest.raises(TypeError, match="out must be"):
+        fn(x, MODEL, out=np.empty((3, 600)).T)  # not C-contiguous
+    with pytest.raises(ValueError, match="shape of x"):
+        fn(x, MODEL, out=np.empty((599, 3)))
+    ro = np.empty_like(x)
+    ro.flags.writeable = False
+    with pytest.raises(ValueError, match="read-only"):
+        fn(x, MODEL, out=ro)

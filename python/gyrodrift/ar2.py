@@ -262,14 +262,20 @@ def fit_ar2(
     return Ar2Model(a1=a1, a2=a2, sigma2=sigma2, mean=mean, method=name, n=int(a.size), r=r)
 
 
-def ar_filter(x: object, model: Ar2Model | Sequence[Ar2Model], dtype: object = None) -> np.ndarray:
+def ar_filter(
+    x: object,
+    model: Ar2Model | Sequence[Ar2Model],
+    dtype: object = None,
+    out: np.ndarray | None = None,
+) -> np.ndarray:
     """AR filter, paper 000 sec. 2.1: y_k minus its one-step residual, i.e. the one-step AR(2)
-    prediction plus the mean. x: (n,) or (n, 3), float32/float64 kept (integers -> float64)."""
+    prediction plus the mean. x: (n,) or (n, 3), float32/float64 kept (integers -> float64).
+    out: optional C-contiguous array of x's shape and the computation dtype (may be x)."""
     a = _float_array(x, "x", dtype)
     _check_shape(a, "x")
     axes = 1 if a.ndim == 1 else 3
     params = [_params(m, None, None) for m in _models_for(model, axes)]
-    out, faults = _core().ar_filter_batch(a, params)
+    out, faults = _core().ar_filter_batch(a, params, out)
     _report_faults(faults, "ar_filter")
     return out
 
@@ -283,6 +289,7 @@ def kalman_filter(
     dtype: object = None,
     p0: float = 1.0,
     return_faults: bool = False,
+    out: np.ndarray | None = None,
 ) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """AR(2)-Kalman filter (C++ core) of a record of shape (n,) or (n, 3).
 
@@ -292,13 +299,15 @@ def kalman_filter(
     A float32/float64 C-contiguous input of that dtype is read without a copy.
     NaN/Inf samples are predict-only steps; their count per axis is returned with
     return_faults=True, otherwise reported with a RuntimeWarning.
+    out: optional C-contiguous array of x's shape and the computation dtype to write into
+    (no allocation; may be x itself for in-place filtering); TypeError/ValueError otherwise.
     """
     a = _float_array(x, "x", dtype)
     _check_shape(a, "x")
     axes = 1 if a.ndim == 1 else 3
     params = [_params(m, q, r) for m in _models_for(model, axes)]
     p0 = _variance(p0, 1.0, "p0", positive=False)
-    out, faults = _core().ar2_kalman_batch(a, params, p0, bool(steady_state))
+    out, faults = _core().ar2_kalman_batch(a, params, p0, bool(steady_state), out)
     if return_faults:
         return out, faults
     _report_faults(faults, "kalman_filter")
