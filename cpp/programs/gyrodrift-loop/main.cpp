@@ -286,7 +286,7 @@ LatencyHistogram<200000> g_wake_latency(100);   // 0.1 us bins up to 20 ms
 LatencyHistogram<200000> g_period_jitter(100);  // |actual period - nominal|
 LatencyHistogram<200000> g_compute(100);        // wake -> end of cycle work (incl. syscalls)
 LatencyHistogram<100000> g_sample(10);          // one sample: filter + encode + queue, 10 ns bins
-std::array<std::uint8_t, 1U << 20> g_in_buf{};
+std::array<std::uint8_t, 16384> g_in_buf{};  // one read chunk
 OutQueue<(1U << 21)> g_out;
 gser::SerialFrameParser<8192> g_serial_parser;
 gslcan::SlcanParser<> g_slcan_parser;
@@ -390,25 +390,26 @@ void handle_can_frame(const gcan::CanFrame& f, Mode mode, int fd) noexcept {
   else handle_sample(in, [fd](const gser::ImuFrame& o) { emit_socketcan(fd, o); });
 }
 
-// Reads up to the cycle's byte budget. Returns false at end of input (EOF, or EIO from a
-// pty master whose other side was closed).
-bool read_input(int fd, const Options& o, std::size_t& got) noexcept {
-  got = 0;
-  const std::size_t budget = std::min(o.max_bytes_per_cycle, g_in_buf.size());
-  while (got < budget) {
-    const ssize_t r = read(fd, g_in_buf.data() + got, budget - got);
-    if (r > 0) {
-      got += static_cast<std::size_t>(r);
-      continue;
+// Reads one chunk (at most cap bytes). Returns the bytes read, 0 when nothing is available
+// now; `open` becomes false at end of input (EOF, or EIO from a pty master whose other side
+// was closed).
+std::size_t read_chunk(int fd, std::uint8_t* buf, std::size_t cap, bool& open) noexcept {
+  for (;;) {
+    const ssize_t r = read(fd, buf, cap);
+    if (r > 0) return static_cast<std::size_t>(r);
+    if (r == 0) {
+      open = false;
+      return 0;
     }
-    if (r == 0) return false;
     if (errno == EINTR) continue;
-    if (errno == EAGAIN || errno == EWOULDBLOCK) return true;
-    if (errno == EIO) return false;
+    if (errno == EAGAIN || errno == EWOULDBLOCK) return 0;
+    if (errno == EIO) {
+      open = false;
+      return 0;
+    }
     ++g_c.read_errors;
-    return true;
+    return 0;
   }
-  return true;
 }
 
 void process_serial_bytes(const std::uint8_t* p, std::size_t n) noexcept {
@@ -647,19 +648,29 @@ int main(int argc, char** argv) {
     bool open = true;
     if (o.mode == Mode::kSocketCan) {
       open = process_socketcan(fd);
-    } else if (g_out.room() >= o.max_bytes_per_cycle + 4096) {
-      // Back-pressure: read only what the output queue can absorb (every input byte makes
-      // at most about one output byte), so nothing is ever lost for lack of room.
-      std::size_t got = 0;
-      open = read_input(fd, o, got);
-      g_c.bytes_in += got;
-      if (got > 0) last_input = wake;
-      if (o.mode == Mode::kSerial) process_serial_bytes(g_in_buf.data(), got);
-      else process_slcan_bytes(g_in_buf.data(), got);
-    }
-    if (o.mode != Mode::kSocketCan && !g_out.flush(fd, g_c.bytes_out)) {
-      if (errno == EIO) open = false;
-      else ++g_c.read_errors;
+    } else {
+      // Drain the input chunk by chunk, processing and flushing each before the next read: a
+      // tty hands over at most its line-discipline buffer (4 KiB) per read and the kernel
+      // refills it meanwhile. Back-pressure: read only while the output queue can absorb a
+      // chunk's worst-case reply (serial: 1 output byte per input byte; SLCAN: a 2-byte "V\r"
+      // gets a 6-byte reply), so nothing is lost for lack of room; unread input waits in
+      // the kernel (and the sender blocks).
+      std::size_t total = 0;
+      while (open && total < o.max_bytes_per_cycle && g_out.room() >= 3 * g_in_buf.size()) {
+        const std::size_t cap = std::min(g_in_buf.size(), o.max_bytes_per_cycle - total);
+        const std::size_t got = read_chunk(fd, g_in_buf.data(), cap, open);
+        if (got == 0) break;
+        total += got;
+        g_c.bytes_in += got;
+        last_input = wake;
+        if (o.mode == Mode::kSerial) process_serial_bytes(g_in_buf.data(), got);
+        else process_slcan_bytes(g_in_buf.data(), got);
+        if (!g_out.flush(fd, g_c.bytes_out) && errno != EIO) ++g_c.read_errors;
+      }
+      if (!g_out.flush(fd, g_c.bytes_out)) {
+        if (errno == EIO) open = false;
+        else ++g_c.read_errors;
+      }
     }
     const std::uint64_t per_cycle = g_c.frames_in - frames_before;
     if (per_cycle > g_c.max_frames_per_cycle) g_c.max_frames_per_cycle = per_cycle;
