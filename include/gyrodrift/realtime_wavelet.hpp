@@ -35,6 +35,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <type_traits>
 
 #include "lifting_transform.hpp"
@@ -229,7 +230,10 @@ class RealtimeWavelet {
   // Uses scratch_ (free between the forward and the inverse transform) for the selection.
   Scalar threshold_value(const Scalar* d1) noexcept {
     Scalar* med = scratch_;
-    for (std::size_t i = 0; i < WindowN; ++i) med[i] = std::fabs(d1[i]);
+    for (std::size_t i = 0; i < WindowN; ++i) {  // NaN (overflow) -> +Inf keeps a strict order
+      const Scalar a = std::fabs(d1[i]);
+      med[i] = a == a ? a : std::numeric_limits<Scalar>::infinity();
+    }
     constexpr std::size_t mid = WindowN / 2;  // N even: median = mean of the two middle values
     std::nth_element(med, med + mid, med + WindowN);
     const Scalar upper = med[mid];
