@@ -28,7 +28,11 @@
 // replaced by column N-1 of the DWT matrix (see threshold()).
 //
 // Fixed capacity, no heap, noexcept, deterministic. Invalid configurations (level outside
-// 1..max for this window and wavelet) leave status() != Ok; step() then passes inputs through.
+// 1..max for this window and wavelet, or a threshold mode on a forced-only filter) leave
+// status() != ok; step() then passes inputs through.
+//
+// Memory per channel: RealtimeWavelet<Scalar, N> holds about 15N scalars (float, N = 256:
+// 15,208 B); the forced-only RealtimeWavelet<Scalar, N, false> holds 5N (5,200 B).
 #pragma once
 
 #include <algorithm>
@@ -94,7 +98,7 @@ class RealtimeWavelet {
       ++faults_;
       return last_out_;
     }
-    buf_[pos_] = x;  // doubled circular buffer: the window is always buf_[pos_+1 .. pos_+N]
+    buf_[pos_] = x;  // doubled circular buffer: after the increment the window is buf_[pos_, pos_+N)
     buf_[pos_ + WindowN] = x;
     pos_ = (pos_ + 1) % WindowN;
     if (count_ < WindowN) ++count_;
@@ -137,8 +141,10 @@ class RealtimeWavelet {
   // Forced-mode equivalent FIR: y[n] = sum_i taps()[i] * x[n - (N-1) + i] (oldest first).
   const Scalar* taps() const noexcept { return taps_; }
 
-  // Full recompute of the window (the reference algorithm) on an explicit window,
-  // oldest first; used by the streaming path of threshold modes and by tests.
+  // Full recompute of the window (the reference algorithm: extension, J-level lifting DWT,
+  // thresholding with nth_element's median, inverse DWT) on an explicit window, oldest
+  // first. Used by tests and benchmarks, and by threshold modes when the window is too short
+  // for the streaming noise estimate (filter length > N/2). Not for forced-only filters.
   Scalar recompute(const Scalar* window) noexcept {
     static_assert(ThresholdModes, "recompute() needs the work buffer of the full filter");
     constexpr std::size_t n2 = 2 * WindowN;
