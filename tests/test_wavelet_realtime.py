@@ -134,14 +134,17 @@ def test_forced_fir_taps_and_lfilter(wavelet: str, window: int, level: int, rng)
     )
 
 
-def test_group_delay_matches_scipy() -> None:
+def test_group_delay_is_the_fir_centroid_and_matches_a_delayed_ramp() -> None:
     f = RealtimeWavelet("db4", 256, 5)
     b = f.fir_taps()
-    _, gd = signal.group_delay((b, 1), w=[0.0], fs=400.0)
-    assert f.group_delay_s(400.0) == pytest.approx(gd[0] / 400.0, rel=1e-12)
-    # Causal filter of the newest-sample output of a symmetric window: delay is positive and
-    # well inside the window (0 < gd < N/400 s).
-    assert 0.0 < f.group_delay_s(400.0) < 256 / 400.0
+    # DC group delay of an FIR is its centroid sum(k b_k) / sum(b_k) (samples).
+    centroid = float(np.sum(np.arange(256) * b) / np.sum(b))
+    assert f.group_delay_s(400.0) == pytest.approx(centroid / 400.0, rel=1e-9)
+    # A ramp passes through a unit-DC-gain FIR delayed by exactly that centroid.
+    x = np.arange(2000.0)
+    y = RealtimeWavelet("db4", 256, 5).filter(x)
+    np.testing.assert_allclose(y[300:], x[300:] - centroid, rtol=0, atol=1e-9)
+    assert 0.0 < centroid < 256
 
 
 @pytest.mark.parametrize("mode", ["forced", "soft"])
