@@ -107,6 +107,7 @@ def main() -> None:
     x3 = np.ascontiguousarray(np.stack([x, x[::-1], -x], axis=1)[: n // 3])
     m = gyrodrift.fit_ar2(x[:100_000], "burg")
     xs = np.ascontiguousarray(x[:slow_n])
+    out_buf = np.empty_like(x)
 
     def per_sample_python() -> None:
         kf = gyrodrift.KalmanFilter(m)
@@ -116,6 +117,8 @@ def main() -> None:
     # (label, samples x axes processed, callable)
     cases: list[tuple[str, int, Callable[[], object]]] = [
         ("batch binding, double, 1-D", n, lambda: gyrodrift.kalman_filter(x, m)),
+        ("batch binding, double, 1-D, out= (no allocation)", n,
+         lambda: gyrodrift.kalman_filter(x, m, out=out_buf)),
         ("batch binding, float, 1-D", n, lambda: gyrodrift.kalman_filter(x32, m)),
         ("batch binding, double, (n, 3)", x3.size, lambda: gyrodrift.kalman_filter(x3, m)),
         ("batch binding, steady-state, double, 1-D", n,

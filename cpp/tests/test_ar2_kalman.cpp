@@ -253,3 +253,24 @@ TEST_CASE("covariance latch: bit-identical to the full recursion, also across fa
   for (double v : y) same_f = same_f && lf.step(static_cast<float>(v)) == pf.step(static_cast<float>(v));
   CHECK(same_f);
 }
+
+TEST_CASE("process() equals step() bit for bit, also across faults and in place") {
+  auto y = ar2_record(0.6868, -0.0213, 3000, 9.7, 13u);
+  for (std::size_t k : {0u, 1u, 50u, 51u, 1500u, 2999u}) y[k] = std::nan("");
+  y[700] = std::numeric_limits<double>::infinity();
+  const Ar2Model<double> m{0.6868, -0.0213, 0.083, 9.7};
+  Ar2Kalman<double> a(m, 0.083, 0.2), b(m, 0.083, 0.2);
+  std::vector<double> out(y.size());
+  a.process(y.data(), out.data(), y.size());
+  bool same = true;
+  for (std::size_t k = 0; k < y.size(); ++k) same = same && out[k] == b.step(y[k]);
+  CHECK(same);
+  CHECK(a.fault_count() == b.fault_count());
+  CHECK(a.fault_count() == 7u);
+  CHECK(a.state() == b.state());
+  CHECK(a.covariance() == b.covariance());
+  std::vector<double> inplace = y;
+  Ar2Kalman<double> c(m, 0.083, 0.2);
+  c.process(inplace.data(), inplace.data(), inplace.size());
+  CHECK(inplace == out);
+}

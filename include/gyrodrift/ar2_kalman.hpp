@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 
 #include "ar2_model.hpp"
@@ -75,6 +76,33 @@ class Ar2Kalman {
       }
     }
     return full_step(x0, x1, z);
+  }
+
+  // out[k] = step(in[k]) for k < n (bit-identical: same operations in the same order), with
+  // the latched stretches run in a tight loop whose state lives in registers. in and out may
+  // be the same buffer.
+  void process(const Scalar* in, Scalar* out, std::size_t n) noexcept {
+    std::size_t k = 0;
+    while (k < n) {
+      if (latched_ && status_ == Ar2Status::ok) {
+        const Scalar a1 = a1_, a2 = a2_, mean = mean_, k0 = k_(0), k1 = k_(1);
+        Scalar s0 = x_(0), s1 = x_(1);
+        for (; k < n; ++k) {
+          const Scalar x0 = a1 * s0 + a2 * s1;
+          const Scalar v = (in[k] - mean) - x0;
+          const Scalar nx0 = x0 + k0 * v;
+          const Scalar nx1 = s0 + k1 * v;
+          if (!std::isfinite(nx0 + nx1)) break;  // fault (or NaN input): the full step handles it
+          s0 = nx0;
+          s1 = nx1;
+          out[k] = nx0 + mean;
+        }
+        x_ << s0, s1;
+        if (k == n) break;
+      }
+      out[k] = step(in[k]);
+      ++k;
+    }
   }
 
   // The covariance recursion does not depend on the data: once P reaches a floating-point
