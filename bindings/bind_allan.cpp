@@ -288,14 +288,14 @@ py::array_t<std::int64_t> tau_grid_py(const std::string& grid_name, std::int64_t
 void bind_allan(pybind11::module_& m) {
   m.def("oadev_sigma2", &oadev_sigma2<double>, py::arg("data").noconvert(),
         py::arg("m").noconvert(), py::arg("kind") = "rate", py::arg("method") = "fused",
-        py::arg("block") = 4096,
+        py::arg("block") = 65536,
         "Overlapping Allan variance for strictly increasing averaging factors m (int64) of a\n"
         "1-D float64/float32 record. kind='rate': (rate units)^2; kind='phase': (phase\n"
         "units)^2 per sample^2 (divide by tau0^2). method='fused' (rate input: all factors\n"
         "in one pass, OadevFused) or 'per_tau'. Returns (sigma2, terms). GIL released.");
   m.def("oadev_sigma2", &oadev_sigma2<float>, py::arg("data").noconvert(),
         py::arg("m").noconvert(), py::arg("kind") = "rate", py::arg("method") = "fused",
-        py::arg("block") = 4096);
+        py::arg("block") = 65536);
   py::class_<OadevStream>(m, "OadevStream",
                           "Streaming overlapping-Allan sums for one averaging factor m "
                           "(chunked records; long double state).")

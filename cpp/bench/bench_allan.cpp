@@ -22,6 +22,7 @@ double cpu_seconds() {
 
 int main(int argc, char** argv) {
   const std::size_t n = argc > 1 ? static_cast<std::size_t>(std::atof(argv[1])) : 10000000;
+  const std::size_t block = argc > 2 ? static_cast<std::size_t>(std::atol(argv[2])) : 4096;
   std::vector<double> y(n);
   std::uint64_t s = 1;
   for (std::size_t i = 0; i < n; ++i) {
@@ -44,7 +45,7 @@ int main(int argc, char** argv) {
                               static_cast<std::size_t*>(nullptr));
       } else {
         auto fused = std::make_unique<gyrodrift::OadevFused<64>>();
-        ok = fused->plan(n, m, n_m, 4096);
+        ok = fused->plan(n, m, n_m, block);
         std::vector<double> work(fused->workspace_doubles());
         ok = ok && fused->run(y.data(), work.data(), work.size(), out.data(),
                               static_cast<std::size_t*>(nullptr));
