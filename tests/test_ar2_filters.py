@@ -250,6 +250,10 @@ def test_invalid_models_and_variances(model) -> None:
         KalmanFilter((0.1, 0.2, 1.0, 0.0))  # type: ignore[arg-type]
     with pytest.raises(TypeError, match="sequence of 3"):
         gyrodrift.kalman_filter(np.ones((10, 3)), [model, model])
+    # Riccati iteration bound reached (near-unit roots, tiny gain): a clear error, no filter.
+    slow = Ar2Model(a1=1.9, a2=-0.99999, sigma2=1e-12, mean=0.0)
+    with pytest.raises(ValueError, match="not converged"):
+        KalmanFilter(slow, r=1.0, steady_state=True)
 
 
 def test_model_without_r_uses_sigma2() -> None:

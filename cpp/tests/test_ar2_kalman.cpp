@@ -274,3 +274,12 @@ TEST_CASE("process() equals step() bit for bit, also across faults and in place"
   c.process(inplace.data(), inplace.data(), inplace.size());
   CHECK(inplace == out);
 }
+
+TEST_CASE("steady state: Riccati bound reached -> not_converged, samples pass through") {
+  // Roots of modulus sqrt(0.99999) and a gain ~1e-6: the recursion contracts by ~(1 - 5e-6)
+  // per step, so 64-eps accuracy needs millions of steps, beyond kAr2RiccatiMaxIterations.
+  Ar2SteadyStateKalman<double> s(Ar2Model<double>{1.9, -0.99999, 1e-12, 0.0}, 1e-12, 1.0);
+  CHECK(s.status() == Ar2Status::not_converged);
+  CHECK(s.iterations() == gyrodrift::kAr2RiccatiMaxIterations);
+  CHECK(s.step(3.5) == 3.5);
+}
