@@ -173,6 +173,19 @@ def test_bad_input_errors(rng: np.random.Generator) -> None:
         allan.oadev(bad, 1.0)
     with pytest.raises(TypeError):
         allan.oadev(np.array(["a", "b", "c", "d"]), 1.0)
+    with pytest.raises(ValueError, match="constant"):
+        allan.oadev(np.full(1000, 15.0), 1.0)
+
+
+def test_zero_deviation_at_some_taus() -> None:
+    # Period-4 pattern: averages over m = 4k samples are all equal, so sigma(4k) = 0 exactly
+    # while the other taus are positive; the result and its CIs stay finite.
+    y = np.tile([1.0, -1.0, 2.0, -2.0], 500)
+    res = allan.oadev(y, 1.0, taus="octave")
+    zero = res.m % 4 == 0
+    assert np.all(res.adev[zero] < 1e-12) and np.all(res.adev[~zero] > 0.1)
+    assert np.all(np.isfinite(res.ci_low)) and np.all(np.isfinite(res.ci_high))
+    assert set(np.unique(res.alpha)) <= {-2, -1, 0, 1, 2}
 
 
 def test_progress_bar_on_request(rng: np.random.Generator, capsys) -> None:

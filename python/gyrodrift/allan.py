@@ -232,8 +232,18 @@ def noise_alpha_from_slope(tau_s: np.ndarray, adev: np.ndarray) -> np.ndarray:
     """
     tau_s = np.asarray(tau_s, dtype=np.float64)
     adev = np.asarray(adev, dtype=np.float64)
-    if tau_s.size < 2:
+    positive = adev > 0
+    if np.count_nonzero(positive) < 2:
         return np.zeros(tau_s.shape, dtype=np.int64)
+    if not np.all(positive):
+        # A zero deviation (exactly periodic or quantized stretches) has no slope: read the
+        # slope on the positive points and give each zero point its nearest neighbour's.
+        idx = np.flatnonzero(positive)
+        inner = noise_alpha_from_slope(tau_s[idx], adev[idx])
+        nearest = idx[np.abs(np.arange(tau_s.size)[:, None] - idx[None, :]).argmin(axis=1)]
+        lookup = np.empty(tau_s.size, dtype=np.int64)
+        lookup[idx] = inner
+        return np.minimum.accumulate(lookup[nearest])
     mu = np.gradient(np.log(adev * adev), np.log(tau_s))
     alpha = np.rint(-mu - 1.0)
     alpha = np.where(mu < -1.5, 2.0, alpha)
@@ -420,6 +430,9 @@ def oadev(
                 sigma2[lo:lo + group] = s2
                 terms[lo:lo + group] = t
                 bar.update(int(n_terms[lo:lo + group].sum()))
+    if not np.any(sigma2 > 0):
+        raise ValueError(f"data: the record is constant (its Allan deviation is zero at all "
+                         f"{m.size} taus); nothing to analyse")
     if kind == "phase":
         sigma2 = sigma2 * rate_hz * rate_hz  # the kernel leaves out 1/tau0^2
     adev = np.sqrt(sigma2)

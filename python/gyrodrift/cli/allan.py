@@ -69,9 +69,13 @@ def run(args: argparse.Namespace) -> int:
                     ci=args.ci, progress=progress)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
-    fit = noise_id.identify(res.tau_s, res.adev, res.edf) if res.tau_s.size >= 5 else None
-    paper = noise_id.paper_fit(res.tau_s, res.adev) if res.tau_s.size >= 3 else None
-    slope = noise_id.slope_method(res.tau_s, res.adev) if res.tau_s.size >= 3 else None
+    # The fits need positive deviations (a zero can occur on exactly periodic or quantized
+    # data at some taus); they use the positive points and need enough of them.
+    pos = res.adev > 0
+    tau, dev, edf = res.tau_s[pos], res.adev[pos], res.edf[pos]
+    fit = noise_id.identify(tau, dev, edf) if tau.size >= 5 else None
+    paper = noise_id.paper_fit(tau, dev) if tau.size >= 3 else None
+    slope = noise_id.slope_method(tau, dev) if tau.size >= 3 else None
     if args.png:
         from gyrodrift.plots import plot_allan
 
