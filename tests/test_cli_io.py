@@ -75,3 +75,10 @@ def test_unsupported_and_empty(tmp_path) -> None:
         io.load_record(tmp_path / "none.csv")
     with pytest.raises(ValueError, match="unknown units"):
         io.load_record(tmp_path / "x.txt", units="furlong/fortnight")
+
+
+def test_csv_ragged_rows_are_an_error(tmp_path) -> None:
+    path = tmp_path / "r.csv"
+    path.write_text("t_s,rate_dph\n0.0,1.0\n0.1,2.0,9.9\n0.2,3.0\n")
+    with pytest.raises(ValueError, match="malformed CSV"):
+        io.load_record(path, column="rate_dph")

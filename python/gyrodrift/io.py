@@ -184,8 +184,14 @@ def load_record(
         has_header = not all(_is_number(c) for c in header_names)
         names = header_names if has_header else [str(i) for i in range(len(header_names))]
         idx = _pick_column(names, column, source)
-        table = np.genfromtxt(p, delimiter=",", skip_header=1 if has_header else 0,
-                              dtype=np.float64, invalid_raise=False, ndmin=2)
+        try:
+            # Rows with a wrong number of fields are an error (never dropped silently);
+            # unparseable cells become NaN and go through the NaN policy.
+            table = np.genfromtxt(p, delimiter=",", skip_header=1 if has_header else 0,
+                                  dtype=np.float64, invalid_raise=True, ndmin=2)
+        except ValueError as exc:
+            detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+            raise ValueError(f"{source}: malformed CSV: {detail}") from exc
         if table.size == 0:
             raise ValueError(f"{source}: no data rows")
         if table.shape[1] != len(names):
