@@ -82,3 +82,15 @@ def test_csv_ragged_rows_are_an_error(tmp_path) -> None:
     path.write_text("t_s,rate_dph\n0.0,1.0\n0.1,2.0,9.9\n0.2,3.0\n")
     with pytest.raises(ValueError, match="malformed CSV"):
         io.load_record(path, column="rate_dph")
+
+
+def test_time_gaps_are_an_error(tmp_path) -> None:
+    t = np.arange(100) / 10.0
+    t = np.delete(t, [30, 31, 70])  # three missing samples in two gaps
+    path = tmp_path / "g.csv"
+    np.savetxt(path, np.column_stack([t, np.ones_like(t)]), delimiter=",",
+               header="t_s,rate_dph", comments="")
+    with pytest.raises(ValueError, match="2 gaps"):
+        io.load_record(path, column="rate_dph")
+    # an explicit --rate is the user's statement that the samples are uniform
+    assert io.load_record(path, column="rate_dph", rate_hz=10.0).n == 97

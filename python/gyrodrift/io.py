@@ -101,6 +101,8 @@ def _pick_column(names: list[str], column: str | int | None, source: str) -> int
 
 
 def _rate_from_time(t: np.ndarray, source: str) -> float:
+    """Sample rate from a time column; gaps (missing samples) or steps back are an error,
+    because Allan/PSD analysis assumes uniform sampling and would silently mis-time them."""
     t = t[np.isfinite(t)]
     if t.size < 2:
         raise ValueError(f"{source}: cannot infer the sample rate from the time column")
@@ -108,6 +110,13 @@ def _rate_from_time(t: np.ndarray, source: str) -> float:
     dt_med = float(np.median(dt))
     if not dt_med > 0:
         raise ValueError(f"{source}: time column is not increasing")
+    # 25 % slack covers timestamp rounding (e.g. 6-decimal CSV times, CAN log clocks).
+    gaps = int(np.count_nonzero(dt > 1.25 * dt_med))
+    backs = int(np.count_nonzero(dt < 0.75 * dt_med))
+    if gaps or backs:
+        raise ValueError(f"{source}: non-uniform time column: {gaps} gaps (missing samples) "
+                         f"and {backs} short or backward steps against the median step "
+                         f"{dt_med:.6g} s; Allan/PSD analysis needs uniform sampling")
     return 1.0 / dt_med
 
 
