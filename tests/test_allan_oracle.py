@@ -269,3 +269,29 @@ def test_real_laser_gyro_record_equals_allantools(tmp_path) -> None:
     res = allan.oadev(z_dph, 100.0, taus="decade", per_decade=8)
     _, dev, _, _ = allantools.oadev(z_dph, rate=100.0, data_type="freq", taus=res.tau_s)
     np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL)
+
+
+def test_lag1_noise_id_equals_allantools_and_finds_the_types() -> None:
+    # Pure power-law rate noises from the simulator (8192 samples: allantools' lag1_acf is a
+    # Python loop) and the known alpha of each (S_y ~ f^alpha): quantization = white phase
+    # (+2), ARW = white rate (0), RRW = random-walk rate (-2).
+    import gyrodrift
+
+    cases = {
+        2: gyrodrift.simulate(n=8192, rate_hz=1.0, q_deg=1e-3, seed=1).rate_dph,
+        0: gyrodrift.simulate(n=8192, rate_hz=1.0, n_deg_rthr=0.01, seed=2).rate_dph,
+        -2: gyrodrift.simulate(n=8192, rate_hz=1.0, k_deg_h_rthr=1.0, seed=3).rate_dph,
+    }
+    for expected, y in cases.items():
+        for m in (1, 4, 16, 64):
+            ours = allan.lag1_noise_id(y, m)
+            ref = allantools.autocorr_noise_id(y, m, data_type="freq")[0]
+            assert ours == ref, (expected, m)
+            if m <= 16:  # >= 512 averages: r1 sd <= 0.05; at m = 64 (128 averages) the
+                # white-PM estimate can round to 3 in both implementations
+                assert ours == expected, (expected, m)
+    assert allan.lag1_noise_id(cases[0], 300) is None  # 27 averages < 30
+    res = allan.oadev(cases[-2], 1.0, alpha="acf")
+    assert res.alpha[0] == -2 and np.all(res.alpha >= -2)
+    with pytest.raises(ValueError, match="acf"):
+        allan.oadev(cases[0], 1.0, alpha="slope")

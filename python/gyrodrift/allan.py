@@ -38,6 +38,7 @@ __all__ = [
     "averaging_factors",
     "chi2_interval",
     "edf_simple",
+    "lag1_noise_id",
     "noise_alpha_from_slope",
     "oadev",
 ]
@@ -251,6 +252,35 @@ def noise_alpha_from_slope(tau_s: np.ndarray, adev: np.ndarray) -> np.ndarray:
     return alpha.astype(np.int64)
 
 
+def lag1_noise_id(y: np.ndarray, m: int, *, dmax: int = 2, max_points: int = 1 << 16
+                  ) -> int | None:
+    """Power-law noise exponent alpha (S_y(f) ~ f^alpha) of rate (frequency) data at
+    averaging factor m by the lag-1 autocorrelation method (Riley & Greenhall 2004; NIST
+    SP 1065 sec. 5.6): average non-overlapping groups of m samples, remove a linear trend,
+    then with r1 the lag-1 autocorrelation and delta = r1 / (1 + r1), difference the series
+    (d times) until delta < 0.25; alpha = -round(2 delta) - 2 d. Uses at most `max_points`
+    averages (the first max_points * m samples): the sd of r1 is ~1/sqrt(points).
+    Returns None when fewer than 30 averages exist (the method's minimum).
+    """
+    y = np.asarray(y, dtype=np.float64)
+    n_avg = min(y.size // m, max_points)
+    if n_avg < 30:
+        return None
+    z = y[: n_avg * m].reshape(n_avg, m).mean(axis=1)
+    t = np.arange(n_avg, dtype=np.float64)
+    z = z - np.polyval(np.polyfit(t, z, 1), t)  # linear trend (frequency drift)
+    d = 0
+    while True:
+        zc = z - z.mean()
+        denom = float(np.dot(zc, zc))
+        r1 = float(np.dot(zc[:-1], zc[1:])) / denom if denom > 0 else 0.0
+        delta = r1 / (1.0 + r1)
+        if delta < 0.25 or d >= dmax:
+            return int(-round(2.0 * delta) - 2 * d)
+        z = np.diff(z)
+        d += 1
+
+
 def _file_chunks(mm: np.memmap, start: int, stop: int, chunk: int) -> Iterator[np.ndarray]:
     """float64 copies of mm[start:stop] in pieces of at most `chunk`, read with file reads."""
     itemsize = mm.dtype.itemsize
@@ -354,7 +384,7 @@ def oadev(
     taus: str | np.ndarray | list[float] = "octave",
     per_decade: int = 10,
     ci: float = ONE_SIGMA_CI,
-    alpha: int | np.ndarray | None = None,
+    alpha: int | np.ndarray | str | None = None,
     chunk_samples: int | None = None,
     progress: bool | str = "auto",
 ) -> AllanResult:
@@ -369,7 +399,9 @@ def oadev(
         taus: "octave", "decade" (per_decade points per decade), "all", or taus in s.
         ci: two-sided probability of the confidence interval (default 1 sigma, 0.683).
         alpha: noise exponent for the edf (one for all taus, or one per tau); default: from
-            the local slope of the deviation (noise_alpha_from_slope).
+            the local slope of the deviation (noise_alpha_from_slope); "acf": the lag-1
+            autocorrelation method per tau (lag1_noise_id; reads the record once per tau,
+            at most 65536 averages each, in memory).
         chunk_samples: chunk size of the memmap path (default 2**20); forces the chunked
             path for in-memory arrays too when given.
         progress: tqdm bar on stderr: True, False or "auto" (when the work exceeds
@@ -439,6 +471,22 @@ def oadev(
     tau_s = m / float(rate_hz)
     if alpha is None:
         alpha_arr = noise_alpha_from_slope(tau_s, adev)
+    elif isinstance(alpha, str):
+        if alpha != "acf":
+            raise ValueError(f"alpha must be None, 'acf', or integers, got {alpha!r}")
+        # Lag-1 ACF noise ID where >= 30 averages exist, the slope estimate (capped by the
+        # last ACF value, noise types do not move back towards white PM) beyond.
+        x_id = np.asarray(data, dtype=np.float64) if kind == "rate" else np.diff(data) * rate_hz
+        slope_alpha = noise_alpha_from_slope(tau_s, adev)
+        alpha_arr = np.empty(m.size, dtype=np.int64)
+        last: int | None = None
+        for j, mj in enumerate(int(v) for v in m):
+            a = lag1_noise_id(x_id, mj)
+            if a is None:
+                a = int(slope_alpha[j]) if last is None else min(int(slope_alpha[j]), last)
+            else:
+                last = a
+            alpha_arr[j] = min(max(a, -2), 2)
     else:
         alpha_arr = np.broadcast_to(np.asarray(alpha, dtype=np.int64), m.shape).copy()
     n_phase = n_data + 1 if kind == "rate" else n_data
