@@ -11,6 +11,7 @@ import gyrodrift
 import gyrodrift.cli as cli
 import numpy as np
 import pytest
+from gyrodrift import allan
 
 MINE = ["simulate", "filter", "allan", "psd", "compare"]
 
@@ -57,6 +58,9 @@ def test_simulate_npy_then_allan_matches_allantools(tmp_path: Path, capsys) -> N
 
     code, text, _ = run(["allan", rec_path, "--rate", 50], capsys)
     assert code == 0 and "IEEE 952 fit" in text and "paper 2006 eq. 8 fit" in text
+    acf = run_json(["allan", rec_path, "--rate", 50, "--noise-id", "acf"], capsys)
+    assert acf["allan"]["alpha"] == allan.oadev(x, 50.0, alpha="acf").alpha.tolist()
+    np.testing.assert_array_equal(acf["allan"]["adev"], out["allan"]["adev"])
 
 
 def test_csv_column_choice_and_rate_from_time(tmp_path: Path, capsys) -> None:

@@ -50,6 +50,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave")
     p.add_argument("--per-decade", type=int, default=10, help="points per decade (--taus decade)")
     p.add_argument("--ci", type=float, default=0.683, help="confidence-interval probability")
+    p.add_argument("--noise-id", choices=("slope", "acf"), default="slope",
+                   help="noise type per tau for the edf: local slope (default) or the lag-1 "
+                        "autocorrelation method (loads the record into memory)")
     p.add_argument("--png", help="write a log-log plot with error bars and the fitted terms")
     p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV")
     p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
@@ -66,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
     progress: bool | str = {"auto": "auto", "always": True, "never": False}[args.progress]
     try:
         res = oadev(rec.rate_dph, rec.rate_hz, taus=args.taus, per_decade=args.per_decade,
-                    ci=args.ci, progress=progress)
+                    ci=args.ci, progress=progress,
+                    alpha="acf" if args.noise_id == "acf" else None)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     # The fits need positive deviations (a zero can occur on exactly periodic or quantized
