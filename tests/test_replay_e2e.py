@@ -9,6 +9,10 @@ are at most ~10 m/s^2, so float32 rounding is ~1e-6; the gyro Kalman outputs ~1e
 
 from __future__ import annotations
 
+import json
+import os
+import subprocess
+import tty
 from pathlib import Path
 
 import numpy as np
@@ -138,3 +142,32 @@ def test_all_faults_together_at_real_time(loop_bin: str) -> None:
         processor=_settings(800.0)))
     _assert_exact(res)
     assert sum(res.report["accounting"]["injected"].values()) > 40
+
+
+def test_attach_to_a_running_target(loop_bin: str) -> None:
+    # A target already running on a serial device (here: the loop on a pty we made, as a
+    # navigation computer on /dev/ttyUSB0 would be); the harness only opens the device path.
+    rate = 400.0
+    settings = _settings(rate)
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    proc = subprocess.Popen([loop_bin, "--serial", f"fd:{master}", "--rate-hz", "1000", "--no-rt",
+                             *settings.loop_args()], pass_fds=[master],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    os.close(master)
+    assert proc.stderr is not None and b"ready" in proc.stderr.readline()
+    spec = FaultSpec(duplicate=0.02, corrupt=0.02, seed=8)
+    try:
+        res = run_replay(_record(1000, rate), ReplayOptions(
+            transport="serial", speed=0.0, attach=os.ttyname(slave), faults=spec,
+            processor=settings))
+    finally:
+        os.close(slave)  # the target sees end of input and prints its statistics
+        out, _ = proc.communicate(timeout=10)
+    _assert_exact(res)
+    assert res.loop_stats is None and res.report["checks"]["loop_stats_available"]
+    loop = json.loads(out)
+    acc = res.report["accounting"]
+    assert loop["frames_out"] == acc["outputs_received"]
+    assert loop["rejected"]["crc"] == acc["injected"]["corrupt"]
+    assert loop["rejected"]["duplicate"] == acc["injected"]["duplicate"]
