@@ -7,7 +7,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import SHARED_DATA
 from gyrodrift.align import (
     ARCMIN,
     ARCSEC,
@@ -179,16 +178,14 @@ def test_psins_reader_units_and_errors(tmp_path: Path) -> None:
         read_psins_imu(tmp_path / "missing.imu")
 
 
-@pytest.mark.skipif(not (SHARED_DATA / "lasergyro.imu").is_file(),
-                    reason="shared laser-gyro record not on this machine (optional data)")
-def test_real_laser_gyro_heading_consistency() -> None:
+def test_real_laser_gyro_heading_consistency(lasergyro_path: Path) -> None:
     """The recorded vehicle RLG data (no truth): every 5-min segment aligns to the file's own
     approximate initial heading (yaw0 = -90.6 deg, i.e. heading 90.6 deg clockwise) within
     0.1 deg, and the headings agree across segments within 5 arcmin (observed ~1 arcmin
     1-sigma, 3-5 arcmin range)."""
     from gyrodrift.align.realdata import align_segments, consistency_rows
 
-    rec = read_psins_imu(SHARED_DATA / "lasergyro.imu")
+    rec = read_psins_imu(lasergyro_path)
     segs = align_segments(rec, 300.0)
     assert len(segs) == 6
     for s in segs:

@@ -251,12 +251,12 @@ def test_real_laser_gyro_record_equals_allantools(tmp_path) -> None:
     as per-sample angle increments through gyrodrift.io, Allan deviation equals allantools,
     and the vertical gyro sees the Earth rate (15.041 deg/h * sin(34.246 deg) = 8.46 deg/h;
     the vehicle stood with its engine running, so 0.3 deg/h covers bias and disturbance)."""
-    from conftest import SHARED_DATA
+    from conftest import SHARED_DATA, skip_unless_ci
     from gyrodrift import io
 
     path = SHARED_DATA / "lasergyro.imu"
     if not path.exists():
-        pytest.skip(f"{path} not present (shared real-data record)")
+        skip_unless_ci(f"{path} not present (shared real-data record)")
     lines = [ln for ln in path.read_text().splitlines() if ln and not ln.startswith("%")]
     counts = np.array([ln.split() for ln in lines[3:]], dtype=np.float64)
     # 3 header lines, then the counts (184,718 rows; the data README's 184,719 counts one

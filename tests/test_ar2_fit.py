@@ -9,7 +9,7 @@ import gyrodrift
 import gyrodrift.reference as ref
 import numpy as np
 import pytest
-from conftest import SHARED_DATA
+from conftest import SHARED_DATA, skip_unless_ci
 from gyrodrift import Ar2FitError, Ar2Model, _core
 from statsmodels.regression.linear_model import burg, yule_walker
 
@@ -178,7 +178,7 @@ def test_fit_three_axes_and_bad_arguments() -> None:
 def test_fit_real_laser_gyro_record() -> None:
     path = SHARED_DATA / "lasergyro.imu"
     if not path.exists():
-        pytest.skip(f"real record not present at {path}")
+        skip_unless_ci(f"real record not present at {path}")
     with path.open() as f:
         data_lines = [line for line in f if line.strip() and not line.startswith("%")]
     rows = np.loadtxt(data_lines[3:30_003])  # 3 header lines (data README), then 300 s

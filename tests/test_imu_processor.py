@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from conftest import SHARED_DATA
+from conftest import SHARED_DATA, skip_unless_ci
 from gyrodrift import _core, fit_ar2, simulate_imu
 from gyrodrift.imu import (
     FLAG_CONFIG_ERROR,
@@ -341,7 +341,7 @@ def read_lasergyro(n: int) -> np.ndarray | None:
 def test_real_laser_gyro_record_float_matches_reference() -> None:
     values = read_lasergyro(20_000)
     if values is None:
-        pytest.skip("shared record lasergyro.imu not present (optional real-data case)")
+        skip_unless_ci("shared record lasergyro.imu not present (optional real-data case)")
     n = values.shape[0]
     seq = np.arange(n) % 65536
     t_us = np.arange(n, dtype=np.uint64) * 10_000

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import skip_unless_ci
 from gyrodrift.replay.harness import LOOP_RELATIVE
 from gyrodrift.replay.wire import TYPE_OUTPUT, decode_stream, encode_frames, make_samples
 
@@ -211,7 +212,7 @@ def test_random_bytes_never_stop_the_loop(loop_bin: Path, mode: str, variant: st
     # finish() requires exit code 0).
     binary = loop_bin.with_name(loop_bin.name + variant)
     if variant and not binary.is_file():
-        pytest.skip("gyrodrift-loop-asan is built only with -DGYRODRIFT_SANITIZE=ON "
+        skip_unless_ci("gyrodrift-loop-asan is built only with -DGYRODRIFT_SANITIZE=ON "
                     "(scripts/test builds it)")
     rng = np.random.default_rng(99)
     loop = Loop(binary, mode, *PASS)

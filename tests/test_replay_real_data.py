@@ -9,8 +9,7 @@ from pathlib import Path
 
 import gyrodrift
 import numpy as np
-import pytest
-from conftest import SHARED_DATA
+from conftest import SHARED_DATA, skip_unless_ci
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
 from gyrodrift.replay.processor import ProcessorSettings
 from gyrodrift.replay.wire import make_samples
@@ -23,7 +22,7 @@ G_MPS2 = 9.780327  # the record's g (data README, line 2)
 def test_replay_real_laser_gyro_record(cpp_build_dir: Path) -> None:
     path = SHARED_DATA / "lasergyro.imu"
     if not path.exists():
-        pytest.skip(f"real record not present at {path}")
+        skip_unless_ci(f"real record not present at {path}")
     with path.open() as f:
         lines = [ln for ln in f if ln.strip() and not ln.startswith("%")]
     counts = np.loadtxt(lines[3:3003])  # 3 header lines, then 30 s of samples
