@@ -8,10 +8,9 @@ from pathlib import Path
 import can
 import numpy as np
 import pytest
-from gyrodrift.codecs import FrameParser
+from gyrodrift.codecs import FrameParser, crc16_ccitt_false
 from gyrodrift.replay.logs import FORMATS, read_imu_log, write_imu_log
 from gyrodrift.replay.wire import (
-    crc16_ccitt_false,
     decode_stream,
     encode_frames,
     make_samples,

@@ -23,7 +23,7 @@ from typing import Any
 import can
 import numpy as np
 
-from gyrodrift.codecs import OUTPUT_BASE_ID, SampleAssembler, encode_sample
+from gyrodrift.codecs import FRAME_SIZE, OUTPUT_BASE_ID, TYPE_OUTPUT, SampleAssembler, encode_sample
 from gyrodrift.codecs import encode_frames as codec_encode_frames
 from gyrodrift.imu import FLAG_CONFIG_ERROR, FLAG_DUPLICATE, FLAG_OUT_OF_ORDER, FLAG_REJECTED
 from gyrodrift.reference.imu import process_imu
@@ -43,7 +43,7 @@ from gyrodrift.replay.transport import (
     SerialLink,
     sleep_until_ns,
 )
-from gyrodrift.replay.wire import FRAME_LEN, TYPE_OUTPUT, Samples, decode_stream
+from gyrodrift.replay.wire import Samples, decode_stream
 
 TRANSPORTS = ("serial", "slcan", "socketcan")
 LOOP_RELATIVE = Path("cpp") / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
@@ -132,7 +132,7 @@ def _unit_wire_time_ns(opt: ReplayOptions) -> int:
     """Time one unit occupies its link: serial frame at the baud, or a sample's 4 CAN frames
     at the bit rate (and, for SLCAN, its 4 lines at the tty baud: the slower one counts)."""
     if opt.transport == "serial":
-        return int(FRAME_LEN * UART_BITS_PER_BYTE * 1e9 / opt.baud)
+        return int(FRAME_SIZE * UART_BITS_PER_BYTE * 1e9 / opt.baud)
     can_ns = 4 * CAN_FRAME_BITS * 1e9 / opt.can_bitrate
     if opt.transport == "slcan":
         can_ns = max(can_ns, 4 * SLCAN_LINE_BYTES * UART_BITS_PER_BYTE * 1e9 / opt.baud)
@@ -250,7 +250,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     if opt.transport == "serial":
         raw = codec_encode_frames(samples.seq, samples.t_us, samples.channels)
         for u in plan.units:
-            frame = raw[FRAME_LEN * u.index: FRAME_LEN * (u.index + 1)]
+            frame = raw[FRAME_SIZE * u.index: FRAME_SIZE * (u.index + 1)]
             payload.append(corrupt_serial_frame(frame, rng) if u.corrupt else frame)
     else:
         cache: dict[int, list[can.Message]] = {}
@@ -391,7 +391,7 @@ def _send(link: SerialLink | CanLink, unit: Any, rng: np.random.Generator) -> No
 
 def _output_count(link: SerialLink | CanLink) -> int:
     if isinstance(link, SerialLink):
-        return link.received_bytes() // FRAME_LEN
+        return link.received_bytes() // FRAME_SIZE
     return len(link.capture.messages) // 4
 
 

@@ -13,10 +13,8 @@ from pathlib import Path
 import can
 import numpy as np
 
-from gyrodrift.codecs import INPUT_BASE_ID, SampleAssembler, encode_sample
+from gyrodrift.codecs import FRAME_SIZE, INPUT_BASE_ID, TYPE_INPUT, SampleAssembler, encode_sample
 from gyrodrift.replay.wire import (
-    FRAME_LEN,
-    TYPE_INPUT,
     Samples,
     decode_stream,
     encode_frames,
@@ -114,8 +112,8 @@ def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
     kind = log_format(path, fmt)
     if kind == "bin":
         data = path.read_bytes()
-        if len(data) < FRAME_LEN:
-            raise ValueError(f"{path}: {len(data)} bytes, shorter than one {FRAME_LEN}-byte frame")
+        if len(data) < FRAME_SIZE:
+            raise ValueError(f"{path}: {len(data)} bytes, shorter than one {FRAME_SIZE}-byte frame")
         dec = decode_stream(data)
         bad = {"crc_errors": dec.crc_errors, "garbage_bytes": dec.garbage_bytes,
                "truncated_bytes": dec.truncated_bytes,

@@ -2,48 +2,31 @@
 gyrodrift.codecs.encode_frames) and a stream decoder that also reports where each frame ended
 in the stream (the harness needs that to time each output's arrival).
 
-The CRC is `binascii.crc_hqx` with init 0xFFFF (= CRC-16/CCITT-FALSE). The tests check the
-decoder against gyrodrift.codecs.FrameParser and hand-checked bytes.
-
-Serial frame (little-endian, 42 bytes): A5 5A | type | len=36 | seq u16 | flags u16 |
-t_us u64 | 6 x float32 (gyro x y z rad/s, accel x y z m/s^2) | CRC-16 over bytes 2..39.
+The frame layout, constants, numpy dtype and CRC all come from gyrodrift.codecs.serial_frame
+(the single source of truth for the wire format); only the vectorised whole-stream decoder
+with end offsets lives here. The tests check it against gyrodrift.codecs.FrameParser and
+hand-checked bytes.
 """
 
 from __future__ import annotations
 
-import binascii
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from gyrodrift import codecs
-
-SYNC0 = 0xA5
-SYNC1 = 0x5A
-TYPE_INPUT = 0x01
-TYPE_OUTPUT = 0x81
-PAYLOAD_LEN = 36
-FRAME_LEN = 42
-
-FRAME_DTYPE = np.dtype(
-    [
-        ("sync0", "u1"),
-        ("sync1", "u1"),
-        ("type", "u1"),
-        ("len", "u1"),
-        ("seq", "<u2"),
-        ("flags", "<u2"),
-        ("t_us", "<u8"),
-        ("ch", "<f4", (6,)),
-        ("crc", "<u2"),
-    ]
+from gyrodrift.codecs.serial_frame import (
+    CRC_OFFSET,
+    FRAME_DTYPE,
+    FRAME_SIZE,
+    PAYLOAD_LEN,
+    SYNC0,
+    SYNC1,
+    TYPE_INPUT,
+    crc16_ccitt_false,
 )
-assert FRAME_DTYPE.itemsize == FRAME_LEN
 
-
-def crc16_ccitt_false(data: bytes) -> int:
-    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, no reflection, xorout 0)."""
-    return binascii.crc_hqx(data, 0xFFFF)
+_SYNC_WORD = bytes((SYNC0, SYNC1))
 
 
 @dataclass
@@ -93,7 +76,7 @@ def encode_frames(samples: Samples, frame_type: int = TYPE_INPUT) -> np.ndarray:
     """All samples as serial frames: an (n, 42) uint8 array (row i = frame i)."""
     raw = codecs.encode_frames(samples.seq, samples.t_us, samples.channels,
                                frame_type=frame_type, flags=samples.flags)
-    return np.frombuffer(raw, dtype=np.uint8).reshape(len(samples), FRAME_LEN)
+    return np.frombuffer(raw, dtype=np.uint8).reshape(len(samples), FRAME_SIZE)
 
 
 @dataclass
@@ -121,17 +104,17 @@ def decode_stream(data: bytes) -> DecodedStream:
     crc_errors = 0
     garbage = 0
     i = 0
-    while i + FRAME_LEN <= n:
+    while i + FRAME_SIZE <= n:
         if buf[i] == SYNC0 and buf[i + 1] == SYNC1 and buf[i + 3] == PAYLOAD_LEN:
-            crc = buf[40 + i] | (buf[41 + i] << 8)
-            if binascii.crc_hqx(buf[i + 2:i + 40], 0xFFFF) == crc:
+            crc = buf[i + CRC_OFFSET] | (buf[i + CRC_OFFSET + 1] << 8)
+            if crc16_ccitt_false(buf[i + 2:i + CRC_OFFSET]) == crc:
                 starts.append(i)
-                i += FRAME_LEN
+                i += FRAME_SIZE
                 continue
             crc_errors += 1
         # Not a frame here: skip to the next candidate sync word.
-        nxt = data.find(b"\xa5\x5a", i + 1)
-        if nxt < 0 or nxt + FRAME_LEN > n:
+        nxt = data.find(_SYNC_WORD, i + 1)
+        if nxt < 0 or nxt + FRAME_SIZE > n:
             stop = n if nxt < 0 else nxt
             garbage += stop - i
             i = stop
@@ -142,11 +125,11 @@ def decode_stream(data: bytes) -> DecodedStream:
     idx = np.asarray(starts, dtype=np.int64)
     if idx.size:
         raw = np.frombuffer(data, dtype=np.uint8)
-        rows = raw[idx[:, None] + np.arange(FRAME_LEN)[None, :]]
+        rows = raw[idx[:, None] + np.arange(FRAME_SIZE)[None, :]]
         rec = np.ascontiguousarray(rows).view(FRAME_DTYPE).reshape(-1)
     else:
         rec = np.zeros(0, dtype=FRAME_DTYPE)
     samples = Samples(rec["seq"].copy(), rec["flags"].copy(), rec["t_us"].copy(),
-                      rec["ch"].astype(np.float32))
-    return DecodedStream(rec["type"].copy(), samples, idx + FRAME_LEN, crc_errors, garbage,
+                      rec["values"].astype(np.float32))
+    return DecodedStream(rec["type"].copy(), samples, idx + FRAME_SIZE, crc_errors, garbage,
                          truncated)
