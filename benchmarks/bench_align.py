@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import argparse
 import os
-import subprocess
 import time
 
 import numpy as np
+from _bench_util import machine, median_seconds
 from filterpy.kalman import KalmanFilter as FilterPyKF
 from gyrodrift.align import (
     AlignConfig,
@@ -30,24 +30,6 @@ from gyrodrift.align.attitude import dcm2q
 from gyrodrift.align.fine_kf import FineAlignKF
 from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors
 from gyrodrift.align.study import StudyConfig, run_study
-
-
-def machine() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown machine"
-    fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
-    return f"{fields.get('Model name', '?').strip()}, {fields.get('CPU(s)', '?').strip()} CPUs"
-
-
-def median_time(f, repeats: int = 5) -> float:
-    ts = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        f()
-        ts.append(time.perf_counter() - t0)
-    return float(np.median(ts))
 
 
 def main() -> None:
@@ -69,13 +51,13 @@ def main() -> None:
     cfg_raw = AlignConfig(**base)
     cfg_pre = AlignConfig(**base, taps=taps, accel_delay_samples=8)
     n_ref = 400 * 70  # the reference is slow: 60 s coarse + 10 s fine
-    t_cpp_raw = median_time(lambda: run_alignment(dth, dv, cfg_raw)) / n
-    t_cpp_pre = median_time(lambda: run_alignment(dth, dv, cfg_pre)) / n
-    t_ref_raw = median_time(lambda: run_alignment_reference(dth[:n_ref], dv[:n_ref], cfg_raw),
-                            repeats=1) / n_ref
+    t_cpp_raw = median_seconds(lambda: run_alignment(dth, dv, cfg_raw)) / n
+    t_cpp_pre = median_seconds(lambda: run_alignment(dth, dv, cfg_pre)) / n
+    t_ref_raw = median_seconds(lambda: run_alignment_reference(dth[:n_ref], dv[:n_ref], cfg_raw),
+                               repeats=1) / n_ref
     tr0 = truth_at(sc, np.array([0.0]))
-    t_sd = median_time(lambda: strapdown_run(dth, dv, dt, dcm2q(tr0["cnb"][0]), tr0["vn"][0],
-                                             np.array([sc.lat_rad, sc.lon_rad, sc.h_m]))) / n
+    t_sd = median_seconds(lambda: strapdown_run(dth, dv, dt, dcm2q(tr0["cnb"][0]), tr0["vn"][0],
+                                                np.array([sc.lat_rad, sc.lon_rad, sc.h_m]))) / n
 
     # KF cycle: ours (C++ pipeline minus C++ strapdown, per 40-sample cycle) vs the numpy
     # reference KF and FilterPy (predict + update with the same 15x15 F, Q, 3x15 H, R).
@@ -103,8 +85,8 @@ def main() -> None:
             fp.predict()
             fp.update(z)
 
-    t_kf_ref = median_time(ref_cycles) / 200
-    t_kf_fp = median_time(fp_cycles) / 200
+    t_kf_ref = median_seconds(ref_cycles) / 200
+    t_kf_fp = median_seconds(fp_cycles) / 200
     t_kf_cpp = (t_cpp_raw - t_sd) * 40
 
     print("\n| what | ns/sample | samples/s | ratio vs C++ pipeline |")

@@ -10,9 +10,7 @@ input array; plus the memory-mapped path (file reads, bounded memory).
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
-import subprocess
 import tempfile
 import time
 import tracemalloc
@@ -21,17 +19,8 @@ from pathlib import Path
 
 import allantools
 import numpy as np
+from _bench_util import machine
 from gyrodrift import allan
-
-
-def machine() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-        model = next(line.split(":", 1)[1].strip() for line in out.splitlines()
-                     if line.startswith("Model name"))
-    except (OSError, subprocess.CalledProcessError, StopIteration):
-        model = "unknown CPU"
-    return f"{model}, {os.cpu_count()} logical cores"
 
 
 def measure(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:

@@ -11,39 +11,15 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import subprocess
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from _bench_util import machine, median_seconds
 from gyrodrift import _core
 from gyrodrift.codecs import FrameParser, SampleAssembler, encode_frames, encode_sample, load_dbc
 from gyrodrift.imu import ImuChannelConfig, ImuConfig, ImuProcessor
 from gyrodrift.reference.imu import process_imu
-
-
-def machine() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-        model = next(
-            line.split(":", 1)[1].strip()
-            for line in out.splitlines()
-            if line.startswith("Model name")
-        )
-    except (OSError, subprocess.CalledProcessError, StopIteration):
-        model = "unknown CPU"
-    return f"{model}, {os.cpu_count()} logical cores"
-
-
-def median_s(fn: Callable[[], object], repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def record(n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -84,51 +60,55 @@ def main() -> None:
         )
 
     p64 = ImuProcessor(cfg)
-    t = median_s(lambda: (p64.reset(), p64.process(seq, t_us, values)), reps) / n * 1e9
-    t_ref = median_s(lambda: process_imu(seq[:m], t_us[:m], values[:m], cfg), max(1, reps // 2))
+    t = median_seconds(lambda: (p64.reset(), p64.process(seq, t_us, values)), reps) / n * 1e9
+    t_ref = median_seconds(
+        lambda: process_imu(seq[:m], t_us[:m], values[:m], cfg), max(1, reps // 2)
+    )
     line("ImuProcessor f64 batch (6 ch)", t, "numpy reference", t_ref / m * 1e9)
     p32 = ImuProcessor(cfg, dtype=np.float32)
     v32 = values.astype(np.float32)
-    t = median_s(lambda: (p32.reset(), p32.process(seq, t_us, v32)), reps) / n * 1e9
+    t = median_seconds(lambda: (p32.reset(), p32.process(seq, t_us, v32)), reps) / n * 1e9
     line("ImuProcessor f32 batch (6 ch)", t, "numpy reference", t_ref / m * 1e9)
 
     stream = encode_frames(seq, t_us, values)
-    t = median_s(lambda: _core.serial_parse(stream, 4096, True), reps) / n * 1e9
+    t = median_seconds(lambda: _core.serial_parse(stream, 4096, True), reps) / n * 1e9
     sub = stream[: m * 42]
-    t_py = median_s(lambda: FrameParser().feed(sub), max(1, reps // 2)) / m * 1e9
+    t_py = median_seconds(lambda: FrameParser().feed(sub), max(1, reps // 2)) / m * 1e9
     line("serial parse (42-B frames)", t, "Python twin", t_py)
 
     vals = [tuple(float(v) for v in values[k]) for k in range(m)]
-    t = median_s(
+    t = median_seconds(
         lambda: [_core.serial_encode_frame(1, k, 0, 2500 * k, vals[k]) for k in range(m)], reps
     )
-    t_py = median_s(lambda: encode_frames(seq[:m], t_us[:m], values[:m]), reps)
+    t_py = median_seconds(lambda: encode_frames(seq[:m], t_us[:m], values[:m]), reps)
     line("serial encode, per-call binding", t / m * 1e9, "numpy-vectorised twin", t_py / m * 1e9)
 
-    t = median_s(lambda: [_core.can_encode_sample(k, 0, vals[k], 0x100) for k in range(m)], reps)
-    t_ct = median_s(lambda: [encode_sample(k, vals[k]) for k in range(m)], max(1, reps // 2))
+    t = median_seconds(
+        lambda: [_core.can_encode_sample(k, 0, vals[k], 0x100) for k in range(m)], reps
+    )
+    t_ct = median_seconds(lambda: [encode_sample(k, vals[k]) for k in range(m)], max(1, reps // 2))
     line("CAN encode sample (4 frames)", t / m * 1e9, "cantools (DBC)", t_ct / m * 1e9)
 
     frames = [
         (f.arbitration_id, bytes(f.data)) for k in range(m) for f in encode_sample(k, vals[k])
     ]
     msgs = [f for k in range(m) for f in encode_sample(k, vals[k])]
-    t = median_s(lambda: _core.can_assemble(frames), reps)
+    t = median_seconds(lambda: _core.can_assemble(frames), reps)
 
     def py_assemble() -> None:
         a = SampleAssembler()
         for msg in msgs:
             a.push(msg)
 
-    t_py = median_s(py_assemble, max(1, reps // 2))
+    t_py = median_seconds(py_assemble, max(1, reps // 2))
     line("CAN reassemble sample", t / m * 1e9, "cantools decode + twin", t_py / m * 1e9)
     db = load_dbc()
-    t_dec = median_s(lambda: [db.decode_message(i, d) for i, d in frames], max(1, reps // 2))
+    t_dec = median_seconds(lambda: [db.decode_message(i, d) for i, d in frames], max(1, reps // 2))
     line("CAN decode (per sample, 4 frames)", t / m * 1e9, "cantools decode only", t_dec / m * 1e9)
 
     slc = b"".join(_core.slcan_encode(i, d) for i, d in frames)
-    t = median_s(lambda: _core.slcan_parse(slc), reps)
-    t_py = median_s(
+    t = median_seconds(lambda: _core.slcan_parse(slc), reps)
+    t_py = median_seconds(
         lambda: [
             (int(ln[1:4], 16), bytes.fromhex(ln[5:].decode())) for ln in slc.split(b"\r") if ln
         ],

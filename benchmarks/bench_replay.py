@@ -21,25 +21,16 @@ import json
 import os
 import statistics
 import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
+from _bench_util import machine, median_seconds
 from gyrodrift.codecs import FrameParser
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.harness import ReplayOptions, ReplayResult, find_loop_binary, run_replay
 from gyrodrift.replay.processor import ProcessorSettings
 from gyrodrift.replay.wire import Samples, encode_frames, make_samples
 from gyrodrift.simulate import NoiseTerms, simulate_imu
-
-
-def machine() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown machine"
-    fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
-    return f"{fields.get('Model name', '?').strip()}, {fields.get('CPU(s)', '?').strip()} CPUs"
 
 
 def record(n: int, rate_hz: float) -> Samples:
@@ -121,14 +112,13 @@ def fast(args: argparse.Namespace) -> list[str]:
     sub = rec.take(np.arange(n_peer))
     data = encode_frames(sub).tobytes()
     cfg = settings(rate).imu_config()
-    peer_t = []
-    for _ in range(args.repeats):
-        t0 = time.perf_counter()
+
+    def peer() -> None:
         frames = FrameParser().feed(data)
         process_imu([f.seq for f in frames], [f.t_us for f in frames],
                     np.array([f.values for f in frames]), cfg)
-        peer_t.append(time.perf_counter() - t0)
-    peer_fps = n_peer / statistics.median(peer_t)
+
+    peer_fps = n_peer / median_seconds(peer, args.repeats)
     # SLCAN through python-can (the Python peer of the loop's SLCAN side).
     n_can = min(n, args.slcan_frames)
     res_can = run_replay(rec.take(np.arange(n_can)), ReplayOptions(

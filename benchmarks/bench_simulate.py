@@ -9,31 +9,11 @@ noise colour, median of repeats) and the machine. Not a test: the machine is sha
 from __future__ import annotations
 
 import argparse
-import statistics
-import subprocess
-import time
 from collections.abc import Callable
 
 import allantools.noise
 import gyrodrift
-
-
-def median_seconds(fn: Callable[[], object], repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
-
-
-def machine() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown machine"
-    fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
-    return f"{fields.get('Model name', '?').strip()}, {fields.get('CPU(s)', '?').strip()} CPUs"
+from _bench_util import machine, median_seconds
 
 
 def main() -> None:

@@ -11,34 +11,20 @@ spent preempted on the shared machine does not count. Not a test.
 from __future__ import annotations
 
 import argparse
-import statistics
-import subprocess
 import time
 from collections.abc import Callable
 
 import numpy as np
 import pywt
+from _bench_util import machine, median_seconds
 from gyrodrift import RealtimeWavelet
 from gyrodrift.reference.wavelet import realtime_window
 from gyrodrift.wavelet import wavedec
 
 
-def median_seconds(fn: Callable[[], object], repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        t0 = time.thread_time()
-        fn()
-        times.append(time.thread_time() - t0)
-    return statistics.median(times)
-
-
-def machine() -> str:
-    try:
-        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown machine"
-    fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
-    return f"{fields.get('Model name', '?').strip()}, {fields.get('CPU(s)', '?').strip()} CPUs"
+def median_cpu_seconds(fn: Callable[[], object], repeats: int) -> float:
+    # thread CPU time: time spent preempted on the shared machine does not count
+    return median_seconds(fn, repeats, clock=time.thread_time)
 
 
 def realtime_case(wavelet: str, mode: str, n: int, dtype: type, recompute: bool = False):
@@ -77,7 +63,7 @@ def main() -> None:
     print("| --- | --- | --- | ---: | ---: | ---: |")
     for wavelet in ("db8", "db4"):
         t_py = {
-            m: median_seconds(pywt_recompute_case(wavelet, m, args.n_pywt), r) / args.n_pywt
+            m: median_cpu_seconds(pywt_recompute_case(wavelet, m, args.n_pywt), r) / args.n_pywt
             for m in ("forced", "soft")
         }
         rows = [
@@ -88,7 +74,7 @@ def main() -> None:
             ("streaming soft threshold", "soft", args.n_slow, np.float32, False),
         ]
         for label, mode, n, dtype, rec in rows:
-            t = median_seconds(realtime_case(wavelet, mode, n, dtype, rec), r) / n
+            t = median_cpu_seconds(realtime_case(wavelet, mode, n, dtype, rec), r) / n
             ratio = t_py[mode] / t
             print(
                 f"| {wavelet} | {np.dtype(dtype).name} | {label} | {t * 1e9:,.1f} | "
@@ -106,9 +92,11 @@ def main() -> None:
     print("| --- | ---: | ---: | ---: |")
     x = np.random.default_rng(2).standard_normal(1 << 16)
     for wavelet in ("db8", "db4"):
-        t_c = median_seconds(lambda w=wavelet: wavedec(x, w, 5), r) / x.size
+        t_c = median_cpu_seconds(lambda w=wavelet: wavedec(x, w, 5), r) / x.size
         t_p = (
-            median_seconds(lambda w=wavelet: pywt.wavedec(x, w, mode="periodization", level=5), r)
+            median_cpu_seconds(
+                lambda w=wavelet: pywt.wavedec(x, w, mode="periodization", level=5), r
+            )
             / x.size
         )
         print(f"| {wavelet} | {t_c * 1e9:.2f} | {t_p * 1e9:.2f} | {t_p / t_c:.2f}x |")

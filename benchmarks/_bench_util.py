@@ -1,0 +1,40 @@
+"""Helpers shared by the benchmark scripts: the machine line and medians of repeats.
+
+The scripts run as `python3 benchmarks/bench_<area>.py`, so this directory is sys.path[0]
+and they import this module as `from _bench_util import ...`.
+"""
+
+from __future__ import annotations
+
+import os
+import statistics
+import subprocess
+import time
+from collections.abc import Callable
+
+
+def machine() -> str:
+    """CPU model and logical CPU count from `lscpu` (what every benchmark table prints)."""
+    try:
+        out = subprocess.run(["lscpu"], capture_output=True, text=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return f"unknown CPU, {os.cpu_count()} CPUs"
+    fields = dict(line.split(":", 1) for line in out.splitlines() if ":" in line)
+    model = fields.get("Model name", "unknown CPU").strip()
+    cpus = fields.get("CPU(s)", str(os.cpu_count())).strip()
+    return f"{model}, {cpus} CPUs"
+
+
+def median_seconds(
+    fn: Callable[[], object],
+    repeats: int = 5,
+    clock: Callable[[], float] = time.perf_counter,
+) -> float:
+    """Median over `repeats` calls of fn's duration on `clock` (wall time by default; pass
+    time.thread_time to not count time spent preempted on the shared machine)."""
+    times = []
+    for _ in range(repeats):
+        t0 = clock()
+        fn()
+        times.append(clock() - t0)
+    return statistics.median(times)
