@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import mmap
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -341,30 +341,22 @@ def _chunked_fused_rate(mm: np.memmap, m_all: np.ndarray, chunk: int, bar: tqdm
     return sigma2, terms
 
 
-def _chunked_sigma2(mm: np.memmap, m_all: np.ndarray, kind: str, chunk: int,
-                    bar: tqdm) -> tuple[np.ndarray, np.ndarray]:
-    if kind == "rate":
-        return _chunked_fused_rate(mm, m_all, chunk, bar)
-    n_data = mm.shape[0]
+def _streamed_sigma2(pieces: Callable[[int, int], Iterator[np.ndarray]], n_data: int,
+                     m_all: np.ndarray, kind: str, bar: tqdm
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """One OadevStream per factor m over float64 chunks of record[start:stop] from
+    pieces(start, stop) (views of an array or file reads), three streams m apart."""
     sigma2 = np.empty(m_all.size)
     terms = np.empty(m_all.size, dtype=np.int64)
     for j, m in enumerate(int(v) for v in m_all):
         acc = _lib().OadevStream(m, kind)
         if kind == "rate":
-            n_terms = n_data - 2 * m + 1
-            for lo, hi in zip(_file_chunks(mm, 0, m, chunk), _file_chunks(mm, m, 2 * m, chunk),
-                              strict=True):
+            for lo, hi in zip(pieces(0, m), pieces(m, 2 * m), strict=True):
                 acc.seed(lo, hi)
-            n_adv = n_terms - 1  # the last term is added by finish()
-        else:
-            n_terms = n_data - 2 * m
-            n_adv = n_terms
-        streams = zip(
-            _file_chunks(mm, 0, n_adv, chunk),
-            _file_chunks(mm, m, m + n_adv, chunk),
-            _file_chunks(mm, 2 * m, 2 * m + n_adv, chunk),
-            strict=True,
-        )
+        # phase: n - 2m terms; rate: n - 2m + 1 terms, the last one added by finish()
+        n_adv = n_data - 2 * m
+        streams = zip(pieces(0, n_adv), pieces(m, m + n_adv), pieces(2 * m, 2 * m + n_adv),
+                      strict=True)
         for y0, y1, y2 in streams:
             acc.advance(y0, y1, y2)
             bar.update(y0.size)
@@ -374,6 +366,14 @@ def _chunked_sigma2(mm: np.memmap, m_all: np.ndarray, kind: str, chunk: int,
         sigma2[j] = acc.sigma2()
         terms[j] = acc.terms
     return sigma2, terms
+
+
+def _chunked_sigma2(mm: np.memmap, m_all: np.ndarray, kind: str, chunk: int,
+                    bar: tqdm) -> tuple[np.ndarray, np.ndarray]:
+    if kind == "rate":
+        return _chunked_fused_rate(mm, m_all, chunk, bar)
+    return _streamed_sigma2(lambda start, stop: _file_chunks(mm, start, stop, chunk),
+                            mm.shape[0], m_all, kind, bar)
 
 
 def oadev(
@@ -507,24 +507,4 @@ def _chunked_in_memory(x: np.ndarray, m_all: np.ndarray, kind: str, chunk: int,
         for lo in range(start, stop, chunk):
             yield x[lo:min(lo + chunk, stop)]
 
-    sigma2 = np.empty(m_all.size)
-    terms = np.empty(m_all.size, dtype=np.int64)
-    n_data = x.size
-    for j, m in enumerate(int(v) for v in m_all):
-        acc = _lib().OadevStream(m, kind)
-        if kind == "rate":
-            for lo, hi in zip(pieces(0, m), pieces(m, 2 * m), strict=True):
-                acc.seed(lo, hi)
-            n_adv = n_data - 2 * m
-        else:
-            n_adv = n_data - 2 * m
-        for y0, y1, y2 in zip(pieces(0, n_adv), pieces(m, m + n_adv),
-                              pieces(2 * m, 2 * m + n_adv), strict=True):
-            acc.advance(y0, y1, y2)
-            bar.update(y0.size)
-        if kind == "rate":
-            acc.finish()
-            bar.update(1)
-        sigma2[j] = acc.sigma2()
-        terms[j] = acc.terms
-    return sigma2, terms
+    return _streamed_sigma2(pieces, x.size, m_all, kind, bar)
