@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -14,6 +15,10 @@ import numpy as np
 from gyrodrift.allan import AllanResult
 from gyrodrift.noise_id import NoiseFit, allan_model_dph
 from gyrodrift.psd import Psd, log_binned
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = ["plot_allan", "plot_psd"]
 
@@ -48,14 +53,7 @@ def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
     ax.set_yscale("log")
     ax.set_xlabel("tau (s)")
     ax.set_ylabel(f"sigma(tau) ({unit})")
-    ax.set_title(title)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    out = Path(path)
-    fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
-    return out
+    return _save(fig, ax, path, title, legend_fontsize=7)
 
 
 def plot_psd(psds: Sequence[tuple[str, Psd]], path: str | Path, *, bins_per_decade: int = 20,
@@ -67,9 +65,14 @@ def plot_psd(psds: Sequence[tuple[str, Psd]], path: str | Path, *, bins_per_deca
         ax.loglog(f, s, lw=1, label=label)
     ax.set_xlabel("f (Hz)")
     ax.set_ylabel(f"PSD (({unit})^2/Hz)")
+    return _save(fig, ax, path, title, legend_fontsize=8)
+
+
+def _save(fig: Figure, ax: Axes, path: str | Path, title: str, *, legend_fontsize: float) -> Path:
+    """Common finish of every plot: title, log grid, legend, tight layout, save, close."""
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=legend_fontsize)
     out = Path(path)
     fig.tight_layout()
     fig.savefig(out)

@@ -15,8 +15,13 @@ import argparse
 import csv
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gyrodrift.cli import CliError
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -77,14 +82,9 @@ def _plots(out: Path, name: str, results: dict, th: dict[str, float]) -> None:
         ax.fill_between(t, m - s, m + s, color=color, alpha=0.2, label=f"{r.label}: ±1σ")
     ax.axhline(th["psi_ss_rad"] / ARCSEC, color="k", ls="--", label="steady-state theory")
     ax.set_ylim(th["psi_ss_rad"] / ARCSEC - 600, th["psi_ss_rad"] / ARCSEC + 600)
-    ax.set_xlabel("fine alignment time (min)")
     ax.set_ylabel("heading error (arcsec)")
-    ax.set_title(f"{name}: heading error, {results[next(iter(results))].psi.shape[0]} runs")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(out / f"heading_{name}.png", dpi=110)
-    plt.close(fig)
+    _save_fine_time_plot(fig, ax, out / f"heading_{name}.png",
+                         f"{name}: heading error, {results[next(iter(results))].psi.shape[0]} runs")
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for pre, ls in ((False, "-"), (True, "--")):
         if pre not in results:
@@ -96,13 +96,21 @@ def _plots(out: Path, name: str, results: dict, th: dict[str, float]) -> None:
     ax.axhline(th["phi_e_ss_rad"] / ARCSEC, color="k", ls=":", label="theory -nab_N/g")
     ax.axhline(th["phi_n_ss_rad"] / ARCSEC, color="gray", ls=":", label="theory nab_E/g")
     ax.set_ylim(-300, 300)
-    ax.set_xlabel("fine alignment time (min)")
     ax.set_ylabel("level error, mean over runs (arcsec)")
-    ax.set_title(f"{name}: level errors")
+    _save_fine_time_plot(fig, ax, out / f"level_{name}.png", f"{name}: level errors")
+
+
+def _save_fine_time_plot(fig: Figure, ax: Axes, path: Path, title: str) -> None:
+    """Common finish of the study plots (x axis: fine alignment time): label, title, legend,
+    grid, save at 110 dpi, close."""
+    import matplotlib.pyplot as plt
+
+    ax.set_xlabel("fine alignment time (min)")
+    ax.set_title(title)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out / f"level_{name}.png", dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
