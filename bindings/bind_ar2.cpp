@@ -153,39 +153,43 @@ void def_batches(py::module_& m) {
       "AR(2) one-step-prediction filter over (n,) or (n, 3); returns (out, faults).");
 }
 
-template <class T>
-void def_kalman_class(py::module_& m, const char* name) {
-  using K = Ar2Kalman<T>;
-  py::class_<K>(m, name, "Per-sample AR(2)-Kalman filter (Joseph form).")
-      .def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r, double p0) {
-             K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r),
-                 static_cast<T>(p0));
-             require_ok(k, "Ar2Kalman");
-             return k;
-           }),
-           py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"),
-           py::arg("p0") = 1.0)
-      .def("step", [](K& k, double y) { return static_cast<double>(k.step(static_cast<T>(y))); },
-           py::arg("y"))
+// step / process / reset / fault_count, the same on both per-sample filter classes;
+// run(k, in, out, n) is the class's block loop.
+template <class T, class K, class Run>
+void def_filter_methods(py::class_<K>& cls, Run run) {
+  cls.def("step", [](K& k, double y) { return static_cast<double>(k.step(static_cast<T>(y))); },
+          py::arg("y"))
       .def("process",
-           [](K& k, const CArray<T>& x) {
+           [run](K& k, const CArray<T>& x) {
              if (x.ndim() != 1) throw py::value_error("process: expected a 1-D array");
              CArray<T> out(x.shape(0));
-             const T* in = x.data();
-             T* o = out.mutable_data();
-             const auto n = static_cast<std::size_t>(x.shape(0));
              // The GIL stays held: it serialises concurrent calls on this (mutable) object.
-             k.process(in, o, n);
+             run(k, x.data(), out.mutable_data(), static_cast<std::size_t>(x.shape(0)));
              return out;
            },
            py::arg("x").noconvert())
       .def("reset", &K::reset)
-      .def_property_readonly("fault_count", &K::fault_count)
-      .def_property_readonly("state",
-                             [](const K& k) {
-                               return py::make_tuple(static_cast<double>(k.state()(0)),
-                                                     static_cast<double>(k.state()(1)));
-                             })
+      .def_property_readonly("fault_count", &K::fault_count);
+}
+
+template <class T>
+void def_kalman_class(py::module_& m, const char* name) {
+  using K = Ar2Kalman<T>;
+  py::class_<K> cls(m, name, "Per-sample AR(2)-Kalman filter (Joseph form).");
+  cls.def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r, double p0) {
+            K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r),
+                static_cast<T>(p0));
+            require_ok(k, "Ar2Kalman");
+            return k;
+          }),
+          py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"),
+          py::arg("p0") = 1.0);
+  def_filter_methods<T>(cls, [](K& k, const T* in, T* o, std::size_t n) { k.process(in, o, n); });
+  cls.def_property_readonly("state",
+                            [](const K& k) {
+                              return py::make_tuple(static_cast<double>(k.state()(0)),
+                                                    static_cast<double>(k.state()(1)));
+                            })
       .def_property_readonly("covariance", [](const K& k) {
         py::array_t<double> p({2, 2});
         for (py::ssize_t i = 0; i < 2; ++i)
@@ -197,30 +201,17 @@ void def_kalman_class(py::module_& m, const char* name) {
 template <class T>
 void def_steady_class(py::module_& m, const char* name) {
   using K = Ar2SteadyStateKalman<T>;
-  py::class_<K>(m, name, "Per-sample constant-gain AR(2)-Kalman filter (DARE gain).")
-      .def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r) {
-             K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r));
-             require_ok(k, "Ar2SteadyStateKalman");
-             return k;
-           }),
-           py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"))
-      .def("step", [](K& k, double y) { return static_cast<double>(k.step(static_cast<T>(y))); },
-           py::arg("y"))
-      .def("process",
-           [](K& k, const CArray<T>& x) {
-             if (x.ndim() != 1) throw py::value_error("process: expected a 1-D array");
-             CArray<T> out(x.shape(0));
-             const T* in = x.data();
-             T* o = out.mutable_data();
-             const auto n = static_cast<std::size_t>(x.shape(0));
-             // The GIL stays held: it serialises concurrent calls on this (mutable) object.
-             for (std::size_t i = 0; i < n; ++i) o[i] = k.step(in[i]);
-             return out;
-           },
-           py::arg("x").noconvert())
-      .def("reset", &K::reset)
-      .def_property_readonly("fault_count", &K::fault_count)
-      .def_property_readonly("iterations", &K::iterations)
+  py::class_<K> cls(m, name, "Per-sample constant-gain AR(2)-Kalman filter (DARE gain).");
+  cls.def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r) {
+            K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r));
+            require_ok(k, "Ar2SteadyStateKalman");
+            return k;
+          }),
+          py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"));
+  def_filter_methods<T>(cls, [](K& k, const T* in, T* o, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) o[i] = k.step(in[i]);
+  });
+  cls.def_property_readonly("iterations", &K::iterations)
       .def_property_readonly("gain", [](const K& k) {
         return py::make_tuple(static_cast<double>(k.gain()(0)), static_cast<double>(k.gain()(1)));
       });
