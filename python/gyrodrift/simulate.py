@@ -126,8 +126,24 @@ class NoiseTerms:
             object.__setattr__(self, "ar2", (a1, a2, sigma))
 
 
+class _TimeBase:
+    """dt_s and t_s of a record with `n` samples at `rate_hz` (shared by the record types)."""
+
+    n: int
+    rate_hz: float
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+    @property
+    def t_s(self) -> np.ndarray:
+        """Sample times k dt, s."""
+        return np.arange(self.n, dtype=np.float64) * self.dt_s
+
+
 @dataclass(frozen=True, eq=False)  # array fields: identity comparison
-class GyroRecord:
+class GyroRecord(_TimeBase):
     """A simulated gyro rate record.
 
     Attributes:
@@ -156,15 +172,6 @@ class GyroRecord:
         return 1 if self.rate_dph.ndim == 1 else int(self.rate_dph.shape[1])
 
     @property
-    def dt_s(self) -> float:
-        return 1.0 / self.rate_hz
-
-    @property
-    def t_s(self) -> np.ndarray:
-        """Sample times k dt, s."""
-        return np.arange(self.n, dtype=np.float64) * self.dt_s
-
-    @property
     def rate_dps(self) -> np.ndarray:
         """Rate in deg/s."""
         return self.rate_dph / 3600.0
@@ -186,7 +193,7 @@ class GyroRecord:
 
 
 @dataclass(frozen=True, eq=False)  # array fields: identity comparison
-class ImuRecord:
+class ImuRecord(_TimeBase):
     """A simulated static strapdown IMU record.
 
     Frames: navigation frame ENU (x east, y north, z up); body frame x right, y forward, z up
@@ -226,14 +233,6 @@ class ImuRecord:
     @property
     def n(self) -> int:
         return int(self.gyro_rads.shape[0])
-
-    @property
-    def dt_s(self) -> float:
-        return 1.0 / self.rate_hz
-
-    @property
-    def t_s(self) -> np.ndarray:
-        return np.arange(self.n, dtype=np.float64) * self.dt_s
 
     @property
     def dtheta_rad(self) -> np.ndarray:
