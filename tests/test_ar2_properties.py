@@ -4,6 +4,7 @@ and records with faults: C++ = numpy reference, state never non-finite, stateful
 from __future__ import annotations
 
 import math
+import warnings
 
 import gyrodrift
 import gyrodrift.reference as ref
@@ -65,7 +66,13 @@ def test_stateful_equals_batch_and_reset(data, model, dtype) -> None:
     x = data.draw(records(model)).astype(dtype)
     kf = KalmanFilter(model, dtype=dtype)
     first = kf.process(x)
-    np.testing.assert_array_equal(first, gyrodrift.kalman_filter(x, model, dtype=dtype))
+    n_bad = int(np.sum(~np.isfinite(x)))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        batch = gyrodrift.kalman_filter(x, model, dtype=dtype)
+    # The batch path reports replaced non-finite samples (one RuntimeWarning), and only then.
+    assert sum(issubclass(w.category, RuntimeWarning) for w in caught) == (1 if n_bad else 0)
+    np.testing.assert_array_equal(first, batch)
     assert np.all(np.isfinite(kf.covariance)) and np.all(np.isfinite(kf.state))
     kf.reset()
     np.testing.assert_array_equal(kf.process(x), first)
