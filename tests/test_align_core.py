@@ -9,6 +9,8 @@ bound (double) is used. Physical bounds are stated where they are asserted.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from gyrodrift.align import (
@@ -36,6 +38,7 @@ from gyrodrift.align import (
 from gyrodrift.align.attitude import dcm2q, q2dcm
 from gyrodrift.align.coarse import gravity_integral_i0
 from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors
+from gyrodrift.align.trajectory import Sinusoid
 
 
 def _phi_history(att: np.ndarray, cnb_true: np.ndarray) -> np.ndarray:
@@ -147,16 +150,17 @@ def test_gravity_integral_closed_form_matches_quadrature() -> None:
     assert np.allclose(cs, s[-1], rtol=1e-6, atol=0)
 
 
-def _triad_bound(sc, n: int, dt: float, position: bool) -> np.ndarray:
+def _triad_bound(sc, n: int, dt: float, position: bool, t0_s: float = 0.0) -> np.ndarray:
     """First-order bound of the TRIAD solution under a disturbance d of the two vectors:
     total <= |d2|/|a| + (|d2||b| + |a||d1|)/|a x b|, level <= |d2|/|a| + total sin(a, up_T)
     (the rotation about a, mostly heading, tilts the level by the angle between a and the
     local vertical at T, ~ W T cos L / 2 rad); a, b are the
     gravity vectors at T and T/2 and |d_j| bounds the sway term: velocity variant
     max|v(t) - v(0)|; position variant 2.5 max|r(t) - r(0)| (the displacement plus its
-    least-squares projection onto t, which is at most 1.5 D on [0, T])."""
+    least-squares projection onto t, which is at most 1.5 D on [0, T]). The window starts at
+    t0_s of the scenario's time (the rocking phase)."""
     t = np.arange(1, n + 1) * dt
-    tr = truth_at(sc, np.concatenate([[0.0], t]))
+    tr = truth_at(sc, t0_s + np.concatenate([[0.0], t]))
     g = gravity_mps2(sc.lat_rad, sc.h_m)
     out = []
     for t_j in (t[-1], t[n // 2 - 1]):
@@ -203,6 +207,47 @@ def test_coarse_alignment_within_theoretical_bound(name: str, position: bool) ->
     level_bound, total_bound = _triad_bound(sc, n, dt, position) + 1.0 * ARCSEC
     assert np.abs(phi[:2]).max() <= level_bound
     assert np.linalg.norm(phi) <= total_bound
+
+
+def _scaled_sway(sc, k: float):
+    """The scenario with its lever arm and linear sway scaled by k (same rotation)."""
+    return dataclasses.replace(
+        sc, lever_arm_m=sc.lever_arm_m * k,
+        sway_motion_m=[[Sinusoid(s.amp * k, s.period_s, s.phase_rad) for s in ax]
+                       for ax in sc.sway_motion_m])
+
+
+@pytest.mark.parametrize("t0_s", [0.0, 10.0, 25.0, 40.0])
+@pytest.mark.parametrize("position", [False, True])
+def test_coarse_ship_moderate_error_is_first_order_sway_term(t0_s: float, position: bool) -> None:
+    """Why ship_moderate's 60 s coarse heading is off by tens of degrees. At full sway (about
+    1 m of linear sway plus the 3.7 m lever arm) the first-order TRIAD bound exceeds pi, so the
+    bound test above cannot discriminate there. Scale the sway down to 1 cm and 2 cm (same
+    rotation, several rocking phases t0) instead:
+    - with the sway removed, the residual is the discrete-time error alone (< 3 arcsec at 50 Hz);
+    - the sway-driven part (error minus that residual) doubles when the sway doubles (within 5%),
+      i.e. the error is the first-order sway term the bound describes, and no implementation
+      defect adds to it;
+    - at 1 cm it lies inside the bound, which is now meaningful (a few degrees).
+    Extrapolating the 1 cm error by 100 gives the full-sway errors of the position variant
+    within about 30% (measured 1.9-57 deg over these phases): 1 m of sway at 5-10 s periods is
+    simply too much for a 60 s window. The error falls as T^-3 for this variant and as T^-2 for the velocity variant."""
+    sc0 = scenario("ship_moderate")
+    dt = 0.02
+    n = 3000
+    phi = {}
+    for k in (0.0, 0.01, 0.02):
+        sc = _scaled_sway(sc0, k)
+        dth, dv = imu_increments(sc, n, dt, t0_s)
+        c_true = truth_at(sc, np.array([t0_s + n * dt]))["cnb"][0]
+        phi[k] = misalignment(coarse_align(dth, dv, dt, sc.lat_rad, sc.h_m, position), c_true)
+    assert np.linalg.norm(phi[0.0]) < 3.0 * ARCSEC
+    d1, d2 = phi[0.01] - phi[0.0], phi[0.02] - phi[0.0]
+    assert np.linalg.norm(d2 - 2.0 * d1) <= 0.05 * np.linalg.norm(2.0 * d1)
+    level_bound, total_bound = _triad_bound(_scaled_sway(sc0, 0.01), n, dt, position, t0_s)
+    assert total_bound < 10.0 * np.pi / 180.0  # the bound is informative at this sway
+    assert np.linalg.norm(phi[0.01]) <= total_bound + np.linalg.norm(phi[0.0])
+    assert np.abs(phi[0.01][:2]).max() <= level_bound + np.abs(phi[0.0][:2]).max()
 
 
 def test_coarse_position_variant_beats_velocity_variant_under_sway() -> None:
