@@ -22,6 +22,15 @@
 #include <cstddef>
 #include <cstdint>
 
+// Run-time choice of an AVX2+FMA build of the fused kernel's hot loop (GCC/Clang on x86;
+// define GYRODRIFT_ALLAN_NO_DISPATCH to compile the portable loop only).
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && \
+    !defined(GYRODRIFT_ALLAN_NO_DISPATCH)
+#define GYRODRIFT_ALLAN_X86_DISPATCH 1
+#else
+#define GYRODRIFT_ALLAN_X86_DISPATCH 0
+#endif
+
 namespace gyrodrift {
 
 enum class AllanInput : std::uint8_t { rate, phase };
@@ -292,6 +301,7 @@ class OadevFused {
     if (n_m_ == 0 || workspace_len < workspace_ || b_begin % block_ != 0) return false;
     if (b_end % block_ != 0 && b_end < n_terms_[0]) return false;
     const std::size_t bsz = block_;
+    const bool wide = wide_simd();
     std::size_t n_active = n_m_;
     const std::size_t stop = b_end < n_terms_[0] ? b_end : n_terms_[0];
     for (std::size_t b = b_begin; b < stop; b += bsz) {
@@ -320,7 +330,8 @@ class OadevFused {
         const double* p1 = workspace + stream_[j][1];
         const double* p2 = workspace + stream_[j][2];
         const double k0 = static_cast<double>(diff_[j]) - ((p2[0] - 2.0 * p1[0]) + p0[0]);
-        sum_sq_[j] += static_cast<long double>(block_sum_sq(p0, p1, p2, len, k0));
+        sum_sq_[j] +=
+            static_cast<long double>(block_sum_sq_dispatch(wide, p0, p1, p2, len, k0));
         if (left > bsz) {  // carry D to the next block, exactly (differences of doubles)
           diff_[j] += (static_cast<long double>(p2[bsz]) - static_cast<long double>(p2[0])) -
                       2.0L * (static_cast<long double>(p1[bsz]) -
@@ -390,28 +401,67 @@ class OadevFused {
     }
   }
 
-  static double block_sum_sq(const double* p0, const double* p1, const double* p2,
-                             std::size_t len, double k0) noexcept {
-    double a0 = 0.0;
-    double a1 = 0.0;
-    double a2 = 0.0;
-    double a3 = 0.0;
+  // sum_i (k0 + (p2[i] - 2 p1[i]) + p0[i])^2 over len terms, four independent sums.
+  // Half of the kernel's time; on x86 the same loop is also compiled for AVX2+FMA and
+  // chosen at run time (block_sum_sq_dispatch), ~1.6x faster there. Only the rounding of
+  // the fused multiply-adds differs between the two (both double, ~1e-16 relative).
+#if defined(__GNUC__)
+  __attribute__((always_inline))
+#endif
+  static inline double block_sum_sq(const double* p0, const double* p1, const double* p2,
+                                    std::size_t len, double k0) noexcept {
+    // 16 independent partial sums: the add (or FMA) latency is hidden at any vector width
+    // (8 SSE2 or 4 AVX2 accumulators).
+    constexpr std::size_t kLanes = 16;
+    double acc[kLanes] = {};
     std::size_t i = 0;
-    for (; i + 4 <= len; i += 4) {
-      const double v0 = k0 + ((p2[i] - 2.0 * p1[i]) + p0[i]);
-      const double v1 = k0 + ((p2[i + 1] - 2.0 * p1[i + 1]) + p0[i + 1]);
-      const double v2 = k0 + ((p2[i + 2] - 2.0 * p1[i + 2]) + p0[i + 2]);
-      const double v3 = k0 + ((p2[i + 3] - 2.0 * p1[i + 3]) + p0[i + 3]);
-      a0 += v0 * v0;
-      a1 += v1 * v1;
-      a2 += v2 * v2;
-      a3 += v3 * v3;
+    for (; i + kLanes <= len; i += kLanes) {
+      for (std::size_t k = 0; k < kLanes; ++k) {
+        const double v = k0 + ((p2[i + k] - 2.0 * p1[i + k]) + p0[i + k]);
+        acc[k] += v * v;
+      }
     }
     for (; i < len; ++i) {
       const double v = k0 + ((p2[i] - 2.0 * p1[i]) + p0[i]);
-      a0 += v * v;
+      acc[0] += v * v;
     }
-    return (a0 + a1) + (a2 + a3);
+    for (std::size_t w = kLanes / 2; w > 0; w /= 2) {  // pairwise combination
+      for (std::size_t k = 0; k < w; ++k) acc[k] += acc[k + w];
+    }
+    return acc[0];
+  }
+
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+  __attribute__((target("avx2,fma"))) static double block_sum_sq_avx2(
+      const double* p0, const double* p1, const double* p2, std::size_t len,
+      double k0) noexcept {
+    return block_sum_sq(p0, p1, p2, len, k0);
+  }
+  static double block_sum_sq_base(const double* p0, const double* p1, const double* p2,
+                                  std::size_t len, double k0) noexcept {
+    return block_sum_sq(p0, p1, p2, len, k0);
+  }
+#endif
+
+  static double block_sum_sq_dispatch(bool wide, const double* p0, const double* p1,
+                                      const double* p2, std::size_t len, double k0) noexcept {
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+    return wide ? block_sum_sq_avx2(p0, p1, p2, len, k0)
+                : block_sum_sq_base(p0, p1, p2, len, k0);
+#else
+    (void)wide;
+    return block_sum_sq(p0, p1, p2, len, k0);
+#endif
+  }
+
+  // True when the AVX2+FMA build of block_sum_sq can run on this CPU.
+  static bool wide_simd() noexcept {
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+    __builtin_cpu_init();
+    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+    return false;
+#endif
   }
 
   std::size_t n_data_{0};
