@@ -295,3 +295,27 @@ def test_lag1_noise_id_equals_allantools_and_finds_the_types() -> None:
     assert res.alpha[0] == -2 and np.all(res.alpha >= -2)
     with pytest.raises(ValueError, match="acf"):
         allan.oadev(cases[0], 1.0, alpha="slope")
+
+
+def test_fused_result_does_not_depend_on_thread_count(rng) -> None:
+    from gyrodrift import _core
+
+    # Workers take whole factor groups whose cut depends only on (n, m, block), so any
+    # thread count must give the same bits; and the groups must still equal the per-tau
+    # kernel (long double, no blocks) to the fused path's documented 1e-12.
+    n = 300_001
+    y = 1e3 + rng.normal(0.0, 1.0, n) + np.cumsum(rng.normal(0.0, 0.05, n))
+    m = allan.averaging_factors(n, "octave")
+    groups = _core.oadev_fused_groups(n, m, 4096)
+    assert len(groups) == 2 and groups[0][0] == 0 and groups[-1][1] == m.size
+    one, t1 = _core.oadev_sigma2(y, m, "rate", "fused", 4096, 1)
+    for threads in (2, 3):
+        many, tn = _core.oadev_sigma2(y, m, "rate", "fused", 4096, threads)
+        np.testing.assert_array_equal(many, one)
+        np.testing.assert_array_equal(tn, t1)
+    ref, _ = _core.oadev_sigma2(y, m, "rate", "per_tau")
+    np.testing.assert_allclose(one, ref, rtol=1e-12)
+    np.testing.assert_array_equal(allan.oadev(y, 1.0, threads=1).adev,
+                                  allan.oadev(y, 1.0, threads=2).adev)
+    with pytest.raises(ValueError, match="threads"):
+        allan.oadev(y, 1.0, threads=0)

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 import mmap
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -315,11 +316,12 @@ def _chunked_fused_rate(mm: np.memmap, m_all: np.ndarray, chunk: int, bar: tqdm
     n_data = mm.shape[0]
     sigma2 = np.empty(m_all.size)
     terms = np.empty(m_all.size, dtype=np.int64)
+    # The in-memory block when the chunk allows it; with the in-memory factor groups
+    # (oadev_fused_groups) the results are then bit-identical.
+    block = FUSED_BLOCK if 3 * chunk >= 8 * FUSED_BLOCK else SMALL_BLOCK
     with open(mm.filename, "rb") as fh:
-        for lo in range(0, m_all.size, 64):
-            group = np.ascontiguousarray(m_all[lo:lo + 64])
-            # The in-memory block when the chunk allows it (then results are bit-identical).
-            block = FUSED_BLOCK if 3 * chunk >= 8 * FUSED_BLOCK else SMALL_BLOCK
+        for lo, hi in _lib().oadev_fused_groups(n_data, np.ascontiguousarray(m_all), block):
+            group = np.ascontiguousarray(m_all[lo:hi])
             st = _lib().OadevFusedStream(n_data, group, block)
             segs = st.segments()
             for j, m in enumerate(int(v) for v in group):
@@ -387,6 +389,7 @@ def oadev(
     alpha: int | np.ndarray | str | None = None,
     chunk_samples: int | None = None,
     progress: bool | str = "auto",
+    threads: int | None = None,
 ) -> AllanResult:
     """Overlapping Allan deviation with chi-squared confidence intervals.
 
@@ -406,6 +409,9 @@ def oadev(
             path for in-memory arrays too when given.
         progress: tqdm bar on stderr: True, False or "auto" (when the work exceeds
             AUTO_PROGRESS_TERMS squared differences, a few seconds).
+        threads: worker threads of the in-memory rate path (None: all cores). The fused
+            kernel runs factor groups (two cost-balanced halves); each thread takes whole
+            groups, so the result is the same bit for bit for any thread count.
 
     Raises:
         ValueError: not 1-D, too short for the taus, NaN/Inf (with their count), bad rate.
@@ -426,6 +432,9 @@ def oadev(
     work = int(n_terms.sum())
     show = (work > AUTO_PROGRESS_TERMS) if progress == "auto" else bool(progress)
     chunked = is_memmap or chunk_samples is not None
+    n_threads = (os.cpu_count() or 1) if threads is None else int(threads)
+    if n_threads < 1:
+        raise ValueError(f"threads must be >= 1, got {threads!r}")
     with tqdm(total=work, disable=not show, unit="term", unit_scale=True,
               desc="Allan", leave=False) as bar:
         if chunked:
@@ -451,7 +460,7 @@ def oadev(
             for lo in range(0, m.size, group):
                 try:
                     s2, t = _lib().oadev_sigma2(x, np.ascontiguousarray(m[lo:lo + group]),
-                                                kind, "fused", FUSED_BLOCK)
+                                                kind, "fused", FUSED_BLOCK, n_threads)
                 except ValueError as exc:
                     bad = int(np.count_nonzero(~np.isfinite(x)))
                     if bad:
