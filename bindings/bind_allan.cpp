@@ -39,35 +39,19 @@ const T* require_1d(const CArray<T>& a, const char* what) {
 constexpr std::size_t kGroup = 64;
 
 // Factor groups [lo, hi) of the fused kernel: runs of at most kGroup factors, each cut in
-// two where the estimated costs balance, so two threads can take one half each. The cut
-// depends only on (n_data, m, block), never on the thread count, so results are the same
-// for any `threads` and on the memory-mapped path (which runs the same groups).
-// Cost of a group per block: its local prefix sums (workspace_doubles(), ~0.45 ns each)
-// plus its sums of squares (block per factor, ~0.2 ns per term with AVX2): measured with
-// cpp/bench/bench_allan.cpp on octave taus, 1e7..1e8 samples.
+// two where the estimated costs balance (oadev_fused_cut), so two threads can take one half
+// each. The cut depends only on (n_data, m, block), never on the thread count, so results
+// are the same for any `threads` and on the memory-mapped path (which runs the same groups).
 std::vector<std::pair<std::size_t, std::size_t>> fused_groups(std::size_t n_data,
                                                               const std::vector<std::size_t>& m,
                                                               std::size_t block) {
   std::vector<std::pair<std::size_t, std::size_t>> out;
-  auto fused = std::make_unique<OadevFused<kGroup>>();
-  const auto cost = [&](std::size_t lo, std::size_t hi) {
-    if (!fused->plan(n_data, m.data() + lo, hi - lo, block)) return -1.0;
-    return static_cast<double>(fused->workspace_doubles()) +
-           0.45 * static_cast<double>((hi - lo) * block);
-  };
+  auto scratch = std::make_unique<OadevFused<kGroup>>();
   for (std::size_t lo = 0; lo < m.size(); lo += kGroup) {
     const std::size_t hi = std::min(m.size(), lo + kGroup);
-    std::size_t best_cut = hi;
-    double best = cost(lo, hi);
-    for (std::size_t cut = lo + 1; cut < hi; ++cut) {
-      const double c = std::max(cost(lo, cut), cost(cut, hi));
-      if (c >= 0.0 && c < best) {
-        best = c;
-        best_cut = cut;
-      }
-    }
-    out.emplace_back(lo, best_cut);
-    if (best_cut < hi) out.emplace_back(best_cut, hi);
+    const std::size_t cut = lo + oadev_fused_cut(n_data, m.data() + lo, hi - lo, block, *scratch);
+    out.emplace_back(lo, cut);
+    if (cut < hi) out.emplace_back(cut, hi);
   }
   return out;
 }

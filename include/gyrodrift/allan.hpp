@@ -479,6 +479,35 @@ class OadevFused {
   long double sum_sq_[MaxTaus]{};
 };
 
+// Where to cut the strictly increasing factors m[0..n_m) (n_m <= MaxTaus, all valid for
+// n_data) into two fused groups [0, cut) and [cut, n_m) of about equal cost, so that two
+// workers can run one each; returns n_m when one group is cheapest. The cut depends only on
+// (n_data, m, block). Cost per block: the group's local prefix sums (workspace_doubles(),
+// ~0.45 ns each) plus its sums of squares (block terms per factor, ~0.2 ns each with AVX2),
+// measured with cpp/bench/bench_allan.cpp (octave taus, 1e7..1e8 samples). `scratch` is
+// re-planned.
+template <std::size_t MaxTaus>
+inline std::size_t oadev_fused_cut(std::size_t n_data, const std::size_t* m, std::size_t n_m,
+                                   std::size_t block, OadevFused<MaxTaus>& scratch) noexcept {
+  const auto cost = [&](std::size_t lo, std::size_t hi) {
+    if (!scratch.plan(n_data, m + lo, hi - lo, block)) return -1.0;
+    return static_cast<double>(scratch.workspace_doubles()) +
+           0.45 * static_cast<double>((hi - lo) * block);
+  };
+  std::size_t best_cut = n_m;
+  double best = cost(0, n_m);
+  for (std::size_t cut = 1; cut < n_m; ++cut) {
+    const double a = cost(0, cut);
+    const double b = cost(cut, n_m);
+    const double c = a > b ? a : b;
+    if (a >= 0.0 && b >= 0.0 && c < best) {
+      best = c;
+      best_cut = cut;
+    }
+  }
+  return best_cut;
+}
+
 // Averaging-factor grids. Each writes up to `capacity` strictly increasing factors
 // 1 <= m <= max_m and returns how many it wrote.
 enum class TauGrid : std::uint8_t { octave, decade, all };
