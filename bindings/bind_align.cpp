@@ -8,6 +8,7 @@
 #include <gyrodrift/nav_strapdown.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -131,7 +132,8 @@ void bind_align(py::module_& m) {
          double lon_rad, double h_m, long coarse_samples, bool coarse_position_integral,
          int n_states, int kf_every, const CArray<double>& p0_diag, const CArray<double>& q_diag,
          const CArray<double>& r_diag, const CArray<double>& floor_diag,
-         const CArray<double>& taps, int accel_delay_samples) -> py::dict {
+         const CArray<double>& taps, int accel_delay_samples, long heading_stage_cycles,
+         double heading_stage_q) -> py::dict {
         AlignSettings<double> s;
         s.dt_s = dt_s;
         s.lat_rad = lat_rad;
@@ -141,6 +143,10 @@ void bind_align(py::module_& m) {
         s.coarse_position_integral = coarse_position_integral;
         s.kf_every = kf_every;
         s.accel_delay_samples = accel_delay_samples;
+        s.heading_stage_cycles = heading_stage_cycles;
+        s.heading_stage_q = heading_stage_q;
+        if (heading_stage_cycles < 0 || !(heading_stage_q >= 0.0) || !std::isfinite(heading_stage_q))
+          throw py::value_error("heading_stage_cycles must be >= 0 and heading_stage_q finite >= 0");
         if (!(dt_s > 0.0)) throw py::value_error("dt_s must be > 0");
         if (n_states == 15) return run_pipeline<15>(dtheta, dv, s, p0_diag, q_diag, r_diag, floor_diag, taps);
         if (n_states == 12) return run_pipeline<12>(dtheta, dv, s, p0_diag, q_diag, r_diag, floor_diag, taps);
@@ -151,6 +157,7 @@ void bind_align(py::module_& m) {
       py::arg("coarse_position_integral"), py::arg("n_states"), py::arg("kf_every"),
       py::arg("p0_diag").noconvert(), py::arg("q_diag").noconvert(), py::arg("r_diag").noconvert(),
       py::arg("floor_diag").noconvert(), py::arg("taps").noconvert(), py::arg("accel_delay_samples"),
+      py::arg("heading_stage_cycles") = 0L, py::arg("heading_stage_q") = 0.0,
       "Whole alignment (prefilter, coarse, strapdown + fine KF) over (n, 3) float64 increments; "
       "GIL released. Use gyrodrift.align.run_alignment for the keyword-friendly wrapper.");
 

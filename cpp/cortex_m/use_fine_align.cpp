@@ -22,6 +22,8 @@ extern "C" int app_main(void) {
   s.coarse_samples = 400;
   s.kf_every = 40;
   s.accel_delay_samples = 8;
+  s.heading_stage_cycles = 10;  // heading acquisition stage for the first second (float path)
+  s.heading_stage_q = 3e-8f;
   Pipe::VecN p0, q, floor;
   p0 << 3e-4f, 3e-4f, 3e-2f, 0.25f, 0.25f, 0.25f, 1.0f, 1.0f, 1.0f, 1e-14f, 1e-14f, 1e-14f, 1e-6f,
       1e-6f, 1e-6f;

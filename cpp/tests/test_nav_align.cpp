@@ -148,8 +148,10 @@ namespace {
 template <class S, int N>
 struct PipeRun {
   AlignPipeline<S, N, 256, 32> pipe;
-  void setup(double dt, long coarse, int kf_every) {
+  void setup(double dt, long coarse, int kf_every, long stage_cycles = 0, double stage_q = 0.0) {
     AlignSettings<S> s;
+    s.heading_stage_cycles = stage_cycles;
+    s.heading_stage_q = static_cast<S>(stage_q);
     s.dt_s = static_cast<S>(dt);
     s.lat_rad = static_cast<S>(kLat);
     s.lon_rad = S(2);
@@ -235,4 +237,45 @@ TEST_CASE("pipeline counts and skips non-finite samples; float runs; no heap in 
   CHECK(misalignment<double>(q2dcm(run.pipe.nav().q()), c).cwiseAbs().maxCoeff() < 1.0 * kArcsec);
   const Eigen::Vector3f phif = misalignment<float>(q2dcm(runf.pipe.nav().q()), c.cast<float>());
   CHECK(phif.cwiseAbs().maxCoeff() < static_cast<float>(60 * kArcsec));
+}
+
+TEST_CASE("heading acquisition stage: no heap in steps, float and double, bad settings rejected") {
+  const double dt = 0.05;
+  const StaticImu<double> imu(kLat, 50.0, kAtt, dt);
+  const StaticImu<float> imuf(kLat, 50.0, kAtt, dt);
+  const double q_stage = std::pow(0.1 * kDeg, 2);
+  PipeRun<double, 15> run;
+  run.setup(dt, 1200, 2, 500, q_stage);
+  PipeRun<float, 15> runf;
+  runf.setup(dt, 1200, 2, 500, q_stage);
+  gyrodrift::test::AllocationScope scope;
+  Eigen::internal::set_is_malloc_allowed(false);
+  double sigma_stage_end = 0.0;
+  for (int k = 0; k < 6000; ++k) {
+    REQUIRE(run.pipe.step(imu.dth, imu.dv) != AlignStatus::kFailed);
+    REQUIRE(runf.pipe.step(imuf.dth, imuf.dv) != AlignStatus::kFailed);
+    if (k == 1200 + 2 * 500 - 1) sigma_stage_end = std::sqrt(run.pipe.kf().P()(2, 2));
+  }
+  Eigen::internal::set_is_malloc_allowed(true);
+  CHECK(scope.allocations() == 0);
+  // The acquisition noise keeps the heading sigma open (> 0.1 deg after 50 s); after the
+  // restart the small-angle filter converges as without the stage (ideal static data).
+  CHECK(sigma_stage_end > 0.1 * kDeg);
+  const Eigen::Matrix3d c = euler2dcm<double>(kAtt);
+  CHECK(misalignment<double>(q2dcm(run.pipe.nav().q()), c).cwiseAbs().maxCoeff() < 5.0 * kArcsec);
+  const Eigen::Vector3f phif = misalignment<float>(q2dcm(runf.pipe.nav().q()), c.cast<float>());
+  CHECK(phif.cwiseAbs().maxCoeff() < static_cast<float>(60 * kArcsec));
+  // Bad stage settings are rejected by reset().
+  AlignPipeline<double, 15, 256, 32> bad;
+  AlignSettings<double> s;
+  s.heading_stage_cycles = -1;
+  using VecN = AlignPipeline<double, 15>::VecN;
+  const VecN ones = VecN::Ones();
+  const Eigen::Vector3d r = Eigen::Vector3d::Ones();
+  CHECK_FALSE(bad.reset(s, ones, ones, r, ones, nullptr, 0));
+  s.heading_stage_cycles = 10;
+  s.heading_stage_q = std::numeric_limits<double>::quiet_NaN();
+  CHECK_FALSE(bad.reset(s, ones, ones, r, ones, nullptr, 0));
+  s.heading_stage_q = 1e-8;
+  CHECK(bad.reset(s, ones, ones, r, ones, nullptr, 0));
 }

@@ -13,6 +13,11 @@
 // switching to the filtered (delayed) stream later would drop ~8 samples of angle increments
 // at the switch, i.e. a permanent attitude error of 8 dt times the rocking rate (about
 // 160 arcsec on the mild ship scenario).
+// Heading acquisition (two-stage fine alignment): for the first heading_stage_cycles KF cycles
+// the Up attitude process noise is q_diag(2) + heading_stage_q, so that after a coarse heading
+// error of tens of degrees (1 m of sway in a 60 s coarse window) the small-angle filter keeps
+// following the heading while the neglected sin/cos terms are large, instead of shrinking its
+// heading variance on a wrong model; then it continues with q_diag. 0 cycles = off.
 // Python reference: gyrodrift.align.pipeline.run_alignment_reference (same operations).
 #pragma once
 #include <Eigen/Core>
@@ -82,6 +87,8 @@ struct AlignSettings {
   bool coarse_position_integral{true};
   int kf_every{40};
   int accel_delay_samples{0};
+  long heading_stage_cycles{0};   // KF cycles with the acquisition noise (0 = off)
+  Scalar heading_stage_q{Scalar(0)};  // added Up attitude process noise PSD, rad^2/s
 };
 
 enum class AlignStatus : int {
@@ -108,6 +115,9 @@ class AlignPipeline {
              int n_taps) noexcept {
     ok_ = false;
     if (s.kf_every < 1 || s.accel_delay_samples < 0 || s.accel_delay_samples > MaxDelay) return false;
+    if (s.heading_stage_cycles < 0 || !std::isfinite(s.heading_stage_q) ||
+        s.heading_stage_q < Scalar(0))
+      return false;
     if (!coarse_.reset(s.coarse_samples, s.dt_s, s.lat_rad, s.h_m, s.coarse_position_integral))
       return false;
     if (!prefilter_.reset(taps, n_taps)) return false;
@@ -115,6 +125,9 @@ class AlignPipeline {
     s_ = s;
     p0_ = p0_diag;
     q_ = q_diag;
+    q_stage_ = q_diag;
+    q_stage_(2) += s.heading_stage_q;
+    cycles_ = 0;
     r_ = r_diag;
     floor_ = floor_diag;
     k_ = 0;
@@ -165,6 +178,16 @@ class AlignPipeline {
     EarthParams<Scalar> ep;
     ep.update(sd_.pos()(0), sd_.pos()(2), sd_.vn());
     Kf::transition(q2dcm(sd_.q()), fn, ep, sd_.pos()(0), f_);
+    if (s_.heading_stage_cycles > 0 && cycles_ == s_.heading_stage_cycles) {
+      // End of acquisition: drift/bias estimates learnt while the small-angle model was wrong
+      // (a heading error psi leaks into eps_E as W cos L sin psi) are discarded and the
+      // small-angle filter restarts from P0 around the acquired attitude.
+      kf_.reset(p0_, q_, r_, floor_);
+      eb_.setZero();
+      db_.setZero();
+    }
+    kf_.set_process_noise(cycles_ < s_.heading_stage_cycles ? q_stage_ : q_);  // validated in reset
+    ++cycles_;
     if (!kf_.predict(f_, t_kf) || !kf_.update(sd_.vn())) {
       failed_ = true;
       return AlignStatus::kFailed;
@@ -211,7 +234,7 @@ class AlignPipeline {
   Strapdown<Scalar> sd_;
   Kf kf_;
   typename Kf::MatN f_;  // transition matrix workspace (a member: keeps step()'s frame small)
-  VecN p0_, q_, floor_;
+  VecN p0_, q_, q_stage_, floor_;
   Vec3 r_;
   Vec3 dvn_sum_ = Vec3::Zero();
   Vec3 eb_ = Vec3::Zero();
@@ -220,6 +243,7 @@ class AlignPipeline {
   long k_{0};
   long warmup_{0};
   long bad_{0};
+  long cycles_{0};  // KF cycles since the start of fine alignment
   int count_{0};
   bool ok_{false};
   bool failed_{false};

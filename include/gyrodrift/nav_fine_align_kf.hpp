@@ -58,6 +58,14 @@ class FineAlignKF {
     return true;
   }
 
+  // Replaces the process-noise PSD diagonal (e.g. the heading acquisition stage of
+  // AlignPipeline); P and x are kept. Returns false (and keeps the old Q) on invalid input.
+  bool set_process_noise(const VecN& q_diag) noexcept {
+    if (!q_diag.allFinite() || (q_diag.array() < Scalar(0)).any()) return false;
+    q_ = q_diag;
+    return true;
+  }
+
   // Continuous-time F at the current navigation state (C_b^n, f^n, Earth parameters, latitude).
   static void transition(const Mat3& cnb, const Vec3& fn, const EarthParams<Scalar>& ep,
                          Scalar lat_rad, MatN& f) noexcept {

@@ -32,7 +32,8 @@ def run_alignment(dtheta: np.ndarray, dv: np.ndarray, cfg: AlignConfig) -> dict[
         float(cfg.lon_rad), float(cfg.h_m), int(cfg.coarse_samples()),
         bool(cfg.coarse_position_integral), int(cfg.n_states), int(cfg.kf_every),
         cfg.p0_diag(), cfg.q_diag(), np.full(3, cfg.zv_sigma_mps ** 2), cfg.floor_diag(), taps,
-        int(cfg.accel_delay_samples))
+        int(cfg.accel_delay_samples), int(cfg.heading_stage_cycles()),
+        float(cfg.heading_stage_q))
 
 
 def strapdown_run(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, q0: np.ndarray,

@@ -39,6 +39,13 @@ class AlignConfig:
     db_rw: float = 0.0
     dp_q: float = 0.0  # position process noise (m^2/s), absorbs lever-arm sway
     zv_sigma_mps: float = 0.01  # zero-velocity measurement noise
+    # Heading acquisition stage (two-stage fine alignment for a large coarse heading error):
+    # during the first heading_stage_s of fine alignment the Up attitude process noise gets
+    # heading_stage_q (rad^2/s) added, so the small-angle filter keeps following the heading
+    # while the nonlinear error (sin psi, 1 - cos psi) is still large instead of becoming
+    # overconfident; then the filter continues with the specification noise. 0 = off.
+    heading_stage_s: float = 0.0
+    heading_stage_q: float = 0.0
     floor_phi_rad: float = 0.01 * ARCMIN / 60.0
     floor_dv_mps: float = 1e-6
     floor_dp_m: float = 1e-6
@@ -46,6 +53,15 @@ class AlignConfig:
     floor_db_mps2: float = 0.01 * UG
     taps: np.ndarray | None = None  # gyro prefilter taps (oldest first); None = off
     accel_delay_samples: int = 0  # delay matching the prefilter's group delay
+
+    def heading_stage_cycles(self) -> int:
+        """KF cycles (predictions) that use the acquisition noise."""
+        return round(self.heading_stage_s / (self.kf_every * self.dt_s))
+
+    def q_stage_diag(self) -> np.ndarray:
+        q = self.q_diag()
+        q[2] += self.heading_stage_q
+        return q
 
     def coarse_samples(self) -> int:
         return round(self.coarse_s / self.dt_s)
@@ -99,6 +115,9 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
     dvn_sum = np.zeros(3)
     count = 0
     hist: dict[str, list] = {"t_s": [], "att": [], "eb": [], "db": [], "p_phi": []}
+    n_stage = cfg.heading_stage_cycles()
+    q_spec, q_stage = cfg.q_diag(), cfg.q_stage_diag()
+    cycles = 0
     coarse_cnb = np.eye(3)
     d = cfg.accel_delay_samples
     warmup = max(nt - 1, d) if nt > 0 else d
@@ -127,6 +146,15 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
         t_kf = count * cfg.dt_s
         fn = dvn_sum / t_kf
         ep = earth_params(sd.pos[0], sd.pos[2], sd.vn)
+        if n_stage > 0 and cycles == n_stage:
+            # End of acquisition: drop what the drift/bias states learnt under the wrong
+            # small-angle model (psi leaks into eps_E as W cos L sin psi); restart from P0.
+            kf = FineAlignKF(cfg.n_states, cfg.p0_diag(), cfg.q_diag(),
+                             np.full(3, cfg.zv_sigma_mps ** 2), cfg.floor_diag())
+            eb = np.zeros(3)
+            db = np.zeros(3)
+        kf.q = q_stage if cycles < n_stage else q_spec
+        cycles += 1
         kf.predict(kf.transition(q2dcm(sd.q), fn, sd.vn, ep, sd.pos[0]), t_kf)
         x = kf.update(sd.vn)
         # Feedback: C_true = (I + [phi x]) C_est, v -= dv, position -= dp, biases accumulate.

@@ -82,7 +82,8 @@ def _cfg(sc: Scenario, st: StudyConfig, prefilter: bool, arw: float, vrw: float,
         dt_s=dt, lat_rad=sc.lat_rad, lon_rad=sc.lon_rad, h_m=sc.h_m, coarse_s=st.coarse_s,
         n_states=st.n_states, kf_every=max(1, round(st.rate_hz / st.kf_hz)),
         arw_rad_rsqs=arw, vrw_mps_rsqs=vrw, zv_sigma_mps=sc.zero_velocity_sigma_mps,
-        taps=taps if prefilter else None, accel_delay_samples=delay)
+        taps=taps if prefilter else None, accel_delay_samples=delay,
+        heading_stage_s=sc.heading_stage_s, heading_stage_q=sc.heading_stage_q)
 
 
 def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),

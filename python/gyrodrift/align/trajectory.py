@@ -42,6 +42,10 @@ class Scenario:
     lon_rad: float = 116.0 * DEG
     h_m: float = 50.0
     zero_velocity_sigma_mps: float = 0.01  # R of the zero-velocity measurement
+    # Heading acquisition stage of the fine filter (AlignConfig.heading_stage_s/_q) for motions
+    # whose 60 s coarse heading error reaches tens of degrees; 0 = off.
+    heading_stage_s: float = 0.0
+    heading_stage_q: float = 0.0
 
 
 def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenario:
@@ -61,8 +65,12 @@ def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenar
         ang = [[Sinusoid(5 * DEG, 5.0, 0.3)], [Sinusoid(5 * DEG, 7.0, 1.1)],
                [Sinusoid(3 * DEG, 10.0, 2.0)]]
         sway = [[Sinusoid(1.0, 8.0, 0.5)], [Sinusoid(1.0, 9.0, 1.5)], [Sinusoid(0.5, 6.0, 0.0)]]
+        # 1 m of sway at 6-9 s periods leaves 2-57 deg of coarse heading error after 60 s
+        # (first-order sway term, see test_coarse_ship_moderate_error_is_first_order_sway_term):
+        # 10 min heading acquisition with (0.1 deg)^2/s of Up attitude process noise.
         return Scenario(name, att0, ang, sway, np.array([1.0, 2.0, 3.0]), lat_rad=lat,
-                        zero_velocity_sigma_mps=1.0)
+                        zero_velocity_sigma_mps=1.0, heading_stage_s=600.0,
+                        heading_stage_q=(0.1 * DEG) ** 2)
     if name == "vehicle_engine":
         # Parked vehicle, engine running: sub-degree body rocking at 1-1.75 Hz and engine
         # vibration at 25-30 Hz as real angular motion (accelerometers see the lever arm and
