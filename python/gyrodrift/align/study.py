@@ -78,12 +78,13 @@ def _cfg(sc: Scenario, st: StudyConfig, prefilter: bool, arw: float, vrw: float,
          taps: np.ndarray) -> AlignConfig:
     dt = 1.0 / st.rate_hz
     delay = round(group_delay_dc_samples(taps)) if (prefilter and st.accel_delay) else 0
+    stage_s = sc.heading_stage_s if st.coarse_s <= sc.heading_stage_max_coarse_s else 0.0
     return AlignConfig(
         dt_s=dt, lat_rad=sc.lat_rad, lon_rad=sc.lon_rad, h_m=sc.h_m, coarse_s=st.coarse_s,
         n_states=st.n_states, kf_every=max(1, round(st.rate_hz / st.kf_hz)),
         arw_rad_rsqs=arw, vrw_mps_rsqs=vrw, zv_sigma_mps=sc.zero_velocity_sigma_mps,
         taps=taps if prefilter else None, accel_delay_samples=delay,
-        heading_stage_s=sc.heading_stage_s, heading_stage_q=sc.heading_stage_q)
+        heading_stage_s=stage_s, heading_stage_q=sc.heading_stage_q)
 
 
 def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
