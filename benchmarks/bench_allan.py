@@ -1,7 +1,7 @@
 """Benchmark: octave-tau overlapping ADEV on float64 records, gyrodrift (C++ kernel) vs
 allantools.oadev in the same process. Prints a markdown table (median of repeats) with time,
 ns per sample per tau, samples/s, speed-up, and peak extra memory (tracemalloc: numpy
-registers its buffers with it; the C++ workspace, < 1 MB, is not traced) relative to the
+registers its buffers with it; the C++ workspaces, a few MB, are not traced) relative to the
 input array; plus the memory-mapped path (file reads, bounded memory).
 
     PYTHONPATH=python:build/dev-NAME/py python3 benchmarks/bench_allan.py [--sizes 1e6 1e7 1e8]
@@ -10,6 +10,7 @@ input array; plus the memory-mapped path (file reads, bounded memory).
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import tempfile
 import time
@@ -51,6 +52,7 @@ def main() -> None:
                     help="largest size allantools is run at (memory/time on a shared host)")
     args = ap.parse_args()
     rng = np.random.default_rng(1)
+    threads = os.cpu_count() or 1  # what oadev(threads=None) uses
     print(f"Machine: {machine()}; numpy {np.__version__}, allantools {allantools.__version__}")
     print()
     print("| N | impl | taus | wall s | CPU s | CPU ns/sample/tau | samples/s (CPU) "
@@ -66,6 +68,8 @@ def main() -> None:
         n_taus = allan.averaging_factors(n, "octave").size
         reps = args.repeats if n <= 10_000_000 else 1
         ours = measure(lambda y=y: allan.oadev(y, 100.0, taus="octave", progress=False), reps)
+        ours1 = measure(lambda y=y: allan.oadev(y, 100.0, taus="octave", progress=False,
+                                                threads=1), reps)
 
         def row(impl: str, r: tuple[float, float, float], ratio: str, n: int = n,
                 n_taus: int = n_taus, input_bytes: int = input_bytes) -> None:
@@ -78,10 +82,13 @@ def main() -> None:
             peer = measure(lambda y=y: allantools.oadev(y, rate=100.0, data_type="freq",
                                                         taus="octave"), reps)
             row("allantools.oadev", peer, "1.0")
-            row("gyrodrift (C++ fused)", ours,
+            row(f"gyrodrift (C++ fused, {threads} threads)", ours,
                 f"{peer[0] / ours[0]:.1f}x / {peer[1] / ours[1]:.1f}x")
+            row("gyrodrift (C++ fused, 1 thread)", ours1,
+                f"{peer[0] / ours1[0]:.1f}x / {peer[1] / ours1[1]:.1f}x")
         else:
-            row("gyrodrift (C++ fused)", ours, "peer not run")
+            row(f"gyrodrift (C++ fused, {threads} threads)", ours, "peer not run")
+            row("gyrodrift (C++ fused, 1 thread)", ours1, "peer not run")
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "rec.npy"
             np.save(path, y)

@@ -12,8 +12,9 @@ NIST SP 1065 sec. 5.2.4 and 5.3), on the C++ kernel include/gyrodrift/allan.hpp.
   about 4 * chunk_samples * 8 bytes, 32 MiB at the default chunk_samples = 2**20; phase
   input runs the per-tau kernel on three chunk buffers (y_i, y_{i+m}, y_{i+2m}),
   3 * chunk_samples * 8 bytes. In-memory arrays go to the kernel zero-copy
-  (float64/float32, C-contiguous); the fused kernel's workspace is (segments x block)
-  doubles, ~6 MB for octave taus at 1e8 samples.
+  (float64/float32, C-contiguous); the fused kernel runs two factor groups (on up to
+  `threads` cores, same result for any count), each with a workspace of (segments x block)
+  doubles: 2.6 + 4.7 MB for octave taus at 1e8 samples.
 - Confidence intervals: equivalent degrees of freedom from the simple approximations of
   NIST SP 1065 Table 5 (Stein 1985) for the noise type alpha of each tau, and the chi-squared
   interval of SP 1065 eq. 45:
@@ -62,8 +63,8 @@ ONE_SIGMA_CI = math.erf(1.0 / math.sqrt(2.0))
 DEFAULT_CHUNK_SAMPLES = 1 << 20
 
 #: Block of the fused kernel (term indices per block). 65536 measured ~15 % faster than 4096
-#: at 1e6..1e8 samples (fewer far segments); its workspace is (segments x block) doubles,
-#: ~6 MB for octave taus at 1e8 samples.
+#: at 1e6..1e8 samples (fewer far segments); its workspace is (segments x block) doubles
+#: per factor group, 2.6 + 4.7 MB for octave taus at 1e8 samples.
 FUSED_BLOCK = 1 << 16
 #: Smaller block for memory-mapped records read with small chunks (bounded windows).
 SMALL_BLOCK = 1 << 12
