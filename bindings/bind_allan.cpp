@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <new>
 #include <string>
 #include <thread>
 #include <utility>
@@ -95,15 +96,20 @@ py::tuple oadev_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_in,
     std::atomic<std::size_t> next{0};
     std::size_t* t_out = terms.data();
     // Each worker takes whole groups (own plan, own workspace); outputs do not overlap.
-    const auto worker = [&]() {
-      auto fused = std::make_unique<OadevFused<kGroup>>();
-      std::vector<double> work;
-      for (std::size_t g = next++; g < groups.size(); g = next++) {
-        const std::size_t lo = groups[g].first;
-        const std::size_t cnt = groups[g].second - lo;
-        if (!fused->plan(n_data, m.data() + lo, cnt, bsz)) continue;
-        work.resize(fused->workspace_doubles());
-        group_ok[g] = fused->run(x, work.data(), work.size(), s2 + lo, t_out + lo) ? 1 : 0;
+    std::atomic<bool> out_of_memory{false};
+    const auto worker = [&]() noexcept {
+      try {  // workspace allocation is the only thing that can throw here
+        auto fused = std::make_unique<OadevFused<kGroup>>();
+        std::vector<double> work;
+        for (std::size_t g = next++; g < groups.size(); g = next++) {
+          const std::size_t lo = groups[g].first;
+          const std::size_t cnt = groups[g].second - lo;
+          if (!fused->plan(n_data, m.data() + lo, cnt, bsz)) continue;
+          work.resize(fused->workspace_doubles());
+          group_ok[g] = fused->run(x, work.data(), work.size(), s2 + lo, t_out + lo) ? 1 : 0;
+        }
+      } catch (...) {
+        out_of_memory = true;
       }
     };
     const std::size_t n_threads =
@@ -111,10 +117,15 @@ py::tuple oadev_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_in,
     {
       py::gil_scoped_release release;
       std::vector<std::thread> pool;
-      for (std::size_t k = 1; k < n_threads; ++k) pool.emplace_back(worker);
+      try {
+        for (std::size_t k = 1; k < n_threads; ++k) pool.emplace_back(worker);
+      } catch (...) {
+        // no more threads available: the workers already started and this one share the rest
+      }
       worker();
       for (auto& th : pool) th.join();
     }
+    if (out_of_memory) throw std::bad_alloc();  // pybind11 turns it into MemoryError
     ok = std::all_of(group_ok.begin(), group_ok.end(), [](char v) { return v != 0; });
   } else {
     py::gil_scoped_release release;
