@@ -45,6 +45,8 @@ class Record:
     units_in: str
     n_total: int
     n_dropped: int
+    # CAN logs: one line on where every frame of the capture went (CanLogReport.summary).
+    log_summary: str = ""
 
     @property
     def n(self) -> int:
@@ -57,7 +59,8 @@ class Record:
     def summary(self) -> dict[str, object]:
         return {"source": self.source, "column": self.column, "units_in": self.units_in,
                 "rate_hz": self.rate_hz, "n_total": self.n_total, "n_used": self.n,
-                "n_dropped_nonfinite": self.n_dropped}
+                "n_dropped_nonfinite": self.n_dropped,
+                **({"log": self.log_summary} if self.log_summary else {})}
 
 
 def to_deg_h(values: np.ndarray, units: str, rate_hz: float) -> np.ndarray:
@@ -250,4 +253,5 @@ def _load_log(p: Path, column: str | int | None, rate_hz: float | None, units: s
     x = to_deg_h(gyro_rad_s, log_units, rate_hz)
     x, dropped = _apply_nan_policy(x, nan_policy, str(p))
     return Record(x, float(rate_hz), str(p), f"gyro_{axis_name}", log_units,
-                  int(gyro_rad_s.size), dropped)
+                  int(gyro_rad_s.size), dropped,
+                  samples.log_report.summary() if samples.log_report is not None else "")

@@ -98,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz"
           + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
+    if rec.log_summary:
+        print(f"# CAN log: {rec.log_summary}")
     print(f"{'tau_s':>12} {'adev_dph':>12} {'ci_low':>12} {'ci_high':>12} {'edf':>10}")
     for t, a, lo, hi, e in zip(res.tau_s, res.adev, res.ci_low, res.ci_high, res.edf,
                                strict=True):

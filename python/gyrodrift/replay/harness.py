@@ -357,6 +357,8 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                            expected_pos, got, got_arrival, write_ns, start_ns, end_write_ns,
                            link, loop_stats, link_issues, capture_error, target)
     report["harness_realtime"] = harness_rt
+    if samples.log_report is not None:  # a CAN log: where every frame of it went
+        report["input_log"] = samples.log_report.as_dict()
     n_cmp = min(got.seq.size, expected_pos.size)
     lat = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
     arrival_s = (got_arrival - start_ns) * 1e-9

@@ -8,7 +8,9 @@ recorded input.
 from __future__ import annotations
 
 import csv
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import can
 import numpy as np
@@ -37,6 +39,57 @@ CSV_COLUMNS: tuple[str, ...] = (
     "t_s", "seq", "flags", "gyro_x_rad_s", "gyro_y_rad_s", "gyro_z_rad_s",
     "accel_x_m_s2", "accel_y_m_s2", "accel_z_m_s2",
 )
+
+
+@dataclass
+class CanLogReport:
+    """Where every frame of a CAN log went (`read_imu_log` of a candump/asc/blf log).
+
+    frames_total == imu_frames_used + imu_frames_dropped + remote_frames + error_frames
+    + sum(foreign_frames_by_id.values()). Foreign frames are counted by ID: standard IDs as
+    '0x123', extended ones as '0x18fef100 ext' (an extended frame is never the IMU's, whatever
+    its number). imu_frames_dropped are IMU-ID frames that did not make a complete sample
+    (incomplete samples at the start and end of a capture, orphan or duplicate halves, a bad
+    DLC); incomplete_samples counts such samples.
+    """
+
+    frames_total: int = 0
+    imu_samples: int = 0
+    imu_frames_used: int = 0
+    imu_frames_dropped: int = 0
+    incomplete_samples: int = 0
+    orphan_frames: int = 0
+    duplicate_frames: int = 0
+    bad_dlc: int = 0
+    remote_frames: int = 0
+    error_frames: int = 0
+    foreign_frames_by_id: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def foreign_frames(self) -> int:
+        return sum(self.foreign_frames_by_id.values())
+
+    @property
+    def unaccounted(self) -> int:
+        return (self.frames_total - self.imu_frames_used - self.imu_frames_dropped
+                - self.remote_frames - self.error_frames - self.foreign_frames)
+
+    def as_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def summary(self) -> str:
+        """One line: '1234 frames: 1000 IMU frames used (250 samples), ...'."""
+        parts = [f"{self.frames_total} frames: {self.imu_frames_used} IMU frames used "
+                 f"({self.imu_samples} samples)"]
+        if self.imu_frames_dropped:
+            parts.append(f"{self.imu_frames_dropped} IMU frames dropped "
+                         f"({self.incomplete_samples} incomplete samples, {self.orphan_frames} "
+                         f"orphan, {self.duplicate_frames} duplicate, {self.bad_dlc} bad DLC)")
+        by_id = ", ".join(f"{k} {v}" for k, v in sorted(self.foreign_frames_by_id.items()))
+        parts.append(f"foreign {self.foreign_frames}" + (f" ({by_id})" if by_id else ""))
+        parts.append(f"remote {self.remote_frames}")
+        parts.append(f"error {self.error_frames}")
+        return ", ".join(parts)
 
 
 def log_format(path: str | Path, fmt: str | None = None) -> str:
@@ -102,9 +155,12 @@ def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) ->
 def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
     """Read a log back as wire samples (seq, flags, t_us, float32 channels).
 
-    Bad content is an error with the reason, never silently dropped: a binary log with CRC
-    errors, garbage or a truncated tail, or a CAN log with incomplete samples, raises
-    ValueError.
+    A binary log with CRC errors, garbage or a truncated tail raises ValueError (a frame log
+    is the IMU's own stream: damage means a broken file). A CAN log is a bus capture: frames
+    of other nodes (by ID), remote and error frames, and the frames of samples that are
+    incomplete in the capture (its first and last, typically) are skipped and counted in
+    `samples.log_report` (a `CanLogReport`, which accounts for every frame of the log); only
+    a CAN log with no complete IMU sample is refused.
     """
     path = Path(path)
     if not path.exists():
@@ -123,13 +179,36 @@ def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
         return dec.samples
     if kind == "csv":
         return _read_csv(path)
+    return _read_can_log(path)
+
+
+def _frame_key(m: can.Message) -> str:
+    """How a foreign frame is counted: its ID, standard '0x123' or extended '0x18fef100 ext'."""
+    if m.is_extended_id:
+        return f"{m.arbitration_id:#010x} ext"
+    return f"{m.arbitration_id:#05x}"
+
+
+def _read_can_log(path: Path) -> Samples:
+    """IMU samples of a CAN log; every other frame is skipped and counted (a bus capture
+    normally carries other nodes' traffic). Refused only when no IMU sample is found."""
     asm = SampleAssembler(base_id=INPUT_BASE_ID)
+    rep = CanLogReport()
     seq: list[int] = []
     flags: list[int] = []
     values: list[tuple[float, ...]] = []
     stamps: list[float] = []
     for m in can.LogReader(str(path)):
+        rep.frames_total += 1
         if m.is_error_frame:
+            rep.error_frames += 1
+            continue
+        if m.is_remote_frame:
+            rep.remote_frames += 1
+            continue
+        if m.is_extended_id or not 0 <= m.arbitration_id - INPUT_BASE_ID < 4:
+            key = _frame_key(m)
+            rep.foreign_frames_by_id[key] = rep.foreign_frames_by_id.get(key, 0) + 1
             continue
         s = asm.push(m)
         if s is not None:
@@ -139,15 +218,21 @@ def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
             stamps.append(m.timestamp)  # CAN carries no sample time: the log's time is it
     asm.finish()
     st = asm.stats
-    if st.incomplete_samples or st.orphan_frames or st.foreign_frames or st.bad_dlc:
-        raise ValueError(f"{path}: {st.incomplete_samples} incomplete samples (can_incomplete), "
-                         f"{st.orphan_frames} orphan frames, {st.foreign_frames} frames with "
-                         f"foreign IDs, {st.bad_dlc} with a bad DLC")
+    rep.imu_frames_used = st.frames_used
+    rep.imu_frames_dropped = st.frames_dropped
+    rep.incomplete_samples = st.incomplete_samples
+    rep.orphan_frames = st.orphan_frames
+    rep.duplicate_frames = st.duplicate_frames
+    rep.bad_dlc = st.bad_dlc
+    rep.imu_samples = len(seq)
+    if rep.unaccounted:  # an internal error, never a property of the input
+        raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
     if not seq:
-        raise ValueError(f"{path}: no IMU samples (CAN IDs 0x100..0x103) in the log")
+        raise ValueError(f"{path}: no IMU samples (CAN IDs 0x100..0x103) in the log; "
+                         f"{rep.summary()}")
     return Samples(np.asarray(seq, np.uint16), np.asarray(flags, np.uint16),
                    np.round(np.asarray(stamps) * 1e6).astype(np.uint64),
-                   np.asarray(values, np.float32).reshape(-1, 6))
+                   np.asarray(values, np.float32).reshape(-1, 6), log_report=rep)
 
 
 def _read_csv(path: Path) -> Samples:

@@ -32,6 +32,12 @@ def format_table(result: ReplayResult) -> str:
          + (f", CAN {r['can_bitrate']} bit/s" if r["can_bitrate"] else "")),
         ("loop rate", f"{r['loop_rate_hz']:g} Hz"),
         ("samples in record", str(a["samples_in_record"])),
+    ]
+    if r.get("input_log"):
+        from gyrodrift.replay.logs import CanLogReport
+
+        rows.append(("input log", CanLogReport(**r["input_log"]).summary()))
+    rows += [
         ("injected faults", ", ".join(f"{k} {v}" for k, v in a["injected"].items() if v)
          or "none"),
         ("sent", str(a["sent"])),

@@ -11,6 +11,7 @@ hand-checked bytes.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,6 +27,9 @@ from gyrodrift.codecs.serial_frame import (
     crc16_ccitt_false,
 )
 
+if TYPE_CHECKING:
+    from gyrodrift.replay.logs import CanLogReport
+
 _SYNC_WORD = bytes((SYNC0, SYNC1))
 
 
@@ -37,6 +41,8 @@ class Samples:
     flags: np.ndarray  # (n,) uint16
     t_us: np.ndarray  # (n,) uint64
     channels: np.ndarray  # (n, 6) float32: gyro x y z rad/s, accel x y z m/s^2
+    # How a CAN log was read (every frame accounted for); None for other sources.
+    log_report: CanLogReport | None = None
 
     def __len__(self) -> int:
         return int(self.seq.shape[0])
