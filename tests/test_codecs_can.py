@@ -193,3 +193,15 @@ def test_bad_arguments() -> None:
         encode_sample(0, [0.0] * 6, base_id=0x200)
     with pytest.raises(ValueError, match="at most 8 bytes"):
         _core.can_assemble([(0x100, bytes(9))])
+
+
+@pytest.mark.parametrize("base_id", [0x100, 0x180])
+def test_every_float32_is_encodable(base_id: int) -> None:
+    # The DBC gives float signals no range (cantools' strict encoding would refuse values
+    # outside it), so +-FLT_MAX and +-Inf, what a saturated or faulty IMU sends, encode, and
+    # the bytes are the C++ encoder's.
+    big = float(np.finfo(np.float32).max)
+    vals = [big, -big, np.inf, -np.inf, np.nan, 0.0]
+    frames = encode_sample(7, vals, base_id=base_id)
+    cpp = _core.can_encode_sample(7, 0, vals, base_id)
+    assert [bytes(m.data) for m in frames] == [bytes(d) for _, d in cpp]

@@ -154,3 +154,20 @@ def test_incomplete_can_log_is_counted(tmp_path: Path, rng: np.random.Generator)
     assert back.log_report.incomplete_samples == 1
     assert back.log_report.imu_frames_dropped == 3
     assert back.log_report.frames_total == 39
+
+
+@pytest.mark.parametrize("fmt", FORMATS)
+def test_fault_values_are_written_in_every_format(tmp_path: Path, fmt: str) -> None:
+    # The issue's reproduction (+Inf in a .log raised cantools' EncodeError) and every other
+    # value a faulty IMU can put on the wire: +-FLT_MAX, +-Inf, NaN, the smallest subnormal.
+    big = float(np.finfo(np.float32).max)
+    tiny = float(np.finfo(np.float32).smallest_subnormal)
+    path = write_imu_log(tmp_path / f"c{SUFFIX[fmt]}", np.arange(2) / 400,
+                         np.array([[np.inf, 0, 0], [0, 0, 0]]), np.zeros((2, 3)))
+    assert len(read_imu_log(path)) == 2
+    faults = np.array([[big, -big, np.inf], [-np.inf, np.nan, tiny], [-0.0, 1.0, -tiny]])
+    path = write_imu_log(tmp_path / f"f{SUFFIX[fmt]}", np.arange(3) / 400, faults, faults[::-1])
+    back = read_imu_log(path)
+    want = np.concatenate([faults, faults[::-1]], axis=1).astype(np.float32)
+    np.testing.assert_array_equal(back.channels, want)  # NaN == NaN for assert_array_equal
+    assert np.array_equal(np.signbit(back.channels), np.signbit(want))  # -0.0 kept
