@@ -283,19 +283,22 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                 # The unit is complete at the receiver when its last bit has arrived.
                 ready_ns = max(int(due[k]), link_free) + wire_ns
                 sleep_until_ns(ready_ns)
-                _send(link, payload[k], rng)
+                # Latency starts before the first byte leaves: stamped after the call, a
+                # preempted sender would stamp after the reply arrived (negative latency).
                 write_ns[k] = time.perf_counter_ns()
+                _send(link, payload[k], rng)
                 link_free = ready_ns
         elif opt.transport == "serial":
             assert isinstance(link, SerialLink)
             b = max(1, opt.batch_frames)
             for k0 in range(0, n_units, b):
-                link.write(b"".join(payload[k0:k0 + b]))
-                write_ns[k0:k0 + b] = time.perf_counter_ns()
+                chunk = b"".join(payload[k0:k0 + b])
+                write_ns[k0:k0 + b] = time.perf_counter_ns()  # before the first byte leaves
+                link.write(chunk)
         else:
             for k in range(n_units):
+                write_ns[k] = time.perf_counter_ns()  # before the first byte leaves
                 _send(link, payload[k], rng)
-                write_ns[k] = time.perf_counter_ns()
         end_write_ns = time.perf_counter_ns()
         # Wait for the outputs: all expected ones, or settle_s without anything new.
         duration_s = (t_rec[-1] - t_rec[0]) / opt.speed if opt.speed > 0 else 0.0
@@ -399,9 +402,9 @@ def _output_count(link: SerialLink | CanLink) -> int:
 
 def _pct(x: np.ndarray) -> dict[str, float]:
     if x.size == 0:
-        return {"n": 0, "p50": float("nan"), "p90": float("nan"), "p99": float("nan"),
-                "max": float("nan")}
-    return {"n": int(x.size), "p50": float(np.percentile(x, 50)),
+        return {"n": 0, "min": float("nan"), "p50": float("nan"), "p90": float("nan"),
+                "p99": float("nan"), "max": float("nan")}
+    return {"n": int(x.size), "min": float(np.min(x)), "p50": float(np.percentile(x, 50)),
             "p90": float(np.percentile(x, 90)), "p99": float(np.percentile(x, 99)),
             "max": float(np.max(x))}
 

@@ -52,8 +52,8 @@ def format_table(result: ReplayResult) -> str:
                  " ".join(_fmt(e, 2) for e in c["max_abs_error"])
                  + f" (tol {c['tolerance']:.0e})"))
     lat = r["latency_us"]
-    rows.append(("latency us p50/p90/p99/max",
-                 "/".join(_fmt(lat[k]) for k in ("p50", "p90", "p99", "max"))))
+    rows.append(("latency us min/p50/p90/p99/max",
+                 "/".join(_fmt(lat.get(k)) for k in ("min", "p50", "p90", "p99", "max"))))
     th = r["throughput"]
     rows.append(("frames/s sent, end to end",
                  f"{_fmt(th['frames_per_s_sent'], 0)}, {_fmt(th['frames_per_s_end_to_end'], 0)}"))
