@@ -52,3 +52,57 @@ def test_latency_never_negative_when_the_sender_is_preempted(
     assert res.latency_us.size == n
     assert float(np.min(res.latency_us)) >= 0.0, np.sort(res.latency_us)[:5]
     assert res.report["latency_us"]["min"] >= 0.0
+
+
+def _fifo_permitted() -> bool:
+    """Whether this process may make a thread SCHED_FIFO (probed on a throw-away thread)."""
+    import threading
+
+    from gyrodrift.replay.transport import set_thread_realtime
+
+    out: list[str] = []
+    t = threading.Thread(target=lambda: out.append(set_thread_realtime(70)))
+    t.start()
+    t.join()
+    return out[0].startswith("SCHED_FIFO")
+
+
+@pytest.mark.parametrize("transport_name", ["serial", "slcan"])
+def test_harness_threads_get_realtime_or_say_why_not(cpp_build_dir: Path,
+                                                     transport_name: str) -> None:
+    import os
+
+    n, rate = 40, 400.0
+    samples = make_samples(np.arange(n) / rate, np.zeros((n, 3)), np.zeros((n, 3)))
+    opt = ReplayOptions(transport=transport_name, speed=0.0, loop_rate_hz=1000.0,
+                        loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
+                        processor=ProcessorSettings(sample_rate_hz=rate))
+    assert opt.harness_realtime  # the default, like the loop's
+    policy_before = os.sched_getscheduler(0)
+    rt = run_replay(samples, opt).report["harness_realtime"]
+    want = "SCHED_FIFO 70" if _fifo_permitted() else "refused: "
+    assert rt["sender"].startswith(want) and rt["receiver"].startswith(want), rt
+    assert os.sched_getscheduler(0) == policy_before  # the caller's thread is given back
+    off = run_replay(samples, ReplayOptions(**{**opt.__dict__, "harness_realtime": False}))
+    assert off.report["harness_realtime"] == {"sender": "not requested",
+                                              "receiver": "not requested"}
+
+
+def test_refused_realtime_is_reported(monkeypatch: pytest.MonkeyPatch,
+                                      cpp_build_dir: Path) -> None:
+    import os
+
+    def refuse(*_: object) -> None:
+        raise PermissionError(1, "Operation not permitted")
+
+    monkeypatch.setattr(os, "sched_setscheduler", refuse)
+    n, rate = 40, 400.0
+    samples = make_samples(np.arange(n) / rate, np.zeros((n, 3)), np.zeros((n, 3)))
+    res = run_replay(samples, ReplayOptions(
+        transport="serial", speed=0.0, loop_rate_hz=1000.0, loop_realtime=False,
+        loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
+        processor=ProcessorSettings(sample_rate_hz=rate)))
+    rt = res.report["harness_realtime"]
+    assert rt["sender"].startswith("refused: ") and "not permitted" in rt["sender"], rt
+    assert rt["receiver"].startswith("refused: "), rt
+    assert res.ok

@@ -41,12 +41,17 @@ from gyrodrift.replay.transport import (
     CanLink,
     PtyPair,
     SerialLink,
+    set_thread_normal,
+    set_thread_realtime,
     sleep_until_ns,
 )
 from gyrodrift.replay.wire import Samples, decode_stream
 
 TRANSPORTS = ("serial", "slcan", "socketcan")
 LOOP_RELATIVE = Path("cpp") / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
+# SCHED_FIFO priority of the harness's sender and receiver threads: below the loop's 80
+# (cpp/programs/gyrodrift-loop), above everything SCHED_OTHER (a CPU hog like stress-ng).
+HARNESS_RT_PRIORITY = 70
 # An SLCAN line for one standard 8-byte frame: "t" + 3 id + 1 dlc + 16 hex + CR.
 SLCAN_LINE_BYTES = 22
 
@@ -92,7 +97,9 @@ class ReplayOptions:
     loop_rate_hz: float = 400.0
     loop_binary: str | None = None
     loop_realtime: bool = True  # ask the loop for SCHED_FIFO + mlockall
-    harness_realtime: bool = False  # run the harness's sender/reader threads SCHED_FIFO too
+    # The harness's sender and receiver threads SCHED_FIFO too (when permitted; the report's
+    # "harness_realtime" says per thread whether it was granted or refused).
+    harness_realtime: bool = True
     attach: str | None = None  # device path / CAN interface of a running target
     faults: FaultSpec = field(default_factory=FaultSpec)
     processor: ProcessorSettings = field(default_factory=ProcessorSettings)
@@ -264,13 +271,18 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     target.start()
     link: SerialLink | CanLink | None = None
     write_ns = np.zeros(n_units, dtype=np.int64)
-    harness_rt = _harness_realtime(True) if opt.harness_realtime else "not requested"
+    # Sender and receiver run SCHED_FIFO just below the loop (80): each thread asks for
+    # itself, so a refusal is reported per thread and nothing else inherits the policy.
+    rt_prio = HARNESS_RT_PRIORITY if opt.harness_realtime else None
+    harness_rt = {"sender": "not requested", "receiver": "not requested"}
     try:
         if opt.transport == "serial":
-            link = SerialLink(target.device, opt.baud)
+            link = SerialLink(target.device, opt.baud, realtime_priority=rt_prio)
         else:
             link = CanLink(opt.transport, target.device, bitrate=opt.can_bitrate,
-                           tty_baud=opt.baud)
+                           tty_baud=opt.baud, realtime_priority=rt_prio)
+        if rt_prio is not None:
+            harness_rt["sender"] = set_thread_realtime(rt_prio)
         wire_ns = _unit_wire_time_ns(opt) if opt.pace_link else 0
         t_rec = np.array([u.t_s for u in plan.units], dtype=np.float64)
         t0 = time.perf_counter_ns() + 20_000_000  # 20 ms to settle
@@ -319,8 +331,10 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
         if link is not None:
             link.close()
         if opt.harness_realtime:
-            _harness_realtime(False)
+            set_thread_normal()
         loop_stats = target.stop()
+        if link is not None:
+            harness_rt["receiver"] = link.receiver_realtime
 
     # Outputs received, with arrival times.
     capture_error = link.capture.error if link is not None else ""
@@ -360,25 +374,21 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                            expected_pos, got, got_arrival, write_ns, start_ns, end_write_ns,
                            link, loop_stats, link_issues, capture_error, target)
     report["harness_realtime"] = harness_rt
+    # Output jitter seen by the harness: each output's inter-arrival time against the spacing
+    # of its input in the record (paced replays only; 0 for a perfect real-time chain).
+    n_j = min(got.seq.size, expected_pos.size)
+    if opt.speed > 0 and n_j > 1:
+        due_us = np.array([plan.units[k].t_s for k in expected_pos[:n_j]]) / opt.speed * 1e6
+        dev_us = np.diff(got_arrival[:n_j]) * 1e-3 - np.diff(due_us)
+        report["output_jitter_us"] = _pct(np.abs(dev_us))
+    else:
+        report["output_jitter_us"] = _pct(np.zeros(0))
     if samples.log_report is not None:  # a CAN log: where every frame of it went
         report["input_log"] = samples.log_report.as_dict()
     n_cmp = min(got.seq.size, expected_pos.size)
     lat = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
     arrival_s = (got_arrival - start_ns) * 1e-9
     return ReplayResult(report, lat, arrival_s, loop_stats)
-
-
-def _harness_realtime(on: bool) -> str:
-    """SCHED_FIFO (priority 70, below the loop's 80) for this thread and the threads it
-    starts afterwards (the link reader), or back to SCHED_OTHER. Returns what happened."""
-    try:
-        if on:
-            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(70))
-            return "SCHED_FIFO 70"
-        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-        return "SCHED_OTHER"
-    except (OSError, AttributeError) as exc:
-        return f"not permitted: {exc}"
 
 
 def _send(link: SerialLink | CanLink, unit: Any, rng: np.random.Generator) -> None:

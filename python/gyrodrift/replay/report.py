@@ -54,9 +54,16 @@ def format_table(result: ReplayResult) -> str:
     lat = r["latency_us"]
     rows.append(("latency us min/p50/p90/p99/max",
                  "/".join(_fmt(lat.get(k)) for k in ("min", "p50", "p90", "p99", "max"))))
+    jit = r.get("output_jitter_us")
+    if jit and jit["n"]:
+        rows.append(("output jitter us p50/p99/max",
+                     "/".join(_fmt(jit[k]) for k in ("p50", "p99", "max"))))
     th = r["throughput"]
     rows.append(("frames/s sent, end to end",
                  f"{_fmt(th['frames_per_s_sent'], 0)}, {_fmt(th['frames_per_s_end_to_end'], 0)}"))
+    hrt = r.get("harness_realtime")
+    if isinstance(hrt, dict):
+        rows.append(("harness realtime", f"sender {hrt['sender']}, receiver {hrt['receiver']}"))
     loop = r.get("loop")
     if loop:
         rt = loop["realtime"]

@@ -65,16 +65,43 @@ class Capture:
         return sum(len(c) for _, c in self.chunks)
 
 
-class SerialLink:
-    """A serial device opened with pyserial (raw 8N1); reads on a background thread."""
+def set_thread_realtime(priority: int) -> str:
+    """SCHED_FIFO at `priority` for the calling thread only (on Linux the policy belongs to
+    the thread, and pid 0 names the caller). Returns what the kernel reports afterwards,
+    'SCHED_FIFO 70', or 'refused: <reason>' (no CAP_SYS_NICE / RLIMIT_RTPRIO, not Linux)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        policy = os.sched_getscheduler(0)
+        got = os.sched_getparam(0).sched_priority
+    except (OSError, AttributeError) as exc:
+        return f"refused: {exc}"
+    if policy != os.SCHED_FIFO:
+        return f"refused: policy {policy} after the request"
+    return f"SCHED_FIFO {got}"
 
-    def __init__(self, path: str, baud: int) -> None:
+
+def set_thread_normal() -> None:
+    """Back to SCHED_OTHER for the calling thread (no-op where that is not possible)."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+    except (OSError, AttributeError):
+        pass
+
+
+class SerialLink:
+    """A serial device opened with pyserial (raw 8N1); reads on a background thread, which
+    runs SCHED_FIFO at `realtime_priority` when given and permitted (`receiver_realtime`
+    says what it got)."""
+
+    def __init__(self, path: str, baud: int, *, realtime_priority: int | None = None) -> None:
         try:
             self.port = serial.Serial(path, baudrate=baud, timeout=0, write_timeout=None)
         except (serial.SerialException, ValueError) as exc:
             raise OSError(f"cannot open serial device {path!r} at {baud} baud: {exc}") from exc
         self.capture = Capture()
         self.bytes_sent = 0
+        self.realtime_priority = realtime_priority
+        self.receiver_realtime = "not requested"
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._read_loop, name="serial-reader", daemon=True)
         self._thread.start()
@@ -84,6 +111,8 @@ class SerialLink:
         self.bytes_sent += len(data)
 
     def _read_loop(self) -> None:
+        if self.realtime_priority is not None:
+            self.receiver_realtime = set_thread_realtime(self.realtime_priority)
         fd = self.port.fileno()
         chunks = self.capture.chunks
         try:
@@ -112,7 +141,7 @@ class CanLink:
     or `socketcan` on a kernel interface (can0). Never a network-backed interface."""
 
     def __init__(self, interface: str, channel: str, *, bitrate: int = 500000,
-                 tty_baud: int = 921600) -> None:
+                 tty_baud: int = 921600, realtime_priority: int | None = None) -> None:
         if interface not in ("slcan", "socketcan"):
             raise ValueError(f"CAN interface must be 'slcan' or 'socketcan', got {interface!r}")
         self.interface = interface
@@ -126,6 +155,8 @@ class CanLink:
             raise OSError(f"cannot open CAN {interface} on {channel!r}: {exc}") from exc
         self.capture = Capture()
         self.frames_sent = 0
+        self.realtime_priority = realtime_priority
+        self.receiver_realtime = "not requested"
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._read_loop, name="can-reader", daemon=True)
         self._thread.start()
@@ -144,6 +175,8 @@ class CanLink:
         port.flush()
 
     def _read_loop(self) -> None:
+        if self.realtime_priority is not None:
+            self.receiver_realtime = set_thread_realtime(self.realtime_priority)
         msgs = self.capture.messages
         try:
             while not self._stop.is_set():
