@@ -14,6 +14,9 @@
 //   can_encode_sample(seq, flags, values[6], base_id) -> [(id, bytes)] * 4
 //   can_assemble(frames [(id, data[, extended, remote])], base_id, finish) -> (samples, stats)
 //   slcan_encode(id, data, extended, remote) -> bytes
+//   can_signal_table(text) -> [entry dict]            (a user-DBC decode table, parsed in C++)
+//   can_signal_decode(text, frames) -> [{role: value}] per frame (can_signal_decode.hpp)
+//   can_signal_assemble(text, frames, finish) -> ([(seq, t_us | None, values)], stats)
 //   slcan_parse(data) -> (events, stats)   events: ("frame", id, data, ext, rtr, reply) |
 //                                          ("command", letter, arg bytes, reply) | ("error", reply)
 // Arrays are C-contiguous and taken without copy (.noconvert(): a wrong dtype is a TypeError).
@@ -25,6 +28,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <gyrodrift/can_frames.hpp>
+#include <gyrodrift/can_signal_decode.hpp>
 #include <gyrodrift/crc16.hpp>
 #include <gyrodrift/imu_processor.hpp>
 #include <gyrodrift/realtime_wavelet.hpp>
@@ -263,6 +267,67 @@ py::tuple frame_tuple(const serial::ImuFrame& f) {
   return py::make_tuple(f.type, f.seq, f.flags, f.t_us, v);
 }
 
+// A decode table from its text (the loop's --can-signals file); ValueError names the line.
+can::SignalTable<> parse_signal_table(const std::string& text) {
+  can::SignalTable<> table;
+  std::size_t line_no = 0;
+  std::size_t pos = 0;
+  while (pos <= text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    const std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_no;
+    can::SignalEntry e;
+    const char* error = "";
+    const can::LineResult r = can::parse_signal_line(line.c_str(), e, &error);
+    if (r == can::LineResult::kError) {
+      throw py::value_error("can signal table line " + std::to_string(line_no) + ": bad " + error);
+    }
+    if (r == can::LineResult::kEntry && !table.add(e)) {
+      throw py::value_error("can signal table line " + std::to_string(line_no) +
+                            ": role mapped twice");
+    }
+  }
+  if (!table.complete()) throw py::value_error("can signal table: not all six channels mapped");
+  return table;
+}
+
+can::CanFrame frame_from_tuple(const py::handle& item, const char* who) {
+  const auto t = item.cast<py::tuple>();
+  if (t.size() < 2) throw py::value_error(std::string(who) + ": each frame is (id, data[, extended, remote])");
+  can::CanFrame fr;
+  fr.id = t[0].cast<std::uint32_t>();
+  const auto data = t[1].cast<py::bytes>();
+  std::size_t n = 0;
+  const std::uint8_t* p = bytes_ptr(data, n);
+  if (n > 8) throw py::value_error(std::string(who) + ": classic CAN data is at most 8 bytes");
+  fr.dlc = static_cast<std::uint8_t>(n);
+  for (std::size_t i = 0; i < n; ++i) fr.data[i] = p[i];
+  if (t.size() > 2) fr.extended = t[2].cast<bool>();
+  if (t.size() > 3) fr.remote = t[3].cast<bool>();
+  return fr;
+}
+
+const char* role_name(can::SignalRole r) {
+  static constexpr std::array<const char*, can::kSignalRoles> kNames = {
+      "gx", "gy", "gz", "ax", "ay", "az", "seq", "time"};
+  return kNames[static_cast<std::size_t>(r)];
+}
+
+py::dict signal_stats_dict(const can::SignalRxStats& s) {
+  py::dict d;
+  d["frames_in"] = s.frames_in;
+  d["frames_used"] = s.frames_used;
+  d["frames_dropped"] = s.frames_dropped;
+  d["foreign_frames"] = s.foreign_frames;
+  d["ignored_frames"] = s.ignored_frames;
+  d["bad_dlc"] = s.bad_dlc;
+  d["complete_samples"] = s.complete_samples;
+  d["incomplete_samples"] = s.incomplete_samples;
+  return d;
+}
+
 }  // namespace
 
 void bind_imu(py::module_& m) {
@@ -404,6 +469,69 @@ void bind_imu(py::module_& m) {
     stats["buffered"] = parser.buffered();
     return py::make_tuple(events, stats);
   }, py::arg("data"));
+
+  m.def("can_signal_table", [](const std::string& text) {
+    const can::SignalTable<> table = parse_signal_table(text);
+    py::list out;
+    for (std::size_t i = 0; i < table.size(); ++i) {
+      const can::SignalEntry& e = table[i];
+      py::dict d;
+      d["role"] = role_name(e.role);
+      d["id"] = e.id;
+      d["extended"] = e.extended;
+      d["dlc"] = e.dlc;
+      d["start"] = e.field.start;
+      d["length"] = e.field.length;
+      d["order"] = e.field.order == can::ByteOrder::kIntel ? "le" : "be";
+      static constexpr std::array<const char*, 4> kTypes = {"u", "s", "f32", "f64"};
+      d["type"] = kTypes[static_cast<std::size_t>(e.type)];
+      d["scale"] = e.scale;
+      d["offset"] = e.offset;
+      d["factor"] = e.factor;
+      if (e.muxed) {
+        d["mux"] = py::make_tuple(e.mux.start, e.mux.length,
+                                  e.mux.order == can::ByteOrder::kIntel ? "le" : "be", e.mux_value);
+      } else {
+        d["mux"] = py::none();
+      }
+      out.append(d);
+    }
+    return out;
+  }, py::arg("text"));
+
+  m.def("can_signal_decode", [](const std::string& text, const py::list& frames) {
+    const can::SignalTable<> table = parse_signal_table(text);
+    py::list out;
+    for (const py::handle& item : frames) {
+      const can::CanFrame fr = frame_from_tuple(item, "can_signal_decode");
+      py::dict d;
+      for (std::size_t i = 0; i < table.size(); ++i) {
+        double v = 0.0;
+        if (can::decode_entry(table[i], fr, v) == can::EntryMatch::kValue) d[role_name(table[i].role)] = v;
+      }
+      out.append(d);
+    }
+    return out;
+  }, py::arg("text"), py::arg("frames"));
+
+  m.def("can_signal_assemble", [](const std::string& text, const py::list& frames, bool finish) {
+    const can::SignalTable<> table = parse_signal_table(text);
+    can::SignalSampleAssembler<> assembler(table);
+    py::list samples;
+    for (const py::handle& item : frames) {
+      const can::CanFrame fr = frame_from_tuple(item, "can_signal_assemble");
+      can::SignalSample s;
+      if (assembler.push(fr, s)) {
+        py::tuple v(kImuChannels);
+        for (std::size_t c = 0; c < kImuChannels; ++c) v[c] = static_cast<double>(s.values[c]);
+        samples.append(py::make_tuple(s.seq, s.has_time ? py::object(py::int_(s.t_us)) : py::object(py::none()), v));
+      }
+    }
+    if (finish) assembler.finish();
+    py::dict stats = signal_stats_dict(assembler.stats());
+    stats["pending_frames"] = assembler.pending_frames();
+    return py::make_tuple(samples, stats);
+  }, py::arg("text"), py::arg("frames"), py::arg("finish") = true);
 }
 
 }  // namespace gyrodrift::py_bindings

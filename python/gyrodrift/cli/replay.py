@@ -26,6 +26,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("input", nargs="?", help="IMU log; omitted: simulate --duration-s of data")
     p.add_argument("--format", dest="fmt", default=None,
                    help="log format (bin, csv, candump, asc, blf); default from the suffix")
+    p.add_argument("--can-signals", default=None, metavar="MAP",
+                   help="read a CAN log with your own DBC: a signal map (TOML naming the DBC "
+                        "and which signals are gx gy gz ax ay az, optional sequence and "
+                        "timestamp; see gyrodrift.codecs.can_signals)")
     p.add_argument("--transport", choices=("serial", "slcan", "socketcan"), default="serial")
     p.add_argument("--device", default=None,
                    help="attach to a running target: serial device (/dev/ttyUSB0), SLCAN "
@@ -44,7 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="gyrodrift-loop rate, 1..2000 Hz (default 400)")
     p.add_argument("--loop-binary", default=None, help="path of gyrodrift-loop")
     p.add_argument("--no-rt", action="store_true",
-                   help="do not ask the loop for SCHED_FIFO and mlockall")
+                   help="do not ask for real-time scheduling: SCHED_FIFO and mlockall for the "
+                        "loop, SCHED_FIFO for the harness's sender and receiver threads")
     p.add_argument("--duration-s", type=float, default=5.0,
                    help="length of the simulated record without INPUT (default 5)")
     p.add_argument("--sample-rate-hz", type=float, default=None,
@@ -78,9 +83,11 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift.replay.report import format_table, write_json, write_png
     from gyrodrift.replay.wire import make_samples
 
+    if args.can_signals and not args.input:
+        raise CliError("--can-signals applies to an input CAN log")
     if args.input:
         try:
-            samples = read_imu_log(args.input, args.fmt)
+            samples = read_imu_log(args.input, args.fmt, signals=args.can_signals)
         except (OSError, ValueError) as exc:
             raise CliError(str(exc)) from None
         dt = np.diff(samples.t_us.astype(np.float64)) * 1e-6
@@ -113,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
                             baud=args.baud, can_bitrate=args.can_bitrate,
                             pace_link=not args.no_link_pacing, loop_rate_hz=args.loop_rate_hz,
                             loop_binary=args.loop_binary, loop_realtime=not args.no_rt,
+                            harness_realtime=not args.no_rt,
                             attach=args.device, faults=faults, processor=proc)
     except ValueError as exc:
         raise CliError(str(exc)) from None

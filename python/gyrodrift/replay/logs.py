@@ -16,6 +16,7 @@ import can
 import numpy as np
 
 from gyrodrift.codecs import FRAME_SIZE, INPUT_BASE_ID, TYPE_INPUT, SampleAssembler, encode_sample
+from gyrodrift.codecs.can_signals import SignalMap, SignalSampleAssembler, load_signal_map
 from gyrodrift.replay.wire import (
     Samples,
     decode_stream,
@@ -45,12 +46,14 @@ CSV_COLUMNS: tuple[str, ...] = (
 class CanLogReport:
     """Where every frame of a CAN log went (`read_imu_log` of a candump/asc/blf log).
 
-    frames_total == imu_frames_used + imu_frames_dropped + remote_frames + error_frames
-    + sum(foreign_frames_by_id.values()). Foreign frames are counted by ID: standard IDs as
-    '0x123', extended ones as '0x18fef100 ext' (an extended frame is never the IMU's, whatever
-    its number). imu_frames_dropped are IMU-ID frames that did not make a complete sample
-    (incomplete samples at the start and end of a capture, orphan or duplicate halves, a bad
-    DLC); incomplete_samples counts such samples.
+    frames_total == imu_frames_used + imu_frames_dropped + imu_frames_ignored + remote_frames
+    + error_frames + sum(foreign_frames_by_id.values()). Foreign frames are counted by ID:
+    standard IDs as '0x123', extended ones as '0x18fef100 ext' (an extended frame is never
+    the IMU's, whatever its number). imu_frames_dropped are IMU-ID frames that did not make a
+    complete sample (incomplete samples at the start and end of a capture, orphan or duplicate
+    halves, a bad DLC); incomplete_samples counts such samples. With a user's DBC
+    (`signals=`), imu_frames_ignored are frames of its mapped messages that carry none of the
+    mapped signals (another multiplexer page).
     """
 
     frames_total: int = 0
@@ -61,6 +64,7 @@ class CanLogReport:
     orphan_frames: int = 0
     duplicate_frames: int = 0
     bad_dlc: int = 0
+    imu_frames_ignored: int = 0  # user DBC: an IMU message carrying no mapped signal
     remote_frames: int = 0
     error_frames: int = 0
     foreign_frames_by_id: dict[str, int] = field(default_factory=dict)
@@ -72,7 +76,8 @@ class CanLogReport:
     @property
     def unaccounted(self) -> int:
         return (self.frames_total - self.imu_frames_used - self.imu_frames_dropped
-                - self.remote_frames - self.error_frames - self.foreign_frames)
+                - self.imu_frames_ignored - self.remote_frames - self.error_frames
+                - self.foreign_frames)
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -85,6 +90,9 @@ class CanLogReport:
             parts.append(f"{self.imu_frames_dropped} IMU frames dropped "
                          f"({self.incomplete_samples} incomplete samples, {self.orphan_frames} "
                          f"orphan, {self.duplicate_frames} duplicate, {self.bad_dlc} bad DLC)")
+        if self.imu_frames_ignored:
+            parts.append(f"{self.imu_frames_ignored} IMU-message frames without mapped "
+                         "signals")
         by_id = ", ".join(f"{k} {v}" for k, v in sorted(self.foreign_frames_by_id.items()))
         parts.append(f"foreign {self.foreign_frames}" + (f" ({by_id})" if by_id else ""))
         parts.append(f"remote {self.remote_frames}")
@@ -152,7 +160,8 @@ def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) ->
     return path
 
 
-def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
+def read_imu_log(path: str | Path, fmt: str | None = None, *,
+                 signals: SignalMap | str | Path | None = None) -> Samples:
     """Read a log back as wire samples (seq, flags, t_us, float32 channels).
 
     A binary log with CRC errors, garbage or a truncated tail raises ValueError (a frame log
@@ -161,11 +170,19 @@ def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
     incomplete in the capture (its first and last, typically) are skipped and counted in
     `samples.log_report` (a `CanLogReport`, which accounts for every frame of the log); only
     a CAN log with no complete IMU sample is refused.
+
+    signals: a user's own DBC for CAN logs, as a signal map (`gyrodrift.codecs.can_signals`:
+    a SignalMap or the path of its TOML file): the frames are decoded by cantools through
+    the map instead of the project's DBC; t_us is the IMU's own timestamp when the map has
+    one, else the log's time.
     """
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no such log: {path}")
     kind = log_format(path, fmt)
+    if signals is not None and kind not in CAN_FORMATS:
+        raise ValueError(f"{path}: a DBC signal map applies to CAN logs "
+                         f"({', '.join(CAN_FORMATS)}), not to {kind}")
     if kind == "bin":
         data = path.read_bytes()
         if len(data) < FRAME_SIZE:
@@ -179,6 +196,9 @@ def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
         return dec.samples
     if kind == "csv":
         return _read_csv(path)
+    if signals is not None:
+        smap = signals if isinstance(signals, SignalMap) else load_signal_map(signals)
+        return _read_can_log_with_map(path, smap)
     return _read_can_log(path)
 
 
@@ -233,6 +253,49 @@ def _read_can_log(path: Path) -> Samples:
     return Samples(np.asarray(seq, np.uint16), np.asarray(flags, np.uint16),
                    np.round(np.asarray(stamps) * 1e6).astype(np.uint64),
                    np.asarray(values, np.float32).reshape(-1, 6), log_report=rep)
+
+
+def _read_can_log_with_map(path: Path, smap: SignalMap) -> Samples:
+    """IMU samples of a CAN log through a user's DBC and signal map (same accounting)."""
+    asm = SignalSampleAssembler(smap)
+    rep = CanLogReport()
+    seq: list[int] = []
+    values: list[tuple[float, ...]] = []
+    stamps_us: list[int] = []
+    for m in can.LogReader(str(path)):
+        rep.frames_total += 1
+        if m.is_error_frame:
+            rep.error_frames += 1
+            continue
+        if m.is_remote_frame:
+            rep.remote_frames += 1
+            continue
+        if not asm.is_mapped(m):
+            key = _frame_key(m)
+            rep.foreign_frames_by_id[key] = rep.foreign_frames_by_id.get(key, 0) + 1
+            continue
+        s = asm.push(m)
+        if s is not None:
+            seq.append(s.seq)
+            values.append(s.values)
+            stamps_us.append(s.t_us if s.t_us is not None else round(m.timestamp * 1e6))
+    asm.finish()
+    st = asm.stats
+    rep.imu_frames_used = st.frames_used
+    rep.imu_frames_dropped = st.frames_dropped
+    rep.imu_frames_ignored = st.ignored_frames
+    rep.incomplete_samples = st.incomplete_samples
+    rep.bad_dlc = st.bad_dlc
+    rep.imu_samples = len(seq)
+    if rep.unaccounted:
+        raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
+    if not seq:
+        raise ValueError(f"{path}: no IMU samples through the signal map {smap.source}; "
+                         f"{rep.summary()}")
+    return Samples(np.asarray(seq, np.uint16), np.zeros(len(seq), np.uint16),
+                   np.asarray(stamps_us, np.uint64),
+                   np.asarray(values, np.float64).astype(np.float32).reshape(-1, 6),
+                   log_report=rep)
 
 
 def _read_csv(path: Path) -> Samples:

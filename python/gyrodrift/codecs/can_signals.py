@@ -1,0 +1,365 @@
+"""A user's own DBC: which of its signals are the IMU's six channels (and, when present, its
+sequence counter and timestamp), decoding through cantools, and the decode table the C++
+loop reads (include/gyrodrift/can_signal_decode.hpp).
+
+A signal map is a small TOML file next to the vendor's DBC::
+
+    schema = "gyrodrift.can_signals"
+    version = 1
+    dbc = "vendor_imu.dbc"              # relative to this file
+
+    [channels]                          # MESSAGE.SIGNAL for gx gy gz ax ay az (all six)
+    gx = "VendorImu_Rates.RateX"
+    ...
+    [factors]                           # optional: channel = DBC physical value * factor
+    gx = 0.017453292519943295           # deg/s -> rad/s (channels are rad/s and m/s^2)
+    [sequence]                          # optional: a sample counter (any width <= 16 bits)
+    signal = "VendorImu_Rates.Counter"
+    [timestamp]                         # optional: the IMU's own sample time
+    signal = "VendorImu_Mux.TimeStamp"
+    unit = "us"                         # us, ms or s (after the DBC's scale and offset)
+
+Assembly of a sample (the same rules in Python and C++, `SignalSampleAssembler`): frames of
+the mapped messages fill the sample's roles (six channels, and the sequence and timestamp
+when mapped); the sample is complete when every role is filled. A frame that would fill a
+role already filled drops the partial sample (counted in incomplete_samples, its frames in
+frames_dropped) and starts the next one. A frame of a mapped message that carries none of
+the mapped signals (another multiplexer page) is counted in ignored_frames; a frame shorter
+than its message is counted in bad_dlc (and dropped). A sequence counter narrower than 16
+bits is unwrapped into the 16-bit sample sequence (steps modulo 2**width). Accounting:
+frames_in == foreign_frames + frames_used + frames_dropped + ignored_frames + pending_frames.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import can
+import cantools
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = [
+    "CHANNEL_ROLES",
+    "ROLES",
+    "TABLE_HEADER",
+    "TIME_UNITS",
+    "SignalMap",
+    "SignalRxStats",
+    "SignalSample",
+    "SignalSampleAssembler",
+    "decode_table",
+    "decode_table_text",
+    "load_signal_map",
+    "write_decode_table",
+]
+
+CHANNEL_ROLES: tuple[str, ...] = ("gx", "gy", "gz", "ax", "ay", "az")
+ROLES: tuple[str, ...] = (*CHANNEL_ROLES, "seq", "time")
+#: timestamp unit -> factor to microseconds
+TIME_UNITS: dict[str, float] = {"us": 1.0, "ms": 1e3, "s": 1e6}
+TABLE_HEADER = "gyrodrift-can-signals 1"
+SCHEMA = "gyrodrift.can_signals"
+
+
+@dataclass(frozen=True)
+class SignalRef:
+    message: str
+    signal: str
+    factor: float = 1.0
+
+
+@dataclass
+class SignalMap:
+    """A user DBC (loaded with cantools) and the signals that make an IMU sample."""
+
+    db: cantools.database.can.Database
+    roles: dict[str, SignalRef]  # role (CHANNEL_ROLES, "seq", "time") -> signal
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        missing = [r for r in CHANNEL_ROLES if r not in self.roles]
+        if missing:
+            raise ValueError(f"{self.source}: channels {', '.join(missing)} are not mapped")
+        for role, ref in self.roles.items():
+            if role not in ROLES:
+                raise ValueError(f"{self.source}: unknown role {role!r}")
+            sig = self._signal(role, ref)
+            if sig.multiplexer_ids is not None and len(sig.multiplexer_ids) != 1:
+                raise ValueError(f"{self.source}: {role}: {ref.message}.{ref.signal} belongs to "
+                                 f"{len(sig.multiplexer_ids)} multiplexer values; map a "
+                                 "signal of one page")
+            if sig.multiplexer_signal is not None:
+                msg = self.db.get_message_by_name(ref.message)
+                mux = msg.get_signal_by_name(sig.multiplexer_signal)
+                if mux.multiplexer_signal is not None:
+                    raise ValueError(f"{self.source}: {role}: nested multiplexing is not "
+                                     "supported")
+            if not (math.isfinite(ref.factor) and ref.factor != 0):
+                raise ValueError(f"{self.source}: {role}: factor must be finite and non-zero")
+            if role == "seq" and (sig.is_float or sig.length > 16 or sig.is_signed
+                                  or sig.scale != 1 or sig.offset != 0):
+                raise ValueError(f"{self.source}: seq: {ref.message}.{ref.signal} must be an "
+                                 "unsigned integer of at most 16 bits with scale 1, offset 0")
+
+    def _signal(self, role: str, ref: SignalRef) -> Any:
+        try:
+            msg = self.db.get_message_by_name(ref.message)
+        except KeyError:
+            raise ValueError(f"{self.source}: {role}: no message {ref.message!r} in the DBC"
+                             ) from None
+        try:
+            return msg.get_signal_by_name(ref.signal)
+        except KeyError:
+            raise ValueError(f"{self.source}: {role}: message {ref.message} has no signal "
+                             f"{ref.signal!r}") from None
+
+    @property
+    def messages(self) -> dict[tuple[int, bool], Any]:
+        """(frame id, extended) -> cantools Message, for every mapped message."""
+        out = {}
+        for ref in self.roles.values():
+            m = self.db.get_message_by_name(ref.message)
+            out[(m.frame_id, bool(m.is_extended_frame))] = m
+        return out
+
+    @property
+    def seq_bits(self) -> int:
+        ref = self.roles.get("seq")
+        return 0 if ref is None else int(self._signal("seq", ref).length)
+
+
+def load_signal_map(path: str | Path) -> SignalMap:
+    """Read a signal map (TOML, module docstring) and the DBC it names."""
+    path = Path(path)
+    try:
+        doc = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no such signal map: {path}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: not a TOML signal map ({exc})") from None
+    if doc.get("schema") != SCHEMA or doc.get("version") != 1:
+        raise ValueError(f"{path}: expected schema = \"{SCHEMA}\" and version = 1")
+    dbc = doc.get("dbc")
+    if not isinstance(dbc, str):
+        raise ValueError(f"{path}: dbc: missing (the DBC file, relative to the map)")
+    dbc_path = (path.parent / dbc).resolve()
+    try:
+        db = cantools.database.load_file(str(dbc_path), database_format="dbc")
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{path}: dbc: no such file {dbc_path}") from None
+    except (cantools.database.UnsupportedDatabaseFormatError, ValueError) as exc:
+        raise ValueError(f"{path}: dbc: cannot load {dbc_path}: {exc}") from None
+    known = {"schema", "version", "dbc", "channels", "factors", "sequence", "timestamp"}
+    extra = sorted(set(doc) - known)
+    if extra:
+        raise ValueError(f"{path}: unknown key {extra[0]!r}")
+    chans = doc.get("channels", {})
+    factors = doc.get("factors", {})
+    bad = sorted((set(chans) | set(factors)) - set(CHANNEL_ROLES))
+    if bad:
+        raise ValueError(f"{path}: unknown channel {bad[0]!r} (use {', '.join(CHANNEL_ROLES)})")
+
+    def ref(key: str, text: object, factor: object = 1.0) -> SignalRef:
+        if not isinstance(text, str) or text.count(".") != 1:
+            raise ValueError(f"{path}: {key}: expected \"MESSAGE.SIGNAL\", got {text!r}")
+        if not isinstance(factor, int | float) or isinstance(factor, bool):
+            raise ValueError(f"{path}: factors.{key}: expected a number")
+        msg, sig = text.split(".")
+        return SignalRef(msg, sig, float(factor))
+
+    roles = {r: ref(f"channels.{r}", chans.get(r), factors.get(r, 1.0)) for r in CHANNEL_ROLES
+             if r in chans}
+    if "sequence" in doc:
+        roles["seq"] = ref("sequence.signal", doc["sequence"].get("signal"))
+    if "timestamp" in doc:
+        unit = doc["timestamp"].get("unit", "us")
+        if unit not in TIME_UNITS:
+            raise ValueError(f"{path}: timestamp.unit: expected one of {', '.join(TIME_UNITS)}")
+        roles["time"] = ref("timestamp.signal", doc["timestamp"].get("signal"),
+                            TIME_UNITS[unit])
+    return SignalMap(db, roles, str(path))
+
+
+# --- the decode table for C++ -------------------------------------------------------------
+
+
+def decode_table(smap: SignalMap) -> list[dict[str, Any]]:
+    """One entry per role: everything the C++ decoder needs, taken from cantools' parse of
+    the DBC (bit position in DBC numbering, byte order, value type, scale, offset, the
+    multiplexer selector's field and value)."""
+    rows = []
+    for role in ROLES:
+        ref = smap.roles.get(role)
+        if ref is None:
+            continue
+        msg = smap.db.get_message_by_name(ref.message)
+        sig = msg.get_signal_by_name(ref.signal)
+        if sig.is_float:
+            vtype = {32: "f32", 64: "f64"}.get(sig.length)
+            if vtype is None:
+                raise ValueError(f"{smap.source}: {role}: float signal of {sig.length} bits")
+        else:
+            vtype = "s" if sig.is_signed else "u"
+        mux = None
+        if sig.multiplexer_signal is not None:
+            ms = msg.get_signal_by_name(sig.multiplexer_signal)
+            mux = {"start": ms.start, "length": ms.length,
+                   "order": "le" if ms.byte_order == "little_endian" else "be",
+                   "value": int(sig.multiplexer_ids[0])}
+        rows.append({
+            "role": role, "id": int(msg.frame_id), "extended": bool(msg.is_extended_frame),
+            "dlc": int(msg.length), "start": int(sig.start), "length": int(sig.length),
+            "order": "le" if sig.byte_order == "little_endian" else "be", "type": vtype,
+            "scale": float(sig.scale), "offset": float(sig.offset), "factor": ref.factor,
+            "mux": mux, "message": msg.name, "signal": sig.name,
+        })
+    return rows
+
+
+def decode_table_text(smap: SignalMap) -> str:
+    """The decode table as the text file `gyrodrift-loop --can-signals FILE` reads (and
+    can_signal_decode.hpp's parse_signal_line parses): one entry per line,
+
+        ROLE ID EXT DLC START LENGTH ORDER TYPE SCALE OFFSET FACTOR MUX
+
+    ID hex, EXT 0/1, ORDER le|be, TYPE u|s|f32|f64, numbers in repr() form (they round-trip
+    exactly through strtod), MUX '-' or START:LENGTH:ORDER:VALUE. '#' starts a comment."""
+    lines = [TABLE_HEADER,
+             f"# generated from {Path(smap.source).name or 'a signal map'} by "
+             "gyrodrift.codecs.can_signals.decode_table_text",
+             "# role id ext dlc start length order type scale offset factor mux"]
+    for e in decode_table(smap):
+        mux = "-" if e["mux"] is None else \
+            f"{e['mux']['start']}:{e['mux']['length']}:{e['mux']['order']}:{e['mux']['value']}"
+        lines.append(f"{e['role']} {e['id']:#x} {int(e['extended'])} {e['dlc']} {e['start']} "
+                     f"{e['length']} {e['order']} {e['type']} {e['scale']!r} {e['offset']!r} "
+                     f"{e['factor']!r} {mux}  # {e['message']}.{e['signal']}")
+    return "\n".join(lines) + "\n"
+
+
+def write_decode_table(smap: SignalMap, path: str | Path) -> Path:
+    path = Path(path)
+    path.write_text(decode_table_text(smap))
+    return path
+
+
+# --- assembly (the Python twin of SignalSampleAssembler in can_signal_decode.hpp) ----------
+
+
+@dataclass
+class SignalSample:
+    seq: int  # 16-bit sequence (the unwrapped counter, or a running count without one)
+    t_us: int | None  # the IMU's own time when mapped
+    values: tuple[float, ...]  # gx gy gz (rad/s), ax ay az (m/s^2), as float (float64)
+
+
+@dataclass
+class SignalRxStats:
+    frames_in: int = 0
+    frames_used: int = 0
+    frames_dropped: int = 0
+    foreign_frames: int = 0
+    ignored_frames: int = 0
+    bad_dlc: int = 0
+    complete_samples: int = 0
+    incomplete_samples: int = 0
+
+
+@dataclass
+class SignalSampleAssembler:
+    """Samples from frames decoded with cantools by a user's DBC (rules: module docstring)."""
+
+    smap: SignalMap
+    stats: SignalRxStats = field(default_factory=SignalRxStats)
+    _filled: dict[str, float] = field(default_factory=dict)
+    _held: int = 0
+    _seq16: int = 0
+    _last_counter: int | None = None
+    _count: int = 0
+
+    def __post_init__(self) -> None:
+        self._messages = self.smap.messages
+        self._needed = set(self.smap.roles)
+        self._by_message: dict[str, list[tuple[str, SignalRef]]] = {}
+        for role, ref in self.smap.roles.items():
+            self._by_message.setdefault(ref.message, []).append((role, ref))
+
+    @property
+    def pending_frames(self) -> int:
+        return self._held
+
+    def is_mapped(self, msg: can.Message) -> bool:
+        return (msg.arbitration_id, bool(msg.is_extended_id)) in self._messages
+
+    def push(self, msg: can.Message) -> SignalSample | None:
+        st = self.stats
+        st.frames_in += 1
+        m = self._messages.get((msg.arbitration_id, bool(msg.is_extended_id)))
+        if m is None or msg.is_remote_frame or msg.is_error_frame:
+            st.foreign_frames += 1
+            return None
+        data = bytes(msg.data)
+        if len(data) < m.length:
+            st.bad_dlc += 1
+            st.frames_dropped += 1
+            return None
+        try:
+            sig = m.decode(data, decode_choices=False, scaling=True)
+        except cantools.database.DecodeError:
+            sig = {}  # a multiplexer value the DBC does not define: nothing mapped in it
+        got = {role: float(sig[ref.signal]) * ref.factor
+               for role, ref in self._by_message[m.name] if ref.signal in sig}
+        if not got:
+            st.ignored_frames += 1
+            return None
+        if any(r in self._filled for r in got):
+            self._drop()
+        self._filled.update(got)
+        self._held += 1
+        if not self._needed.issubset(self._filled):
+            return None
+        out = self._emit()
+        st.frames_used += self._held
+        st.complete_samples += 1
+        self._filled = {}
+        self._held = 0
+        return out
+
+    def _emit(self) -> SignalSample:
+        f = self._filled
+        if "seq" in f:
+            counter = int(f["seq"])
+            if self._last_counter is None:
+                self._seq16 = counter & 0xFFFF
+            else:
+                step = (counter - self._last_counter) % (1 << self.smap.seq_bits)
+                self._seq16 = (self._seq16 + step) & 0xFFFF
+            self._last_counter = counter
+            seq = self._seq16
+        else:
+            seq = self._count & 0xFFFF
+        self._count += 1
+        t_us = None
+        if "time" in f:
+            t = f["time"]
+            t_us = math.floor(t + 0.5) if math.isfinite(t) and t >= 0 else 0
+        return SignalSample(seq, t_us, tuple(f[r] for r in CHANNEL_ROLES))
+
+    def _drop(self) -> None:
+        if self._held:
+            self.stats.incomplete_samples += 1
+            self.stats.frames_dropped += self._held
+        self._filled = {}
+        self._held = 0
+
+    def finish(self) -> None:
+        """End of stream: a partial sample is counted as incomplete."""
+        self._drop()
