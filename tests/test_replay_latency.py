@@ -106,3 +106,20 @@ def test_refused_realtime_is_reported(monkeypatch: pytest.MonkeyPatch,
     assert rt["sender"].startswith("refused: ") and "not permitted" in rt["sender"], rt
     assert rt["receiver"].startswith("refused: "), rt
     assert res.ok
+
+
+def test_socketpair_local_link(cpp_build_dir: Path) -> None:
+    # The diagnostic link of bench_replay --stress-cpu: the same replay without a tty.
+    n, rate = 300, 400.0
+    rng = np.random.default_rng(9)
+    samples = make_samples(np.arange(n) / rate, rng.normal(0, 1e-4, (n, 3)),
+                           rng.normal(0, 1e-2, (n, 3)))
+    res = run_replay(samples, ReplayOptions(
+        transport="serial", speed=4.0, loop_rate_hz=2000.0, local_link="socketpair",
+        loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
+        processor=ProcessorSettings(sample_rate_hz=rate)))
+    assert res.ok, {k: v for k, v in res.report["checks"].items() if not v}
+    assert res.report["device"].startswith("socketpair fd:")
+    assert res.report["accounting"]["outputs_received"] == n
+    with pytest.raises(ValueError, match="serial transport only"):
+        ReplayOptions(transport="slcan", local_link="socketpair")

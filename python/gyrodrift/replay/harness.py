@@ -14,6 +14,7 @@ import os
 import shutil
 import signal
 import subprocess
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -52,6 +53,7 @@ LOOP_RELATIVE = Path("cpp") / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
 # SCHED_FIFO priority of the harness's sender and receiver threads: below the loop's 80
 # (cpp/programs/gyrodrift-loop), above everything SCHED_OTHER (a CPU hog like stress-ng).
 HARNESS_RT_PRIORITY = 70
+HARNESS_SWITCH_INTERVAL_S = 1e-4  # GIL hand-over bound while the harness runs real time
 # An SLCAN line for one standard 8-byte frame: "t" + 3 id + 1 dlc + 16 hex + CR.
 SLCAN_LINE_BYTES = 22
 
@@ -106,6 +108,9 @@ class ReplayOptions:
     settle_s: float = 1.0  # stop waiting after this long without new output
     timeout_s: float = 0.0  # 0: record duration / speed + 30 s
     batch_frames: int = 256  # as-fast-as-possible: serial frames per write
+    # The local link to a started loop: "pty" (a tty, as a real serial port) or "socketpair"
+    # (serial only; bypasses the kernel's tty layer, to tell its delays from the harness's).
+    local_link: str = "pty"
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
@@ -115,6 +120,10 @@ class ReplayOptions:
         if self.transport == "socketcan" and self.attach is None:
             raise ValueError("socketcan replays attach to a running target on a real "
                              "interface: pass attach='can0'")
+        if self.local_link not in ("pty", "socketpair"):
+            raise ValueError(f"local_link must be 'pty' or 'socketpair', got {self.local_link!r}")
+        if self.local_link == "socketpair" and self.transport != "serial":
+            raise ValueError("local_link='socketpair' carries the serial transport only")
         if self.baud <= 0 or self.can_bitrate <= 0:
             raise ValueError("baud and can_bitrate must be > 0")
 
@@ -189,7 +198,7 @@ class _Target:
         if self.opt.attach is not None:
             return
         binary = find_loop_binary(self.opt.loop_binary)
-        self.pty = PtyPair.open()
+        self.pty = PtyPair.open() if self.opt.local_link == "pty" else PtyPair.open_socketpair()
         mode = "--serial" if self.opt.transport == "serial" else "--slcan"
         args = [str(binary), mode, f"fd:{self.pty.master_fd}", "--baud", str(self.opt.baud),
                 "--rate-hz", repr(float(self.opt.loop_rate_hz)), *self.opt.processor.loop_args()]
@@ -275,6 +284,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     # itself, so a refusal is reported per thread and nothing else inherits the policy.
     rt_prio = HARNESS_RT_PRIORITY if opt.harness_realtime else None
     harness_rt = {"sender": "not requested", "receiver": "not requested"}
+    switch_interval_s = sys.getswitchinterval()
     try:
         if opt.transport == "serial":
             link = SerialLink(target.device, opt.baud, realtime_priority=rt_prio)
@@ -283,6 +293,11 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                            tty_baud=opt.baud, realtime_priority=rt_prio)
         if rt_prio is not None:
             harness_rt["sender"] = set_thread_realtime(rt_prio)
+            # Sender and receiver share one GIL: a receiver woken by an output would wait up
+            # to the switch interval (5 ms by default) for the sender to let go of it.
+            sys.setswitchinterval(HARNESS_SWITCH_INTERVAL_S)
+        # A SCHED_FIFO sender wakes from an OS sleep within tens of us: spin less.
+        spin_ns = 50_000 if harness_rt["sender"].startswith("SCHED_FIFO") else 200_000
         wire_ns = _unit_wire_time_ns(opt) if opt.pace_link else 0
         t_rec = np.array([u.t_s for u in plan.units], dtype=np.float64)
         t0 = time.perf_counter_ns() + 20_000_000  # 20 ms to settle
@@ -294,7 +309,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
             for k in range(n_units):
                 # The unit is complete at the receiver when its last bit has arrived.
                 ready_ns = max(int(due[k]), link_free) + wire_ns
-                sleep_until_ns(ready_ns)
+                sleep_until_ns(ready_ns, spin_ns)
                 # Latency starts before the first byte leaves: stamped after the call, a
                 # preempted sender would stamp after the reply arrived (negative latency).
                 write_ns[k] = time.perf_counter_ns()
@@ -332,6 +347,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
             link.close()
         if opt.harness_realtime:
             set_thread_normal()
+            sys.setswitchinterval(switch_interval_s)
         loop_stats = target.stop()
         if link is not None:
             harness_rt["receiver"] = link.receiver_realtime
@@ -505,7 +521,7 @@ def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, 
     report: dict[str, Any] = {
         "ok": all(checks.values()),
         "transport": opt.transport,
-        "device": target.device if opt.attach else f"pty {target.device}",
+        "device": target.device if opt.attach else f"{opt.local_link} {target.device}",
         "speed": "as fast as possible" if opt.speed == 0 else f"{opt.speed:g}x",
         "baud": opt.baud,
         "can_bitrate": opt.can_bitrate if opt.can else None,

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import select
+import socket
 import threading
 import time
 import tty
@@ -39,6 +40,15 @@ class PtyPair:
         master, slave = os.openpty()
         tty.setraw(slave)
         return cls(master, slave, os.ttyname(slave))
+
+    @classmethod
+    def open_socketpair(cls) -> PtyPair:
+        """A connected AF_UNIX stream pair instead of a pty (diagnostics only): the bytes do
+        not pass through the kernel's tty layer, whose flip-buffer work runs at normal
+        priority. The harness side is named "fd:N" (SerialLink opens it without pyserial)."""
+        a, b = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        master, slave = a.detach(), b.detach()
+        return cls(master, slave, f"fd:{slave}")
 
     def close_master(self) -> None:
         if self.master_fd >= 0:
@@ -94,10 +104,16 @@ class SerialLink:
     says what it got)."""
 
     def __init__(self, path: str, baud: int, *, realtime_priority: int | None = None) -> None:
-        try:
-            self.port = serial.Serial(path, baudrate=baud, timeout=0, write_timeout=None)
-        except (serial.SerialException, ValueError) as exc:
-            raise OSError(f"cannot open serial device {path!r} at {baud} baud: {exc}") from exc
+        self.port: serial.Serial | None = None
+        self._fd = -1
+        if path.startswith("fd:"):  # an already open descriptor (PtyPair.open_socketpair)
+            self._fd = int(path[3:])
+        else:
+            try:
+                self.port = serial.Serial(path, baudrate=baud, timeout=0, write_timeout=None)
+            except (serial.SerialException, ValueError) as exc:
+                raise OSError(f"cannot open serial device {path!r} at {baud} baud: {exc}"
+                              ) from exc
         self.capture = Capture()
         self.bytes_sent = 0
         self.realtime_priority = realtime_priority
@@ -107,13 +123,18 @@ class SerialLink:
         self._thread.start()
 
     def write(self, data: bytes) -> None:
-        self.port.write(data)  # blocks until the kernel took it all (write_timeout=None)
+        if self.port is not None:
+            self.port.write(data)  # blocks until the kernel took it all (write_timeout=None)
+        else:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(self._fd, view):]
         self.bytes_sent += len(data)
 
     def _read_loop(self) -> None:
         if self.realtime_priority is not None:
             self.receiver_realtime = set_thread_realtime(self.realtime_priority)
-        fd = self.port.fileno()
+        fd = self.port.fileno() if self.port is not None else self._fd
         chunks = self.capture.chunks
         try:
             while not self._stop.is_set():
@@ -133,7 +154,8 @@ class SerialLink:
     def close(self) -> None:
         self._stop.set()
         self._thread.join(timeout=2.0)
-        self.port.close()
+        if self.port is not None:
+            self.port.close()  # (an "fd:N" descriptor belongs to its PtyPair)
 
 
 class CanLink:
