@@ -13,8 +13,8 @@
    (the default, like the loop) and once without (`harness_realtime=False`), so the effect
    of the real-time treatment is measured side by side; and a third time over a socketpair
    instead of the pty, to separate the kernel's tty layer (its flip-buffer work runs at
-   normal priority, competing with stress-ng) from the harness and the loop. Goal: 0 lost, latency p99 <= 2 ms,
-   loop period jitter p99 <= 200 us.
+   normal priority, competing with stress-ng) from the harness and the loop.
+   Goal: 0 lost, latency p99 <= 2 ms, loop period jitter p99 <= 200 us.
 
 Set-up for part 3 (only this benchmark needs it, not the tests): stress-ng, from Debian
 (`apt-get install -y stress-ng`); the benchmark refuses `--stress-cpu` without it and says
