@@ -340,11 +340,9 @@ struct SignalSample {
 template <std::size_t MaxEntries = kSignalRoles, class Scalar = double>
 class SignalSampleAssembler {
  public:
+  // Keeps a reference to the table (which may be filled after construction).
   explicit SignalSampleAssembler(const SignalTable<MaxEntries>& table) noexcept
-      : table_(table) {
-    const SignalEntry* s = table_.find(SignalRole::kSeq);
-    seq_bits_ = s != nullptr ? s->field.length : 0U;
-  }
+      : table_(table) {}
 
   // True (and out filled) when this frame completed a sample.
   bool push(const CanFrame& f, SignalSample& out) noexcept {
@@ -432,13 +430,15 @@ class SignalSampleAssembler {
   }
 
   void emit(SignalSample& out) noexcept {
-    if (seq_bits_ != 0U) {
+    const SignalEntry* seq_entry = table_.find(SignalRole::kSeq);
+    if (seq_entry != nullptr) {
+      const unsigned seq_bits = seq_entry->field.length;
       const auto counter = static_cast<std::uint64_t>(pending_ints_[0]);
       if (!have_counter_) {
         seq16_ = static_cast<std::uint16_t>(counter & 0xFFFFU);
         have_counter_ = true;
       } else {
-        const std::uint64_t mask = (std::uint64_t{1} << seq_bits_) - 1U;
+        const std::uint64_t mask = (std::uint64_t{1} << seq_bits) - 1U;
         const std::uint64_t step = (counter - last_counter_) & mask;  // modulo 2^width
         seq16_ = static_cast<std::uint16_t>((seq16_ + step) & 0xFFFFU);
       }
@@ -465,7 +465,6 @@ class SignalSampleAssembler {
   std::array<double, 2> pending_ints_{};  // seq, time
   std::uint32_t filled_ = 0;
   std::uint64_t held_ = 0;
-  unsigned seq_bits_ = 0;
   bool have_counter_ = false;
   std::uint64_t last_counter_ = 0;
   std::uint16_t seq16_ = 0;

@@ -29,6 +29,8 @@
 #include <string>
 
 #include <gyrodrift/can_frames.hpp>
+
+#include "can_signal_input.hpp"  // --can-signals FILE (issue 13)
 #include <gyrodrift/serial_frame.hpp>
 #include <gyrodrift/slcan.hpp>
 
@@ -60,6 +62,7 @@ struct Options {
   double idle_exit_s = 0.0;  // 0: never (exit on EOF or signal)
   double duration_s = 0.0;   // 0: unlimited
   std::string stats_path;
+  std::string can_signals_path;  // --can-signals: decode CAN input through a user DBC table
   gyrodrift::loop::ProcessingOptions proc;
 };
 
@@ -76,6 +79,8 @@ void usage(std::FILE* f) {
       "  --idle-exit-s S       exit after S seconds without input (default: never)\n"
       "  --duration-s S        exit after S seconds (default: never)\n"
       "  --stats-json PATH     also write the final statistics to PATH\n"
+      "  --can-signals FILE    CAN input in a user's DBC layout: the decode table generated\n"
+      "                        from it (gyrodrift.codecs.can_signals.decode_table_text)\n"
       "processor (ImuProcessor<float>; the same settings go to the Python reference):\n"
       "  --gyro-filter F       ar2_kalman (default) | bias_removal | pass_through\n"
       "  --accel-filter F      pass_through (default) | bias_removal | ar2_kalman\n"
@@ -198,6 +203,9 @@ bool parse_args(int argc, char** argv, Options& o, std::string& err) {
     } else if (a == "--stats-json") {
       if ((v = need("--stats-json")) == nullptr) return false;
       o.stats_path = v;
+    } else if (a == "--can-signals") {
+      if ((v = need("--can-signals")) == nullptr) return false;
+      o.can_signals_path = v;
     } else {
       err = "unknown argument '" + a + "'";
       return false;
@@ -205,6 +213,10 @@ bool parse_args(int argc, char** argv, Options& o, std::string& err) {
   }
   if (modes != 1) {
     err = "give exactly one of --serial, --slcan, --socketcan";
+    return false;
+  }
+  if (!o.can_signals_path.empty() && o.mode == Mode::kSerial) {
+    err = "--can-signals applies to --slcan and --socketcan input";
     return false;
   }
   if (!(o.rate_hz >= 1.0 && o.rate_hz <= 2000.0)) {
@@ -291,6 +303,7 @@ OutQueue<(1U << 21)> g_out;
 gser::SerialFrameParser<8192> g_serial_parser;
 gslcan::SlcanParser<> g_slcan_parser;
 gcan::CanSampleAssembler<8> g_can_rx(gcan::kInputBaseId);
+gyrodrift::loop::UserCanInput g_user_can;  // active with --can-signals
 gyrodrift::loop::Processing g_proc;
 Counters g_c;
 
@@ -377,15 +390,28 @@ void handle_sample(const gser::ImuFrame& in, Emit&& emit) noexcept {
 }
 
 void handle_can_frame(const gcan::CanFrame& f, Mode mode, int fd) noexcept {
-  gcan::CanSample s;
-  if (!g_can_rx.push(f, s)) return;
   gser::ImuFrame in;
   in.type = gser::kTypeInput;
-  in.seq = s.seq;
-  in.flags = s.flags;
-  in.values = s.values;
-  const std::int64_t k = g_unwrap.push(s.seq);
-  in.t_us = k <= 0 ? 0U : static_cast<std::uint64_t>(std::llround(static_cast<double>(k) * 1e6 / g_proc.options().sample_rate_hz));
+  bool has_time = false;
+  if (g_user_can.active()) {  // a user's DBC layout (--can-signals)
+    gcan::SignalSample s;
+    if (!g_user_can.push(f, s)) return;
+    in.seq = s.seq;
+    in.flags = 0;
+    in.values = s.values;
+    in.t_us = s.t_us;
+    has_time = s.has_time;
+  } else {
+    gcan::CanSample s;
+    if (!g_can_rx.push(f, s)) return;
+    in.seq = s.seq;
+    in.flags = s.flags;
+    in.values = s.values;
+  }
+  const std::int64_t k = g_unwrap.push(in.seq);
+  if (!has_time) {
+    in.t_us = k <= 0 ? 0U : static_cast<std::uint64_t>(std::llround(static_cast<double>(k) * 1e6 / g_proc.options().sample_rate_hz));
+  }
   if (mode == Mode::kSlcan) handle_sample(in, emit_slcan);
   else handle_sample(in, [fd](const gser::ImuFrame& o) { emit_socketcan(fd, o); });
 }
@@ -545,6 +571,17 @@ void write_stats(std::FILE* f, const Options& o, const RtStatus& rt, const char*
     field("garbage_bytes", s.garbage_bytes);
     field("overflow_bytes", s.overflow_bytes);
     field("wrong_type", g_c.wrong_type);
+  } else if (g_user_can.active()) {
+    const auto& s = g_user_can.stats();
+    field("can_incomplete", s.incomplete_samples);
+    field("can_bad_dlc", s.bad_dlc);
+    field("can_foreign_frames", s.foreign_frames);
+    field("can_ignored_frames", s.ignored_frames);
+    field("can_frames_dropped", s.frames_dropped);
+    if (o.mode == Mode::kSlcan) {
+      field("slcan_malformed", g_slcan_parser.stats().malformed);
+      field("slcan_overlong", g_slcan_parser.stats().overlong);
+    }
   } else {
     const auto& s = g_can_rx.stats();
     field("can_incomplete", s.incomplete_samples);
@@ -565,11 +602,15 @@ void write_stats(std::FILE* f, const Options& o, const RtStatus& rt, const char*
   std::fputs("},\n", f);
   if (o.mode != Mode::kSerial) {
     const auto& s = g_can_rx.stats();
+    const auto& u = g_user_can.stats();
+    const bool user = g_user_can.active();
     std::fprintf(f, "  \"can\": {\"frames_in\": %" PRIu64 ", \"frames_used\": %" PRIu64
                     ", \"complete_samples\": %" PRIu64 ", \"slcan_lines\": %" PRIu64
-                    ", \"slcan_commands\": %" PRIu64 ", \"slcan_replies\": %" PRIu64 "},\n",
-                 s.frames_in, s.frames_used, s.complete_samples, g_slcan_parser.stats().lines,
-                 g_slcan_parser.stats().commands, g_c.slcan_replies);
+                    ", \"slcan_commands\": %" PRIu64 ", \"slcan_replies\": %" PRIu64
+                    ", \"user_dbc\": %s},\n",
+                 user ? u.frames_in : s.frames_in, user ? u.frames_used : s.frames_used,
+                 user ? u.complete_samples : s.complete_samples, g_slcan_parser.stats().lines,
+                 g_slcan_parser.stats().commands, g_c.slcan_replies, user ? "true" : "false");
   }
   std::fputs("  \"health\": {", f);
   first = true;
@@ -593,6 +634,10 @@ int main(int argc, char** argv) {
   if (!parse_args(argc, argv, o, err)) {
     std::fprintf(stderr, "gyrodrift-loop: error: %s\n", err.c_str());
     usage(stderr);
+    return 2;
+  }
+  if (!o.can_signals_path.empty() && !g_user_can.load(o.can_signals_path, err)) {
+    std::fprintf(stderr, "gyrodrift-loop: error: %s\n", err.c_str());
     return 2;
   }
   int fd = -1;
@@ -707,6 +752,7 @@ int main(int argc, char** argv) {
     }
   }
   if (o.mode == Mode::kSerial) g_serial_parser.finish();
+  else if (g_user_can.active()) g_user_can.finish();
   else g_can_rx.finish();
   const double elapsed_s = static_cast<double>(now_ns() - start) * 1e-9;
   write_stats(stdout, o, rt, end_reason, elapsed_s);
