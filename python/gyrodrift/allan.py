@@ -34,6 +34,8 @@ import numpy as np
 import scipy.stats
 from tqdm import tqdm
 
+from gyrodrift import _native
+
 __all__ = [
     "ONE_SIGMA_CI",
     "AllanResult",
@@ -46,14 +48,8 @@ __all__ = [
 ]
 
 def _lib() -> Any:
-    """gyrodrift._core, imported on first use so `import gyrodrift` works without it."""
-    try:
-        from gyrodrift import _core
-    except ImportError as exc:  # pragma: no cover - depends on the build
-        raise ImportError("gyrodrift._core (the C++ extension) is not built") from exc
-    if not hasattr(_core, "oadev_sigma2"):
-        raise ImportError("gyrodrift._core was built without the 'allan' binding area")
-    return _core
+    """gyrodrift._core (allan area), imported on first use."""
+    return _native.core("allan", "oadev_sigma2")
 
 
 #: Probability of the 1-sigma two-sided interval, erf(1/sqrt(2)).

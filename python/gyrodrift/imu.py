@@ -13,6 +13,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift import _native
+
 CHANNELS = 6
 FILTERS = ("pass_through", "bias_removal", "ar2_kalman", "wavelet")
 
@@ -194,7 +196,7 @@ class ImuProcessor:
         dtype: npt.DTypeLike = np.float64,
         wavelet: WaveletSettings | None = None,
     ) -> None:
-        from gyrodrift import _core  # the compiled module; imported late for clear errors
+        _core = _native.core("imu", "ImuProcessor")
 
         config.validate()
         self.dtype = np.dtype(dtype)
