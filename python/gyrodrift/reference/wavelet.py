@@ -97,9 +97,11 @@ def realtime_wavelet(
 
 
 def forced_fir_taps(wavelet: str, window: int, level: int) -> np.ndarray:
-    """Forced-mode taps, oldest first, by linearity: the response to each unit window."""
+    """Forced-mode taps, newest first (the package's one order, gyrodrift.fir), by linearity:
+    b[i] is the output for a window holding 1 at age i (i samples before the newest)."""
     eye = np.eye(window)
-    return np.array([realtime_window(eye[i], wavelet, level, "forced") for i in range(window)])
+    return np.array([realtime_window(eye[window - 1 - i], wavelet, level, "forced")
+                     for i in range(window)])
 
 
 # ---------------------------------------------------------------------------------------------
