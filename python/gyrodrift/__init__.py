@@ -22,6 +22,7 @@ from gyrodrift.ar2 import KalmanFilter as KalmanFilter
 from gyrodrift.ar2 import ar_filter as ar_filter
 from gyrodrift.ar2 import fit_ar2 as fit_ar2
 from gyrodrift.ar2 import kalman_filter as kalman_filter
+from gyrodrift.fir import forced_fir_taps as forced_fir_taps
 from gyrodrift.simulate import GyroRecord as GyroRecord
 from gyrodrift.simulate import ImuRecord as ImuRecord
 from gyrodrift.simulate import NoiseTerms as NoiseTerms
@@ -30,7 +31,6 @@ from gyrodrift.simulate import simulate_imu as simulate_imu
 
 # --- wavelets (issue 3) ---
 from gyrodrift.wavelet import RealtimeWavelet as RealtimeWavelet
-from gyrodrift.wavelet import forced_fir_taps as forced_fir_taps
 from gyrodrift.wavelet import wavelet_denoise as wavelet_denoise
 from gyrodrift.wavelet_packet import best_basis as best_basis
 from gyrodrift.wavelet_packet import wavelet_packet_denoise as wavelet_packet_denoise
