@@ -177,7 +177,8 @@ def load_record(
                 values.dtype, np.integer):
             raise ValueError(f"{source}: expected numbers, got dtype {values.dtype}")
         if rate_hz is None:
-            raise ValueError(f"{source}: a .npy record carries no sample rate; give --rate-hz (rate_hz=)")
+            raise ValueError(f"{source}: a .npy record carries no sample rate; "
+                             "give --rate-hz (rate_hz=)")
         n_total = int(values.shape[0])
         keep_mapped = (isinstance(values, np.memmap) and units == "deg/h"
                        and values.dtype == np.float64)
@@ -211,7 +212,8 @@ def load_record(
             t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")),
                          None)
             if t_idx is None:
-                raise ValueError(f"{source}: no t_s/time column to infer the rate; give --rate-hz (rate_hz=)")
+                raise ValueError(f"{source}: no t_s/time column to infer the rate; "
+                                 "give --rate-hz (rate_hz=)")
             rate_hz = _rate_from_time(table[:, t_idx], source)
         x = to_deg_h(values, units, rate_hz)
         x, dropped = _apply_nan_policy(x, nan_policy, source)
