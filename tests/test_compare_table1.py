@@ -10,13 +10,6 @@ import pytest
 from gyrodrift import allan, compare, noise_id
 
 
-def test_published_rows_are_the_papers() -> None:
-    # Transcribed from paper 000, Table 1 (checked by hand against the text).
-    assert compare.PAPER_TABLE1["original"] == (0.0035, 0.0012, 0.0794, 0.0962)
-    assert compare.PAPER_TABLE1["AR(2)-Kalman"] == (4.9429e-4, 1.6080e-4, 0.0069, 0.0113)
-    assert compare.PAPER_AR2 == (-0.0340, 0.0252)
-
-
 def test_default_rate_solves_the_variance_budget() -> None:
     fs = compare.default_record_rate_hz()
     # var = gamma N'^2 fs + 2 Q^2 fs^2 must equal STD^2 (module docstring), from scratch:

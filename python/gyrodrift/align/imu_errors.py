@@ -15,7 +15,7 @@ interpolation between neighbouring increments).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,10 +36,6 @@ class ImuErrors:
     vrw_ug_rt_hz: float = 10.0  # accelerometer white noise density, ug/sqrt(Hz)
     accel_lsb_m_s: float = 0.0  # pulse quantization of the velocity increments (0 = off)
     timing_offset_samples: float = 0.0  # accelerometer lag behind the gyro, samples in [0, 1]
-    extra: dict[str, float] = field(default_factory=dict)
-
-    def with_(self, **kw: object) -> ImuErrors:
-        return replace(self, **kw)
 
 
 def _pulse_quantize(inc: np.ndarray, lsb: float) -> np.ndarray:
