@@ -11,6 +11,12 @@ from gyrodrift import _native
 
 from .config import AlignConfig
 
+__all__ = [
+    "coarse_align",
+    "run_alignment",
+    "strapdown_run",
+]
+
 
 def _core() -> Any:  # lazily: the pure-Python references work without the extension
     return _native.core("align", "align_run")

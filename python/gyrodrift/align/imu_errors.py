@@ -22,6 +22,13 @@ import numpy as np
 from gyrodrift.earth import ARCSEC, DPH, DPSH, UG
 from gyrodrift.simulate import simulate
 
+__all__ = [
+    "ImuErrors",
+    "add_imu_errors",
+    "kf_noise_from_samples",
+    "kf_noise_from_spec",
+]
+
 
 @dataclass(frozen=True)
 class ImuErrors:

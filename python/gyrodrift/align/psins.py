@@ -17,6 +17,11 @@ import numpy as np
 
 from gyrodrift.earth import ARCSEC, DEG, UG
 
+__all__ = [
+    "PsinsRecord",
+    "read_psins_imu",
+]
+
 
 @dataclass
 class PsinsRecord:

@@ -17,6 +17,12 @@ from .fast import run_alignment
 from .imu_errors import kf_noise_from_samples
 from .psins import PsinsRecord
 
+__all__ = [
+    "SegmentResult",
+    "align_segments",
+    "consistency_rows",
+]
+
 
 @dataclass
 class SegmentResult:

@@ -28,6 +28,22 @@ from .fast import run_alignment
 from .imu_errors import ImuErrors, add_imu_errors, kf_noise_from_samples, kf_noise_from_spec
 from .trajectory import Scenario, _dcm_vec, imu_increments, scenario, truth_at
 
+__all__ = [
+    "BAND_RAD",
+    "MECHANISMS",
+    "PUBLISHED_RAW_ROW",
+    "PUBLISHED_ROW",
+    "ConfigResult",
+    "StudyConfig",
+    "convergence_time_s",
+    "fmt",
+    "markdown_table",
+    "misalignment_batch",
+    "run_study",
+    "summary_rows",
+    "theory",
+]
+
 BAND_RAD = ARCMIN
 
 

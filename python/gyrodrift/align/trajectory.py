@@ -21,6 +21,15 @@ import numpy as np
 
 from gyrodrift.earth import DEG, earth_params
 
+__all__ = [
+    "SCENARIOS",
+    "Scenario",
+    "Sinusoid",
+    "imu_increments",
+    "scenario",
+    "truth_at",
+]
+
 
 @dataclass
 class Sinusoid:

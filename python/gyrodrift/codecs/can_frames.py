@@ -18,6 +18,17 @@ import cantools
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "FRAMES_PER_SAMPLE",
+    "INPUT_BASE_ID",
+    "OUTPUT_BASE_ID",
+    "CanRxStats",
+    "CanSample",
+    "SampleAssembler",
+    "encode_sample",
+    "load_dbc",
+]
+
 INPUT_BASE_ID = 0x100
 OUTPUT_BASE_ID = 0x180
 FRAMES_PER_SAMPLE = 4

@@ -19,6 +19,19 @@ from collections.abc import Iterator
 import numpy as np
 import pywt
 
+__all__ = [
+    "MAD_TO_SIGMA",
+    "admissible_bases",
+    "best_basis_bruteforce",
+    "forced_fir_taps",
+    "pad_symmetric",
+    "realtime_wavelet",
+    "realtime_window",
+    "shannon_cost",
+    "threshold_value",
+    "wavelet_denoise",
+]
+
 MAD_TO_SIGMA = 0.6745  # median(|N(0,1)|); paper 000 sec. 2.3, Donoho & Johnstone 1994
 
 

@@ -26,6 +26,14 @@ from gyrodrift.codecs.serial_frame import (
     crc16_ccitt_false,
 )
 
+__all__ = [
+    "DecodedStream",
+    "Samples",
+    "decode_stream",
+    "encode_frames",
+    "make_samples",
+]
+
 _SYNC_WORD = bytes((SYNC0, SYNC1))
 
 

@@ -24,6 +24,13 @@ import numpy as np
 from gyrodrift.align.attitude import q2dcm, qmul, qnormalize, rv2q
 from gyrodrift.earth import EARTH_RATE_RAD_S, gravity_m_s2
 
+__all__ = [
+    "InertialCoarseAlign",
+    "earth_rotation_i0_n",
+    "gravity_integral_i0",
+    "triad",
+]
+
 
 def _series_1mcos(x: float) -> float:
     """1 - cos x, cancellation-free for the small angles of alignment (|x| < 0.5)."""

@@ -26,6 +26,10 @@ import numpy as np
 from gyrodrift.align.attitude import skew
 from gyrodrift.earth import EARTH_RATE_RAD_S, GRAVITY_DH_PER_S2, EarthParams
 
+__all__ = [
+    "FineAlignKF",
+]
+
 
 class FineAlignKF:
     def __init__(self, n_states: int, p0_diag: np.ndarray, q_diag: np.ndarray,

@@ -19,6 +19,10 @@ import numpy as np
 from gyrodrift.align.attitude import q2dcm, qmul, qnormalize, rv2q
 from gyrodrift.earth import earth_params
 
+__all__ = [
+    "Strapdown",
+]
+
 
 class Strapdown:
     def __init__(self, q_nb: np.ndarray, vn_m_s: np.ndarray, lat_rad: float, lon_rad: float,
