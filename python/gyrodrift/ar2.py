@@ -157,7 +157,7 @@ def _core() -> Any:
 def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
     """A C-contiguous float32/float64 array (no copy when it already is one)."""
     if dtype is not None:
-        dt = np.dtype(dtype)
+        dt = np.dtype(dtype)  # type: ignore[call-overload]
         if dt not in (np.float32, np.float64):
             raise TypeError(f"dtype must be float32 or float64, got {dt}")
     a = np.asarray(x)
@@ -338,7 +338,7 @@ class KalmanFilter:
     ) -> None:
         if not isinstance(model, Ar2Model):
             raise TypeError(f"model must be an Ar2Model, got {type(model).__name__}")
-        dt = np.dtype(dtype)
+        dt = np.dtype(dtype)  # type: ignore[call-overload]
         if dt not in (np.float32, np.float64):
             raise TypeError(f"dtype must be float32 or float64, got {dt}")
         self.model = model
@@ -379,7 +379,7 @@ class KalmanFilter:
         """Demeaned state estimate (x_k, x_{k-1}) (full filter only; zeros before any step)."""
         if self.steady_state:
             raise AttributeError("state is exposed by the full filter only")
-        return tuple(self._f.state)  # type: ignore[return-value]
+        return tuple(self._f.state)
 
     @property
     def covariance(self) -> np.ndarray:
@@ -402,4 +402,4 @@ class KalmanFilter:
     @property
     def gain(self) -> tuple[float, float] | None:
         """Constant gain of the steady-state variant (None for the full filter)."""
-        return tuple(self._f.gain) if self.steady_state else None  # type: ignore[return-value]
+        return tuple(self._f.gain) if self.steady_state else None

@@ -126,8 +126,11 @@ class NoiseTerms:
 class _TimeBase:
     """dt_s and t_s of a record with `n` samples at `rate_hz` (shared by the record types)."""
 
-    n: int
     rate_hz: float
+
+    @property
+    def n(self) -> int:
+        raise NotImplementedError
 
     @property
     def dt_s(self) -> float:

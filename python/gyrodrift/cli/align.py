@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``align`` subcommand."""
     p = subparsers.add_parser(
         "align", help="SINS alignment Monte Carlo study, mechanism study, real-data consistency",

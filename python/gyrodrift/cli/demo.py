@@ -30,7 +30,7 @@ DEFAULT_TERMS: dict[str, Any] = {
 }
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(subparsers: argparse._SubParsersAction) -> None:
     """Add the ``demo`` subcommand."""
     p = subparsers.add_parser(
         "demo",
@@ -73,7 +73,7 @@ def _allan_numbers(x: np.ndarray, rate_hz: float) -> dict[str, float]:
 
 
 def compute(args: argparse.Namespace) -> dict[str, Any]:
-    from gyrodrift import ar_filter, fit_ar2, kalman_filter, simulate
+    from gyrodrift import Ar2Model, ar_filter, fit_ar2, kalman_filter, simulate
     from gyrodrift.cli import CliError
 
     if not (args.duration_s > 0 and args.rate_hz > 0):
@@ -85,6 +85,7 @@ def compute(args: argparse.Namespace) -> dict[str, Any]:
     dtype = np.float32 if args.float32 else np.float64
     try:
         model = fit_ar2(x, args.method)
+        assert isinstance(model, Ar2Model)  # x is 1-D: one model
         filtered = {
             "AR filter": ar_filter(x, model, dtype=dtype),
             "AR(2)-Kalman": kalman_filter(

@@ -68,6 +68,7 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
     info: dict[str, Any] = {"method": args.method, "core": args.core}
     if args.method in ("ar", "kalman"):
         model = gyrodrift.fit_ar2(x, method=args.ar_method)
+        assert isinstance(model, gyrodrift.Ar2Model)  # x is 1-D: one model
         info["ar2"] = {"a1": model.a1, "a2": model.a2, "sigma2": model.sigma2,
                        "mean": model.mean, "method": args.ar_method}
         if args.method == "ar":

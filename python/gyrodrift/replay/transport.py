@@ -149,7 +149,8 @@ class CanLink:
         injected, since python-can only ever writes well-formed lines."""
         if self.interface != "slcan":
             raise ValueError("raw lines need the slcan interface")
-        port = self.bus.serialPortOrig  # python-can's pyserial port of the slcan bus
+        # python-can's pyserial port of the slcan bus (not in BusABC's type)
+        port = self.bus.serialPortOrig  # type: ignore[attr-defined]
         port.write(line)
         port.flush()
 
