@@ -41,6 +41,8 @@ from typing import Any
 import can
 import cantools
 
+from gyrodrift.errors import GyrodriftValueError
+
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - Python 3.10
@@ -51,6 +53,7 @@ __all__ = [
     "ROLES",
     "TABLE_HEADER",
     "TIME_UNITS",
+    "MapError",
     "SignalMap",
     "SignalRxStats",
     "SignalSample",
@@ -67,6 +70,10 @@ ROLES: tuple[str, ...] = (*CHANNEL_ROLES, "seq", "time")
 TIME_UNITS: dict[str, float] = {"us": 1.0, "ms": 1e3, "s": 1e6}
 TABLE_HEADER = "gyrodrift-can-signals 1"
 SCHEMA = "gyrodrift.can_signals"
+
+
+class MapError(GyrodriftValueError):
+    """A signal map that cannot be used (names the file and the key or signal at fault)."""
 
 
 @dataclass(frozen=True)
@@ -87,38 +94,38 @@ class SignalMap:
     def __post_init__(self) -> None:
         missing = [r for r in CHANNEL_ROLES if r not in self.roles]
         if missing:
-            raise ValueError(f"{self.source}: channels {', '.join(missing)} are not mapped")
+            raise MapError(f"{self.source}: channels {', '.join(missing)} are not mapped")
         for role, ref in self.roles.items():
             if role not in ROLES:
-                raise ValueError(f"{self.source}: unknown role {role!r}")
+                raise MapError(f"{self.source}: unknown role {role!r}")
             sig = self._signal(role, ref)
             if sig.multiplexer_ids is not None and len(sig.multiplexer_ids) != 1:
-                raise ValueError(f"{self.source}: {role}: {ref.message}.{ref.signal} belongs to "
+                raise MapError(f"{self.source}: {role}: {ref.message}.{ref.signal} belongs to "
                                  f"{len(sig.multiplexer_ids)} multiplexer values; map a "
                                  "signal of one page")
             if sig.multiplexer_signal is not None:
                 msg = self.db.get_message_by_name(ref.message)
                 mux = msg.get_signal_by_name(sig.multiplexer_signal)
                 if mux.multiplexer_signal is not None:
-                    raise ValueError(f"{self.source}: {role}: nested multiplexing is not "
+                    raise MapError(f"{self.source}: {role}: nested multiplexing is not "
                                      "supported")
             if not (math.isfinite(ref.factor) and ref.factor != 0):
-                raise ValueError(f"{self.source}: {role}: factor must be finite and non-zero")
+                raise MapError(f"{self.source}: {role}: factor must be finite and non-zero")
             if role == "seq" and (sig.is_float or sig.length > 16 or sig.is_signed
                                   or sig.scale != 1 or sig.offset != 0):
-                raise ValueError(f"{self.source}: seq: {ref.message}.{ref.signal} must be an "
+                raise MapError(f"{self.source}: seq: {ref.message}.{ref.signal} must be an "
                                  "unsigned integer of at most 16 bits with scale 1, offset 0")
 
     def _signal(self, role: str, ref: SignalRef) -> Any:
         try:
             msg = self.db.get_message_by_name(ref.message)
         except KeyError:
-            raise ValueError(f"{self.source}: {role}: no message {ref.message!r} in the DBC"
+            raise MapError(f"{self.source}: {role}: no message {ref.message!r} in the DBC"
                              ) from None
         try:
             return msg.get_signal_by_name(ref.signal)
         except KeyError:
-            raise ValueError(f"{self.source}: {role}: message {ref.message} has no signal "
+            raise MapError(f"{self.source}: {role}: message {ref.message} has no signal "
                              f"{ref.signal!r}") from None
 
     @property
@@ -144,34 +151,34 @@ def load_signal_map(path: str | Path) -> SignalMap:
     except FileNotFoundError:
         raise FileNotFoundError(f"no such signal map: {path}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: not a TOML signal map ({exc})") from None
+        raise MapError(f"{path}: not a TOML signal map ({exc})") from None
     if doc.get("schema") != SCHEMA or doc.get("version") != 1:
-        raise ValueError(f"{path}: expected schema = \"{SCHEMA}\" and version = 1")
+        raise MapError(f"{path}: expected schema = \"{SCHEMA}\" and version = 1")
     dbc = doc.get("dbc")
     if not isinstance(dbc, str):
-        raise ValueError(f"{path}: dbc: missing (the DBC file, relative to the map)")
+        raise MapError(f"{path}: dbc: missing (the DBC file, relative to the map)")
     dbc_path = (path.parent / dbc).resolve()
     try:
         db = cantools.database.load_file(str(dbc_path), database_format="dbc")
     except FileNotFoundError:
         raise FileNotFoundError(f"{path}: dbc: no such file {dbc_path}") from None
     except (cantools.database.UnsupportedDatabaseFormatError, ValueError) as exc:
-        raise ValueError(f"{path}: dbc: cannot load {dbc_path}: {exc}") from None
+        raise MapError(f"{path}: dbc: cannot load {dbc_path}: {exc}") from None
     known = {"schema", "version", "dbc", "channels", "factors", "sequence", "timestamp"}
     extra = sorted(set(doc) - known)
     if extra:
-        raise ValueError(f"{path}: unknown key {extra[0]!r}")
+        raise MapError(f"{path}: unknown key {extra[0]!r}")
     chans = doc.get("channels", {})
     factors = doc.get("factors", {})
     bad = sorted((set(chans) | set(factors)) - set(CHANNEL_ROLES))
     if bad:
-        raise ValueError(f"{path}: unknown channel {bad[0]!r} (use {', '.join(CHANNEL_ROLES)})")
+        raise MapError(f"{path}: unknown channel {bad[0]!r} (use {', '.join(CHANNEL_ROLES)})")
 
     def ref(key: str, text: object, factor: object = 1.0) -> SignalRef:
         if not isinstance(text, str) or text.count(".") != 1:
-            raise ValueError(f"{path}: {key}: expected \"MESSAGE.SIGNAL\", got {text!r}")
+            raise MapError(f"{path}: {key}: expected \"MESSAGE.SIGNAL\", got {text!r}")
         if not isinstance(factor, int | float) or isinstance(factor, bool):
-            raise ValueError(f"{path}: factors.{key}: expected a number")
+            raise MapError(f"{path}: factors.{key}: expected a number")
         msg, sig = text.split(".")
         return SignalRef(msg, sig, float(factor))
 
@@ -182,7 +189,7 @@ def load_signal_map(path: str | Path) -> SignalMap:
     if "timestamp" in doc:
         unit = doc["timestamp"].get("unit", "us")
         if unit not in TIME_UNITS:
-            raise ValueError(f"{path}: timestamp.unit: expected one of {', '.join(TIME_UNITS)}")
+            raise MapError(f"{path}: timestamp.unit: expected one of {', '.join(TIME_UNITS)}")
         roles["time"] = ref("timestamp.signal", doc["timestamp"].get("signal"),
                             TIME_UNITS[unit])
     return SignalMap(db, roles, str(path))
@@ -205,7 +212,7 @@ def decode_table(smap: SignalMap) -> list[dict[str, Any]]:
         if sig.is_float:
             vtype = {32: "f32", 64: "f64"}.get(sig.length)
             if vtype is None:
-                raise ValueError(f"{smap.source}: {role}: float signal of {sig.length} bits")
+                raise MapError(f"{smap.source}: {role}: float signal of {sig.length} bits")
         else:
             vtype = "s" if sig.is_signed else "u"
         mux = None

@@ -48,6 +48,17 @@ from gyrodrift.replay.transport import (
 )
 from gyrodrift.replay.wire import Samples, decode_stream
 
+__all__ = [
+    "LOOP_RELATIVE",
+    "SLCAN_LINE_BYTES",
+    "TRANSPORTS",
+    "ReplayError",
+    "ReplayOptions",
+    "ReplayResult",
+    "find_loop_binary",
+    "run_replay",
+]
+
 TRANSPORTS = ("serial", "slcan", "socketcan")
 LOOP_RELATIVE = Path("cpp") / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
 # SCHED_FIFO priority of the harness's sender and receiver threads: below the loop's 80

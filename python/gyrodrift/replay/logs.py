@@ -17,12 +17,24 @@ import numpy as np
 
 from gyrodrift.codecs import FRAME_SIZE, INPUT_BASE_ID, TYPE_INPUT, SampleAssembler, encode_sample
 from gyrodrift.codecs.can_signals import SignalMap, SignalSampleAssembler, load_signal_map
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.replay.wire import (
     Samples,
     decode_stream,
     encode_frames,
     make_samples,
 )
+
+__all__ = [
+    "CAN_FORMATS",
+    "CSV_COLUMNS",
+    "FORMATS",
+    "SUFFIX_FORMATS",
+    "log_format",
+    "read_imu_log",
+    "write_imu_log",
+    "write_samples",
+]
 
 # Suffix -> format name. "bin" is a plain concatenation of 42-byte input frames, exactly the
 # bytes the IMU puts on its serial line.
@@ -181,7 +193,7 @@ def read_imu_log(path: str | Path, fmt: str | None = None, *,
         raise FileNotFoundError(f"no such log: {path}")
     kind = log_format(path, fmt)
     if signals is not None and kind not in CAN_FORMATS:
-        raise ValueError(f"{path}: a DBC signal map applies to CAN logs "
+        raise GyrodriftValueError(f"{path}: a DBC signal map applies to CAN logs "
                          f"({', '.join(CAN_FORMATS)}), not to {kind}")
     if kind == "bin":
         data = path.read_bytes()
@@ -248,7 +260,7 @@ def _read_can_log(path: Path) -> Samples:
     if rep.unaccounted:  # an internal error, never a property of the input
         raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
     if not seq:
-        raise ValueError(f"{path}: no IMU samples (CAN IDs 0x100..0x103) in the log; "
+        raise GyrodriftValueError(f"{path}: no IMU samples (CAN IDs 0x100..0x103) in the log; "
                          f"{rep.summary()}")
     return Samples(np.asarray(seq, np.uint16), np.asarray(flags, np.uint16),
                    np.round(np.asarray(stamps) * 1e6).astype(np.uint64),
@@ -290,7 +302,7 @@ def _read_can_log_with_map(path: Path, smap: SignalMap) -> Samples:
     if rep.unaccounted:
         raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
     if not seq:
-        raise ValueError(f"{path}: no IMU samples through the signal map {smap.source}; "
+        raise GyrodriftValueError(f"{path}: no IMU samples through the signal map {smap.source}; "
                          f"{rep.summary()}")
     return Samples(np.asarray(seq, np.uint16), np.zeros(len(seq), np.uint16),
                    np.asarray(stamps_us, np.uint64),
