@@ -266,6 +266,7 @@ def test_replay_of_a_vendor_log(rng: np.random.Generator, tmp_path: Path,
     assert "PASS" in out and f"{len(msgs)} frames" in out
     rep = json.loads((tmp_path / "rep" / "report.json").read_text())
     assert rep["accounting"]["outputs_received"] == n
+    assert rep["loop"]["can"]["user_dbc"] is True  # the CAN replay spoke the vendor's DBC
 
 
 def test_loop_decodes_a_user_dbc_over_slcan(smap, rng: np.random.Generator, tmp_path: Path,
@@ -341,3 +342,34 @@ def test_loop_refuses_a_bad_table(tmp_path: Path, cpp_build_dir: Path) -> None:
     r = subprocess.run([str(cpp_build_dir / LOOP_RELATIVE), "--slcan", "fd:0", "--no-rt",
                         "--can-signals", str(bad)], capture_output=True, text=True, timeout=10)
     assert r.returncode == 2 and "bad.cansig:1: bad type" in r.stderr
+
+
+def test_hil_replay_in_the_vendor_layout(rng: np.random.Generator, tmp_path: Path,
+                                         cpp_build_dir: Path) -> None:
+    # The whole chain in the user's DBC: the harness encodes every sample with cantools in
+    # the vendor's frames (rates, accel page, timestamp page), the loop decodes them through
+    # the generated table (--can-signals), filters, and answers in the project's frames; the
+    # outputs must equal the reference processor run on what the loop decoded.
+    n = 200
+    msgs, _ = _frames(n, rng)
+    path = tmp_path / "vendor.blf"
+    with can.Logger(str(path)) as w:
+        for m in msgs:
+            w.on_message_received(m)
+    samples = read_imu_log(path, signals=MAP)
+    res = run_replay(samples, ReplayOptions(
+        transport="slcan", speed=0.0, loop_rate_hz=1000.0, can_signals=str(MAP),
+        loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
+        processor=ProcessorSettings(sample_rate_hz=RATE_HZ)))
+    rep = res.report
+    assert rep["ok"], ({k: v for k, v in rep["checks"].items() if not v}, rep["loop"])
+    assert rep["accounting"]["outputs_received"] == n
+    loop = res.loop_stats
+    assert loop is not None and loop["can"]["user_dbc"] is True
+    assert loop["can"]["frames_in"] == 3 * n == loop["can"]["frames_used"]
+    with pytest.raises(ValueError, match="runs clean"):
+        from gyrodrift.replay.faults import FaultSpec
+
+        ReplayOptions(transport="slcan", can_signals=str(MAP), faults=FaultSpec(drop=0.1))
+    with pytest.raises(ValueError, match="slcan and socketcan"):
+        ReplayOptions(transport="serial", can_signals=str(MAP))

@@ -32,9 +32,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--format", dest="fmt", default=None,
                    help="log format (bin, csv, candump, asc, blf); default from the suffix")
     p.add_argument("--can-signals", default=None, metavar="MAP",
-                   help="read a CAN log with your own DBC: a signal map (TOML naming the DBC "
-                        "and which signals are gx gy gz ax ay az, optional sequence and "
-                        "timestamp; see gyrodrift.codecs.can_signals)")
+                   help="your own DBC: a signal map (TOML naming the DBC and which signals "
+                        "are gx gy gz ax ay az, optional sequence and timestamp; see "
+                        "gyrodrift.codecs.can_signals). The CAN log is read through it, and a "
+                        "CAN replay sends the samples in that DBC's frames")
     p.add_argument("--transport", choices=("serial", "slcan", "socketcan"), default="serial",
                    help="link to the loop: serial frames, SLCAN (CAN over a serial line) or "
                         "SocketCAN (default serial)")
@@ -145,7 +146,10 @@ def run(args: argparse.Namespace) -> int:
                             pace_link=not args.no_link_pacing, loop_rate_hz=args.loop_rate_hz,
                             loop_binary=args.loop_binary, loop_realtime=not args.no_rt,
                             harness_realtime=not args.no_rt,
-                            attach=args.device, faults=faults, processor=proc)
+                            attach=args.device, faults=faults, processor=proc,
+                            # CAN replays then speak the user's DBC to the loop as well
+                            can_signals=args.can_signals if args.transport != "serial"
+                            else None)
     except ValueError as exc:
         raise CliError(str(exc)) from None
     if not 1.0 <= args.loop_rate_hz <= 2000.0:

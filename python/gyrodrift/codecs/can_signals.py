@@ -60,6 +60,7 @@ __all__ = [
     "SignalSampleAssembler",
     "decode_table",
     "decode_table_text",
+    "encode_sample_frames",
     "load_signal_map",
     "write_decode_table",
 ]
@@ -256,6 +257,58 @@ def write_decode_table(smap: SignalMap, path: str | Path) -> Path:
     path = Path(path)
     path.write_text(decode_table_text(smap))
     return path
+
+
+# --- encoding (what a vendor IMU would send; the replay harness uses it) ------------------
+
+
+def encode_sample_frames(smap: SignalMap, seq: int, t_us: int,
+                         values: Any) -> list[can.Message]:
+    """One sample as the frames of the user's DBC, encoded by cantools: each mapped message
+    (each multiplexer page) once, the mapped signals set from the channel values (divided by
+    their factor), the counter as seq modulo its width, the timestamp from t_us; every other
+    signal of the message or page is 0. Integer signals are rounded and clipped to their
+    width (a value the DBC cannot carry is clipped, as the IMU would saturate)."""
+    vals = [float(v) for v in values]
+    if len(vals) != len(CHANNEL_ROLES):
+        raise MapError(f"values: expected 6 channels, got {len(vals)}")
+    groups: dict[tuple[str, int | None], dict[str, Any]] = {}
+    for role, ref in smap.roles.items():
+        msg = smap.db.get_message_by_name(ref.message)
+        sig = msg.get_signal_by_name(ref.signal)
+        page = None if sig.multiplexer_ids is None else int(sig.multiplexer_ids[0])
+        if role == "seq":
+            raw: float | int = int(seq) % (1 << sig.length)
+        else:
+            phys = (float(t_us) if role == "time" else vals[CHANNEL_ROLES.index(role)]) \
+                / ref.factor
+            raw = _to_raw(sig, phys)
+        groups.setdefault((ref.message, page), {})[ref.signal] = raw
+    out = []
+    for (name, page), mapped in groups.items():
+        msg = smap.db.get_message_by_name(name)
+        raw_all: dict[str, Any] = {}
+        for sig in msg.signals:
+            if sig.multiplexer_ids is not None and page not in sig.multiplexer_ids:
+                continue
+            raw_all[sig.name] = mapped.get(sig.name, 0.0 if sig.is_float else 0)
+            if sig.is_multiplexer and page is not None:
+                raw_all[sig.name] = page
+        data = msg.encode(raw_all, scaling=False, strict=False)
+        out.append(can.Message(arbitration_id=msg.frame_id, data=data,
+                               is_extended_id=bool(msg.is_extended_frame)))
+    return out
+
+
+def _to_raw(sig: Any, phys: float) -> float | int:
+    scaled = (phys - float(sig.offset)) / float(sig.scale)
+    if sig.is_float:
+        return scaled
+    lo, hi = (-(1 << (sig.length - 1)), (1 << (sig.length - 1)) - 1) if sig.is_signed \
+        else (0, (1 << sig.length) - 1)
+    if not math.isfinite(scaled):
+        return hi if scaled > 0 else (lo if scaled < 0 else 0)
+    return int(min(max(round(scaled), lo), hi))
 
 
 # --- assembly (the Python twin of SignalSampleAssembler in can_signal_decode.hpp) ----------

@@ -15,6 +15,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from dataclasses import dataclass, field
@@ -26,6 +27,12 @@ import numpy as np
 
 from gyrodrift.codecs import FRAME_SIZE, OUTPUT_BASE_ID, TYPE_OUTPUT, SampleAssembler, encode_sample
 from gyrodrift.codecs import encode_frames as codec_encode_frames
+from gyrodrift.codecs.can_signals import (
+    SignalSampleAssembler,
+    decode_table_text,
+    encode_sample_frames,
+    load_signal_map,
+)
 from gyrodrift.imu import FLAG_CONFIG_ERROR, FLAG_DUPLICATE, FLAG_OUT_OF_ORDER, FLAG_REJECTED
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.faults import (
@@ -122,6 +129,9 @@ class ReplayOptions:
     # The local link to a started loop: "pty" (a tty, as a real serial port) or "socketpair"
     # (serial only; bypasses the kernel's tty layer, to tell its delays from the harness's).
     local_link: str = "pty"
+    # CAN replays in a user's DBC layout: the signal map (TOML path) whose DBC encodes the
+    # frames sent, and whose decode table the started loop gets (--can-signals).
+    can_signals: str | None = None
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
@@ -135,6 +145,13 @@ class ReplayOptions:
             raise ValueError(f"local_link must be 'pty' or 'socketpair', got {self.local_link!r}")
         if self.local_link == "socketpair" and self.transport != "serial":
             raise ValueError("local_link='socketpair' carries the serial transport only")
+        if self.can_signals is not None:
+            if not self.can:
+                raise ValueError("can_signals applies to the slcan and socketcan transports")
+            f = self.faults
+            if any((f.drop, f.corrupt, f.duplicate, f.reorder, f.delay)):
+                raise ValueError("fault injection needs the project's CAN frames; a replay in a "
+                                 "user's DBC layout (can_signals) runs clean")
         if self.baud <= 0 or self.can_bitrate <= 0:
             raise ValueError("baud and can_bitrate must be > 0")
 
@@ -204,6 +221,7 @@ class _Target:
         self.device = opt.attach or ""
         self.stderr_lines: list[str] = []
         self.stdout = b""
+        self.table_path = ""
 
     def start(self) -> None:
         if self.opt.attach is not None:
@@ -215,6 +233,13 @@ class _Target:
                 "--rate-hz", repr(float(self.opt.loop_rate_hz)), *self.opt.processor.loop_args()]
         if not self.opt.loop_realtime:
             args.append("--no-rt")
+        if self.opt.can_signals is not None:
+            # The loop decodes the user's frames through the table generated from the DBC.
+            fd, name = tempfile.mkstemp(suffix=".cansig", prefix="gyrodrift-")
+            with os.fdopen(fd, "w") as fh:
+                fh.write(decode_table_text(load_signal_map(self.opt.can_signals)))
+            self.table_path = name
+            args += ["--can-signals", name]
         self.proc = subprocess.Popen(args, pass_fds=[self.pty.master_fd],
                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         self.pty.close_master()  # the loop owns it now
@@ -241,6 +266,9 @@ class _Target:
         """Close our end (the loop sees end of input), collect its JSON statistics."""
         if self.pty is not None:
             self.pty.close()
+        if self.table_path:
+            Path(self.table_path).unlink(missing_ok=True)
+            self.table_path = ""
         if self.proc is None:
             return None
         try:
@@ -263,7 +291,26 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
         raise ValueError("record timestamps go backwards: cannot pace a replay")
     plan = plan_transmission(samples.t_s, opt.faults)
     rng = np.random.default_rng(opt.faults.seed + 1)
+    smap = load_signal_map(opt.can_signals) if opt.can_signals is not None else None
+    if smap is not None:
+        # What the loop will decode from the user's frames (rounded to the DBC's resolution),
+        # found by decoding them the same way: that is the record the reference must see.
+        asm = SignalSampleAssembler(smap)
+        dec = []
+        for k in range(len(samples)):
+            for m in encode_sample_frames(smap, int(samples.seq[k]), int(samples.t_us[k]),
+                                          samples.channels[k]):
+                got = asm.push(m)
+            assert got is not None  # every sample's frames complete exactly that sample
+            dec.append(got)
+        samples = Samples(np.array([d.seq for d in dec], np.uint16), samples.flags,
+                          np.array([samples.t_us[k] if d.t_us is None else d.t_us
+                                    for k, d in enumerate(dec)], np.uint64),
+                          np.array([d.values for d in dec], np.float64).astype(np.float32),
+                          log_report=samples.log_report)
     pos, d_seq, d_t_us, d_values = _delivered(samples, plan, opt)
+    if smap is not None and "time" in smap.roles:
+        d_t_us = samples.t_us[[plan.units[k].index for k in pos]]  # the IMU's own clock
     ref = process_imu(d_seq, d_t_us, d_values, opt.processor.imu_config())
     accepted = (ref.flags & FLAG_REJECTED) == 0
     expected_pos = pos[accepted]  # unit position of each expected output, in order
@@ -283,8 +330,10 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
         cache: dict[int, list[can.Message]] = {}
         for u in plan.units:
             if u.index not in cache:
-                cache[u.index] = encode_sample(int(samples.seq[u.index]),
-                                               samples.channels[u.index])
+                k = u.index
+                cache[k] = encode_sample(int(samples.seq[k]), samples.channels[k]) \
+                    if smap is None else encode_sample_frames(
+                        smap, int(samples.seq[k]), int(samples.t_us[k]), samples.channels[k])
             payload.append((cache[u.index], u.corrupt))
 
     target = _Target(opt)
