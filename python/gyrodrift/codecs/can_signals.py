@@ -193,6 +193,8 @@ def load_signal_map(path: str | Path) -> SignalMap:
             raise MapError(f"{path}: timestamp.unit: expected one of {', '.join(TIME_UNITS)}")
         roles["time"] = ref("timestamp.signal", doc["timestamp"].get("signal"),
                             TIME_UNITS[unit])
+    if not isinstance(db, cantools.database.can.Database):
+        raise MapError(f"{path}: dbc: {dbc_path} is not a CAN database")
     return SignalMap(db, roles, str(path))
 
 
@@ -217,7 +219,7 @@ def decode_table(smap: SignalMap) -> list[dict[str, Any]]:
         else:
             vtype = "s" if sig.is_signed else "u"
         mux = None
-        if sig.multiplexer_signal is not None:
+        if sig.multiplexer_signal is not None and sig.multiplexer_ids:
             ms = msg.get_signal_by_name(sig.multiplexer_signal)
             mux = {"start": ms.start, "length": ms.length,
                    "order": "le" if ms.byte_order == "little_endian" else "be",

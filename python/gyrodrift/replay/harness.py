@@ -28,6 +28,7 @@ import numpy as np
 from gyrodrift.codecs import FRAME_SIZE, OUTPUT_BASE_ID, TYPE_OUTPUT, SampleAssembler, encode_sample
 from gyrodrift.codecs import encode_frames as codec_encode_frames
 from gyrodrift.codecs.can_signals import (
+    SignalSample,
     SignalSampleAssembler,
     decode_table_text,
     encode_sample_frames,
@@ -295,18 +296,19 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     if smap is not None:
         # What the loop will decode from the user's frames (rounded to the DBC's resolution),
         # found by decoding them the same way: that is the record the reference must see.
-        asm = SignalSampleAssembler(smap)
-        dec = []
+        user_asm = SignalSampleAssembler(smap)
+        decoded: list[SignalSample] = []
         for k in range(len(samples)):
+            done: SignalSample | None = None
             for m in encode_sample_frames(smap, int(samples.seq[k]), int(samples.t_us[k]),
                                           samples.channels[k]):
-                got = asm.push(m)
-            assert got is not None  # every sample's frames complete exactly that sample
-            dec.append(got)
-        samples = Samples(np.array([d.seq for d in dec], np.uint16), samples.flags,
+                done = user_asm.push(m)
+            assert done is not None  # every sample's frames complete exactly that sample
+            decoded.append(done)
+        samples = Samples(np.array([d.seq for d in decoded], np.uint16), samples.flags,
                           np.array([samples.t_us[k] if d.t_us is None else d.t_us
-                                    for k, d in enumerate(dec)], np.uint64),
-                          np.array([d.values for d in dec], np.float64).astype(np.float32),
+                                    for k, d in enumerate(decoded)], np.uint64),
+                          np.array([d.values for d in decoded], np.float64).astype(np.float32),
                           log_report=samples.log_report)
     pos, d_seq, d_t_us, d_values = _delivered(samples, plan, opt)
     if smap is not None and "time" in smap.roles:
