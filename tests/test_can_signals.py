@@ -373,3 +373,24 @@ def test_hil_replay_in_the_vendor_layout(rng: np.random.Generator, tmp_path: Pat
         ReplayOptions(transport="slcan", can_signals=str(MAP), faults=FaultSpec(drop=0.1))
     with pytest.raises(ValueError, match="slcan and socketcan"):
         ReplayOptions(transport="serial", can_signals=str(MAP))
+
+
+def test_allan_reads_a_vendor_log(rng: np.random.Generator, tmp_path: Path,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    from gyrodrift.cli import main
+
+    n = 400
+    msgs, _ = _frames(n, rng)
+    path = tmp_path / "vendor.log"
+    with can.Logger(str(path)) as w:
+        for m in msgs:
+            w.on_message_received(m)
+    rc = main(["allan", str(path), "--can-signals", str(MAP), "--column", "x", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0
+    rec = out["record"]
+    assert rec["n_used"] == n and rec["rate_hz"] == pytest.approx(RATE_HZ)  # the IMU's clock
+    assert f"{len(msgs)} frames: {3 * n} IMU frames used" in rec["log"]
+    # Without the map the same capture holds no IMU sample of the project's layout.
+    assert main(["allan", str(path)]) == 2
+    assert "no IMU samples" in capsys.readouterr().err

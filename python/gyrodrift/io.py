@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = ["RATE_UNITS", "UNITS", "Record", "load_record", "to_deg_h"]
 
 RAD_TO_DEG = 180.0 / math.pi
@@ -131,12 +133,14 @@ def load_record(
     units: str = "deg/h",
     nan_policy: str = "refuse",
     mmap: bool = True,
+    can_signals: str | Path | None = None,
 ) -> Record:
     """Load one gyro channel as a rate in deg/h (module docstring).
 
     column: .csv column name or index; .npy column index of a 2-D array; for IMU logs the
     gyro axis "x", "y", "z" (default "z"). rate_hz: required for .npy; for .csv it is taken
-    from a t_s/time column when not given; for logs from the timestamps.
+    from a t_s/time column when not given; for logs from the timestamps. can_signals: a CAN
+    log in a user's own DBC, read through this signal map (gyrodrift.codecs.can_signals).
     """
     p = Path(path)
     source = str(p)
@@ -157,8 +161,11 @@ def load_record(
             raise ValueError(f"{source}: empty file")
         header_names = [c.strip() for c in first]
     is_replay_csv = header_names is not None and "gyro_z_rad_s" in header_names
+    if can_signals is not None and suffix not in (".log", ".asc", ".blf"):
+        raise GyrodriftValueError(f"{source}: a DBC signal map applies to CAN logs "
+                                  "(.log, .asc, .blf)")
     if suffix in LOG_SUFFIXES or is_replay_csv:
-        return _load_log(p, column, rate_hz, units, nan_policy)
+        return _load_log(p, column, rate_hz, units, nan_policy, can_signals)
     if suffix == ".npy":
         arr = np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
         if arr.ndim == 2:
@@ -241,13 +248,13 @@ def _count_nonfinite_chunked(values: np.ndarray, chunk: int = 1 << 22) -> int:
 
 
 def _load_log(p: Path, column: str | int | None, rate_hz: float | None, units: str,
-              nan_policy: str) -> Record:
+              nan_policy: str, can_signals: str | Path | None = None) -> Record:
     from gyrodrift.replay.logs import read_imu_log  # the "replay" area's reader
 
     axis_name = "z" if column is None else str(column).lower()
     if axis_name not in GYRO_AXES:
         raise ValueError(f"{p}: IMU logs hold gyro axes x, y, z; got column {column!r}")
-    samples = read_imu_log(p)
+    samples = read_imu_log(p, signals=can_signals)
     gyro_rad_s = samples.channels[:, GYRO_AXES[axis_name]].astype(np.float64)
     if rate_hz is None:
         rate_hz = _rate_from_time(samples.t_s, str(p))

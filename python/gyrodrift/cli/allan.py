@@ -26,6 +26,9 @@ def register(subparsers: Any) -> None:
     p = subparsers.add_parser("allan", help="overlapping Allan deviation, noise terms, plot",
                               description=__doc__)
     add_input_args(p)
+    p.add_argument("--can-signals", default=None, metavar="MAP",
+                   help="a CAN log in your own DBC: the signal map naming the DBC and its "
+                        "channel signals (gyrodrift.codecs.can_signals)")
     p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave",
                    help="averaging times: octave (m = 1, 2, 4, ...), decade (--per-decade "
                         "points per decade) or all (every m; slow on long records)")

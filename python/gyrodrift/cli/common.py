@@ -92,7 +92,7 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
     try:
         return load_record(args.input, column=args.column, rate_hz=args.rate_hz,
                            units=args.units, nan_policy="drop" if args.drop_nan else "refuse",
-                           mmap=mmap)
+                           mmap=mmap, can_signals=getattr(args, "can_signals", None))
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
 
