@@ -55,6 +55,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--delay-s", type=float, default=0.02, help="delay of a delayed sample")
     g.add_argument("--seed", type=int, default=0)
     pr = p.add_argument_group("processor (given to the loop and the reference alike)")
+    pr.add_argument("--config", default=None, metavar="FILE",
+                    help="processor configuration file (TOML; `gyrodrift config`): per-channel "
+                         "chains, rates, tolerances; replaces the options below")
     pr.add_argument("--gyro-filter", default="ar2_kalman",
                     choices=("ar2_kalman", "bias_removal", "pass_through"))
     pr.add_argument("--accel-filter", default="pass_through",
@@ -78,6 +81,14 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift.replay.report import format_table, write_json, write_png
     from gyrodrift.replay.wire import make_samples
 
+    proc_cfg = None
+    if args.config:
+        from gyrodrift.config import ConfigError, load_config
+
+        try:
+            proc_cfg = load_config(args.config)
+        except (ConfigError, OSError) as exc:
+            raise CliError(str(exc)) from None
     if args.input:
         try:
             samples = read_imu_log(args.input, args.fmt)
@@ -91,21 +102,27 @@ def run(args: argparse.Namespace) -> int:
 
         if not (args.duration_s > 0 and math.isfinite(args.duration_s)):
             raise CliError("--duration-s must be > 0")
-        rate = args.sample_rate_hz or 400.0
+        rate = args.sample_rate_hz or (proc_cfg.timing.sample_rate_hz if proc_cfg else 400.0)
         rec = simulate_imu(args.duration_s, rate_hz=rate, seed=args.seed,
                            gyro=NoiseTerms(n_deg_rthr=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)),
                            vrw_mps_rthr=0.02)
         n = rec.gyro_rads.shape[0]
         samples = make_samples(np.arange(n) / rate, rec.gyro_rads, rec.accel_mps2)
+    if proc_cfg is not None and abs(rate - proc_cfg.timing.sample_rate_hz) > 0.01 * rate:
+        raise CliError(f"sample rate {rate:.6g} Hz (record or --sample-rate-hz) contradicts "
+                       f"timing.sample_rate_hz {proc_cfg.timing.sample_rate_hz:g} of {args.config}")
     try:
         a1, a2, sigma2, mean = (float(v) for v in args.gyro_ar2.split(","))
     except ValueError:
         raise CliError(f"--gyro-ar2 {args.gyro_ar2!r}: expected A1,A2,SIGMA2,MEAN") from None
     try:
-        proc = ProcessorSettings(gyro_filter=args.gyro_filter, accel_filter=args.accel_filter,
-                                 a1=a1, a2=a2, sigma2=sigma2, mean=mean, q=args.gyro_q,
-                                 r=args.gyro_r, stuck_samples=args.stuck_samples,
-                                 sample_rate_hz=rate)
+        if proc_cfg is not None:
+            proc = ProcessorSettings.from_config(proc_cfg)
+        else:
+            proc = ProcessorSettings(gyro_filter=args.gyro_filter,
+                                     accel_filter=args.accel_filter, a1=a1, a2=a2,
+                                     sigma2=sigma2, mean=mean, q=args.gyro_q, r=args.gyro_r,
+                                     stuck_samples=args.stuck_samples, sample_rate_hz=rate)
         faults = FaultSpec(drop=args.drop, corrupt=args.corrupt, duplicate=args.duplicate,
                            reorder=args.reorder, delay=args.delay, delay_s=args.delay_s,
                            seed=args.seed)
