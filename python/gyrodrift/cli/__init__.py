@@ -21,6 +21,7 @@ SUBCOMMAND_MODULES: list[str] = [
     "compare",
     "wavelet_response",
     "align",
+    "config",
 ]
 
 
