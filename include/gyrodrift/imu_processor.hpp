@@ -43,6 +43,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <utility>
 
 #include "ar2_kalman.hpp"
@@ -201,19 +202,20 @@ class ImuProcessor {
 
   // One wavelet setting copied to every wavelet channel.
   explicit ImuProcessor(const ImuConfig<Scalar>& config, const Wavelet& wavelet_prototype = Wavelet{}) noexcept
-      : ImuProcessor(config, filled(wavelet_prototype, std::make_index_sequence<WaveletChannels>{})) {}
+      : ImuProcessor(config, [&wavelet_prototype](std::size_t) { return wavelet_prototype; },
+                     std::make_index_sequence<WaveletChannels>{}) {}
 
   // Per-channel wavelet stages (wavelets[c] serves channel c).
   ImuProcessor(const ImuConfig<Scalar>& config, const WaveletArray& wavelets) noexcept
-      : config_(config),
-        kalman_{make_kalman(config, 0), make_kalman(config, 1), make_kalman(config, 2),
-                make_kalman(config, 3), make_kalman(config, 4), make_kalman(config, 5)},
-        steady_{make_steady(config, 0), make_steady(config, 1), make_steady(config, 2),
-                make_steady(config, 3), make_steady(config, 4), make_steady(config, 5)},
-        wavelet_(wavelets) {
-    status_ = check_config();
-    reset();
-  }
+      : ImuProcessor(config, [&wavelets](std::size_t c) { return wavelets[c]; },
+                     std::make_index_sequence<WaveletChannels>{}) {}
+
+  // Per-channel wavelet stages built in place by make_wavelet(c) (no temporary array: a
+  // firmware build constructs its windows directly in the processor, not on the stack).
+  template <class MakeWavelet,
+            class = std::enable_if_t<std::is_invocable_r_v<Wavelet, MakeWavelet&, std::size_t>>>
+  ImuProcessor(const ImuConfig<Scalar>& config, MakeWavelet&& make_wavelet) noexcept
+      : ImuProcessor(config, make_wavelet, std::make_index_sequence<WaveletChannels>{}) {}
 
   // Processes one input sample. Returns the sample's flags; if kFlagRejected is set, `out`
   // is not written (duplicate/out-of-order frame or unconfigured processor).
@@ -328,9 +330,16 @@ class ImuProcessor {
   const Ar2Kalman<Scalar>& kalman(std::size_t c) const noexcept { return kalman_[c < kImuChannels ? c : 0]; }
 
  private:
-  template <std::size_t... I>
-  static WaveletArray filled(const Wavelet& w, std::index_sequence<I...>) noexcept {
-    return WaveletArray{{(static_cast<void>(I), w)...}};
+  template <class MakeWavelet, std::size_t... I>
+  ImuProcessor(const ImuConfig<Scalar>& config, MakeWavelet&& make_wavelet, std::index_sequence<I...>) noexcept
+      : config_(config),
+        kalman_{make_kalman(config, 0), make_kalman(config, 1), make_kalman(config, 2),
+                make_kalman(config, 3), make_kalman(config, 4), make_kalman(config, 5)},
+        steady_{make_steady(config, 0), make_steady(config, 1), make_steady(config, 2),
+                make_steady(config, 3), make_steady(config, 4), make_steady(config, 5)},
+        wavelet_{{make_wavelet(I)...}} {
+    status_ = check_config();
+    reset();
   }
 
   static bool has_bias_stage(const ImuChannelConfig<Scalar>& cc) noexcept {

@@ -6,7 +6,7 @@ prefilter is an exact FIR whose taps depend only on the wavelet, the window and 
 include/gyrodrift/fir_prefilter.hpp). A firmware project writes::
 
     #include "imu_config.hpp"   // generated
-    gyrodrift_config::Processor proc(gyrodrift_config::kImuConfig, gyrodrift_config::wavelets());
+    gyrodrift_config::Processor proc(gyrodrift_config::kImuConfig, gyrodrift_config::make_wavelet);
 
 and pays only for what it uses: the wavelet window exists on channels 0..kWaveletChannels-1,
 with one window copy per channel and the taps in flash.
@@ -167,10 +167,12 @@ def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: 
             "using Wavelet = gyrodrift::FirPrefilter<float, kWaveletWindow>;",
             "using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels>;",
             "",
-            "// Each wavelet channel's stage, its taps in flash (nullptr: the channel has none).",
-            "inline Processor::WaveletArray wavelets() noexcept {",
-            "  return Processor::WaveletArray{{"
-            + ", ".join(f"Wavelet({chan_taps[c]})" for c in range(wavelet_channels)) + "}};",
+            "// Each wavelet channel's taps in flash (nullptr: the channel has no wavelet stage).",
+            "inline constexpr const float* kWaveletTaps[kWaveletChannels] = {"
+            + ", ".join(chan_taps[c] for c in range(wavelet_channels)) + "};",
+            "// Builds channel c's stage in place: Processor p(kImuConfig, make_wavelet);",
+            "inline Wavelet make_wavelet(std::size_t c) noexcept {",
+            "  return Wavelet(kWaveletTaps[c]);",
             "}",
         ]
     else:
@@ -178,9 +180,7 @@ def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: 
             "inline constexpr std::size_t kWaveletChannels = 1;",
             "using Wavelet = gyrodrift::NoWavelet<float>;",
             "using Processor = gyrodrift::ImuProcessor<float>;",
-            "inline Processor::WaveletArray wavelets() noexcept {",
-            "  return Processor::WaveletArray{};",
-            "}",
+            "inline Wavelet make_wavelet(std::size_t) noexcept { return Wavelet{}; }",
         ]
     out += ["", f"}}  // namespace {ns}", ""]
     names = ", ".join(CHANNEL_NAMES)
