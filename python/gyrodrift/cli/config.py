@@ -22,7 +22,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("action", nargs="?",
                    help="validate FILE | show FILE | write-default -o FILE | emit-cpp FILE -o H")
     p.add_argument("file", nargs="?", help="configuration file (TOML)")
-    p.add_argument("-o", "--output", default=None, help="output file")
+    p.add_argument("-o", "--output", default=None,
+                   help="output file (write-default: the TOML file; emit-cpp: the C++ header)")
     p.add_argument("--emit-cpp", default=None, metavar="FILE.hpp",
                    help="same as `emit-cpp FILE -o FILE.hpp`")
     p.add_argument("--namespace", default="gyrodrift_config", help="C++ namespace (emit-cpp)")
@@ -75,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"{args.file}: ok")
         elif action == "show":
             if args.json:
-                from gyrodrift.cli.allan import emit_json
+                from gyrodrift.cli.common import emit_json
 
                 emit_json(cfg.as_dict())
             else:

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift.ar2 import Ar2Model
 from gyrodrift.imu import (
     CHANNELS,
     FLAG_DUPLICATE,
@@ -46,17 +46,6 @@ if TYPE_CHECKING:
 __all__ = ["WaveletSettings", "process_imu"]
 
 
-@dataclass(frozen=True)
-class _Model:
-    """Duck-typed AR(2) model for reference.ar2.kalman_filter (q and r are passed explicitly)."""
-
-    a1: float
-    a2: float
-    sigma2: float
-    mean: float
-    r: float
-
-
 def _stage(
     kind: str, z: np.ndarray, cc: ImuChannelConfig, good: np.ndarray,
     wavelet: WaveletSettings | None,
@@ -65,7 +54,7 @@ def _stage(
     if kind == "ar2_kalman":
         from gyrodrift.reference.ar2 import kalman_filter
 
-        model = _Model(cc.a1, cc.a2, cc.sigma2, cc.mean, cc.r)
+        model = Ar2Model(a1=cc.a1, a2=cc.a2, sigma2=cc.sigma2, mean=cc.mean, r=cc.r)
         return kalman_filter(z, model, q=cc.q, r=cc.r, p0=cc.p0, steady_state=cc.steady_state)
     if kind == "wavelet":
         ws = cc.wavelet or wavelet

@@ -19,6 +19,11 @@ from gyrodrift.imu import ImuChannelConfig, ImuConfig
 if TYPE_CHECKING:
     from gyrodrift.config import ProcessorConfig
 
+__all__ = [
+    "LOOP_FILTERS",
+    "ProcessorSettings",
+]
+
 LOOP_FILTERS = ("ar2_kalman", "bias_removal", "pass_through")
 
 
