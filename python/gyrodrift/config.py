@@ -531,9 +531,11 @@ def _stage_items(ch: str, s: Stage) -> list[tuple[str, Any]]:
         items += [("wavelet", s.wavelet), ("window", int(s.window)), ("level", int(s.level)),
                   ("threshold", s.threshold)]
     elif isinstance(s, Ar2KalmanStage):
-        items += [("a1", float(s.a1)), ("a2", float(s.a2)), (f"mean{u}", float(s.mean)),
-                  ("sigma2", float(s.sigma2_value)), ("q", float(s.q)), ("r", float(s.r)),
-                  ("p0", float(s.p0)), ("steady_state", bool(s.steady_state))]
+        items += [("a1", float(s.a1)), ("a2", float(s.a2)), (f"mean{u}", float(s.mean))]
+        if s.sigma2 is not None:  # absent: = q (so a written file reads back identical)
+            items.append(("sigma2", float(s.sigma2)))
+        items += [("q", float(s.q)), ("r", float(s.r)), ("p0", float(s.p0)),
+                  ("steady_state", bool(s.steady_state))]
     return items
 
 
