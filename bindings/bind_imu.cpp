@@ -10,7 +10,7 @@
 //   ImuProcessorWavelet / ImuProcessorWaveletF32(..., wavelet "db4"|"db8", level, mode
 //       "forced"|"soft"|"hard"[, channel_wavelets=[(wavelet, level, mode) or None] * 6]):
 //       the same with RealtimeWavelet<T, 256> as the wavelet stage (per channel if given)
-//   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS (tuple), IMU_RESYNC_AFTER, IMU_DEFAULT_PERIOD_US,
+//   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS, IMU_REJECTION_KEYS (tuples), IMU_RESYNC_AFTER, IMU_DEFAULT_PERIOD_US,
 //   IMU_DEFAULT_TIME_TOLERANCE_US: the processor contract from imu_processor.hpp
 //   crc16_ccitt_false(bytes) -> int
 //   serial_encode_frame(frame_type, seq, flags, t_us, values[6]) -> bytes
@@ -294,6 +294,9 @@ void bind_imu(py::module_& m) {
   const ImuHealth h0{};
   for_each_health_field(h0, [&keys](const char* name, std::uint64_t) { keys.append(name); });
   m.attr("IMU_HEALTH_KEYS") = py::tuple(keys);
+  py::list rejections;
+  for_each_rejection_field(h0, [&rejections](const char* name, std::uint64_t) { rejections.append(name); });
+  m.attr("IMU_REJECTION_KEYS") = py::tuple(rejections);
   m.attr("IMU_RESYNC_AFTER") = kImuResyncAfter;
   m.attr("IMU_DEFAULT_PERIOD_US") = kImuDefaultPeriodUs;
   m.attr("IMU_DEFAULT_TIME_TOLERANCE_US") = kImuDefaultTimeToleranceUs;

@@ -170,6 +170,15 @@ void for_each_health_field(H& h, F&& field) {
   field("filter_faults", h.filter_faults);
 }
 
+// The rejection reasons (samples that produced no output) under the names the loop's JSON
+// "rejected" object and the replay report use.
+template <class H, class F>
+void for_each_rejection_field(H& h, F&& field) {
+  field("duplicate", h.duplicates);
+  field("out_of_order", h.out_of_order);
+  field("config", h.config_rejected);
+}
+
 enum class ImuStatus : std::uint8_t {
   ok = 0,
   bad_channel_config,   // Kalman model/q/r invalid, bad saturation, unknown filter

@@ -113,10 +113,7 @@ class Processing {
   // Processor rejections (samples that produced no output).
   template <class F>
   void for_each_rejection(F&& field) const {
-    const ImuHealth& h = proc_->health();
-    field("duplicate", h.duplicates);
-    field("out_of_order", h.out_of_order);
-    field("config", h.config_rejected);
+    for_each_rejection_field(proc_->health(), field);
   }
 
   template <class F>
