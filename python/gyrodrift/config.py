@@ -47,6 +47,7 @@ __all__ = [
     "Stage",
     "Timing",
     "WaveletStage",
+    "atomic_write_text",
     "config_from_dict",
     "default_config",
     "dumps_config",
@@ -570,13 +571,15 @@ def _to_dict(cfg: ProcessorConfig) -> dict[str, Any]:
     return tomllib.loads(dumps_config(cfg))
 
 
-def write_config(cfg: ProcessorConfig, path: str | os.PathLike[str]) -> Path:
-    """Write `cfg` as canonical TOML, atomically (temporary file in the same directory, then
-    rename); returns the path."""
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
+    """Write `text` to `path` atomically (temporary file in the same directory, then rename;
+    on failure nothing is left behind); the file gets the usual umask permissions."""
     p = Path(path)
-    text = dumps_config(cfg)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent or ".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
     try:
+        mask = os.umask(0)
+        os.umask(mask)
+        os.fchmod(fd, 0o666 & ~mask)
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
         os.replace(tmp, p)
@@ -584,6 +587,11 @@ def write_config(cfg: ProcessorConfig, path: str | os.PathLike[str]) -> Path:
         Path(tmp).unlink(missing_ok=True)
         raise
     return p
+
+
+def write_config(cfg: ProcessorConfig, path: str | os.PathLike[str]) -> Path:
+    """Write `cfg` as canonical TOML, atomically; returns the path."""
+    return atomic_write_text(path, dumps_config(cfg))
 
 
 def default_config(

@@ -4,9 +4,7 @@ constexpr C++ header for firmware (README: Processor configuration file)."""
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -31,17 +29,6 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def _output(args: argparse.Namespace) -> Path:
     out = Path(args.output)
     if not out.parent.is_dir():
@@ -50,7 +37,13 @@ def _output(args: argparse.Namespace) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gyrodrift.config import ConfigError, default_config, dumps_config, load_config
+    from gyrodrift.config import (
+        ConfigError,
+        atomic_write_text,
+        default_config,
+        dumps_config,
+        load_config,
+    )
 
     action = args.action
     if args.emit_cpp:
@@ -66,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
             if not args.output:
                 raise CliError("write-default needs -o FILE")
             out = _output(args)
-            _atomic_write(out, dumps_config(default_config()))
+            atomic_write_text(out, dumps_config(default_config()))
             print(f"wrote {out}")
             return 0
         if not args.file:
@@ -87,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
             if not args.output:
                 raise CliError("emit-cpp needs -o FILE.hpp")
             out = _output(args)
-            _atomic_write(out, emit_cpp(cfg, args.namespace, source=Path(args.file).name))
+            atomic_write_text(out, emit_cpp(cfg, args.namespace, source=Path(args.file).name))
             print(f"wrote {out}")
     except ConfigError as exc:
         raise CliError(str(exc)) from None
