@@ -218,7 +218,8 @@ def test_cli_config_commands(tmp_path: Path) -> None:
 
 
 def test_emitted_taps_are_the_forced_fir_of_the_reference() -> None:
-    """The flash taps equal the reference forced FIR (PyWavelets, per unit window) in float32."""
+    """The flash taps (oldest first, as FirPrefilter takes them) equal the reference forced FIR
+    (PyWavelets, per unit window; newest first) reversed, in float32."""
     from gyrodrift.config_cpp import emit_cpp
     from gyrodrift.reference.wavelet import forced_fir_taps
 
@@ -226,7 +227,7 @@ def test_emitted_taps_are_the_forced_fir_of_the_reference() -> None:
     body = text[text.index("kTaps_db4_n256_j5[256] = {") :].split("};")[0]
     taps = np.array([float(x.rstrip("f")) for x in body.split("{")[1].replace("\n", " ")
                      .split(",") if x.strip()])
-    ref = forced_fir_taps("db4", 256, 5)
+    ref = forced_fir_taps("db4", 256, 5)[::-1]
     assert taps.size == 256
     np.testing.assert_allclose(taps, ref, rtol=0, atol=1e-7 * np.abs(ref).max())
     assert math.isclose(taps.sum(), 1.0, rel_tol=1e-5)

@@ -58,7 +58,7 @@ def _ident(name: str) -> str:
 
 def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: str = "") -> str:
     """The C++17 header text for `cfg` (see the module docstring)."""
-    from gyrodrift.wavelet import forced_fir_taps  # the C++ core's taps (double)
+    from gyrodrift.fir import forced_fir_taps  # the C++ core's taps (double), newest first
 
     ns = _ident(namespace)
     windows = set()
@@ -106,7 +106,7 @@ def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: 
         "",
     ]
     for (wname, n, level), tname in tap_tables.items():
-        taps = forced_fir_taps(wname, n, level)
+        taps = forced_fir_taps(wname, n, level)[::-1]  # FirPrefilter takes them oldest first
         out.append(f"// forced {wname}, window {n}, level {level}: y = sum_i taps[i] "
                    "x[n-(N-1)+i] (oldest first)")
         out.append(f"inline constexpr float {tname}[{n}] = {{")
