@@ -20,12 +20,9 @@ import venv
 import zipfile
 from pathlib import Path
 
-import pytest
-
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.mark.slow
 def test_wheel_contains_loop_and_replays_from_a_clean_venv(tmp_path: Path) -> None:
     env = {k: v for k, v in os.environ.items()
            if k not in ("PYTHONPATH", "GYRODRIFT_LOOP", "GYRODRIFT_CPP_BUILD_DIR")}

@@ -65,13 +65,19 @@ class FirPrefilter {
 
  private:
   Scalar fir() const noexcept {
-    // Window sample i (oldest first) is buf_[(pos_ + i) mod N]: two straight segments. The
-    // accumulator of tap i is i mod 4, as in RealtimeWavelet::fir (same order, same result).
-    Scalar s[4] = {Scalar(0), Scalar(0), Scalar(0), Scalar(0)};
-    const std::size_t first = WindowN - pos_;  // samples buf_[pos_ .. N)
-    for (std::size_t i = 0; i < first; ++i) s[i & 3U] += taps_[i] * buf_[pos_ + i];
-    for (std::size_t i = first; i < WindowN; ++i) s[i & 3U] += taps_[i] * buf_[i - first];
-    return (s[0] + s[1]) + (s[2] + s[3]);
+    // Window sample i (oldest first) is buf_[(pos_ + i) mod N] (N a power of two: a mask).
+    // Four accumulators, tap i into accumulator i mod 4, as in RealtimeWavelet::fir (same
+    // order, same result); four independent add chains keep the FPU pipeline busy.
+    constexpr std::size_t m = WindowN - 1;
+    Scalar s0 = Scalar(0), s1 = Scalar(0), s2 = Scalar(0), s3 = Scalar(0);
+    for (std::size_t i = 0; i < WindowN; i += 4) {
+      const std::size_t j = pos_ + i;
+      s0 += taps_[i] * buf_[j & m];
+      s1 += taps_[i + 1] * buf_[(j + 1) & m];
+      s2 += taps_[i + 2] * buf_[(j + 2) & m];
+      s3 += taps_[i + 3] * buf_[(j + 3) & m];
+    }
+    return (s0 + s1) + (s2 + s3);
   }
 
   const Scalar* taps_;
