@@ -6,8 +6,12 @@
 //     .process(seq u16[n], t_us u64[n], values (n, 6) float64|float32)
 //         -> (out (n, 6), flags u16[n])   rows with flags & 0x8000 (rejected) are NaN
 //     .health() -> dict, .reset(), .status -> str
+//     keyword-only extras: filters2[6] (second stage, 0 = none), steady_state[6] (bool)
 //   ImuProcessorWavelet / ImuProcessorWaveletF32(..., wavelet "db4"|"db8", level, mode
-//       "forced"|"soft"|"hard"): the same with RealtimeWavelet<T, 256> as the wavelet stage
+//       "forced"|"soft"|"hard"[, channel_wavelets=[(wavelet, level, mode) or None] * 6]):
+//       the same with RealtimeWavelet<T, 256> as the wavelet stage (per channel if given)
+//   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS, IMU_REJECTION_KEYS (tuples), IMU_RESYNC_AFTER, IMU_DEFAULT_PERIOD_US,
+//   IMU_DEFAULT_TIME_TOLERANCE_US: the processor contract from imu_processor.hpp
 //   crc16_ccitt_false(bytes) -> int
 //   serial_encode_frame(frame_type, seq, flags, t_us, values[6]) -> bytes
 //   serial_parse(data, chunk, finish) -> (frames list, stats dict)   (C++ parser, 256-B buffer)
@@ -36,6 +40,7 @@
 #include <gyrodrift/slcan.hpp>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -48,6 +53,8 @@ namespace gyrodrift::py_bindings {
 namespace {
 
 using Six = std::array<double, kImuChannels>;
+using SixInt = std::array<int, kImuChannels>;
+using SixBool = std::array<bool, kImuChannels>;
 
 const char* status_name(ImuStatus s) {
   switch (s) {
@@ -64,7 +71,8 @@ ImuConfig<T> make_config(const std::array<int, kImuChannels>& filters, const Six
                          const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
                          const Six& p0, const Six& saturation,
                          const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
-                         std::uint32_t tol_us) {
+                         std::uint32_t tol_us, const std::optional<SixInt>& filters2,
+                         const std::optional<SixBool>& steady_state) {
   ImuConfig<T> cfg;
   for (std::size_t c = 0; c < kImuChannels; ++c) {
     if (filters[c] < 0 || filters[c] > 3) {
@@ -73,6 +81,14 @@ ImuConfig<T> make_config(const std::array<int, kImuChannels>& filters, const Six
     }
     ImuChannelConfig<T>& cc = cfg.channels[c];
     cc.filter = static_cast<ChannelFilter>(filters[c]);
+    if (filters2) {
+      const int f2 = (*filters2)[c];
+      if (f2 < 0 || f2 > 3) {
+        throw py::value_error("filters2[" + std::to_string(c) + "]: expected 0..3, got " + std::to_string(f2));
+      }
+      cc.filter2 = static_cast<ChannelFilter>(f2);
+    }
+    if (steady_state) cc.steady_state = (*steady_state)[c];
     cc.bias = static_cast<T>(bias[c]);
     cc.model = Ar2Model<T>{static_cast<T>(a1[c]), static_cast<T>(a2[c]), static_cast<T>(sigma2[c]),
                            static_cast<T>(mean[c])};
@@ -89,20 +105,7 @@ ImuConfig<T> make_config(const std::array<int, kImuChannels>& filters, const Six
 
 py::dict health_dict(const ImuHealth& h) {
   py::dict d;
-  d["samples_in"] = h.samples_in;
-  d["samples_accepted"] = h.samples_accepted;
-  d["duplicates"] = h.duplicates;
-  d["out_of_order"] = h.out_of_order;
-  d["config_rejected"] = h.config_rejected;
-  d["seq_gaps"] = h.seq_gaps;
-  d["missing_samples"] = h.missing_samples;
-  d["seq_resyncs"] = h.seq_resyncs;
-  d["time_jumps"] = h.time_jumps;
-  d["non_finite_samples"] = h.non_finite_samples;
-  d["non_finite_values"] = h.non_finite_values;
-  d["saturated_values"] = h.saturated_values;
-  d["stuck_values"] = h.stuck_values;
-  d["filter_faults"] = h.filter_faults;
+  for_each_health_field(h, [&d](const char* name, std::uint64_t v) { d[name] = v; });
   return d;
 }
 
@@ -179,13 +182,15 @@ void bind_processor(py::module_& m, const char* name) {
                       const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
                       const Six& p0, const Six& saturation,
                       const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
-                      std::uint32_t tol_us) {
+                      std::uint32_t tol_us, const std::optional<SixInt>& filters2,
+                      const std::optional<SixBool>& steady_state) {
             return Proc(make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
-                                       stuck, period_us, tol_us));
+                                       stuck, period_us, tol_us, filters2, steady_state));
           }),
           py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
           py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
-          py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"));
+          py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"), py::kw_only(),
+          py::arg("filters2") = py::none(), py::arg("steady_state") = py::none());
   def_processor_methods<T, Proc>(cls);
 }
 
@@ -197,16 +202,31 @@ void bind_wavelet_processor(py::module_& m, const char* name) {
                       const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
                       const Six& p0, const Six& saturation,
                       const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
-                      std::uint32_t tol_us, const std::string& wavelet, int level, const std::string& mode) {
+                      std::uint32_t tol_us, const std::string& wavelet, int level, const std::string& mode,
+                      const std::optional<SixInt>& filters2, const std::optional<SixBool>& steady_state,
+                      const std::optional<std::vector<std::optional<std::tuple<std::string, int, std::string>>>>&
+                          channel_wavelets) {
             // The processor holds six 256-sample wavelet windows: keep it on the heap.
-            return std::make_unique<Proc>(make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0,
-                                                         saturation, stuck, period_us, tol_us),
-                                          make_wavelet<T>(wavelet, level, mode));
+            const ImuConfig<T> cfg = make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
+                                                    stuck, period_us, tol_us, filters2, steady_state);
+            const WaveletStage<T> proto = make_wavelet<T>(wavelet, level, mode);
+            if (!channel_wavelets) return std::make_unique<Proc>(cfg, proto);
+            if (channel_wavelets->size() != kImuChannels) {
+              throw py::value_error("channel_wavelets: expected 6 entries (None or (wavelet, level, mode))");
+            }
+            auto ws = std::make_unique<typename Proc::WaveletArray>();
+            for (std::size_t c = 0; c < kImuChannels; ++c) {
+              const auto& e = (*channel_wavelets)[c];
+              (*ws)[c] = e ? make_wavelet<T>(std::get<0>(*e), std::get<1>(*e), std::get<2>(*e)) : proto;
+            }
+            return std::make_unique<Proc>(cfg, *ws);
           }),
           py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
           py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
           py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"),
-          py::arg("wavelet"), py::arg("level"), py::arg("mode"));
+          py::arg("wavelet"), py::arg("level"), py::arg("mode"), py::kw_only(),
+          py::arg("filters2") = py::none(), py::arg("steady_state") = py::none(),
+          py::arg("channel_wavelets") = py::none());
   def_processor_methods<T, Proc>(cls);
 }
 
@@ -331,6 +351,22 @@ py::dict signal_stats_dict(const can::SignalRxStats& s) {
 }  // namespace
 
 void bind_imu(py::module_& m) {
+  // The processor contract (imu_processor.hpp), the one source for Python, loop and harness.
+  py::dict flag_bits;
+  for (const ImuFlagName& f : kImuFlagNames) flag_bits[f.name] = f.bit;
+  m.attr("IMU_FLAGS") = flag_bits;
+  py::list keys;
+  const ImuHealth h0{};
+  for_each_health_field(h0, [&keys](const char* name, std::uint64_t) { keys.append(name); });
+  m.attr("IMU_HEALTH_KEYS") = py::tuple(keys);
+  py::list rejections;
+  for_each_rejection_field(h0, [&rejections](const char* name, std::uint64_t) { rejections.append(name); });
+  m.attr("IMU_REJECTION_KEYS") = py::tuple(rejections);
+  m.attr("IMU_RESYNC_AFTER") = kImuResyncAfter;
+  m.attr("IMU_DEFAULT_PERIOD_US") = kImuDefaultPeriodUs;
+  m.attr("IMU_DEFAULT_TIME_TOLERANCE_US") = kImuDefaultTimeToleranceUs;
+  m.attr("IMU_CHANNELS") = kImuChannels;
+
   bind_processor<double>(m, "ImuProcessor");
   bind_processor<float>(m, "ImuProcessorF32");
   bind_wavelet_processor<double>(m, "ImuProcessorWavelet");

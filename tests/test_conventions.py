@@ -34,6 +34,7 @@ OWN_FLAGS: dict[str, set[str]] = {
     "psd": {"--nperseg", "--bins-per-decade"},
     "compare": set(),
     "wavelet-response": {"--n-freqs"},
+    "config": {"--emit-cpp", "--namespace"},
     "align": {"--scenario", "--runs", "--coarse-s", "--states", "--kf-noise", "--gyro-lsb-arcsec",
               "--dither-arcsec", "--mechanism", "--real", "--segment-s", "--no-plots"},
 }
@@ -108,6 +109,7 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 REFERENCE_MAY_IMPORT = {
     "gyrodrift.earth", "gyrodrift.errors", "gyrodrift.align.attitude", "gyrodrift.align.config",
     "gyrodrift.imu",  # the processor contract: flag bits, channel names, configuration types
+    "gyrodrift.config",  # the processor configuration file (records and reader, no algorithm)
 }
 # Single names the references may take from a production module: the model record, its error
 # and input checks; not the fits and filters under test.

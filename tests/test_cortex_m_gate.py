@@ -158,15 +158,17 @@ def forbidden_symbols(nm_output: str) -> list[str]:
     return sorted(set(found))
 
 
-def build_unit(src: Path, workdir: Path) -> GateResult:
-    """Compile and link src with the support files; check symbols; measure sizes."""
+def build_unit(src: Path, workdir: Path, extra_flags: list[str] | None = None) -> GateResult:
+    """Compile and link src with the support files; check symbols; measure sizes.
+    extra_flags: added to the compile flags (e.g. -ffp-contract=off)."""
     tools = toolchain()
     result = GateResult(unit=src.stem)
     workdir.mkdir(parents=True, exist_ok=True)
     objects = []
     for source in [*SUPPORT_SOURCES, src]:
         obj = workdir / (source.stem + ".o")
-        proc = _run([tools["g++"], *CXX_FLAGS, "-c", str(source), "-o", str(obj)], workdir)
+        proc = _run([tools["g++"], *CXX_FLAGS, *(extra_flags or []), "-c", str(source), "-o",
+                     str(obj)], workdir)
         if proc.returncode != 0:
             result.reasons.append(f"compile error in {source.name}")
             result.log += proc.stderr
@@ -241,8 +243,9 @@ def run_on_qemu(qemu: str, elf: Path, result: GateResult) -> None:
         str(elf),
     ]
     try:
-        proc = subprocess.run(
-            cmd, capture_output=True, text=True, timeout=QEMU_TIMEOUT_S, check=False
+        proc = subprocess.run(  # in the unit's directory: semihosting file I/O is relative
+            cmd, capture_output=True, text=True, timeout=QEMU_TIMEOUT_S, check=False,
+            cwd=elf.parent,
         )
     except subprocess.TimeoutExpired:
         result.reasons.append(f"run: no report within {QEMU_TIMEOUT_S:.0f} s (hang or lockup)")

@@ -239,3 +239,23 @@ def test_random_bytes_never_stop_the_loop(loop_bin: Path, mode: str, variant: st
     # Random junk can contain an accidental frame start that swallows the next valid unit, so
     # allow a few lost units; at least 190 of the 200 valid units must come out.
     assert 190 <= stats["frames_out"] <= 200, stats
+
+
+def test_unread_output_is_counted_as_dropped_not_sent(loop_bin: Path) -> None:
+    """Issue 13 regression: with a peer that never reads, the loop used to report every
+    queued frame as sent (frames_out 20000, bytes_out for 377 frames, output_overflow 0).
+    Now frames_queued = frames_out (fully written) + frames_dropped (left at exit), and
+    bytes_out covers exactly the written frames (plus at most one partial frame)."""
+    loop = Loop(loop_bin, "--serial", *PASS)
+    n = 3000  # 126 kB: far more than a pty holds unread
+    data, _ = _frames(n)
+    loop.write(data)
+    time.sleep(0.5)  # let the loop take all input (1000 Hz); the output stays unread
+    stats = loop.finish()
+    assert stats["frames_in"] == n
+    # frames_out counts only frames whose bytes were all written (the old code failed here)
+    assert 42 * stats["frames_out"] <= stats["bytes_out"] < 42 * (stats["frames_out"] + 1)
+    assert stats["frames_queued"] == n  # pass-through: one output per input
+    assert stats["frames_out"] + stats["frames_dropped"] == stats["frames_queued"]
+    assert stats["frames_dropped"] > 0  # the peer never read: not everything went out
+    assert stats["rejected"]["output_overflow"] == 0

@@ -22,6 +22,8 @@
 #include <memory>
 #include <vector>
 
+#include "../cortex_m/generated/gyrodrift_budget_config.hpp"  // the issue-12 budget chain
+
 using namespace gyrodrift;
 using Clock = std::chrono::steady_clock;
 
@@ -152,6 +154,24 @@ int main(int argc, char** argv) {
     auto p = std::make_unique<ImuProcessor<float, W>>(cfg, W(WaveletKind::db8, 5));
     const Stats st = time_processor(*p, in, repeats);
     row("ImuProcessor<float> step, 6 x wavelet db8 N=256 forced", st.median_ns, "", &st);
+  }
+
+  {
+    // The issue-12 budget chain from the generated configuration header: 3 gyros wavelet db4
+    // N=256 J=5 forced (flash-FIR stage) -> steady-state AR(2)-Kalman, 3 accels bias removal.
+    const auto in = record<float>(n / 4);
+    auto p = std::make_unique<budget_config::Processor>(budget_config::kImuConfig, budget_config::make_wavelet);
+    const Stats st = time_processor(*p, in, repeats);
+    row("budget chain (generated header): 3 x FIR db4 N=256 -> steady AR(2)-Kalman + 3 bias", st.median_ns, "", &st);
+  }
+  {
+    // The same chain as gyrodrift-loop runs it from a configuration file (RealtimeWavelet stage).
+    using W = RealtimeWavelet<float, 256>;
+    ImuConfig<float> cfg = budget_config::kImuConfig;
+    const auto in = record<float>(n / 4);
+    auto p = std::make_unique<ImuProcessor<float, W>>(cfg, W(WaveletKind::db4, 5));
+    const Stats st = time_processor(*p, in, repeats);
+    row("same chain, RealtimeWavelet stage (the loop's)", st.median_ns, "", &st);
   }
 
   // Codecs.

@@ -32,4 +32,10 @@ inline float input(std::size_t i) noexcept { return gyrodrift_cm_input[i % 64u];
 inline void sink(float value) noexcept { gyrodrift_cm_sink = value; }
 inline void sink(std::int32_t value) noexcept { gyrodrift_cm_sink_i32 = value; }
 
+// Host files through semihosting (support.cpp): a handle >= 0, or -1. For the golden-I/O unit.
+int host_open(const char* path, bool write);
+bool host_read(int fd, void* buf, std::size_t n);   // true when all n bytes were read
+bool host_write(int fd, const void* buf, std::size_t n);
+void host_close(int fd);
+
 }  // namespace gyrodrift::cortex_m

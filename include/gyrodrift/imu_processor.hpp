@@ -1,13 +1,19 @@
 // Six-channel IMU processor (3 gyro + 3 accelerometer) for a fixed-rate navigation loop.
 //
-// Per channel c (chosen at construction):
+// Per channel c (chosen at construction) a chain of up to two stages, `filter` then
+// `filter2` (pass_through as filter2 means "no second stage"); each stage is one of
 //   pass_through:  y = x
 //   bias_removal:  y = x - bias
-//   ar2_kalman:    y = Ar2Kalman(x) - bias   (paper 000 sec. 2.2 / paper 002 sec. 3; model and
-//                  q, r identified offline, e.g. with fit_ar2; the model mean is kept in the
-//                  filter output, so bias is normally 0 here)
-//   wavelet:       y = Wavelet(x) - bias     (real-time sliding-window prefilter, paper 004
-//                  sec. 2.2; any type with step(Scalar), reset(), status() plugs in, see below)
+//   ar2_kalman:    y = Ar2Kalman(x)   (paper 000 sec. 2.2 / paper 002 sec. 3; model and q, r
+//                  identified offline, e.g. with fit_ar2; the model mean is kept in the output;
+//                  steady_state selects the constant-gain filter of ar2_steady_state.hpp)
+//   wavelet:       y = Wavelet(x)     (real-time sliding-window prefilter, paper 004 sec. 2.2;
+//                  any type with step(Scalar), reset(), status() plugs in, see below)
+// e.g. the 2014 paper's chain: filter = wavelet, filter2 = ar2_kalman. A chain without a
+// bias_removal stage subtracts `bias` after its last stage (so a single ar2_kalman or wavelet
+// stage gives y = stage(x) - bias, as before chains existed).
+// The wavelet stage exists only on channels c < WaveletChannels (a template parameter), so a
+// firmware build whose wavelet runs on the three gyros pays for three windows, not six.
 // Gyros default to ar2_kalman (their model must be supplied: an unset model makes status()
 // report bad_channel_config), accelerometers to pass_through.
 //
@@ -24,7 +30,9 @@
 //   * per value: NaN/Inf, saturation (|x| >= saturation), stuck channel (the same value
 //     stuck_samples times in a row). Such a value is a missing measurement for its channel:
 //     the Kalman filter does a predict-only step, the wavelet window skips it, pass-through
-//     and bias channels hold their last output. Filter state never sees the bad value.
+//     and bias stages hold their last output. A missing value stays missing through the
+//     chain: the second stage is told "missing", not given the first stage's held output.
+//     Filter state never sees the bad value.
 //   * filter_faults: a Kalman update rejected by the filter itself (non-finite result).
 // A processor whose configuration is invalid (status() != ok) rejects every sample with
 // kFlagConfigError, rather than passing data through silently.
@@ -35,9 +43,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
+#include <utility>
 
 #include "ar2_kalman.hpp"
 #include "ar2_model.hpp"
+#include "ar2_steady_state.hpp"
 
 namespace gyrodrift {
 
@@ -58,10 +69,33 @@ inline constexpr std::uint16_t kFlagResync = 1U << 8;      // accepted after kRe
 inline constexpr std::uint16_t kFlagConfigError = 1U << 14; // processor not configured (rejected)
 inline constexpr std::uint16_t kFlagRejected = 1U << 15;   // no output for this input
 
+// The processor's contract in one place: flag names, health counter names, defaults. The
+// binding exports these (gyrodrift._core.IMU_FLAGS, IMU_HEALTH_KEYS, ...), the loop's JSON
+// uses them, and tests/test_imu_contract.py fails if any other copy differs.
+struct ImuFlagName {
+  std::uint16_t bit;
+  const char* name;
+};
+inline constexpr ImuFlagName kImuFlagNames[] = {
+    {kFlagNonFinite, "non_finite"},     {kFlagSaturated, "saturated"},
+    {kFlagStuck, "stuck"},              {kFlagSeqGap, "seq_gap"},
+    {kFlagDuplicate, "duplicate"},      {kFlagOutOfOrder, "out_of_order"},
+    {kFlagTimeJump, "time_jump"},       {kFlagFilterFault, "filter_fault"},
+    {kFlagResync, "resync"},            {kFlagConfigError, "config_error"},
+    {kFlagRejected, "rejected"},
+};
+inline constexpr std::uint32_t kImuDefaultPeriodUs = 2500;         // 400 Hz
+inline constexpr std::uint32_t kImuDefaultTimeToleranceUs = 1250;  // half a period
+inline constexpr std::uint32_t kImuResyncAfter = 8;  // consecutive rejections -> source restart
+
 template <class Scalar>
 struct ImuChannelConfig {
-  ChannelFilter filter = ChannelFilter::pass_through;
-  Scalar bias = Scalar(0);  // units of the channel (rad/s or m/s^2), subtracted after the filter
+  ChannelFilter filter = ChannelFilter::pass_through;   // first stage
+  ChannelFilter filter2 = ChannelFilter::pass_through;  // second stage (pass_through: none)
+  bool steady_state = false;  // ar2_kalman stage: constant DARE gain (Ar2SteadyStateKalman)
+  // Units of the channel (rad/s or m/s^2): subtracted by the bias_removal stage, or after the
+  // last stage when the chain has no bias_removal stage.
+  Scalar bias = Scalar(0);
   // ar2_kalman: model, process noise q and measurement noise r (units^2), P_0 = p0 I.
   Ar2Model<Scalar> model{std::numeric_limits<Scalar>::quiet_NaN(), std::numeric_limits<Scalar>::quiet_NaN(),
                          std::numeric_limits<Scalar>::quiet_NaN(), std::numeric_limits<Scalar>::quiet_NaN()};
@@ -75,8 +109,8 @@ struct ImuChannelConfig {
 template <class Scalar>
 struct ImuConfig {
   std::array<ImuChannelConfig<Scalar>, kImuChannels> channels = default_channels();
-  std::uint32_t period_us = 2500;          // nominal sample period (400 Hz)
-  std::uint32_t time_tolerance_us = 1250;  // 0: timestamp check off
+  std::uint32_t period_us = kImuDefaultPeriodUs;                // nominal sample period
+  std::uint32_t time_tolerance_us = kImuDefaultTimeToleranceUs;  // 0: timestamp check off
 
   static std::array<ImuChannelConfig<Scalar>, kImuChannels> default_channels() noexcept {
     std::array<ImuChannelConfig<Scalar>, kImuChannels> ch{};
@@ -117,6 +151,34 @@ struct ImuHealth {
   std::uint64_t filter_faults = 0;
 };
 
+// Every health counter with its name, in the order of ImuHealth (the one list of names).
+template <class H, class F>
+void for_each_health_field(H& h, F&& field) {
+  field("samples_in", h.samples_in);
+  field("samples_accepted", h.samples_accepted);
+  field("duplicates", h.duplicates);
+  field("out_of_order", h.out_of_order);
+  field("config_rejected", h.config_rejected);
+  field("seq_gaps", h.seq_gaps);
+  field("missing_samples", h.missing_samples);
+  field("seq_resyncs", h.seq_resyncs);
+  field("time_jumps", h.time_jumps);
+  field("non_finite_samples", h.non_finite_samples);
+  field("non_finite_values", h.non_finite_values);
+  field("saturated_values", h.saturated_values);
+  field("stuck_values", h.stuck_values);
+  field("filter_faults", h.filter_faults);
+}
+
+// The rejection reasons (samples that produced no output) under the names the loop's JSON
+// "rejected" object and the replay report use.
+template <class H, class F>
+void for_each_rejection_field(H& h, F&& field) {
+  field("duplicate", h.duplicates);
+  field("out_of_order", h.out_of_order);
+  field("config", h.config_rejected);
+}
+
 enum class ImuStatus : std::uint8_t {
   ok = 0,
   bad_channel_config,   // Kalman model/q/r invalid, bad saturation, unknown filter
@@ -136,22 +198,33 @@ struct NoWavelet {
 };
 
 // Wavelet: copyable, `Scalar step(Scalar)` (NaN/Inf input = skip and hold, as
-// RealtimeWavelet does), `void reset()`, `status()` whose value 0 means ok. Example:
+// RealtimeWavelet does), `void reset()`, `status()` whose value 0 means ok. Examples:
 //   ImuProcessor<float, RealtimeWavelet<float, 256>> p(config, RealtimeWavelet<float, 256>(WaveletKind::db8, 5));
-template <class Scalar, class Wavelet = NoWavelet<Scalar>>
+//   ImuProcessor<float, FirPrefilter<float, 256>, 3> p(config, {FirPrefilter<float, 256>(kTaps), ...});
+template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels>
 class ImuProcessor {
- public:
-  static constexpr std::uint32_t kResyncAfter = 8;
+  static_assert(WaveletChannels >= 1 && WaveletChannels <= kImuChannels, "WaveletChannels in 1..6");
 
+ public:
+  static constexpr std::uint32_t kResyncAfter = kImuResyncAfter;
+  using WaveletArray = std::array<Wavelet, WaveletChannels>;
+
+  // One wavelet setting copied to every wavelet channel.
   explicit ImuProcessor(const ImuConfig<Scalar>& config, const Wavelet& wavelet_prototype = Wavelet{}) noexcept
-      : config_(config),
-        kalman_{make_kalman(config, 0), make_kalman(config, 1), make_kalman(config, 2),
-                make_kalman(config, 3), make_kalman(config, 4), make_kalman(config, 5)},
-        wavelet_{wavelet_prototype, wavelet_prototype, wavelet_prototype,
-                 wavelet_prototype, wavelet_prototype, wavelet_prototype} {
-    status_ = check_config(wavelet_prototype);
-    reset();
-  }
+      : ImuProcessor(config, [&wavelet_prototype](std::size_t) { return wavelet_prototype; },
+                     std::make_index_sequence<WaveletChannels>{}) {}
+
+  // Per-channel wavelet stages (wavelets[c] serves channel c).
+  ImuProcessor(const ImuConfig<Scalar>& config, const WaveletArray& wavelets) noexcept
+      : ImuProcessor(config, [&wavelets](std::size_t c) { return wavelets[c]; },
+                     std::make_index_sequence<WaveletChannels>{}) {}
+
+  // Per-channel wavelet stages built in place by make_wavelet(c) (no temporary array: a
+  // firmware build constructs its windows directly in the processor, not on the stack).
+  template <class MakeWavelet,
+            class = std::enable_if_t<std::is_invocable_r_v<Wavelet, MakeWavelet&, std::size_t>>>
+  ImuProcessor(const ImuConfig<Scalar>& config, MakeWavelet&& make_wavelet) noexcept
+      : ImuProcessor(config, make_wavelet, std::make_index_sequence<WaveletChannels>{}) {}
 
   // Processes one input sample. Returns the sample's flags; if kFlagRejected is set, `out`
   // is not written (duplicate/out-of-order frame or unconfigured processor).
@@ -225,30 +298,9 @@ class ImuProcessor {
           good = false;
         }
       }
-      const Scalar missing = std::numeric_limits<Scalar>::quiet_NaN();
-      Scalar y = Scalar(0);
-      switch (cc.filter) {
-        case ChannelFilter::ar2_kalman: {
-          const std::uint32_t faults_before = kalman_[c].fault_count();
-          y = kalman_[c].step(good ? x : missing) - cc.bias;
-          if (good && kalman_[c].fault_count() != faults_before) {
-            ++health_.filter_faults;
-            flags = static_cast<std::uint16_t>(flags | kFlagFilterFault);
-          }
-          break;
-        }
-        case ChannelFilter::wavelet:
-          y = wavelet_[c].step(good ? x : missing) - cc.bias;
-          break;
-        case ChannelFilter::bias_removal:
-          y = good ? x - cc.bias : last_out_[c];
-          break;
-        case ChannelFilter::pass_through:
-        default:
-          y = good ? x : last_out_[c];
-          break;
-      }
-      last_out_[c] = y;
+      Scalar y = run_stage(c, 0, cc.filter, x, good, flags);
+      if (cc.filter2 != ChannelFilter::pass_through) y = run_stage(c, 1, cc.filter2, y, good, flags);
+      if (!has_bias_stage(cc)) y -= cc.bias;
       out.values[c] = y;
     }
     if (any_non_finite) {
@@ -265,9 +317,10 @@ class ImuProcessor {
   void reset() noexcept {
     for (std::size_t c = 0; c < kImuChannels; ++c) {
       kalman_[c].reset();
-      wavelet_[c].reset();
+      steady_[c].reset();
     }
-    last_out_.fill(Scalar(0));
+    for (std::size_t c = 0; c < WaveletChannels; ++c) wavelet_[c].reset();
+    for (auto& h : hold_) h.fill(Scalar(0));
     last_raw_.fill(Scalar(0));
     has_raw_.fill(false);
     run_.fill(0U);
@@ -279,46 +332,126 @@ class ImuProcessor {
   }
 
   ImuStatus status() const noexcept { return status_; }
-  // Index of the first bad channel when status() == bad_channel_config (else -1).
+  // Index of the first bad channel when status() != ok (else -1).
   int bad_channel() const noexcept { return bad_channel_; }
   const ImuHealth& health() const noexcept { return health_; }
   const ImuConfig<Scalar>& config() const noexcept { return config_; }
   const Ar2Kalman<Scalar>& kalman(std::size_t c) const noexcept { return kalman_[c < kImuChannels ? c : 0]; }
 
  private:
+  template <class MakeWavelet, std::size_t... I>
+  ImuProcessor(const ImuConfig<Scalar>& config, MakeWavelet&& make_wavelet, std::index_sequence<I...>) noexcept
+      : config_(config),
+        kalman_{make_kalman(config, 0), make_kalman(config, 1), make_kalman(config, 2),
+                make_kalman(config, 3), make_kalman(config, 4), make_kalman(config, 5)},
+        steady_{make_steady(config, 0), make_steady(config, 1), make_steady(config, 2),
+                make_steady(config, 3), make_steady(config, 4), make_steady(config, 5)},
+        wavelet_{{make_wavelet(I)...}} {
+    status_ = check_config();
+    reset();
+  }
+
+  static bool has_bias_stage(const ImuChannelConfig<Scalar>& cc) noexcept {
+    return cc.filter == ChannelFilter::bias_removal || cc.filter2 == ChannelFilter::bias_removal;
+  }
+
+  // One stage of channel c's chain (index k = 0 or 1). `good` false: the input is missing.
+  Scalar run_stage(std::size_t c, std::size_t k, ChannelFilter f, Scalar x, bool good,
+                   std::uint16_t& flags) noexcept {
+    const ImuChannelConfig<Scalar>& cc = config_.channels[c];
+    const Scalar missing = std::numeric_limits<Scalar>::quiet_NaN();
+    Scalar y = Scalar(0);
+    switch (f) {
+      case ChannelFilter::ar2_kalman: {
+        if (cc.steady_state) {
+          const std::uint32_t before = steady_[c].fault_count();
+          y = steady_[c].step(good ? x : missing);
+          if (good && steady_[c].fault_count() != before) count_filter_fault(flags);
+        } else {
+          const std::uint32_t before = kalman_[c].fault_count();
+          y = kalman_[c].step(good ? x : missing);
+          if (good && kalman_[c].fault_count() != before) count_filter_fault(flags);
+        }
+        break;
+      }
+      case ChannelFilter::wavelet:
+        y = wavelet_[c < WaveletChannels ? c : 0].step(good ? x : missing);
+        break;
+      case ChannelFilter::bias_removal:
+        y = good ? x - cc.bias : hold_[k][c];
+        break;
+      case ChannelFilter::pass_through:
+      default:
+        y = good ? x : hold_[k][c];
+        break;
+    }
+    hold_[k][c] = y;
+    return y;
+  }
+
+  void count_filter_fault(std::uint16_t& flags) noexcept {
+    ++health_.filter_faults;
+    flags = static_cast<std::uint16_t>(flags | kFlagFilterFault);
+  }
+
   static Ar2Kalman<Scalar> make_kalman(const ImuConfig<Scalar>& config, std::size_t c) noexcept {
     const ImuChannelConfig<Scalar>& cc = config.channels[c];
-    if (cc.filter == ChannelFilter::ar2_kalman) return Ar2Kalman<Scalar>(cc.model, cc.q, cc.r, cc.p0);
+    if (uses(cc, ChannelFilter::ar2_kalman) && !cc.steady_state) return Ar2Kalman<Scalar>(cc.model, cc.q, cc.r, cc.p0);
     // Unused stage: a valid, inert filter (never stepped).
     return Ar2Kalman<Scalar>(Ar2Model<Scalar>{Scalar(0), Scalar(0), Scalar(1), Scalar(0)}, Scalar(1), Scalar(1));
   }
 
-  ImuStatus check_config(const Wavelet& wavelet_prototype) noexcept {
-    bool wants_wavelet = false;
+  static Ar2SteadyStateKalman<Scalar> make_steady(const ImuConfig<Scalar>& config, std::size_t c) noexcept {
+    const ImuChannelConfig<Scalar>& cc = config.channels[c];
+    if (uses(cc, ChannelFilter::ar2_kalman) && cc.steady_state) {
+      return Ar2SteadyStateKalman<Scalar>(cc.model, cc.q, cc.r);
+    }
+    return Ar2SteadyStateKalman<Scalar>(Ar2Model<Scalar>{Scalar(0), Scalar(0), Scalar(1), Scalar(0)}, Scalar(1),
+                                        Scalar(1));
+  }
+
+  static bool uses(const ImuChannelConfig<Scalar>& cc, ChannelFilter f) noexcept {
+    return cc.filter == f || cc.filter2 == f;
+  }
+
+  static bool known(ChannelFilter f) noexcept {
+    return f == ChannelFilter::pass_through || f == ChannelFilter::bias_removal ||
+           f == ChannelFilter::ar2_kalman || f == ChannelFilter::wavelet;
+  }
+
+  ImuStatus check_config() noexcept {
     for (std::size_t c = 0; c < kImuChannels; ++c) {
       const ImuChannelConfig<Scalar>& cc = config_.channels[c];
-      bool ok = std::isfinite(cc.bias) && !(cc.saturation <= Scalar(0)) && !std::isnan(cc.saturation);
-      switch (cc.filter) {
-        case ChannelFilter::ar2_kalman: ok = ok && kalman_[c].status() == Ar2Status::ok; break;
-        case ChannelFilter::wavelet: wants_wavelet = true; break;
-        case ChannelFilter::pass_through: ok = ok && cc.bias == Scalar(0); break;
-        case ChannelFilter::bias_removal: break;
-        default: ok = false; break;
+      bool ok = std::isfinite(cc.bias) && !(cc.saturation <= Scalar(0)) && !std::isnan(cc.saturation) &&
+                known(cc.filter) && known(cc.filter2);
+      // Chains: pass_through only alone (as filter2 it means "none"), no stage twice, and a
+      // bias only where something uses it.
+      if (cc.filter == ChannelFilter::pass_through) ok = ok && cc.filter2 == ChannelFilter::pass_through && cc.bias == Scalar(0);
+      if (cc.filter2 != ChannelFilter::pass_through) ok = ok && cc.filter2 != cc.filter;
+      if (uses(cc, ChannelFilter::ar2_kalman)) {
+        ok = ok && (cc.steady_state ? steady_[c].status() == Ar2Status::ok : kalman_[c].status() == Ar2Status::ok);
       }
       if (!ok) {
         bad_channel_ = static_cast<int>(c);
         return ImuStatus::bad_channel_config;
       }
     }
-    if (wants_wavelet && static_cast<int>(wavelet_prototype.status()) != 0) return ImuStatus::wavelet_unavailable;
+    for (std::size_t c = 0; c < kImuChannels; ++c) {
+      if (!uses(config_.channels[c], ChannelFilter::wavelet)) continue;
+      if (c >= WaveletChannels || static_cast<int>(wavelet_[c].status()) != 0) {
+        bad_channel_ = static_cast<int>(c);
+        return ImuStatus::wavelet_unavailable;
+      }
+    }
     if (config_.time_tolerance_us != 0 && config_.period_us == 0) return ImuStatus::bad_timing;
     return ImuStatus::ok;
   }
 
   ImuConfig<Scalar> config_;
   std::array<Ar2Kalman<Scalar>, kImuChannels> kalman_;
-  std::array<Wavelet, kImuChannels> wavelet_;
-  std::array<Scalar, kImuChannels> last_out_{};
+  std::array<Ar2SteadyStateKalman<Scalar>, kImuChannels> steady_;
+  WaveletArray wavelet_;
+  std::array<std::array<Scalar, kImuChannels>, 2> hold_{};  // last output of each stage
   std::array<Scalar, kImuChannels> last_raw_{};
   std::array<bool, kImuChannels> has_raw_{};
   std::array<std::uint32_t, kImuChannels> run_{};

@@ -7,16 +7,22 @@ and the C++ processor (include/gyrodrift/imu_processor.hpp) over whole records.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
 
 from gyrodrift import _native
 
+if TYPE_CHECKING:
+    from gyrodrift.config import ProcessorConfig
+
 __all__ = [
     "CHANNELS",
+    "DEFAULT_PERIOD_US",
+    "DEFAULT_TIME_TOLERANCE_US",
     "FILTERS",
     "FLAG_CONFIG_ERROR",
     "FLAG_DUPLICATE",
@@ -37,65 +43,101 @@ __all__ = [
     "ImuProcessor",
     "ImuResult",
     "WaveletSettings",
+    "contract",
     "describe_flags",
 ]
 
 CHANNELS = 6
 FILTERS = ("pass_through", "bias_removal", "ar2_kalman", "wavelet")
 
-# Per-sample health flags (u16 `flags` of output frames), as in imu_processor.hpp.
-FLAG_NON_FINITE = 1 << 0
-FLAG_SATURATED = 1 << 1
-FLAG_STUCK = 1 << 2
-FLAG_SEQ_GAP = 1 << 3
-FLAG_DUPLICATE = 1 << 4
-FLAG_OUT_OF_ORDER = 1 << 5
-FLAG_TIME_JUMP = 1 << 6
-FLAG_FILTER_FAULT = 1 << 7
-FLAG_RESYNC = 1 << 8
-FLAG_CONFIG_ERROR = 1 << 14
-FLAG_REJECTED = 1 << 15
-FLAG_NAMES = {
-    FLAG_NON_FINITE: "non_finite",
-    FLAG_SATURATED: "saturated",
-    FLAG_STUCK: "stuck",
-    FLAG_SEQ_GAP: "seq_gap",
-    FLAG_DUPLICATE: "duplicate",
-    FLAG_OUT_OF_ORDER: "out_of_order",
-    FLAG_TIME_JUMP: "time_jump",
-    FLAG_FILTER_FAULT: "filter_fault",
-    FLAG_RESYNC: "resync",
-    FLAG_CONFIG_ERROR: "config_error",
-    FLAG_REJECTED: "rejected",
+# The processor contract (flag bits, health counter names, defaults) is defined once, in
+# include/gyrodrift/imu_processor.hpp, and read from the compiled module on first use (module
+# __getattr__, so `import gyrodrift` works without the extension); tests/test_imu_contract.py
+# checks every other copy (the loop's JSON, the harness, the docs) against it.
+_FLAG_CONSTANTS = {
+    "FLAG_NON_FINITE": "non_finite",
+    "FLAG_SATURATED": "saturated",
+    "FLAG_STUCK": "stuck",
+    "FLAG_SEQ_GAP": "seq_gap",
+    "FLAG_DUPLICATE": "duplicate",
+    "FLAG_OUT_OF_ORDER": "out_of_order",
+    "FLAG_TIME_JUMP": "time_jump",
+    "FLAG_FILTER_FAULT": "filter_fault",
+    "FLAG_RESYNC": "resync",
+    "FLAG_CONFIG_ERROR": "config_error",
+    "FLAG_REJECTED": "rejected",
 }
-RESYNC_AFTER = 8  # the 8th consecutive would-be rejection is accepted as a source restart
+_contract_cache: dict[str, Any] = {}
+# Declared here, resolved by __getattr__ below (from gyrodrift._core) on first access.
+FLAG_NON_FINITE: int
+FLAG_SATURATED: int
+FLAG_STUCK: int
+FLAG_SEQ_GAP: int
+FLAG_DUPLICATE: int
+FLAG_OUT_OF_ORDER: int
+FLAG_TIME_JUMP: int
+FLAG_FILTER_FAULT: int
+FLAG_RESYNC: int
+FLAG_CONFIG_ERROR: int
+FLAG_REJECTED: int
+FLAG_NAMES: dict[int, str]
+RESYNC_AFTER: int
+HEALTH_KEYS: tuple[str, ...]
+DEFAULT_PERIOD_US: int
+DEFAULT_TIME_TOLERANCE_US: int
 
-HEALTH_KEYS = (
-    "samples_in",
-    "samples_accepted",
-    "duplicates",
-    "out_of_order",
-    "config_rejected",
-    "seq_gaps",
-    "missing_samples",
-    "seq_resyncs",
-    "time_jumps",
-    "non_finite_samples",
-    "non_finite_values",
-    "saturated_values",
-    "stuck_values",
-    "filter_faults",
-)
+
+def contract() -> dict[str, Any]:
+    """The processor contract from gyrodrift._core: ``flags`` {name: bit}, ``health_keys``,
+    ``resync_after``, ``default_period_us``, ``default_time_tolerance_us``."""
+    if not _contract_cache:
+        core = _native.core("imu", "IMU_FLAGS")
+        _contract_cache.update(
+            flags=dict(core.IMU_FLAGS),
+            health_keys=tuple(core.IMU_HEALTH_KEYS),
+            resync_after=int(core.IMU_RESYNC_AFTER),
+            default_period_us=int(core.IMU_DEFAULT_PERIOD_US),
+            default_time_tolerance_us=int(core.IMU_DEFAULT_TIME_TOLERANCE_US),
+        )
+    return _contract_cache
+
+
+def __getattr__(name: str) -> Any:
+    if name in _FLAG_CONSTANTS:
+        return contract()["flags"][_FLAG_CONSTANTS[name]]
+    if name == "FLAG_NAMES":
+        return {bit: flag for flag, bit in contract()["flags"].items()}
+    if name == "HEALTH_KEYS":
+        return contract()["health_keys"]
+    if name == "RESYNC_AFTER":
+        return contract()["resync_after"]
+    if name == "DEFAULT_PERIOD_US":
+        return contract()["default_period_us"]
+    if name == "DEFAULT_TIME_TOLERANCE_US":
+        return contract()["default_time_tolerance_us"]
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def describe_flags(flags: int) -> list[str]:
     """Names of the bits set in a flags word."""
-    return [name for bit, name in FLAG_NAMES.items() if flags & bit]
+    return [name for name, bit in contract()["flags"].items() if flags & bit]
+
+
+@dataclass(frozen=True)
+class WaveletSettings:
+    """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
+    all of them. The C++ processor is built with a 256-sample window."""
+
+    wavelet: str = "db8"
+    window: int = 256
+    level: int = 5
+    mode: str = "forced"
 
 
 @dataclass
 class ImuChannelConfig:
-    """One channel's chain: y = stage(x) - bias (see imu_processor.hpp).
+    """One channel's chain: `filter` then `filter2` (pass_through: no second stage); a chain
+    without a bias_removal stage subtracts `bias` after its last stage (imu_processor.hpp).
 
     ar2_kalman needs a1, a2, sigma2, mean (the AR(2) model, units of the channel), q and r
     (units^2) and p0 (P_0 = p0 I). saturation: |x| >= saturation marks the value bad.
@@ -104,6 +146,9 @@ class ImuChannelConfig:
 
     filter: str = "pass_through"
     bias: float = 0.0
+    filter2: str = "pass_through"
+    steady_state: bool = False
+    wavelet: WaveletSettings | None = None  # this channel's wavelet stage (None: the shared one)
     a1: float = math.nan
     a2: float = math.nan
     sigma2: float = math.nan
@@ -133,17 +178,6 @@ class ImuChannelConfig:
         )
 
 
-@dataclass(frozen=True)
-class WaveletSettings:
-    """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
-    all of them. The C++ processor is built with a 256-sample window."""
-
-    wavelet: str = "db8"
-    window: int = 256
-    level: int = 5
-    mode: str = "forced"
-
-
 def _default_channels() -> list[ImuChannelConfig]:
     return [ImuChannelConfig(filter="ar2_kalman") for _ in range(3)] + [
         ImuChannelConfig() for _ in range(3)
@@ -155,8 +189,11 @@ class ImuConfig:
     """Processor configuration. Gyros default to ar2_kalman (a model must be supplied)."""
 
     channels: list[ImuChannelConfig] = field(default_factory=_default_channels)
-    period_us: int = 2500  # nominal sample period (400 Hz)
-    time_tolerance_us: int = 1250  # 0: timestamp check off
+    # nominal sample period and timestamp tolerance (0: check off); defaults from the contract
+    period_us: int = field(default_factory=lambda: contract()["default_period_us"])
+    time_tolerance_us: int = field(
+        default_factory=lambda: contract()["default_time_tolerance_us"]
+    )
 
     def validate(self) -> None:
         if len(self.channels) != CHANNELS:
@@ -164,14 +201,64 @@ class ImuConfig:
                 f"channels: expected {CHANNELS} channel configs, got {len(self.channels)}"
             )
         for i, ch in enumerate(self.channels):
-            if ch.filter not in FILTERS:
-                raise ValueError(
-                    f"channels[{i}].filter: expected one of {FILTERS}, got {ch.filter!r}"
-                )
+            for name in ("filter", "filter2"):
+                if getattr(ch, name) not in FILTERS:
+                    raise ValueError(
+                        f"channels[{i}].{name}: expected one of {FILTERS}, "
+                        f"got {getattr(ch, name)!r}"
+                    )
             if ch.stuck_samples < 0:
                 raise ValueError(f"channels[{i}].stuck_samples must be >= 0")
         if not 0 <= self.period_us < 2**32 or not 0 <= self.time_tolerance_us < 2**32:
             raise ValueError("period_us and time_tolerance_us must fit in u32")
+
+    @classmethod
+    def from_processor_config(
+        cls, config: ProcessorConfig | str | os.PathLike[str], float32: bool = False
+    ) -> ImuConfig:
+        """The processor of a configuration file (gyrodrift.config; a path is read).
+
+        float32: round every parameter to float32 first, as the float loop and firmware store
+        them (the reference processor then runs the same model in double).
+        """
+        from gyrodrift.config import (
+            Ar2KalmanStage,
+            BiasRemoval,
+            ProcessorConfig,
+            WaveletStage,
+            load_config,
+        )
+
+        if not isinstance(config, ProcessorConfig):
+            config = load_config(config)
+
+        def num(x: float) -> float:
+            return float(np.float32(x)) if float32 else float(x)
+
+        channels = []
+        for cc in config.channels:
+            types = [st.type for st in cc.stages]
+            ch = ImuChannelConfig(
+                filter=types[0],
+                filter2=types[1] if len(types) > 1 else "pass_through",
+                saturation=num(cc.saturation),
+                stuck_samples=cc.stuck_samples,
+            )
+            for st in cc.stages:
+                if isinstance(st, BiasRemoval):
+                    ch.bias = num(st.bias)
+                elif isinstance(st, WaveletStage):
+                    ch.wavelet = WaveletSettings(st.wavelet, st.window, st.level, st.threshold)
+                elif isinstance(st, Ar2KalmanStage):
+                    ch.a1, ch.a2, ch.mean = num(st.a1), num(st.a2), num(st.mean)
+                    ch.sigma2, ch.q, ch.r = num(st.sigma2_value), num(st.q), num(st.r)
+                    ch.p0, ch.steady_state = num(st.p0), st.steady_state
+            channels.append(ch)
+        return cls(
+            channels=channels,
+            period_us=config.timing.period_us,
+            time_tolerance_us=config.timing.tolerance_us,
+        )
 
 
 @dataclass
@@ -184,7 +271,7 @@ class ImuResult:
 
     @property
     def accepted(self) -> np.ndarray:
-        return (self.flags & FLAG_REJECTED) == 0
+        return (self.flags & contract()["flags"]["rejected"]) == 0
 
 
 def _as_inputs(
@@ -217,12 +304,13 @@ class ImuProcessor:
 
     def __init__(
         self,
-        config: ImuConfig,
+        config: ImuConfig | ProcessorConfig | str | os.PathLike[str],
         dtype: npt.DTypeLike = np.float64,
         wavelet: WaveletSettings | None = None,
     ) -> None:
-        _core = _native.core("imu", "ImuProcessor")
-
+        core = _native.core("imu", "ImuProcessor")
+        if not isinstance(config, ImuConfig):  # a configuration file or ProcessorConfig
+            config = ImuConfig.from_processor_config(config)
         config.validate()
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
@@ -230,17 +318,34 @@ class ImuProcessor:
         f64 = self.dtype == np.float64
         ch = config.channels
         extra: tuple[object, ...] = ()
-        if any(c.filter == "wavelet" for c in ch):
-            if wavelet is None:
-                raise ValueError("a channel uses the wavelet stage: pass wavelet=WaveletSettings()")
-            if wavelet.window != 256:
-                raise ValueError(
-                    f"wavelet.window: the C++ stage has 256 samples, got {wavelet.window}"
-                )
-            cls = _core.ImuProcessorWavelet if f64 else _core.ImuProcessorWaveletF32
-            extra = (wavelet.wavelet, wavelet.level, wavelet.mode)
+        kw: dict[str, object] = {
+            "filters2": [FILTERS.index(c.filter2) for c in ch],
+            "steady_state": [bool(c.steady_state) for c in ch],
+        }
+        uses_wavelet = [c.filter == "wavelet" or c.filter2 == "wavelet" for c in ch]
+        if any(uses_wavelet):
+            settings = [c.wavelet or wavelet for c in ch]
+            per_channel: list[tuple[str, int, str] | None] = []
+            for i, (used, ws) in enumerate(zip(uses_wavelet, settings, strict=True)):
+                if not used:
+                    per_channel.append(None)
+                    continue
+                if ws is None:
+                    raise ValueError(
+                        f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
+                    )
+                if ws.window != 256:
+                    raise ValueError(
+                        f"channels[{i}].wavelet.window: the C++ stage has 256 samples, "
+                        f"got {ws.window}"
+                    )
+                per_channel.append((ws.wavelet, ws.level, ws.mode))
+            first = next(w for w in per_channel if w is not None)
+            cls = core.ImuProcessorWavelet if f64 else core.ImuProcessorWaveletF32
+            extra = first
+            kw["channel_wavelets"] = per_channel
         else:
-            cls = _core.ImuProcessor if f64 else _core.ImuProcessorF32
+            cls = core.ImuProcessor if f64 else core.ImuProcessorF32
         self._proc = cls(
             [FILTERS.index(c.filter) for c in ch],
             [c.bias for c in ch],
@@ -256,6 +361,7 @@ class ImuProcessor:
             config.period_us,
             config.time_tolerance_us,
             *extra,
+            **kw,
         )
         if self._proc.status != "ok":
             where = f" (channel {self._proc.bad_channel})" if self._proc.bad_channel >= 0 else ""

@@ -1,14 +1,19 @@
-// The loop's processing stage: ImuProcessor<float> configured from the command line, with
-// the translation between wire frames and processor samples and the JSON counters.
+// The loop's processing stage: ImuProcessor<float> (with the real-time wavelet stage)
+// configured from a configuration file (--config, config_file.hpp) or from the command line,
+// and its JSON counters (names from imu_processor.hpp, the one list).
 #pragma once
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
+#include <optional>
 #include <string>
 
 #include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/serial_frame.hpp>
+#include <gyrodrift/realtime_wavelet.hpp>
+
+#include "config_file.hpp"
 
 namespace gyrodrift::loop {
 
@@ -50,12 +55,13 @@ inline bool parse_csv4(const char* s, double (&v)[4]) noexcept {
 
 class Processing {
  public:
-  using Proc = ImuProcessor<float>;
+  using Wavelet = RealtimeWavelet<float, 256>;
+  using Proc = ImuProcessor<float, Wavelet>;
 
-  // Builds the processor; false (with a message) if the configuration is invalid, so a
-  // misconfigured loop refuses to start instead of rejecting every sample.
-  bool init(const ProcessingOptions& o, std::string& error) noexcept {
-    opts_ = o;
+  // Builds the processor from command-line settings; false (with a message) if the
+  // configuration is invalid, so a misconfigured loop refuses to start instead of rejecting
+  // every sample.
+  bool init(const ProcessingOptions& o, std::string& error) {
     ImuConfig<float> cfg;
     for (std::size_t c = 0; c < kImuChannels; ++c) {
       ImuChannelConfig<float>& cc = cfg.channels[c];
@@ -73,62 +79,53 @@ class Processing {
     cfg.period_us = static_cast<std::uint32_t>(std::lround(period_us));
     cfg.time_tolerance_us = static_cast<std::uint32_t>(
         o.time_tolerance_us < 0 ? std::lround(period_us / 2.0) : o.time_tolerance_us);
-    proc_ = Proc(cfg);
-    if (proc_.status() != ImuStatus::ok) {
-      error = "invalid processor configuration (channel " + std::to_string(proc_.bad_channel()) +
+    sample_rate_hz_ = o.sample_rate_hz;
+    proc_.emplace(cfg);
+    if (proc_->status() != ImuStatus::ok) {
+      error = "invalid processor configuration (channel " + std::to_string(proc_->bad_channel()) +
               "): check --gyro-ar2/--gyro-q/--gyro-r, biases (pass_through needs bias 0) and saturation";
       return false;
     }
     return true;
   }
 
-  // One wire sample through the processor; true if it produced an output frame.
-  bool step(const serial::ImuFrame& in, serial::ImuFrame& out) noexcept {
-    ImuSample<float> s;
-    s.seq = in.seq;
-    s.t_us = in.t_us;
-    s.values = in.values;
-    ImuOutput<float> y;
-    const std::uint16_t flags = proc_.step(s, y);
-    if ((flags & kFlagRejected) != 0U) return false;
-    out.type = serial::kTypeOutput;
-    out.seq = y.seq;
-    out.flags = y.flags;
-    out.t_us = y.t_us;
-    out.values = y.values;
+  // Builds the processor from a configuration file's content (already checked key by key).
+  bool init(const FileConfig& fc, std::string& error) {
+    auto ws = std::make_unique<Proc::WaveletArray>();
+    for (std::size_t c = 0; c < kImuChannels; ++c) {
+      const WaveletSpec& w = fc.wavelets[c];
+      (*ws)[c] = Wavelet(w.kind, w.level, w.mode);
+    }
+    sample_rate_hz_ = fc.sample_rate_hz;
+    proc_.emplace(fc.imu, *ws);
+    if (proc_->status() != ImuStatus::ok) {
+      error = "invalid processor configuration (channel " + std::to_string(proc_->bad_channel()) + ")";
+      return false;
+    }
     return true;
+  }
+
+  // One input sample through the processor; true if it produced an output.
+  bool step(const ImuSample<float>& in, ImuOutput<float>& out) noexcept {
+    return (proc_->step(in, out) & kFlagRejected) == 0U;
   }
 
   // Processor rejections (samples that produced no output).
   template <class F>
   void for_each_rejection(F&& field) const {
-    const ImuHealth& h = proc_.health();
-    field("duplicate", h.duplicates);
-    field("out_of_order", h.out_of_order);
-    field("config", h.config_rejected);
+    for_each_rejection_field(proc_->health(), field);
   }
 
   template <class F>
   void for_each_health(F&& field) const {
-    const ImuHealth& h = proc_.health();
-    field("samples_in", h.samples_in);
-    field("samples_accepted", h.samples_accepted);
-    field("seq_gaps", h.seq_gaps);
-    field("missing_samples", h.missing_samples);
-    field("seq_resyncs", h.seq_resyncs);
-    field("time_jumps", h.time_jumps);
-    field("non_finite_samples", h.non_finite_samples);
-    field("non_finite_values", h.non_finite_values);
-    field("saturated_values", h.saturated_values);
-    field("stuck_values", h.stuck_values);
-    field("filter_faults", h.filter_faults);
+    for_each_health_field(proc_->health(), field);
   }
 
-  const ProcessingOptions& options() const noexcept { return opts_; }
+  double sample_rate_hz() const noexcept { return sample_rate_hz_; }
 
  private:
-  ProcessingOptions opts_{};
-  Proc proc_{ImuConfig<float>{}};
+  double sample_rate_hz_ = 400.0;
+  std::optional<Proc> proc_;
 };
 
 }  // namespace gyrodrift::loop

@@ -25,6 +25,7 @@ SUBCOMMAND_MODULES: list[str] = [
     "compare",
     "wavelet_response",
     "align",
+    "config",
 ]
 
 

@@ -73,6 +73,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     g.add_argument("--seed", type=int, default=0,
                    help="seed of the fault injection and of the simulated record (default 0)")
     pr = p.add_argument_group("processor (given to the loop and the reference alike)")
+    pr.add_argument("--config", default=None, metavar="FILE",
+                    help="processor configuration file (TOML; `gyrodrift config`): per-channel "
+                         "chains, rates, tolerances; replaces the processor options below")
     pr.add_argument("--gyro-filter", default="ar2_kalman",
                     choices=("ar2_kalman", "bias_removal", "pass_through"),
                     help="filter of the three gyro channels (default ar2_kalman)")
@@ -112,6 +115,14 @@ def run(args: argparse.Namespace) -> int:
 
     if args.can_signals and not args.input:
         raise CliError("--can-signals applies to an input CAN log")
+    proc_cfg = None
+    if args.config:
+        from gyrodrift.config import ConfigError, load_config
+
+        try:
+            proc_cfg = load_config(args.config)
+        except (ConfigError, OSError) as exc:
+            raise CliError(str(exc)) from None
     if args.input:
         try:
             samples = read_imu_log(args.input, args.fmt, signals=args.can_signals)
@@ -125,19 +136,25 @@ def run(args: argparse.Namespace) -> int:
 
         if not (args.duration_s > 0 and math.isfinite(args.duration_s)):
             raise CliError("--duration-s must be > 0")
-        rate = args.rate_hz or 400.0
+        rate = args.rate_hz or (proc_cfg.timing.sample_rate_hz if proc_cfg else 400.0)
         rec = simulate_imu(args.duration_s, rate_hz=rate, seed=args.seed,
                            gyro=NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)),
                            vrw_m_s_rt_h=0.02)
         n = rec.gyro_rad_s.shape[0]
         samples = make_samples(np.arange(n) / rate, rec.gyro_rad_s, rec.accel_m_s2)
+    if proc_cfg is not None and abs(rate - proc_cfg.timing.sample_rate_hz) > 0.01 * rate:
+        raise CliError(f"sample rate {rate:.6g} Hz (record or --rate-hz) contradicts "
+                       f"timing.sample_rate_hz {proc_cfg.timing.sample_rate_hz:g} of {args.config}")
     a1, a2 = parse_ar2(args.ar2) or (1.0, -0.25)
     try:
-        proc = ProcessorSettings(gyro_filter=args.gyro_filter, accel_filter=args.accel_filter,
-                                 a1=a1, a2=a2, sigma2=args.ar2_sigma2,
-                                 mean=args.ar2_mean, q=args.kalman_q, r=args.kalman_r,
-                                 stuck_samples=args.stuck_samples,
-                                 sample_rate_hz=rate)
+        if proc_cfg is not None:
+            proc = ProcessorSettings.from_config(proc_cfg)
+        else:
+            proc = ProcessorSettings(gyro_filter=args.gyro_filter,
+                                     accel_filter=args.accel_filter, a1=a1, a2=a2,
+                                     sigma2=args.ar2_sigma2, mean=args.ar2_mean,
+                                     q=args.kalman_q, r=args.kalman_r,
+                                     stuck_samples=args.stuck_samples, sample_rate_hz=rate)
         faults = FaultSpec(drop=args.drop, corrupt=args.corrupt, duplicate=args.duplicate,
                            reorder=args.reorder, delay=args.delay, delay_s=args.delay_s,
                            seed=args.seed)

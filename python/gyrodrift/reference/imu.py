@@ -13,6 +13,8 @@ This is what the replay harness compares the loop's outputs against.
 from __future__ import annotations
 
 import math
+import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -38,48 +40,66 @@ from gyrodrift.imu import (
     WaveletSettings,
 )
 
+if TYPE_CHECKING:
+    from gyrodrift.config import ProcessorConfig
+
 __all__ = ["WaveletSettings", "process_imu"]
+
+
+def _stage(
+    kind: str, z: np.ndarray, cc: ImuChannelConfig, good: np.ndarray,
+    wavelet: WaveletSettings | None,
+) -> np.ndarray:
+    """One stage over a channel's accepted series; z is NaN where the input is missing."""
+    if kind == "ar2_kalman":
+        from gyrodrift.reference.ar2 import kalman_filter
+
+        model = Ar2Model(a1=cc.a1, a2=cc.a2, sigma2=cc.sigma2, mean=cc.mean, r=cc.r)
+        return kalman_filter(z, model, q=cc.q, r=cc.r, p0=cc.p0, steady_state=cc.steady_state)
+    if kind == "wavelet":
+        ws = cc.wavelet or wavelet
+        if ws is None:
+            raise ValueError("a channel uses the wavelet stage: pass wavelet=WaveletSettings(...)")
+        from gyrodrift.reference.wavelet import realtime_wavelet
+
+        return realtime_wavelet(z, ws.wavelet, ws.window, ws.level, ws.mode)
+    bias = cc.bias if kind == "bias_removal" else 0.0
+    out = np.empty_like(z)
+    last = 0.0
+    for k in range(z.size):
+        if good[k]:
+            last = z[k] - bias
+        out[k] = last
+    return out
 
 
 def _channel_filter(
     x: np.ndarray, cc: ImuChannelConfig, good: np.ndarray, wavelet: WaveletSettings | None
 ) -> np.ndarray:
-    """One channel over its accepted series; bad values are NaN for the filter stages."""
-    z = np.where(good, x, np.nan)
-    if cc.filter == "ar2_kalman":
-        from gyrodrift.reference.ar2 import kalman_filter
-
-        model = Ar2Model(a1=cc.a1, a2=cc.a2, sigma2=cc.sigma2, mean=cc.mean, r=cc.r)
-        return kalman_filter(z, model, q=cc.q, r=cc.r, p0=cc.p0) - cc.bias
-    if cc.filter == "wavelet":
-        if wavelet is None:
-            raise ValueError("a channel uses the wavelet stage: pass wavelet=WaveletSettings(...)")
-        from gyrodrift.reference.wavelet import realtime_wavelet
-
-        return (
-            realtime_wavelet(z, wavelet.wavelet, wavelet.window, wavelet.level, wavelet.mode)
-            - cc.bias
-        )
-    bias = cc.bias if cc.filter == "bias_removal" else 0.0
-    out = np.empty_like(x)
-    last = 0.0
-    for k in range(x.size):
-        if good[k]:
-            last = x[k] - bias
-        out[k] = last
-    return out
+    """One channel's chain over its accepted series: `filter`, then `filter2` unless it is
+    pass_through; a missing input stays missing for the second stage; without a
+    bias_removal stage the bias is subtracted at the end."""
+    y = _stage(cc.filter, np.where(good, x, np.nan), cc, good, wavelet)
+    if cc.filter2 != "pass_through":
+        y = _stage(cc.filter2, np.where(good, y, np.nan), cc, good, wavelet)
+    if "bias_removal" not in (cc.filter, cc.filter2):
+        y = y - cc.bias
+    return y
 
 
 def process_imu(
     seq: npt.ArrayLike,
     t_us: npt.ArrayLike,
     values: npt.ArrayLike,
-    config: ImuConfig,
+    config: ImuConfig | ProcessorConfig | str | os.PathLike[str],
     *,
     wavelet: WaveletSettings | None = None,
 ) -> ImuResult:
     """Reference processor over a whole record (float64). Rows that are rejected
-    (duplicate / out-of-order seq) get NaN values and FLAG_REJECTED, as in the binding."""
+    (duplicate / out-of-order seq) get NaN values and FLAG_REJECTED, as in the binding.
+    `config` may be a configuration file (or gyrodrift.config.ProcessorConfig)."""
+    if not isinstance(config, ImuConfig):
+        config = ImuConfig.from_processor_config(config)
     config.validate()
     v = np.asarray(values, dtype=np.float64)
     if v.ndim != 2 or v.shape[1] != CHANNELS:

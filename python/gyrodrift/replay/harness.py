@@ -83,7 +83,9 @@ class ReplayError(RuntimeError):
 
 def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
     """The gyrodrift-loop executable: `explicit`, $GYRODRIFT_LOOP, the C++ build named by
-    $GYRODRIFT_CPP_BUILD_DIR, the repo's build/*/ trees, or `gyrodrift-loop` on PATH."""
+    $GYRODRIFT_CPP_BUILD_DIR, the repo's build/*/ trees, the scripts directory of this
+    installation (where the wheel installs it, beside the `gyrodrift` command), or
+    `gyrodrift-loop` on PATH."""
     if explicit:
         path = Path(explicit)
         if path.is_file() and os.access(path, os.X_OK):
@@ -97,14 +99,19 @@ def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
     repo = Path(__file__).resolve().parents[3]
     cands += sorted((repo / "build").glob(f"*/{LOOP_RELATIVE.as_posix()}"),
                     key=lambda p: p.stat().st_mtime, reverse=True)
+    import sysconfig
+
+    cands.append(Path(sysconfig.get_path("scripts")) / "gyrodrift-loop")  # pip install
+    cands.append(Path(sys.executable).parent / "gyrodrift-loop")
     on_path = shutil.which("gyrodrift-loop")
     if on_path:
         cands.append(Path(on_path))
     for c in cands:
         if c.is_file() and os.access(c, os.X_OK):
             return c
-    raise ReplayError("cannot find gyrodrift-loop: build it (scripts/dev-build NAME gyrodrift-loop "
-                      "or cmake -DGYRODRIFT_BUILD_PROGRAMS=ON) and pass --loop-binary, or set "
+    raise ReplayError("cannot find gyrodrift-loop: `pip install` the package (the wheel "
+                      "installs it), or build it (scripts/dev-build NAME gyrodrift-loop or cmake "
+                      "-DGYRODRIFT_BUILD_PROGRAMS=ON) and pass --loop-binary, or set "
                       "GYRODRIFT_LOOP")
 
 

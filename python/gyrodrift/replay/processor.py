@@ -1,13 +1,23 @@
 """One processor configuration, given to both sides of a replay: the loop program's command
 line (cpp/programs/gyrodrift-loop/processing.hpp) and the reference processor's ImuConfig
-(gyrodrift.reference.imu.process_imu), so the two run the same chain."""
+(gyrodrift.reference.imu.process_imu), so the two run the same chain.
+
+With a configuration file (``ProcessorSettings.from_config``) the loop gets ``--config`` with
+the file's canonical text and the reference reads the same configuration."""
 
 from __future__ import annotations
 
+import hashlib
 import math
-from dataclasses import asdict, dataclass
+import tempfile
+from dataclasses import asdict, dataclass, replace
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gyrodrift.imu import ImuChannelConfig, ImuConfig
+
+if TYPE_CHECKING:
+    from gyrodrift.config import ProcessorConfig
 
 __all__ = [
     "LOOP_FILTERS",
@@ -40,6 +50,19 @@ class ProcessorSettings:
     stuck_samples: int = 0
     sample_rate_hz: float = 400.0
     time_tolerance_us: int = -1  # -1: half a sample period
+    config: ProcessorConfig | None = None  # a configuration file's processor (overrides all)
+
+    @classmethod
+    def from_config(cls, config: ProcessorConfig | str | Path) -> ProcessorSettings:
+        """Settings that run the processor of a configuration file (or ProcessorConfig)."""
+        from gyrodrift.config import ProcessorConfig, load_config
+
+        cfg = config if isinstance(config, ProcessorConfig) else load_config(config)
+        return cls(sample_rate_hz=cfg.timing.sample_rate_hz,
+                   time_tolerance_us=cfg.timing.tolerance_us, config=cfg)
+
+    def with_sample_rate(self, rate_hz: float) -> ProcessorSettings:
+        return replace(self, sample_rate_hz=rate_hz)
 
     def __post_init__(self) -> None:
         for name in ("gyro_filter", "accel_filter"):
@@ -61,6 +84,8 @@ class ProcessorSettings:
 
     def loop_args(self) -> list[str]:
         """The gyrodrift-loop options for this configuration (repr() keeps every digit)."""
+        if self.config is not None:
+            return ["--config", str(self._config_file())]
         def num(x: float) -> str:
             return "inf" if math.isinf(x) else repr(float(x))
 
@@ -78,9 +103,24 @@ class ProcessorSettings:
             "--time-tolerance-us", str(self.tolerance_us),
         ]
 
+    def _config_file(self) -> Path:
+        """The configuration's canonical text in a content-named temporary file (the loop's
+        reader takes the canonical TOML subset, whatever layout the user's file has)."""
+        from gyrodrift.config import dumps_config, write_config
+
+        assert self.config is not None
+        text = dumps_config(self.config)
+        digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+        path = Path(tempfile.gettempdir()) / f"gyrodrift-config-{digest}.toml"
+        if not path.exists():
+            write_config(self.config, path)
+        return path
+
     def imu_config(self) -> ImuConfig:
         """The same chain as an ImuConfig for the reference processor. The loop stores every
         parameter as float32, so the reference gets the float32-rounded values too."""
+        if self.config is not None:
+            return ImuConfig.from_processor_config(self.config, float32=True)
         def f32(x: float) -> float:
             import numpy as np
 
@@ -101,4 +141,6 @@ class ProcessorSettings:
                          time_tolerance_us=self.tolerance_us)
 
     def to_dict(self) -> dict[str, object]:
+        if self.config is not None:
+            return {"config": self.config.as_dict()}
         return asdict(self)

@@ -1,0 +1,244 @@
+"""The processor configuration file (issue 12): one file read by the Python reader, the C++
+loop (`gyrodrift-loop --config`), the Python ImuProcessor and the numpy reference processor.
+
+Round trip: a configuration with a different chain on every channel is written, read back by
+Python (equal) and by the loop, and the loop's outputs over a record with faults equal the
+Python float32 ImuProcessor's (same C++ code: bit-identical) and the double reference within
+float tolerance. Every malformed configuration is refused by both readers with the key named.
+Expected values come from the reference processor or from the fault put in, never from the code
+under test.
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gyrodrift.config import (
+    Ar2KalmanStage,
+    BiasRemoval,
+    ChannelConfig,
+    ConfigError,
+    PassThrough,
+    ProcessorConfig,
+    Timing,
+    WaveletStage,
+    default_config,
+    dumps_config,
+    load_config,
+    parse_config,
+    write_config,
+)
+from gyrodrift.imu import FLAG_REJECTED, ImuConfig, ImuProcessor
+from gyrodrift.reference.imu import process_imu
+from gyrodrift.replay.wire import decode_stream, encode_frames, make_samples
+from test_loop_program import Loop, loop_bin  # noqa: F401 (fixture)
+
+MODEL = {"a1": 0.6868, "a2": -0.0213, "q": 1e-6, "r": 4e-6}  # paper 002 model, rad/s units
+
+
+def mixed_config() -> ProcessorConfig:
+    """A different chain on every channel (both wavelets, all modes, both Kalman forms)."""
+    ar = Ar2KalmanStage(mean=0.002, sigma2=1e-6, **MODEL)
+    chans = (
+        ChannelConfig("gx", (WaveletStage("db4", 256, 5, "forced"),
+                             Ar2KalmanStage(mean=0.002, steady_state=True, **MODEL)),
+                      saturation=8.0, stuck_samples=20),
+        ChannelConfig("gy", (WaveletStage("db8", 256, 4, "soft"), ar), saturation=8.0),
+        ChannelConfig("gz", (ar, BiasRemoval(0.001)), saturation=8.0),
+        ChannelConfig("ax", (BiasRemoval(0.05),), saturation=160.0),
+        ChannelConfig("ay", (PassThrough(),)),
+        ChannelConfig("az", (WaveletStage("db4", 256, 3, "hard"),), saturation=160.0),
+    )
+    return ProcessorConfig(channels=chans, timing=Timing(400.0, 1250, 1000.0),
+                           meta=(("written_by", "test_config_file"),))
+
+
+def record(n: int = 700) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """seq, t_us, values (float32-exact) with faults: NaN, Inf, saturation, a stuck run, a
+    duplicate and a gap."""
+    rng = np.random.default_rng(12)
+    t = np.arange(n) / 400.0
+    gyro = 0.002 + np.cumsum(rng.normal(0, 2e-4, (n, 3)), 0) * 0.05 + rng.normal(0, 1e-3, (n, 3))
+    accel = np.array([0.05, -0.1, 9.81]) + rng.normal(0, 0.01, (n, 3))
+    s = make_samples(t, gyro, accel)
+    v = s.channels.astype(np.float32).copy()
+    v[300, 0] = np.nan
+    v[320, 1] = np.inf
+    v[340, 2] = 50.0  # saturated (8 rad/s)
+    v[360:390, 0] = v[360, 0]  # stuck: 20th identical value on
+    v[400, 3] = 500.0  # saturated accel
+    seq = s.seq.astype(np.int64)
+    t_us = s.t_us.astype(np.int64)
+    keep = np.ones(n, bool)
+    keep[450:453] = False  # a gap of 3 samples
+    seq, t_us, v = seq[keep], t_us[keep], v[keep]
+    dup = 500
+    seq = np.insert(seq, dup, seq[dup - 1])  # a duplicate (rejected)
+    t_us = np.insert(t_us, dup, t_us[dup - 1])
+    v = np.insert(v, dup, v[dup - 1], axis=0)
+    return seq, t_us, v
+
+
+def test_python_round_trip_is_identity(tmp_path: Path) -> None:
+    for cfg in (default_config(), mixed_config()):
+        path = write_config(cfg, tmp_path / "c.toml")
+        assert load_config(path) == cfg
+        assert parse_config(dumps_config(cfg)) == cfg
+
+
+def run_loop(binary: Path, cfg_path: Path, seq: np.ndarray, t_us: np.ndarray,
+             v: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+    s = make_samples(np.zeros(len(seq)), np.zeros((len(seq), 3)), np.zeros((len(seq), 3)))
+    s.seq[:] = seq.astype(np.uint16)
+    s.t_us[:] = t_us.astype(np.uint64)
+    s.channels[:] = v
+    data = encode_frames(s).tobytes()
+    loop = Loop(binary, "--serial", "--config", str(cfg_path), "--no-rt")
+    loop.write(data)
+    got = loop.read_until(42 * (len(seq) - 1), timeout_s=10.0)
+    stats = loop.finish()
+    dec = decode_stream(got)
+    return dec.samples.channels.astype(np.float64), dec.samples.seq, stats
+
+
+def test_loop_reads_the_same_file_and_matches_python_and_reference(
+        loop_bin: Path, tmp_path: Path) -> None:  # noqa: F811
+    cfg = mixed_config()
+    path = write_config(cfg, tmp_path / "mixed.toml")
+    seq, t_us, v = record()
+    out, out_seq, stats = run_loop(loop_bin, path, seq, t_us, v)
+    # The Python float32 processor: the same C++ code with the same float32 parameters.
+    py = ImuProcessor(ImuConfig.from_processor_config(path, float32=True), dtype=np.float32)
+    res = py.process(seq, t_us, v)
+    acc = (res.flags & FLAG_REJECTED) == 0
+    assert stats["frames_in"] == len(seq)
+    assert stats["frames_out"] == acc.sum() == len(seq) - 1  # one duplicate rejected
+    np.testing.assert_array_equal(out_seq, seq[acc].astype(np.uint16))
+    np.testing.assert_array_equal(out, res.values[acc].astype(np.float32).astype(np.float64))
+    # The double reference on the float32-rounded configuration, within float tolerance.
+    ref = process_imu(seq, t_us, v, ImuConfig.from_processor_config(path, float32=True))
+    scale = np.nanmax(np.abs(ref.values[acc]), axis=0)
+    err = np.nanmax(np.abs(out - ref.values[acc]), axis=0)
+    assert np.all(err <= 1e-5 * np.maximum(scale, 1.0)), (err, scale)
+    # The health the loop reports is the reference's.
+    for k in ("samples_accepted", "seq_gaps", "missing_samples", "non_finite_values",
+              "saturated_values", "stuck_values", "duplicates"):
+        assert stats["health"][k] == ref.health[k], k
+    assert ref.health["stuck_values"] > 0 and ref.health["saturated_values"] == 2
+
+
+def test_loop_rejects_config_with_processor_options(loop_bin: Path, tmp_path: Path) -> None:  # noqa: F811
+    path = write_config(default_config(), tmp_path / "d.toml")
+    r = subprocess.run([str(loop_bin), "--serial", "fd:0", "--config", str(path),
+                        "--gyro-filter", "pass_through"], capture_output=True, timeout=10)
+    assert r.returncode == 2 and b"do not combine" in r.stderr
+
+
+# (description, transformation of the canonical default text, key the error must name)
+def _sub(old: str, new: str, count: int = 1) -> Callable[[str], str]:
+    def f(text: str) -> str:
+        assert old in text, old
+        return text.replace(old, new, count)
+    return f
+
+
+BAD = [
+    ("unknown key", _sub("sample_rate_hz", "sample_rte_hz = 400.0\nsample_rate_hz"),
+     "timing.sample_rte_hz"),
+    ("unknown stage key", _sub("threshold = \"forced\"", "threshold = \"forced\"\nlevels = 4"),
+     "channels.gx.stages[0].levels"),
+    ("missing value", _sub("level = 5\n", ""), "channels.gx.stages[0].level"),
+    ("missing channel", lambda t: t[: t.index("[channels.az]")], "channels.az"),
+    ("wrong units (accel key on a gyro)", _sub("saturation_rad_s", "saturation_m_s2"),
+     "channels.gx.saturation_m_s2"),
+    ("wrong units (deg/h)", _sub("mean_rad_s", "mean_deg_h"), "channels.gx.stages[1].mean_deg_h"),
+    ("wrong units (gyro key on an accel)", _sub("bias_m_s2", "bias_rad_s"),
+     "channels.ax.stages[0].bias_rad_s"),
+    ("non-stationary model", _sub("a1 = 1.0", "a1 = 1.3"), "channels.gx.stages[1].a1"),
+    ("non-stationary a2", _sub("a2 = -0.25", "a2 = -1.0"), "channels.gx.stages[1].a1"),
+    ("negative q", _sub("q = 1e-10", "q = -1e-10"), "channels.gx.stages[1].q"),
+    ("zero r", _sub("r = 1e-08", "r = 0.0"), "channels.gx.stages[1].r"),
+    ("bad wavelet", _sub("db4", "db6"), "channels.gx.stages[0].wavelet"),
+    ("level too deep", _sub("level = 5", "level = 9"), "channels.gx.stages[0].level"),
+    ("bad threshold", _sub("\"forced\"", "\"medium\""), "channels.gx.stages[0].threshold"),
+    ("bad stage type", _sub("\"bias_removal\"", "\"bias\""), "channels.ax.stages[0].type"),
+    ("three stages", _sub("[[channels.ax.stages]]",
+                          "[[channels.ax.stages]]\ntype = \"pass_through\"\n\n"
+                          "[[channels.ax.stages]]\ntype = \"pass_through\"\n\n"
+                          "[[channels.ax.stages]]"), "channels.ax.stages"),
+    ("negative saturation", _sub("saturation_m_s2 = 160.0", "saturation_m_s2 = -1.0"),
+     "channels.ax.saturation_m_s2"),
+    ("wrong type", _sub("stuck_samples = 50", "stuck_samples = \"many\""),
+     "channels.gx.stuck_samples"),
+    ("bad version", _sub("version = 1", "version = 2"), "version"),
+    ("bad schema", _sub("\"gyrodrift.processor\"", "\"other\""), "schema"),
+    ("missing rate", _sub("sample_rate_hz = 400.0\n", ""), "timing.sample_rate_hz"),
+]
+
+
+@pytest.mark.parametrize("name,edit,key", BAD, ids=[b[0] for b in BAD])
+def test_malformed_configuration_names_the_key(
+        name: str, edit: Callable[[str], str], key: str, loop_bin: Path,  # noqa: F811
+        tmp_path: Path) -> None:
+    text = edit(dumps_config(default_config()))
+    with pytest.raises(ConfigError) as info:
+        parse_config(text)
+    msg = str(info.value)
+    assert "\n" not in msg and msg.startswith(key + ":"), (name, msg)
+    # The loop's reader refuses the same file, naming the same key, in one line, exit 2.
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    r = subprocess.run([str(loop_bin), "--serial", "fd:0", "--config", str(path)],
+                       capture_output=True, timeout=10)
+    err = r.stderr.decode().strip()
+    assert r.returncode == 2, (name, err)
+    assert err.count("\n") == 0 and f"{path}: {key}:" in err, (name, err)
+
+
+def test_cli_config_commands(tmp_path: Path) -> None:
+    from gyrodrift.cli import main
+
+    out = tmp_path / "d.toml"
+    assert main(["config", "write-default", "-o", str(out)]) == 0
+    assert load_config(out) == default_config()
+    assert main(["config", "validate", str(out)]) == 0
+    bad = tmp_path / "bad.toml"
+    bad.write_text(out.read_text().replace("a1 = 1.0", "a1 = 1.3", 1))
+    assert main(["config", "validate", str(bad)]) == 2
+    hpp = tmp_path / "c.hpp"
+    assert main(["config", str(out), "--emit-cpp", str(hpp)]) == 0
+    text = hpp.read_text()
+    assert "kImuConfig" in text and "kTaps_db4_n256_j5[256]" in text
+    assert main(["config", "emit-cpp", str(out), "-o", str(tmp_path / "no" / "c.hpp")]) == 2
+
+
+def test_emitted_taps_are_the_forced_fir_of_the_reference() -> None:
+    """The flash taps (oldest first, as FirPrefilter takes them) equal the reference forced FIR
+    (PyWavelets, per unit window; newest first) reversed, in float32."""
+    from gyrodrift.config_cpp import emit_cpp
+    from gyrodrift.reference.wavelet import forced_fir_taps
+
+    text = emit_cpp(default_config())
+    body = text[text.index("kTaps_db4_n256_j5[256] = {") :].split("};")[0]
+    taps = np.array([float(x.rstrip("f")) for x in body.split("{")[1].replace("\n", " ")
+                     .split(",") if x.strip()])
+    ref = forced_fir_taps("db4", 256, 5)[::-1]
+    assert taps.size == 256
+    np.testing.assert_allclose(taps, ref, rtol=0, atol=1e-7 * np.abs(ref).max())
+    assert math.isclose(taps.sum(), 1.0, rel_tol=1e-5)
+
+
+def test_committed_cortex_m_header_is_generated(tmp_path: Path) -> None:
+    """cpp/cortex_m/generated/gyrodrift_budget_config.hpp is what emit-cpp writes from
+    cpp/cortex_m/budget_config.toml (regenerate it after changing the file or the generator)."""
+    from gyrodrift.config_cpp import emit_cpp
+
+    root = Path(__file__).resolve().parents[1] / "cpp" / "cortex_m"
+    cfg = load_config(root / "budget_config.toml")
+    want = emit_cpp(cfg, "budget_config", source="budget_config.toml")
+    assert (root / "generated" / "gyrodrift_budget_config.hpp").read_text() == want
