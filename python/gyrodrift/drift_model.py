@@ -43,7 +43,9 @@ import numpy as np
 import scipy.optimize
 import scipy.stats
 
+from gyrodrift._native import core
 from gyrodrift.ar2 import Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
     "DRIFT_MODELS",
@@ -72,11 +74,7 @@ _WARM_START_N = 1 << 14
 
 
 def _core() -> Any:
-    from gyrodrift import _core as core
-
-    if not hasattr(core, "drift_loglike"):
-        raise ImportError("gyrodrift._core was built without the 'drift' binding area")
-    return core
+    return core("drift", "drift_loglike")
 
 
 @dataclass(frozen=True)
@@ -387,10 +385,10 @@ def ljung_box(e: np.ndarray, lags: int, model_df: int = 0) -> LjungBox:
 def _prepare(x: object) -> np.ndarray:
     a = np.asarray(x)
     if a.dtype.kind not in "fiu" or a.dtype == np.float16:
-        raise TypeError(f"x must be a real numeric array, got dtype {a.dtype}")
+        raise GyrodriftTypeError(f"x must be a real numeric array, got dtype {a.dtype}")
     a = a.astype(np.float64, copy=False)
     if a.ndim != 1:
-        raise ValueError(f"x must have shape (n,) or (n, 3), got {a.shape}")
+        raise GyrodriftValueError(f"x must have shape (n,) or (n, 3), got {a.shape}")
     return a
 
 
@@ -469,8 +467,10 @@ def fit_drift_model(
     ------
     Ar2FitError
         Too short (< 8 samples), constant, or non-finite record (as `fit_ar2`).
-    ValueError
+    GyrodriftValueError
         Unknown model/method, bad rate_hz or shape.
+    GyrodriftTypeError
+        Non-numeric input.
 
     Examples
     --------
@@ -485,12 +485,13 @@ def fit_drift_model(
     >>> out = fit.kalman().process(y)   # the drift estimate
     """
     if model not in DRIFT_MODELS:
-        raise ValueError(f"unknown drift model {model!r}; use one of {', '.join(DRIFT_MODELS)}")
+        raise GyrodriftValueError(
+            f"unknown drift model {model!r}; use one of {', '.join(DRIFT_MODELS)}")
     if method != "ml":
-        raise ValueError(f"unknown method {method!r}; use 'ml'")
+        raise GyrodriftValueError(f"unknown method {method!r}; use 'ml'")
     rate = float(rate_hz)
     if not (math.isfinite(rate) and rate > 0):
-        raise ValueError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
+        raise GyrodriftValueError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
     a = np.asarray(x)
     if a.ndim == 2 and a.shape[1] == 3:
         return tuple(_fit_1d(_prepare(a[:, i]), rate, model) for i in range(3))
@@ -501,10 +502,10 @@ def compare_drift_models(x: object, rate_hz: float, criterion: str = "aic"
                          ) -> DriftModelComparison:
     """Fit all three models to a 1-D record and choose the one with the lowest AIC or BIC."""
     if criterion not in ("aic", "bic"):
-        raise ValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+        raise GyrodriftValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
     fits = tuple(fit_drift_model(x, rate_hz, m) for m in DRIFT_MODELS)
     if not all(isinstance(f, DriftModelFit) for f in fits):
-        raise ValueError("compare_drift_models takes a 1-D record")
+        raise GyrodriftValueError("compare_drift_models takes a 1-D record")
     chosen = min(fits, key=lambda f: getattr(f, criterion)).model  # type: ignore[union-attr]
     return DriftModelComparison(fits=fits, criterion=criterion, chosen=chosen)  # type: ignore[arg-type]
 
@@ -518,9 +519,7 @@ def steady_state_response(a1: float, a2: float, q: float, r: float, rate_hz: flo
     X_k = (I - K C) A X_{k-1} + K y_k, output C X_k, so
     H(z) = C (I - (I - K C) A z^-1)^-1 K; DC gain H(1); -3 dB point where |H| = |H(1)| / sqrt 2.
     The gain K comes from the C++ DARE solver (Ar2SteadyStateKalman)."""
-    from gyrodrift.ar2 import _core as ar2_core
-
-    k0, k1 = ar2_core().Ar2SteadyStateKalman(a1, a2, q, 0.0, q, r).gain
+    k0, k1 = core("ar2", "Ar2SteadyStateKalman").Ar2SteadyStateKalman(a1, a2, q, 0.0, q, r).gain
     kv = np.array([k0, k1])
     a = np.array([[a1, a2], [1.0, 0.0]])
     abar = (np.eye(2) - np.outer(kv, [1.0, 0.0])) @ a
