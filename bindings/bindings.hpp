@@ -9,4 +9,5 @@ void bind_wavelet(pybind11::module_& m);  // lifting wavelets and denoisers
 void bind_allan(pybind11::module_& m);    // Allan variance kernels
 void bind_imu(pybind11::module_& m);      // IMU processor and frame codecs
 void bind_align(pybind11::module_& m);    // strapdown navigation and alignment
+void bind_drift(pybind11::module_& m);    // drift-model likelihood (ML identification)
 }  // namespace gyrodrift::py_bindings

@@ -19,4 +19,7 @@ PYBIND11_MODULE(_core, m) {
 #if GYRODRIFT_BIND_ALIGN
   b::bind_align(m);
 #endif
+#if GYRODRIFT_BIND_DRIFT
+  b::bind_drift(m);
+#endif
 }

@@ -31,6 +31,7 @@ OWN_FLAGS: dict[str, set[str]] = {
     "simulate": {"--n"},
     "filter": {"--method", "--core", "--ar-method"},
     "allan": {"--taus", "--per-decade", "--noise-id", "--can-signals"},
+    "fit": {"--criterion"},
     "psd": {"--nperseg", "--bins-per-decade"},
     "compare": set(),
     "wavelet-response": {"--n-freqs"},

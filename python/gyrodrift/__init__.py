@@ -52,6 +52,9 @@ from gyrodrift.ar2 import KalmanFilter as KalmanFilter
 from gyrodrift.ar2 import ar_filter as ar_filter
 from gyrodrift.ar2 import fit_ar2 as fit_ar2
 from gyrodrift.ar2 import kalman_filter as kalman_filter
+from gyrodrift.drift_model import DriftModelFit as DriftModelFit
+from gyrodrift.drift_model import compare_drift_models as compare_drift_models
+from gyrodrift.drift_model import fit_drift_model as fit_drift_model
 from gyrodrift.simulate import GyroRecord as GyroRecord
 from gyrodrift.simulate import ImuRecord as ImuRecord
 from gyrodrift.simulate import NoiseTerms as NoiseTerms

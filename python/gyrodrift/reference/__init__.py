@@ -29,6 +29,10 @@ from gyrodrift.reference.ar2 import kalman_filter as kalman_filter
 from gyrodrift.reference.ar2 import steady_state_gain as steady_state_gain
 
 # isort: split
+# --- drift-model likelihood (issue 10) ---
+from gyrodrift.reference.drift import drift_loglike as drift_loglike
+
+# isort: split
 # --- wavelets (issue 3) ---
 from gyrodrift.reference.wavelet import realtime_wavelet as realtime_wavelet
 from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise

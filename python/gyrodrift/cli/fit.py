@@ -1,0 +1,133 @@
+"""`gyrodrift fit`: maximum-likelihood identification of the drift model of a record
+(AR(2) + white, AR(1) + white, white), the chosen model, and its steady-state Kalman filter.
+
+Prints one row per model (log-likelihood, AIC, BIC, parameters with standard errors, the
+Ljung-Box p-value of the innovations), the model chosen by the lowest AIC (or BIC with
+--criterion bic), the filter's steady-state gain, DC gain and -3 dB bandwidth. -o FILE writes
+the filter configuration: a .toml processor configuration (the issue-12 schema, version 1:
+the fitted ar2_kalman stage, steady_state = true, on the gyro channel of the record, in rad/s;
+pass_through elsewhere), or .json with the fields of --json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gyrodrift.cli import CliError
+from gyrodrift.cli.common import add_input_args, add_json_arg, emit_json, record_from_args
+
+#: deg/h -> rad/s (the record is in deg/h; the configuration in SI).
+_DEG_H_TO_RAD_S = math.pi / 180.0 / 3600.0
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser("fit", help="ML drift model (AR(2)/AR(1)/white + white noise), "
+                              "its Kalman filter and configuration",
+                              description=__doc__.splitlines()[0])
+    add_input_args(p)
+    p.add_argument("--criterion", choices=("aic", "bic"), default="aic",
+                   help="model choice: lowest AIC (default) or BIC")
+    p.add_argument("-o", "--output", help="write the filter configuration (.toml processor "
+                   "configuration, or .json)")
+    add_json_arg(p)
+    p.set_defaults(func=run)
+
+
+def _gyro_channel(column: str | None) -> str:
+    c = (column or "").strip().lower()
+    return f"g{c[-1]}" if c and c[-1] in "xyz" else "gx"
+
+
+def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
+    """The processor configuration (issue-12 schema v1, canonical layout) with the fitted
+    steady-state AR(2)-Kalman stage on `channel` (values converted from deg/h to rad/s)."""
+    k = _DEG_H_TO_RAD_S
+    lines = ["# gyrodrift processor configuration", 'schema = "gyrodrift.processor"',
+             "version = 1", "", "[meta]", 'written_by = "gyrodrift fit"',
+             f"record = {_toml_str(os.path.basename(source))}", f'model = "{fit.model}"',
+             f"loglike = {fit.loglike!r}", "", "[timing]", f"sample_rate_hz = {float(rate_hz)!r}",
+             ""]
+    for name in ("gx", "gy", "gz", "ax", "ay", "az"):
+        unit = "rad_s" if name[0] == "g" else "m_s2"
+        lines += [f"[channels.{name}]", f"saturation_{unit} = inf", "stuck_samples = 0", "",
+                  f"[[channels.{name}.stages]]"]
+        if name == channel:
+            r = max(fit.r, 1e-12 * (fit.q + fit.r))
+            lines += ['type = "ar2_kalman"', f"a1 = {fit.a1!r}", f"a2 = {fit.a2!r}",
+                      f"mean_rad_s = {fit.mean * k!r}", f"sigma2 = {fit.q * k * k!r}",
+                      f"q = {fit.q * k * k!r}", f"r = {r * k * k!r}", "p0 = 1.0",
+                      "steady_state = true"]
+        else:
+            lines.append('type = "pass_through"')
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _toml_str(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _fmt(v: float, se: float) -> str:
+    if not math.isfinite(se):
+        return f"{v:.5g}"
+    return f"{v:.5g}±{se:.2g}"
+
+
+def run(args: argparse.Namespace) -> int:
+    from gyrodrift.ar2 import Ar2FitError
+    from gyrodrift.drift_model import compare_drift_models
+
+    rec = record_from_args(args, mmap=False)
+    x = np.asarray(rec.rate_deg_h, dtype=np.float64)
+    try:
+        cmp_ = compare_drift_models(x, rec.rate_hz, criterion=args.criterion)
+    except (Ar2FitError, ValueError) as exc:
+        raise CliError(str(exc)) from exc
+    best = cmp_.best
+    resp = best.response()
+    payload = {"record": rec.summary(), "units": {"rate": "deg/h", "q": "(deg/h)^2",
+                                                   "r": "(deg/h)^2", "mean": "deg/h"},
+               **cmp_.as_dict(), "filter": resp.as_dict()}
+    if args.output:
+        out = Path(args.output)
+        if out.suffix.lower() == ".toml":
+            text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source)
+        elif out.suffix.lower() == ".json":
+            import json
+
+            from gyrodrift.cli.common import json_default
+
+            text = json.dumps(payload, indent=2, default=json_default) + "\n"
+        else:
+            raise CliError(f"-o/--output: unknown suffix {out.suffix!r}; use .toml or .json")
+        try:
+            out.write_text(text)
+        except OSError as exc:
+            raise CliError(f"cannot write {out}: {exc}") from exc
+        payload["output"] = str(out)
+    if args.json:
+        emit_json(payload)
+        return 0
+    print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, units deg/h "
+          "(q, r in (deg/h)^2); ± = standard error (observed information)")
+    print(f"{'model':<10} {'loglike':>14} {'AIC':>14} {'BIC':>14} {'a1':>16} {'a2':>16} "
+          f"{'q':>18} {'r':>18} {'mean deg/h':>18} {'LB p':>8}")
+    for f in cmp_.fits:
+        se = f.stderr
+        print(f"{f.model:<10} {f.loglike:14.6g} {f.aic:14.6g} {f.bic:14.6g} "
+              f"{_fmt(f.a1, se['a1']):>16} {_fmt(f.a2, se['a2']):>16} {_fmt(f.q, se['q']):>18} "
+              f"{_fmt(f.r, se['r']):>18} {_fmt(f.mean, se['mean']):>18} "
+              f"{f.ljung_box.pvalue:8.3g}")
+    print(f"chosen: {cmp_.chosen} (lowest {args.criterion.upper()})")
+    bw = "none below Nyquist" if resp.bandwidth_hz is None else f"{resp.bandwidth_hz:.4g} Hz"
+    print(f"steady-state gain K = ({resp.gain[0]:.6g}, {resp.gain[1]:.6g}), "
+          f"DC gain {resp.dc_gain:.4g}, -3 dB bandwidth {bw}")
+    if args.output:
+        print(f"configuration written to {args.output}")
+    return 0

@@ -1,0 +1,541 @@
+"""Maximum-likelihood identification of the drift model, and the Kalman filter it tunes.
+
+Model (issue 10), on a rate record y in its own units:
+
+    x_k = a1 x_{k-1} + a2 x_{k-2} + w_k,   w_k ~ N(0, q)     (AR(2) drift, papers 000/002 eq. 1)
+    y_k = mean + x_k + v_k,                 v_k ~ N(0, r)     (white rate noise: ARW, quantization)
+
+``"ar1+white"`` is a2 = 0 (first-order Gauss-Markov drift plus white noise), ``"white"`` is
+a1 = a2 = q = 0. The papers' recipe (AR(2) fitted by Burg/Yule-Walker on the noisy record) biases
+a1, a2 because it ignores v; fitting the model above by maximum likelihood does not.
+
+The exact Gaussian log-likelihood (Kalman filter, stationary start) runs in the C++ core
+(include/gyrodrift/drift_likelihood.hpp). One pass gives the likelihood at any mean and any
+common scale of (q, r), so the optimiser (scipy L-BFGS-B) works on the profile likelihood of
+only the dynamic parameters, transformed so that every trial is valid:
+a2 = tanh(u2), a1 = tanh(u1) (1 - a2) (partial autocorrelations: stationary for every u), and
+q / (q + r) = logistic(u3). Starts: the papers' Yule-Walker/Burg-type fit (all variance to the
+drift), four moment fits that give 30, 60, 85, 95 % of the variance to the white noise, and a
+grid of partial autocorrelations (+-0.9, 0) with 95 % white noise; each is optimised coarsely and
+the best optimum finely. On long records the multi-start runs on the first 2^14 samples and its
+optimum warm-starts the full-record fit.
+
+Standard errors are from the observed information: the numerical Hessian of the log-likelihood
+in the natural parameters (a1, a2, q, r) at the optimum, with the mean's row exact (the
+likelihood is quadratic in the mean). AIC = 2 k - 2 log L, BIC = k log n - 2 log L with k = 5
+(ar2+white), 4 (ar1+white), 2 (white) parameters, mean included.
+
+>>> import numpy as np
+>>> rng = np.random.default_rng(0)
+>>> y = 3.0 + rng.normal(size=2000)
+>>> fit = fit_drift_model(y, rate_hz=100.0, model="white")
+>>> round(fit.mean, 1), fit.model
+(3.0, 'white')
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.optimize
+import scipy.stats
+
+from gyrodrift._native import core
+from gyrodrift.ar2 import Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
+
+__all__ = [
+    "DRIFT_MODELS",
+    "DriftModelComparison",
+    "DriftModelFit",
+    "FilterResponse",
+    "LjungBox",
+    "compare_drift_models",
+    "fit_drift_model",
+    "steady_state_response",
+]
+
+#: Models, most complex first.
+DRIFT_MODELS = ("ar2+white", "ar1+white", "white")
+
+#: Parameters counted by AIC/BIC (mean included).
+_N_PARAMS = {"ar2+white": 5, "ar1+white": 4, "white": 2}
+#: Fitted dynamic parameters (besides mean and scale) removed from the Ljung-Box degrees of
+#: freedom: a1, a2 and the q/r split; a1 and the split; none.
+_MODEL_DF = {"ar2+white": 3, "ar1+white": 2, "white": 0}
+
+_LOG_2PI = math.log(2.0 * math.pi)
+_U_AR_BOUND = 7.5  # |tanh(u)| <= 1 - 6e-7: stays inside the core's stationarity margin
+_U_SPLIT_BOUND = 30.0
+_WARM_START_N = 1 << 14
+
+
+def _core() -> Any:
+    return core("drift", "drift_loglike")
+
+
+@dataclass(frozen=True)
+class LjungBox:
+    """Ljung-Box portmanteau test of the standardised innovations.
+
+    Q = n (n + 2) sum_{k=1..lags} rho_k^2 / (n - k), rho_k the sample autocorrelation (mean
+    removed); p-value from chi-square with df = lags - (fitted dynamic parameters). A small
+    p-value (< 0.05) says the model leaves correlation in the record unexplained.
+    """
+
+    statistic: float
+    pvalue: float
+    lags: int
+    df: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"statistic": self.statistic, "pvalue": self.pvalue, "lags": self.lags,
+                "df": self.df}
+
+
+@dataclass(frozen=True)
+class FilterResponse:
+    """Steady-state Kalman filter as a linear filter of the record.
+
+    gain: constant Kalman gain (k0, k1); dc_gain: output change per sustained input change;
+    bandwidth_hz: frequency where |H| falls 3 dB below |H(0)| (None if the filter passes
+    nothing, i.e. gain 0, or never falls 3 dB below DC up to Nyquist).
+    """
+
+    gain: tuple[float, float]
+    dc_gain: float
+    bandwidth_hz: float | None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"gain": list(self.gain), "dc_gain": self.dc_gain,
+                "bandwidth_hz": self.bandwidth_hz}
+
+
+def _nan_to_none(v: float) -> float | None:
+    return None if not math.isfinite(v) else float(v)
+
+
+@dataclass(frozen=True)
+class DriftModelFit:
+    """A maximum-likelihood fit of the drift model (see the module docstring).
+
+    a1, a2: AR coefficients (dimensionless; 0 where the model fixes them).
+    q: drift driving-noise variance, r: white-noise variance, (units of x)^2.
+    mean: constant rate, units of x. loglike, aic, bic: at the optimum.
+    stderr: standard errors {a1, a2, q, r, mean} from the observed information (NaN for a
+    parameter the model fixes, or when the information is singular at a boundary).
+    start_loglike: log-likelihood at the start (Burg coefficients, best variance split).
+    """
+
+    model: str
+    a1: float
+    a2: float
+    q: float
+    r: float
+    mean: float
+    loglike: float
+    aic: float
+    bic: float
+    stderr: dict[str, float] = field(hash=False, compare=False)
+    n: int
+    rate_hz: float
+    ljung_box: LjungBox
+    start_loglike: float
+    n_evaluations: int
+
+    @property
+    def n_params(self) -> int:
+        return _N_PARAMS[self.model]
+
+    def ar2_model(self) -> Ar2Model:
+        """The drift as an Ar2Model (sigma2 = q), for the AR(2)-Kalman filters."""
+        return Ar2Model(a1=self.a1, a2=self.a2, sigma2=self.q, mean=self.mean,
+                        method=f"ml:{self.model}", n=self.n, r=self._filter_r)
+
+    @property
+    def _filter_r(self) -> float:
+        # The filters need r > 0; a fit on the r = 0 boundary gets a negligible r.
+        return max(self.r, 1e-12 * (self.q + self.r))
+
+    def kalman(self, steady_state: bool = True, dtype: object = np.float64) -> KalmanFilter:
+        """A ready AR(2)-Kalman filter tuned by this fit (q, r as fitted; steady-state gain by
+        default). Its output estimates mean + x_k, the drift without the white noise."""
+        return KalmanFilter(self.ar2_model(), q=self.q, r=self._filter_r,
+                            steady_state=steady_state, dtype=dtype)
+
+    def response(self) -> FilterResponse:
+        """Gain, DC gain and -3 dB bandwidth of the steady-state filter."""
+        return steady_state_response(self.a1, self.a2, self.q, self._filter_r, self.rate_hz)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "model": self.model, "a1": self.a1, "a2": self.a2, "q": self.q, "r": self.r,
+            "mean": self.mean, "loglike": self.loglike, "aic": self.aic, "bic": self.bic,
+            "stderr": {k: _nan_to_none(v) for k, v in self.stderr.items()},
+            "n": self.n, "rate_hz": self.rate_hz, "ljung_box": self.ljung_box.as_dict(),
+            "start_loglike": self.start_loglike, "n_evaluations": self.n_evaluations,
+        }
+
+
+@dataclass(frozen=True)
+class DriftModelComparison:
+    """All three models fitted to one record, and the one chosen by `criterion`."""
+
+    fits: tuple[DriftModelFit, ...]
+    criterion: str
+    chosen: str
+
+    def fit(self, model: str) -> DriftModelFit:
+        for f in self.fits:
+            if f.model == model:
+                return f
+        raise KeyError(model)
+
+    @property
+    def best(self) -> DriftModelFit:
+        return self.fit(self.chosen)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"criterion": self.criterion, "chosen": self.chosen,
+                "fits": [f.as_dict() for f in self.fits]}
+
+
+# --------------------------------------------------------------------------- likelihood
+
+
+class _Profile:
+    """Profile log-likelihood of the dynamic parameters (mean and scale concentrated out)."""
+
+    def __init__(self, x: np.ndarray, model: str, center: float) -> None:
+        self.x = x
+        self.model = model
+        self.center = center
+        self.n = x.shape[0]
+        self.evaluations = 0
+        self.core = _core()
+
+    def natural(self, u: np.ndarray) -> tuple[float, float, float]:
+        """(a1, a2, w = q / (q + r)) from the unconstrained u."""
+        if self.model == "ar2+white":
+            a2 = math.tanh(u[0 + 1])
+            a1 = math.tanh(u[0]) * (1.0 - a2)
+        else:
+            a1, a2 = math.tanh(u[0]), 0.0
+        w = 1.0 / (1.0 + math.exp(-u[-1]))
+        return a1, a2, w
+
+    def sums(self, a1: float, a2: float, q: float, r: float, mean: float) -> tuple[float, ...]:
+        self.evaluations += 1
+        return self.core.drift_loglike(self.x, a1, a2, q, r, mean)
+
+    def concentrated(self, a1: float, a2: float, w: float) -> tuple[float, float, float]:
+        """(profile loglike, scale s, mean) for q = s w, r = s (1 - w)."""
+        _, slog, see, seg, sgg = self.sums(a1, a2, w, 1.0 - w, self.center)
+        d = seg / sgg
+        s = max(see - seg * d, 1e-300) / self.n
+        ll = -0.5 * (self.n * (_LOG_2PI + math.log(s) + 1.0) + slog)
+        return ll, s, self.center + d
+
+    def negll(self, u: np.ndarray) -> float:
+        try:
+            ll = self.concentrated(*self.natural(u))[0]
+        except ValueError:
+            return math.inf
+        return -ll / self.n
+
+
+def _u_of(model: str, a1: float, a2: float, w: float) -> np.ndarray:
+    w = min(max(w, 1e-12), 1.0 - 1e-12)
+    split = math.log(w / (1.0 - w))
+    b = _U_AR_BOUND
+    if model == "ar2+white":
+        p2 = max(min(a2, 0.999), -0.999)
+        p1 = max(min(a1 / (1.0 - p2), 0.999), -0.999)
+        return np.array([min(max(math.atanh(p1), -b), b), min(max(math.atanh(p2), -b), b), split])
+    p1 = max(min(a1, 0.999), -0.999)
+    return np.array([min(max(math.atanh(p1), -b), b), split])
+
+
+def _optimise(prof: _Profile, u0: np.ndarray, tight: bool = True) -> np.ndarray:
+    bounds = [(-_U_AR_BOUND, _U_AR_BOUND)] * (u0.size - 1) + [(-_U_SPLIT_BOUND, _U_SPLIT_BOUND)]
+    # Tight: stop when log L changes by < ~1e-4 per iteration (the objective is -log L / n, about
+    # 1-2 per sample), i.e. parameters to ~1 % of their standard errors.
+    opts = ({"ftol": 5e-5 / prof.n, "gtol": 1e-9, "maxiter": 500} if tight
+            else {"ftol": 1e-9, "gtol": 1e-6, "maxiter": 30})
+    # Central differences where evaluations are cheap; forward ones on long records (the
+    # warm start is already close there).
+    jac = "3-point" if tight and prof.n <= 1 << 16 else "2-point"
+    res = scipy.optimize.minimize(prof.negll, u0, method="L-BFGS-B", jac=jac, bounds=bounds,
+                                  options=opts)
+    return np.asarray(res.x)
+
+
+def _moment_starts(d: np.ndarray, model: str, burg: Ar2Model) -> list[np.ndarray]:
+    """Start points from the sample autocovariances c0, c1, c2 of the demeaned record: a share
+    f of c0 is attributed to the white noise (r = f c0, f = 0, 0.3, 0.6, 0.85) and the AR part
+    solved from the Yule-Walker equations with c0 (1 - f); for f = 0 the papers' Burg fit (all
+    variance to the drift) is used instead."""
+    n = d.size
+    c = [float(d[: n - k] @ d[k:]) / n for k in range(3)]
+    starts = []
+    for f in (0.0, 0.3, 0.6, 0.85, 0.95):
+        g0 = c[0] * (1.0 - f)
+        if model == "ar2+white":
+            det = g0 * g0 - c[1] * c[1]
+            if det <= 0:
+                continue
+            a1 = (c[1] * g0 - c[1] * c[2]) / det
+            a2 = (c[2] * g0 - c[1] * c[1]) / det
+            a2 = max(min(a2, 0.99), -0.99)
+            a1 = max(min(a1, 0.99 * (1.0 - a2)), -0.99 * (1.0 - a2))
+            q = g0 - a1 * c[1] - a2 * c[2]
+        else:
+            a1 = max(min(c[1] / g0, 0.99), -0.99)
+            a2 = 0.0
+            q = g0 * (1.0 - a1 * a1)
+        if f == 0.0 and model == "ar2+white":
+            a1, a2, q = burg.a1, burg.a2, burg.sigma2
+        q = max(q, 1e-6 * c[0])
+        r = max(f * c[0], 1e-6 * c[0])
+        starts.append(_u_of(model, a1, a2, q / (q + r)))
+    # A near-white record's likelihood can have separate modes far from the moment fits (e.g.
+    # a weak, sharp resonance near Nyquist): a coarse grid of partial autocorrelations with
+    # most of the variance white.
+    grid = (-0.9, 0.0, 0.9)
+    split = math.log(0.05 / 0.95)
+    if model == "ar2+white":
+        starts += [np.array([math.atanh(p1), math.atanh(p2), split]) for p1 in grid for p2 in grid]
+    else:
+        starts += [np.array([math.atanh(p1), split]) for p1 in grid]
+    return starts
+
+
+def _best_of(prof: _Profile, starts: list[np.ndarray]) -> np.ndarray:
+    """A coarse optimisation from every start, then a tight one from the best coarse optimum
+    (never returns a point worse than the best start)."""
+    coarse = [_optimise(prof, u0, tight=False) for u0 in starts]
+    best = min([*coarse, *starts], key=prof.negll)
+    u = _optimise(prof, best, tight=True)
+    return u if prof.negll(u) <= prof.negll(best) else best
+
+
+def _observed_stderr(prof: _Profile, theta: np.ndarray, names: list[str], mean: float
+                     ) -> dict[str, float]:
+    """Standard errors from the inverse of minus the Hessian of log L in (theta, mean).
+
+    theta holds the model's free natural parameters (subset of a1, a2, q, r, in `names`).
+    Central differences with relative steps; the mean's second derivative is exact (-S_gg)
+    and its cross terms are central differences of S_eg (d log L / d mean = S_eg at mean)."""
+    k = theta.size
+
+    def evaluate(t: np.ndarray) -> tuple[float, float, float]:
+        p = dict(zip(names, t, strict=True))
+        ll, _, _, seg, sgg = prof.sums(p.get("a1", 0.0), p.get("a2", 0.0), p.get("q", 0.0),
+                                       p.get("r", 0.0), mean)
+        return ll, seg, sgg
+
+    h = np.array([1e-4 * max(abs(v), 1e-3) if nm in ("q", "r") else 1e-4
+                  for nm, v in zip(names, theta, strict=True)])
+    for i, nm in enumerate(names):  # stay inside the parameter space
+        if nm in ("q", "r"):
+            h[i] = min(h[i], 0.5 * theta[i]) if theta[i] > 0 else h[i]
+    hess = np.zeros((k + 1, k + 1))
+    try:
+        f0, _, sgg0 = evaluate(theta)
+        ei = np.eye(k) * h
+        fp = [evaluate(theta + ei[i]) for i in range(k)]
+        fm = [evaluate(theta - ei[i]) for i in range(k)]
+        for i in range(k):
+            hess[i, i] = (fp[i][0] - 2.0 * f0 + fm[i][0]) / h[i] ** 2
+            hess[i, k] = hess[k, i] = (fp[i][1] - fm[i][1]) / (2.0 * h[i])
+            for j in range(i + 1, k):
+                fpp = evaluate(theta + ei[i] + ei[j])[0]
+                fpm = evaluate(theta + ei[i] - ei[j])[0]
+                fmp = evaluate(theta - ei[i] + ei[j])[0]
+                fmm = evaluate(theta - ei[i] - ei[j])[0]
+                hess[i, j] = hess[j, i] = (fpp - fpm - fmp + fmm) / (4.0 * h[i] * h[j])
+        hess[k, k] = -sgg0
+        cov = np.linalg.inv(-hess)
+        var = np.diag(cov)
+        se = np.where(var > 0, np.sqrt(np.abs(var)), np.nan)
+    except (ValueError, np.linalg.LinAlgError):
+        se = np.full(k + 1, np.nan)
+    out = {nm: math.nan for nm in ("a1", "a2", "q", "r", "mean")}
+    for nm, v in zip([*names, "mean"], se, strict=True):
+        out[nm] = float(v)
+    return out
+
+
+def ljung_box(e: np.ndarray, lags: int, model_df: int = 0) -> LjungBox:
+    """Ljung-Box Q of a series (mean removed) with `lags` autocorrelations and chi-square
+    degrees of freedom lags - model_df (at least 1)."""
+    z = np.asarray(e, dtype=np.float64)
+    z = z - z.mean()
+    n = z.size
+    c0 = float(z @ z)
+    rho = np.array([float(z[:-k] @ z[k:]) / c0 for k in range(1, lags + 1)])
+    q = float(n * (n + 2) * np.sum(rho**2 / (n - np.arange(1, lags + 1))))
+    df = max(lags - model_df, 1)
+    return LjungBox(statistic=q, pvalue=float(scipy.stats.chi2.sf(q, df)), lags=lags, df=df)
+
+
+def _prepare(x: object) -> np.ndarray:
+    a = np.asarray(x)
+    if a.dtype.kind not in "fiu" or a.dtype == np.float16:
+        raise GyrodriftTypeError(f"x must be a real numeric array, got dtype {a.dtype}")
+    a = a.astype(np.float64, copy=False)
+    if a.ndim != 1:
+        raise GyrodriftValueError(f"x must have shape (n,) or (n, 3), got {a.shape}")
+    return a
+
+
+def _finish(prof: _Profile, model: str, a1: float, a2: float, q: float, r: float, mean: float,
+            rate_hz: float, start_ll: float) -> DriftModelFit:
+    n = prof.n
+    innov = np.empty(n)
+    ll = prof.core.drift_loglike(prof.x, a1, a2, q, r, mean, innov)[0]
+    names = {"ar2+white": ["a1", "a2", "q", "r"], "ar1+white": ["a1", "q", "r"],
+             "white": ["r"]}[model]
+    vals = {"a1": a1, "a2": a2, "q": q, "r": r}
+    stderr = _observed_stderr(prof, np.array([vals[k] for k in names]), names, mean)
+    k = _N_PARAMS[model]
+    lags = max(1, min(10, n // 5))
+    return DriftModelFit(
+        model=model, a1=a1, a2=a2, q=q, r=r, mean=mean, loglike=ll,
+        aic=2.0 * k - 2.0 * ll, bic=k * math.log(n) - 2.0 * ll, stderr=stderr, n=n,
+        rate_hz=rate_hz, ljung_box=ljung_box(innov, lags, _MODEL_DF[model]),
+        start_loglike=start_ll, n_evaluations=prof.evaluations)
+
+
+def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
+    burg = fit_ar2(a, "burg")  # rejects too short / constant / non-finite (Ar2FitError)
+    assert isinstance(burg, Ar2Model)
+    center = burg.mean
+    if model == "white":
+        prof = _Profile(a, model, center)
+        d = a - center
+        mean = center + float(d.mean())
+        r = float(np.mean((a - mean) ** 2))
+        if not r > 0:
+            raise Ar2FitError("constant", "all samples are equal")
+        return _finish(prof, model, 0.0, 0.0, 0.0, r, mean, rate_hz, math.nan)
+    starts = _moment_starts(a - center, model, burg)
+    extra = 0
+    if a.shape[0] > 2 * _WARM_START_N:
+        # Multi-start on a prefix of the long record (its optimum is close to the full one),
+        # then the exact fit on the whole record from there.
+        pre = _Profile(a[:_WARM_START_N], model, center)
+        starts = [_best_of(pre, starts)]
+        extra = pre.evaluations
+    prof = _Profile(a, model, center)
+    start_ll = -min(prof.negll(u) for u in starts) * prof.n
+    if len(starts) == 1:
+        u = _optimise(prof, starts[0], tight=True)
+        u = u if prof.negll(u) <= prof.negll(starts[0]) else starts[0]
+    else:
+        u = _best_of(prof, starts)
+    a1, a2, w = prof.natural(u)
+    _, s, mean = prof.concentrated(a1, a2, w)
+    prof.evaluations += extra
+    return _finish(prof, model, a1, a2, s * w, s * (1.0 - w), mean, rate_hz, start_ll)
+
+
+def fit_drift_model(
+    x: object, rate_hz: float, model: str = "ar2+white", method: str = "ml"
+) -> DriftModelFit | tuple[DriftModelFit, ...]:
+    """Fit the drift model to a rate record by exact maximum likelihood.
+
+    Parameters
+    ----------
+    x : array_like, shape (n,) or (n, 3)
+        Rate record in any units (q, r come out in those units squared). (n, 3): one fit per
+        axis, returned as a tuple.
+    rate_hz : float
+        Sample rate, Hz (kept in the result for the filter's bandwidth).
+    model : {"ar2+white", "ar1+white", "white"}
+    method : {"ml"}
+        Maximum likelihood (the only method).
+
+    Returns
+    -------
+    DriftModelFit (or a tuple of three for (n, 3) input)
+
+    Raises
+    ------
+    Ar2FitError
+        Too short (< 8 samples), constant, or non-finite record (as `fit_ar2`).
+    GyrodriftValueError
+        Unknown model/method, bad rate_hz or shape.
+    GyrodriftTypeError
+        Non-numeric input.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> rng = np.random.default_rng(1)
+    >>> drift = lfilter([1.0], [1.0, -0.6868, 0.0213], rng.normal(0, 0.5, 20000))
+    >>> y = drift + rng.normal(0, 0.3, 20000)
+    >>> fit = fit_drift_model(y, rate_hz=100.0)
+    >>> abs(fit.a1 - 0.6868) < 4 * fit.stderr["a1"]
+    True
+    >>> out = fit.kalman().process(y)   # the drift estimate
+    """
+    if model not in DRIFT_MODELS:
+        raise GyrodriftValueError(
+            f"unknown drift model {model!r}; use one of {', '.join(DRIFT_MODELS)}")
+    if method != "ml":
+        raise GyrodriftValueError(f"unknown method {method!r}; use 'ml'")
+    rate = float(rate_hz)
+    if not (math.isfinite(rate) and rate > 0):
+        raise GyrodriftValueError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
+    a = np.asarray(x)
+    if a.ndim == 2 and a.shape[1] == 3:
+        return tuple(_fit_1d(_prepare(a[:, i]), rate, model) for i in range(3))
+    return _fit_1d(_prepare(a), rate, model)
+
+
+def compare_drift_models(x: object, rate_hz: float, criterion: str = "aic"
+                         ) -> DriftModelComparison:
+    """Fit all three models to a 1-D record and choose the one with the lowest AIC or BIC."""
+    if criterion not in ("aic", "bic"):
+        raise GyrodriftValueError(f"criterion must be 'aic' or 'bic', got {criterion!r}")
+    fits = tuple(fit_drift_model(x, rate_hz, m) for m in DRIFT_MODELS)
+    if not all(isinstance(f, DriftModelFit) for f in fits):
+        raise GyrodriftValueError("compare_drift_models takes a 1-D record")
+    chosen = min(fits, key=lambda f: getattr(f, criterion)).model  # type: ignore[union-attr]
+    return DriftModelComparison(fits=fits, criterion=criterion, chosen=chosen)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------- filter response
+
+
+def steady_state_response(a1: float, a2: float, q: float, r: float, rate_hz: float
+                          ) -> FilterResponse:
+    """Frequency response of the steady-state AR(2)-Kalman filter as a filter of the record:
+    X_k = (I - K C) A X_{k-1} + K y_k, output C X_k, so
+    H(z) = C (I - (I - K C) A z^-1)^-1 K; DC gain H(1); -3 dB point where |H| = |H(1)| / sqrt 2.
+    The gain K comes from the C++ DARE solver (Ar2SteadyStateKalman)."""
+    k0, k1 = core("ar2", "Ar2SteadyStateKalman").Ar2SteadyStateKalman(a1, a2, q, 0.0, q, r).gain
+    kv = np.array([k0, k1])
+    a = np.array([[a1, a2], [1.0, 0.0]])
+    abar = (np.eye(2) - np.outer(kv, [1.0, 0.0])) @ a
+
+    def mag(f_hz: float) -> float:
+        z = np.exp(1j * 2.0 * math.pi * f_hz / rate_hz)
+        return float(abs(np.linalg.solve(np.eye(2) - abar / z, kv)[0]))
+
+    dc = float(np.linalg.solve(np.eye(2) - abar, kv)[0])
+    bw: float | None = None
+    if abs(dc) > 0:
+        target = abs(dc) / math.sqrt(2.0)
+        grid = np.linspace(0.0, rate_hz / 2.0, 2049)
+        m = np.array([mag(f) for f in grid])
+        below = np.nonzero(m < target)[0]
+        if below.size:
+            i = int(below[0])
+            bw = float(scipy.optimize.brentq(lambda f: mag(f) - target, grid[i - 1], grid[i]))
+    return FilterResponse(gain=(float(k0), float(k1)), dc_gain=dc, bandwidth_hz=bw)

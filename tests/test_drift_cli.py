@@ -1,0 +1,68 @@
+"""`gyrodrift fit`: table/JSON of the three models, the chosen one, the filter, the written
+configuration (issue-12 TOML schema v1, parsed here with tomllib) and one-line errors."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tomllib
+from gyrodrift.cli import main
+from gyrodrift.drift_model import compare_drift_models
+from scipy.signal import lfilter
+
+
+@pytest.fixture(scope="module")
+def record(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    rng = np.random.default_rng(3)
+    x = lfilter([1.0], [1.0, -0.6868, 0.0213], rng.normal(0, 0.5, 6000))
+    path = tmp_path_factory.mktemp("fit") / "drift.npy"
+    np.save(path, 9.7 + x + rng.normal(0, 0.3, 6000))
+    return path
+
+
+def test_fit_json_and_toml(record: Path, tmp_path: Path,
+                           capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "gyro.toml"
+    assert main(["fit", str(record), "--rate-hz", "100", "--json", "-o", str(out)]) == 0
+    payload = json.loads(capsys.readouterr().out)
+    ref = compare_drift_models(np.load(record), 100.0)
+    assert payload["chosen"] == ref.chosen and payload["criterion"] == "aic"
+    assert [f["model"] for f in payload["fits"]] == ["ar2+white", "ar1+white", "white"]
+    best = ref.best
+    assert payload["filter"]["dc_gain"] == pytest.approx(best.response().dc_gain)
+    cfg = tomllib.loads(out.read_text())
+    assert cfg["schema"] == "gyrodrift.processor" and cfg["version"] == 1
+    assert cfg["timing"]["sample_rate_hz"] == 100.0
+    stage = cfg["channels"]["gx"]["stages"][0]
+    k = math.pi / 180 / 3600
+    assert stage["type"] == "ar2_kalman" and stage["steady_state"] is True
+    assert stage["a1"] == best.a1 and stage["a2"] == best.a2
+    assert stage["q"] == pytest.approx(best.q * k * k, rel=1e-15)
+    assert stage["r"] == pytest.approx(best.r * k * k, rel=1e-15)
+    assert stage["mean_rad_s"] == pytest.approx(best.mean * k, rel=1e-15)
+    assert set(cfg["channels"]) == {"gx", "gy", "gz", "ax", "ay", "az"}
+    assert cfg["channels"]["ay"]["stages"][0]["type"] == "pass_through"
+
+
+def test_fit_table_and_bic(record: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["fit", str(record), "--rate-hz", "100", "--criterion", "bic"]) == 0
+    text = capsys.readouterr().out
+    assert "chosen:" in text and "(lowest BIC)" in text and "-3 dB bandwidth" in text
+    for model in ("ar2+white", "ar1+white", "white"):
+        assert model in text
+
+
+def test_fit_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    const = tmp_path / "const.npy"
+    np.save(const, np.full(100, 3.0))
+    assert main(["fit", str(const), "--rate-hz", "10"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "constant" in err
+    rec = tmp_path / "ok.npy"
+    np.save(rec, np.random.default_rng(0).normal(size=200))
+    assert main(["fit", str(rec), "--rate-hz", "10", "-o", str(tmp_path / "x.yaml")]) == 2
+    assert "suffix" in capsys.readouterr().err
