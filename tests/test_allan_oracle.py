@@ -121,8 +121,24 @@ def test_memmap_with_nan_is_an_error(tmp_path, rng: np.random.Generator) -> None
 def test_edf_simple_equals_allantools(alpha: int) -> None:
     n_phase = 10_001
     for m in (1, 2, 7, 100, 1000, 4999):
+        if alpha == -1 and m == 1:
+            continue  # allantools drops the square of SP 1065 Table 5 here (next test)
         assert allan.edf_simple(n_phase, m, alpha)[()] == pytest.approx(
             allantools.edf_simple(n_phase, m, alpha), rel=1e-13)
+
+
+def test_edf_simple_flicker_fm_at_m1_is_of_order_n() -> None:
+    """Regression: the flicker-FM edf at m = 1 was 2 (N-2) / (2.3 N - 4.9) ~ 0.87 for any N
+    (as in allantools), so a 1.8e5-sample record got a 1-sigma interval [0.7, 5] x adev
+    once the lag-1 ACF (the new default) read flicker FM at the first tau. SP 1065 Table 5
+    has 2 (N-2)^2 / (2.3 N - 4.9); Greenhall's exact algorithm gives 0.895 N."""
+    from gyrodrift.edf import edf_greenhall
+
+    for n_phase in (1001, 184_719):
+        simple = float(allan.edf_simple(n_phase, 1, -1))
+        exact = edf_greenhall(-1, 2, 1, n_phase, overlapping=True, modified=False)
+        assert simple == pytest.approx(2 * (n_phase - 2) ** 2 / (2.3 * n_phase - 4.9))
+        assert simple == pytest.approx(exact, rel=0.05)
 
 
 def test_confidence_interval_equals_allantools(rng: np.random.Generator) -> None:

@@ -204,7 +204,9 @@ def edf_simple(n_phase: int | np.ndarray, m: int | np.ndarray, alpha: int | np.n
                    * (4.0 * mm * mm / (4.0 * mm * mm + 5.0)))
         elif a == -1:
             if mm == 1.0:
-                edf = 2.0 * (n - 2.0) / (2.3 * n - 4.9)
+                # SP 1065 Table 5: 2 (N-2)^2 / (2.3 N - 4.9), ~0.87 N. allantools drops the
+                # square (edf ~0.87 whatever N); Greenhall's exact value is 0.895 N.
+                edf = 2.0 * (n - 2.0) ** 2 / (2.3 * n - 4.9)
             else:
                 edf = 5.0 * n * n / (4.0 * mm * (n + 3.0 * mm))
         elif a == -2:
