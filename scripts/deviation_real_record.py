@@ -13,9 +13,8 @@ from __future__ import annotations
 import argparse
 import math
 
-import numpy as np
-
 import gyrodrift
+import numpy as np
 from gyrodrift.align.psins import read_psins_imu
 
 RAD_S_TO_DEG_H = 180.0 / math.pi * 3600.0

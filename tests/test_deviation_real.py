@@ -8,10 +8,9 @@ import math
 from pathlib import Path
 
 import allantools
+import gyrodrift
 import numpy as np
 import pytest
-
-import gyrodrift
 from gyrodrift.align.psins import read_psins_imu
 
 
