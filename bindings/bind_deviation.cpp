@@ -3,6 +3,7 @@
 //   deviation_sigma2(data, m, name, threads)   whole array, all factors, GIL released
 //   ModAllanStream / OhdevStream / HdevStream   streaming state for chunked records
 //   (the total variance streams through OadevStream on the reflected record)
+#include <gyrodrift/deviation_blocked.hpp>
 #include <gyrodrift/deviation_hadamard.hpp>
 #include <gyrodrift/deviation_modified.hpp>
 #include <gyrodrift/deviation_total.hpp>
@@ -52,17 +53,53 @@ const T* require_vec(const CArray<T>& a, const char* what) {
   return a.data();
 }
 
-constexpr std::size_t kTotdevBlock = 4096;
+constexpr std::size_t kTotdevBlock = blocked_detail::kBlock;
+
+// AVX2+FMA builds of the blocked drivers, chosen at run time (GCC/Clang on x86): the
+// increment, prefix and square loops are plain double loops that widen to 4 lanes.
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#define GYRODRIFT_DEV_X86 1
+template <class T>
+__attribute__((target("avx2,fma"))) bool mdev_wide(const T* x, std::size_t n, std::size_t m,
+                                                   double& s2, std::size_t& terms) {
+  return mdev_blocked(x, n, m, s2, terms);
+}
+template <class T>
+__attribute__((target("avx2,fma"))) bool ohdev_wide(const T* x, std::size_t n, std::size_t m,
+                                                    double& s2, std::size_t& terms) {
+  return ohdev_blocked(x, n, m, s2, terms);
+}
+template <class T>
+__attribute__((target("avx2,fma"))) bool totdev_wide(const T* x, std::size_t n, std::size_t m,
+                                                     T* work, double& s2, std::size_t& terms) {
+  return totdev_blocked(x, n, m, work, s2, terms);
+}
+bool cpu_wide() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+#else
+#define GYRODRIFT_DEV_X86 0
+#endif
 
 // One factor on one thread; the workspace is for the total variance's reflected stretches.
 template <class T>
 bool one_factor(Dev d, const T* x, std::size_t n, std::size_t m, T* work, double& s2,
-                std::size_t& terms) {
+                std::size_t& terms, bool wide) {
   switch (d) {
-    case Dev::mdev: return mdev<T, double>(x, n, &m, 1, &s2, &terms);
-    case Dev::ohdev: return ohdev<T, double>(x, n, &m, 1, &s2, &terms);
+#if GYRODRIFT_DEV_X86
+    case Dev::mdev: return wide ? mdev_wide(x, n, m, s2, terms) : mdev_blocked(x, n, m, s2, terms);
+    case Dev::ohdev:
+      return wide ? ohdev_wide(x, n, m, s2, terms) : ohdev_blocked(x, n, m, s2, terms);
+    case Dev::totdev:
+      return wide ? totdev_wide(x, n, m, work, s2, terms)
+                  : totdev_blocked(x, n, m, work, s2, terms);
+#else
+    case Dev::mdev: return mdev_blocked(x, n, m, s2, terms);
+    case Dev::ohdev: return ohdev_blocked(x, n, m, s2, terms);
+    case Dev::totdev: return totdev_blocked(x, n, m, work, s2, terms);
+#endif
     case Dev::hdev: return hdev<T, double>(x, n, &m, 1, &s2, &terms);
-    case Dev::totdev: return totdev<T, double>(x, n, &m, 1, work, kTotdevBlock, &s2, &terms);
   }
   return false;
 }
@@ -95,12 +132,17 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
   double* s2 = sigma2.mutable_data();
   std::atomic<std::size_t> next{0};
   std::atomic<bool> out_of_memory{false};
+#if GYRODRIFT_DEV_X86
+  const bool wide = cpu_wide();
+#else
+  const bool wide = false;
+#endif
   // Workers take whole factors, largest first is not needed: every factor costs ~N.
   const auto worker = [&]() noexcept {
     try {
       std::vector<T> work(d == Dev::totdev ? 3 * kTotdevBlock : 0);
       for (std::size_t j = next++; j < n_m; j = next++) {
-        ok[j] = one_factor(d, x, n_data, m[j], work.data(), s2[j], terms[j]) ? 1 : 0;
+        ok[j] = one_factor(d, x, n_data, m[j], work.data(), s2[j], terms[j], wide) ? 1 : 0;
       }
     } catch (...) {
       out_of_memory = true;
