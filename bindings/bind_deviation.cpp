@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <memory>
 #include <cstddef>
 #include <cstdint>
 #include <new>
@@ -148,8 +149,27 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
       out_of_memory = true;
     }
   };
-  const std::size_t n_threads = std::min(n_m, static_cast<std::size_t>(threads));
-  {
+  if (d == Dev::hdev) {  // one cascaded pass for all factors (groups of <= 64)
+    bool all_ok = true;
+    {
+      py::gil_scoped_release release;
+      auto cascade = std::make_unique<HdevCascade<64>>();
+      std::vector<long double> work;
+      for (std::size_t lo = 0; lo < n_m && all_ok; lo += 64) {
+        const std::size_t cnt = std::min<std::size_t>(64, n_m - lo);
+        if (!cascade->plan(n_data, m.data() + lo, cnt)) {
+          all_ok = false;
+          break;
+        }
+        work.resize(cascade->workspace_len());
+        all_ok = cascade->run(x, work.data(), work.size(), s2 + lo, terms.data() + lo);
+      }
+    }
+    std::fill(ok.begin(), ok.end(), all_ok ? 1 : 0);
+  }
+  const std::size_t n_threads =
+      d == Dev::hdev ? 0 : std::min(n_m, static_cast<std::size_t>(threads));
+  if (n_threads > 0) {
     py::gil_scoped_release release;
     std::vector<std::thread> pool;
     try {

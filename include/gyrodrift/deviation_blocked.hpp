@@ -232,4 +232,163 @@ GYRODRIFT_DEV_INLINE bool mdev_blocked(const Scalar* y, std::size_t n_data, std:
   return mdev_sigma2(s, m, sigma2) && (terms = n, true);
 }
 
+// Non-overlapping Hadamard variance for many factors in one pass (whole record in memory).
+// Per factor the block sums Z_k of m samples are needed (deviation_hadamard.hpp); when a
+// factor is a multiple of a smaller one (octave grids: every one), its block sums are sums
+// of r = m_j / m_i consecutive block sums of that smaller factor, so the levels form a
+// cascade: the record is read once in chunks of kChunk samples, the first level(s) sum
+// samples, every other level sums its parent's block sums emitted for the same chunk. Work:
+// ~2 N additions for an octave grid instead of N per factor. Block sums and the sums of H^2
+// are long double. m = 1 is the overlapping case (stride 1): ohdev_blocked.
+// Workspace: plan() gives workspace_len() long doubles (<= 2 kChunk + factors), caller-owned.
+template <std::size_t MaxTaus = 64>
+class HdevCascade {
+ public:
+  static constexpr std::size_t kChunk = 1 << 14;
+
+  bool plan(std::size_t n_data, const std::size_t* m, std::size_t n_m) noexcept {
+    n_m_ = 0;
+    if (n_m == 0 || n_m > MaxTaus) return false;
+    const std::size_t max_m = hdev_max_m(n_data);
+    std::size_t offset = 0;
+    for (std::size_t j = 0; j < n_m; ++j) {
+      if (m[j] == 0 || m[j] > max_m || (j > 0 && m[j] <= m[j - 1])) return false;
+      m_[j] = m[j];
+      parent_[j] = kRaw;
+      for (std::size_t i = j; i-- > 0;) {
+        if (m_[i] > 1 && m[j] % m_[i] == 0) {  // m = 1 is computed apart: children read y
+          parent_[j] = i;
+          break;
+        }
+      }
+      ratio_[j] = parent_[j] == kRaw ? m[j] : m[j] / m_[parent_[j]];
+      // emitted block sums per chunk: at most kChunk / m + 1
+      buf_[j] = offset;
+      offset += kChunk / m[j] + 2;
+    }
+    n_data_ = n_data;
+    workspace_ = offset;
+    n_m_ = n_m;
+    return true;
+  }
+
+  std::size_t workspace_len() const noexcept { return workspace_; }
+
+  template <class Scalar>
+  bool run(const Scalar* y, long double* work, std::size_t work_len, double* sigma2,
+           std::size_t* terms) noexcept {
+    if (n_m_ == 0 || work_len < workspace_) return false;
+    for (std::size_t j = 0; j < n_m_; ++j) st_[j] = HdevBlocks<long double>{};
+    for (std::size_t c0 = 0; c0 < n_data_; c0 += kChunk) {
+      const std::size_t len = n_data_ - c0 < kChunk ? n_data_ - c0 : kChunk;
+      for (std::size_t j = 0; j < n_m_; ++j) {
+        if (m_[j] == 1) continue;
+        long double* out = work + buf_[j];
+        std::size_t n_out = 0;
+        if (parent_[j] == kRaw) {
+          feed(j, y + c0, len, out, n_out);
+        } else {
+          feed(j, work + buf_[parent_[j]], emitted_[parent_[j]], out, n_out);
+        }
+        emitted_[j] = n_out;
+      }
+    }
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      if (m_[j] == 1) {
+        if (!ohdev_blocked(y, n_data_, 1, sigma2[j], terms[j])) return false;
+        continue;
+      }
+      if (!hadamard_sigma2(st_[j].sum_sq, st_[j].terms, m_[j], sigma2[j])) return false;
+      terms[j] = st_[j].terms;
+    }
+    return true;
+  }
+
+ private:
+  static constexpr std::size_t kRaw = static_cast<std::size_t>(-1);
+
+  // Adds v[0..n) (samples or parent block sums) to level j; completed block sums go to
+  // out[n_out++] and into the level's H^2 sum.
+  template <class V>
+  void feed(std::size_t j, const V* v, std::size_t n, long double* out,
+            std::size_t& n_out) noexcept {
+    HdevBlocks<long double>& s = st_[j];
+    const std::size_t r = ratio_[j];
+    std::size_t i = 0;
+    // Whole blocks while the level is between blocks: a tight loop with the state in
+    // registers (the general loop below handles blocks cut by the chunk edges).
+    if (s.filled == 0 && s.blocks >= 2) {
+      long double z1 = s.z1;
+      long double z2 = s.z2;
+      long double sq_a{0};
+      std::size_t done = 0;
+      for (; i + r <= n; i += r) {
+        long double z{0};
+        if (r == 2) {
+          z = static_cast<long double>(v[i]) + static_cast<long double>(v[i + 1]);
+        } else {
+          long double a0{0};
+          long double a1{0};
+          std::size_t k = 0;
+          for (; k + 2 <= r; k += 2) {
+            a0 += static_cast<long double>(v[i + k]);
+            a1 += static_cast<long double>(v[i + k + 1]);
+          }
+          if (k < r) a0 += static_cast<long double>(v[i + k]);
+          z = a0 + a1;
+        }
+        const long double h = (z - z1) - (z1 - z2);
+        sq_a += h * h;
+        z2 = z1;
+        z1 = z;
+        out[n_out++] = z;
+        ++done;
+      }
+      s.z1 = z1;
+      s.z2 = z2;
+      s.sum_sq += sq_a;
+      s.terms += done;
+      s.blocks += done;
+    }
+    while (i < n) {
+      const std::size_t take = (r - s.filled) < (n - i) ? (r - s.filled) : (n - i);
+      long double a0{0};
+      long double a1{0};
+      std::size_t k = 0;
+      for (; k + 2 <= take; k += 2) {
+        a0 += static_cast<long double>(v[i + k]);
+        a1 += static_cast<long double>(v[i + k + 1]);
+      }
+      if (k < take) a0 += static_cast<long double>(v[i + k]);
+      s.partial += a0 + a1;
+      s.filled += take;
+      i += take;
+      if (s.filled == r) {
+        const long double z = s.partial;
+        if (s.blocks >= 2) {
+          const long double h = (z - s.z1) - (s.z1 - s.z2);
+          s.sum_sq += h * h;
+          ++s.terms;
+        }
+        s.z2 = s.z1;
+        s.z1 = z;
+        ++s.blocks;
+        s.partial = 0;
+        s.filled = 0;
+        out[n_out++] = z;
+      }
+    }
+  }
+
+  std::size_t n_data_{0};
+  std::size_t n_m_{0};
+  std::size_t workspace_{0};
+  std::size_t m_[MaxTaus]{};
+  std::size_t parent_[MaxTaus]{};
+  std::size_t ratio_[MaxTaus]{};
+  std::size_t buf_[MaxTaus]{};
+  std::size_t emitted_[MaxTaus]{};
+  HdevBlocks<long double> st_[MaxTaus]{};
+};
+
 }  // namespace gyrodrift
