@@ -31,7 +31,7 @@ def test_allan_deviation_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     x = 15.0 + rng.normal(0.0, 0.3, 20_000)
     path = tmp_path / "r.npy"
     np.save(path, x)
-    code, out, _ = run(["allan", path, "--rate", 50, "--deviation", name, "--json"], capsys)
+    code, out, _ = run(["allan", path, "--rate-hz", 50, "--deviation", name, "--json"], capsys)
     assert code == 0
     res = json.loads(out)["allan"]
     assert res["deviation"] == name
@@ -40,7 +40,7 @@ def test_allan_deviation_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert res["terms"] == ns.astype(int).tolist()
     assert res["noise_id"][0] == "acf" and res["noise_id"][-1] == "slope"
     assert res["alpha"][0] == 0  # white rate noise
-    code, text, _ = run(["allan", path, "--rate", 50, "--deviation", name], capsys)
+    code, text, _ = run(["allan", path, "--rate-hz", 50, "--deviation", name], capsys)
     assert code == 0
     header = next(line for line in text.splitlines() if line.lstrip().startswith("tau_s"))
     assert name in header and "alpha" in header and "noise_id" in header
@@ -54,11 +54,11 @@ def test_allan_default_table_shows_the_noise_id(tmp_path: Path,
     x = np.random.default_rng(9).normal(0.0, 1.0, 5000)
     path = tmp_path / "r.npy"
     np.save(path, x)
-    code, text, _ = run(["allan", path, "--rate", 10], capsys)
+    code, text, _ = run(["allan", path, "--rate-hz", 10], capsys)
     assert code == 0 and "IEEE 952 fit" in text and "noise_id" in text
-    code, text, _ = run(["allan", path, "--rate", 10, "--noise-id", "slope"], capsys)
+    code, text, _ = run(["allan", path, "--rate-hz", 10, "--noise-id", "slope"], capsys)
     rows = [line.split() for line in text.splitlines()[2:] if line[:1] == " "]
     assert rows and all(r[-1] == "slope" for r in rows)
     with pytest.raises(SystemExit) as exc:
-        run(["allan", path, "--rate", 10, "--deviation", "bogus"], capsys)
+        run(["allan", path, "--rate-hz", 10, "--deviation", "bogus"], capsys)
     assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err

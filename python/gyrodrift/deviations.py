@@ -38,9 +38,10 @@ from typing import Any
 
 import numpy as np
 
-from gyrodrift import noise_type
+from gyrodrift import _native, noise_type
 from gyrodrift.allan import ONE_SIGMA_CI, AllanResult, chi2_interval, oadev
 from gyrodrift.edf import edf_for
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = ["DEVIATIONS", "deviation", "hdev", "mdev", "ohdev", "tdev", "totdev"]
 
@@ -51,13 +52,8 @@ DEFAULT_CHUNK_SAMPLES = 1 << 20
 
 
 def _lib() -> Any:
-    try:
-        from gyrodrift import _core
-    except ImportError as exc:  # pragma: no cover - depends on the build
-        raise ImportError("gyrodrift._core (the C++ extension) is not built") from exc
-    if not hasattr(_core, "deviation_sigma2"):
-        raise ImportError("gyrodrift._core was built without the 'allan' binding area")
-    return _core
+    """gyrodrift._core (allan area), imported on first use."""
+    return _native.core("allan", "deviation_sigma2")
 
 
 def _kernel(name: str) -> str:
@@ -72,19 +68,21 @@ def max_factor(name: str, n_rate: int) -> int:
 def _factors(name: str, n_rate: int, taus: Any, rate_hz: float, per_decade: int) -> np.ndarray:
     max_m = max_factor(name, n_rate)
     if max_m < 1:
-        raise ValueError(f"record too short for {name}: {n_rate} rate samples")
+        raise GyrodriftValueError(f"record too short for {name}: {n_rate} rate samples")
     if isinstance(taus, str):
         if taus not in ("octave", "decade", "all"):
-            raise ValueError(f"taus must be 'octave', 'decade', 'all' or an array, got {taus!r}")
+            raise GyrodriftValueError(
+                f"taus must be 'octave', 'decade', 'all' or an array, got {taus!r}")
         return np.asarray(_lib().tau_grid(taus, max_m, per_decade), dtype=np.int64)
     tau_arr = np.asarray(taus, dtype=np.float64)
     if tau_arr.ndim != 1 or tau_arr.size == 0 or not np.all(np.isfinite(tau_arr)):
-        raise ValueError("taus: expected a non-empty 1-D array of finite taus in seconds")
+        raise GyrodriftValueError("taus: expected a non-empty 1-D array of finite taus in seconds")
     m = np.unique(np.rint(tau_arr * rate_hz).astype(np.int64))
     if m[0] < 1:
-        raise ValueError(f"tau {tau_arr.min()} s is shorter than one sample (1/{rate_hz} s)")
+        raise GyrodriftValueError(
+            f"tau {tau_arr.min()} s is shorter than one sample (1/{rate_hz} s)")
     if m[-1] > max_m:
-        raise ValueError(f"record too short for {name} at tau = {tau_arr.max():g} s: "
+        raise GyrodriftValueError(f"record too short for {name} at tau = {tau_arr.max():g} s: "
                          f"{n_rate} samples at {rate_hz:g} Hz support tau <= "
                          f"{max_m / rate_hz:g} s")
     return m
@@ -114,7 +112,7 @@ class _Source:
                 fh.seek(mm.offset + start * mm.dtype.itemsize)
                 raw = np.fromfile(fh, dtype=mm.dtype, count=hi - start)
             if raw.size != hi - start:
-                raise ValueError(f"{mm.filename}: file shorter than its header says")
+                raise GyrodriftValueError(f"{mm.filename}: file shorter than its header says")
         else:
             raw = self.data[start:hi]
         raw = np.asarray(raw, dtype=np.float64)
@@ -122,7 +120,7 @@ class _Source:
             raw = np.diff(raw) * self.rate_hz
         bad = int(np.count_nonzero(~np.isfinite(raw)))
         if bad:
-            raise ValueError(f"data: {bad} NaN/Inf samples in [{start}, {stop}); drop or "
+            raise GyrodriftValueError(f"data: {bad} NaN/Inf samples in [{start}, {stop}); drop or "
                              "repair them first")
         return np.ascontiguousarray(raw)
 
@@ -189,7 +187,7 @@ def _streamed(src: _Source, name: str, m_all: np.ndarray) -> tuple[np.ndarray, n
                 st.advance(y0, y1, y2)
             st.finish()
         else:  # pragma: no cover - guarded by deviation()
-            raise ValueError(name)
+            raise GyrodriftValueError(name)
         sigma2[j] = st.sigma2()
         terms[j] = st.terms
     return sigma2, terms
@@ -232,26 +230,26 @@ def deviation(
         ValueError: unknown name, not 1-D, too short, NaN/Inf, bad rate or taus.
     """
     if name not in DEVIATIONS:
-        raise ValueError(f"name must be one of {', '.join(DEVIATIONS)}, got {name!r}")
+        raise GyrodriftValueError(f"name must be one of {', '.join(DEVIATIONS)}, got {name!r}")
     if name == "oadev":
         return oadev(data, rate_hz, kind=kind, taus=taus, per_decade=per_decade, ci=ci,
                      alpha=alpha, chunk_samples=chunk_samples, progress=progress,
                      threads=threads)
     if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise ValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
+        raise GyrodriftValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
     if kind not in ("rate", "phase"):
-        raise ValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
+        raise GyrodriftValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
     is_memmap = isinstance(data, np.memmap)
     arr = data if is_memmap else np.asarray(data)
     if arr.ndim != 1:
-        raise ValueError(f"data: expected a 1-D record, got shape {arr.shape}")
+        raise GyrodriftValueError(f"data: expected a 1-D record, got shape {arr.shape}")
     if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise TypeError(f"data: expected real numbers, got dtype {arr.dtype}")
+        raise GyrodriftTypeError(f"data: expected real numbers, got dtype {arr.dtype}")
     n_rate = int(arr.shape[0]) - (1 if kind == "phase" else 0)
     m = _factors(name, n_rate, taus, float(rate_hz), per_decade)
     n_threads = (os.cpu_count() or 1) if threads is None else int(threads)
     if n_threads < 1:
-        raise ValueError(f"threads must be >= 1, got {threads!r}")
+        raise GyrodriftValueError(f"threads must be >= 1, got {threads!r}")
     kernel = _kernel(name)
     chunked = is_memmap or chunk_samples is not None
     src: _Source | None = None
@@ -259,7 +257,7 @@ def deviation(
     if chunked:
         chunk = int(chunk_samples or DEFAULT_CHUNK_SAMPLES)
         if chunk < 1:
-            raise ValueError(f"chunk_samples must be >= 1, got {chunk}")
+            raise GyrodriftValueError(f"chunk_samples must be >= 1, got {chunk}")
         src = _Source(arr, kind, float(rate_hz), chunk)
         sigma2, terms = _streamed(src, kernel, m)
     else:
@@ -273,11 +271,12 @@ def deviation(
         except ValueError as exc:
             bad = int(np.count_nonzero(~np.isfinite(y)))
             if bad:
-                raise ValueError(f"data: {bad} NaN/Inf samples; drop or repair them first "
+                raise GyrodriftValueError(f"data: {bad} NaN/Inf samples; drop or repair them first "
                                  "(gyrodrift.io.load_record has an explicit nan_policy)") from exc
             raise
     if not np.any(sigma2 > 0):
-        raise ValueError(f"data: the record is constant ({name} is zero at all {m.size} taus)")
+        raise GyrodriftValueError(
+            f"data: the record is constant ({name} is zero at all {m.size} taus)")
     tau_s = m / float(rate_hz)
     dev = np.sqrt(sigma2)
     if name == "tdev":
@@ -308,7 +307,8 @@ def _alpha(name: str, alpha: Any, m: np.ndarray, tau_s: np.ndarray, dev: np.ndar
         return noise_type.alpha_per_tau(averages, m, n_rate, slope)
     if isinstance(alpha, str):
         if alpha != "slope":
-            raise ValueError(f"alpha must be None, 'acf', 'slope' or integers, got {alpha!r}")
+            raise GyrodriftValueError(
+                f"alpha must be None, 'acf', 'slope' or integers, got {alpha!r}")
         a = noise_type.slope_alpha(tau_s, slope_dev, modified=modified)
         return a, np.full(m.size, "slope")
     a = np.broadcast_to(np.asarray(alpha, dtype=np.int64), m.shape).copy()

@@ -22,6 +22,8 @@ import math
 import numpy as np
 import scipy.special
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = ["edf_for", "edf_greenhall", "edf_totdev"]
 
 #: Table 1 (modified variances, F = 1): (a0, a1) by alpha = 2..-4 (rows) and d = 1..3.
@@ -70,7 +72,7 @@ def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
         return t**6 * log_t
     if alpha == -4:
         return at**7
-    raise ValueError(f"alpha must be an integer in -4..2, got {alpha}")
+    raise GyrodriftValueError(f"alpha must be an integer in -4..2, got {alpha}")
 
 
 def _sx(t: np.ndarray, f: float, alpha: int) -> np.ndarray:
@@ -115,15 +117,15 @@ def edf_greenhall(alpha: int, d: int, m: int, n_phase: int, *, overlapping: bool
     """
     alpha, d, m, n = int(alpha), int(d), int(m), int(n_phase)
     if d not in (1, 2, 3):
-        raise ValueError(f"d must be 1, 2 or 3, got {d}")
+        raise GyrodriftValueError(f"d must be 1, 2 or 3, got {d}")
     if alpha + 2 * d <= 1:
-        raise ValueError(f"alpha + 2 d must exceed 1 (alpha={alpha}, d={d})")
+        raise GyrodriftValueError(f"alpha + 2 d must exceed 1 (alpha={alpha}, d={d})")
     f = 1.0 if modified else float(m)
     s = float(m) if overlapping else 1.0
     length = m / f + m * d  # span of the estimator's filter, in phase samples
     m_big = 1.0 + math.floor(s * (n - length) / m)
     if m_big < 1:
-        raise ValueError(f"m={m} leaves no estimator term in {n} phase points")
+        raise GyrodriftValueError(f"m={m} leaves no estimator term in {n} phase points")
     j_lim = min(m_big, (d + 1) * s)
     r = m_big / s
     if modified:  # case 1
@@ -171,7 +173,7 @@ def edf_greenhall(alpha: int, d: int, m: int, n_phase: int, *, overlapping: bool
 def _table(table: dict[int, tuple], alpha: int, d: int) -> tuple[float, float]:
     entry = table[alpha][d - 1]
     if entry is None:
-        raise ValueError(f"no Greenhall table entry for alpha={alpha}, d={d}")
+        raise GyrodriftValueError(f"no Greenhall table entry for alpha={alpha}, d={d}")
     return entry
 
 
@@ -210,5 +212,5 @@ def edf_for(name: str, n_phase: int, m: np.ndarray, alpha: np.ndarray) -> np.nda
         elif name == "totdev":
             out[j] = edf_totdev(n_phase, mj, aj)
         else:
-            raise ValueError(f"unknown deviation {name!r}")
+            raise GyrodriftValueError(f"unknown deviation {name!r}")
     return out
