@@ -17,6 +17,7 @@ of the frequency noise PSD S_y(f) ~ f^alpha.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -55,24 +56,17 @@ _J_MAX = 100
 def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
     """Greenhall's generalized autocovariance of the phase, eq. (7)."""
     t = np.asarray(t, dtype=np.float64)
+    if alpha % 2 == 0:  # |t|^(3 - alpha); -|t| for alpha = 2
+        if alpha not in (2, 0, -2, -4):
+            raise GyrodriftValueError(f"alpha must be an integer in -4..2, got {alpha}")
+        at = np.abs(t)
+        return -at if alpha == 2 else at ** (3 - alpha)
+    if alpha not in (1, -1, -3):
+        raise GyrodriftValueError(f"alpha must be an integer in -4..2, got {alpha}")
+    # t^(3 - alpha) ln|t|, 0 at t = 0
     at = np.abs(t)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_t = np.where(at > 0, np.log(np.where(at > 0, at, 1.0)), 0.0)
-    if alpha == 2:
-        return -at
-    if alpha == 1:
-        return t * t * log_t
-    if alpha == 0:
-        return at**3
-    if alpha == -1:
-        return t**4 * log_t
-    if alpha == -2:
-        return at**5
-    if alpha == -3:
-        return t**6 * log_t
-    if alpha == -4:
-        return at**7
-    raise GyrodriftValueError(f"alpha must be an integer in -4..2, got {alpha}")
+    safe = np.where(at > 0, at, 1.0)
+    return t ** (3 - alpha) * np.log(safe)
 
 
 def _sx(t: np.ndarray, f: float, alpha: int) -> np.ndarray:
@@ -94,13 +88,12 @@ def _sz(t: np.ndarray, f: float, alpha: int, d: int) -> np.ndarray:
 def _basic_sum(j_lim: float, m_big: float, s: float, f: float, alpha: int, d: int) -> float:
     """eq. (10): sz(0)^2 + (1 - J/M) sz(J/S)^2 + 2 sum_{j=1}^{J-1} (1 - j/M) sz(j/S)^2."""
     j = np.arange(1, int(j_lim), dtype=np.float64)
-    total = float(_sz(np.array(0.0), f, alpha, d)) ** 2
-    total += (1.0 - j_lim / m_big) * float(_sz(np.array(j_lim / s), f, alpha, d)) ** 2
-    if j.size:
-        total += float(np.sum(2.0 * (1.0 - j / m_big) * _sz(j / s, f, alpha, d) ** 2))
-    return total
+    sz = _sz(np.concatenate([[0.0, j_lim / s], j / s]), f, alpha, d) ** 2  # one pass
+    return float(sz[0] + (1.0 - j_lim / m_big) * sz[1]
+                 + np.sum(2.0 * (1.0 - j / m_big) * sz[2:]))
 
 
+@functools.lru_cache(maxsize=4096)
 def edf_greenhall(alpha: int, d: int, m: int, n_phase: int, *, overlapping: bool,
                   modified: bool) -> float:
     """Equivalent degrees of freedom by Greenhall & Riley's algorithm (module docstring).
