@@ -71,18 +71,18 @@ def main() -> None:
             n_taus = res.m.size
 
             def row(impl: str, r: tuple[float, float, float], ratio: str, n: int = n,
-                    n_taus: int = n_taus, name: str = name) -> None:
+                    n_taus: int = n_taus, name: str = name, nbytes: int = y.nbytes) -> None:
                 wall, cpu, mem = r
                 print(f"| {n:.0e} | {name} | {impl} | {n_taus} | {wall:.4f} | {cpu:.4f} | "
-                      f"{cpu / n / n_taus * 1e9:.2f} | {ratio} | {mem / y.nbytes:.3f} |")
+                      f"{cpu / n / n_taus * 1e9:.2f} | {ratio} | {mem / nbytes:.3f} |")
 
-            peer = measure(lambda name=name: getattr(allantools, name)(
+            peer = measure(lambda name=name, y=y: getattr(allantools, name)(
                 y, rate=100.0, data_type="freq", taus="octave"), args.repeats)
-            ours = measure(lambda name=name: gyrodrift.deviation(y, 100.0, name, alpha=0),
+            ours = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0),
                            args.repeats)
-            ours1 = measure(lambda name=name: gyrodrift.deviation(y, 100.0, name, alpha=0,
+            ours1 = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0,
                                                                   threads=1), args.repeats)
-            full = measure(lambda name=name: gyrodrift.deviation(y, 100.0, name),
+            full = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name),
                            args.repeats)
             row("allantools", peer, "1.0")
             row(f"gyrodrift ({threads} threads)", ours,

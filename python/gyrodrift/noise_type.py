@@ -41,13 +41,15 @@ def lag1_alpha(z: np.ndarray, *, dmax: int = 2) -> int:
     t = np.arange(n, dtype=np.float64)
     t -= (n - 1) / 2.0
     z -= z.mean()
-    z -= (float(np.dot(t, z)) / float(np.dot(t, t))) * t
+    # (plain multiply-and-sum, not np.dot: BLAS threads cost milliseconds per call on a
+    # loaded machine for these short vectors)
+    z -= (float(np.sum(t * z)) / float(np.sum(t * t))) * t
     del t
     d = 0
     while True:
         zc = z - z.mean()
-        denom = float(np.dot(zc, zc))
-        r1 = float(np.dot(zc[:-1], zc[1:])) / denom if denom > 0 else 0.0
+        denom = float(np.sum(zc * zc))
+        r1 = float(np.sum(zc[:-1] * zc[1:])) / denom if denom > 0 else 0.0
         delta = r1 / (1.0 + r1)
         if delta < 0.25 or d >= dmax:
             return int(-round(2.0 * delta) - 2 * d)
