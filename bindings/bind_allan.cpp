@@ -398,6 +398,7 @@ void bind_allan(pybind11::module_& m) {
       .def_property_readonly("n_terms0", &OadevFusedStream::n_terms0);
   m.def("tau_grid", &tau_grid_py, py::arg("grid"), py::arg("max_m"), py::arg("per_decade") = 10,
         "Averaging factors 1 <= m <= max_m: 'octave', 'decade' (per_decade points), 'all'.");
+  bind_deviation(m);  // bind_deviation.cpp: mdev, ohdev, hdev, totdev kernels
 }
 
 }  // namespace gyrodrift::py_bindings

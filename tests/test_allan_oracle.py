@@ -121,8 +121,24 @@ def test_memmap_with_nan_is_an_error(tmp_path, rng: np.random.Generator) -> None
 def test_edf_simple_equals_allantools(alpha: int) -> None:
     n_phase = 10_001
     for m in (1, 2, 7, 100, 1000, 4999):
+        if alpha == -1 and m == 1:
+            continue  # allantools drops the square of SP 1065 Table 5 here (next test)
         assert allan.edf_simple(n_phase, m, alpha)[()] == pytest.approx(
             allantools.edf_simple(n_phase, m, alpha), rel=1e-13)
+
+
+def test_edf_simple_flicker_fm_at_m1_is_of_order_n() -> None:
+    """Regression: the flicker-FM edf at m = 1 was 2 (N-2) / (2.3 N - 4.9) ~ 0.87 for any N
+    (as in allantools), so a 1.8e5-sample record got a 1-sigma interval [0.7, 5] x adev
+    once the lag-1 ACF (the new default) read flicker FM at the first tau. SP 1065 Table 5
+    has 2 (N-2)^2 / (2.3 N - 4.9); Greenhall's exact algorithm gives 0.895 N."""
+    from gyrodrift.edf import edf_greenhall
+
+    for n_phase in (1001, 184_719):
+        simple = float(allan.edf_simple(n_phase, 1, -1))
+        exact = edf_greenhall(-1, 2, 1, n_phase, overlapping=True, modified=False)
+        assert simple == pytest.approx(2 * (n_phase - 2) ** 2 / (2.3 * n_phase - 4.9))
+        assert simple == pytest.approx(exact, rel=0.05)
 
 
 def test_confidence_interval_equals_allantools(rng: np.random.Generator) -> None:
@@ -218,15 +234,20 @@ def test_fused_kernel_equals_per_tau_kernel_on_drifting_record(rng) -> None:
 def test_in_memory_path_allocates_little(rng) -> None:
     import tracemalloc
 
+    from gyrodrift import noise_type
+
     y = rng.normal(size=2_000_000)
-    tracemalloc.start()
-    base = tracemalloc.get_traced_memory()[0]
-    allan.oadev(y, 1.0, progress=False)
-    peak = tracemalloc.get_traced_memory()[1] - base
-    tracemalloc.stop()
-    # outputs and tau arrays only: far below the 16 MB input (the C++ workspace is ~0.3 MB
-    # and not traced; the bound here is on numpy temporaries)
-    assert peak < 0.02 * y.nbytes
+    for alpha, extra in (("slope", 0), (None, 6 * 8 * noise_type.MAX_ACF_POINTS)):
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        allan.oadev(y, 1.0, progress=False, alpha=alpha)
+        peak = tracemalloc.get_traced_memory()[1] - base
+        tracemalloc.stop()
+        # outputs and tau arrays only: far below the 16 MB input (the C++ workspace is
+        # ~0.3 MB and not traced; the bound here is on numpy temporaries); the default
+        # lag-1 ACF noise ID adds a few arrays of at most MAX_ACF_POINTS averages per tau,
+        # whatever the record length
+        assert peak < 0.02 * y.nbytes + extra, alpha
 
 
 def test_memmap_path_memory_is_bounded(tmp_path, rng) -> None:
@@ -293,8 +314,9 @@ def test_lag1_noise_id_equals_allantools_and_finds_the_types() -> None:
     assert allan.lag1_noise_id(cases[0], 300) is None  # 27 averages < 30
     res = allan.oadev(cases[-2], 1.0, alpha="acf")
     assert res.alpha[0] == -2 and np.all(res.alpha >= -2)
+    assert list(res.noise_id[:3]) == ["acf"] * 3
     with pytest.raises(ValueError, match="acf"):
-        allan.oadev(cases[0], 1.0, alpha="slope")
+        allan.oadev(cases[0], 1.0, alpha="bogus")
 
 
 def test_fused_result_does_not_depend_on_thread_count(rng) -> None:

@@ -30,7 +30,7 @@ OWN_FLAGS: dict[str, set[str]] = {
                "--accel-filter", "--stuck-samples", "--can-signals"},
     "simulate": {"--n"},
     "filter": {"--method", "--core", "--ar-method"},
-    "allan": {"--taus", "--per-decade", "--noise-id", "--can-signals"},
+    "allan": {"--taus", "--per-decade", "--noise-id", "--can-signals", "--deviation"},
     "fit": {"--criterion"},
     "psd": {"--nperseg", "--bins-per-decade"},
     "compare": set(),

@@ -73,6 +73,12 @@ from gyrodrift.wavelet_packet import wavelet_packet_denoise as wavelet_packet_de
 # isort: split
 from gyrodrift.allan import AllanResult as AllanResult
 from gyrodrift.allan import oadev as oadev
+from gyrodrift.deviations import deviation as deviation
+from gyrodrift.deviations import hdev as hdev
+from gyrodrift.deviations import mdev as mdev
+from gyrodrift.deviations import ohdev as ohdev
+from gyrodrift.deviations import tdev as tdev
+from gyrodrift.deviations import totdev as totdev
 from gyrodrift.io import load_record as load_record
 from gyrodrift.noise_id import identify_noise as identify_noise
 from gyrodrift.noise_id import paper_fit as paper_fit

@@ -85,6 +85,10 @@ class AllanResult:
         n_samples: record length (rate samples, or phase samples for kind="phase").
         rate_hz: sample rate.
         kind: "rate" or "phase".
+        deviation: which deviation `adev` holds ("oadev", or "mdev", "tdev", "hdev",
+            "ohdev", "totdev" from gyrodrift.deviation).
+        noise_id: per tau, how alpha was found: "acf" (lag-1 autocorrelation), "slope"
+            (local slope of the curve) or "given" (by the caller).
     """
 
     tau_s: np.ndarray
@@ -99,6 +103,8 @@ class AllanResult:
     n_samples: int
     rate_hz: float
     kind: str
+    deviation: str = "oadev"
+    noise_id: np.ndarray | None = None
 
     def scaled(self, factor: float) -> AllanResult:
         """The same result with the deviation in another unit (deviation x factor > 0)."""
@@ -107,7 +113,7 @@ class AllanResult:
         return AllanResult(
             self.tau_s, self.m, self.adev * factor, self.terms, self.edf, self.alpha,
             self.ci_low * factor, self.ci_high * factor, self.ci, self.n_samples,
-            self.rate_hz, self.kind,
+            self.rate_hz, self.kind, self.deviation, self.noise_id,
         )
 
     def as_dict(self) -> dict[str, object]:
@@ -124,6 +130,8 @@ class AllanResult:
             "n_samples": self.n_samples,
             "rate_hz": self.rate_hz,
             "kind": self.kind,
+            "deviation": self.deviation,
+            "noise_id": None if self.noise_id is None else [str(v) for v in self.noise_id],
         }
 
 
@@ -192,7 +200,9 @@ def edf_simple(n_phase: int | np.ndarray, m: int | np.ndarray, alpha: int | np.n
                    * (4.0 * mm * mm / (4.0 * mm * mm + 5.0)))
         elif a == -1:
             if mm == 1.0:
-                edf = 2.0 * (n - 2.0) / (2.3 * n - 4.9)
+                # SP 1065 Table 5: 2 (N-2)^2 / (2.3 N - 4.9), ~0.87 N. allantools drops the
+                # square (edf ~0.87 whatever N); Greenhall's exact value is 0.895 N.
+                edf = 2.0 * (n - 2.0) ** 2 / (2.3 * n - 4.9)
             else:
                 edf = 5.0 * n * n / (4.0 * mm * (n + 3.0 * mm))
         elif a == -2:
@@ -254,29 +264,17 @@ def lag1_noise_id(y: np.ndarray, m: int, *, dmax: int = 2, max_points: int = 1 <
                   ) -> int | None:
     """Power-law noise exponent alpha (S_y(f) ~ f^alpha) of rate (frequency) data at
     averaging factor m by the lag-1 autocorrelation method (Riley & Greenhall 2004; NIST
-    SP 1065 sec. 5.6): average non-overlapping groups of m samples, remove a linear trend,
-    then with r1 the lag-1 autocorrelation and delta = r1 / (1 + r1), difference the series
-    (d times) until delta < 0.25; alpha = -round(2 delta) - 2 d. Uses at most `max_points`
-    averages (the first max_points * m samples): the sd of r1 is ~1/sqrt(points).
-    Returns None when fewer than 30 averages exist (the method's minimum).
+    SP 1065 sec. 5.6; gyrodrift.noise_type.lag1_alpha) on the first min(N // m, max_points)
+    non-overlapping averages. Returns None when fewer than 30 averages exist (the method's
+    minimum).
     """
+    from gyrodrift import noise_type
+
     y = np.asarray(y, dtype=np.float64)
     n_avg = min(y.size // m, max_points)
-    if n_avg < 30:
+    if n_avg < noise_type.MIN_ACF_POINTS:
         return None
-    z = y[: n_avg * m].reshape(n_avg, m).mean(axis=1)
-    t = np.arange(n_avg, dtype=np.float64)
-    z = z - np.polyval(np.polyfit(t, z, 1), t)  # linear trend (frequency drift)
-    d = 0
-    while True:
-        zc = z - z.mean()
-        denom = float(np.dot(zc, zc))
-        r1 = float(np.dot(zc[:-1], zc[1:])) / denom if denom > 0 else 0.0
-        delta = r1 / (1.0 + r1)
-        if delta < 0.25 or d >= dmax:
-            return int(-round(2.0 * delta) - 2 * d)
-        z = np.diff(z)
-        d += 1
+    return noise_type.lag1_alpha(y[: n_avg * m].reshape(n_avg, m).mean(axis=1), dmax=dmax)
 
 
 def _filename(mm: np.memmap) -> str:
@@ -404,10 +402,12 @@ def oadev(
         rate_hz: sample rate, Hz.
         taus: "octave", "decade" (per_decade points per decade), "all", or taus in s.
         ci: two-sided probability of the confidence interval (default 1 sigma, 0.683).
-        alpha: noise exponent for the edf (one for all taus, or one per tau); default: from
-            the local slope of the deviation (noise_alpha_from_slope); "acf": the lag-1
-            autocorrelation method per tau (lag1_noise_id; reads the record once per tau,
-            at most 65536 averages each, in memory).
+        alpha: noise exponent for the edf (one for all taus, or one per tau); default (None
+            or "acf"): the lag-1 autocorrelation method (gyrodrift.noise_type) at every tau
+            with at least 30 averages (reads at most 65536 averages per tau; a memmap in
+            chunks), the local slope of the deviation (noise_alpha_from_slope, capped by the
+            last ACF value) beyond; "slope": the slope method at every tau. The method used
+            per tau is in the result's `noise_id`.
         chunk_samples: chunk size of the memmap path (default 2**20); forces the chunked
             path for in-memory arrays too when given.
         progress: tqdm bar on stderr: True, False or "auto" (when the work exceeds
@@ -481,31 +481,43 @@ def oadev(
         sigma2 = sigma2 * rate_hz * rate_hz  # the kernel leaves out 1/tau0^2
     adev = np.sqrt(sigma2)
     tau_s = m / float(rate_hz)
-    if alpha is None:
-        alpha_arr = noise_alpha_from_slope(tau_s, adev)
-    elif isinstance(alpha, str):
-        if alpha != "acf":
-            raise ValueError(f"alpha must be None, 'acf', or integers, got {alpha!r}")
-        # Lag-1 ACF noise ID where >= 30 averages exist, the slope estimate (capped by the
-        # last ACF value, noise types do not move back towards white PM) beyond.
-        x_id = np.asarray(x, dtype=np.float64) if kind == "rate" else np.diff(x) * rate_hz
-        slope_alpha = noise_alpha_from_slope(tau_s, adev)
-        alpha_arr = np.empty(m.size, dtype=np.int64)
-        last: int | None = None
-        for j, mj in enumerate(int(v) for v in m):
-            a = lag1_noise_id(x_id, mj)
-            if a is None:
-                a = int(slope_alpha[j]) if last is None else min(int(slope_alpha[j]), last)
-            else:
-                last = a
-            alpha_arr[j] = min(max(a, -2), 2)
-    else:
-        alpha_arr = np.broadcast_to(np.asarray(alpha, dtype=np.int64), m.shape).copy()
+    alpha_arr, method = _oadev_alpha(alpha, x, kind, m, tau_s, adev, rate_hz,
+                                     int(chunk_samples or DEFAULT_CHUNK_SAMPLES))
     n_phase = n_data + 1 if kind == "rate" else n_data
     edf = np.maximum(edf_simple(n_phase, m, alpha_arr), 1.0)
     lo_ci, hi_ci = chi2_interval(adev, edf, ci)
     return AllanResult(tau_s, m, adev, terms, edf, alpha_arr, lo_ci, hi_ci, float(ci),
-                       n_data, float(rate_hz), kind)
+                       n_data, float(rate_hz), kind, "oadev", method)
+
+
+def _oadev_alpha(alpha: int | np.ndarray | str | None, data: np.ndarray, kind: str,
+                 m: np.ndarray, tau_s: np.ndarray, adev: np.ndarray, rate_hz: float,
+                 chunk: int) -> tuple[np.ndarray, np.ndarray]:
+    """Noise type per tau and the method per tau ("acf", "slope", "given"): the lag-1 ACF
+    where >= 30 averages exist, else the slope capped by the last ACF value (None, "acf");
+    the slope everywhere ("slope"); or the caller's integers."""
+    from gyrodrift import noise_type
+
+    if alpha is None or (isinstance(alpha, str) and alpha == "acf"):
+        slope_alpha = noise_alpha_from_slope(tau_s, adev)
+        if isinstance(data, np.memmap) or kind == "phase":
+            # bounded memory: averages read in chunks (file reads for a memmap)
+            from gyrodrift.deviations import _Source
+
+            src = _Source(data, kind, float(rate_hz), chunk)
+            averages = noise_type.averages_from_pieces(src.raw_pieces)
+            n_rate = src.n
+        else:
+            x_id = np.asarray(data)
+            averages = noise_type.averages_in_memory(x_id)
+            n_rate = x_id.shape[0]
+        return noise_type.alpha_per_tau(averages, m, n_rate, slope_alpha)
+    if isinstance(alpha, str):
+        if alpha != "slope":
+            raise ValueError(f"alpha must be None, 'acf', 'slope', or integers, got {alpha!r}")
+        return noise_alpha_from_slope(tau_s, adev), np.full(m.size, "slope")
+    alpha_arr = np.broadcast_to(np.asarray(alpha, dtype=np.int64), m.shape).copy()
+    return alpha_arr, np.full(m.size, "given")
 
 
 def _chunked_in_memory(x: np.ndarray, m_all: np.ndarray, kind: str, chunk: int,

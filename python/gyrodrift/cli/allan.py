@@ -17,6 +17,7 @@ from gyrodrift.cli.common import (
     record_from_args,
     write_csv,
 )
+from gyrodrift.deviations import DEVIATIONS
 
 __all__ = ["register", "run"]
 
@@ -34,9 +35,14 @@ def register(subparsers: Any) -> None:
                         "points per decade) or all (every m; slow on long records)")
     p.add_argument("--per-decade", type=int, default=10, help="points per decade (--taus decade)")
     add_ci_arg(p)
-    p.add_argument("--noise-id", choices=("slope", "acf"), default="slope",
-                   help="noise type per tau for the edf: local slope (default) or the lag-1 "
-                        "autocorrelation method (loads the record into memory)")
+    p.add_argument("--noise-id", choices=("acf", "slope"), default="acf",
+                   help="noise type per tau for the edf: lag-1 autocorrelation where >= 30 "
+                        "averages exist, local slope beyond (acf, default; the method used is "
+                        "printed per tau), or the local slope everywhere (slope)")
+    p.add_argument("--deviation", choices=DEVIATIONS, default="oadev",
+                   help="which deviation: overlapping Allan (default), modified Allan, time, "
+                        "Hadamard, overlapping Hadamard or total (NIST SP 1065); the noise-term "
+                        "fits use the Allan deviation and run for oadev only")
     p.add_argument("--png", help="write a log-log plot with error bars and the fitted terms")
     p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV")
     add_json_arg(p)
@@ -47,25 +53,27 @@ def register(subparsers: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift allan``; returns the exit code."""
     from gyrodrift import noise_id
-    from gyrodrift.allan import oadev
+    from gyrodrift.deviations import deviation
 
     rec = record_from_args(args)
     # auto: a bar for long records, and only on a terminal.
     show = progress_enabled(args)
     progress: bool | str = "auto" if show and args.progress == "auto" else show
+    dev_name = getattr(args, "deviation", "oadev")
     try:
-        res = oadev(rec.rate_deg_h, rec.rate_hz, taus=args.taus, per_decade=args.per_decade,
-                    ci=args.ci, progress=progress,
-                    alpha="acf" if args.noise_id == "acf" else None)
+        res = deviation(rec.rate_deg_h, rec.rate_hz, dev_name, taus=args.taus,
+                        per_decade=args.per_decade, ci=args.ci, progress=progress,
+                        alpha="slope" if args.noise_id == "slope" else None)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     # The fits need positive deviations (a zero can occur on exactly periodic or quantized
     # data at some taus); they use the positive points and need enough of them.
     pos = res.adev > 0
     tau, dev, edf = res.tau_s[pos], res.adev[pos], res.edf[pos]
-    fit = noise_id.identify(tau, dev, edf) if tau.size >= 5 else None
-    paper = noise_id.paper_fit(tau, dev) if tau.size >= 3 else None
-    slope = noise_id.slope_method(tau, dev) if tau.size >= 3 else None
+    allan_fits = dev_name == "oadev"  # the IEEE 952 model is that of the Allan variance
+    fit = noise_id.identify(tau, dev, edf) if allan_fits and tau.size >= 5 else None
+    paper = noise_id.paper_fit(tau, dev) if allan_fits and tau.size >= 3 else None
+    slope = noise_id.slope_method(tau, dev) if allan_fits and tau.size >= 3 else None
     if args.png:
         from gyrodrift.plots import plot_allan
 
@@ -85,10 +93,14 @@ def run(args: argparse.Namespace) -> int:
           + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
     if rec.log_summary:
         print(f"# CAN log: {rec.log_summary}")
-    print(f"{'tau_s':>12} {'adev_deg_h':>12} {'ci_low':>12} {'ci_high':>12} {'edf':>10}")
-    for t, a, lo, hi, e in zip(res.tau_s, res.adev, res.ci_low, res.ci_high, res.edf,
-                               strict=True):
-        print(f"{t:12.5g} {a:12.5g} {lo:12.5g} {hi:12.5g} {e:10.4g}")
+    unit = "deg_h_s" if dev_name == "tdev" else "deg_h"  # tdev = tau mdev / sqrt(3)
+    col = f"{'adev' if dev_name == 'oadev' else dev_name}_{unit}"
+    print(f"{'tau_s':>12} {col:>12} {'ci_low':>12} {'ci_high':>12} {'edf':>10} "
+          f"{'alpha':>5} {'noise_id':>8}")
+    noise = res.noise_id if res.noise_id is not None else ["given"] * res.m.size
+    for t, a, lo, hi, e, al, how in zip(res.tau_s, res.adev, res.ci_low, res.ci_high,
+                                        res.edf, res.alpha, noise, strict=True):
+        print(f"{t:12.5g} {a:12.5g} {lo:12.5g} {hi:12.5g} {e:10.4g} {int(al):5d} {how:>8}")
     if fit is not None:
         print(f"IEEE 952 fit: Q = {fit.q_arcsec:.4g} arcsec ({fit.q_deg:.4g} deg), "
               f"N = {fit.n_deg_rt_h:.4g} deg/sqrt(h), B = {fit.b_deg_h:.4g} deg/h, "

@@ -42,6 +42,15 @@ from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise
 from gyrodrift.reference.allan import oadev_phase as oadev_phase
 from gyrodrift.reference.allan import oadev_rate as oadev_rate
 
+# --- deviation family (issue 11) ---
+# isort: split
+from gyrodrift.reference.deviation import hdev_phase as hdev_phase
+from gyrodrift.reference.deviation import mdev_phase as mdev_phase
+from gyrodrift.reference.deviation import ohdev_phase as ohdev_phase
+from gyrodrift.reference.deviation import rate_to_phase as rate_to_phase
+from gyrodrift.reference.deviation import tdev_phase as tdev_phase
+from gyrodrift.reference.deviation import totdev_phase as totdev_phase
+
 # --- IMU processor / codecs (issue 5) ---
 # isort: split
 from gyrodrift.reference.imu import process_imu as process_imu

@@ -1,0 +1,104 @@
+"""Benchmark: the deviation family (mdev, tdev, hdev, ohdev, totdev), gyrodrift's C++ kernels
+vs allantools' functions of the same name in the same process, octave taus on float64 rate
+records. Prints a markdown table (median of repeats, wall and CPU time, CPU ns per sample per
+tau, speed-up, peak extra memory from tracemalloc relative to the input; the C++ stack
+buffers, a few kB, are not traced), plus the memory-mapped path (chunked file reads).
+The deviation kernel alone is timed (alpha=0: no noise identification; the default lag-1
+ACF noise ID, timed in its own row, reads at most 16384 averages per tau).
+
+    PYTHONPATH=python:build/dev-NAME/py python3 benchmarks/bench_deviations.py [--sizes 1e6]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+import tracemalloc
+from collections.abc import Callable
+from pathlib import Path
+
+import allantools
+import gyrodrift
+import numpy as np
+from _bench_util import machine
+
+NAMES = ("mdev", "tdev", "hdev", "ohdev", "totdev")
+
+
+def measure(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
+    """(median wall s, median CPU s of this process, peak traced bytes above the start)."""
+    walls, cpus = [], []
+    peak = 0
+    for _ in range(repeats):
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        c0, t0 = time.process_time(), time.perf_counter()
+        fn()
+        walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
+        peak = max(peak, tracemalloc.get_traced_memory()[1] - base)
+        tracemalloc.stop()
+    return statistics.median(walls), statistics.median(cpus), float(peak)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--sizes", type=float, nargs="+", default=[1e6])
+    ap.add_argument("--repeats", type=int, default=5)
+    args = ap.parse_args()
+    rng = np.random.default_rng(1)
+    threads = os.cpu_count() or 1
+    with open("/proc/loadavg") as fh:
+        load = fh.read().split()[:3]
+    print(f"Machine: {machine()}; load average {' '.join(load)}; numpy {np.__version__}, "
+          f"allantools {allantools.__version__}")
+    print()
+    print("| N | deviation | impl | taus | wall s | CPU s | CPU ns/sample/tau | "
+          "speed-up wall / CPU | peak extra mem / input |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+    warm = rng.standard_normal(10_000)
+    for name in NAMES:
+        gyrodrift.deviation(warm, 1.0, name)
+        getattr(allantools, name)(warm, rate=1.0, data_type="freq", taus="octave")
+    for size in args.sizes:
+        n = int(size)
+        y = 15.0 + rng.standard_normal(n)
+        for name in NAMES:
+            res = gyrodrift.deviation(y, 100.0, name, alpha=0)
+            n_taus = res.m.size
+
+            def row(impl: str, r: tuple[float, float, float], ratio: str, n: int = n,
+                    n_taus: int = n_taus, name: str = name, nbytes: int = y.nbytes) -> None:
+                wall, cpu, mem = r
+                print(f"| {n:.0e} | {name} | {impl} | {n_taus} | {wall:.4f} | {cpu:.4f} | "
+                      f"{cpu / n / n_taus * 1e9:.2f} | {ratio} | {mem / nbytes:.3f} |")
+
+            peer = measure(lambda name=name, y=y: getattr(allantools, name)(
+                y, rate=100.0, data_type="freq", taus="octave"), args.repeats)
+            ours = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0),
+                           args.repeats)
+            ours1 = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0,
+                                                                  threads=1), args.repeats)
+            full = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name),
+                           args.repeats)
+            row("allantools", peer, "1.0")
+            row(f"gyrodrift ({threads} threads)", ours,
+                f"{peer[0] / ours[0]:.1f}x / {peer[1] / ours[1]:.1f}x")
+            row("gyrodrift (1 thread)", ours1,
+                f"{peer[0] / ours1[0]:.1f}x / {peer[1] / ours1[1]:.1f}x")
+            row("gyrodrift + ACF noise ID + CI", full,
+                f"{peer[0] / full[0]:.1f}x / {peer[1] / full[1]:.1f}x")
+            with tempfile.TemporaryDirectory() as tmp:
+                path = Path(tmp) / "rec.npy"
+                np.save(path, y)
+                mm = np.load(path, mmap_mode="r")
+                mapped = measure(lambda mm=mm, name=name: gyrodrift.deviation(
+                    mm, 100.0, name, alpha=0), 1)
+                row("gyrodrift memmap (chunked file reads)", mapped, "-")
+
+
+if __name__ == "__main__":
+    main()

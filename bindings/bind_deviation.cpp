@@ -1,0 +1,333 @@
+// Deviation-family kernels (include/gyrodrift/deviation_*.hpp) for gyrodrift.deviation.
+// Part of the "allan" binding area (registered from bind_allan).
+//   deviation_sigma2(data, m, name, threads)   whole array, all factors, GIL released
+//   ModAllanStream / OhdevStream / HdevStream   streaming state for chunked records
+//   (the total variance streams through OadevStream on the reflected record)
+#include <gyrodrift/deviation_blocked.hpp>
+#include <gyrodrift/deviation_hadamard.hpp>
+#include <gyrodrift/deviation_modified.hpp>
+#include <gyrodrift/deviation_total.hpp>
+
+#include <algorithm>
+#include <atomic>
+#include <memory>
+#include <cstddef>
+#include <cstdint>
+#include <new>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "array_checks.hpp"
+#include "bindings.hpp"
+
+namespace gyrodrift::py_bindings {
+
+namespace {
+
+enum class Dev { mdev, ohdev, hdev, totdev };
+
+Dev parse_dev(const std::string& name) {
+  if (name == "mdev") return Dev::mdev;
+  if (name == "ohdev") return Dev::ohdev;
+  if (name == "hdev") return Dev::hdev;
+  if (name == "totdev") return Dev::totdev;
+  throw py::value_error("name must be 'mdev', 'ohdev', 'hdev' or 'totdev', got '" + name + "'");
+}
+
+std::size_t dev_max_m(Dev d, std::size_t n) {
+  switch (d) {
+    case Dev::mdev: return mdev_max_m(n);
+    case Dev::ohdev: return ohdev_max_m(n);
+    case Dev::hdev: return hdev_max_m(n);
+    case Dev::totdev: return totdev_max_m(n);
+  }
+  return 0;
+}
+
+template <class T>
+const T* require_vec(const CArray<T>& a, const char* what) {
+  if (a.ndim() != 1) {
+    throw py::value_error(std::string(what) + ": expected a 1-D array, got ndim=" +
+                          std::to_string(a.ndim()));
+  }
+  return a.data();
+}
+
+constexpr std::size_t kTotdevBlock = blocked_detail::kBlock;
+
+// AVX2+FMA builds of the blocked drivers, chosen at run time (GCC/Clang on x86): the
+// increment, prefix and square loops are plain double loops that widen to 4 lanes.
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
+#define GYRODRIFT_DEV_X86 1
+template <class T>
+__attribute__((target("avx2,fma"))) bool mdev_wide(const T* x, std::size_t n, std::size_t m,
+                                                   double& s2, std::size_t& terms) {
+  return mdev_blocked(x, n, m, s2, terms);
+}
+template <class T>
+__attribute__((target("avx2,fma"))) bool ohdev_wide(const T* x, std::size_t n, std::size_t m,
+                                                    double& s2, std::size_t& terms) {
+  return ohdev_blocked(x, n, m, s2, terms);
+}
+template <class T>
+__attribute__((target("avx2,fma"))) bool totdev_wide(const T* x, std::size_t n, std::size_t m,
+                                                     T* work, double& s2, std::size_t& terms) {
+  return totdev_blocked(x, n, m, work, s2, terms);
+}
+bool cpu_wide() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+}
+#else
+#define GYRODRIFT_DEV_X86 0
+#endif
+
+// One factor on one thread; the workspace is for the total variance's reflected stretches.
+template <class T>
+bool one_factor(Dev d, const T* x, std::size_t n, std::size_t m, T* work, double& s2,
+                std::size_t& terms, bool wide) {
+  switch (d) {
+#if GYRODRIFT_DEV_X86
+    case Dev::mdev: return wide ? mdev_wide(x, n, m, s2, terms) : mdev_blocked(x, n, m, s2, terms);
+    case Dev::ohdev:
+      return wide ? ohdev_wide(x, n, m, s2, terms) : ohdev_blocked(x, n, m, s2, terms);
+    case Dev::totdev:
+      return wide ? totdev_wide(x, n, m, work, s2, terms)
+                  : totdev_blocked(x, n, m, work, s2, terms);
+#else
+    case Dev::mdev: return mdev_blocked(x, n, m, s2, terms);
+    case Dev::ohdev: return ohdev_blocked(x, n, m, s2, terms);
+    case Dev::totdev: return totdev_blocked(x, n, m, work, s2, terms);
+#endif
+    case Dev::hdev: return hdev<T, double>(x, n, &m, 1, &s2, &terms);
+  }
+  return false;
+}
+
+template <class T>
+py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_in,
+                           const std::string& name, std::int64_t threads) {
+  const Dev d = parse_dev(name);
+  const T* x = require_vec(data, "data");
+  const auto n_data = static_cast<std::size_t>(data.shape(0));
+  const std::int64_t* m_raw = require_vec(m_in, "m");
+  const auto n_m = static_cast<std::size_t>(m_in.shape(0));
+  if (threads < 1) throw py::value_error("threads must be >= 1");
+  const std::size_t max_m = dev_max_m(d, n_data);
+  std::vector<std::size_t> m(n_m);
+  for (std::size_t j = 0; j < n_m; ++j) {
+    if (m_raw[j] < 1 || static_cast<std::size_t>(m_raw[j]) > max_m) {
+      throw py::value_error("averaging factor m=" + std::to_string(m_raw[j]) +
+                            " does not fit a record of " + std::to_string(n_data) +
+                            " rate samples for " + name + " (1 <= m <= " +
+                            std::to_string(max_m) + " leaves at least 2 terms)");
+    }
+    m[j] = static_cast<std::size_t>(m_raw[j]);
+  }
+  require_finite(x, n_data, "data");
+  py::array_t<double> sigma2(static_cast<py::ssize_t>(n_m));
+  py::array_t<std::int64_t> terms_out(static_cast<py::ssize_t>(n_m));
+  std::vector<std::size_t> terms(n_m, 0);
+  std::vector<char> ok(n_m, 0);
+  double* s2 = sigma2.mutable_data();
+  std::atomic<std::size_t> next{0};
+  std::atomic<bool> out_of_memory{false};
+#if GYRODRIFT_DEV_X86
+  const bool wide = cpu_wide();
+#else
+  const bool wide = false;
+#endif
+  // Workers take whole factors, largest first is not needed: every factor costs ~N.
+  const auto worker = [&]() noexcept {
+    try {
+      std::vector<T> work(d == Dev::totdev ? 3 * kTotdevBlock : 0);
+      for (std::size_t j = next++; j < n_m; j = next++) {
+        ok[j] = one_factor(d, x, n_data, m[j], work.data(), s2[j], terms[j], wide) ? 1 : 0;
+      }
+    } catch (...) {
+      out_of_memory = true;
+    }
+  };
+  if (d == Dev::hdev) {  // one cascaded pass for all factors (groups of <= 64)
+    bool all_ok = true;
+    {
+      py::gil_scoped_release release;
+      auto cascade = std::make_unique<HdevCascade<64>>();
+      std::vector<long double> work;
+      for (std::size_t lo = 0; lo < n_m && all_ok; lo += 64) {
+        const std::size_t cnt = std::min<std::size_t>(64, n_m - lo);
+        if (!cascade->plan(n_data, m.data() + lo, cnt)) {
+          all_ok = false;
+          break;
+        }
+        work.resize(cascade->workspace_len());
+        all_ok = cascade->run(x, work.data(), work.size(), s2 + lo, terms.data() + lo);
+      }
+    }
+    std::fill(ok.begin(), ok.end(), all_ok ? 1 : 0);
+  }
+  const std::size_t n_threads =
+      d == Dev::hdev ? 0 : std::min(n_m, static_cast<std::size_t>(threads));
+  if (n_threads > 0) {
+    py::gil_scoped_release release;
+    std::vector<std::thread> pool;
+    try {
+      for (std::size_t k = 1; k < n_threads; ++k) pool.emplace_back(worker);
+    } catch (...) {
+      // no more threads: the started ones and this one share the factors
+    }
+    worker();
+    for (auto& th : pool) th.join();
+  }
+  if (out_of_memory) throw std::bad_alloc();
+  if (!std::all_of(ok.begin(), ok.end(), [](char v) { return v != 0; })) {
+    throw py::value_error("data: the " + name + " sums are not finite (values too large?)");
+  }
+  std::int64_t* t = terms_out.mutable_data();
+  for (std::size_t j = 0; j < n_m; ++j) t[j] = static_cast<std::int64_t>(terms[j]);
+  return py::make_tuple(sigma2, terms_out);
+}
+
+std::size_t same_len(std::initializer_list<const CArray<double>*> arrays, const char* what) {
+  std::size_t n = 0;
+  bool first = true;
+  for (const auto* a : arrays) {
+    require_vec(*a, what);
+    const auto len = static_cast<std::size_t>(a->shape(0));
+    if (!first && len != n) throw py::value_error(std::string(what) + ": chunks differ in length");
+    n = len;
+    first = false;
+    require_finite(a->data(), len, what);
+  }
+  return n;
+}
+
+std::size_t check_m(std::int64_t m) {
+  if (m < 1) throw py::value_error("m must be >= 1, got " + std::to_string(m));
+  return static_cast<std::size_t>(m);
+}
+
+class ModAllanStream {
+ public:
+  explicit ModAllanStream(std::int64_t m) : m_(check_m(m)) {}
+  void seed_diff(const CArray<double>& lo, const CArray<double>& hi) {
+    const std::size_t n = same_len({&lo, &hi}, "seed_diff()");
+    mdev_rate_seed_diff(s_, lo.data(), hi.data(), n);
+  }
+  void seed_inner(const CArray<double>& y0, const CArray<double>& y1, const CArray<double>& y2) {
+    const std::size_t n = same_len({&y0, &y1, &y2}, "seed_inner()");
+    mdev_rate_seed_inner(s_, y0.data(), y1.data(), y2.data(), n);
+  }
+  void advance(const CArray<double>& y0, const CArray<double>& y1, const CArray<double>& y2,
+               const CArray<double>& y3) {
+    const std::size_t n = same_len({&y0, &y1, &y2, &y3}, "advance()");
+    py::gil_scoped_release release;
+    mdev_rate_advance(s_, y0.data(), y1.data(), y2.data(), y3.data(), n);
+  }
+  void finish() { mdev_rate_finish(s_); }
+  double sigma2() const {
+    double out = 0.0;
+    if (!mdev_sigma2(s_, m_, out)) throw py::value_error("no finite mdev sums (no terms, overflow)");
+    return out;
+  }
+  std::int64_t terms() const { return static_cast<std::int64_t>(s_.terms); }
+
+ private:
+  std::size_t m_;
+  ModAllanSums<long double> s_{};
+};
+
+class OhdevStream {
+ public:
+  explicit OhdevStream(std::int64_t m) : m_(check_m(m)) {}
+  void seed(const CArray<double>& y0, const CArray<double>& y1, const CArray<double>& y2) {
+    const std::size_t n = same_len({&y0, &y1, &y2}, "seed()");
+    ohdev_rate_seed(s_, y0.data(), y1.data(), y2.data(), n);
+  }
+  void advance(const CArray<double>& y0, const CArray<double>& y1, const CArray<double>& y2,
+               const CArray<double>& y3) {
+    const std::size_t n = same_len({&y0, &y1, &y2, &y3}, "advance()");
+    py::gil_scoped_release release;
+    ohdev_rate_advance(s_, y0.data(), y1.data(), y2.data(), y3.data(), n);
+  }
+  void finish() { ohdev_rate_finish(s_); }
+  double sigma2() const {
+    double out = 0.0;
+    if (!hadamard_sigma2(s_.sum_sq, s_.terms, m_, out)) {
+      throw py::value_error("no finite ohdev sums (no terms, overflow)");
+    }
+    return out;
+  }
+  std::int64_t terms() const { return static_cast<std::int64_t>(s_.terms); }
+
+ private:
+  std::size_t m_;
+  HadamardSums<long double> s_{};
+};
+
+class HdevStream {
+ public:
+  explicit HdevStream(std::int64_t m) : m_(check_m(m)) {}
+  void push(const CArray<double>& y) {
+    const std::size_t n = same_len({&y}, "push()");
+    py::gil_scoped_release release;
+    hdev_rate_push(s_, m_, y.data(), n);
+  }
+  double sigma2() const {
+    double out = 0.0;
+    if (!hadamard_sigma2(s_.sum_sq, s_.terms, m_, out)) {
+      throw py::value_error("no finite hdev sums (fewer than 3 blocks, or overflow)");
+    }
+    return out;
+  }
+  std::int64_t terms() const { return static_cast<std::int64_t>(s_.terms); }
+
+ private:
+  std::size_t m_;
+  HdevBlocks<long double> s_{};
+};
+
+}  // namespace
+
+void bind_deviation(pybind11::module_& m) {
+  m.def("deviation_sigma2", &deviation_sigma2<double>, py::arg("data").noconvert(),
+        py::arg("m").noconvert(), py::arg("name"), py::arg("threads") = 1,
+        "Variance of the deviation `name` ('mdev', 'ohdev', 'hdev', 'totdev') of 1-D rate\n"
+        "data (float64/float32) for averaging factors m (int64), in (rate units)^2.\n"
+        "`threads` workers take whole factors (same result for any count). Returns\n"
+        "(sigma2, terms). GIL released.");
+  m.def("deviation_sigma2", &deviation_sigma2<float>, py::arg("data").noconvert(),
+        py::arg("m").noconvert(), py::arg("name"), py::arg("threads") = 1);
+  m.def("deviation_max_m", [](const std::string& name, std::int64_t n) {
+    if (n < 0) throw py::value_error("n must be >= 0");
+    return dev_max_m(parse_dev(name), static_cast<std::size_t>(n));
+  }, py::arg("name"), py::arg("n_data"), "Largest averaging factor with at least 2 terms.");
+  py::class_<ModAllanStream>(m, "ModAllanStream", "Streaming modified-Allan sums for one m.")
+      .def(py::init<std::int64_t>(), py::arg("m"))
+      .def("seed_diff", &ModAllanStream::seed_diff, py::arg("lo").noconvert(),
+           py::arg("hi").noconvert())
+      .def("seed_inner", &ModAllanStream::seed_inner, py::arg("y0").noconvert(),
+           py::arg("y1").noconvert(), py::arg("y2").noconvert())
+      .def("advance", &ModAllanStream::advance, py::arg("y0").noconvert(),
+           py::arg("y1").noconvert(), py::arg("y2").noconvert(), py::arg("y3").noconvert())
+      .def("finish", &ModAllanStream::finish)
+      .def("sigma2", &ModAllanStream::sigma2)
+      .def_property_readonly("terms", &ModAllanStream::terms);
+  py::class_<OhdevStream>(m, "OhdevStream", "Streaming overlapping-Hadamard sums for one m.")
+      .def(py::init<std::int64_t>(), py::arg("m"))
+      .def("seed", &OhdevStream::seed, py::arg("y0").noconvert(), py::arg("y1").noconvert(),
+           py::arg("y2").noconvert())
+      .def("advance", &OhdevStream::advance, py::arg("y0").noconvert(),
+           py::arg("y1").noconvert(), py::arg("y2").noconvert(), py::arg("y3").noconvert())
+      .def("finish", &OhdevStream::finish)
+      .def("sigma2", &OhdevStream::sigma2)
+      .def_property_readonly("terms", &OhdevStream::terms);
+  py::class_<HdevStream>(m, "HdevStream", "Streaming (non-overlapping) Hadamard sums for one m.")
+      .def(py::init<std::int64_t>(), py::arg("m"))
+      .def("push", &HdevStream::push, py::arg("y").noconvert())
+      .def("sigma2", &HdevStream::sigma2)
+      .def_property_readonly("terms", &HdevStream::terms);
+}
+
+}  // namespace gyrodrift::py_bindings

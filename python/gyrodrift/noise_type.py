@@ -1,0 +1,135 @@
+"""Power-law noise type per averaging time: the lag-1 autocorrelation method where it is
+valid, the local slope of the deviation as the fallback (NIST SP 1065 sec. 5.6).
+
+The noise type alpha (S_y(f) ~ f^alpha: 2 white PM, 1 flicker PM, 0 white FM, -1 flicker FM,
+-2 random-walk FM) sets the equivalent degrees of freedom of every deviation, so it sets the
+width of the confidence intervals and the weights of any fit to the curve.
+
+- Lag-1 ACF (Riley & Greenhall 2004): average non-overlapping groups of m rate samples,
+  remove a linear trend, r1 = lag-1 autocorrelation, delta = r1 / (1 + r1); difference the
+  series until delta < 0.25 (at most twice); alpha = -round(2 delta) - 2 d. It reads the data
+  themselves, so a steep or hump-shaped deviation curve (vehicle motion, quantization) does not
+  mislead it. Validity rule used here: at least MIN_ACF_POINTS = 30 averages (the minimum
+  Riley & Greenhall give; the sd of r1 is ~1/sqrt(points), 0.18 at 30).
+- Slope fallback (taus with fewer than 30 averages): the local log-log slope mu of the
+  variance, alpha = -mu - 1 (SP 1065 Table 2; mu <= -2 -> white PM for the Allan and
+  Hadamard variances, the modified variances separate flicker PM: mu = -2 -> alpha = 1,
+  mu = -3 -> alpha = 2), capped by the last ACF value (noise types do not move back towards
+  white PM as tau grows).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import numpy as np
+
+__all__ = ["MAX_ACF_POINTS", "MIN_ACF_POINTS", "alpha_per_tau", "lag1_alpha", "slope_alpha"]
+
+#: Fewest averages for which the lag-1 ACF method is used.
+MIN_ACF_POINTS = 30
+#: Most averages read per tau (sd of r1 ~ 1/sqrt(points) = 0.008, far inside the 0.25 steps
+#: of the decision): bounds the cost and the memory (a few arrays of 128 KiB).
+MAX_ACF_POINTS = 1 << 14
+
+
+def lag1_alpha(z: np.ndarray, *, dmax: int = 2) -> int:
+    """alpha of a series of averages z by the lag-1 ACF method (module docstring)."""
+    z = np.array(z, dtype=np.float64)  # a copy, detrended in place
+    # Least-squares line (frequency drift) removed in closed form: O(n) temporaries.
+    n = z.size
+    t = np.arange(n, dtype=np.float64)
+    t -= (n - 1) / 2.0
+    z -= z.mean()
+    # (plain multiply-and-sum, not np.dot: BLAS threads cost milliseconds per call on a
+    # loaded machine for these short vectors)
+    z -= (float(np.sum(t * z)) / float(np.sum(t * t))) * t
+    del t
+    d = 0
+    while True:
+        zc = z - z.mean()
+        denom = float(np.sum(zc * zc))
+        r1 = float(np.sum(zc[:-1] * zc[1:])) / denom if denom > 0 else 0.0
+        delta = r1 / (1.0 + r1)
+        if delta < 0.25 or d >= dmax:
+            return int(-round(2.0 * delta) - 2 * d)
+        z = np.diff(z)
+        d += 1
+
+
+def slope_alpha(tau_s: np.ndarray, dev: np.ndarray, *, modified: bool = False) -> np.ndarray:
+    """alpha per tau from the local slope of dev^2 (module docstring), made non-increasing
+    in tau. `modified`: the deviation is mdev (for tdev pass tdev / tau)."""
+    from gyrodrift.allan import noise_alpha_from_slope
+
+    if not modified:
+        return noise_alpha_from_slope(tau_s, dev)
+    tau_s = np.asarray(tau_s, dtype=np.float64)
+    dev = np.asarray(dev, dtype=np.float64)
+    pos = dev > 0
+    if np.count_nonzero(pos) < 2 or not np.all(pos):
+        return noise_alpha_from_slope(tau_s, dev)
+    mu = np.gradient(np.log(dev * dev), np.log(tau_s))
+    alpha = np.clip(np.rint(-mu - 1.0), -2, 2)
+    return np.minimum.accumulate(alpha).astype(np.int64)
+
+
+def alpha_per_tau(averages: Callable[[int, int], np.ndarray], m: np.ndarray, n_rate: int,
+                  slope: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(alpha, method) per averaging factor: ACF where n_rate // m >= MIN_ACF_POINTS,
+    else the slope value capped by the last ACF value. averages(m, n_avg) returns the first
+    n_avg non-overlapping averages of m rate samples. method is "acf" or "slope"."""
+    alpha = np.empty(m.size, dtype=np.int64)
+    method = np.empty(m.size, dtype=object)
+    last: int | None = None
+    for j, mj in enumerate(int(v) for v in m):
+        n_avg = min(n_rate // mj, MAX_ACF_POINTS)
+        if n_avg >= MIN_ACF_POINTS:
+            a = lag1_alpha(averages(mj, n_avg))
+            last = a
+            method[j] = "acf"
+        else:
+            a = int(slope[j]) if last is None else min(int(slope[j]), last)
+            method[j] = "slope"
+        alpha[j] = min(max(a, -2), 2)
+    return alpha, method.astype(str)
+
+
+def averages_in_memory(y: np.ndarray) -> Callable[[int, int], np.ndarray]:
+    """averages(m, n_avg) over an in-memory rate array."""
+    def averages(m: int, n_avg: int) -> np.ndarray:
+        return np.asarray(y[: n_avg * m], dtype=np.float64).reshape(n_avg, m).mean(axis=1)
+    return averages
+
+
+def averages_from_pieces(pieces: Callable[[int, int], Iterator[np.ndarray]]
+                         ) -> Callable[[int, int], np.ndarray]:
+    """averages(m, n_avg) from pieces(start, stop) (float64 chunks of the rate record, read
+    in order): bounded memory (one chunk plus n_avg averages, whatever m is)."""
+    def averages(m: int, n_avg: int) -> np.ndarray:
+        out = np.empty(n_avg)
+        filled = 0
+        partial = 0.0  # sum of the unfinished block
+        have = 0  # its samples
+        for piece in pieces(0, n_avg * m):
+            pos = 0
+            if have:  # finish the open block
+                take = min(m - have, piece.size)
+                partial += float(piece[:take].sum())
+                have += take
+                pos = take
+                if have == m:
+                    out[filled] = partial / m
+                    filled += 1
+                    partial, have = 0.0, 0
+            k = (piece.size - pos) // m
+            if k:
+                out[filled:filled + k] = piece[pos:pos + k * m].reshape(k, m).mean(axis=1)
+                filled += k
+                pos += k * m
+            if pos < piece.size:
+                partial = float(piece[pos:].sum())
+                have = piece.size - pos
+        return out[:filled]
+    return averages

@@ -1,0 +1,195 @@
+"""The deviation family (gyrodrift.deviation: mdev, tdev, hdev, ohdev, totdev) against
+allantools, Stable32's published PHASE.DAT tables (tests/data/stable32, from allantools'
+sdist), the numpy SP 1065 references (gyrodrift.reference), the chunked / memory-mapped
+path, and the Greenhall edf against allantools.edf_greenhall."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import itertools
+from pathlib import Path
+
+import allantools
+import numpy as np
+import pytest
+from gyrodrift import deviation, edf, reference
+from gyrodrift.allan import chi2_interval
+
+# allantools forms the phase with a float64 cumulative sum; on 1e5 samples with a 15 deg/h
+# offset its rounding stays ~1e-13 relative on the deviation: 1e-9 is the brief's bar.
+ORACLE_RTOL = 1e-9
+# Kernel (long double running sums) vs reference (explicit differences of a mean-removed
+# float64 phase): agreement measured ~5e-15 on 2e4 samples; 1e-12 leaves room for the
+# reference's own summation rounding.
+REF_RTOL = 1e-12
+NAMES = ("mdev", "tdev", "hdev", "ohdev", "totdev")
+DATA = Path(__file__).parent / "data" / "stable32"
+
+
+def gyro_like(rng: np.random.Generator, n: int) -> np.ndarray:
+    """White rate + random walk + large constant (Earth-rate-like offset), deg/h."""
+    return 15.0 + rng.normal(0.0, 0.05, n) + np.cumsum(rng.normal(0.0, 2e-4, n))
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_octave_equals_allantools(rng: np.random.Generator, name: str) -> None:
+    y = gyro_like(rng, 100_000)
+    res = deviation(y, 100.0, name, alpha=0)
+    taus, dev, _, ns = getattr(allantools, name)(y, rate=100.0, data_type="freq",
+                                                 taus="octave")
+    np.testing.assert_array_equal(res.tau_s, taus)  # same tau cut (n >= 2 terms)
+    np.testing.assert_array_equal(res.terms, ns)
+    np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL, atol=0)
+    assert res.deviation == name
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_decade_phase_input_equals_allantools(rng: np.random.Generator, name: str) -> None:
+    x = np.cumsum(rng.normal(0.0, 0.3, 30_001)) / 10.0  # cumulative angle at 10 Hz
+    res = deviation(x, 10.0, name, kind="phase", taus="decade", per_decade=4, alpha=0)
+    _, dev, _, ns = getattr(allantools, name)(x, rate=10.0, data_type="phase", taus=res.tau_s)
+    np.testing.assert_array_equal(res.terms, ns)
+    np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL, atol=0)
+
+
+def _stable32(name: str) -> list[tuple[float, ...]]:
+    rows = []
+    for line in (DATA / f"phase_dat_{name}_octave.txt").read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            rows.append(tuple(float(v) for v in line.split()))
+    return rows
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_stable32_phase_dat_tables(name: str) -> None:
+    """Stable32's PHASE.DAT results (4-5 digits printed): deviation, term count and the
+    0.683 interval with alpha = 0 (Greenhall edf; SP 1065 Table 7 for totdev)."""
+    x = np.loadtxt(DATA / "PHASE.DAT", comments="#")
+    assert x.size == 1001
+    rows = _stable32(name)
+    af = np.array([r[0] for r in rows])
+    res = deviation(x, 1.0, name, kind="phase", taus=af, alpha=0)
+    np.testing.assert_array_equal(res.m, af.astype(np.int64))
+    np.testing.assert_array_equal(res.terms, [int(r[2]) for r in rows])
+    np.testing.assert_allclose(res.adev, [r[5] for r in rows], rtol=2e-4)
+    np.testing.assert_allclose(res.ci_low, [r[4] for r in rows], rtol=1e-3)
+    np.testing.assert_allclose(res.ci_high, [r[6] for r in rows], rtol=1e-3)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_kernel_equals_sp1065_reference(rng: np.random.Generator, name: str) -> None:
+    y = gyro_like(rng, 20_000)
+    res = deviation(y, 100.0, name, taus="decade", per_decade=5, alpha=0)
+    x = reference.rate_to_phase(y, 0.01)
+    ref_fn = getattr(reference, f"{name}_phase")
+    ref = np.array([ref_fn(x, int(m), 0.01) for m in res.m])
+    np.testing.assert_allclose(res.adev, ref[:, 0], rtol=REF_RTOL, atol=0)
+    np.testing.assert_array_equal(res.terms, ref[:, 1].astype(np.int64))
+
+
+def test_float32_input_matches_float64(rng: np.random.Generator) -> None:
+    y = gyro_like(rng, 20_000).astype(np.float32)
+    for name in NAMES:
+        a = deviation(y, 100.0, name, alpha=0)
+        b = deviation(y.astype(np.float64), 100.0, name, alpha=0)
+        np.testing.assert_allclose(a.adev, b.adev, rtol=1e-13)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_memmap_and_chunked_paths_equal_in_memory(rng: np.random.Generator, tmp_path: Path,
+                                                  name: str) -> None:
+    y = gyro_like(rng, 12_345)
+    whole = deviation(y, 100.0, name)
+    chunked = deviation(y, 100.0, name, chunk_samples=999)  # chunks cut every stream
+    path = tmp_path / "rec.npy"
+    np.save(path, y)
+    mapped = deviation(np.load(path, mmap_mode="r"), 100.0, name, chunk_samples=1000)
+    for other in (chunked, mapped):
+        np.testing.assert_allclose(other.adev, whole.adev, rtol=1e-14, atol=0)
+        np.testing.assert_array_equal(other.terms, whole.terms)
+        np.testing.assert_array_equal(other.alpha, whole.alpha)  # ACF from file reads too
+    x = reference.rate_to_phase(y, 0.01)  # phase record streamed and differenced in chunks
+    np.save(path, x)
+    phase = deviation(np.load(path, mmap_mode="r"), 100.0, name, kind="phase",
+                      chunk_samples=700)
+    np.testing.assert_allclose(phase.adev, whole.adev, rtol=1e-9)
+
+
+def test_threads_do_not_change_the_result(rng: np.random.Generator) -> None:
+    y = gyro_like(rng, 30_000)
+    for name in NAMES:
+        one = deviation(y, 100.0, name, threads=1, alpha=0)
+        two = deviation(y, 100.0, name, threads=2, alpha=0)
+        np.testing.assert_array_equal(one.adev, two.adev)
+
+
+def test_bad_input_is_refused(rng: np.random.Generator) -> None:
+    y = gyro_like(rng, 1000)
+    with pytest.raises(ValueError, match="one of"):
+        deviation(y, 1.0, "adev2")
+    bad = y.copy()
+    bad[[5, 500]] = np.nan
+    for name in NAMES:
+        with pytest.raises(ValueError, match="2 NaN/Inf"):
+            deviation(bad, 1.0, name)
+        with pytest.raises(ValueError, match="NaN/Inf"):
+            deviation(bad, 1.0, name, chunk_samples=100)
+    with pytest.raises(ValueError, match="too short"):
+        deviation(y[:2], 1.0, "mdev")
+    with pytest.raises(ValueError, match="support tau"):
+        deviation(y, 1.0, "hdev", taus=[300.0])  # hdev: m <= N/4 = 250
+    with pytest.raises(ValueError, match="1-D"):
+        deviation(y.reshape(10, 100), 1.0, "ohdev")
+    with pytest.raises(ValueError, match="constant"):
+        deviation(np.full(100, 3.0), 1.0, "totdev")
+    with pytest.raises(TypeError):
+        deviation(np.array(["a"] * 10), 1.0, "mdev")
+
+
+def test_greenhall_edf_equals_allantools() -> None:
+    worst = 0.0
+    count = 0
+    for alpha, d, ov, mod in itertools.product([2, 1, 0, -1, -2], [2, 3], [True, False],
+                                               [True, False]):
+        for n, m in itertools.product([101, 1001, 100_001], [1, 2, 5, 16, 33, 100, 256, 4096]):
+            if m * (d + 1) > n:
+                continue  # no estimator term (allantools returns a meaningless number)
+            with contextlib.redirect_stdout(io.StringIO()):  # allantools prints
+                try:
+                    ref = allantools.edf_greenhall(alpha, d, m, n, overlapping=ov, modified=mod)
+                except NotImplementedError:
+                    continue  # alpha = 2 with few terms: allantools has no formula
+            ours = edf.edf_greenhall(alpha, d, m, n, overlapping=ov, modified=mod)
+            worst = max(worst, abs(ours / ref - 1.0))
+            count += 1
+    assert count > 300
+    assert worst < 1e-12
+
+
+def test_totdev_edf_and_interval_equal_allantools() -> None:
+    for alpha in (0, -1, -2, 1, 2):
+        for m in (1, 7, 100):
+            assert edf.edf_totdev(1001, m, alpha) == pytest.approx(
+                allantools.edf_totdev(1001, m, alpha), rel=1e-12)
+    lo, hi = chi2_interval(np.array([2.0]), np.array([17.3]), 0.9)
+    ref = allantools.confidence_interval(2.0, 17.3, ci=0.9)
+    np.testing.assert_allclose([lo[0], hi[0]], ref, rtol=1e-12)
+
+
+def test_memmap_path_memory_is_bounded(tmp_path: Path, rng: np.random.Generator) -> None:
+    import tracemalloc
+
+    # 2e6 samples (16 MB) streamed in 2**16-sample chunks: four aligned streams plus the
+    # re-chunking carry and the ACF averages, ~10 chunks, whatever the record length.
+    n, chunk = 2_000_000, 1 << 16
+    np.save(tmp_path / "big.npy", rng.normal(size=n))
+    mm = np.load(tmp_path / "big.npy", mmap_mode="r")
+    for name in ("mdev", "totdev"):
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        res = deviation(mm, 100.0, name, chunk_samples=chunk, taus=[0.01, 100.0, 5000.0])
+        peak = tracemalloc.get_traced_memory()[1] - base
+        tracemalloc.stop()
+        assert peak < 12 * chunk * 8, name
+        assert res.adev.size == 3

@@ -1,0 +1,64 @@
+"""`gyrodrift allan --deviation NAME` and the per-tau noise-identification columns."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import allantools
+import gyrodrift.cli as cli
+import numpy as np
+import pytest
+
+
+@pytest.fixture(autouse=True)
+def only_allan(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the real gyrodrift.cli.main restricted to `allan`, so that another area's unfinished
+    # subcommand cannot break these tests
+    monkeypatch.setattr(cli, "SUBCOMMAND_MODULES", ["allan"])
+
+
+def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    code = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.mark.parametrize("name", ["mdev", "tdev", "hdev", "ohdev", "totdev"])
+def test_allan_deviation_flag(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                              name: str) -> None:
+    rng = np.random.default_rng(8)
+    x = 15.0 + rng.normal(0.0, 0.3, 20_000)
+    path = tmp_path / "r.npy"
+    np.save(path, x)
+    code, out, _ = run(["allan", path, "--rate-hz", 50, "--deviation", name, "--json"], capsys)
+    assert code == 0
+    res = json.loads(out)["allan"]
+    assert res["deviation"] == name
+    _, dev, _, ns = getattr(allantools, name)(x, rate=50.0, data_type="freq", taus="octave")
+    np.testing.assert_allclose(res["adev"], dev, rtol=1e-9)
+    assert res["terms"] == ns.astype(int).tolist()
+    assert res["noise_id"][0] == "acf" and res["noise_id"][-1] == "slope"
+    assert res["alpha"][0] == 0  # white rate noise
+    code, text, _ = run(["allan", path, "--rate-hz", 50, "--deviation", name], capsys)
+    assert code == 0
+    header = next(line for line in text.splitlines() if line.lstrip().startswith("tau_s"))
+    assert name in header and "alpha" in header and "noise_id" in header
+    assert "IEEE 952 fit" not in text  # the Allan-variance fits run for oadev only
+    rows = [line.split() for line in text.splitlines()[2:] if line.strip()]
+    assert rows[0][-1] == "acf" and rows[0][-2] == "0"
+
+
+def test_allan_default_table_shows_the_noise_id(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    x = np.random.default_rng(9).normal(0.0, 1.0, 5000)
+    path = tmp_path / "r.npy"
+    np.save(path, x)
+    code, text, _ = run(["allan", path, "--rate-hz", 10], capsys)
+    assert code == 0 and "IEEE 952 fit" in text and "noise_id" in text
+    code, text, _ = run(["allan", path, "--rate-hz", 10, "--noise-id", "slope"], capsys)
+    rows = [line.split() for line in text.splitlines()[2:] if line[:1] == " "]
+    assert rows and all(r[-1] == "slope" for r in rows)
+    with pytest.raises(SystemExit) as exc:
+        run(["allan", path, "--rate-hz", 10, "--deviation", "bogus"], capsys)
+    assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err
