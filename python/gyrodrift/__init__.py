@@ -59,3 +59,8 @@ from gyrodrift.replay import write_imu_log as write_imu_log
 # isort: split
 from gyrodrift.align import AlignConfig as AlignConfig
 from gyrodrift.align import run_alignment as run_alignment
+
+# --- GMWM noise identification (issue 11) ---
+# isort: split
+from gyrodrift.gmwm import GmwmResult as GmwmResult
+from gyrodrift.gmwm import identify_gmwm as identify_gmwm

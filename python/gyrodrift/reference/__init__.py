@@ -22,6 +22,12 @@ from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise
 from gyrodrift.reference.allan import oadev_phase as oadev_phase
 from gyrodrift.reference.allan import oadev_rate as oadev_rate
 
+# isort: split
+# --- GMWM (issue 11) ---
+from gyrodrift.reference.gmwm import haar_wv as haar_wv
+from gyrodrift.reference.gmwm import haar_wv_pywt as haar_wv_pywt
+from gyrodrift.reference.gmwm import wv_covariance_fft as wv_covariance_fft
+
 # --- IMU processor / codecs (issue 5) ---
 # isort: split
 from gyrodrift.reference.imu import process_imu as process_imu
