@@ -62,15 +62,19 @@ simulated from theta_hat, same weight matrix).
 
 Model selection (model="auto"): every sub-model of max_model is fitted with one common weight
 Omega_0^-1 (Omega_0 from the two-step fit of max_model, which holds under every sub-model)
-and the one with the smallest wavelet variance information criterion is selected
-(Guerrier, Stebler, Skaloud, Victoria-Feser, IEEE TIM 65 (2016) 973-983):
+and scored by the wavelet variance information criterion (Guerrier, Stebler, Skaloud,
+Victoria-Feser, IEEE TIM 65 (2016) 973-983):
 
     WIC = (nu_hat - nu(theta_hat))' Omega_0^-1 (nu_hat - nu(theta_hat))
           + 2 tr(Omega_0^-1 Cov(nu_hat, nu(theta_hat))),
 
 with Cov(nu_hat, nu(theta_hat)) = Omega_0 Omega_0^-1 D (D' Omega_0^-1 D)^+ D' by the delta
 method, so the penalty is 2 tr(P) with P = D (D' Omega_0^-1 D)^+ D' Omega_0^-1 (twice the
-number of identified parameters). The selected model is then refitted with its own two steps.
+nominal number of parameters p). Selected: among the models within WIC_MARGIN = 2 of the
+smallest WIC, the one with the fewest parameters (then the smallest WIC) -- a Gauss-Markov
+term with a long correlation time mimics a random walk, one with a short one white noise,
+and the plain minimum picks such near-equivalent larger models too often (measured in
+scripts/gmwm_monte_carlo.py). The selected model is then refitted with its own two steps.
 
 Example
 -------
@@ -113,6 +117,8 @@ __all__ = [
 TERMS = ("Q", "N", "K", "R", "GM")
 MAX_GM = 3
 DEFAULT_MAX_MODEL = "Q+N+K+R+GM+GM"
+#: Models within this WIC of the best compete on their number of parameters.
+WIC_MARGIN = 2.0
 DEG = math.pi / 180.0
 
 
@@ -511,7 +517,7 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
         starts.append(start)
     # Linear starts: for fixed GM correlation times the WV is linear in the variances; NNLS
     # in the whitened space over a grid of T_c gives the variance starts.
-    tc_grid = np.geomspace(1.0, float(tau[-1]) / 4.0, 10)
+    tc_grid = np.geomspace(1.0, float(tau[-1]) / 8.0, 10)
     combos = list(itertools.combinations(tc_grid, n_gm)) if n_gm else [()]
     # Small matrix products by einsum: BLAS calls wake threads, ~2 ms each on a busy machine.
     winv = scipy.linalg.solve_triangular(chol, np.eye(nu2.size), lower=True)
@@ -537,15 +543,16 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
             k += 1
         starts.append(np.array(theta))
     # A GM term with T_c below half a sample is white noise; one whose wavelet-variance
-    # peak (tau ~ 3.8 T_c, the Allan peak at 1.89 T_c) lies beyond the longest scale is
-    # indistinguishable from a random walk. T_c is kept inside [0.5, 2^J / 4] samples so
-    # that the terms stay distinct (and model selection meaningful).
+    # peak (tau ~ 3.8 T_c, the Allan peak at 1.89 T_c) lies near or beyond the longest
+    # scale is indistinguishable from a random walk. T_c is kept inside [0.5, 2^J / 8]
+    # samples (peak at most at tau_J / 2) so that the terms stay distinct and model
+    # selection is meaningful.
     lower = np.full(_n_params(terms), -np.inf)
     upper = np.full(_n_params(terms), np.inf)
     k = 0
     for t in terms:
         if t == "GM":
-            lower[k + 1], upper[k + 1] = math.log(0.5), math.log(float(tau[-1]) / 4.0)
+            lower[k + 1], upper[k + 1] = math.log(0.5), math.log(float(tau[-1]) / 8.0)
         k += 2 if t == "GM" else 1
     best: _Fit | None = None
     for s0 in starts:
@@ -849,7 +856,14 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             scores.append((_wic(f), cand))
         scores.sort(key=lambda s: s[0])
         candidates = tuple((_model_str(c), float(w)) for w, c in scores)
-        wic, terms = float(scores[0][0]), scores[0][1]
+        # Parsimony among the near-best (Burnham & Anderson's "within 2" rule): of the models
+        # whose WIC is within WIC_MARGIN of the minimum, the one with the fewest parameters
+        # (then the lowest WIC). A spurious term must then lower the J statistic by more than
+        # 2 (p + 1) to be selected instead of the true model.
+        best_wic = float(scores[0][0])
+        near = [(s[1], s[0]) for s in scores if s[0] <= best_wic + WIC_MARGIN]
+        terms, wic_sel = min(near, key=lambda c: (_n_params(c[0]), c[1]))
+        wic = float(wic_sel)
     else:
         terms = parse_model(model)
         if _n_params(terms) >= wv.nu2.size:

@@ -39,9 +39,9 @@ def haar_wv(x: np.ndarray, levels: int) -> np.ndarray:
 def haar_wv_pywt(x: np.ndarray, levels: int) -> np.ndarray:
     """Wavelet variance from pywt.swt (MODWT normalisation), boundary coefficients dropped.
 
-    pywt.swt is circular; at level j its detail at index t uses x[t - L_j + 1 + s .. t + s]
-    for a fixed shift s, so the L_j - 1 coefficients whose window wraps are removed by
-    comparing the circular and the linear transform of a record padded with zeros.
+    pywt.swt is circular: the level-j detail is d_t = sum_i x_i g((t - i) mod N) for an
+    effective filter g. The offsets k where g is non-zero come from a unit impulse; a
+    coefficient is free of the wrap-around iff t - k stays in [0, N) for all of them.
     """
     import pywt
 
@@ -51,17 +51,18 @@ def haar_wv_pywt(x: np.ndarray, levels: int) -> np.ndarray:
         raise ValueError("haar_wv_pywt needs a power-of-2 length (pywt.swt)")
     coeffs = pywt.swt(x, "haar", level=levels, norm=True, trim_approx=True)
     details = coeffs[1:][::-1]  # pywt returns [cA_J, cD_J, ..., cD_1]
+    impulse = np.zeros(n)
+    impulse[0] = 1.0
+    g_all = pywt.swt(impulse, "haar", level=levels, norm=True, trim_approx=True)[1:][::-1]
     out = np.empty(levels)
     for j in range(1, levels + 1):
-        d = details[j - 1]
-        lj = 2 ** j
-        # locate the non-wrapping window: the indicator record (ones) has zero detail
-        # wherever the window does not cross the circular seam of a linear ramp
-        ramp = np.arange(n, dtype=np.float64)
-        dr = pywt.swt(ramp, "haar", level=j, norm=True, trim_approx=True)[1]
-        ok = np.isclose(np.abs(dr), np.median(np.abs(dr)))
-        assert int(np.count_nonzero(~ok)) == lj - 1
-        out[j - 1] = float(np.mean(d[ok] ** 2))
+        k = np.flatnonzero(np.abs(g_all[j - 1]) > 1e-12)
+        k = np.where(k > n // 2, k - n, k)  # signed offsets
+        if k.size != 2 ** j:
+            raise AssertionError(f"level {j}: filter of {k.size} taps, expected {2 ** j}")
+        t = np.arange(n)
+        ok = (t - k.max() >= 0) & (t - k.min() <= n - 1)
+        out[j - 1] = float(np.mean(details[j - 1][ok] ** 2))
     return out
 
 
