@@ -40,25 +40,25 @@ class Case:
 
 CASES = (
     Case("white + random walk", "N+K",
-         {"n_deg_rthr": 0.05, "k_deg_h_rthr": 400.0},
+         {"n_deg_rt_h": 0.05, "k_deg_h_rt_h": 400.0},
          {"N": 0.05, "K": 400.0}, 1000),
     Case("white + quantization + Gauss-Markov + random walk", "Q+N+K+GM",
-         {"q_deg": 0.3 / 3600.0, "n_deg_rthr": 0.05, "k_deg_h_rthr": 400.0,
+         {"q_deg": 0.3 / 3600.0, "n_deg_rt_h": 0.05, "k_deg_h_rt_h": 400.0,
           "gm": ((10.0, 0.3),)},
          {"Q": 0.3, "N": 0.05, "K": 400.0, "GM1_sigma": 10.0, "GM1_tau": 0.3}, 2000),
     Case("white + two Gauss-Markov", "N+GM+GM",
-         {"n_deg_rthr": 0.05, "gm": ((20.0, 0.1), (10.0, 5.0))},
+         {"n_deg_rt_h": 0.05, "gm": ((20.0, 0.1), (10.0, 5.0))},
          {"N": 0.05, "GM1_sigma": 20.0, "GM1_tau": 0.1, "GM2_sigma": 10.0, "GM2_tau": 5.0},
          3000),
 )
 
 #: GMWM parameter -> attribute of noise_id.NoiseFit (the Allan fit's estimate of it).
-ALLAN_NAMES = {"Q": "q_arcsec", "N": "n_deg_rthr", "K": "k_deg_h_rthr"}
+ALLAN_NAMES = {"Q": "q_arcsec", "N": "n_deg_rt_h", "K": "k_deg_h_rt_h"}
 
 
 def _allan_value(fit: object, name: str) -> float:
     attr = ALLAN_NAMES[name]
-    for cand in (attr, attr.replace("_rthr", "_rt_h")):  # issue-9 renames
+    for cand in (attr,):
         if hasattr(fit, cand):
             return float(getattr(fit, cand))
     raise AttributeError(attr)
@@ -74,7 +74,7 @@ def one_replicate(case: Case, rep: int, n: int, max_model: str) -> dict[str, obj
     from gyrodrift.gmwm import identify_gmwm
 
     rec = gyrodrift.simulate(n=n, rate_hz=RATE_HZ, seed=case.seed + rep, **case.sim)  # type: ignore[arg-type]
-    x = rec.rate_dph
+    x = rec.rate_deg_h
     auto = identify_gmwm(x, RATE_HZ, model="auto", max_model=max_model)
     true_fit = auto if auto.model == case.model else identify_gmwm(x, RATE_HZ,
                                                                    model=case.model)

@@ -108,9 +108,9 @@ def test_wv_covariance_matches_monte_carlo() -> None:
 
 
 def test_identify_gmwm_white_plus_random_walk() -> None:
-    rec = gyrodrift.simulate(n=1 << 15, rate_hz=100.0, n_deg_rthr=0.05, k_deg_h_rthr=200.0,
+    rec = gyrodrift.simulate(n=1 << 15, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=200.0,
                              seed=7)
-    res = gyrodrift.identify_gmwm(rec.rate_dph, 100.0, model="N+K")
+    res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="N+K")
     assert res.model == "N+K" and res.ci_method == "asymptotic" and res.ci == 0.95
     n, k = res.param("N"), res.param("K")
     assert n.unit == "deg/sqrt(h)" and k.unit == "deg/h/sqrt(h)"
@@ -127,14 +127,14 @@ def test_identify_gmwm_white_plus_random_walk() -> None:
 
 
 def test_identify_gmwm_gauss_markov_and_bootstrap() -> None:
-    rec = gyrodrift.simulate(n=1 << 13, rate_hz=100.0, n_deg_rthr=0.05,
+    rec = gyrodrift.simulate(n=1 << 13, rate_hz=100.0, n_deg_rt_h=0.05,
                              gm=((10.0, 0.5),), seed=8)
-    res = gyrodrift.identify_gmwm(rec.rate_dph, 100.0, model="N+GM", bootstrap=20, seed=1)
+    res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="N+GM", bootstrap=20, seed=1)
     assert res.ci_method == "bootstrap"
     s, t = res.param("GM1_sigma"), res.param("GM1_tau")
     assert s.unit == "deg/h" and t.unit == "s"
     assert s.ci_low < 10.0 < s.ci_high and t.ci_low < 0.5 < t.ci_high
-    asym = gyrodrift.identify_gmwm(rec.rate_dph, 100.0, model="N+GM")
+    asym = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="N+GM")
     assert asym.value("GM1_tau") == pytest.approx(t.value)
     # bootstrap and asymptotic intervals of T_c agree within a factor 1.5 in width
     w_b, w_a = t.ci_high - t.ci_low, asym.param("GM1_tau").ci_high - asym.param(
@@ -143,9 +143,9 @@ def test_identify_gmwm_gauss_markov_and_bootstrap() -> None:
 
 
 def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
-    rec = gyrodrift.simulate(n=1 << 13, rate_hz=100.0, n_deg_rthr=0.05, k_deg_h_rthr=400.0,
+    rec = gyrodrift.simulate(n=1 << 13, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=400.0,
                              seed=21)
-    res = gyrodrift.identify_gmwm(rec.rate_dph, 100.0, model="auto", max_model="Q+N+K")
+    res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="auto", max_model="Q+N+K")
     assert res.model == "N+K"
     names = [m for m, _ in res.candidates]
     assert len(names) == 7 and "Q+N+K" in names  # every non-empty sub-model
@@ -183,15 +183,15 @@ def test_simulate_gauss_markov_term() -> None:
     autocorrelation exp(-lag dt / T) (1e6 samples: sd of the estimates ~1 %), independent
     of the other terms' streams (adding it leaves their realisation unchanged)."""
     rec = gyrodrift.simulate(n=1_000_000, rate_hz=100.0, gm=((2.0, 0.5),), seed=4)
-    x = rec.rate_dph
+    x = rec.rate_deg_h
     assert np.std(x) == pytest.approx(2.0, rel=0.03)
     for lag in (1, 10, 50):
         r = np.corrcoef(x[:-lag], x[lag:])[0, 1]
         assert r == pytest.approx(math.exp(-lag * 0.01 / 0.5), abs=0.03)
-    a = gyrodrift.simulate(n=5000, rate_hz=100.0, n_deg_rthr=0.1, k_deg_h_rthr=1.0, seed=3)
-    b = gyrodrift.simulate(n=5000, rate_hz=100.0, n_deg_rthr=0.1, k_deg_h_rthr=1.0,
+    a = gyrodrift.simulate(n=5000, rate_hz=100.0, n_deg_rt_h=0.1, k_deg_h_rt_h=1.0, seed=3)
+    b = gyrodrift.simulate(n=5000, rate_hz=100.0, n_deg_rt_h=0.1, k_deg_h_rt_h=1.0,
                            gm=((1.0, 1.0), (0.5, 20.0)), seed=3, keep_components=True)
-    np.testing.assert_allclose(a.rate_dph, b.rate_dph - b.components["gauss_markov"],
+    np.testing.assert_allclose(a.rate_deg_h, b.rate_deg_h - b.components["gauss_markov"],
                                atol=1e-9)
     for bad in (((1.0, 0.0),), ((-1.0, 1.0),), ((1.0, 1.0),) * 4, (("a", 1.0),)):
         with pytest.raises(ValueError, match=r"gm|Gauss-Markov"):

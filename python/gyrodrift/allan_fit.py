@@ -29,9 +29,9 @@ covariance.
 Example
 -------
 >>> import numpy as np
->>> from gyrodrift.noise_id import allan_model_dph
+>>> from gyrodrift.noise_id import allan_model_deg_h
 >>> tau = np.logspace(-1, 3, 20)
->>> adev = allan_model_dph(tau, n_deg_rthr=0.01, k_deg_h_rthr=0.5)
+>>> adev = allan_model_deg_h(tau, n_deg_rt_h=0.01, k_deg_h_rt_h=0.5)
 >>> fit = fit_allan(tau, adev, np.full(20, 1e4))
 >>> [t.name for t in fit.terms], fit.dropped
 (['N', 'K'], ('Q', 'B', 'R'))
@@ -46,6 +46,7 @@ import numpy as np
 import scipy.stats
 
 from gyrodrift import noise_id
+from gyrodrift.errors import GyrodriftValueError
 
 __all__ = ["ALLAN_TERMS", "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range",
            "parse_terms"]
@@ -76,7 +77,8 @@ def parse_terms(text: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
     out = [s.strip().upper() for s in items if s.strip()]
     bad = [s for s in out if s not in ALLAN_TERMS]
     if bad or not out:
-        raise ValueError(f"terms must be a comma-separated subset of Q,N,B,K,R, got {text!r}")
+        raise GyrodriftValueError(
+            f"terms must be a comma-separated subset of Q,N,B,K,R, got {text!r}")
     return tuple(t for t in ALLAN_TERMS if t in out)
 
 
@@ -84,14 +86,14 @@ def parse_fit_range(text: str) -> tuple[float, float]:
     """'TMIN:TMAX' in s (either side may be empty: open) -> (tmin, tmax)."""
     parts = text.split(":")
     if len(parts) != 2:
-        raise ValueError(f"fit range must be TMIN:TMAX in seconds, got {text!r}")
+        raise GyrodriftValueError(f"fit range must be TMIN:TMAX in seconds, got {text!r}")
     try:
         lo = float(parts[0]) if parts[0].strip() else 0.0
         hi = float(parts[1]) if parts[1].strip() else math.inf
     except ValueError:
-        raise ValueError(f"fit range must be TMIN:TMAX in seconds, got {text!r}") from None
+        raise GyrodriftValueError(f"fit range must be TMIN:TMAX in seconds, got {text!r}") from None
     if not (lo >= 0.0 and hi > lo) or math.isnan(lo) or math.isnan(hi):
-        raise ValueError(f"fit range needs 0 <= TMIN < TMAX, got {text!r}")
+        raise GyrodriftValueError(f"fit range needs 0 <= TMIN < TMAX, got {text!r}")
     return lo, hi
 
 
@@ -196,16 +198,17 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     dev = np.asarray(adev, dtype=np.float64)
     e = np.asarray(edf, dtype=np.float64)
     if tau.ndim != 1 or tau.shape != dev.shape or tau.shape != e.shape:
-        raise ValueError("tau_s, adev and edf must be 1-D of equal length")
+        raise GyrodriftValueError("tau_s, adev and edf must be 1-D of equal length")
     if not 0.0 < ci < 1.0:
-        raise ValueError(f"ci must be in (0, 1), got {ci!r}")
+        raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     names = parse_terms(terms) if not isinstance(terms, tuple) else parse_terms(list(terms))
     lo, hi = (parse_fit_range(fit_range) if isinstance(fit_range, str)
               else (fit_range if fit_range is not None else (0.0, math.inf)))
     used = (tau >= lo * (1 - 1e-12)) & (tau <= hi * (1 + 1e-12)) & (dev > 0)
     if np.count_nonzero(used) < len(names):
-        raise ValueError(f"{int(np.count_nonzero(used))} taus with a positive deviation in the "
-                         f"fit range {lo:g}:{hi:g} s cannot identify {len(names)} terms")
+        raise GyrodriftValueError(
+            f"{int(np.count_nonzero(used))} taus with a positive deviation in the "
+            f"fit range {lo:g}:{hi:g} s cannot identify {len(names)} terms")
     t_u, var_u, e_u = tau[used], dev[used] ** 2, e[used]
     kept = names
     c, model, chi2 = _nnls(t_u, var_u, e_u, kept)

@@ -79,9 +79,9 @@ scripts/gmwm_monte_carlo.py). The selected model is then refitted with its own t
 Example
 -------
 >>> import gyrodrift
->>> rec = gyrodrift.simulate(n=2**15, rate_hz=100.0, n_deg_rthr=0.05, k_deg_h_rthr=5.0,
+>>> rec = gyrodrift.simulate(n=2**15, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=5.0,
 ...                          seed=1)
->>> res = gyrodrift.identify_gmwm(rec.rate_dph, 100.0, model="N+K")
+>>> res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="N+K")
 >>> res.model
 'N+K'
 >>> 0.04 < res.value("N") < 0.06
@@ -100,6 +100,8 @@ import scipy.fft
 import scipy.linalg
 import scipy.optimize
 import scipy.stats
+
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
     "TERMS",
@@ -129,16 +131,18 @@ DEG = math.pi / 180.0
 def parse_model(model: str) -> tuple[str, ...]:
     """'N+K+GM' -> canonical tuple ('N', 'K', 'GM'); ValueError on unknown or repeated terms."""
     if not isinstance(model, str) or not model.strip():
-        raise ValueError(f"model must be a string like 'N+K+GM', got {model!r}")
+        raise GyrodriftValueError(f"model must be a string like 'N+K+GM', got {model!r}")
     parts = [p.strip().upper() for p in model.split("+")]
     for p in parts:
         if p not in TERMS:
-            raise ValueError(f"unknown term {p!r} in model {model!r}; terms: {', '.join(TERMS)}")
+            raise GyrodriftValueError(
+                f"unknown term {p!r} in model {model!r}; terms: {', '.join(TERMS)}")
     for p in TERMS[:-1]:
         if parts.count(p) > 1:
-            raise ValueError(f"term {p} appears more than once in {model!r}")
+            raise GyrodriftValueError(f"term {p} appears more than once in {model!r}")
     if parts.count("GM") > MAX_GM:
-        raise ValueError(f"at most {MAX_GM} GM terms, got {parts.count('GM')} in {model!r}")
+        raise GyrodriftValueError(
+            f"at most {MAX_GM} GM terms, got {parts.count('GM')} in {model!r}")
     return tuple(t for t in TERMS[:-1] if t in parts) + ("GM",) * parts.count("GM")
 
 
@@ -198,18 +202,18 @@ class WaveletVariance:
 def _check_record(x: Any, rate_hz: float, min_n: int = 16) -> np.ndarray:
     if not (isinstance(rate_hz, (int, float, np.floating, np.integer))
             and not isinstance(rate_hz, bool) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise ValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
+        raise GyrodriftValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
     arr = np.asarray(x)
     if arr.ndim != 1:
-        raise ValueError(f"x: expected a 1-D record, got shape {arr.shape}")
+        raise GyrodriftValueError(f"x: expected a 1-D record, got shape {arr.shape}")
     if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise TypeError(f"x: expected real numbers, got dtype {arr.dtype}")
+        raise GyrodriftTypeError(f"x: expected real numbers, got dtype {arr.dtype}")
     if arr.size < min_n:
-        raise ValueError(f"x: {arr.size} samples are too few for GMWM (need >= {min_n})")
+        raise GyrodriftValueError(f"x: {arr.size} samples are too few for GMWM (need >= {min_n})")
     arr = np.asarray(arr, dtype=np.float64)
     bad = int(np.count_nonzero(~np.isfinite(arr)))
     if bad:
-        raise ValueError(f"x: {bad} NaN/Inf samples; drop or repair them first")
+        raise GyrodriftValueError(f"x: {bad} NaN/Inf samples; drop or repair them first")
     return arr
 
 
@@ -228,7 +232,7 @@ def haar_wv(x: np.ndarray, rate_hz: float, *, max_level: int | None = None
     n = arr.size
     j_max = _default_levels(n) if max_level is None else int(max_level)
     if j_max < 1 or 2 ** j_max > n:
-        raise ValueError(f"max_level={max_level} does not fit {n} samples (2^J <= N)")
+        raise GyrodriftValueError(f"max_level={max_level} does not fit {n} samples (2^J <= N)")
     # The mean cancels from W exactly; removing it keeps the cumulative sum small.
     c = np.empty(n + 1)
     c[0] = 0.0
@@ -280,7 +284,7 @@ def _component_wv(term: str, p: np.ndarray, tau: np.ndarray) -> np.ndarray:
             tc = 1e7
             phi = math.exp(-1.0 / tc)
         return _ar1_wv(tau, phi, sigma2 * (1.0 - phi * phi))
-    raise ValueError(f"unknown term {term!r}")
+    raise GyrodriftValueError(f"unknown term {term!r}")
 
 
 def theoretical_wv(model: str | tuple[str, ...], params: np.ndarray, tau: np.ndarray
@@ -566,7 +570,7 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
         if best is None or obj < best.objective:
             best = _Fit(terms, sol.x, obj)
     if best is None:
-        raise ValueError(f"GMWM fit of {_model_str(terms)} failed")
+        raise GyrodriftValueError(f"GMWM fit of {_model_str(terms)} failed")
     return _sort_gm(best)
 
 
@@ -827,13 +831,13 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
     """
     arr = _check_record(x, rate_hz)
     if not 0.0 < ci < 1.0:
-        raise ValueError(f"ci must be in (0, 1), got {ci!r}")
+        raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     if not isinstance(bootstrap, (int, np.integer)) or bootstrap < 0:
-        raise ValueError(f"bootstrap must be an integer >= 0, got {bootstrap!r}")
+        raise GyrodriftValueError(f"bootstrap must be an integer >= 0, got {bootstrap!r}")
     dt = 1.0 / float(rate_hz)
     wv = haar_wv(arr, rate_hz, max_level=max_level)
     if np.any(wv.nu2 <= 0):
-        raise ValueError("x: the record is constant at some scale (zero wavelet variance)")
+        raise GyrodriftValueError("x: the record is constant at some scale (zero wavelet variance)")
     tau = 2.0 ** wv.level.astype(np.float64)
     candidates: tuple[tuple[str, float], ...] = ()
     wic = None
@@ -841,7 +845,7 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         top = parse_model(max_model)
         subs = _sub_models(top)
         if wv.nu2.size < _n_params(top) + 1:
-            raise ValueError(f"{wv.nu2.size} scales cannot identify {max_model}")
+            raise GyrodriftValueError(f"{wv.nu2.size} scales cannot identify {max_model}")
         fit_top, omega0 = _weighted_lsq(top, wv, tau)
         chol0 = _chol(omega0)
         scores = []
@@ -867,7 +871,7 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
     else:
         terms = parse_model(model)
         if _n_params(terms) >= wv.nu2.size:
-            raise ValueError(f"{wv.nu2.size} scales cannot identify {_model_str(terms)} "
+            raise GyrodriftValueError(f"{wv.nu2.size} scales cannot identify {_model_str(terms)} "
                              f"({_n_params(terms)} parameters): record too short")
     fit, omega = _weighted_lsq(terms, wv, tau)
     cov = _param_cov(terms, fit.theta, tau, omega)
