@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import scipy.stats
@@ -49,7 +50,7 @@ from gyrodrift import noise_id
 from gyrodrift.errors import GyrodriftValueError
 
 __all__ = ["ALLAN_TERMS", "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range",
-           "parse_terms"]
+           "parse_terms", "slope_readouts"]
 
 #: Term letter -> power k of tau in sigma^2.
 ALLAN_TERMS: dict[str, int] = {"Q": -2, "N": -1, "B": 0, "K": 1, "R": 2}
@@ -261,3 +262,44 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
         dropped=tuple(n for n in names if n not in kept_names),
         tau_min_s=float(t_u.min()), tau_max_s=float(t_u.max()), fit_used=used,
         fit_adev=total, components=comps, ic=float(ic), chi2=float(chi2), ci=float(ci))
+
+
+def slope_readouts(result: Any, tolerance: float = 0.15) -> list[tuple[Any, ...]]:
+    """IEEE Std 952 slope read-offs (as `noise_id.slope_method`) of an AllanResult, each
+    with the interval of the Allan deviation at the tau it is read from (the read-off is
+    proportional to sigma there). Rows: (name, value, unit, ci_low, ci_high, density,
+    density_unit, density_ci_low, density_ci_high); value None where no stretch has the
+    term's slope."""
+    pos = result.adev > 0
+    tau, sig = result.tau_s[pos], result.adev[pos]
+    lo_all, hi_all = result.ci_low[pos], result.ci_high[pos]
+    rows: list[tuple[Any, ...]] = []
+    if tau.size < 3:
+        return rows
+    slope = np.gradient(np.log(sig), np.log(tau))
+
+    def at(target: float) -> int | None:
+        k = int(np.argmin(np.abs(slope - target)))
+        return k if abs(slope[k] - target) <= tolerance else None
+
+    reads: dict[str, tuple[int | None, float]] = {}
+    i = at(-1.0)
+    reads["Q"] = (i, 0.0 if i is None else tau[i] / math.sqrt(3.0))
+    i = at(-0.5)
+    reads["N"] = (i, 0.0 if i is None else math.sqrt(tau[i] / 3600.0))
+    j = int(np.argmin(sig))
+    reads["B"] = ((j if abs(slope[j]) <= tolerance else None), 1.0 / noise_id.B_FLOOR_FACTOR)
+    i = at(0.5)
+    reads["K"] = (i, 0.0 if i is None else math.sqrt(3.0 * 3600.0 / tau[i]))
+    for name, (idx, factor) in reads.items():
+        dens = _DENSITY.get(name)
+        if idx is None:
+            rows.append((name, None, _UNITS[name], None, None, None,
+                         None if dens is None else dens[1], None, None))
+            continue
+        v, lo, hi = (float(a[idx] * factor) for a in (sig, lo_all, hi_all))
+        rows.append((name, v, _UNITS[name], lo, hi,
+                     None if dens is None else v * dens[0], None if dens is None else dens[1],
+                     None if dens is None else lo * dens[0],
+                     None if dens is None else hi * dens[0]))
+    return rows

@@ -254,6 +254,17 @@ def haar_wv(x: np.ndarray, rate_hz: float, *, max_level: int | None = None
     return WaveletVariance(tau_s, levels, nu2, m_coef, eta, float(rate_hz), n)
 
 
+def _subset(wv: WaveletVariance, tau_range: tuple[float, float]) -> WaveletVariance:
+    lo, hi = (float(v) for v in tau_range)
+    keep = (wv.tau_s >= lo * (1 - 1e-12)) & (wv.tau_s <= hi * (1 + 1e-12))
+    if np.count_nonzero(keep) < 2:
+        raise GyrodriftValueError(
+            f"tau_range {lo:g}..{hi:g} s keeps {int(np.count_nonzero(keep))} of the scales "
+            f"{wv.tau_s[0]:g}..{wv.tau_s[-1]:g} s; need at least 2")
+    return WaveletVariance(wv.tau_s[keep], wv.level[keep], wv.nu2[keep], wv.n_coeffs[keep],
+                           wv.eta[keep], wv.rate_hz, wv.n_samples)
+
+
 # --------------------------------------------------------------------------------------
 # theoretical wavelet variance
 
@@ -521,7 +532,7 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
         starts.append(start)
     # Linear starts: for fixed GM correlation times the WV is linear in the variances; NNLS
     # in the whitened space over a grid of T_c gives the variance starts.
-    tc_grid = np.geomspace(1.0, float(tau[-1]) / 8.0, 10)
+    tc_grid = np.geomspace(max(1.0, float(tau[0]) / 4.0), float(tau[-1]) / 8.0, 10)
     combos = list(itertools.combinations(tc_grid, n_gm)) if n_gm else [()]
     # Small matrix products by einsum: BLAS calls wake threads, ~2 ms each on a busy machine.
     winv = scipy.linalg.solve_triangular(chol, np.eye(nu2.size), lower=True)
@@ -548,7 +559,8 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
         starts.append(np.array(theta))
     # A GM term with T_c below half a sample is white noise; one whose wavelet-variance
     # peak (tau ~ 3.8 T_c, the Allan peak at 1.89 T_c) lies near or beyond the longest
-    # scale is indistinguishable from a random walk. T_c is kept inside [0.5, 2^J / 8]
+    # scale is indistinguishable from a random walk. T_c is kept inside
+    # [max(0.5, tau_1 / 8), tau_J / 8]
     # samples (peak at most at tau_J / 2) so that the terms stay distinct and model
     # selection is meaningful.
     lower = np.full(_n_params(terms), -np.inf)
@@ -556,7 +568,8 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
     k = 0
     for t in terms:
         if t == "GM":
-            lower[k + 1], upper[k + 1] = math.log(0.5), math.log(float(tau[-1]) / 8.0)
+            lower[k + 1] = math.log(max(0.5, float(tau[0]) / 8.0))
+            upper[k + 1] = math.log(float(tau[-1]) / 8.0)
         k += 2 if t == "GM" else 1
     best: _Fit | None = None
     for s0 in starts:
@@ -812,7 +825,8 @@ def _simulate_model(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.rando
 
 def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
                   max_model: str = DEFAULT_MAX_MODEL, ci: float = 0.95, bootstrap: int = 0,
-                  seed: int = 0, max_level: int | None = None) -> GmwmResult:
+                  seed: int = 0, max_level: int | None = None,
+                  tau_range: tuple[float, float] | None = None) -> GmwmResult:
     """GMWM fit of a composite noise model to a rate record (module docstring).
 
     Args:
@@ -825,6 +839,9 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         bootstrap: 0 for asymptotic intervals; B > 0 for B parametric-bootstrap refits.
         seed: seed of the bootstrap.
         max_level: highest wavelet level J (default floor(log2 N) - 1).
+        tau_range: (min, max) scale tau_j = 2^j dt in s of the levels fitted (default
+            all); e.g. to leave out a vibration peak at short scales. The covariance is
+            that of the levels kept.
 
     Raises:
         ValueError: bad record (not 1-D, NaN/Inf, too short), bad model, bad ci.
@@ -836,6 +853,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         raise GyrodriftValueError(f"bootstrap must be an integer >= 0, got {bootstrap!r}")
     dt = 1.0 / float(rate_hz)
     wv = haar_wv(arr, rate_hz, max_level=max_level)
+    if tau_range is not None:
+        wv = _subset(wv, tau_range)
     if np.any(wv.nu2 <= 0):
         raise GyrodriftValueError("x: the record is constant at some scale (zero wavelet variance)")
     tau = 2.0 ** wv.level.astype(np.float64)
@@ -884,6 +903,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         for _ in range(int(bootstrap)):
             xb = _simulate_model(terms, p_hat, arr.size, rng)
             wb = haar_wv(xb, rate_hz, max_level=int(wv.level[-1]))
+            if tau_range is not None:
+                wb = _subset(wb, tau_range)
             boots.append(_fit_model(terms, wb.nu2, tau, chol, start=fit.theta).theta)
         boot = np.array(boots)
     params = _make_params(terms, fit.theta, cov, dt, ci, boot)

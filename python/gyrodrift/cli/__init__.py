@@ -21,6 +21,7 @@ SUBCOMMAND_MODULES: list[str] = [
     "simulate",
     "filter",
     "allan",
+    "identify",
     "psd",
     "compare",
     "wavelet_response",
