@@ -96,6 +96,11 @@ from gyrodrift.imu import ImuProcessor as ImuProcessor
 from gyrodrift.align import AlignConfig as AlignConfig
 from gyrodrift.align import run_alignment as run_alignment
 
+# --- GMWM noise identification (issue 11) ---
+# isort: split
+from gyrodrift.gmwm import GmwmResult as GmwmResult
+from gyrodrift.gmwm import identify_gmwm as identify_gmwm
+
 # --- replay (issue 5): imported on first use (python-can, cantools, pyserial) ---
 _LAZY = {
     "ReplayOptions": "gyrodrift.replay",
@@ -109,6 +114,7 @@ __all__ = [
     "AllanResult",
     "Ar2FitError",
     "Ar2Model",
+    "GmwmResult",
     "GyroRecord",
     "GyrodriftError",
     "GyrodriftTypeError",
@@ -126,6 +132,7 @@ __all__ = [
     "best_basis",
     "fit_ar2",
     "forced_fir_taps",
+    "identify_gmwm",
     "identify_noise",
     "kalman_filter",
     "load_record",

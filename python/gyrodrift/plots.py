@@ -13,6 +13,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from gyrodrift.allan import AllanResult
+from gyrodrift.allan_fit import ALLAN_TERMS, AllanFit
+from gyrodrift.gmwm import GmwmResult
 from gyrodrift.noise_id import NoiseFit, allan_model_deg_h
 from gyrodrift.psd import Psd, log_binned
 
@@ -20,7 +22,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["plot_allan", "plot_psd"]
+__all__ = ["plot_allan", "plot_allan_fit", "plot_gmwm", "plot_psd"]
 
 
 def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
@@ -78,3 +80,46 @@ def _save(fig: Figure, ax: Axes, path: str | Path, title: str, *, legend_fontsiz
     fig.savefig(out)
     plt.close(fig)
     return out
+
+
+def plot_allan_fit(result: AllanResult, fit: AllanFit, path: str | Path, *, label: str = "",
+                   title: str = "Overlapping Allan deviation and IEEE 952 fit",
+                   unit: str = "deg/h") -> Path:
+    """Allan deviation with its interval bars, the fitted total and each kept term, drawn
+    only inside the fit range used (issue 11)."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.5), dpi=110)
+    r = result
+    err = np.vstack([r.adev - r.ci_low, r.ci_high - r.adev])
+    ax.errorbar(r.tau_s, r.adev, yerr=err, fmt="o", ms=3, lw=1, capsize=2,
+                label=f"{label} ({100 * r.ci:.1f} % intervals)".strip())
+    tau = np.geomspace(fit.tau_min_s, fit.tau_max_s, 200)
+    comps = {t.name: np.sqrt(t.coeff * tau ** ALLAN_TERMS[t.name]) for t in fit.terms}
+    total = np.sqrt(sum((v**2 for v in comps.values()), np.zeros_like(tau)))
+    ax.plot(tau, total, "k-", lw=1.5, label="fitted total")
+    for t in fit.terms:
+        ax.plot(tau, comps[t.name], "--", lw=0.9,
+                label=f"{t.name} = {t.value:.3g} [{t.ci_low:.3g}, {t.ci_high:.3g}] {t.unit}")
+    ax.axvspan(fit.tau_min_s, fit.tau_max_s, color="0.9", alpha=0.4, lw=0)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("tau (s)")
+    ax.set_ylabel(f"sigma(tau) ({unit})")
+    return _save(fig, ax, path, title, legend_fontsize=7)
+
+
+def plot_gmwm(res: GmwmResult, path: str | Path, *, label: str = "",
+              title: str = "Haar wavelet variance and GMWM fit", unit: str = "deg/h") -> Path:
+    """Empirical Haar wavelet variance with its interval band, the fitted total and each
+    component (issue 11)."""
+    fig, ax = plt.subplots(figsize=(7.5, 5.5), dpi=110)
+    ax.fill_between(res.tau_s, res.wv_ci_low, res.wv_ci_high, color="C0", alpha=0.25,
+                    label=f"{100 * res.ci:.0f} % interval")
+    ax.plot(res.tau_s, res.wv, "o", ms=3, color="C0", label=f"{label} empirical WV".strip())
+    ax.plot(res.tau_s, res.wv_fit, "k-", lw=1.5, label=f"fitted total ({res.model})")
+    for name, comp in res.wv_components.items():
+        ax.plot(res.tau_s, comp, "--", lw=0.9, label=name)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("scale tau_j = 2^j dt (s)")
+    ax.set_ylabel(f"wavelet variance (({unit})^2)")
+    return _save(fig, ax, path, title, legend_fontsize=7)

@@ -30,6 +30,9 @@ How each term is made (dt = 1 / rate_hz):
 - AR(2) drift (papers' eq. 1) y_k = a1 y_{k-1} + a2 y_{k-2} + r_k, r_k ~ N(0, sigma^2) in deg/h;
   the two initial values are drawn from the exact stationary distribution, so the record is
   stationary from its first sample (no burn-in transient). Non-stationary (a1, a2) are rejected.
+- first-order Gauss-Markov terms gm = ((sigma_deg_h, tau_s), ...): x_k = phi x_{k-1} + u_k,
+  phi = exp(-dt/tau), var u = sigma^2 (1 - phi^2), stationary from the first sample
+  (autocovariance sigma^2 exp(-|t|/tau); IEEE Std 952 C.1 exponentially correlated noise).
 - optional pulse counting (pulse_deg = S > 0), as a ring-laser gyro's digital output: the sum
   of the terms is integrated to angle theta and the output per sample is
   floor(theta_k / S) - floor(theta_{k-1} / S) pulses (random initial phase). The angle error is
@@ -64,7 +67,7 @@ __all__ = [
 
 # Order in which terms draw their child seed streams (fixed forever: changing it would change
 # every seeded record other areas rely on).
-_TERM_ORDER = ("q", "n", "b", "k", "ar2", "pulse")
+_TERM_ORDER = ("q", "n", "b", "k", "ar2", "pulse", "gm")
 
 
 @dataclass(frozen=True)
@@ -79,6 +82,9 @@ class NoiseTerms:
         r_deg_h2: rate ramp R, deg/h/h (may be negative: the sign is the ramp direction).
         bias_deg_h: constant bias, deg/h (any sign).
         ar2: (a1, a2, sigma_deg_h) of the AR(2) drift component, or None.
+        gm: first-order Gauss-Markov terms, a tuple of (sigma_deg_h, tau_s): stationary
+            standard deviation (deg/h) and correlation time (s) of each (IEEE Std 952 C.1
+            "exponentially correlated noise"), at most 3.
         pulse_deg: if > 0, the output is pulse-counted like a ring-laser gyro: the sum of all
             terms is integrated to angle and the output is whole pulses of this size per
             sample (rate = counts x pulse_deg / dt). Quantization noise then has
@@ -93,8 +99,20 @@ class NoiseTerms:
     bias_deg_h: float = 0.0
     ar2: tuple[float, float, float] | None = None
     pulse_deg: float = 0.0
+    gm: tuple[tuple[float, float], ...] = ()
 
     def __post_init__(self) -> None:
+        try:
+            gm = tuple((float(s), float(t)) for s, t in self.gm)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"gm must be a tuple of (sigma_deg_h, tau_s) pairs, got {self.gm!r}") from None
+        if len(gm) > 3:
+            raise ValueError(f"at most 3 Gauss-Markov terms, got {len(gm)}")
+        for sigma, tau in gm:
+            if not (math.isfinite(sigma) and sigma >= 0.0 and math.isfinite(tau) and tau > 0.0):
+                raise ValueError(f"gm terms need sigma_deg_h >= 0 and tau_s > 0, got {gm!r}")
+        object.__setattr__(self, "gm", gm)
         for name in ("q_deg", "n_deg_rt_h", "b_deg_h", "k_deg_h_rt_h", "pulse_deg"):
             value = getattr(self, name)
             if not _is_finite_number(value) or value < 0.0:
@@ -153,7 +171,8 @@ class GyroRecord(_TimeBase):
         seed: the seed that reproduces it.
         components: per-term contributions in deg/h (same shape as rate_deg_h) when
             ``keep_components=True`` was passed, keyed "quantization", "arw",
-            "bias_instability", "rrw", "ramp", "bias", "ar2" and "pulse_quantization" (the
+            "bias_instability", "rrw", "ramp", "bias", "ar2", "gauss_markov" (all GM terms)
+            and "pulse_quantization" (the
             pulse-counting error); otherwise empty.
     """
 
@@ -357,6 +376,20 @@ def _generate(
         zi = np.stack([a1 * init[:, 0] + a2 * init[:, 1], a2 * init[:, 0]], axis=1)
         y, _ = scipy.signal.lfilter([1.0], [1.0, -a1, -a2], drive, axis=1, zi=zi)
         add("ar2", y)
+    if terms.gm:
+        # First-order Gauss-Markov, exact discretisation of dx = -x/T dt + w:
+        # x_k = phi x_{k-1} + u_k, phi = exp(-dt/T), var u = sigma^2 (1 - phi^2), x_{-1}
+        # drawn from the stationary N(0, sigma^2): stationary from the first sample.
+        rng = np.random.default_rng(streams["gm"])
+        total = np.zeros((axes, n))
+        for sigma, tau_s in terms.gm:
+            phi = math.exp(-dt_s / tau_s)
+            init = sigma * rng.standard_normal((axes, 1))
+            drive = sigma * math.sqrt(-math.expm1(-2.0 * dt_s / tau_s)) * rng.standard_normal(
+                (axes, n))
+            y, _ = scipy.signal.lfilter([1.0], [1.0, -phi], drive, axis=1, zi=phi * init)
+            total += y
+        add("gauss_markov", total)
     if terms.pulse_deg > 0.0:
         # Pulse counting (RLG/FOG digital output): counts_k = floor(theta_k / S) -
         # floor(theta_{k-1} / S) of the integrated angle, with a random initial phase in [0, S).
@@ -392,6 +425,7 @@ def simulate(
     bias_deg_h: float = 0.0,
     ar2: tuple[float, float, float] | None = None,
     pulse_deg: float = 0.0,
+    gm: tuple[tuple[float, float], ...] = (),
     axes: int = 1,
     seed: int = 0,
     keep_components: bool = False,
@@ -414,6 +448,7 @@ def simulate(
         bias_deg_h=bias_deg_h,
         ar2=ar2,
         pulse_deg=pulse_deg,
+        gm=gm,
     )
     return simulate_terms(
         terms,

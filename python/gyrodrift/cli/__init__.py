@@ -22,6 +22,7 @@ SUBCOMMAND_MODULES: list[str] = [
     "filter",
     "allan",
     "fit",
+    "identify",
     "psd",
     "compare",
     "wavelet_response",

@@ -1,10 +1,13 @@
 """`gyrodrift allan`: overlapping Allan deviation table with confidence intervals, identified
-noise terms (IEEE Std 952 NNLS, the 2006 paper's 3-term fit, slope method) and a PNG plot."""
+noise terms (IEEE Std 952 NNLS with a fit range, term choice, model selection and an interval
+on every coefficient; the 2006 paper's 3-term fit; slope method) and a PNG plot."""
 
 from __future__ import annotations
 
 import argparse
 from typing import Any
+
+import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
@@ -43,7 +46,16 @@ def register(subparsers: Any) -> None:
                    help="which deviation: overlapping Allan (default), modified Allan, time, "
                         "Hadamard, overlapping Hadamard or total (NIST SP 1065); the noise-term "
                         "fits use the Allan deviation and run for oadev only")
-    p.add_argument("--png", help="write a log-log plot with error bars and the fitted terms")
+    p.add_argument("--fit-range", metavar="TMIN:TMAX",
+                   help="IEEE 952 fit: taus in s to fit (either side may be empty; default all)")
+    p.add_argument("--terms", default="Q,N,B,K,R",
+                   help="IEEE 952 fit: terms to consider, comma-separated (default Q,N,B,K,R)")
+    p.add_argument("--no-select", action="store_true",
+                   help="IEEE 952 fit: no model selection (keep every term the NNLS makes "
+                        "non-zero); default: terms that do not improve the information "
+                        "criterion chi2 + 2 p are dropped and listed")
+    p.add_argument("--png", help="write a log-log plot with error bars, the fitted total and "
+                                 "each term inside the fit range")
     p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV")
     add_json_arg(p)
     add_progress_arg(p)
@@ -72,18 +84,42 @@ def run(args: argparse.Namespace) -> int:
     tau, dev, edf = res.tau_s[pos], res.adev[pos], res.edf[pos]
     allan_fits = dev_name == "oadev"  # the IEEE 952 model is that of the Allan variance
     fit = noise_id.identify(tau, dev, edf) if allan_fits and tau.size >= 5 else None
+    afit = None
+    if allan_fits:
+        from gyrodrift.allan_fit import fit_allan
+
+        try:
+            afit = fit_allan(res.tau_s, res.adev, res.edf, terms=args.terms,
+                             fit_range=args.fit_range, select=not args.no_select, ci=res.ci)
+        except ValueError as exc:
+            if args.fit_range or args.terms != "Q,N,B,K,R":
+                raise CliError(str(exc)) from exc
+            afit = None  # too few taus for the default fit: the table is still printed
+    elif args.fit_range or args.terms != "Q,N,B,K,R":
+        raise CliError("--fit-range and --terms apply to the Allan fit (--deviation oadev)")
     paper = noise_id.paper_fit(tau, dev) if allan_fits and tau.size >= 3 else None
     slope = noise_id.slope_method(tau, dev) if allan_fits and tau.size >= 3 else None
     if args.png:
-        from gyrodrift.plots import plot_allan
+        from gyrodrift.plots import plot_allan, plot_allan_fit
 
-        plot_allan([(rec.source, res)], args.png, fit=fit)
+        if afit is not None:
+            plot_allan_fit(res, afit, args.png, label=rec.source)
+        else:
+            plot_allan([(rec.source, res)], args.png)
     if args.csv_out:
         write_csv(args.csv_out,
                   ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],
                   [res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf, res.terms])
     if args.json:
-        emit_json({"record": rec.summary(), "allan": res.as_dict(),
+        fit_adev = (afit.fit_adev if afit is not None else np.full(res.tau_s.size, np.nan))
+        used = (afit.fit_used if afit is not None else np.zeros(res.tau_s.size, dtype=bool))
+        taus = [{"tau_s": float(t), "adev": float(a), "ci_low": float(lo),
+                 "ci_high": float(hi), "fit_adev": None if np.isnan(f) else float(f),
+                 "fit_used": bool(u)}
+                for t, a, lo, hi, f, u in zip(res.tau_s, res.adev, res.ci_low, res.ci_high,
+                                              fit_adev, used, strict=True)]
+        emit_json({"record": rec.summary(), "allan": res.as_dict(), "taus": taus,
+                   "fit": None if afit is None else afit.as_dict(),
                    "ieee952": None if fit is None else fit.as_dict(),
                    "paper_fit": None if paper is None else paper.as_dict(),
                    "slope_method": None if slope is None else slope.as_dict(),
@@ -93,18 +129,27 @@ def run(args: argparse.Namespace) -> int:
           + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
     if rec.log_summary:
         print(f"# CAN log: {rec.log_summary}")
-    unit = "deg_h_s" if dev_name == "tdev" else "deg_h"  # tdev = tau mdev / sqrt(3)
-    col = f"{'adev' if dev_name == 'oadev' else dev_name}_{unit}"
-    print(f"{'tau_s':>12} {col:>12} {'ci_low':>12} {'ci_high':>12} {'edf':>10} "
-          f"{'alpha':>5} {'noise_id':>8}")
+    unit = "deg/h s" if dev_name == "tdev" else "deg/h"  # tdev = tau mdev / sqrt(3)
+    col = f"{'adev' if dev_name == 'oadev' else dev_name} ({unit})"
+    print(f"{'tau (s)':>12} {col:>14} {'ci_low':>12} {'ci_high':>12} {'edf':>10} "
+          f"{'alpha':>5} {'noise_id':>8} {'fit (deg/h)':>12} {'in fit':>6}")
     noise = res.noise_id if res.noise_id is not None else ["given"] * res.m.size
-    for t, a, lo, hi, e, al, how in zip(res.tau_s, res.adev, res.ci_low, res.ci_high,
-                                        res.edf, res.alpha, noise, strict=True):
-        print(f"{t:12.5g} {a:12.5g} {lo:12.5g} {hi:12.5g} {e:10.4g} {int(al):5d} {how:>8}")
-    if fit is not None:
-        print(f"IEEE 952 fit: Q = {fit.q_arcsec:.4g} arcsec ({fit.q_deg:.4g} deg), "
-              f"N = {fit.n_deg_rt_h:.4g} deg/sqrt(h), B = {fit.b_deg_h:.4g} deg/h, "
-              f"K = {fit.k_deg_h_rt_h:.4g} deg/h/sqrt(h), R = {fit.r_deg_h2:.4g} deg/h/h")
+    for k, (t, a, lo, hi, e, al, how) in enumerate(zip(
+            res.tau_s, res.adev, res.ci_low, res.ci_high, res.edf, res.alpha, noise,
+            strict=True)):
+        fa = "" if afit is None else f"{afit.fit_adev[k]:12.5g}"
+        fu = "" if afit is None else ("yes" if afit.fit_used[k] else "no")
+        print(f"{t:12.5g} {a:14.5g} {lo:12.5g} {hi:12.5g} {e:10.4g} {int(al):5d} {how:>8} "
+              f"{fa:>12} {fu:>6}")
+    if afit is not None:
+        from gyrodrift.cli.identify import format_terms
+
+        print(f"IEEE 952 fit (weighted NNLS, taus {afit.tau_min_s:g}..{afit.tau_max_s:g} s; "
+              f"intervals from the weighted least-squares covariance); dropped (no gain in "
+              f"chi2 + 2p): {', '.join(afit.dropped) or 'none'}")
+        print("\n".join(format_terms(
+            [(t.name, t.value, t.unit, t.ci_low, t.ci_high, t.density, t.density_unit,
+              t.density_ci_low, t.density_ci_high) for t in afit.terms], afit.ci)))
     if paper is not None:
         print(f"paper 2006 eq. 8 fit: Q = {paper.q_paper:.4g} (paper's 'deg' column; "
               f"= arcsec), N = {paper.n_deg_rt_h:.4g} deg/sqrt(h), B = {paper.b_deg_h:.4g} deg/h")

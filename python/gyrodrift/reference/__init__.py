@@ -51,6 +51,12 @@ from gyrodrift.reference.deviation import rate_to_phase as rate_to_phase
 from gyrodrift.reference.deviation import tdev_phase as tdev_phase
 from gyrodrift.reference.deviation import totdev_phase as totdev_phase
 
+# isort: split
+# --- GMWM (issue 11) ---
+from gyrodrift.reference.gmwm import haar_wv as haar_wv
+from gyrodrift.reference.gmwm import haar_wv_pywt as haar_wv_pywt
+from gyrodrift.reference.gmwm import wv_covariance_fft as wv_covariance_fft
+
 # --- IMU processor / codecs (issue 5) ---
 # isort: split
 from gyrodrift.reference.imu import process_imu as process_imu

@@ -1,0 +1,156 @@
+"""`gyrodrift identify`: noise model of a gyro record with units and intervals, by GMWM
+(generalized method of wavelet moments, with model selection), the IEEE Std 952 NNLS Allan
+fit (with model selection) or the IEEE 952 slope method; one table, optional JSON and plot."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from gyrodrift.cli import CliError
+from gyrodrift.cli.common import (
+    add_ci_arg,
+    add_input_args,
+    add_json_arg,
+    add_progress_arg,
+    emit_json,
+    record_from_args,
+)
+
+__all__ = ["format_terms", "register", "run"]
+
+#: One row of the printed table: name, value, unit, low, high, density, its unit, low, high.
+Row = tuple[str, float, str, float | None, float | None, float | None, str | None,
+            float | None, float | None]
+
+
+def _num(v: float | None) -> str:
+    return "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.4g}"
+
+
+def format_terms(rows: Sequence[Row], ci: float) -> list[str]:
+    """The terms table: value and interval in IEEE Std 952 units, then the continuous-time
+    density (rad/s/sqrt(Hz), rad/s^2/sqrt(Hz)) where the term has one."""
+    head = (f"{'term':<10} {'value':>11} {'ci_low':>11} {'ci_high':>11} {'unit':<14} "
+            f"{'density':>11} {'ci_low':>11} {'ci_high':>11} {'density unit':<16}")
+    lines = [f"# intervals: {100 * ci:.2f} % two-sided", head]
+    for name, val, unit, lo, hi, dens, dunit, dlo, dhi in rows:
+        lines.append(f"{name:<10} {_num(val):>11} {_num(lo):>11} {_num(hi):>11} {unit:<14} "
+                     f"{_num(dens):>11} {_num(dlo):>11} {_num(dhi):>11} {dunit or '':<16}")
+    return lines
+
+
+def register(subparsers: Any) -> None:
+    """Add the ``identify`` subcommand."""
+    p = subparsers.add_parser("identify", help="noise model with intervals (GMWM, Allan fit)",
+                              description=__doc__)
+    add_input_args(p)
+    p.add_argument("--method", choices=("gmwm", "allan-nnls", "slope"), default="gmwm",
+                   help="gmwm (default), allan-nnls (IEEE 952 fit of the Allan variance with "
+                        "term selection) or slope (IEEE 952 slope read-offs)")
+    p.add_argument("--model", default="auto",
+                   help="gmwm: 'auto' (WIC selection) or terms joined by '+' from Q, N, K, R, "
+                        "GM (GM up to 3 times), e.g. Q+N+GM+K")
+    p.add_argument("--max-model", default="Q+N+K+R+GM+GM",
+                   help="gmwm --model auto: the largest model considered")
+    p.add_argument("--bootstrap", type=int, default=0,
+                   help="gmwm: parametric-bootstrap replicates for the intervals (0: asymptotic)")
+    p.add_argument("--seed", type=int, default=0, help="bootstrap seed")
+    p.add_argument("--fit-range", help="allan-nnls: TMIN:TMAX in s (either side may be empty)")
+    p.add_argument("--terms", default="Q,N,B,K,R", help="allan-nnls: terms to fit")
+    p.add_argument("--no-select", action="store_true",
+                   help="allan-nnls: keep every term the NNLS gives a non-zero value")
+    add_ci_arg(p)
+    p.set_defaults(ci=0.95)
+    p.add_argument("--png", help="plot: wavelet variance (gmwm) or Allan deviation with the fit")
+    add_json_arg(p)
+    add_progress_arg(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift identify``; returns the exit code."""
+    import numpy as np
+
+    rec = record_from_args(args, mmap=False)
+    x = np.asarray(rec.rate_deg_h, dtype=np.float64)
+    head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"
+            + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
+    if args.method == "gmwm":
+        from gyrodrift.gmwm import identify_gmwm
+
+        try:
+            res = identify_gmwm(x, rec.rate_hz, model=args.model, max_model=args.max_model,
+                                ci=args.ci, bootstrap=args.bootstrap, seed=args.seed)
+        except ValueError as exc:
+            raise CliError(str(exc)) from exc
+        if args.png:
+            from gyrodrift.plots import plot_gmwm
+
+            plot_gmwm(res, args.png, label=rec.source)
+        if args.json:
+            emit_json({"record": rec.summary(), "method": "gmwm", "gmwm": res.as_dict(),
+                       "files": {"png": args.png}})
+            return 0
+        print(head)
+        print(f"GMWM model {res.model} ({res.ci_method} intervals; J = {res.objective:.4g}"
+              + ("" if res.wic is None else f", WIC = {res.wic:.4g}") + ")")
+        rows: list[Row] = [(p.name, p.value, p.unit, p.ci_low, p.ci_high, p.density,
+                            p.density_unit, p.density_ci_low, p.density_ci_high)
+                           for p in res.params]
+        print("\n".join(format_terms(rows, res.ci)))
+        if res.candidates:
+            print("candidates (WIC): " + ", ".join(f"{m} {w:.4g}" for m, w in
+                                                    res.candidates[:6]))
+        return 0
+    from gyrodrift.allan import oadev
+
+    try:
+        allan = oadev(x, rec.rate_hz, taus="octave", ci=args.ci)
+    except ValueError as exc:
+        raise CliError(str(exc)) from exc
+    if args.method == "allan-nnls":
+        from gyrodrift.allan_fit import fit_allan
+
+        try:
+            fit = fit_allan(allan.tau_s, allan.adev, allan.edf, terms=args.terms,
+                            fit_range=args.fit_range, select=not args.no_select, ci=args.ci)
+        except ValueError as exc:
+            raise CliError(str(exc)) from exc
+        if args.png:
+            from gyrodrift.plots import plot_allan_fit
+
+            plot_allan_fit(allan, fit, args.png, label=rec.source)
+        if args.json:
+            emit_json({"record": rec.summary(), "method": "allan-nnls", "fit": fit.as_dict(),
+                       "files": {"png": args.png}})
+            return 0
+        print(head)
+        print(f"IEEE 952 NNLS Allan fit, taus {fit.tau_min_s:g}..{fit.tau_max_s:g} s; dropped "
+              f"(no IC gain): {', '.join(fit.dropped) or 'none'}")
+        rows = [(t.name, t.value, t.unit, t.ci_low, t.ci_high, t.density, t.density_unit,
+                 t.density_ci_low, t.density_ci_high) for t in fit.terms]
+        print("\n".join(format_terms(rows, fit.ci)))
+        return 0
+    # slope method: read-offs with the interval of the Allan deviation at the read tau
+    from gyrodrift.allan_fit import slope_readouts
+
+    rows = slope_readouts(allan)
+    if args.png:
+        from gyrodrift.plots import plot_allan
+
+        plot_allan([(rec.source, allan)], args.png)
+    if args.json:
+        emit_json({"record": rec.summary(), "method": "slope",
+                   "terms": [dict(zip(("name", "value", "unit", "ci_low", "ci_high", "density",
+                                       "density_unit", "density_ci_low", "density_ci_high"),
+                                      r, strict=True)) for r in rows],
+                   "ci": args.ci, "files": {"png": args.png}})
+        return 0
+    print(head)
+    print("IEEE 952 slope method (line read-offs; interval = the Allan deviation's at the "
+          "read tau)")
+    print("\n".join(format_terms(rows, args.ci)))
+    return 0

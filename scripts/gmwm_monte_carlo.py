@@ -1,0 +1,153 @@
+#!/usr/bin/env python3
+"""Monte Carlo evidence for GMWM (issue 11): interval coverage, RMSE against the IEEE Std 952
+NNLS Allan fit, and model-selection hit rate, on composite models simulated by
+gyrodrift.simulate (100 Hz, deg/h).
+
+    PYTHONPATH=python:build/dev-NAME/py python scripts/gmwm_monte_carlo.py [--reps 200]
+        [--n 16384] [--workers 2] [--max-model Q+N+K+R+GM+GM]
+
+Per replicate (seed = case seed + replicate): the true model is fitted by GMWM (model=<true>,
+asymptotic 95 % intervals), model="auto" selects among the sub-models of --max-model by WIC,
+and the Allan deviation (octave taus, gyrodrift.oadev) is fitted by the IEEE 952 NNLS
+(noise_id.identify, all five terms). Printed per case and parameter: the true value, the
+coverage of the nominal 95 % interval, GMWM's and the Allan fit's RMSE and their ratio (the
+Allan fit has no Gauss-Markov term: n/a there), and the selection hit rate.
+tests/test_gmwm.py runs a smaller fixed-seed version through `run_case`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+RATE_HZ = 100.0
+
+
+@dataclass(frozen=True)
+class Case:
+    name: str
+    model: str
+    sim: dict[str, object]  # gyrodrift.simulate keyword arguments
+    truth: dict[str, float]  # GMWM parameter name -> true value (IEEE units)
+    seed: int
+
+
+CASES = (
+    Case("white + random walk", "N+K",
+         {"n_deg_rt_h": 0.05, "k_deg_h_rt_h": 400.0},
+         {"N": 0.05, "K": 400.0}, 1000),
+    Case("white + quantization + Gauss-Markov + random walk", "Q+N+K+GM",
+         {"q_deg": 0.3 / 3600.0, "n_deg_rt_h": 0.05, "k_deg_h_rt_h": 400.0,
+          "gm": ((10.0, 0.3),)},
+         {"Q": 0.3, "N": 0.05, "K": 400.0, "GM1_sigma": 10.0, "GM1_tau": 0.3}, 2000),
+    Case("white + two Gauss-Markov", "N+GM+GM",
+         {"n_deg_rt_h": 0.05, "gm": ((20.0, 0.1), (10.0, 5.0))},
+         {"N": 0.05, "GM1_sigma": 20.0, "GM1_tau": 0.1, "GM2_sigma": 10.0, "GM2_tau": 5.0},
+         3000),
+)
+
+#: GMWM parameter -> attribute of noise_id.NoiseFit (the Allan fit's estimate of it).
+ALLAN_NAMES = {"Q": "q_arcsec", "N": "n_deg_rt_h", "K": "k_deg_h_rt_h"}
+
+
+def _allan_value(fit: object, name: str) -> float:
+    attr = ALLAN_NAMES[name]
+    for cand in (attr,):
+        if hasattr(fit, cand):
+            return float(getattr(fit, cand))
+    raise AttributeError(attr)
+
+
+def fmt(v: float) -> str:
+    return "n/a" if math.isnan(v) else f"{v:.4g}"
+
+
+def one_replicate(case: Case, rep: int, n: int, max_model: str) -> dict[str, object]:
+    import gyrodrift
+    from gyrodrift import noise_id
+    from gyrodrift.gmwm import identify_gmwm
+
+    rec = gyrodrift.simulate(n=n, rate_hz=RATE_HZ, seed=case.seed + rep, **case.sim)  # type: ignore[arg-type]
+    x = rec.rate_deg_h
+    auto = identify_gmwm(x, RATE_HZ, model="auto", max_model=max_model)
+    true_fit = auto if auto.model == case.model else identify_gmwm(x, RATE_HZ,
+                                                                   model=case.model)
+    res = gyrodrift.oadev(x, RATE_HZ, taus="octave")
+    pos = res.adev > 0
+    allan = noise_id.identify(res.tau_s[pos], res.adev[pos], res.edf[pos])
+    out: dict[str, object] = {"selected": auto.model, "hit": auto.model == case.model}
+    for name in case.truth:
+        p = true_fit.param(name)
+        out[name] = (p.value, p.ci_low, p.ci_high,
+                     _allan_value(allan, name) if name in ALLAN_NAMES else math.nan)
+    return out
+
+
+def run_case(case: Case, reps: int, n: int = 1 << 14, max_model: str = "Q+N+K+R+GM+GM",
+             workers: int = 1) -> dict[str, object]:
+    """Run `reps` replicates; returns per-parameter coverage, RMSEs, ratio, hit rate."""
+    if workers > 1:
+        with ProcessPoolExecutor(workers) as ex:
+            rows = list(ex.map(one_replicate, [case] * reps, range(reps), [n] * reps,
+                               [max_model] * reps))
+    else:
+        rows = [one_replicate(case, r, n, max_model) for r in range(reps)]
+    summary: dict[str, object] = {
+        "hit_rate": float(np.mean([r["hit"] for r in rows])),
+        "selected": {m: sum(1 for r in rows if r["selected"] == m)
+                     for m in sorted({str(r["selected"]) for r in rows})},
+        "params": {},
+    }
+    for name, true in case.truth.items():
+        vals = np.array([r[name] for r in rows], dtype=np.float64)  # type: ignore[misc]
+        est, lo, hi, al = vals.T
+        cover = float(np.mean((lo <= true) & (true <= hi)))
+        rmse_g = float(np.sqrt(np.mean((est - true) ** 2)))
+        rmse_a = float(np.sqrt(np.mean((al - true) ** 2))) if name in ALLAN_NAMES else math.nan
+        summary["params"][name] = {  # type: ignore[index]
+            "true": true, "coverage": cover, "rmse_gmwm": rmse_g, "rmse_allan": rmse_a,
+            "ratio": rmse_g / rmse_a if name in ALLAN_NAMES else math.nan,
+            "mean_gmwm": float(np.mean(est)),
+            "mean_allan": float(np.mean(al)) if name in ALLAN_NAMES else math.nan,
+        }
+    return summary
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--reps", type=int, default=200)
+    ap.add_argument("--n", type=int, default=1 << 14)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--max-model", default="Q+N+K+R+GM+GM")
+    args = ap.parse_args(argv)
+    print(f"# GMWM Monte Carlo: {args.reps} replicates per case, n = {args.n} samples at "
+          f"{RATE_HZ:g} Hz, model selection among the sub-models of {args.max_model}, "
+          f"nominal 95 % asymptotic intervals")
+    for case in CASES:
+        t0 = time.perf_counter()
+        s = run_case(case, args.reps, args.n, args.max_model, args.workers)
+        dt = time.perf_counter() - t0
+        print(f"\n## {case.name} (true model {case.model}; {dt:.0f} s)")
+        print(f"model selection hit rate: {100 * s['hit_rate']:.1f} %  selected: "
+              + ", ".join(f"{m} x{c}" for m, c in s["selected"].items()))  # type: ignore[union-attr]
+        print("| parameter | true | coverage of 95 % CI | GMWM mean | GMWM RMSE | "
+              "Allan NNLS mean | Allan NNLS RMSE | RMSE ratio GMWM/Allan |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        for name, p in s["params"].items():  # type: ignore[union-attr]
+            units = {"Q": "arcsec", "N": "deg/sqrt(h)", "K": "deg/h/sqrt(h)"}.get(
+                name, "s" if name.endswith("_tau") else "deg/h")
+            print(f"| {name} ({units}) | {p['true']:g} | {100 * p['coverage']:.1f} % | "
+                  f"{fmt(p['mean_gmwm'])} | {fmt(p['rmse_gmwm'])} | {fmt(p['mean_allan'])} | "
+                  f"{fmt(p['rmse_allan'])} | {fmt(p['ratio'])} |")
+        sys.stdout.flush()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
