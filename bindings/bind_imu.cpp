@@ -302,8 +302,12 @@ void bind_imu(py::module_& m) {
           serial::ImuFrame f;
           std::size_t pos = 0;
           while (pos < n) {
-            const std::size_t want = n - pos < chunk ? n - pos : chunk;
-            pos += parser.feed(p + pos, want);  // a full buffer takes fewer: drain, then re-feed
+            // Offer only what fits (the rest is offered again after draining), so the
+            // parser's overflow_bytes keeps its meaning: bytes refused for good (none here).
+            const std::size_t room = parser.capacity() - parser.buffered();
+            std::size_t want = n - pos < chunk ? n - pos : chunk;
+            if (want > room) want = room;
+            pos += parser.feed(p + pos, want);
             while (parser.next(f)) frames.push_back(f);
           }
           if (finish) parser.finish();
