@@ -83,7 +83,7 @@ struct RealtimeImpl final : AnyRealtime<T> {
   T step(T x) override { return f.step(x); }
   T recompute_step(T x) override {
     const T fast = f.step(x);
-    if (!std::isfinite(x)) return fast;
+    if (!RealtimeWavelet<T, N>::accepts(x)) return fast;
     hist[hpos] = x;  // the newest N accepted samples, rebuilt oldest-first by window()
     hpos = (hpos + 1) % N;
     if (!f.ready() || f.status() != RealtimeWaveletStatus::ok) return fast;

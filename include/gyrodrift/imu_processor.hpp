@@ -25,7 +25,10 @@
 //     stuck_samples times in a row). Such a value is a missing measurement for its channel:
 //     the Kalman filter does a predict-only step, the wavelet window skips it, pass-through
 //     and bias channels hold their last output. Filter state never sees the bad value.
-//   * filter_faults: a Kalman update rejected by the filter itself (non-finite result).
+//   * filter_faults: a good value the channel's filter refused (a Kalman update with a
+//     non-finite result, or a value beyond the filters' input range, input_range.hpp), or
+//     a channel output that would not be finite (e.g. x - bias overflowing); the channel
+//     then holds its last output. Every output value is finite or this counter moved.
 // A processor whose configuration is invalid (status() != ok) rejects every sample with
 // kFlagConfigError, rather than passing data through silently.
 #pragma once
@@ -132,11 +135,13 @@ struct NoWavelet {
   enum class Status : std::uint8_t { ok = 0, unavailable = 1 };
   Scalar step(Scalar x) noexcept { return x; }
   void reset() noexcept {}
+  std::uint32_t fault_count() const noexcept { return 0; }
   Status status() const noexcept { return Status::unavailable; }
 };
 
 // Wavelet: copyable, `Scalar step(Scalar)` (NaN/Inf input = skip and hold, as
-// RealtimeWavelet does), `void reset()`, `status()` whose value 0 means ok. Example:
+// RealtimeWavelet does), `void reset()`, `status()` whose value 0 means ok, and
+// `std::uint32_t fault_count()` (inputs it refused: counted in filter_faults). Example:
 //   ImuProcessor<float, RealtimeWavelet<float, 256>> p(config, RealtimeWavelet<float, 256>(WaveletKind::db8, 5));
 template <class Scalar, class Wavelet = NoWavelet<Scalar>>
 class ImuProcessor {
@@ -234,12 +239,20 @@ class ImuProcessor {
           if (good && kalman_[c].fault_count() != faults_before) {
             ++health_.filter_faults;
             flags = static_cast<std::uint16_t>(flags | kFlagFilterFault);
+            good = false;  // counted once
           }
           break;
         }
-        case ChannelFilter::wavelet:
+        case ChannelFilter::wavelet: {
+          const std::uint32_t faults_before = wavelet_[c].fault_count();
           y = wavelet_[c].step(good ? x : missing) - cc.bias;
+          if (good && wavelet_[c].fault_count() != faults_before) {
+            ++health_.filter_faults;
+            flags = static_cast<std::uint16_t>(flags | kFlagFilterFault);
+            good = false;  // counted once
+          }
           break;
+        }
         case ChannelFilter::bias_removal:
           y = good ? x - cc.bias : last_out_[c];
           break;
@@ -247,6 +260,13 @@ class ImuProcessor {
         default:
           y = good ? x : last_out_[c];
           break;
+      }
+      if (!std::isfinite(y)) {  // e.g. x - bias overflowed: hold, and say so
+        if (good) {
+          ++health_.filter_faults;
+          flags = static_cast<std::uint16_t>(flags | kFlagFilterFault);
+        }
+        y = last_out_[c];
       }
       last_out_[c] = y;
       out.values[c] = y;
