@@ -144,7 +144,7 @@ void def_processor_methods(Cls& cls) {
            T* o = out.mutable_data();
            std::uint16_t* f = flags.mutable_data();
            {
-             py::gil_scoped_release release;
+             ReleasedAndLocked guard(&p);  // GIL released, then this processor's lock
              ImuSample<T> in;
              ImuOutput<T> res;
              for (std::size_t k = 0; k < n; ++k) {
@@ -161,8 +161,20 @@ void def_processor_methods(Cls& cls) {
            return py::make_tuple(out, flags);
          },
          py::arg("seq").noconvert(), py::arg("t_us").noconvert(), py::arg("values").noconvert())
-      .def("health", [](const Proc& p) { return health_dict(p.health()); })
-      .def("reset", &Proc::reset)
+      .def("health",
+           [](const Proc& p) {
+             ImuHealth h;
+             {
+               ReleasedAndLocked guard(&p);
+               h = p.health();
+             }
+             return health_dict(h);
+           })
+      .def("reset",
+           [](Proc& p) {
+             ReleasedAndLocked guard(&p);
+             p.reset();
+           })
       .def_property_readonly("status", [](const Proc& p) { return std::string(status_name(p.status())); })
       .def_property_readonly("bad_channel", &Proc::bad_channel);
 }
