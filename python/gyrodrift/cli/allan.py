@@ -12,13 +12,18 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
+    atomic_output,
+    check_output,
     emit_json,
     progress_enabled,
     record_from_args,
     write_csv,
 )
 
-__all__ = ["register", "run"]
+__all__ = ["ALLAN_MIN_SAMPLES", "register", "run"]
+
+#: fewest samples the command analyses: three octave taus (m = 1, 2, 4 need 2m + 1 <= n)
+ALLAN_MIN_SAMPLES = 9
 
 
 def register(subparsers: Any) -> None:
@@ -46,7 +51,13 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift import noise_id
     from gyrodrift.allan import oadev
 
+    check_output(args.png, "--png")
+    check_output(args.csv_out, "--csv", (".csv",))
     rec = record_from_args(args)
+    if rec.n < ALLAN_MIN_SAMPLES:
+        raise CliError(f"{rec.source}: record too short for an Allan analysis: {rec.n} "
+                       f"samples, at least {ALLAN_MIN_SAMPLES} needed (three octave averaging "
+                       "times, m = 1, 2, 4)")
     # auto: a bar for long records, and only on a terminal.
     show = progress_enabled(args)
     progress: bool | str = "auto" if show and args.progress == "auto" else show
@@ -66,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     if args.png:
         from gyrodrift.plots import plot_allan
 
-        plot_allan([(rec.source, res)], args.png, fit=fit)
+        with atomic_output(args.png) as tmp:
+            plot_allan([(rec.source, res)], tmp, fit=fit)
     if args.csv_out:
         write_csv(args.csv_out,
                   ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],
