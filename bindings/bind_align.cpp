@@ -79,6 +79,8 @@ py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
   const double* pt = dtheta.data();
   const double* pv = dv.data();
   bool failed = false;
+  bool coarse_done = false;
+  std::size_t failed_at = 0;
   {
     py::gil_scoped_release release;
     for (std::size_t k = 0; k < n; ++k) {
@@ -87,8 +89,10 @@ py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
       const AlignStatus st = pipe->step(g, a);
       if (st == AlignStatus::kFailed) {
         failed = true;
+        failed_at = k;
         break;
       }
+      if (st == AlignStatus::kCoarseDone) coarse_done = true;
       if (st != AlignStatus::kKfUpdated) continue;
       // The solution refers to the delayed (prefilter-matched) instant.
       t_s.push_back(static_cast<double>(static_cast<long>(k) + 1 - s.accel_delay_samples) * s.dt_s);
@@ -118,8 +122,29 @@ py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) cnb.mutable_at(i, j) = pipe->coarse_cnb()(i, j);
   out["coarse_cnb"] = cnb;
+  // An alignment that never produced a solution failed, whatever the reason (issue 13: an
+  // all-NaN record gave empty histories with failed=False).
+  std::string reason;
+  const auto bad = static_cast<std::size_t>(pipe->bad_samples());
+  if (failed) {
+    reason = "numerics failed at sample " + std::to_string(failed_at) +
+             " (coarse solve, strapdown or Kalman update not finite)";
+  } else if (t_s.empty()) {
+    failed = true;
+    if (bad == n) {
+      reason = "all " + std::to_string(n) + " samples are NaN/Inf";
+    } else if (!coarse_done) {
+      reason = "only " + std::to_string(n - bad) + " of " + std::to_string(n) +
+               " samples are finite: too few for the prefilter warm-up plus the coarse window (" +
+               std::to_string(warmup + s.coarse_samples) + ")";
+    } else {
+      reason = "no Kalman update after the coarse window: " + std::to_string(bad) + " of " +
+               std::to_string(n) + " samples are NaN/Inf";
+    }
+  }
   out["bad_samples"] = pipe->bad_samples();
   out["failed"] = failed;
+  out["reason"] = reason;
   return out;
 }
 

@@ -156,7 +156,7 @@ class OadevStream {
     const auto n = static_cast<std::size_t>(lo.shape(0));
     require_finite(lo.data(), n, "lo");
     require_finite(hi.data(), n, "hi");
-    py::gil_scoped_release release;
+    ReleasedAndLocked guard(this);  // GIL released, then this stream's lock
     oadev_rate_seed(sums_, lo.data(), hi.data(), n);
   }
 
@@ -168,7 +168,7 @@ class OadevStream {
     require_finite(a, n, "y0");
     require_finite(b, n, "y1");
     require_finite(c, n, "y2");
-    py::gil_scoped_release release;
+    ReleasedAndLocked guard(this);
     if (kind_ == AllanInput::rate) {
       oadev_rate_advance(sums_, a, b, c, n);
     } else {
@@ -178,18 +178,27 @@ class OadevStream {
 
   void finish() {
     if (kind_ != AllanInput::rate) throw py::value_error("finish() is for rate input only");
+    ReleasedAndLocked guard(this);
     oadev_rate_finish(sums_);
   }
 
   double sigma2() const {
     double out = 0.0;
-    if (!oadev_sigma2(sums_, m_, out)) {
+    bool ok = false;
+    {
+      ReleasedAndLocked guard(this);
+      ok = oadev_sigma2(sums_, m_, out);
+    }
+    if (!ok) {
       throw py::value_error("no finite Allan sums yet (no terms, or overflow)");
     }
     return out;
   }
 
-  std::int64_t terms() const { return static_cast<std::int64_t>(sums_.terms); }
+  std::int64_t terms() const {
+    ReleasedAndLocked guard(this);
+    return static_cast<std::int64_t>(sums_.terms);
+  }
 
  private:
   std::size_t same_length(const CArray<double>& a, const CArray<double>& b,

@@ -87,6 +87,21 @@ py::tuple run_batch(const CArray<T>& x, const std::vector<Params>& params, MakeF
   }
   py::array_t<std::uint32_t> faults(static_cast<py::ssize_t>(axes));
   const T* in = x.data();
+  // out may be x itself (each sample is read before it is written), but an out that only
+  // partly overlaps x (e.g. x[1:] into x[:-1]) would be overwritten before it is read:
+  // filter a copy of x then. Both are C-contiguous, so the byte ranges tell (what
+  // numpy.shares_memory computes for such arrays).
+  CArray<T> x_copy;
+  {
+    const auto nbytes = static_cast<std::uintptr_t>(n * axes * sizeof(T));
+    const auto xa = reinterpret_cast<std::uintptr_t>(x.data());
+    const auto oa = reinterpret_cast<std::uintptr_t>(out.data());
+    if (oa != xa && oa < xa + nbytes && xa < oa + nbytes) {
+      x_copy = CArray<T>(shape);
+      std::copy(x.data(), x.data() + n * axes, x_copy.mutable_data());
+      in = x_copy.data();
+    }
+  }
   T* o = out.mutable_data();
   std::uint32_t* fc = faults.mutable_data();
   {

@@ -151,7 +151,7 @@ void def_processor_methods(Cls& cls) {
            T* o = out.mutable_data();
            std::uint16_t* f = flags.mutable_data();
            {
-             py::gil_scoped_release release;
+             ReleasedAndLocked guard(&p);  // GIL released, then this processor's lock
              ImuSample<T> in;
              ImuOutput<T> res;
              for (std::size_t k = 0; k < n; ++k) {
@@ -168,8 +168,20 @@ void def_processor_methods(Cls& cls) {
            return py::make_tuple(out, flags);
          },
          py::arg("seq").noconvert(), py::arg("t_us").noconvert(), py::arg("values").noconvert())
-      .def("health", [](const Proc& p) { return health_dict(p.health()); })
-      .def("reset", &Proc::reset)
+      .def("health",
+           [](const Proc& p) {
+             ImuHealth h;
+             {
+               ReleasedAndLocked guard(&p);
+               h = p.health();
+             }
+             return health_dict(h);
+           })
+      .def("reset",
+           [](Proc& p) {
+             ReleasedAndLocked guard(&p);
+             p.reset();
+           })
       .def_property_readonly("status", [](const Proc& p) { return std::string(status_name(p.status())); })
       .def_property_readonly("bad_channel", &Proc::bad_channel);
 }
@@ -403,8 +415,12 @@ void bind_imu(py::module_& m) {
           serial::ImuFrame f;
           std::size_t pos = 0;
           while (pos < n) {
-            const std::size_t want = n - pos < chunk ? n - pos : chunk;
-            pos += parser.feed(p + pos, want);  // a full buffer takes fewer: drain, then re-feed
+            // Offer only what fits (the rest is offered again after draining), so the
+            // parser's overflow_bytes keeps its meaning: bytes refused for good (none here).
+            const std::size_t room = parser.capacity() - parser.buffered();
+            std::size_t want = n - pos < chunk ? n - pos : chunk;
+            if (want > room) want = room;
+            pos += parser.feed(p + pos, want);
             while (parser.next(f)) frames.push_back(f);
           }
           if (finish) parser.finish();

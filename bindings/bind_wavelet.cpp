@@ -83,7 +83,7 @@ struct RealtimeImpl final : AnyRealtime<T> {
   T step(T x) override { return f.step(x); }
   T recompute_step(T x) override {
     const T fast = f.step(x);
-    if (!std::isfinite(x)) return fast;
+    if (!RealtimeWavelet<T, N>::accepts(x)) return fast;
     hist[hpos] = x;  // the newest N accepted samples, rebuilt oldest-first by window()
     hpos = (hpos + 1) % N;
     if (!f.ready() || f.status() != RealtimeWaveletStatus::ok) return fast;
@@ -159,7 +159,7 @@ class RealtimeBank {
     const T* in = x.data();
     T* o = out.mutable_data();
     {
-      py::gil_scoped_release release;
+      ReleasedAndLocked guard(this);  // GIL released, then this bank's lock
       for (std::size_t i = 0; i < n; ++i) {
         for (std::size_t c = 0; c < nch; ++c) {
           auto& f = *ch_[c];
@@ -171,12 +171,21 @@ class RealtimeBank {
   }
 
   void reset() {
+    ReleasedAndLocked guard(this);
     for (auto& c : ch_) c->reset();
   }
-  bool ready() const { return ch_[0]->ready(); }
+  bool ready() const {
+    ReleasedAndLocked guard(this);
+    return ch_[0]->ready();
+  }
   py::array_t<std::uint32_t> faults() const {
+    std::vector<std::uint32_t> counts(ch_.size());
+    {
+      ReleasedAndLocked guard(this);
+      for (std::size_t c = 0; c < ch_.size(); ++c) counts[c] = ch_[c]->faults();
+    }
     py::array_t<std::uint32_t> out(static_cast<py::ssize_t>(ch_.size()));
-    for (std::size_t c = 0; c < ch_.size(); ++c) out.mutable_data()[c] = ch_[c]->faults();
+    std::copy(counts.begin(), counts.end(), out.mutable_data());
     return out;
   }
   py::array_t<T> taps() const {

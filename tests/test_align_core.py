@@ -457,3 +457,26 @@ def test_fine_alignment_heading_noise_near_arw_limit() -> None:
     t_fine = out["t_s"][-1] - cfg.coarse_s
     limit = arw / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad) * np.sqrt(t_fine))
     assert limit <= out["p_phi"][-1, 2] <= 1.5 * limit
+
+
+@pytest.mark.parametrize("where", ["all", "after_coarse", "most"])
+def test_alignment_without_a_solution_reports_failure_with_reason(where: str) -> None:
+    """issue 13: an all-NaN record returned empty histories with failed=False."""
+    sc = scenario("static")
+    dt = 0.05
+    dth, dv = imu_increments(sc, 2400, dt)
+    cfg = AlignConfig(dt_s=dt, kf_every=2, lat_rad=sc.lat_rad, zv_sigma_m_s=0.001)
+    bad = dth.copy()
+    if where == "all":
+        bad[:] = np.nan
+    elif where == "after_coarse":
+        bad[cfg.coarse_samples() + 1 :] = np.nan
+    else:
+        bad[10:] = np.nan
+    out = run_alignment(bad, dv, cfg)
+    assert out["failed"]
+    assert out["t_s"].size == 0
+    assert {"all": "all 2400 samples are NaN", "after_coarse": "no Kalman update",
+            "most": "too few"}[where] in out["reason"]
+    good = run_alignment(dth, dv, cfg)
+    assert not good["failed"] and good["reason"] == ""

@@ -129,3 +129,39 @@ def test_out_argument(fn, x) -> None:
     ro.flags.writeable = False
     with pytest.raises(ValueError, match="read-only"):
         fn(x, MODEL, out=ro)
+
+
+# --- issue 13: out= partly overlapping x --------------------------------------------------
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+@pytest.mark.parametrize("shift", [1, 2, -1, -3])
+@pytest.mark.parametrize("axes", [1, 3])
+def test_out_partly_overlapping_x_gives_the_result_of_a_copy(
+    dtype: type, shift: int, axes: int
+) -> None:
+    """out= a view that partly overlaps x (not x itself) must not change the result: it
+    did (error 0.54 in the issue), because samples were overwritten before being read."""
+    from gyrodrift.ar2 import ar_filter, kalman_filter
+
+    model = Ar2Model(a1=0.6, a2=0.25, sigma2=1e-2, mean=0.05, r=2e-3)
+    n = 500
+    rng = np.random.default_rng(3)
+    step = shift * axes  # elements between the two views
+    buf = rng.normal(0.05, 0.1, n * axes + abs(step)).astype(dtype)
+    shape = (n,) if axes == 1 else (n, 3)
+    lo = buf[: n * axes].reshape(shape)
+    hi = buf[abs(step):].reshape(shape)
+    x, out = (lo, hi) if shift > 0 else (hi, lo)
+    assert np.shares_memory(x, out) and x.ctypes.data != out.ctypes.data
+    for run in (
+        lambda a, o: kalman_filter(a, model, out=o),
+        lambda a, o: kalman_filter(a, model, steady_state=True, out=o),
+        lambda a, o: ar_filter(a, model, out=o),
+    ):
+        want = run(x.copy(), None)
+        saved = buf.copy()
+        got = run(x, out)
+        assert got is out or np.shares_memory(got, out)
+        np.testing.assert_array_equal(out, want)
+        buf[:] = saved  # restore the input for the next filter

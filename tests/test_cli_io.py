@@ -40,8 +40,15 @@ def test_units(tmp_path, units: str, factor: float) -> None:
 
 
 def test_csv_without_header_and_bad_cells(tmp_path) -> None:
+    # Text in a numeric cell is an error naming the cell, even with nan_policy="drop"
+    # (issue 13: it was reported as NaN and the user told to drop NaN).
+    bad = tmp_path / "b.csv"
+    bad.write_text("0.0,1.5\n0.1,2.5\n0.2,oops\n0.3,4.5\n")
+    for policy in ("refuse", "drop"):
+        with pytest.raises(ValueError, match=r"line 3, column '1': 'oops' is not a number"):
+            io.load_record(bad, column=1, rate_hz=10.0, nan_policy=policy)
     path = tmp_path / "n.csv"
-    path.write_text("0.0,1.5\n0.1,2.5\n0.2,oops\n0.3,4.5\n")
+    path.write_text("0.0,1.5\n0.1,2.5\n0.2,nan\n0.3,4.5\n")
     with pytest.raises(ValueError, match="1 of 4 samples are NaN/Inf"):
         io.load_record(path, column=1, rate_hz=10.0)
     rec = io.load_record(path, column=1, rate_hz=10.0, nan_policy="drop")

@@ -279,3 +279,108 @@ def test_property_cpp_and_python_parsers_agree(parts: list[bytes], chunk: int) -
             continue
         expected.append((f.frame_type, f.seq, f.flags, f.t_us, f.values))
     assert cpp == expected
+
+
+# --- issue 13: resynchronisation after a frame cut short by 1-3 bytes ---------------------
+
+
+def _frames_seen(data: bytes, chunk: int = 4096) -> tuple[list[int], list[int], list[int]]:
+    """seq of every frame found by the C++ parser, the Python twin and replay.wire."""
+    from gyrodrift.replay.wire import decode_stream
+
+    cpp, _, py, _ = parse_both(data, chunk)
+    wire = decode_stream(data)
+    return [f[1] for f in cpp], [f[1] for f in py], [int(s) for s in wire.samples.seq]
+
+
+def test_issue13_one_liner_keeps_the_frame_after_a_short_cut() -> None:
+    """The issue's reproduction: frame 1 cut to 40 bytes must not take frame 2 with it."""
+    f = [_core.serial_encode_frame(1, s, 0, s, [0.1] * 6) for s in range(4)]
+    assert [x[1] for x in _core.serial_parse(f[0] + f[1][:40] + f[2] + f[3])[0]] == [0, 2, 3]
+
+
+@pytest.mark.parametrize("kept", range(1, FRAME_SIZE))
+@pytest.mark.parametrize("chunk", [1, 5, 42, 4096])
+def test_cut_frame_of_any_length_loses_only_itself(kept: int, chunk: int) -> None:
+    f = [encode_frame(s, 1000 * s, [0.5 * s] * 6) for s in range(4)]
+    data = f[0] + f[1][:kept] + f[2] + f[3]
+    cpp, py, wire = _frames_seen(data, chunk)
+    assert cpp == py == wire == [0, 2, 3]
+    _, cs, _, ps = parse_both(data, chunk)
+    assert {k: cs[k] for k in ps} == ps
+    # 1..3 bytes hold no whole header: skipped as junk or a bad header, not a cut frame
+    assert cs["truncated"] == (1 if kept >= 4 else 0) and cs["crc_errors"] == 0
+    check_accounting(cs)
+
+
+def test_corrupted_last_frame_is_a_crc_error_at_end_of_stream() -> None:
+    """A whole frame whose CRC fails at the very end (the parser waits for 3 more bytes to
+    rule out a header inside it) is settled by finish() as a CRC error."""
+    good = bytearray(encode_frame(7, 1, [1.0] * 6))
+    good[20] ^= 0x01
+    for tail in (b"", b"\x00", b"\x00\x00"):
+        for chunk in (1, 42, 100):
+            _, cs, _, ps = parse_both(encode_frame(6, 0, [0.0] * 6) + bytes(good) + tail, chunk)
+            assert {k: cs[k] for k in ps} == ps
+            assert (cs["frames_ok"], cs["crc_errors"], cs["truncated"]) == (1, 1, 0)
+            check_accounting(cs)
+
+
+_valid_frame = st.builds(
+    lambda ft, seq, fl, t, v: encode_frame(seq, t, v, frame_type=ft, flags=fl),
+    st.sampled_from([TYPE_INPUT, TYPE_OUTPUT]),
+    st.integers(0, 65535),
+    st.integers(0, 65535),
+    st.integers(0, 2**64 - 1),
+    st.lists(st.floats(width=32, allow_nan=False), min_size=6, max_size=6),
+)
+# Prefixes: raw junk, or pieces of real frames (cut anywhere, possibly bit-flipped), which
+# is what a serial line produces and what finds resync bugs fastest.
+_prefix_part = st.one_of(
+    st.binary(max_size=90),
+    st.builds(lambda f, cut: f[:cut], _valid_frame, st.integers(1, FRAME_SIZE - 1)),
+    st.builds(
+        lambda f, bit: f[: bit // 8] + bytes([f[bit // 8] ^ (1 << bit % 8)]) + f[bit // 8 + 1 :],
+        _valid_frame,
+        st.integers(0, FRAME_SIZE * 8 - 1),
+    ),
+)
+
+
+@settings(max_examples=400, deadline=None)
+@given(prefix=st.lists(_prefix_part, max_size=4), frame=_valid_frame,
+       chunk=st.integers(1, 100))
+def test_property_valid_frame_after_any_bytes_is_decoded(
+    prefix: list[bytes], frame: bytes, chunk: int
+) -> None:
+    """Any valid frame preceded by any bytes is decoded (it is the last frame found), by
+    the C++ parser, the Python twin and replay.wire alike; C++ and Python agree on every
+    frame and counter. (Only a CRC-16 collision of junk overlapping the frame could defeat
+    this, 2^-16 per false header: not a case hypothesis constructs.)"""
+    data = b"".join(prefix) + frame
+    f = decode_frame(frame)
+    want = (f.frame_type, f.seq, f.flags, f.t_us, f.values)
+    cpp, cs, py, ps = parse_both(data, chunk)
+    assert cpp == py
+    assert {k: cs[k] for k in ps} == ps
+    check_accounting(cs)
+    assert cpp and cpp[-1] == want
+    from gyrodrift.replay.wire import decode_stream
+
+    wire = decode_stream(data)
+    assert wire.samples.seq.size and int(wire.samples.seq[-1]) == f.seq
+    assert int(wire.end_offset[-1]) == len(data)
+
+
+
+def test_serial_parse_counts_no_overflow_for_bytes_it_refeeds() -> None:
+    """serial_parse feeds its 256-byte parser in pieces and re-feeds whatever did not fit: no
+    byte is refused for good, so overflow_bytes (bytes refused) must stay 0 and bytes_in
+    must equal the input length (issue 13)."""
+    data = b"".join(encode_frame(s, s, [0.25] * 6) for s in range(100))
+    for chunk in (1, 255, 256, 300, 4096):
+        frames, stats = _core.serial_parse(data, chunk)
+        assert [f[1] for f in frames] == list(range(100))
+        assert stats["overflow_bytes"] == 0
+        assert stats["bytes_in"] == len(data)
+        check_accounting(stats)

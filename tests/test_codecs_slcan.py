@@ -85,6 +85,33 @@ def test_parser_on_random_bytes_never_fails(rng: np.random.Generator) -> None:
     assert len(events) == stats["lines"]
 
 
+@pytest.mark.parametrize("cut", range(1, 22))
+def test_line_that_lost_its_end_costs_only_itself(cut: int) -> None:
+    """A frame line cut short (its CR, and possibly more, lost on the serial line) must not
+    take the next frame with it: t/T/r/R never occur inside a line, so a frame letter
+    starts a new line (issue 13; before, the merged line was one malformed line)."""
+    line0 = _core.slcan_encode(0x101, bytes.fromhex("0000003F34128100"))
+    line1 = _core.slcan_encode(0x102, bytes.fromhex("AABBCCDDEEFF0011"))
+    line2 = _core.slcan_encode(0x1ABCDEF0, b"\x01", extended=True)
+    data = line0 + line1[:cut] + line2 + line1
+    events, stats = _core.slcan_parse(data)
+    frames = [e[1] for e in events if e[0] == "frame"]
+    assert frames == [0x101, 0x1ABCDEF0, 0x102]
+    assert [e[0] for e in events] == ["frame", "error", "frame", "frame"]
+    assert stats["malformed"] == 1 and stats["overlong"] == 0
+    assert stats["lines"] == stats["frames"] + stats["commands"] + stats["malformed"]
+    assert stats["buffered"] == 0
+
+
+def test_overlong_junk_then_frame_letter_keeps_the_frame() -> None:
+    """Junk longer than the line buffer with no terminator, then a frame: the frame is kept
+    and the junk is one overlong line."""
+    line = _core.slcan_encode(0x101, bytes(8))
+    events, stats = _core.slcan_parse(b"0" * 80 + line)
+    assert [e[0] for e in events] == ["error", "frame"]
+    assert stats["overlong"] == 1 and stats["frames"] == 1
+
+
 @pytest.fixture()
 def slcan_pty() -> Iterator[tuple[int, can.BusABC]]:
     """python-can's slcan interface on the slave side of a pty; we are the adapter (master)."""

@@ -20,6 +20,7 @@ SHARED_FLAGS = {
     "--kalman-r", "--steady-state", "--wavelet", "--window", "--level", "--threshold",
     "--quant-arcsec", "--arw-deg-rt-h", "--bias-inst-deg-h", "--rrw-deg-h-rt-h", "--ramp-deg-h2",
     "--bias-deg-h", "--ar2-sigma2", "--ar2-mean", "--config", "--format", "-h", "--help",
+    "--force-rate",
 }
 # Flags that name one subcommand's own concept (no other subcommand has the concept).
 OWN_FLAGS: dict[str, set[str]] = {

@@ -354,3 +354,21 @@ def test_real_laser_gyro_record_float_matches_reference() -> None:
     ref = process_imu(seq, t_us, v32.astype(np.float64), cfg)
     assert got.health == ref.health
     assert rel_err(got.values.astype(np.float64), ref.values).max() <= 1e-5
+
+
+@pytest.mark.parametrize(
+    "values",
+    [
+        np.zeros((4, 6), dtype=np.complex128) + 1j,  # imaginary part was silently dropped
+        np.full((4, 6), "0.5"),  # strings were parsed
+        np.full((4, 6), b"1"),
+        np.full((4, 6), None, dtype=object),
+    ],
+)
+def test_process_refuses_complex_and_string_values(values: np.ndarray) -> None:
+    """issue 13: ImuProcessor.process accepted complex and string arrays."""
+    cfg = ImuConfig(channels=[ImuChannelConfig() for _ in range(6)])
+    seq = np.arange(4)
+    t_us = np.arange(4) * 2500
+    with pytest.raises(TypeError, match="real numeric"):
+        ImuProcessor(cfg).process(seq, t_us, values)

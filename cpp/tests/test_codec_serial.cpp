@@ -138,3 +138,30 @@ TEST_CASE("parser: feed refuses bytes beyond capacity and counts them") {
   check_accounting(p);
   CHECK(p.feed(nullptr, 10) == 0);
 }
+
+TEST_CASE("parser: a frame cut short by any number of bytes loses only itself (issue 13)") {
+  for (std::size_t kept = 1; kept < serial::kFrameSize; ++kept) {
+    std::vector<std::uint8_t> s;
+    auto append = [&s](const std::vector<std::uint8_t>& b) { s.insert(s.end(), b.begin(), b.end()); };
+    append(encode(frame(0)));
+    auto cut = encode(frame(1));
+    cut.resize(kept);
+    append(cut);
+    append(encode(frame(2)));
+    append(encode(frame(3)));
+    for (std::size_t chunk : {std::size_t{1}, std::size_t{7}, std::size_t{42}, std::size_t{1000}}) {
+      serial::SerialFrameParser<96> p;
+      const auto frames = parse_all(p, s, chunk);
+      CAPTURE(kept);
+      CAPTURE(chunk);
+      REQUIRE(frames.size() == 3);
+      CHECK(frames[0].seq == 0);
+      CHECK(frames[1].seq == 2);
+      CHECK(frames[2].seq == 3);
+      // 1..3 bytes cannot hold a header: hunted over / a bad header, not a cut frame
+      CHECK(p.stats().truncated == (kept >= 4 ? 1U : 0U));
+      CHECK(p.stats().crc_errors == 0);
+      check_accounting(p);
+    }
+  }
+}

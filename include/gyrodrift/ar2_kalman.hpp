@@ -14,7 +14,10 @@
 //
 // Robustness: a NaN/Inf sample is a predict-only step and increments fault_count(); an update
 // that would make the state or covariance non-finite (e.g. overflowing input) is rejected the
-// same way, so the state never becomes NaN. A filter built from an invalid configuration
+// same way, so the state never becomes NaN. A finite sample beyond filter_input_limit()
+// (input_range.hpp) is treated like NaN: it would drive the state towards overflow, after
+// which even the predict-only step could not keep it finite. The model mean must lie within
+// that limit (bad_argument otherwise). A filter built from an invalid configuration
 // (non-stationary model, q < 0, r <= 0, non-finite numbers; see status()) passes samples
 // through unchanged. No heap, no exceptions; step() is noexcept.
 // Speed: P, K do not depend on the data, so once P reaches its floating-point fixed point the
@@ -27,6 +30,7 @@
 #include <cstdint>
 
 #include "ar2_model.hpp"
+#include "input_range.hpp"
 
 namespace gyrodrift {
 
@@ -39,7 +43,9 @@ Ar2Status ar2_filter_config_status(const Ar2Model<Scalar>& m, Scalar q, Scalar r
     return Ar2Status::non_finite;
   }
   if (!ar2_is_stationary(m.a1, m.a2)) return Ar2Status::non_stationary;
-  if (q < Scalar(0) || !(r > Scalar(0)) || p0 < Scalar(0)) return Ar2Status::bad_argument;
+  if (q < Scalar(0) || !(r > Scalar(0)) || p0 < Scalar(0) || !filter_input_ok(m.mean)) {
+    return Ar2Status::bad_argument;
+  }
   return Ar2Status::ok;
 }
 
@@ -64,7 +70,7 @@ class Ar2Kalman {
     const Scalar x0 = a1_ * x_(0) + a2_ * x_(1);
     const Scalar x1 = x_(0);
     const Scalar z = y - mean_;
-    if (latched_ && std::isfinite(z)) {
+    if (latched_ && filter_input_ok(z)) {
       // Covariance at its floating-point fixed point: the recursion in full_step() would
       // recompute exactly these P-, K and P, so only the state is updated (bit-identical).
       const Scalar v = z - x0;
@@ -89,7 +95,9 @@ class Ar2Kalman {
         Scalar s0 = x_(0), s1 = x_(1);
         for (; k < n; ++k) {
           const Scalar x0 = a1 * s0 + a2 * s1;
-          const Scalar v = (in[k] - mean) - x0;
+          const Scalar z = in[k] - mean;
+          if (!filter_input_ok(z)) break;  // NaN/Inf/out of range: the full step handles it
+          const Scalar v = z - x0;
           const Scalar nx0 = x0 + k0 * v;
           const Scalar nx1 = s0 + k1 * v;
           if (!std::isfinite(nx0 + nx1)) break;  // fault (or NaN input): the full step handles it
@@ -143,7 +151,7 @@ class Ar2Kalman {
     const Scalar pp00 = m00 * a1_ + m01 * a2_ + q_;
     const Scalar pp01 = m00;
     const Scalar pp11 = p00;
-    if (std::isfinite(z)) {
+    if (filter_input_ok(z)) {
       const Scalar s = pp00 + r_;  // C P- C^T + r, > 0 since r > 0 and P- >= 0
       const Scalar k0 = pp00 / s;
       const Scalar k1 = pp01 / s;

@@ -7,7 +7,7 @@
 // changes, is <= 64 eps relative (at most
 // kAr2RiccatiMaxIterations steps; status() reports not_converged otherwise).
 // step() is then two multiply-adds per state: X- = A X, X = X- + K (z - C X-).
-// NaN/Inf input: predict only + fault counter, as in Ar2Kalman.
+// NaN/Inf or out-of-range input (input_range.hpp): predict only + fault counter, as in Ar2Kalman.
 #pragma once
 
 #include <Eigen/Core>
@@ -43,7 +43,7 @@ class Ar2SteadyStateKalman {
     const Scalar x0 = a1_ * x_(0) + a2_ * x_(1);
     const Scalar x1 = x_(0);
     const Scalar z = y - mean_;
-    if (std::isfinite(z)) {
+    if (filter_input_ok(z)) {
       const Scalar v = z - x0;
       const Scalar nx0 = x0 + k_(0) * v;
       const Scalar nx1 = x1 + k_(1) * v;

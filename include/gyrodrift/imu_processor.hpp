@@ -33,7 +33,10 @@
 //     and bias stages hold their last output. A missing value stays missing through the
 //     chain: the second stage is told "missing", not given the first stage's held output.
 //     Filter state never sees the bad value.
-//   * filter_faults: a Kalman update rejected by the filter itself (non-finite result).
+//   * filter_faults: a good value a stage refused (a Kalman update with a non-finite result,
+//     or a value beyond the filters' input range, input_range.hpp), or a stage output that
+//     would not be finite (e.g. x - bias overflowing); the stage then holds its last output.
+//     Every output value is finite or this counter moved.
 // A processor whose configuration is invalid (status() != ok) rejects every sample with
 // kFlagConfigError, rather than passing data through silently.
 #pragma once
@@ -194,11 +197,13 @@ struct NoWavelet {
   enum class Status : std::uint8_t { ok = 0, unavailable = 1 };
   Scalar step(Scalar x) noexcept { return x; }
   void reset() noexcept {}
+  std::uint32_t fault_count() const noexcept { return 0; }
   Status status() const noexcept { return Status::unavailable; }
 };
 
 // Wavelet: copyable, `Scalar step(Scalar)` (NaN/Inf input = skip and hold, as
-// RealtimeWavelet does), `void reset()`, `status()` whose value 0 means ok. Examples:
+// RealtimeWavelet does), `void reset()`, `status()` whose value 0 means ok, and
+// `std::uint32_t fault_count()` (inputs it refused: counted in filter_faults). Example:
 //   ImuProcessor<float, RealtimeWavelet<float, 256>> p(config, RealtimeWavelet<float, 256>(WaveletKind::db8, 5));
 //   ImuProcessor<float, FirPrefilter<float, 256>, 3> p(config, {FirPrefilter<float, 256>(kTaps), ...});
 template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels>
@@ -298,9 +303,15 @@ class ImuProcessor {
           good = false;
         }
       }
+      // A stage that refuses a good value makes it missing for the rest of the chain.
       Scalar y = run_stage(c, 0, cc.filter, x, good, flags);
       if (cc.filter2 != ChannelFilter::pass_through) y = run_stage(c, 1, cc.filter2, y, good, flags);
       if (!has_bias_stage(cc)) y -= cc.bias;
+      if (!std::isfinite(y)) {  // the final bias overflowed: hold the last output, and say so
+        if (good) count_filter_fault(flags);
+        y = out_hold_[c];
+      }
+      out_hold_[c] = y;
       out.values[c] = y;
     }
     if (any_non_finite) {
@@ -321,6 +332,7 @@ class ImuProcessor {
     }
     for (std::size_t c = 0; c < WaveletChannels; ++c) wavelet_[c].reset();
     for (auto& h : hold_) h.fill(Scalar(0));
+    out_hold_.fill(Scalar(0));
     last_raw_.fill(Scalar(0));
     has_raw_.fill(false);
     run_.fill(0U);
@@ -356,7 +368,7 @@ class ImuProcessor {
   }
 
   // One stage of channel c's chain (index k = 0 or 1). `good` false: the input is missing.
-  Scalar run_stage(std::size_t c, std::size_t k, ChannelFilter f, Scalar x, bool good,
+  Scalar run_stage(std::size_t c, std::size_t k, ChannelFilter f, Scalar x, bool& good,
                    std::uint16_t& flags) noexcept {
     const ImuChannelConfig<Scalar>& cc = config_.channels[c];
     const Scalar missing = std::numeric_limits<Scalar>::quiet_NaN();
@@ -366,17 +378,30 @@ class ImuProcessor {
         if (cc.steady_state) {
           const std::uint32_t before = steady_[c].fault_count();
           y = steady_[c].step(good ? x : missing);
-          if (good && steady_[c].fault_count() != before) count_filter_fault(flags);
+          if (good && steady_[c].fault_count() != before) {
+            count_filter_fault(flags);
+            good = false;  // counted once
+          }
         } else {
           const std::uint32_t before = kalman_[c].fault_count();
           y = kalman_[c].step(good ? x : missing);
-          if (good && kalman_[c].fault_count() != before) count_filter_fault(flags);
+          if (good && kalman_[c].fault_count() != before) {
+            count_filter_fault(flags);
+            good = false;  // counted once
+          }
         }
         break;
       }
-      case ChannelFilter::wavelet:
-        y = wavelet_[c < WaveletChannels ? c : 0].step(good ? x : missing);
+      case ChannelFilter::wavelet: {
+        Wavelet& w = wavelet_[c < WaveletChannels ? c : 0];
+        const std::uint32_t before = w.fault_count();
+        y = w.step(good ? x : missing);
+        if (good && w.fault_count() != before) {
+          count_filter_fault(flags);
+          good = false;  // counted once
+        }
         break;
+      }
       case ChannelFilter::bias_removal:
         y = good ? x - cc.bias : hold_[k][c];
         break;
@@ -384,6 +409,11 @@ class ImuProcessor {
       default:
         y = good ? x : hold_[k][c];
         break;
+    }
+    if (!std::isfinite(y)) {  // e.g. x - bias overflowed: hold, and say so
+      if (good) count_filter_fault(flags);
+      good = false;
+      y = hold_[k][c];
     }
     hold_[k][c] = y;
     return y;
@@ -452,6 +482,7 @@ class ImuProcessor {
   std::array<Ar2SteadyStateKalman<Scalar>, kImuChannels> steady_;
   WaveletArray wavelet_;
   std::array<std::array<Scalar, kImuChannels>, 2> hold_{};  // last output of each stage
+  std::array<Scalar, kImuChannels> out_hold_{};  // last output of each channel
   std::array<Scalar, kImuChannels> last_raw_{};
   std::array<bool, kImuChannels> has_raw_{};
   std::array<std::uint32_t, kImuChannels> run_{};

@@ -13,7 +13,9 @@
 // not filter ("the first N-1 samples are not processed"): step() returns the input
 // unchanged and ready() is false. From the N-th accepted sample on, every output is filtered.
 //
-// Bad input: a NaN/Inf sample is NOT inserted into the window; fault_count() is
+// Bad input: a NaN/Inf sample, or a finite one beyond filter_input_limit() (input_range.hpp:
+// it would overflow the window sums and the detail coefficients, and NaN the output for a
+// whole window length), is NOT inserted into the window; fault_count() is
 // incremented and step() returns the previous output (0 before any output). The window,
 // the start-up count and the filter state are untouched, so the next finite sample
 // continues exactly as if the bad one had not arrived.
@@ -42,6 +44,7 @@
 #include <limits>
 #include <type_traits>
 
+#include "input_range.hpp"
 #include "lifting_transform.hpp"
 #include "realtime_wavelet_noise.hpp"
 
@@ -94,7 +97,7 @@ class RealtimeWavelet {
 
   // Filters one sample (see the file comment for start-up and NaN/Inf behaviour).
   Scalar step(Scalar x) noexcept {
-    if (!std::isfinite(x)) {
+    if (!accepts(x)) {
       ++faults_;
       return last_out_;
     }
@@ -130,6 +133,9 @@ class RealtimeWavelet {
     }
     t_ = 0;
   }
+
+  // Whether step() takes x into the window (finite and within the input range).
+  static bool accepts(Scalar x) noexcept { return filter_input_ok(x); }
 
   bool ready() const noexcept { return count_ >= WindowN; }
   RealtimeWaveletStatus status() const noexcept { return status_; }

@@ -176,13 +176,14 @@ class SerialFrameParser {
         if (head_ == tail_) head_ = tail_ = 0;
         return true;
       }
-      // CRC failed. If another valid header starts inside, this frame was cut short
-      // (lost bytes); resume there. Otherwise the frame was corrupted: drop all of it.
-      std::size_t k = 2;
-      for (; k + 3 < kFrameSize; ++k) {
-        if (p[k] == kSync0 && p[k + 1] == kSync1 && detail::valid_header(p[k + 2], p[k + 3])) break;
-      }
-      if (k + 3 < kFrameSize) {
+      // CRC failed. If another valid header starts anywhere inside (offsets 2..41: a frame
+      // cut short by even 1 byte has the next one's header at 41), this frame was cut short;
+      // resume exactly there. Otherwise it was corrupted: drop all of it. A header at 39..41
+      // ends up to 3 bytes past this frame, so wait for them: deciding on fewer would make
+      // the counters depend on how the stream was chunked.
+      if (avail < kFrameSize + 3) return false;
+      const std::size_t k = header_inside(p);
+      if (k < kFrameSize) {
         ++stats_.truncated;
         discard(k);
       } else {
@@ -192,9 +193,23 @@ class SerialFrameParser {
     }
   }
 
-  // End of stream: whatever is still buffered can never complete a frame.
+  // End of stream: whatever is still buffered can never complete a frame. A complete frame
+  // left here failed its CRC while next() waited for the 3 bytes after it: settle it as
+  // next() would (a header inside it whose bytes are all here means cut short).
   void finish() noexcept {
-    const std::size_t avail = tail_ - head_;
+    std::size_t avail = tail_ - head_;
+    if (avail >= kFrameSize) {
+      const std::uint8_t* p = buf_.data() + head_;
+      const std::size_t k = header_inside(p, avail);
+      if (k < kFrameSize) {
+        ++stats_.truncated;
+        discard(k);
+      } else {
+        ++stats_.crc_errors;
+        discard(kFrameSize);
+      }
+      avail = tail_ - head_;
+    }
     if (avail == 0) return;
     if (buf_[head_] == kSync0) {
       ++stats_.truncated;
@@ -218,6 +233,16 @@ class SerialFrameParser {
     head_ += n;
     stats_.discarded_bytes += n;
     if (head_ == tail_) head_ = tail_ = 0;
+  }
+
+  // Offset (2..41) of the first valid header (sync word, type, len) inside the frame at p,
+  // looking at no byte at or past avail; kFrameSize if none. Offset 1 cannot hold one
+  // (p[1] is sync1, not sync0).
+  static std::size_t header_inside(const std::uint8_t* p, std::size_t avail = kFrameSize + 3) noexcept {
+    for (std::size_t k = 2; k < kFrameSize && k + 3 < avail; ++k) {
+      if (p[k] == kSync0 && p[k + 1] == kSync1 && detail::valid_header(p[k + 2], p[k + 3])) return k;
+    }
+    return kFrameSize;
   }
 
   // Drops bytes up to the next possible sync word; a trailing lone sync0 is kept because

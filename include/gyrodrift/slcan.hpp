@@ -76,10 +76,11 @@ struct Event {
 
 struct SlcanStats {
   std::uint64_t bytes_in = 0;
-  std::uint64_t lines = 0;       // non-empty lines terminated by CR (or LF)
+  std::uint64_t lines = 0;       // non-empty lines terminated by CR (or LF) or cut short
   std::uint64_t frames = 0;      // valid t/T/r/R lines
   std::uint64_t commands = 0;    // recognised command lines
-  std::uint64_t malformed = 0;   // bad hex, bad dlc, wrong length, unknown command
+  std::uint64_t malformed = 0;   // bad hex, bad dlc, wrong length, unknown command, or a line
+                                 // cut short (ended by the next frame letter, its CR lost)
   std::uint64_t overlong = 0;    // lines longer than the buffer (dropped to the terminator)
   std::uint64_t bells = 0;       // BEL bytes (error replies from the other side)
 };
@@ -94,6 +95,9 @@ inline bool is_command_letter(char c) noexcept {
       return false;
   }
 }
+
+// Letters that begin a frame line (and never appear anywhere else in a line).
+inline bool is_frame_letter(char c) noexcept { return c == 't' || c == 'T' || c == 'r' || c == 'R'; }
 
 // Reply a Lawicel device gives to an event (what the loop writes back on its SLCAN port):
 // a transmitted frame is confirmed with "z\r" (standard) or "Z\r" (extended), a command
@@ -136,6 +140,20 @@ class SlcanParser {
     if (c == kBell) {
       ++stats_.bells;
       return false;
+    }
+    if (is_frame_letter(c) && (len_ > 0 || overlong_)) {
+      // t/T/r/R never occur inside a line (ids, data and timestamps are hex, command
+      // arguments digits or hex): the line before lost its terminator on the wire. Settle
+      // it as an error now and start the new line with this letter, so one lost CR costs
+      // one line, not that line and the next.
+      ++stats_.lines;
+      ++(overlong_ ? stats_.overlong : stats_.malformed);
+      overlong_ = false;
+      line_[0] = c;
+      len_ = 1;
+      ev = Event{};
+      ev.kind = EventKind::kError;
+      return true;
     }
     if (c != kCr && c != '\n') {
       if (overlong_) return false;

@@ -214,7 +214,8 @@ def _report_faults(faults: np.ndarray, what: str) -> None:
     total = int(np.sum(faults))
     if total:
         warnings.warn(
-            f"{what}: {total} non-finite sample(s) (per axis {faults.tolist()}) were replaced "
+            f"{what}: {total} non-finite or out-of-range sample(s) (per axis {faults.tolist()}) "
+            "were replaced "
             "by the filter's prediction",
             RuntimeWarning,
             stacklevel=3,

@@ -277,7 +277,14 @@ class ImuResult:
 def _as_inputs(
     seq: npt.ArrayLike, t_us: npt.ArrayLike, values: npt.ArrayLike, dtype: npt.DTypeLike
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    v = np.ascontiguousarray(values, dtype=dtype)
+    raw = np.asarray(values)
+    # Refuse what a cast would silently mangle (complex: imaginary part dropped; strings:
+    # parsed), as the other array APIs do (gyrodrift.ar2, gyrodrift.wavelet).
+    if raw.dtype.kind not in "fiu":
+        raise TypeError(
+            f"values: expected a real numeric array (float or integer), got dtype {raw.dtype}"
+        )
+    v = np.ascontiguousarray(raw, dtype=dtype)
     if v.ndim != 2 or v.shape[1] != CHANNELS:
         raise ValueError(f"values: expected shape (n, 6), got {v.shape}")
     s = np.asarray(seq)

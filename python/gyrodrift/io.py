@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -93,7 +94,8 @@ def _pick_column(names: list[str], column: str | int | None, source: str) -> int
     if column is None:
         candidates = [i for i, n in enumerate(names) if n.lower() not in ("t", "t_s", "time")]
         if len(candidates) != 1:
-            raise ValueError(f"{source}: {len(names)} columns {names}; choose one with column=")
+            raise ValueError(f"{source}: {len(names)} columns {names}; choose one with "
+                             "--column")
         return candidates[0]
     if isinstance(column, int) or (isinstance(column, str) and column.isdigit()):
         idx = int(column)
@@ -134,6 +136,7 @@ def load_record(
     nan_policy: str = "refuse",
     mmap: bool = True,
     can_signals: str | Path | None = None,
+    force_rate: bool = False,
 ) -> Record:
     """Load one gyro channel as a rate in deg/h (module docstring).
 
@@ -141,33 +144,47 @@ def load_record(
     gyro axis "x", "y", "z" (default "z"). rate_hz: required for .npy; for .csv it is taken
     from a t_s/time column when not given; for logs from the timestamps. can_signals: a CAN
     log in a user's own DBC, read through this signal map (gyrodrift.codecs.can_signals).
+    A rate_hz that contradicts the file's own time column (by more than 1 %) is refused
+    unless force_rate. Only regular files are read (a FIFO or device would block or never end).
     """
     p = Path(path)
     source = str(p)
     if not p.exists():
         raise FileNotFoundError(f"no such file: {p}")
+    if not p.is_file():
+        raise ValueError(f"{source}: not a regular file (a directory, FIFO or device); "
+                         "give a record file")
     if nan_policy not in ("refuse", "drop"):
         raise ValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
     if units not in UNITS:
         raise ValueError(f"unknown units {units!r}; choose one of {', '.join(UNITS)}")
-    if rate_hz is not None and not (math.isfinite(rate_hz) and rate_hz > 0):
-        raise ValueError(f"rate must be positive and finite, got {rate_hz!r}")
+    if rate_hz is not None and not (math.isfinite(rate_hz)
+                                    and RATE_MIN_HZ <= rate_hz <= RATE_MAX_HZ):
+        raise ValueError(f"sample rate must be within {RATE_MIN_HZ:g}..{RATE_MAX_HZ:g} Hz, "
+                         f"got {rate_hz!r}")
     suffix = p.suffix.lower()
     header_names: list[str] | None = None
+    delimiter = ","
     if suffix == ".csv":
-        with p.open(newline="") as fh:
-            first = next(csv.reader(fh), None)
-        if first is None:
-            raise ValueError(f"{source}: empty file")
-        header_names = [c.strip() for c in first]
+        try:
+            with p.open(newline="", encoding="utf-8") as fh:
+                first_line = fh.readline()
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{source}: not a text CSV file (byte {exc.start} is not UTF-8; "
+                             "a binary file named .csv?)") from None
+        if not first_line.strip():
+            raise ValueError(f"{source}: empty file (no header or data line first)")
+        if "," not in first_line and ";" in first_line:
+            delimiter = ";"  # the spreadsheet export of locales with a decimal comma
+        header_names = [c.strip() for c in next(csv.reader([first_line], delimiter=delimiter))]
     is_replay_csv = header_names is not None and "gyro_z_rad_s" in header_names
     if can_signals is not None and suffix not in (".log", ".asc", ".blf"):
         raise GyrodriftValueError(f"{source}: a DBC signal map applies to CAN logs "
                                   "(.log, .asc, .blf)")
     if suffix in LOG_SUFFIXES or is_replay_csv:
-        return _load_log(p, column, rate_hz, units, nan_policy, can_signals)
+        return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate)
     if suffix == ".npy":
-        arr = np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
+        arr = _load_npy(p, mmap)
         if arr.ndim == 2:
             idx = 0 if column is None and arr.shape[1] == 1 else None
             if idx is None:
@@ -206,30 +223,100 @@ def load_record(
         idx = _pick_column(names, column, source)
         try:
             # Rows with a wrong number of fields are an error (never dropped silently);
-            # unparseable cells become NaN and go through the NaN policy.
-            table = np.genfromtxt(p, delimiter=",", skip_header=1 if has_header else 0,
-                                  dtype=np.float64, invalid_raise=True, ndmin=2)
+            # unparseable cells are found below and named.
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # "Empty input file": reported below
+                table = np.genfromtxt(p, delimiter=delimiter,
+                                      skip_header=1 if has_header else 0, dtype=np.float64,
+                                      invalid_raise=True, ndmin=2, encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{source}: not a text CSV file (byte {exc.start} of a line is "
+                             "not UTF-8; a binary file named .csv?)") from None
         except ValueError as exc:
             detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
             raise ValueError(f"{source}: malformed CSV: {detail}") from exc
         if table.size == 0:
-            raise ValueError(f"{source}: no data rows")
+            raise ValueError(f"{source}: no data rows (header only?)")
         if table.shape[1] != len(names):
             raise ValueError(f"{source}: rows have {table.shape[1]} fields, header has "
                              f"{len(names)}")
         values = table[:, idx]
-        if rate_hz is None:
-            t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")),
-                         None)
-            if t_idx is None:
+        t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")),
+                     None)
+        _check_text_cells(p, table, [i for i in (idx, t_idx) if i is not None], names,
+                          delimiter, 1 if has_header else 0)
+        if t_idx is None:
+            if rate_hz is None:
                 raise ValueError(f"{source}: no t_s/time column to infer the rate; "
                                  "give --rate-hz (rate_hz=)")
-            rate_hz = _rate_from_time(table[:, t_idx], source)
+        else:
+            rate_hz = _resolve_rate(rate_hz, table[:, t_idx], source, force_rate)
         x = to_deg_h(values, units, rate_hz)
         x, dropped = _apply_nan_policy(x, nan_policy, source)
         return Record(x, float(rate_hz), source, names[idx], units, int(values.size), dropped)
     raise ValueError(f"{source}: unsupported file type {suffix!r} (use .npy, .csv, or an IMU "
                      f"log {', '.join(LOG_SUFFIXES)})")
+
+
+#: sample rates accepted from the user (outside them the analyses' fits overflow)
+RATE_MIN_HZ = 1e-6
+RATE_MAX_HZ = 1e9
+
+
+def _resolve_rate(given: float | None, t: np.ndarray, source: str, force: bool) -> float:
+    """The rate to use: the time column's, or the user's if it agrees within 1 % (or force;
+    or when the time column gives no rate at all, e.g. it has gaps)."""
+    if given is not None and force:
+        return float(given)
+    try:
+        from_time = _rate_from_time(t, source)
+    except ValueError:
+        if given is not None:
+            return float(given)
+        raise
+    if given is None:
+        return from_time
+    if abs(given - from_time) <= 0.01 * from_time:
+        return float(given)
+    raise ValueError(f"{source}: --rate-hz {given:g} contradicts the file's time column "
+                     f"({from_time:.6g} Hz); drop --rate-hz, or add --force-rate (force_rate=True) "
+                     "to use it anyway")
+
+
+def _load_npy(p: Path, mmap: bool) -> np.ndarray:
+    """np.load with one clear message for a file that is not a .npy array."""
+    try:
+        return np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
+    except (EOFError, ValueError, OSError) as exc:
+        size = p.stat().st_size
+        if size == 0:
+            raise ValueError(f"{p}: empty file (0 bytes), not a .npy array") from None
+        with p.open("rb") as fh:
+            magic = fh.read(6)
+        if magic != b"\x93NUMPY":
+            raise ValueError(f"{p}: not a NumPy .npy file (no .npy header; a text or other "
+                             "file named .npy?)") from None
+        raise ValueError(f"{p}: unreadable .npy file: {exc}") from None
+
+
+def _check_text_cells(p: Path, table: np.ndarray, cols: list[int], names: list[str],
+                      delimiter: str, skip: int) -> None:
+    """Cells genfromtxt turned into NaN although they are not empty or 'nan': name the first
+    one (text in a numeric column is an error, not a missing value)."""
+    nan_rows = np.flatnonzero(np.isnan(table[:, cols]).any(axis=1))
+    if nan_rows.size == 0:
+        return
+    want = set(nan_rows.tolist())
+    with p.open(newline="", encoding="utf-8") as fh:
+        for k, row in enumerate(csv.reader(fh, delimiter=delimiter)):
+            r = k - skip
+            if r < 0 or r not in want:
+                continue
+            for c in cols:
+                cell = row[c].strip() if c < len(row) else ""
+                if cell and not _is_number(cell):
+                    raise ValueError(f"{p}: line {k + 1}, column {names[c]!r}: {cell!r} is "
+                                     "not a number")
 
 
 def _is_number(text: str) -> bool:
@@ -248,7 +335,8 @@ def _count_nonfinite_chunked(values: np.ndarray, chunk: int = 1 << 22) -> int:
 
 
 def _load_log(p: Path, column: str | int | None, rate_hz: float | None, units: str,
-              nan_policy: str, can_signals: str | Path | None = None) -> Record:
+              nan_policy: str, can_signals: str | Path | None = None,
+              force_rate: bool = False) -> Record:
     from gyrodrift.replay.logs import read_imu_log  # the "replay" area's reader
 
     axis_name = "z" if column is None else str(column).lower()
@@ -256,8 +344,7 @@ def _load_log(p: Path, column: str | int | None, rate_hz: float | None, units: s
         raise ValueError(f"{p}: IMU logs hold gyro axes x, y, z; got column {column!r}")
     samples = read_imu_log(p, signals=can_signals)
     gyro_rad_s = samples.channels[:, GYRO_AXES[axis_name]].astype(np.float64)
-    if rate_hz is None:
-        rate_hz = _rate_from_time(samples.t_s, str(p))
+    rate_hz = _resolve_rate(rate_hz, samples.t_s, str(p), force_rate)
     log_units = "rad/s" if units == "deg/h" else units  # logs carry rad/s unless told
     x = to_deg_h(gyro_rad_s, log_units, rate_hz)
     x, dropped = _apply_nan_policy(x, nan_policy, str(p))

@@ -150,6 +150,13 @@ def wavelet_denoise(
         )
     xp = np.ascontiguousarray(pad_symmetric(arr, 2**level), dtype=dt)
     c = wavedec(xp, wavelet, level, dtype=dt)
+    if not np.all(np.isfinite(c)):
+        # Finite but huge input (near the dtype's maximum) overflows the lifting sums: say
+        # so, instead of the inverse transform's complaint about non-finite coefficients.
+        raise ValueError(
+            f"x: values up to {float(np.max(np.abs(arr))):.3g} overflow the {dt.name} wavelet "
+            f"transform (its largest value is {float(np.finfo(dt).max):.3g}); scale the record"
+        )
     m = len(xp)
     n_approx = m >> level
     if mode == "forced":
@@ -162,7 +169,13 @@ def wavelet_denoise(
             if per_level_sigma:
                 t = float(np.median(np.abs(c[band]))) / MAD_TO_SIGMA * math.sqrt(2 * math.log(n))
             c[band] = _threshold(c[band], t, mode)
-    return waverec(c, wavelet, level, dtype=dt)[:n]
+    y = waverec(c, wavelet, level, dtype=dt)[:n]
+    if not np.all(np.isfinite(y)):
+        raise ValueError(
+            f"x: values up to {float(np.max(np.abs(arr))):.3g} overflow the {dt.name} inverse "
+            "wavelet transform; scale the record"
+        )
+    return y
 
 
 class RealtimeWavelet:

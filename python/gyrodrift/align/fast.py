@@ -33,7 +33,9 @@ def _n3(name: str, a: np.ndarray) -> np.ndarray:
 
 def run_alignment(dtheta: np.ndarray, dv: np.ndarray, cfg: AlignConfig) -> dict[str, np.ndarray]:
     """Whole alignment in C++ (GIL released). Same outputs as `run_alignment_reference`, plus
-    `bad_samples` (non-finite samples counted and skipped) and `failed`."""
+    `bad_samples` (non-finite samples counted and skipped), `failed` and `reason` (why it
+    failed, "" otherwise). A run that produced no solution at all (e.g. an all-NaN record)
+    is failed, with the reason."""
     # cfg.taps are newest first (gyrodrift.fir); the C++ pipeline takes them oldest first.
     taps = (np.zeros(0) if cfg.taps is None
             else np.ascontiguousarray(np.asarray(cfg.taps, dtype=np.float64)[::-1]))

@@ -65,7 +65,9 @@ def align_segments(rec: PsinsRecord, segment_s: float = 300.0, coarse_s: float =
                               taps=taps if pre else None, accel_delay_samples=delay if pre else 0)
             res = run_alignment(dth, dv, cfg)
             if res["failed"]:
-                raise RuntimeError(f"alignment failed on segment {i} ({label})")
+                raise RuntimeError(
+                    f"alignment failed on segment {i} ({label}): {res.get('reason', '')}"
+                )
             att = res["att"][-1]
             hd[label] = float((-att[2] / DEG) % 360.0)
             pt[label] = float(att[0] / DEG)

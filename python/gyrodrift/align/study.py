@@ -156,7 +156,8 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
             out = run_alignment(dth, dv, cfg)
             wall[pre] += time.perf_counter() - t0
             if out["failed"]:
-                raise RuntimeError(f"alignment failed in run {r} ({st.scenario}, prefilter={pre})")
+                raise RuntimeError(f"alignment failed in run {r} ({st.scenario}, prefilter={pre}): "
+                                   f"{out.get('reason', '')}")
             t_abs = out["t_s"] + (off + first) * dt
             t_hist[pre] = t_abs - off * dt
             cnb = truth_at(sc, t_abs)["cnb"]

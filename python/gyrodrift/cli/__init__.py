@@ -7,7 +7,9 @@ subparser and sets `func` (called with the parsed args, returning the exit code)
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
+import os
 import sys
 
 from gyrodrift.errors import GyrodriftError
@@ -59,16 +61,38 @@ def main(argv: list[str] | None = None) -> int:
     --------
     >>> main(["simulate", "--help"]) # doctest: +SKIP
     """
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 2
+    command = "gyrodrift"
     try:
-        return int(args.func(args) or 0)
+        parser = build_parser()
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 2
+        command = f"gyrodrift {args.command}"
+        code = int(args.func(args) or 0)
+        sys.stdout.flush()  # a closed pipe shows here, not at interpreter exit
+        return code
     except GyrodriftError as exc:
-        print(f"gyrodrift {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return _fail(command, f"error: {exc}", 2)
+    except BrokenPipeError:
+        # `gyrodrift ... | head`: the reader left. Point stdout at /dev/null so the final
+        # flush at exit cannot raise again, and say so once on stderr.
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return _fail(command, "error: output pipe closed by the reader", 2)
+    except OSError as exc:  # the user's paths: missing, unreadable, unwritable, disk full
+        where = f": {exc.filename}" if exc.filename else ""
+        return _fail(command, f"error: {exc.strerror or exc}{where}", 2)
+    except KeyboardInterrupt:
+        # Partial files are removed by atomic_output; child processes by their owners'
+        # context managers, which have run by now.
+        return _fail(command, "interrupted", 130)
+
+
+def _fail(command: str, message: str, code: int) -> int:
+    with contextlib.suppress(OSError, ValueError):
+        print(f"{command}: {message}", file=sys.stderr)
+    return code
 
 
 class CliError(GyrodriftError):

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import shutil
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -21,6 +22,8 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_json_arg,
     add_progress_arg,
+    atomic_output,
+    check_out_dir,
     emit_json,
     progress_enabled,
 )
@@ -68,8 +71,9 @@ def _write(rows: list[dict[str, object]], out: Path, stem: str, title: str) -> s
     from gyrodrift.align.study import markdown_table
 
     md = f"### {title}\n\n" + markdown_table(rows) + "\n"
-    (out / f"{stem}.md").write_text(md)
-    with (out / f"{stem}.csv").open("w", newline="") as fh:
+    with atomic_output(out / f"{stem}.md") as tmp:
+        tmp.write_text(md)
+    with atomic_output(out / f"{stem}.csv") as tmp, tmp.open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0].keys()))
         w.writeheader()
         w.writerows(rows)
@@ -124,12 +128,30 @@ def _save_fine_time_plot(fig: Figure, ax: Axes, path: Path, title: str) -> None:
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_output(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``gyrodrift align``; returns the exit code."""
+    """Run ``gyrodrift align``; returns the exit code. The output directory is checked first
+    and, when this run creates it, removed again if the run fails (no empty directory)."""
+    out = check_out_dir(args.out_dir)
+    assert out is not None
+    top = out  # the outermost directory this run creates (None: it exists already)
+    while not top.parent.exists():
+        top = top.parent
+    created = None if out.exists() else top
+    out.mkdir(parents=True, exist_ok=True)
+    try:
+        return _run(args, out)
+    except BaseException:
+        if created is not None:
+            shutil.rmtree(created, ignore_errors=True)
+        raise
+
+
+def _run(args: argparse.Namespace, out: Path) -> int:
     from gyrodrift.align.imu_errors import ImuErrors
     from gyrodrift.align.study import (
         MECHANISMS,
@@ -141,8 +163,6 @@ def run(args: argparse.Namespace) -> int:
     )
     from gyrodrift.align.trajectory import SCENARIOS
 
-    out = Path(args.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     if args.real:
         return _run_real(args, out)
     if args.runs < 2:

@@ -15,6 +15,8 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
+    atomic_output,
+    check_output,
     emit_json,
     progress_enabled,
     record_from_args,
@@ -22,7 +24,10 @@ from gyrodrift.cli.common import (
 )
 from gyrodrift.deviations import DEVIATIONS
 
-__all__ = ["register", "run"]
+__all__ = ["ALLAN_MIN_SAMPLES", "register", "run"]
+
+#: fewest samples the command analyses: three octave taus (m = 1, 2, 4 need 2m + 1 <= n)
+ALLAN_MIN_SAMPLES = 9
 
 
 def register(subparsers: Any) -> None:
@@ -67,7 +72,13 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift import noise_id
     from gyrodrift.deviations import deviation
 
+    check_output(args.png, "--png")
+    check_output(args.csv_out, "--csv", (".csv",))
     rec = record_from_args(args)
+    if rec.n < ALLAN_MIN_SAMPLES:
+        raise CliError(f"{rec.source}: record too short for an Allan analysis: {rec.n} "
+                       f"samples, at least {ALLAN_MIN_SAMPLES} needed (three octave averaging "
+                       "times, m = 1, 2, 4)")
     # auto: a bar for long records, and only on a terminal.
     show = progress_enabled(args)
     progress: bool | str = "auto" if show and args.progress == "auto" else show
@@ -102,10 +113,11 @@ def run(args: argparse.Namespace) -> int:
     if args.png:
         from gyrodrift.plots import plot_allan, plot_allan_fit
 
-        if afit is not None:
-            plot_allan_fit(res, afit, args.png, label=rec.source)
-        else:
-            plot_allan([(rec.source, res)], args.png)
+        with atomic_output(args.png) as tmp:
+            if afit is not None:
+                plot_allan_fit(res, afit, tmp, label=rec.source)
+            else:
+                plot_allan([(rec.source, res)], tmp)
     if args.csv_out:
         write_csv(args.csv_out,
                   ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],

@@ -8,7 +8,11 @@
 - ``--ci P`` with the library's ``ONE_SIGMA_CI`` as default (:func:`add_ci_arg`);
 - CSV tables written with the digits the numbers carry (:func:`write_csv`: floats as
   ``repr`` (the shortest string that reads back to the same double, at most ``%.17g``
-  digits), integers as integers).
+  digits), integers as integers);
+- output files: every location checked before the work (:func:`check_output`,
+  :func:`check_out_dir`), every file written atomically (:func:`atomic_output`: a temporary
+  file in the same directory, renamed over the target only when complete, removed on any
+  failure or Ctrl-C), so a failed or interrupted command leaves no partial output.
 
 Examples
 --------
@@ -22,10 +26,13 @@ False
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
+import os
 import sys
-from collections.abc import Sequence
+import tempfile
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -41,6 +48,9 @@ __all__ = [
     "add_input_args",
     "add_json_arg",
     "add_progress_arg",
+    "atomic_output",
+    "check_out_dir",
+    "check_output",
     "emit_json",
     "format_csv_value",
     "json_default",
@@ -75,6 +85,8 @@ def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None
                         "arcsec, deg, rad (default deg/h; IMU logs are rad/s)")
     p.add_argument("--drop-nan", action="store_true",
                    help="drop NaN/Inf samples (their count is reported); default: refuse")
+    p.add_argument("--force-rate", action="store_true",
+                   help="use --rate-hz even where it contradicts the file's own time column")
 
 
 def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
@@ -92,7 +104,8 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
     try:
         return load_record(args.input, column=args.column, rate_hz=args.rate_hz,
                            units=args.units, nan_policy="drop" if args.drop_nan else "refuse",
-                           mmap=mmap, can_signals=getattr(args, "can_signals", None))
+                           mmap=mmap, can_signals=getattr(args, "can_signals", None),
+                           force_rate=bool(getattr(args, "force_rate", False)))
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
 
@@ -251,8 +264,98 @@ def write_csv(path: str | Path, header: Sequence[str], columns: Sequence[Any]) -
     if any(len(c) != n for c in cols):
         raise ValueError("CSV columns differ in length")
     p = Path(path)
-    with p.open("w", newline="") as fh:
+    with atomic_output(p) as tmp, tmp.open("w", newline="") as fh:
         fh.write(",".join(header) + "\n")
         for i in range(n):
             fh.write(",".join(format_csv_value(c[i]) for c in cols) + "\n")
     return p
+
+
+def _png_suffixes() -> tuple[str, ...]:
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple(f".{k}" for k in FigureCanvasBase.get_supported_filetypes())
+
+
+def check_output(path: str | Path | None, flag: str, suffixes: Sequence[str] | None = None
+                 ) -> Path | None:
+    """Check an output location before any work: its directory exists and is writable, the
+    path is not a directory, its suffix is one the writer knows (``suffixes``; for ``--png``
+    the image formats matplotlib can write). Returns the path (None stays None); raises a
+    :class:`CliError` naming the flag.
+
+    Examples
+    --------
+    >>> check_output("nodir/x.npy", "-o")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.cli.CliError: -o nodir/x.npy: directory nodir does not exist
+    """
+    if path is None:
+        return None
+    p = Path(path)
+    if flag == "--png" and suffixes is None:
+        suffixes = _png_suffixes()
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise CliError(f"{flag} {p}: unsupported file type {p.suffix or '(none)'!r}; use one "
+                       f"of {', '.join(suffixes)}")
+    parent = p.parent if str(p.parent) else Path(".")
+    if not parent.is_dir():
+        raise CliError(f"{flag} {p}: directory {parent} does not exist")
+    if p.is_dir():
+        raise CliError(f"{flag} {p}: is a directory")
+    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise CliError(f"{flag} {p}: not writable (permission denied)")
+    return p
+
+
+def check_out_dir(path: str | Path | None, flag: str = "--out-dir") -> Path | None:
+    """Check an output directory before any work: it exists and is writable, or can be made
+    (its nearest existing parent is writable). Nothing is created here."""
+    if path is None:
+        return None
+    p = Path(path)
+    if p.exists():
+        if not p.is_dir():
+            raise CliError(f"{flag} {p}: exists and is not a directory")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise CliError(f"{flag} {p}: not writable (permission denied)")
+        return p
+    base = p.parent
+    while not base.exists() and base != base.parent:
+        base = base.parent
+    if not base.is_dir() or not os.access(base, os.W_OK | os.X_OK):
+        raise CliError(f"{flag} {p}: cannot be created ({base} is not a writable directory)")
+    return p
+
+
+@contextlib.contextmanager
+def atomic_output(path: str | Path) -> Iterator[Path]:
+    """Yield a temporary path next to ``path`` (same suffix, so writers that infer the format
+    from it work); on success it is renamed over ``path`` (atomic on one file system), on
+    any exception or Ctrl-C it is removed and ``path`` is left as it was.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> f = os.path.join(tempfile.mkdtemp(), "a.npy")
+    >>> with atomic_output(f) as tmp:
+    ...     np.save(tmp, np.zeros(3))
+    >>> np.load(f).shape
+    (3,)
+    """
+    p = Path(path)
+    parent = p.parent if str(p.parent) else Path(".")
+    fd, name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=f".part{p.suffix}", dir=parent)
+    os.close(fd)
+    tmp = Path(name)
+    umask = os.umask(0o022)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it 0600; the result gets the usual mode
+    try:
+        yield tmp
+        os.replace(tmp, p)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise

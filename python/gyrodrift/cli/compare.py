@@ -14,6 +14,7 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
+    check_out_dir,
     emit_json,
     progress_enabled,
     record_from_args,
@@ -42,6 +43,8 @@ def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift compare``; returns the exit code."""
     from gyrodrift import compare
 
+    if args.out_dir is not None:
+        check_out_dir(args.out_dir)
     try:
         if args.input is None:
             x = rate = None

@@ -18,6 +18,8 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
+    atomic_output,
+    check_output,
     emit_json,
     record_from_args,
     write_csv,
@@ -108,10 +110,11 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
 
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift filter``; returns the exit code."""
-    rec = record_from_args(args, mmap=False)
     out = Path(args.output)
     if out.suffix.lower() not in (".npy", ".csv"):
         raise CliError(f"output must end in .npy or .csv, got {out.name!r}")
+    check_output(out, "-o")
+    rec = record_from_args(args, mmap=False)
     x = np.ascontiguousarray(rec.rate_deg_h, dtype=np.float64)
     try:
         y, info = _run_filter(x, args)
@@ -119,7 +122,8 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from exc
     y = y.astype(np.float64)
     if out.suffix.lower() == ".npy":
-        np.save(out, y)
+        with atomic_output(out) as tmp:
+            np.save(tmp, y)
     else:
         write_csv(out, ["t_s", "rate_deg_h"], [np.arange(y.size) / rec.rate_hz, y])
     result = {"record": rec.summary(), "filter": info, "output": str(out),

@@ -11,6 +11,8 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
+    atomic_output,
+    check_output,
     emit_json,
     record_from_args,
     write_csv,
@@ -38,12 +40,19 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift.plots import plot_psd
     from gyrodrift.psd import arw_from_white_level, log_binned, welch_psd
 
+    check_output(args.png, "--png")
+    check_output(args.csv_out, "--csv", (".csv",))
     rec = record_from_args(args, mmap=False)
+    x = np.asarray(rec.rate_deg_h)
+    if x.size and np.all(x == x[0]):
+        raise CliError(f"{rec.source}: the record is constant ({x.size} samples of {x[0]:g} "
+                       "deg/h): its PSD is zero at every frequency, nothing to plot")
     try:
         res = welch_psd(np.asarray(rec.rate_deg_h), rec.rate_hz, nperseg=args.nperseg)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
-    plot_psd([(rec.source, res)], args.png, bins_per_decade=args.bins_per_decade)
+    with atomic_output(args.png) as tmp:
+        plot_psd([(rec.source, res)], tmp, bins_per_decade=args.bins_per_decade)
     if args.csv_out:
         write_csv(args.csv_out, ["f_hz", "psd_deg_h2_per_hz"], [res.f_hz, res.psd])
     # White level from the upper half of the band (where angle random walk usually rules).

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_json_arg, emit_json
+from gyrodrift.cli.common import add_json_arg, atomic_output, check_out_dir, emit_json
 from gyrodrift.cli.simulate import parse_ar2
 
 __all__ = ["register", "run"]
@@ -123,6 +123,7 @@ def run(args: argparse.Namespace) -> int:
             proc_cfg = load_config(args.config)
         except (ConfigError, OSError) as exc:
             raise CliError(str(exc)) from None
+    check_out_dir(args.out_dir)  # before the replay, not after it
     if args.input:
         try:
             samples = read_imu_log(args.input, args.fmt, signals=args.can_signals)
@@ -177,8 +178,10 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    j = write_json(result, out / "report.json")
-    png = write_png(result, out / "report.png")
+    j, png = out / "report.json", out / "report.png"
+    with atomic_output(j) as tmp_j, atomic_output(png) as tmp_png:
+        write_json(result, tmp_j)
+        write_png(result, tmp_png)
     if args.json:
         emit_json({**result.report, "files": {"json": str(j), "png": str(png)}})
     else:

@@ -12,7 +12,13 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_json_arg, emit_json, write_csv
+from gyrodrift.cli.common import (
+    add_json_arg,
+    atomic_output,
+    check_output,
+    emit_json,
+    write_csv,
+)
 
 __all__ = ["LOG_FORMATS", "LOG_SUFFIXES", "register", "run"]
 
@@ -93,6 +99,12 @@ def run(args: argparse.Namespace) -> int:
     if not is_log and suffix not in (".npy", ".csv"):
         raise CliError(f"cannot tell what to write from {out.name!r}: use .npy, .csv, or an "
                        "IMU log suffix (.bin .gdf .log .asc .blf) / --format")
+    if not is_log and ar2 is None and not any(kw.values()):
+        # (an IMU log still carries gravity and the Earth rate: a clean static log is useful)
+        raise CliError("no noise term and no bias given: the record would be all zeros; give "
+                       "at least one of --quant-arcsec, --arw-deg-rt-h, --bias-inst-deg-h, "
+                       "--rrw-deg-h-rt-h, --ramp-deg-h2, --bias-deg-h, --ar2")
+    check_output(out, "-o")
     try:
         if is_log:
             from gyrodrift.replay.logs import write_imu_log
@@ -104,7 +116,8 @@ def run(args: argparse.Namespace) -> int:
                                          seed=args.seed)
             t_s = np.arange(imu.gyro_rad_s.shape[0]) / args.rate_hz
             fmt = LOG_FORMATS[args.format] if args.format else None
-            write_imu_log(out, t_s, imu.gyro_rad_s, imu.accel_m_s2, fmt=fmt)
+            with atomic_output(out) as tmp:
+                write_imu_log(tmp, t_s, imu.gyro_rad_s, imu.accel_m_s2, fmt=fmt)
             n = int(t_s.size)
             kind = f"imu log ({fmt or suffix})"
         else:
@@ -112,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
                                      ar2=ar2, seed=args.seed, **kw)
             n = rec.n
             if suffix == ".npy":
-                np.save(out, rec.rate_deg_h)
+                with atomic_output(out) as tmp:
+                    np.save(tmp, rec.rate_deg_h)
             else:
                 write_csv(out, ["t_s", "rate_deg_h"], [rec.t_s, rec.rate_deg_h])
             kind = "rate deg/h"

@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_json_arg, emit_json
+from gyrodrift.cli.common import add_json_arg, atomic_output, check_output, emit_json
 
 __all__ = ["cutoff_hz", "register", "run"]
 
@@ -55,6 +55,7 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.rate_hz > 0 or not np.isfinite(args.rate_hz):
         raise CliError(f"--rate-hz must be a positive number, got {args.rate_hz}")
+    check_output(args.png, "--png")
     if args.n_freqs < 8:
         raise CliError("--n-freqs must be >= 8")
     try:
@@ -113,7 +114,8 @@ def _plot(
     ax2.grid(True, alpha=0.3)
     fig.tight_layout()
     try:
-        fig.savefig(args.png, dpi=110)
+        with atomic_output(args.png) as tmp:
+            fig.savefig(tmp, dpi=110)
     except OSError as exc:
         raise CliError(f"cannot write {args.png}: {exc}") from exc
     finally:

@@ -148,6 +148,15 @@ def _valid_header(typ: int, ln: int) -> bool:
     return typ in (TYPE_INPUT, TYPE_OUTPUT) and ln == PAYLOAD_LEN
 
 
+def _header_inside(b: bytes | bytearray, avail: int) -> int:
+    """Offset (2..41) of the first whole valid header inside the frame at b[0], using no
+    byte at or past avail; FRAME_SIZE if none (offset 1 holds sync1, never a sync0)."""
+    for k in range(2, min(FRAME_SIZE, avail - 3)):
+        if b[k] == SYNC0 and b[k + 1] == SYNC1 and _valid_header(b[k + 2], b[k + 3]):
+            return k
+    return FRAME_SIZE
+
+
 @dataclass
 class ParserStats:
     bytes_in: int = 0
@@ -185,7 +194,17 @@ class FrameParser:
             out.append(frame)
 
     def finish(self) -> None:
-        """End of stream: buffered bytes can no longer complete a frame."""
+        """End of stream: buffered bytes can no longer complete a frame. A complete frame
+        still here failed its CRC while the parser waited for the 3 bytes after it; it is
+        settled as _next would settle it (cut short if a whole header lies inside)."""
+        if len(self._buf) >= FRAME_SIZE:
+            k = _header_inside(self._buf, len(self._buf))
+            if k < FRAME_SIZE:
+                self.stats.truncated += 1
+                self._discard(k)
+            else:
+                self.stats.crc_errors += 1
+                self._discard(FRAME_SIZE)
         if not self._buf:
             return
         if self._buf[0] == SYNC0:
@@ -234,11 +253,15 @@ class FrameParser:
             try:
                 frame = decode_frame(b[:FRAME_SIZE])
             except FrameError:
-                for k in range(2, FRAME_SIZE - 3):
-                    if b[k] == SYNC0 and b[k + 1] == SYNC1 and _valid_header(b[k + 2], b[k + 3]):
-                        self.stats.truncated += 1
-                        self._discard(k)
-                        break
+                # CRC failed: a whole header anywhere inside (offsets 2..41) means this frame
+                # was cut short; resume there. A header at 39..41 ends up to 3 bytes past
+                # the frame, so wait for them (counters must not depend on chunking).
+                if len(b) < FRAME_SIZE + 3:
+                    return None
+                k = _header_inside(b, FRAME_SIZE + 3)
+                if k < FRAME_SIZE:
+                    self.stats.truncated += 1
+                    self._discard(k)
                 else:
                     self.stats.crc_errors += 1
                     self._discard(FRAME_SIZE)
