@@ -20,7 +20,7 @@ from gyrodrift.io import UNITS, Record, load_record
 
 def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
     p.add_argument("input", nargs=None if required else "?",
-                   help="record: .npy, .csv, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
+                   help="record: .npy, .csv, PSINS .imu, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
     p.add_argument("--column", help="csv column name/index, npy column index, log gyro axis x|y|z")
     p.add_argument("--rate", type=float, help="sample rate, Hz (required for .npy)")
     p.add_argument("--units", choices=UNITS, default="deg/h",
