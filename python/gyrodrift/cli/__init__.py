@@ -21,6 +21,8 @@ SUBCOMMAND_MODULES: list[str] = [
     "compare",
     "wavelet_response",
     "align",
+    "characterize",
+    "fleet",
 ]
 
 
