@@ -341,7 +341,7 @@ def _boxplot(series: dict[tuple[str, str], list[float]]) -> bytes:
         ax.set_title(key.replace("_", " "), fontsize=8)
         ax.ticklabel_format(axis="y", style="sci", scilimits=(-2, 3))
         ax.grid(True, alpha=0.3)
-    fig.tight_layout()
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.08, top=0.9, wspace=0.45)
     buf = io.BytesIO()
     fig.savefig(buf, format="png")
     plt.close(fig)
