@@ -55,7 +55,7 @@ def test_fleet_on_two_workers_equals_serial(client, logs: list[Path], tmp_path: 
     seen: list[str] = []
     dask_sum = run_fleet(logs, tmp_path / "dask", opts=OPTS, client=client,
                          root=logs[0].parent, on_result=lambda r: seen.append(r["unit"]))
-    serial_sum = run_fleet(logs, tmp_path / "serial", opts=OPTS, workers=0,
+    serial_sum = run_fleet(logs, tmp_path / "serial", opts=NO_PLOTS, workers=0,
                            root=logs[0].parent)
     assert sorted(seen) == [f"unit{i}" for i in range(6)]
     for s in (dask_sum, serial_sum):
