@@ -2,7 +2,7 @@
 vs the numpy reference in the same process, the 15-state KF cycle vs FilterPy, and the Monte
 Carlo wall time (goal: 30 runs x 30 min x 2 configurations < 2 min on this 2-core machine).
 
-    python benchmarks/bench_align.py [--runs 30] [--minutes 30] [--scenario ship_mild]
+    python benchmarks/bench_align.py [--runs 30] [--duration-s 1800] [--scenario ship_mild]
 
 Medians of repeats; wall-clock time on a shared machine (the load average is printed).
 """
@@ -19,23 +19,22 @@ from filterpy.kalman import KalmanFilter as FilterPyKF
 from gyrodrift.align import (
     AlignConfig,
     imu_increments,
-    realtime_wavelet_taps,
     run_alignment,
-    run_alignment_reference,
     scenario,
     strapdown_run,
     truth_at,
 )
 from gyrodrift.align.attitude import dcm2q
-from gyrodrift.align.fine_kf import FineAlignKF
 from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors
 from gyrodrift.align.study import StudyConfig, run_study
+from gyrodrift.fir import forced_fir_taps
+from gyrodrift.reference.align import FineAlignKF, run_alignment_reference
 
 
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--runs", type=int, default=30)
-    ap.add_argument("--minutes", type=float, default=30.0)
+    ap.add_argument("--duration-s", type=float, default=1800.0)
     ap.add_argument("--scenario", default="ship_mild")
     args = ap.parse_args()
     print(f"machine: {machine()}; load average at start {os.getloadavg()[0]:.1f}")
@@ -45,9 +44,9 @@ def main() -> None:
     n = 400 * 120
     dth, dv = imu_increments(sc, n, dt)
     dth, dv = add_imu_errors(dth, dv, dt, ImuErrors(), seed=1)
-    taps = realtime_wavelet_taps()
+    taps = forced_fir_taps("db4", 256, 5)
     base = {"dt_s": dt, "lat_rad": sc.lat_rad, "lon_rad": sc.lon_rad, "h_m": sc.h_m,
-            "zv_sigma_mps": sc.zero_velocity_sigma_mps}
+            "zv_sigma_m_s": sc.zero_velocity_sigma_m_s}
     cfg_raw = AlignConfig(**base)
     cfg_pre = AlignConfig(**base, taps=taps, accel_delay_samples=8)
     n_ref = 400 * 70  # the reference is slow: 60 s coarse + 10 s fine
@@ -105,14 +104,15 @@ def main() -> None:
 
     load0 = os.getloadavg()[0]
     t0 = time.perf_counter()
-    res, _ = run_study(StudyConfig(scenario=args.scenario, runs=args.runs, minutes=args.minutes))
+    res, _ = run_study(StudyConfig(scenario=args.scenario, runs=args.runs,
+                                   duration_s=args.duration_s))
     wall = time.perf_counter() - t0
     align_s = sum(r.wall_s for r in res.values())
     samples = sum(r.samples for r in res.values())
     print(f"\n| Monte Carlo ({args.scenario}) | runs x min x configs | wall s | C++ alignment s "
           "| ns/sample (alignment) | load avg (start/end) |")
     print("| --- | --- | --- | --- | --- | --- |")
-    print(f"| truth + errors + 2 alignments + analysis | {args.runs} x {args.minutes:g} x 2 "
+    print(f"| truth + errors + 2 alignments + analysis | {args.runs} x {args.duration_s:g} s x 2 "
           f"| {wall:.1f} | {align_s:.1f} | {align_s / samples * 1e9:.0f} "
           f"| {load0:.1f} / {os.getloadavg()[0]:.1f} |")
 

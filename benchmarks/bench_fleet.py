@@ -22,9 +22,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _bench_util import machine  # noqa: E402
-
-from gyrodrift.fleet import FleetOptions, run_fleet  # noqa: E402
+from _bench_util import machine
+from gyrodrift.fleet import FleetOptions, run_fleet
 
 
 def make_logs(d: Path, n_logs: int, n: int, rate_hz: float) -> list[Path]:
@@ -76,9 +75,12 @@ def main() -> None:
         out = d / f"out-w{w}"
         shutil.rmtree(out, ignore_errors=True)
         peaks: list[float] = []
+
+        def keep(r: dict, peaks: list[float] = peaks) -> None:
+            peaks.append(float(r.get("peak_rss_mib", math.nan)))
+
         t = time.perf_counter()
-        s = run_fleet(paths, out, opts=opts, workers=w, root=d / "logs",
-                      on_result=lambda r: peaks.append(float(r.get("peak_rss_mib", math.nan))))
+        s = run_fleet(paths, out, opts=opts, workers=w, root=d / "logs", on_result=keep)
         wall = time.perf_counter() - t
         if s["n_failed"]:
             raise SystemExit(f"failed logs: {s['failed']}")

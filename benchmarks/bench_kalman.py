@@ -83,7 +83,7 @@ def main() -> None:
     n, slow_n, repeats = args.n, args.slow_n, args.repeats
 
     rec = gyrodrift.simulate(n=n, ar2=(0.6868, -0.0213, 0.3), bias_deg_h=9.7, seed=1)
-    x = rec.rate_dph
+    x = rec.rate_deg_h
     x32 = x.astype(np.float32)
     x3 = np.ascontiguousarray(np.stack([x, x[::-1], -x], axis=1)[: n // 3])
     m = gyrodrift.fit_ar2(x[:100_000], "burg")

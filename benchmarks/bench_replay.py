@@ -34,9 +34,9 @@ from gyrodrift.simulate import NoiseTerms, simulate_imu
 
 
 def record(n: int, rate_hz: float) -> Samples:
-    rec = simulate_imu(n=n, rate_hz=rate_hz, seed=1, vrw_mps_rthr=0.02,
-                       gyro=NoiseTerms(n_deg_rthr=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)))
-    return make_samples(np.arange(n) / rate_hz, rec.gyro_rads, rec.accel_mps2)
+    rec = simulate_imu(n=n, rate_hz=rate_hz, seed=1, vrw_m_s_rt_h=0.02,
+                       gyro=NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)))
+    return make_samples(np.arange(n) / rate_hz, rec.gyro_rad_s, rec.accel_m_s2)
 
 
 def settings(rate_hz: float) -> ProcessorSettings:

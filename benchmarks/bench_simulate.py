@@ -30,8 +30,8 @@ def main() -> None:
     n, pink_n = args.n, args.pink_n
 
     cases: list[tuple[str, int, Callable[[], object], str | None]] = [
-        ("white rate (ARW N)", n, lambda: gyrodrift.simulate(n=n, n_deg_rthr=0.01), "white"),
-        ("random walk (RRW K)", n, lambda: gyrodrift.simulate(n=n, k_deg_h_rthr=0.1), "brown"),
+        ("white rate (ARW N)", n, lambda: gyrodrift.simulate(n=n, n_deg_rt_h=0.01), "white"),
+        ("random walk (RRW K)", n, lambda: gyrodrift.simulate(n=n, k_deg_h_rt_h=0.1), "brown"),
         ("flicker (B), FFT-shaped", n, lambda: gyrodrift.simulate(n=n, b_deg_h=0.05), None),
         (
             "flicker (B), FFT-shaped",
@@ -44,7 +44,7 @@ def main() -> None:
             "ARW + bias, RLG pulse counting (0.1 arcsec)",
             n,
             lambda: gyrodrift.simulate(
-                n=n, n_deg_rthr=0.01, bias_deg_h=15.0, pulse_deg=0.1 / 3600.0
+                n=n, n_deg_rt_h=0.01, bias_deg_h=15.0, pulse_deg=0.1 / 3600.0
             ),
             None,
         ),
@@ -54,10 +54,10 @@ def main() -> None:
             lambda: gyrodrift.simulate(
                 n=n,
                 q_deg=0.0035,
-                n_deg_rthr=0.0012,
+                n_deg_rt_h=0.0012,
                 b_deg_h=0.0794,
-                k_deg_h_rthr=0.01,
-                r_deg_h_h=0.001,
+                k_deg_h_rt_h=0.01,
+                r_deg_h2=0.001,
                 bias_deg_h=0.5,
                 ar2=(-0.034, 0.0252, 0.05),
             ),
@@ -67,7 +67,7 @@ def main() -> None:
             "static IMU, 3 gyro + 3 accel (N, bias, VRW)",
             n // 3,
             lambda: gyrodrift.simulate_imu(
-                n=n // 3, gyro=gyrodrift.NoiseTerms(n_deg_rthr=0.01), vrw_mps_rthr=0.02
+                n=n // 3, gyro=gyrodrift.NoiseTerms(n_deg_rt_h=0.01), vrw_m_s_rt_h=0.02
             ),
             None,
         ),

@@ -1,7 +1,9 @@
 // Allan-variance kernels (include/gyrodrift/allan.hpp) for gyrodrift.allan.
-//   oadev_sigma2(data, m, kind)       whole array, all factors, GIL released
-//   OadevSums(m, kind)                streaming state for chunked (memory-mapped) records
-//   tau_grid(grid, max_m, per_decade) averaging-factor grids
+//   oadev_sigma2(data, m, kind, ...)      whole array, all factors, GIL released
+//   oadev_fused_groups(n_data, m, block)  groups of factors one fused pass can share
+//   OadevStream(m, kind)                  streaming sums for chunked (memory-mapped) records
+//   OadevFusedStream(n_data, m, block)    fused streaming sums for a group of factors
+//   tau_grid(grid, max_m, per_decade)     averaging-factor grids
 #include <gyrodrift/allan.hpp>
 
 #include <algorithm>

@@ -1,7 +1,7 @@
 // gyrodrift._core: AR(2) identification, AR filter and AR(2)-Kalman filters.
 //
 // Low-level, strict API (the Python layer gyrodrift.ar2 adds conversions and messages):
-//   ar2_fit(x: float32/float64[n] C-contiguous, method) -> (a1, a2, sigma2, mean, r)
+//   ar2_fit(x: float32/float64[n] C-contiguous, method) -> (status, a1, a2, sigma2, mean, r)
 //   ar2_kalman_batch(x, params, p0, steady_state, out=None) -> (out, faults[axes])
 //   ar_filter_batch(x, params, out=None) -> (out, faults[axes])
 // x is float32 or float64, 1-D or (n, 3), C-contiguous, taken without copy (.noconvert());
@@ -234,16 +234,17 @@ void def_fit(py::module_& m) {
           s = fit_ar2(x.data(), n, method, model);
           if (s == Ar2Status::ok) r = ar2_residual_variance(x.data(), n, model);
         }
-        // The status name is the first word of the message; gyrodrift.ar2 maps it to a cause.
-        if (s != Ar2Status::ok) throw py::value_error(std::string(to_string(s)) + ": AR(2) fit of " +
-                                                      std::to_string(n) + " samples rejected");
-        return py::make_tuple(static_cast<double>(model.a1), static_cast<double>(model.a2),
+        // The status travels as a value: gyrodrift.ar2 turns a rejection into Ar2FitError with
+        // .cause = status.name (no message parsing).
+        if (s != Ar2Status::ok) return py::make_tuple(s, 0.0, 0.0, 0.0, 0.0, 0.0);
+        return py::make_tuple(s, static_cast<double>(model.a1), static_cast<double>(model.a2),
                               static_cast<double>(model.sigma2), static_cast<double>(model.mean),
                               static_cast<double>(r));
       },
       py::arg("x").noconvert(), py::arg("method"),
       "Fit an AR(2) model to a C-contiguous 1-D array, computing in its dtype (float32 as on "
-      "target, or float64); returns (a1, a2, sigma2, mean, r).");
+      "target, or float64); returns (status, a1, a2, sigma2, mean, r) with status an Ar2Status "
+      "(the numbers are 0 unless status is Ar2Status.ok).");
 }
 
 }  // namespace
@@ -253,6 +254,14 @@ void bind_ar2(py::module_& m) {
       .value("yule_walker", Ar2Method::yule_walker)
       .value("burg", Ar2Method::burg)
       .value("least_squares", Ar2Method::least_squares);
+  py::enum_<Ar2Status>(m, "Ar2Status")
+      .value("ok", Ar2Status::ok)
+      .value("too_short", Ar2Status::too_short)
+      .value("constant", Ar2Status::constant)
+      .value("non_finite", Ar2Status::non_finite)
+      .value("non_stationary", Ar2Status::non_stationary)
+      .value("bad_argument", Ar2Status::bad_argument)
+      .value("not_converged", Ar2Status::not_converged);
   m.attr("AR2_MIN_SAMPLES") = kAr2MinSamples;
 
   def_fit<double>(m);

@@ -14,31 +14,24 @@ import dataclasses
 import numpy as np
 import pytest
 from gyrodrift.align import (
-    ARCSEC,
-    DPH,
-    DPSH,
-    EARTH_RATE_RPS,
     SCENARIOS,
-    UG,
     AlignConfig,
-    InertialCoarseAlign,
-    Strapdown,
     coarse_align,
     euler2dcm,
-    gravity_mps2,
     imu_increments,
     misalignment,
-    realtime_wavelet_taps,
     run_alignment,
-    run_alignment_reference,
     scenario,
     strapdown_run,
     truth_at,
 )
 from gyrodrift.align.attitude import dcm2q, q2dcm
-from gyrodrift.align.coarse import gravity_integral_i0
 from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors
 from gyrodrift.align.trajectory import Sinusoid
+from gyrodrift.earth import ARCSEC, DPH, DPSH, EARTH_RATE_RAD_S, UG, gravity_m_s2
+from gyrodrift.fir import forced_fir_taps
+from gyrodrift.reference.align import InertialCoarseAlign, Strapdown, run_alignment_reference
+from gyrodrift.reference.align.coarse import gravity_integral_i0
 
 
 def _phi_history(att: np.ndarray, cnb_true: np.ndarray) -> np.ndarray:
@@ -64,7 +57,7 @@ def test_truth_increments_match_numerical_derivative_of_attitude() -> None:
     w_nb = c0.T @ dc  # [omega_nb^b x]
     w_nb = np.array([w_nb[2, 1], w_nb[0, 2], w_nb[1, 0]])
     lat = sc.lat_rad
-    wnie = EARTH_RATE_RPS * np.array([0.0, np.cos(lat), np.sin(lat)])
+    wnie = EARTH_RATE_RAD_S * np.array([0.0, np.cos(lat), np.sin(lat)])
     w_ib_mid = w_nb + c0.T @ wnie  # transport rate < 1e-7 rad/s is below this check
     # dtheta/dt is the interval mean; the mid-point rate differs by O(dt^2 w'') ~ 1e-6 rad/s.
     assert np.allclose(dth[k] / dt, w_ib_mid, atol=2e-6)
@@ -132,7 +125,7 @@ def test_strapdown_binding_rejects_bad_arrays_and_counts_nan() -> None:
 def test_gravity_integral_closed_form_matches_quadrature() -> None:
     """Closed forms (with the cancellation-free series) vs direct numerical integration of
     C_n(t)^i0 [0, 0, g] (Rodrigues), 1e-9 relative (trapezoid with 2e5 steps)."""
-    from gyrodrift.align.coarse import earth_rotation_i0_n
+    from gyrodrift.reference.align.coarse import earth_rotation_i0_n
 
     lat, g, t_end = np.deg2rad(39.0), 9.8, 120.0
     ts = np.linspace(0.0, t_end, 200001)
@@ -161,7 +154,7 @@ def _triad_bound(sc, n: int, dt: float, position: bool, t0_s: float = 0.0) -> np
     t0_s of the scenario's time (the rocking phase)."""
     t = np.arange(1, n + 1) * dt
     tr = truth_at(sc, t0_s + np.concatenate([[0.0], t]))
-    g = gravity_mps2(sc.lat_rad, sc.h_m)
+    g = gravity_m_s2(sc.lat_rad, sc.h_m)
     out = []
     for t_j in (t[-1], t[n // 2 - 1]):
         m = t <= t_j + 1e-12
@@ -179,7 +172,7 @@ def _triad_bound(sc, n: int, dt: float, position: bool, t0_s: float = 0.0) -> np
             s = np.array([gravity_integral_i0(x, sc.lat_rad, g, True) for x in tt])
             return s[-1] - t_j * (tt @ s) / (tt @ tt)
         a, b = detr(t[-1]), detr(t[n // 2 - 1])
-    from gyrodrift.align.coarse import earth_rotation_i0_n
+    from gyrodrift.reference.align.coarse import earth_rotation_i0_n
 
     na = np.linalg.norm(a)
     total = d2 / na + (d2 * np.linalg.norm(b) + na * d1) / np.linalg.norm(np.cross(a, b))
@@ -273,9 +266,9 @@ def test_coarse_static_with_biases_matches_bias_formula() -> None:
     nab_n = np.array([100.0, -80.0, 0.0]) * UG
     cnb = coarse_align(dth + (c.T @ eps_n) * dt, dv + (c.T @ nab_n) * dt, dt, sc.lat_rad, sc.h_m)
     phi = misalignment(cnb, c)
-    g = gravity_mps2(sc.lat_rad, sc.h_m)
+    g = gravity_m_s2(sc.lat_rad, sc.h_m)
     theory = np.array([-nab_n[1] / g, nab_n[0] / g,
-                       -eps_n[0] / (EARTH_RATE_RPS * np.cos(sc.lat_rad))
+                       -eps_n[0] / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad))
                        + nab_n[0] / g * np.tan(sc.lat_rad)])
     assert np.allclose(phi, theory, rtol=0.05, atol=0.5 * ARCSEC)
 
@@ -315,15 +308,15 @@ def test_fine_alignment_converges_to_steady_state_formulas(n_states: int) -> Non
     dt = 0.1
     sc, c, dth, dv = _static_biased(eps_n, nab_n, dt, 20.0)
     cfg = AlignConfig(dt_s=dt, kf_every=1, n_states=n_states, lat_rad=sc.lat_rad,
-                      lon_rad=sc.lon_rad, h_m=sc.h_m, zv_sigma_mps=0.001)
+                      lon_rad=sc.lon_rad, h_m=sc.h_m, zv_sigma_m_s=0.001)
     out = run_alignment_reference(dth, dv, cfg)
     phi = misalignment(euler2dcm(out["att"][-1]), c)
-    g = gravity_mps2(sc.lat_rad, sc.h_m)
+    g = gravity_m_s2(sc.lat_rad, sc.h_m)
     theory = np.array([-nab_n[1] / g, nab_n[0] / g,
-                       -eps_n[0] / (EARTH_RATE_RPS * np.cos(sc.lat_rad))
+                       -eps_n[0] / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad))
                        + nab_n[0] / g * np.tan(sc.lat_rad)])
     # Magnitude quoted in the issue: about 176 arcsec for 0.01 deg/h at 39 deg.
-    assert abs(eps_n[0] / (EARTH_RATE_RPS * np.cos(sc.lat_rad)) / ARCSEC - 176.0) < 1.0
+    assert abs(eps_n[0] / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad)) / ARCSEC - 176.0) < 1.0
     assert np.all(np.abs(phi - theory) <= 0.05 * np.abs(theory))
     cpp = run_alignment(dth, dv, cfg)
     assert np.abs(cpp["att"] - out["att"]).max() < 1e-9
@@ -340,8 +333,8 @@ def test_pipeline_cpp_equals_reference_on_noisy_rocking_data(name: str, prefilte
     dth, dv = imu_increments(sc, n, dt)
     dth, dv = add_imu_errors(dth, dv, dt, ImuErrors(gyro_lsb_arcsec=0.1), seed=7)
     cfg = AlignConfig(dt_s=dt, kf_every=10, coarse_s=60.0, lat_rad=sc.lat_rad,
-                      lon_rad=sc.lon_rad, h_m=sc.h_m, zv_sigma_mps=sc.zero_velocity_sigma_mps,
-                      taps=realtime_wavelet_taps() if prefilter else None,
+                      lon_rad=sc.lon_rad, h_m=sc.h_m, zv_sigma_m_s=sc.zero_velocity_sigma_m_s,
+                      taps=forced_fir_taps("db4", 256, 5) if prefilter else None,
                       accel_delay_samples=8 if prefilter else 0)
     ref = run_alignment_reference(dth, dv, cfg)
     cpp = run_alignment(dth, dv, cfg)
@@ -364,7 +357,7 @@ def test_pipeline_cpp_equals_reference_with_heading_stage() -> None:
     dth, dv = imu_increments(sc, n, dt, 30.0)
     dth, dv = add_imu_errors(dth, dv, dt, ImuErrors(), seed=11)
     cfg = AlignConfig(dt_s=dt, kf_every=10, coarse_s=30.0, lat_rad=sc.lat_rad,
-                      lon_rad=sc.lon_rad, h_m=sc.h_m, zv_sigma_mps=sc.zero_velocity_sigma_mps,
+                      lon_rad=sc.lon_rad, h_m=sc.h_m, zv_sigma_m_s=sc.zero_velocity_sigma_m_s,
                       heading_stage_s=20.0, heading_stage_q=(0.1 * np.pi / 180) ** 2)
     assert cfg.heading_stage_cycles() == 200
     ref = run_alignment_reference(dth, dv, cfg)
@@ -401,7 +394,7 @@ def test_heading_stage_converges_from_large_coarse_heading_error(t0_s: float) ->
     dth = dth + eps_b * dt
     dv = dv + nab_b * dt
     cfg = AlignConfig(lat_rad=sc.lat_rad, lon_rad=sc.lon_rad, h_m=sc.h_m,
-                      zv_sigma_mps=sc.zero_velocity_sigma_mps,
+                      zv_sigma_m_s=sc.zero_velocity_sigma_m_s,
                       heading_stage_s=sc.heading_stage_s, heading_stage_q=sc.heading_stage_q)
     out = run_alignment(dth, dv, cfg)
     assert not out["failed"]
@@ -413,8 +406,8 @@ def test_heading_stage_converges_from_large_coarse_heading_error(t0_s: float) ->
     u, _, vt = np.linalg.svd(c)
     c = u @ vt
     eps_n, nab_n = c @ eps_b, c @ nab_b
-    g = gravity_mps2(sc.lat_rad, sc.h_m)
-    psi_ss = (-eps_n[0] / (EARTH_RATE_RPS * np.cos(sc.lat_rad))
+    g = gravity_m_s2(sc.lat_rad, sc.h_m)
+    psi_ss = (-eps_n[0] / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad))
               + nab_n[0] / g * np.tan(sc.lat_rad))
     sigma_end = out["p_phi"][-1, 2]
     psi_end = misalignment(euler2dcm(out["att"][-1]), cnb[-1])[2]
@@ -429,7 +422,7 @@ def test_pipeline_counts_nan_samples_and_validates_arguments() -> None:
     sc = scenario("static")
     dt = 0.05
     dth, dv = imu_increments(sc, 2400, dt)
-    cfg = AlignConfig(dt_s=dt, kf_every=2, lat_rad=sc.lat_rad, zv_sigma_mps=0.001)
+    cfg = AlignConfig(dt_s=dt, kf_every=2, lat_rad=sc.lat_rad, zv_sigma_m_s=0.001)
     bad = dth.copy()
     bad[1500, 2] = np.nan
     bad[1700, 0] = np.inf
@@ -445,7 +438,7 @@ def test_pipeline_counts_nan_samples_and_validates_arguments() -> None:
     with pytest.raises(ValueError, match="taps"):
         run_alignment(dth, dv, AlignConfig(dt_s=dt, taps=np.ones(300) / 300))
     with pytest.raises(ValueError, match="invalid alignment settings"):
-        run_alignment(dth, dv, AlignConfig(dt_s=dt, zv_sigma_mps=0.0))
+        run_alignment(dth, dv, AlignConfig(dt_s=dt, zv_sigma_m_s=0.0))
 
 
 def test_fine_alignment_heading_noise_near_arw_limit() -> None:
@@ -459,8 +452,8 @@ def test_fine_alignment_heading_noise_near_arw_limit() -> None:
     dth, dv = imu_increments(sc, n, dt)
     arw = 0.005 * DPSH
     cfg = AlignConfig(dt_s=dt, kf_every=2, lat_rad=sc.lat_rad, lon_rad=sc.lon_rad,
-                      h_m=sc.h_m, arw_rad_rsqs=arw, zv_sigma_mps=0.001, p0_eb_rps=1e-6 * DPH)
+                      h_m=sc.h_m, arw_rad_s_rt_hz=arw, zv_sigma_m_s=0.001, p0_eb_rad_s=1e-6 * DPH)
     out = run_alignment(dth, dv, cfg)
     t_fine = out["t_s"][-1] - cfg.coarse_s
-    limit = arw / (EARTH_RATE_RPS * np.cos(sc.lat_rad) * np.sqrt(t_fine))
+    limit = arw / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad) * np.sqrt(t_fine))
     assert limit <= out["p_phi"][-1, 2] <= 1.5 * limit

@@ -7,20 +7,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gyrodrift.align import (
-    ARCMIN,
-    ARCSEC,
-    DPSH,
-    apply_realtime,
-    group_delay_dc_samples,
-    imu_increments,
-    realtime_wavelet_taps,
-    scenario,
-)
+from gyrodrift.align import imu_increments, scenario
 from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors, kf_noise_from_samples
 from gyrodrift.align.psins import read_psins_imu
 from gyrodrift.align.study import StudyConfig, convergence_time_s, run_study
 from gyrodrift.cli import main
+from gyrodrift.earth import ARCMIN, ARCSEC, DPSH
+from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
+from gyrodrift.reference.wavelet import forced_fir_taps as forced_fir_taps_pywt
 
 # ---------------------------------------------------------------- prefilter
 
@@ -28,8 +22,8 @@ from gyrodrift.cli import main
 def test_prefilter_taps_equal_wavelet_area_and_pywt_definition() -> None:
     """Taps of the wavelet area's C++ RealtimeWavelet (lifting) vs the PyWavelets definition
     applied to unit windows: both are exact linear algebra on the same filter, 1e-12."""
-    core = realtime_wavelet_taps(source="core")
-    ref = realtime_wavelet_taps(source="pywt")
+    core = forced_fir_taps("db4", 256, 5)
+    ref = forced_fir_taps_pywt("db4", 256, 5)
     assert core.shape == (256,)
     assert np.abs(core - ref).max() < 1e-12
     assert abs(core.sum() - 1.0) < 1e-12  # DC gain 1: db4 reproduces constants
@@ -41,7 +35,7 @@ def test_fir_prefilter_equals_realtime_wavelet_stream(rng: np.random.Generator) 
 
     x = rng.standard_normal((1500, 3))
     y_core = RealtimeWavelet("db4", 256, 5).filter(x)
-    y_fir = apply_realtime(x, realtime_wavelet_taps())
+    y_fir = apply_fir(x, forced_fir_taps("db4", 256, 5))
     assert np.abs(y_core - y_fir).max() < 1e-12
     assert np.array_equal(y_fir[:255], x[:255])  # start-up pass-through (paper 004 sec. 2.2)
 
@@ -51,7 +45,7 @@ def test_prefilter_preserves_integrated_angle_of_white_noise(rng: np.random.Gene
     to within the filter's memory (a bounded, non-growing difference), so angle random walk
     is untouched while the per-sample scatter drops ~5x."""
     x = rng.standard_normal((200_000, 1))
-    y = apply_realtime(x, realtime_wavelet_taps())
+    y = apply_fir(x, forced_fir_taps("db4", 256, 5))
     d = np.cumsum(y - x, axis=0)
     # The difference is a filtered white sequence of std ~ sqrt(sum (cumulative tap tail)^2)
     # ~ 3; the raw random walk reaches ~450 (sqrt(2e5)). 30 is a 10-sigma bound.
@@ -66,8 +60,8 @@ def test_pulse_quantization_keeps_angle_error_within_one_lsb() -> None:
     sc = scenario("ship_mild")
     dt = 0.0025
     dth, dv = imu_increments(sc, 4000, dt)
-    err = ImuErrors(gyro_bias_dph=(0, 0, 0), arw_deg_rthr=0.0, accel_bias_ug=(0, 0, 0),
-                    vrw_ug_rhz=0.0, gyro_lsb_arcsec=0.1)
+    err = ImuErrors(gyro_bias_deg_h=(0, 0, 0), arw_deg_rt_h=0.0, accel_bias_ug=(0, 0, 0),
+                    vrw_ug_rt_hz=0.0, gyro_lsb_arcsec=0.1)
     g, a = add_imu_errors(dth, dv, dt, err, seed=1)
     lsb = 0.1 * ARCSEC
     assert np.allclose(np.round(g / lsb) * lsb, g, rtol=0, atol=1e-9 * lsb)
@@ -80,7 +74,7 @@ def test_error_model_is_seeded_and_arw_is_recovered_from_scatter() -> None:
     sc = scenario("static")
     dt = 0.0025
     dth, dv = imu_increments(sc, 64 * 2000, dt)
-    err = ImuErrors(arw_deg_rthr=0.01)
+    err = ImuErrors(arw_deg_rt_h=0.01)
     g1, a1 = add_imu_errors(dth, dv, dt, err, seed=5)
     g2, a2 = add_imu_errors(dth, dv, dt, err, seed=5)
     g3, _ = add_imu_errors(dth, dv, dt, err, seed=6)
@@ -118,11 +112,11 @@ def test_white_noise_plus_bias_gains_nothing_from_the_prefilter() -> None:
     dt = 0.01
     d0, v0 = imu_increments(sc, round(6 * 60 / dt), dt)
     base = {"dt_s": dt, "kf_every": 10, "lat_rad": sc.lat_rad, "lon_rad": sc.lon_rad,
-            "h_m": sc.h_m, "arw_rad_rsqs": 0.01 * DPSH, "zv_sigma_mps": 0.001}
-    taps = realtime_wavelet_taps()
+            "h_m": sc.h_m, "arw_rad_s_rt_hz": 0.01 * DPSH, "zv_sigma_m_s": 0.001}
+    taps = forced_fir_taps("db4", 256, 5)
     yaw = []
     for seed in range(4):
-        g, a = add_imu_errors(d0, v0, dt, ImuErrors(arw_deg_rthr=0.01), seed)
+        g, a = add_imu_errors(d0, v0, dt, ImuErrors(arw_deg_rt_h=0.01), seed)
         pre = run_alignment(g, a, AlignConfig(**base, taps=taps, accel_delay_samples=8))
         raw = run_alignment(np.ascontiguousarray(g[247:-8]), np.ascontiguousarray(a[247:-8]),
                             AlignConfig(**base))
@@ -137,7 +131,7 @@ def test_prefilter_helps_when_kf_noise_is_taken_from_raw_scatter() -> None:
     the per-sample scatter of a quantized gyro with dither residue, the raw-gyro filter is
     told the gyro is ~100x noisier than its true ARW and its heading converges slower; the
     prefilter removes that scatter, so its filter converges faster (same data)."""
-    st = StudyConfig(scenario="static", runs=4, minutes=8.0, rate_hz=100.0, kf_noise="samples",
+    st = StudyConfig(scenario="static", runs=4, duration_s=480.0, rate_hz=100.0, kf_noise="samples",
                      errors=ImuErrors(gyro_lsb_arcsec=0.1, dither_residue_arcsec=2.0,
                                       dither_hz=(17.0, 19.0, 23.0)))
     res, _ = run_study(st)
@@ -199,8 +193,8 @@ def test_real_laser_gyro_heading_consistency(lasergyro_path: Path) -> None:
 
 
 def test_cli_study_writes_tables_and_plots(tmp_path: Path, capsys) -> None:
-    rc = main(["align", "--scenario", "static", "--runs", "2", "--minutes", "3",
-               "--rate-hz", "100", "--out", str(tmp_path)])
+    rc = main(["align", "--scenario", "static", "--runs", "2", "--duration-s", "180",
+               "--rate-hz", "100", "--out-dir", str(tmp_path)])
     assert rc == 0
     for f in ("table.md", "table.csv", "heading_static.png", "level_static.png"):
         assert (tmp_path / f).stat().st_size > 0
@@ -213,10 +207,10 @@ def test_cli_study_writes_tables_and_plots(tmp_path: Path, capsys) -> None:
     ["align", "--runs", "1"],
     ["align", "--scenario", "moon"],
     ["align", "--real", "/nonexistent/file.imu"],
-    ["align", "--scenario", "static", "--minutes", "0.5", "--runs", "2"],
+    ["align", "--scenario", "static", "--duration-s", "30", "--runs", "2"],
 ])
 def test_cli_user_errors_exit_2(argv: list[str], tmp_path: Path, capsys) -> None:
-    assert main([*argv, "--out", str(tmp_path)]) == 2
+    assert main([*argv, "--out-dir", str(tmp_path)]) == 2
     assert "gyrodrift align: error:" in capsys.readouterr().err
 
 

@@ -264,10 +264,10 @@ def test_real_laser_gyro_record_equals_allantools(tmp_path) -> None:
     assert counts.shape == (184_718, 6)
     np.save(tmp_path / "gz.npy", counts[:, 2] * 0.1)  # arcsec per 10 ms sample
     rec = io.load_record(tmp_path / "gz.npy", rate_hz=100.0, units="arcsec")
-    z_dph = np.asarray(rec.rate_dph)
-    assert np.mean(z_dph) == pytest.approx(15.041 * np.sin(np.radians(34.246048)), abs=0.3)
-    res = allan.oadev(z_dph, 100.0, taus="decade", per_decade=8)
-    _, dev, _, _ = allantools.oadev(z_dph, rate=100.0, data_type="freq", taus=res.tau_s)
+    z_deg_h = np.asarray(rec.rate_deg_h)
+    assert np.mean(z_deg_h) == pytest.approx(15.041 * np.sin(np.radians(34.246048)), abs=0.3)
+    res = allan.oadev(z_deg_h, 100.0, taus="decade", per_decade=8)
+    _, dev, _, _ = allantools.oadev(z_deg_h, rate=100.0, data_type="freq", taus=res.tau_s)
     np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL)
 
 
@@ -278,9 +278,9 @@ def test_lag1_noise_id_equals_allantools_and_finds_the_types() -> None:
     import gyrodrift
 
     cases = {
-        2: gyrodrift.simulate(n=8192, rate_hz=1.0, q_deg=1e-3, seed=1).rate_dph,
-        0: gyrodrift.simulate(n=8192, rate_hz=1.0, n_deg_rthr=0.01, seed=2).rate_dph,
-        -2: gyrodrift.simulate(n=8192, rate_hz=1.0, k_deg_h_rthr=1.0, seed=3).rate_dph,
+        2: gyrodrift.simulate(n=8192, rate_hz=1.0, q_deg=1e-3, seed=1).rate_deg_h,
+        0: gyrodrift.simulate(n=8192, rate_hz=1.0, n_deg_rt_h=0.01, seed=2).rate_deg_h,
+        -2: gyrodrift.simulate(n=8192, rate_hz=1.0, k_deg_h_rt_h=1.0, seed=3).rate_deg_h,
     }
     for expected, y in cases.items():
         for m in (1, 4, 16, 64):

@@ -12,12 +12,12 @@ from gyrodrift.cli.demo import DEFAULT_TERMS
 
 
 def _json(capsys: pytest.CaptureFixture[str], *extra: str) -> dict:
-    assert main(["demo", "--json", "--seconds", "120", *extra]) == 0
+    assert main(["demo", "--json", "--duration-s", "120", *extra]) == 0
     return json.loads(capsys.readouterr().out)
 
 
 def test_demo_table(capsys) -> None:
-    assert main(["demo", "--seconds", "120"]) == 0
+    assert main(["demo", "--duration-s", "120"]) == 0
     out = capsys.readouterr().out
     for text in ("AR(2) model (burg)", "| STD (deg/h) |", "AR(2)-Kalman", "STD reduction"):
         assert text in out
@@ -30,15 +30,16 @@ def test_demo_json_numbers_are_the_filters_numbers(capsys) -> None:
     assert set(table) == {"raw", "AR filter", "AR(2)-Kalman"}
     # Recompute the Kalman column independently of the CLI from the same seeded record.
     rec = gyrodrift.simulate(120.0, rate_hz=100.0, seed=2006, **DEFAULT_TERMS)
-    model = gyrodrift.fit_ar2(rec.rate_dph, "burg")
+    model = gyrodrift.fit_ar2(rec.rate_deg_h, "burg")
     assert res["model"]["a1"] == model.a1 and res["model"]["a2"] == model.a2
-    y = gyrodrift.kalman_filter(rec.rate_dph, model)[100:]
-    assert table["AR(2)-Kalman"]["std_dph"] == pytest.approx(np.std(y), rel=1e-12)
-    assert table["raw"]["std_dph"] == pytest.approx(np.std(rec.rate_dph[100:]), rel=1e-12)
+    y = gyrodrift.kalman_filter(rec.rate_deg_h, model)[100:]
+    assert table["AR(2)-Kalman"]["std_deg_h"] == pytest.approx(np.std(y), rel=1e-12)
+    assert table["raw"]["std_deg_h"] == pytest.approx(np.std(rec.rate_deg_h[100:]), rel=1e-12)
     # The filter removes part of the random drift and keeps the constant drift (mean).
     assert table["AR(2)-Kalman"]["std_reduction"] > 1.2
-    assert table["AR(2)-Kalman"]["mean_dph"] == pytest.approx(table["raw"]["mean_dph"], abs=0.05)
-    assert table["AR(2)-Kalman"]["n_deg_rthr"] < table["raw"]["n_deg_rthr"]
+    assert table["AR(2)-Kalman"]["mean_deg_h"] == pytest.approx(table["raw"]["mean_deg_h"],
+                                                                abs=0.05)
+    assert table["AR(2)-Kalman"]["n_deg_rt_h"] < table["raw"]["n_deg_rt_h"]
 
 
 def test_demo_options(capsys) -> None:
@@ -47,19 +48,19 @@ def test_demo_options(capsys) -> None:
     assert f32["kalman"] == {**base["kalman"], "steady_state": True, "dtype": "float32"}
     # Steady-state vs full filter differ only in the start-up transient (excluded: first 1 s);
     # float32 adds ~1e-7 relative. 1e-4 relative on the STD covers both.
-    assert f32["table"]["AR(2)-Kalman"]["std_dph"] == pytest.approx(
-        base["table"]["AR(2)-Kalman"]["std_dph"], rel=1e-4
+    assert f32["table"]["AR(2)-Kalman"]["std_deg_h"] == pytest.approx(
+        base["table"]["AR(2)-Kalman"]["std_deg_h"], rel=1e-4
     )
-    custom = _json(capsys, "--r", "10", "--method", "ls")
-    assert custom["kalman"]["r_dph2"] == 10.0 and custom["model"]["method"] == "ls"
+    custom = _json(capsys, "--kalman-r", "10", "--method", "ls")
+    assert custom["kalman"]["r_deg_h_sq"] == 10.0 and custom["model"]["method"] == "ls"
     # A larger r trusts the model more: more smoothing.
-    assert custom["table"]["AR(2)-Kalman"]["std_dph"] < base["table"]["AR(2)-Kalman"]["std_dph"]
+    assert custom["table"]["AR(2)-Kalman"]["std_deg_h"] < base["table"]["AR(2)-Kalman"]["std_deg_h"]
 
 
 def test_demo_user_errors(capsys) -> None:
-    assert main(["demo", "--seconds", "-1"]) == 2
+    assert main(["demo", "--duration-s", "-1"]) == 2
     assert "error" in capsys.readouterr().err
-    assert main(["demo", "--seconds", "5"]) == 2  # 500 samples
+    assert main(["demo", "--duration-s", "5"]) == 2  # 500 samples
     assert "too short" in capsys.readouterr().err
-    assert main(["demo", "--seconds", "120", "--r", "0"]) == 2
+    assert main(["demo", "--duration-s", "120", "--kalman-r", "0"]) == 2
     assert "r must be" in capsys.readouterr().err

@@ -19,8 +19,8 @@ def _drift(n: int, seed: int, axes: int = 1) -> np.ndarray:
     # Drift-like FOG record (paper 002 pair 0.6868/-0.0213) on an Earth-rate-like bias, plus
     # ARW, in deg/h.
     return gyrodrift.simulate(
-        n=n, ar2=(0.6868, -0.0213, 0.2), bias_deg_h=9.7, n_deg_rthr=0.0002, axes=axes, seed=seed
-    ).rate_dph
+        n=n, ar2=(0.6868, -0.0213, 0.2), bias_deg_h=9.7, n_deg_rt_h=0.0002, axes=axes, seed=seed
+    ).rate_deg_h
 
 
 @pytest.fixture(scope="module")
@@ -214,7 +214,7 @@ def test_kalman_error_variance_matches_riccati_prediction(rng) -> None:
     # P_f = P - K C P from the DARE (scipy). Its empirical estimate over n = 2e5 samples of
     # a correlated error has relative std ~ sqrt(2 tau / n) < 1 %; bound 5 %.
     a1, a2, q, r, n = 0.6868, -0.0213, 1.0, 2.0, 200_000
-    truth = gyrodrift.simulate(n=n, ar2=(a1, a2, np.sqrt(q)), seed=99).rate_dph
+    truth = gyrodrift.simulate(n=n, ar2=(a1, a2, np.sqrt(q)), seed=99).rate_deg_h
     y = truth + rng.normal(0.0, np.sqrt(r), n)
     m = Ar2Model(a1=a1, a2=a2, sigma2=q, mean=0.0)
     est = gyrodrift.kalman_filter(y, m, q=q, r=r)

@@ -21,7 +21,7 @@ METHODS = ["yule-walker", "burg", "ls"]
 def _record(a1: float, a2: float, n: int, seed: int) -> np.ndarray:
     # Drift-like record: AR(2) on top of a constant bias and a little white noise (deg/h).
     rec = gyrodrift.simulate(n=n, ar2=(a1, a2, 0.05), bias_deg_h=-3.7, seed=seed)
-    return rec.rate_dph
+    return rec.rate_deg_h
 
 
 # Coefficients are O(1) (|a| < 2 in the stationarity triangle), so an absolute 1e-12 bound is
@@ -92,7 +92,7 @@ def test_papers_pairs_recovered(pair: tuple[float, float], method: str) -> None:
     # test is deterministic; a real bias of the estimator would exceed it).
     n = 200_000
     a1, a2 = pair
-    x = gyrodrift.simulate(n=n, ar2=(a1, a2, 0.3), bias_deg_h=1.5, seed=21).rate_dph
+    x = gyrodrift.simulate(n=n, ar2=(a1, a2, 0.3), bias_deg_h=1.5, seed=21).rate_deg_h
     m = gyrodrift.fit_ar2(x, method)
     tol = 5 * math.sqrt((1 - a2**2) / n)
     assert abs(m.a1 - a1) < tol and abs(m.a2 - a2) < tol
@@ -157,12 +157,12 @@ def test_reject_non_stationary() -> None:
 
 def test_fit_three_axes_and_bad_arguments() -> None:
     rec = gyrodrift.simulate(n=4000, ar2=(0.5, -0.2, 1.0), axes=3, seed=4)
-    models = gyrodrift.fit_ar2(rec.rate_dph, "burg")
+    models = gyrodrift.fit_ar2(rec.rate_deg_h, "burg")
     assert len(models) == 3
     for i, m in enumerate(models):
-        assert m == gyrodrift.fit_ar2(np.ascontiguousarray(rec.rate_dph[:, i]), "burg")
+        assert m == gyrodrift.fit_ar2(np.ascontiguousarray(rec.rate_deg_h[:, i]), "burg")
     with pytest.raises(ValueError, match="unknown AR"):
-        gyrodrift.fit_ar2(rec.rate_dph[:, 0], "arma")
+        gyrodrift.fit_ar2(rec.rate_deg_h[:, 0], "arma")
     with pytest.raises(ValueError, match="shape"):
         gyrodrift.fit_ar2(np.zeros((10, 2)))
     with pytest.raises(TypeError, match="dtype"):
@@ -172,7 +172,26 @@ def test_fit_three_axes_and_bad_arguments() -> None:
     with pytest.raises(TypeError):
         _core.ar2_fit(np.arange(40.0)[::2], _core.Ar2Method.burg)  # strided: no silent copy
     with pytest.raises(TypeError, match="float32 or float64"):
-        gyrodrift.fit_ar2(rec.rate_dph[:, 0], "burg", dtype=np.int32)
+        gyrodrift.fit_ar2(rec.rate_deg_h[:, 0], "burg", dtype=np.int32)
+
+
+def test_fit_cause_is_the_binding_status_not_the_message() -> None:
+    """The binding returns the C++ Ar2Status as a value; Ar2FitError.cause is its name and the
+    error is a GyrodriftValueError (issue 9: no message parsing)."""
+    from gyrodrift.errors import GyrodriftError, GyrodriftValueError
+
+    for x, status in ((np.ones(100), _core.Ar2Status.constant),
+                      (np.zeros(3), _core.Ar2Status.too_short),
+                      (np.array([1.0, np.nan] * 20), _core.Ar2Status.non_finite)):
+        got = _core.ar2_fit(np.ascontiguousarray(x), _core.Ar2Method.burg)
+        assert got[0] == status and got[1:] == (0.0, 0.0, 0.0, 0.0, 0.0)
+        with pytest.raises(Ar2FitError) as info:
+            gyrodrift.fit_ar2(x, "burg")
+        assert info.value.cause == status.name
+        assert isinstance(info.value, GyrodriftValueError)
+        assert isinstance(info.value, GyrodriftError) and isinstance(info.value, ValueError)
+    ok = _core.ar2_fit(np.random.default_rng(1).standard_normal(200), _core.Ar2Method.burg)
+    assert ok[0] == _core.Ar2Status.ok
 
 
 def test_fit_real_laser_gyro_record() -> None:
@@ -183,10 +202,10 @@ def test_fit_real_laser_gyro_record() -> None:
         data_lines = [line for line in f if line.strip() and not line.startswith("%")]
     rows = np.loadtxt(data_lines[3:30_003])  # 3 header lines (data README), then 300 s
     gz_arcsec = rows[:, 2] * 0.1  # counts * 0.1 arcsec per count (data README)
-    rate_dph = gz_arcsec / 0.01  # arcsec per 10 ms sample -> arcsec/s == deg/h
+    rate_deg_h = gz_arcsec / 0.01  # arcsec per 10 ms sample -> arcsec/s == deg/h
     for method in METHODS:
-        got = gyrodrift.fit_ar2(rate_dph, method)
-        want = ref.fit_ar2(rate_dph, method)
+        got = gyrodrift.fit_ar2(rate_deg_h, method)
+        want = ref.fit_ar2(rate_deg_h, method)
         # This record is strongly correlated (a1 + a2 ~ 0.93): rounding is amplified by the
         # condition number (1 + rho1) / (1 - rho1) (~18) of the Toeplitz system, so the
         # 1e-12 bound of the synthetic cases is scaled by it.
@@ -204,8 +223,8 @@ def test_root_modulus_flags_trending_records() -> None:
     assert Ar2Model(a1=0.5, a2=0.14, sigma2=1.0).root_modulus == pytest.approx(0.7)
     # A rate-random-walk record (non-stationary) is fitted (YW/Burg cannot return a
     # non-stationary model) but its root modulus sits next to 1; white noise is far from it.
-    walk = gyrodrift.simulate(n=50_000, k_deg_h_rthr=5.0, seed=8).rate_dph
-    white = gyrodrift.simulate(n=50_000, n_deg_rthr=0.01, seed=8).rate_dph
+    walk = gyrodrift.simulate(n=50_000, k_deg_h_rt_h=5.0, seed=8).rate_deg_h
+    white = gyrodrift.simulate(n=50_000, n_deg_rt_h=0.01, seed=8).rate_deg_h
     assert gyrodrift.fit_ar2(walk, "burg").root_modulus > 0.99
     # White noise: a1, a2 ~ N(0, 1/n) (std 4.5e-3); complex roots have modulus sqrt(-a2), so
     # 5 std of a2 (0.022) bounds it by 0.15.

@@ -11,7 +11,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from gyrodrift.characterize import (
     characterize,
     kalibr_values,
@@ -19,7 +18,6 @@ from gyrodrift.characterize import (
     self_check,
 )
 from gyrodrift.imu_io import CHANNELS, ImuData
-from gyrodrift.simulate import simulate
 
 # allan_variance_ros's published simulator settings (its README / imu simulator config).
 GYRO_N = 1.888339e-4  # rad/s/sqrt(Hz)

@@ -14,11 +14,11 @@ def test_npy_1d_is_memory_mapped_2d_column(tmp_path) -> None:
     x = np.random.default_rng(0).normal(size=1000)
     np.save(tmp_path / "a.npy", x)
     rec = io.load_record(tmp_path / "a.npy", rate_hz=10.0)
-    assert isinstance(rec.rate_dph, np.memmap)  # large records stay on disk
-    np.testing.assert_array_equal(np.asarray(rec.rate_dph), x)
+    assert isinstance(rec.rate_deg_h, np.memmap)  # large records stay on disk
+    np.testing.assert_array_equal(np.asarray(rec.rate_deg_h), x)
     np.save(tmp_path / "b.npy", np.column_stack([x, 2 * x, 3 * x]))
     rec2 = io.load_record(tmp_path / "b.npy", rate_hz=10.0, column=2)
-    np.testing.assert_array_equal(rec2.rate_dph, 3 * x)
+    np.testing.assert_array_equal(rec2.rate_deg_h, 3 * x)
     with pytest.raises(ValueError, match="choose a column"):
         io.load_record(tmp_path / "b.npy", rate_hz=10.0)
     with pytest.raises(ValueError, match="out of range"):
@@ -35,7 +35,7 @@ def test_units(tmp_path, units: str, factor: float) -> None:
     x = np.linspace(-1.0, 1.0, 101)
     np.save(tmp_path / "u.npy", x)
     rec = io.load_record(tmp_path / "u.npy", rate_hz=50.0, units=units)
-    np.testing.assert_allclose(rec.rate_dph, x * factor, rtol=1e-15)
+    np.testing.assert_allclose(rec.rate_deg_h, x * factor, rtol=1e-15)
     assert rec.units_in == units
 
 
@@ -45,7 +45,7 @@ def test_csv_without_header_and_bad_cells(tmp_path) -> None:
     with pytest.raises(ValueError, match="1 of 4 samples are NaN/Inf"):
         io.load_record(path, column=1, rate_hz=10.0)
     rec = io.load_record(path, column=1, rate_hz=10.0, nan_policy="drop")
-    np.testing.assert_array_equal(rec.rate_dph, [1.5, 2.5, 4.5])
+    np.testing.assert_array_equal(rec.rate_deg_h, [1.5, 2.5, 4.5])
     assert rec.n_dropped == 1 and rec.n_total == 4
 
 
@@ -59,7 +59,7 @@ def test_replay_csv_and_binary_logs(tmp_path) -> None:
         rec = io.load_record(tmp_path / name, column="y")
         assert rec.rate_hz == pytest.approx(100.0, rel=1e-6)
         # float32 on the wire: 1e-7 relative
-        np.testing.assert_allclose(rec.rate_dph, 2e-4 * 180 / math.pi * 3600, rtol=1e-6)
+        np.testing.assert_allclose(rec.rate_deg_h, 2e-4 * 180 / math.pi * 3600, rtol=1e-6)
     with pytest.raises(ValueError, match="gyro axes"):
         io.load_record(tmp_path / "imu.bin", column="w")
 
@@ -79,9 +79,9 @@ def test_unsupported_and_empty(tmp_path) -> None:
 
 def test_csv_ragged_rows_are_an_error(tmp_path) -> None:
     path = tmp_path / "r.csv"
-    path.write_text("t_s,rate_dph\n0.0,1.0\n0.1,2.0,9.9\n0.2,3.0\n")
+    path.write_text("t_s,rate_deg_h\n0.0,1.0\n0.1,2.0,9.9\n0.2,3.0\n")
     with pytest.raises(ValueError, match="malformed CSV"):
-        io.load_record(path, column="rate_dph")
+        io.load_record(path, column="rate_deg_h")
 
 
 def test_time_gaps_are_an_error(tmp_path) -> None:
@@ -89,8 +89,8 @@ def test_time_gaps_are_an_error(tmp_path) -> None:
     t = np.delete(t, [30, 31, 70])  # three missing samples in two gaps
     path = tmp_path / "g.csv"
     np.savetxt(path, np.column_stack([t, np.ones_like(t)]), delimiter=",",
-               header="t_s,rate_dph", comments="")
+               header="t_s,rate_deg_h", comments="")
     with pytest.raises(ValueError, match="2 gaps"):
-        io.load_record(path, column="rate_dph")
+        io.load_record(path, column="rate_deg_h")
     # an explicit --rate is the user's statement that the samples are uniform
-    assert io.load_record(path, column="rate_dph", rate_hz=10.0).n == 97
+    assert io.load_record(path, column="rate_deg_h", rate_hz=10.0).n == 97

@@ -10,13 +10,6 @@ import pytest
 from gyrodrift import allan, compare, noise_id
 
 
-def test_published_rows_are_the_papers() -> None:
-    # Transcribed from paper 000, Table 1 (checked by hand against the text).
-    assert compare.PAPER_TABLE1["original"] == (0.0035, 0.0012, 0.0794, 0.0962)
-    assert compare.PAPER_TABLE1["AR(2)-Kalman"] == (4.9429e-4, 1.6080e-4, 0.0069, 0.0113)
-    assert compare.PAPER_AR2 == (-0.0340, 0.0252)
-
-
 def test_default_rate_solves_the_variance_budget() -> None:
     fs = compare.default_record_rate_hz()
     # var = gamma N'^2 fs + 2 Q^2 fs^2 must equal STD^2 (module docstring), from scratch:
@@ -41,7 +34,7 @@ def test_default_record_matches_published_raw_row() -> None:
     fit = noise_id.paper_fit(r.tau_s, r.adev)
     # N from the -1/2 branch over 16 octaves: 10 %. Q is a small term at tau0 (quantization
     # variance is 0.8 % of the total): only its order of magnitude is identifiable, x3.
-    assert fit.n_deg_rthr == pytest.approx(0.0012, rel=0.10)
+    assert fit.n_deg_rt_h == pytest.approx(0.0012, rel=0.10)
     assert 0.0035 / 3 < fit.q_paper < 0.0035 * 3
     # B is not put in (see compare's docstring): the fit must report a small floor.
     assert fit.b_deg_h < 0.0794 / 10
@@ -51,7 +44,7 @@ def test_flicker_floor_cannot_coexist_with_published_std() -> None:
     # The README's argument, checked on the simulator: a flicker term with the published B
     # alone has a larger std than the published total STD over a 4096-sample record.
     rec = gyrodrift.simulate(n=4096, rate_hz=1.74, b_deg_h=0.0794, seed=0)
-    assert np.std(rec.rate_dph) > 0.0962
+    assert np.std(rec.rate_deg_h) > 0.0962
 
 
 def test_run_compare_writes_report(tmp_path) -> None:

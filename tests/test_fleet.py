@@ -9,7 +9,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from gyrodrift.fleet import FleetOptions, load_spec, run_fleet
 
 

@@ -8,7 +8,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from gyrodrift.imu_io import CHANNELS, load_imu
 
 RATE = 100.0
@@ -120,7 +119,7 @@ def test_psins_imu(tmp_path: Path) -> None:
     from gyrodrift.io import load_record
 
     one = load_record(path, column="x")
-    np.testing.assert_allclose(one.rate_dph, counts[:, 0] * 0.1 * 100.0, rtol=1e-12)
+    np.testing.assert_allclose(one.rate_deg_h, counts[:, 0] * 0.1 * 100.0, rtol=1e-12)
 
 
 def test_allan_cli_accepts_psins(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

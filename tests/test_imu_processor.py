@@ -40,12 +40,12 @@ def simulated_record(seed: int = 5) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     rec = simulate_imu(
         n=N,
         rate_hz=400.0,
-        gyro=NoiseTerms(n_deg_rthr=0.0005, bias_deg_h=2.0, ar2=(1.6, -0.65, 0.1)),
-        accel_bias_mps2=0.02,
-        vrw_mps_rthr=0.05,
+        gyro=NoiseTerms(n_deg_rt_h=0.0005, bias_deg_h=2.0, ar2=(1.6, -0.65, 0.1)),
+        accel_bias_m_s2=0.02,
+        vrw_m_s_rt_h=0.05,
         seed=seed,
     )
-    values = np.column_stack([rec.gyro_rads, rec.accel_mps2])
+    values = np.column_stack([rec.gyro_rad_s, rec.accel_m_s2])
     seq = np.arange(N) % 65536
     t_us = 1_000_000 + np.arange(N, dtype=np.uint64) * PERIOD_US
     return seq, t_us, values

@@ -15,9 +15,9 @@ def test_model_and_fit_roundtrip_exact() -> None:
     # Noise-free curve from the table C.2 model: the NNLS must give the terms back to
     # solver precision (1e-6 relative: nnls tolerance on a 5-column, 25-row system).
     tau = np.logspace(-2, 5, 25)
-    terms = {"q_arcsec": 0.5, "n_deg_rthr": 0.01, "b_deg_h": 0.05, "k_deg_h_rthr": 0.2,
-             "r_deg_h_h": 0.5}
-    fit = noise_id.identify(tau, noise_id.allan_model_dph(tau, **terms))
+    terms = {"q_arcsec": 0.5, "n_deg_rt_h": 0.01, "b_deg_h": 0.05, "k_deg_h_rt_h": 0.2,
+             "r_deg_h2": 0.5}
+    fit = noise_id.identify(tau, noise_id.allan_model_deg_h(tau, **terms))
     for name, value in terms.items():
         assert getattr(fit, name) == pytest.approx(value, rel=1e-6), name
 
@@ -28,14 +28,14 @@ def test_identify_q_n_b(seed: int) -> None:
     # deviation is known to < 1 % (1/sqrt(2 edf)); 3 % is > 4 sd. B rules 10..500 s with edf
     # 30..1500 per point (3..13 % each) and flicker noise's own realisation scatter: 15 %
     # (seeds 0..9 give at most 8 %).
-    q_deg, n_rthr, b_dph = 2e-4, 0.01, 0.3
-    rec = gyrodrift.simulate(n=1_000_000, rate_hz=100.0, q_deg=q_deg, n_deg_rthr=n_rthr,
-                             b_deg_h=b_dph, seed=seed)
-    r = allan.oadev(rec.rate_dph, 100.0, taus="decade", per_decade=8)
+    q_deg, n_rt_h, b_deg_h = 2e-4, 0.01, 0.3
+    rec = gyrodrift.simulate(n=1_000_000, rate_hz=100.0, q_deg=q_deg, n_deg_rt_h=n_rt_h,
+                             b_deg_h=b_deg_h, seed=seed)
+    r = allan.oadev(rec.rate_deg_h, 100.0, taus="decade", per_decade=8)
     fit = noise_id.identify(r.tau_s, r.adev, r.edf)
     assert fit.q_deg == pytest.approx(q_deg, rel=0.03)
-    assert fit.n_deg_rthr == pytest.approx(n_rthr, rel=0.03)
-    assert fit.b_deg_h == pytest.approx(b_dph, rel=0.15)
+    assert fit.n_deg_rt_h == pytest.approx(n_rt_h, rel=0.03)
+    assert fit.b_deg_h == pytest.approx(b_deg_h, rel=0.15)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -43,14 +43,14 @@ def test_identify_n_k_r(seed: int) -> None:
     # 4e5 s at 1 Hz. N rules tau < 100 s (edf > 3000): 3 %. K and R rule the last 1.5
     # decades where the edf falls to 1..50; the fit pools ~12 such points: K 20 %, R 10 %
     # (seeds 0..9: K within 16 %, R within 6 %; K and R partly trade against each other).
-    n_rthr, k, r_ramp = 0.01, 0.5, 2.0
-    rec = gyrodrift.simulate(n=400_000, rate_hz=1.0, n_deg_rthr=n_rthr, k_deg_h_rthr=k,
-                             r_deg_h_h=r_ramp, seed=seed)
-    res = allan.oadev(rec.rate_dph, 1.0, taus="decade", per_decade=8)
+    n_rt_h, k, r_ramp = 0.01, 0.5, 2.0
+    rec = gyrodrift.simulate(n=400_000, rate_hz=1.0, n_deg_rt_h=n_rt_h, k_deg_h_rt_h=k,
+                             r_deg_h2=r_ramp, seed=seed)
+    res = allan.oadev(rec.rate_deg_h, 1.0, taus="decade", per_decade=8)
     fit = noise_id.identify(res.tau_s, res.adev, res.edf)
-    assert fit.n_deg_rthr == pytest.approx(n_rthr, rel=0.03)
-    assert fit.k_deg_h_rthr == pytest.approx(k, rel=0.20)
-    assert fit.r_deg_h_h == pytest.approx(r_ramp, rel=0.10)
+    assert fit.n_deg_rt_h == pytest.approx(n_rt_h, rel=0.03)
+    assert fit.k_deg_h_rt_h == pytest.approx(k, rel=0.20)
+    assert fit.r_deg_h2 == pytest.approx(r_ramp, rel=0.10)
 
 
 def test_paper_fit_units_and_conversions() -> None:
@@ -63,26 +63,26 @@ def test_paper_fit_units_and_conversions() -> None:
     assert f.q_paper == pytest.approx(a2 / math.sqrt(3.0), rel=1e-6)
     assert f.q_arcsec == f.q_paper  # (deg/h)*s is arcsec: same number, honest label
     assert f.q_deg == pytest.approx(f.q_arcsec / 3600.0)
-    assert f.n_deg_rthr == pytest.approx(a1 / 60.0, rel=1e-6)
+    assert f.n_deg_rt_h == pytest.approx(a1 / 60.0, rel=1e-6)
     assert f.b_deg_h == pytest.approx(a0 / 0.6648, rel=1e-6)
 
 
 def test_slope_method_cross_checks_nnls(rng: np.random.Generator) -> None:
     # White rate only (N = 0.02 deg/sqrt(h) at 10 Hz, 2e5 samples): the -1/2 line read at
     # 1 h gives N; the short taus have edf > 1e4, the read-off point tolerance 5 %.
-    rec = gyrodrift.simulate(n=200_000, rate_hz=10.0, n_deg_rthr=0.02, seed=7)
-    r = allan.oadev(rec.rate_dph, 10.0)
+    rec = gyrodrift.simulate(n=200_000, rate_hz=10.0, n_deg_rt_h=0.02, seed=7)
+    r = allan.oadev(rec.rate_deg_h, 10.0)
     s = noise_id.slope_method(r.tau_s, r.adev)
-    assert s.n_deg_rthr == pytest.approx(0.02, rel=0.05)
-    assert s.k_deg_h_rthr is None  # no +1/2 stretch in white noise
+    assert s.n_deg_rt_h == pytest.approx(0.02, rel=0.05)
+    assert s.k_deg_h_rt_h is None  # no +1/2 stretch in white noise
     # Noise-free Q + B + K curve with a wide flat floor: read-offs within 5 % (the neighbours'
     # tails still lift the minimum by ~3 %: the method's known bias).
     tau = np.logspace(-1, 5, 40)
-    curve = noise_id.allan_model_dph(tau, q_arcsec=1.0, b_deg_h=0.1, k_deg_h_rthr=0.1)
+    curve = noise_id.allan_model_deg_h(tau, q_arcsec=1.0, b_deg_h=0.1, k_deg_h_rt_h=0.1)
     s2 = noise_id.slope_method(tau, curve)
     assert s2.q_arcsec == pytest.approx(1.0, rel=0.01)
     assert s2.b_deg_h is not None and s2.b_deg_h == pytest.approx(0.1, rel=0.05)
-    assert s2.k_deg_h_rthr is not None and s2.k_deg_h_rthr == pytest.approx(0.1, rel=0.05)
+    assert s2.k_deg_h_rt_h is not None and s2.k_deg_h_rt_h == pytest.approx(0.1, rel=0.05)
 
 
 def test_bad_curves_rejected() -> None:

@@ -14,8 +14,8 @@ def test_white_level_gives_arw() -> None:
     # samples, nperseg 4096 -> ~97 half-overlapping segments, per-bin sd ~ 1/sqrt(48) = 14 %;
     # the median over the 2049 bins is biased by ln2/(chi2 median) ~ -4 % at 2*48 edf... use
     # the mean: sd 14 %/sqrt(2049) ~ 0.3 %, so 3 % is > 9 sd.
-    rec = gyrodrift.simulate(n=200_000, rate_hz=200.0, n_deg_rthr=0.05, seed=11)
-    p = psd.welch_psd(rec.rate_dph, 200.0, nperseg=4096)
+    rec = gyrodrift.simulate(n=200_000, rate_hz=200.0, n_deg_rt_h=0.05, seed=11)
+    p = psd.welch_psd(rec.rate_deg_h, 200.0, nperseg=4096)
     level = float(np.mean(p.psd[1:]))
     assert level == pytest.approx(2.0 * (60.0 * 0.05) ** 2, rel=0.03)
     assert psd.arw_from_white_level(level) == pytest.approx(0.05, rel=0.02)

@@ -61,8 +61,8 @@ def test_log_input_real_time(tmp_path: Path, loop_bin: str, suffix: str,
 def test_user_errors(tmp_path: Path, loop_bin: str) -> None:
     with pytest.raises(CliError, match="no such log"):
         _run([str(tmp_path / "missing.bin"), "--loop-binary", loop_bin])
-    with pytest.raises(CliError, match="A1,A2,SIGMA2,MEAN"):
-        _run(["--gyro-ar2", "1,2", "--loop-binary", loop_bin])
+    with pytest.raises(CliError, match="expected A1,A2"):
+        _run(["--ar2", "1,2,3", "--loop-binary", loop_bin])
     with pytest.raises(CliError, match="does not exist"):
         _run(["--duration-s", "0.5", "--fast", "--loop-binary", str(tmp_path / "nope")])
     with pytest.raises(CliError, match="rates sum"):

@@ -33,9 +33,9 @@ def loop_bin(cpp_build_dir: Path) -> str:
 
 def _record(n: int, rate_hz: float, seed: int = 5) -> Samples:
     # A static IMU with an AR(2) gyro drift (the process the processor's Kalman filter models).
-    rec = simulate_imu(n=n, rate_hz=rate_hz, seed=seed, vrw_mps_rthr=0.02,
-                       gyro=NoiseTerms(n_deg_rthr=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)))
-    return make_samples(np.arange(n) / rate_hz, rec.gyro_rads, rec.accel_mps2)
+    rec = simulate_imu(n=n, rate_hz=rate_hz, seed=seed, vrw_m_s_rt_h=0.02,
+                       gyro=NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)))
+    return make_samples(np.arange(n) / rate_hz, rec.gyro_rad_s, rec.accel_m_s2)
 
 
 def _settings(rate_hz: float) -> ProcessorSettings:

@@ -46,8 +46,8 @@ def test_wavedec_equals_pywt_periodization(wavelet: str, n: int, level: int, rng
 def test_wavedec_on_simulated_gyro_record() -> None:
     import gyrodrift as g
 
-    rec = g.simulate(n=4096, rate_hz=400.0, n_deg_rthr=0.01, b_deg_h=0.02, bias_deg_h=3.0, seed=5)
-    x = (rec.rate_dph - rec.rate_dph.mean()) / rec.rate_dph.std()  # unit variance
+    rec = g.simulate(n=4096, rate_hz=400.0, n_deg_rt_h=0.01, b_deg_h=0.02, bias_deg_h=3.0, seed=5)
+    x = (rec.rate_deg_h - rec.rate_deg_h.mean()) / rec.rate_deg_h.std()  # unit variance
     np.testing.assert_allclose(
         wavedec(x, "db8", 5), pywt_concat(x, "db8", 5), rtol=0, atol=TOL_DOUBLE
     )

@@ -196,8 +196,8 @@ TEST_CASE("fine alignment converges to the steady-state formulas (static, biases
   run.setup(dt, 1200, 2);
   for (int k = 0; k < 20 * 60 * 20; ++k) REQUIRE(run.pipe.step(imu.dth, imu.dv) != AlignStatus::kFailed);
   const Eigen::Vector3d phi = misalignment<double>(q2dcm(run.pipe.nav().q()), c);
-  const double g = gravity_mps2(kLat, 50.0);
-  const double w = EarthConstants<double>::rate_rps;
+  const double g = gravity_m_s2(kLat, 50.0);
+  const double w = EarthConstants<double>::rate_rad_s;
   const Eigen::Vector3d theory(-nab_n(1) / g, nab_n(0) / g,
                                -eps_n(0) / (w * std::cos(kLat)) + nab_n(0) / g * std::tan(kLat));
   for (int i = 0; i < 3; ++i) {

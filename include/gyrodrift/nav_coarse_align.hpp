@@ -55,9 +55,9 @@ inline Scalar half_x2_minus_one_minus_cos(Scalar x) noexcept {
 
 // V^i0(t) (velocity variant) or S^i0(t) (position variant) of [0, 0, g] rotated with the Earth.
 template <class Scalar>
-inline Eigen::Matrix<Scalar, 3, 1> gravity_integral_i0(Scalar t_s, Scalar lat_rad, Scalar g_mps2,
+inline Eigen::Matrix<Scalar, 3, 1> gravity_integral_i0(Scalar t_s, Scalar lat_rad, Scalar g_m_s2,
                                                        bool position) noexcept {
-  const Scalar w = EarthConstants<Scalar>::rate_rps;
+  const Scalar w = EarthConstants<Scalar>::rate_rad_s;
   const Scalar sl = std::sin(lat_rad), cl = std::cos(lat_rad);
   const Scalar x = w * t_s;
   Scalar a, b, c;
@@ -71,7 +71,7 @@ inline Eigen::Matrix<Scalar, 3, 1> gravity_integral_i0(Scalar t_s, Scalar lat_ra
     c = Scalar(0.5) * t_s * t_s - b;
   }
   Eigen::Matrix<Scalar, 3, 1> v;
-  v << g_mps2 * cl * a, g_mps2 * sl * cl * b, g_mps2 * (c + sl * sl * b);
+  v << g_m_s2 * cl * a, g_m_s2 * sl * cl * b, g_m_s2 * (c + sl * sl * b);
   return v;
 }
 
@@ -79,7 +79,7 @@ inline Eigen::Matrix<Scalar, 3, 1> gravity_integral_i0(Scalar t_s, Scalar lat_ra
 template <class Scalar>
 inline Eigen::Matrix<Scalar, 3, 3> earth_rotation_i0_n(Scalar t_s, Scalar lat_rad) noexcept {
   Eigen::Matrix<Scalar, 3, 1> u(Scalar(0), std::cos(lat_rad), std::sin(lat_rad));
-  const Scalar x = EarthConstants<Scalar>::rate_rps * t_s;
+  const Scalar x = EarthConstants<Scalar>::rate_rad_s * t_s;
   const Eigen::Matrix<Scalar, 3, 3> ux = skew(u);
   return Eigen::Matrix<Scalar, 3, 3>::Identity() + std::sin(x) * ux +
          nav_detail::one_minus_cos(x) * (ux * ux);
@@ -114,7 +114,7 @@ class InertialCoarseAlign {
     n_ = n_samples;
     dt_ = dt_s;
     lat_ = lat_rad;
-    g_ = gravity_mps2(lat_rad, h_m);
+    g_ = gravity_m_s2(lat_rad, h_m);
     position_ = position_integral;
     q_ << Scalar(1), Scalar(0), Scalar(0), Scalar(0);
     vib0_.setZero();

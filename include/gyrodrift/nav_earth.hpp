@@ -12,20 +12,20 @@ struct EarthConstants {
   static constexpr Scalar a_m = Scalar(6378137.0);                    // WGS-84 semi-major axis
   static constexpr Scalar f = Scalar(1.0 / 298.257223563);             // flattening
   static constexpr Scalar e2 = Scalar((1.0 / 298.257223563) * (2.0 - 1.0 / 298.257223563));
-  static constexpr Scalar rate_rps = Scalar(7.2921151467e-5);         // Omega
+  static constexpr Scalar rate_rad_s = Scalar(7.2921151467e-5);         // Omega
   // Normal gravity g0 (1 + b1 sin^2 L + b2 sin^4 L) - dg/dh h (WGS-84 series, PSINS form).
-  static constexpr Scalar g_eq_mps2 = Scalar(9.7803267714);
+  static constexpr Scalar g_eq_m_s2 = Scalar(9.7803267714);
   static constexpr Scalar g_b1 = Scalar(5.27094e-3);
   static constexpr Scalar g_b2 = Scalar(2.32718e-5);
   static constexpr Scalar g_dh_per_s2 = Scalar(3.086e-6);
 };
 
 template <class Scalar>
-inline Scalar gravity_mps2(Scalar lat_rad, Scalar h_m) noexcept {
+inline Scalar gravity_m_s2(Scalar lat_rad, Scalar h_m) noexcept {
   using C = EarthConstants<Scalar>;
   const Scalar s = std::sin(lat_rad);
   const Scalar s2 = s * s;
-  return C::g_eq_mps2 * (Scalar(1) + C::g_b1 * s2 + C::g_b2 * s2 * s2) - C::g_dh_per_s2 * h_m;
+  return C::g_eq_m_s2 * (Scalar(1) + C::g_b1 * s2 + C::g_b2 * s2 * s2) - C::g_dh_per_s2 * h_m;
 }
 
 // Earth quantities at a position and velocity (evaluated once per mechanization sample).
@@ -40,7 +40,7 @@ struct EarthParams {
   Vec3 wnin = Vec3::Zero();  // wnie + wnen
   Vec3 gn = Vec3::Zero();    // gravity [0, 0, -g]
 
-  void update(Scalar lat_rad, Scalar h_m, const Vec3& vn_mps) noexcept {
+  void update(Scalar lat_rad, Scalar h_m, const Vec3& vn_m_s) noexcept {
     using C = EarthConstants<Scalar>;
     const Scalar sl = std::sin(lat_rad);
     const Scalar cl = std::cos(lat_rad);
@@ -50,10 +50,10 @@ struct EarthParams {
     rm_h_m = rm + h_m;
     rn_h_m = rn + h_m;
     tan_lat = sl / cl;
-    wnie << Scalar(0), C::rate_rps * cl, C::rate_rps * sl;
-    wnen << -vn_mps(1) / rm_h_m, vn_mps(0) / rn_h_m, vn_mps(0) * tan_lat / rn_h_m;
+    wnie << Scalar(0), C::rate_rad_s * cl, C::rate_rad_s * sl;
+    wnen << -vn_m_s(1) / rm_h_m, vn_m_s(0) / rn_h_m, vn_m_s(0) * tan_lat / rn_h_m;
     wnin = wnie + wnen;
-    gn << Scalar(0), Scalar(0), -gravity_mps2(lat_rad, h_m);
+    gn << Scalar(0), Scalar(0), -gravity_m_s2(lat_rad, h_m);
   }
 };
 

@@ -80,8 +80,8 @@ class FineAlignKF {
     f.template block<3, 3>(3, kDb) = cnb;
     if constexpr (N == 15) {
       using C = EarthConstants<Scalar>;
-      f(1, 7) = -C::rate_rps * std::sin(lat_rad) / ep.rm_h_m;
-      f(2, 7) = C::rate_rps * std::cos(lat_rad) / ep.rm_h_m;
+      f(1, 7) = -C::rate_rad_s * std::sin(lat_rad) / ep.rm_h_m;
+      f(2, 7) = C::rate_rad_s * std::cos(lat_rad) / ep.rm_h_m;
       f(5, 8) = C::g_dh_per_s2;
       f.template block<3, 3>(6, 3).setIdentity();
     }

@@ -24,9 +24,9 @@ class Strapdown {
   Strapdown() noexcept { reset(Quat<Scalar>(Scalar(1), Scalar(0), Scalar(0), Scalar(0)), Vec3::Zero(), Vec3::Zero()); }
 
   // pos = [lat rad, lon rad, h m].
-  void reset(const Quat<Scalar>& q_nb, const Vec3& vn_mps, const Vec3& pos) noexcept {
+  void reset(const Quat<Scalar>& q_nb, const Vec3& vn_m_s, const Vec3& pos) noexcept {
     q_ = qnormalize(q_nb);
-    vn_ = vn_mps;
+    vn_ = vn_m_s;
     pos_ = pos;
     prev_dth_.setZero();
     prev_dv_.setZero();

@@ -1,13 +1,37 @@
 """gyrodrift: random-drift removal for optical gyroscopes, and the evidence that it works.
 
-The public API is re-exported here; `gyrodrift.reference` holds the numpy/PyWavelets
-reference implementations written straight from the equations, against which the C++
-core (`gyrodrift._core`) is tested.
+The public API is re-exported here (see ``__all__``); the C++ core is ``gyrodrift._core``
+(loaded through ``gyrodrift._native``), and ``gyrodrift.reference`` holds the numpy /
+PyWavelets / scipy oracles written straight from the equations, against which the core is
+tested. Conventions (unit suffixes, results, errors): CONTRIBUTING.md.
+
+- AR(2) identification and filters: `fit_ar2`, `Ar2Model`, `Ar2FitError`, `ar_filter`,
+  `kalman_filter`, `KalmanFilter`.
+- Simulation: `simulate`, `simulate_imu`, `NoiseTerms`, `GyroRecord`, `ImuRecord`.
+- Wavelets: `wavelet_denoise`, `RealtimeWavelet`, `forced_fir_taps`,
+  `wavelet_packet_denoise`, `best_basis`.
+- Analysis: `oadev`, `AllanResult`, `identify_noise`, `paper_fit`, `slope_method`,
+  `welch_psd`, `load_record`.
+- IMU processor and replay: `ImuProcessor`, `ImuConfig`, `ImuChannelConfig`,
+  `ReplayOptions`, `run_replay`, `read_imu_log`, `write_imu_log` (the replay names import
+  python-can, cantools and pyserial on first use only).
+- Alignment: `AlignConfig`, `run_alignment`.
+- Errors: `GyrodriftError`, `GyrodriftValueError`, `GyrodriftTypeError`.
+
+Examples
+--------
+>>> import gyrodrift
+>>> rec = gyrodrift.simulate(n=1000, rate_hz=100.0, n_deg_rt_h=0.01, seed=1)
+>>> model = gyrodrift.fit_ar2(rec.rate_deg_h)
+>>> model.stationary
+True
 """
 
 from __future__ import annotations
 
+import importlib as _importlib
 import pkgutil as _pkgutil
+from typing import Any as _Any
 
 # Lets a development build of the extension (`scripts/dev-build`, PYTHONPATH=python:build/<dir>/py)
 # supply gyrodrift._core next to the pure-Python sources. Installed wheels are unaffected.
@@ -15,6 +39,12 @@ __path__ = _pkgutil.extend_path(__path__, __name__)
 
 __version__ = "0.1.0"
 
+# --- errors (issue 9) ---
+from gyrodrift.errors import GyrodriftError as GyrodriftError
+from gyrodrift.errors import GyrodriftTypeError as GyrodriftTypeError
+from gyrodrift.errors import GyrodriftValueError as GyrodriftValueError
+
+# isort: split
 # --- foundation (issue 2): simulator, AR(2) identification, AR and AR(2)-Kalman filters ---
 from gyrodrift.ar2 import Ar2FitError as Ar2FitError
 from gyrodrift.ar2 import Ar2Model as Ar2Model
@@ -28,9 +58,10 @@ from gyrodrift.simulate import NoiseTerms as NoiseTerms
 from gyrodrift.simulate import simulate as simulate
 from gyrodrift.simulate import simulate_imu as simulate_imu
 
+# isort: split
 # --- wavelets (issue 3) ---
+from gyrodrift.fir import forced_fir_taps as forced_fir_taps
 from gyrodrift.wavelet import RealtimeWavelet as RealtimeWavelet
-from gyrodrift.wavelet import forced_fir_taps as forced_fir_taps
 from gyrodrift.wavelet import wavelet_denoise as wavelet_denoise
 from gyrodrift.wavelet_packet import best_basis as best_basis
 from gyrodrift.wavelet_packet import wavelet_packet_denoise as wavelet_packet_denoise
@@ -45,17 +76,73 @@ from gyrodrift.noise_id import paper_fit as paper_fit
 from gyrodrift.noise_id import slope_method as slope_method
 from gyrodrift.psd import welch_psd as welch_psd
 
-# --- IMU processor, codecs, replay (issue 5) ---
+# --- IMU processor (issue 5) ---
 # isort: split
 from gyrodrift.imu import ImuChannelConfig as ImuChannelConfig
 from gyrodrift.imu import ImuConfig as ImuConfig
 from gyrodrift.imu import ImuProcessor as ImuProcessor
-from gyrodrift.replay import ReplayOptions as ReplayOptions
-from gyrodrift.replay import read_imu_log as read_imu_log
-from gyrodrift.replay import run_replay as run_replay
-from gyrodrift.replay import write_imu_log as write_imu_log
 
 # --- alignment (issue 6) ---
 # isort: split
 from gyrodrift.align import AlignConfig as AlignConfig
 from gyrodrift.align import run_alignment as run_alignment
+
+# --- replay (issue 5): imported on first use (python-can, cantools, pyserial) ---
+_LAZY = {
+    "ReplayOptions": "gyrodrift.replay",
+    "read_imu_log": "gyrodrift.replay",
+    "run_replay": "gyrodrift.replay",
+    "write_imu_log": "gyrodrift.replay",
+}
+
+__all__ = [
+    "AlignConfig",
+    "AllanResult",
+    "Ar2FitError",
+    "Ar2Model",
+    "GyroRecord",
+    "GyrodriftError",
+    "GyrodriftTypeError",
+    "GyrodriftValueError",
+    "ImuChannelConfig",
+    "ImuConfig",
+    "ImuProcessor",
+    "ImuRecord",
+    "KalmanFilter",
+    "NoiseTerms",
+    "RealtimeWavelet",
+    "ReplayOptions",
+    "__version__",
+    "ar_filter",
+    "best_basis",
+    "fit_ar2",
+    "forced_fir_taps",
+    "identify_noise",
+    "kalman_filter",
+    "load_record",
+    "oadev",
+    "paper_fit",
+    "read_imu_log",
+    "run_alignment",
+    "run_replay",
+    "simulate",
+    "simulate_imu",
+    "slope_method",
+    "wavelet_denoise",
+    "wavelet_packet_denoise",
+    "welch_psd",
+    "write_imu_log",
+]
+
+
+def __getattr__(name: str) -> _Any:
+    """Import the replay names on first use (PEP 562)."""
+    if name in _LAZY:
+        value = getattr(_importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'gyrodrift' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

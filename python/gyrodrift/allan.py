@@ -1,7 +1,7 @@
 """Overlapping Allan deviation with confidence intervals (IEEE Std 952-1997 Annex C,
 NIST SP 1065 sec. 5.2.4 and 5.3), on the C++ kernel include/gyrodrift/allan.hpp.
 
-- `oadev(data, rate_hz, ...)`: rate samples (deg/h, or any unit: the deviation has the same
+- `oadev(x, rate_hz, ...)`: rate samples (deg/h, or any unit: the deviation has the same
   unit) or phase samples (cumulative angle, kind="phase"), tau grid "octave", "decade" (M per
   decade), "all" or explicit averaging factors. O(N) per tau, long double sums.
 - Records too large for memory: pass a `numpy.memmap` (e.g. `np.load(path, mmap_mode="r")`).
@@ -34,6 +34,8 @@ import numpy as np
 import scipy.stats
 from tqdm import tqdm
 
+from gyrodrift import _native
+
 __all__ = [
     "ONE_SIGMA_CI",
     "AllanResult",
@@ -46,14 +48,8 @@ __all__ = [
 ]
 
 def _lib() -> Any:
-    """gyrodrift._core, imported on first use so `import gyrodrift` works without it."""
-    try:
-        from gyrodrift import _core
-    except ImportError as exc:  # pragma: no cover - depends on the build
-        raise ImportError("gyrodrift._core (the C++ extension) is not built") from exc
-    if not hasattr(_core, "oadev_sigma2"):
-        raise ImportError("gyrodrift._core was built without the 'allan' binding area")
-    return _core
+    """gyrodrift._core (allan area), imported on first use."""
+    return _native.core("allan", "oadev_sigma2")
 
 
 #: Probability of the 1-sigma two-sided interval, erf(1/sqrt(2)).
@@ -283,10 +279,16 @@ def lag1_noise_id(y: np.ndarray, m: int, *, dmax: int = 2, max_points: int = 1 <
         d += 1
 
 
+def _filename(mm: np.memmap) -> str:
+    if mm.filename is None:  # a memmap always has a file; None only for anonymous maps
+        raise ValueError("memory map without a file")
+    return str(mm.filename)
+
+
 def _file_chunks(mm: np.memmap, start: int, stop: int, chunk: int) -> Iterator[np.ndarray]:
     """float64 copies of mm[start:stop] in pieces of at most `chunk`, read with file reads."""
     itemsize = mm.dtype.itemsize
-    with open(mm.filename, "rb") as fh:
+    with open(_filename(mm), "rb") as fh:
         pos = start
         while pos < stop:
             count = min(chunk, stop - pos)
@@ -320,7 +322,7 @@ def _chunked_fused_rate(mm: np.memmap, m_all: np.ndarray, chunk: int, bar: tqdm
     # The in-memory block when the chunk allows it; with the in-memory factor groups
     # (oadev_fused_groups) the results are then bit-identical.
     block = FUSED_BLOCK if 3 * chunk >= 8 * FUSED_BLOCK else SMALL_BLOCK
-    with open(mm.filename, "rb") as fh:
+    with open(_filename(mm), "rb") as fh:
         for lo, hi in _lib().oadev_fused_groups(n_data, np.ascontiguousarray(m_all), block):
             group = np.ascontiguousarray(m_all[lo:hi])
             st = _lib().OadevFusedStream(n_data, group, block)
@@ -380,7 +382,7 @@ def _chunked_sigma2(mm: np.memmap, m_all: np.ndarray, kind: str, chunk: int,
 
 
 def oadev(
-    data: np.ndarray,
+    x: np.ndarray,
     rate_hz: float,
     *,
     kind: str = "rate",
@@ -395,7 +397,7 @@ def oadev(
     """Overlapping Allan deviation with chi-squared confidence intervals.
 
     Args:
-        data: 1-D rate samples (any rate unit; kind="rate") or cumulative angle samples
+        x: 1-D rate samples (any rate unit; kind="rate") or cumulative angle samples
             (kind="phase"; the deviation is then in angle unit per second). Angle increments
             per sample are rate x dt: divide them by dt first (gyrodrift.io does). A
             numpy.memmap is processed in chunks read from its file (bounded memory).
@@ -421,12 +423,12 @@ def oadev(
         raise ValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
     if kind not in ("rate", "phase"):
         raise ValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
-    is_memmap = isinstance(data, np.memmap)
-    arr = data if is_memmap else np.asarray(data)
+    is_memmap = isinstance(x, np.memmap)
+    arr = x if is_memmap else np.asarray(x)
     if arr.ndim != 1:
-        raise ValueError(f"data: expected a 1-D record, got shape {arr.shape}")
+        raise ValueError(f"x: expected a 1-D record, got shape {arr.shape}")
     if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise TypeError(f"data: expected real numbers, got dtype {arr.dtype}")
+        raise TypeError(f"x: expected real numbers, got dtype {arr.dtype}")
     n_data = int(arr.shape[0])
     m = averaging_factors(n_data, taus, rate_hz=rate_hz, kind=kind, per_decade=per_decade)
     n_terms = n_data - 2 * m + (1 if kind == "rate" else 0)
@@ -466,14 +468,14 @@ def oadev(
                     bad = int(np.count_nonzero(~np.isfinite(x)))
                     if bad:
                         raise ValueError(
-                            f"data: {bad} NaN/Inf samples; drop or repair them first "
+                            f"x: {bad} NaN/Inf samples; drop or repair them first "
                             "(gyrodrift.io.load_record has an explicit nan_policy)") from exc
                     raise
                 sigma2[lo:lo + group] = s2
                 terms[lo:lo + group] = t
                 bar.update(int(n_terms[lo:lo + group].sum()))
     if not np.any(sigma2 > 0):
-        raise ValueError(f"data: the record is constant (its Allan deviation is zero at all "
+        raise ValueError(f"x: the record is constant (its Allan deviation is zero at all "
                          f"{m.size} taus); nothing to analyse")
     if kind == "phase":
         sigma2 = sigma2 * rate_hz * rate_hz  # the kernel leaves out 1/tau0^2
@@ -486,7 +488,7 @@ def oadev(
             raise ValueError(f"alpha must be None, 'acf', or integers, got {alpha!r}")
         # Lag-1 ACF noise ID where >= 30 averages exist, the slope estimate (capped by the
         # last ACF value, noise types do not move back towards white PM) beyond.
-        x_id = np.asarray(data, dtype=np.float64) if kind == "rate" else np.diff(data) * rate_hz
+        x_id = np.asarray(x, dtype=np.float64) if kind == "rate" else np.diff(x) * rate_hz
         slope_alpha = noise_alpha_from_slope(tau_s, adev)
         alpha_arr = np.empty(m.size, dtype=np.int64)
         last: int | None = None
@@ -511,7 +513,7 @@ def _chunked_in_memory(x: np.ndarray, m_all: np.ndarray, kind: str, chunk: int,
     x = np.ascontiguousarray(x, dtype=np.float64)
     bad = int(np.count_nonzero(~np.isfinite(x)))
     if bad:
-        raise ValueError(f"data: {bad} NaN/Inf samples; drop or repair them first")
+        raise ValueError(f"x: {bad} NaN/Inf samples; drop or repair them first")
 
     def pieces(start: int, stop: int) -> Iterator[np.ndarray]:
         for lo in range(start, stop, chunk):

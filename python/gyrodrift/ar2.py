@@ -28,6 +28,9 @@ from typing import Any
 
 import numpy as np
 
+from gyrodrift import _native
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "MIN_SAMPLES",
     "Ar2FitError",
@@ -55,12 +58,21 @@ _METHODS = {
 
 _STATIONARITY_MARGIN = 64 * float(np.finfo(np.float64).eps)
 
-_CAUSES = ("too_short", "constant", "non_finite", "non_stationary")
+class Ar2FitError(GyrodriftValueError):
+    """An AR(2) fit was rejected.
 
+    ``cause`` is the C++ ``Ar2Status`` name returned by the binding: too_short, constant,
+    non_finite or non_stationary.
 
-class Ar2FitError(ValueError):
-    """An AR(2) fit was rejected. ``cause`` is one of too_short, constant, non_finite,
-    non_stationary."""
+    Examples
+    --------
+    >>> import numpy as np
+    >>> try:
+    ...     fit_ar2(np.ones(100))
+    ... except Ar2FitError as exc:
+    ...     print(exc.cause)
+    constant
+    """
 
     def __init__(self, cause: str, detail: str) -> None:
         self.cause = cause
@@ -136,11 +148,7 @@ class Ar2Model:
 
 
 def _core() -> Any:
-    from gyrodrift import _core as core
-
-    if not hasattr(core, "ar2_kalman_batch"):
-        raise ImportError("gyrodrift._core was built without the 'ar2' binding area")
-    return core
+    return _native.core("ar2", "ar2_kalman_batch")
 
 
 # --------------------------------------------------------------------------- helpers
@@ -149,7 +157,7 @@ def _core() -> Any:
 def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
     """A C-contiguous float32/float64 array (no copy when it already is one)."""
     if dtype is not None:
-        dt = np.dtype(dtype)
+        dt = np.dtype(dtype)  # type: ignore[call-overload]
         if dt not in (np.float32, np.float64):
             raise TypeError(f"dtype must be float32 or float64, got {dt}")
     a = np.asarray(x)
@@ -245,20 +253,17 @@ def fit_ar2(
         "burg": core.Ar2Method.burg,
         "ls": core.Ar2Method.least_squares,
     }[name]
-    try:
-        a1, a2, sigma2, mean, r = core.ar2_fit(a, cpp_method)
-    except ValueError as exc:
-        cause = str(exc).split(":", 1)[0].replace("-", "_").replace(" ", "_")
-        if cause not in _CAUSES:
-            raise
+    status, a1, a2, sigma2, mean, r = core.ar2_fit(a, cpp_method)
+    if status != core.Ar2Status.ok:
+        cause = status.name
         detail = {
             "too_short": f"{a.size} samples, at least {MIN_SAMPLES} needed",
             "constant": "all samples are equal",
             "non_finite": "the record contains NaN or Inf (or values whose sum overflows)",
             "non_stationary": "the fitted model has a root on or outside the unit circle "
             "(or its normal equations are singular)",
-        }[cause]
-        raise Ar2FitError(cause, detail) from None
+        }.get(cause, f"status {cause}")
+        raise Ar2FitError(cause, detail)
     return Ar2Model(a1=a1, a2=a2, sigma2=sigma2, mean=mean, method=name, n=int(a.size), r=r)
 
 
@@ -333,7 +338,7 @@ class KalmanFilter:
     ) -> None:
         if not isinstance(model, Ar2Model):
             raise TypeError(f"model must be an Ar2Model, got {type(model).__name__}")
-        dt = np.dtype(dtype)
+        dt = np.dtype(dtype)  # type: ignore[call-overload]
         if dt not in (np.float32, np.float64):
             raise TypeError(f"dtype must be float32 or float64, got {dt}")
         self.model = model
@@ -374,7 +379,7 @@ class KalmanFilter:
         """Demeaned state estimate (x_k, x_{k-1}) (full filter only; zeros before any step)."""
         if self.steady_state:
             raise AttributeError("state is exposed by the full filter only")
-        return tuple(self._f.state)  # type: ignore[return-value]
+        return tuple(self._f.state)
 
     @property
     def covariance(self) -> np.ndarray:
@@ -397,4 +402,4 @@ class KalmanFilter:
     @property
     def gain(self) -> tuple[float, float] | None:
         """Constant gain of the steady-state variant (None for the full filter)."""
-        return tuple(self._f.gain) if self.steady_state else None  # type: ignore[return-value]
+        return tuple(self._f.gain) if self.steady_state else None

@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.allan import ONE_SIGMA_CI, AllanResult, oadev
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.imu_io import CHANNELS, ImuData
 from gyrodrift.noise_id import B_FLOOR_FACTOR, identify
 
@@ -98,7 +99,7 @@ def version() -> str:
         from importlib.metadata import version as _v
 
         return _v("gyrodrift")
-    except Exception:  # noqa: BLE001 - not installed (source tree on PYTHONPATH)
+    except Exception:
         return "0.1.0+src"
 
 
@@ -215,7 +216,7 @@ def _term_intervals(tau: np.ndarray, a: AllanResult, pos: np.ndarray, coeffs: np
                     ends.append(math.inf)
                     continue
                 if r.status != 0:
-                    raise ValueError(f"interval LP failed: {r.message}")
+                    raise GyrodriftValueError(f"interval LP failed: {r.message}")
                 ends.append(float(r.x[jj]) / col[jj])
             out[TERMS[j]] = (ends[0], ends[1])
         return out
@@ -227,7 +228,7 @@ def _term_intervals(tau: np.ndarray, a: AllanResult, pos: np.ndarray, coeffs: np
     while solve(high_s) is None:
         low_s, high_s = high_s, 2.0 * high_s
         if high_s > 1e4:
-            raise ValueError("no model of the chosen terms comes near the Allan deviation")
+            raise GyrodriftValueError("no model of the chosen terms comes near the Allan deviation")
     for _ in range(20):
         mid = 0.5 * (low_s + high_s)
         if solve(mid) is None:
@@ -263,12 +264,13 @@ def characterize_channel(x: np.ndarray, rate_hz: float, channel: str, *, ci: flo
     tau = a.tau_s
     used = [t for t in TERMS if t in terms]
     if int(pos.sum()) < max(len(used), 3):
-        raise ValueError(f"{channel}: {int(pos.sum())} usable taus; the record is too short to "
-                         f"identify {len(used)} terms")
+        raise GyrodriftValueError(
+            f"{channel}: {int(pos.sum())} usable taus; the record is too short to "
+            f"identify {len(used)} terms")
     if method == "gmwm":
         return _gmwm_channel(x, rate_hz, channel, a, ci)
     if method != "allan-nnls":
-        raise ValueError(f"method must be 'allan-nnls' or 'gmwm', got {method!r}")
+        raise GyrodriftValueError(f"method must be 'allan-nnls' or 'gmwm', got {method!r}")
     fit = identify(tau[pos], a.adev[pos], a.edf[pos],
                    powers=tuple(_POWERS[t] for t in used))
     coeffs = np.asarray(fit.coeffs)
@@ -299,8 +301,9 @@ def _gmwm_channel(x: np.ndarray, rate_hz: float, channel: str, a: AllanResult,
 
     gmwm = getattr(gyrodrift, "identify_gmwm", None)
     if gmwm is None:
-        raise ValueError("method 'gmwm' needs gyrodrift.identify_gmwm (issue 11), which this "
-                         "build does not have; use --method allan-nnls")
+        raise GyrodriftValueError(
+            "method 'gmwm' needs gyrodrift.identify_gmwm (issue 11), which this "
+            "build does not have; use --method allan-nnls")
     sensor = _sensor(channel)
     s = IEEE_UNITS["gyro"]["B"][0] if sensor == "gyro" else 1.0
     res = gmwm(np.asarray(x, dtype=np.float64) * s, rate_hz, ci=ci)
@@ -340,9 +343,10 @@ def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave"
     """
     bad = [t for t in terms if t not in TERMS]
     if bad or not terms:
-        raise ValueError(f"terms must be a non-empty subset of {','.join(TERMS)}, got {terms}")
+        raise GyrodriftValueError(
+            f"terms must be a non-empty subset of {','.join(TERMS)}, got {terms}")
     if not 0.0 < ci < 1.0:
-        raise ValueError(f"ci must be in (0, 1), got {ci!r}")
+        raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     out = []
     for name in rec.names:
         if progress is not None:
@@ -364,7 +368,7 @@ def kalibr_values(res: CharacterizeResult, axis: str = "worst"
     """Kalibr key -> (value, channel it came from, its TermEstimate). axis: "worst" (largest
     value over the axes present, per parameter) or "x", "y", "z"."""
     if axis not in ("worst", "x", "y", "z"):
-        raise ValueError(f"axis must be worst, x, y or z, got {axis!r}")
+        raise GyrodriftValueError(f"axis must be worst, x, y or z, got {axis!r}")
     out: dict[str, tuple[float, str, TermEstimate]] = {}
     for (sensor, term), key in KALIBR_KEYS.items():
         cands = [c for c in res.channels if c.sensor == sensor and term in c.terms]
@@ -382,7 +386,7 @@ def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | No
     source, the axis choice, every axis's value and the discrete-time relations."""
     vals = kalibr_values(res, axis)
     if not vals:
-        raise ValueError("no gyro or accelerometer channel to export")
+        raise GyrodriftValueError("no gyro or accelerometer channel to export")
     rate = float(res.record["rate_hz"])  # type: ignore[arg-type]
     topic = rostopic or str(res.record.get("topic") or "/imu0")
     lines = [
@@ -443,10 +447,10 @@ def simulate_like(res: CharacterizeResult, *, seed: int = 0) -> ImuData:
     for c, s in zip(res.channels, seeds, strict=True):
         v = {k: (t.value if k in c.terms else 0.0) for k, t in c.terms.items()}
         rec = simulate(n=n, rate_hz=rate, q_deg=v.get("Q", 0.0) / 3600.0,
-                       n_deg_rthr=v.get("N", 0.0) / 60.0, b_deg_h=v.get("B", 0.0),
-                       k_deg_h_rthr=v.get("K", 0.0) * 60.0, r_deg_h_h=v.get("R", 0.0) * 3600.0,
+                       n_deg_rt_h=v.get("N", 0.0) / 60.0, b_deg_h=v.get("B", 0.0),
+                       k_deg_h_rt_h=v.get("K", 0.0) * 60.0, r_deg_h2=v.get("R", 0.0) * 3600.0,
                        seed=int(s))
-        cols[c.channel] = rec.rate_dph
+        cols[c.channel] = rec.rate_deg_h
     return ImuData(cols, rate, f"simulation of {res.record['source']}", "simulated", n)
 
 
@@ -480,7 +484,7 @@ def plot_sensor(res: CharacterizeResult, sensor: str, path: str | Path | None = 
 
     chans = [c for c in res.channels if c.sensor == sensor]
     if not chans:
-        raise ValueError(f"no {sensor} channel")
+        raise GyrodriftValueError(f"no {sensor} channel")
     fig, ax = plt.subplots(figsize=(7.5, 5.2), dpi=100)
     for c, color in zip(chans, ("tab:red", "tab:green", "tab:blue"), strict=False):
         a = c.allan

@@ -84,21 +84,21 @@ def default_record_rate_hz() -> float:
 
 def default_record(n: int = DEFAULT_N_SAMPLES, seed: int = DEFAULT_SEED) -> tuple[np.ndarray,
                                                                                    float]:
-    """(rate_dph, rate_hz) of the default record (module docstring)."""
+    """(rate_deg_h, rate_hz) of the default record (module docstring)."""
     rate_hz = default_record_rate_hz()
     a1, a2 = PAPER_AR2
     n_line = 60.0 * PAPER_TABLE1["original"][1]
     sigma_r = n_line * math.sqrt(rate_hz) * (1.0 - a1 - a2)  # white level N'^2 -> var N'^2 fs
     rec = gyrodrift.simulate(n=n, rate_hz=rate_hz, q_deg=PAPER_TABLE1["original"][0] / 3600.0,
                              ar2=(a1, a2, sigma_r), seed=seed)
-    return rec.rate_dph, rate_hz
+    return rec.rate_deg_h, rate_hz
 
 
 @dataclass(frozen=True)
 class CompareRow:
     signal: str
     q_paper: float  # A_-2/sqrt(3), the paper's 'Q (deg)' column = arcsec
-    n_deg_rthr: float
+    n_deg_rt_h: float
     b_deg_h: float
     std_deg_h: float
     published: tuple[float, float, float, float] | None
@@ -135,18 +135,18 @@ class CompareReport:
                 lines.append(f"| {r.signal} | paper (published) | {q:.4g} | {n:.4g} | "
                              f"{b:.4g} | {s:.4g} |")
             lines.append(f"| {r.signal} | ours (measured) | {r.q_paper:.4g} | "
-                         f"{r.n_deg_rthr:.4g} | {r.b_deg_h:.4g} | {r.std_deg_h:.4g} |")
+                         f"{r.n_deg_rt_h:.4g} | {r.b_deg_h:.4g} | {r.std_deg_h:.4g} |")
         return "\n".join(lines) + "\n"
 
     def write_csv(self, path: Path) -> None:
         with path.open("w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["signal", "source", "q_paper_arcsec", "n_deg_rthr", "b_deg_h",
+            w.writerow(["signal", "source", "q_paper_arcsec", "n_deg_rt_h", "b_deg_h",
                         "std_deg_h"])
             for r in self.rows:
                 if r.published is not None:
                     w.writerow([r.signal, "paper (published)", *r.published])
-                w.writerow([r.signal, "ours (measured)", r.q_paper, r.n_deg_rthr, r.b_deg_h,
+                w.writerow([r.signal, "ours (measured)", r.q_paper, r.n_deg_rt_h, r.b_deg_h,
                             r.std_deg_h])
 
     def as_dict(self) -> dict[str, object]:
@@ -154,10 +154,10 @@ class CompareReport:
             "rate_hz": self.rate_hz, "n_samples": self.n_samples, "source": self.source,
             "ar2_measured": list(self.ar2_measured), "ar2_paper": list(PAPER_AR2),
             "rows": [{"signal": r.signal, "measured": {
-                "q_paper_arcsec": r.q_paper, "n_deg_rthr": r.n_deg_rthr, "b_deg_h": r.b_deg_h,
+                "q_paper_arcsec": r.q_paper, "n_deg_rt_h": r.n_deg_rt_h, "b_deg_h": r.b_deg_h,
                 "std_deg_h": r.std_deg_h},
                 "published": None if r.published is None else dict(zip(
-                    ("q_paper_arcsec", "n_deg_rthr", "b_deg_h", "std_deg_h"), r.published,
+                    ("q_paper_arcsec", "n_deg_rt_h", "b_deg_h", "std_deg_h"), r.published,
                     strict=True))} for r in self.rows],
             "files": self.files,
         }
@@ -179,7 +179,7 @@ def filters(x: np.ndarray) -> list[tuple[str, Callable[[], np.ndarray]]]:
 def _row(label: str, y: np.ndarray, rate_hz: float, published_key: str | None) -> CompareRow:
     r = oadev(y, rate_hz, taus="octave", progress=False)
     fit = noise_id.paper_fit(r.tau_s, r.adev)
-    return CompareRow(label, fit.q_paper, fit.n_deg_rthr, fit.b_deg_h, float(np.std(y)),
+    return CompareRow(label, fit.q_paper, fit.n_deg_rt_h, fit.b_deg_h, float(np.std(y)),
                       PAPER_TABLE1.get(published_key) if published_key else None, r,
                       welch_psd(y, rate_hz))
 

@@ -34,6 +34,8 @@ from typing import Any
 
 import numpy as np
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = ["FleetOptions", "characterize_log", "load_spec", "run_fleet", "unit_name",
            "write_summary"]
 
@@ -115,7 +117,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json.dumps(payload, indent=1))
         return summary
-    except Exception as exc:  # noqa: BLE001 - every failure becomes a listed, reasoned row
+    except Exception as exc:
         reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
         info = {"unit": d.name, "path": str(path), "status": "failed", "reason": reason,
                 "traceback": traceback.format_exc(limit=4)}
@@ -140,15 +142,16 @@ def load_spec(path: str | Path) -> dict[str, dict[str, float]]:
     try:
         spec = json.loads(Path(path).read_text())
     except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not JSON: {exc}") from exc
+        raise GyrodriftValueError(f"{path}: not JSON: {exc}") from exc
     names = {k for _, _, k in PARAMS} | {f"{s}_{t}" for s, t, _ in PARAMS}
     if not isinstance(spec, dict):
-        raise ValueError(f"{path}: expected an object of parameter limits")
+        raise GyrodriftValueError(f"{path}: expected an object of parameter limits")
     for k, lim in spec.items():
         if k not in names:
-            raise ValueError(f"{path}: unknown parameter {k!r}; use one of {sorted(names)}")
+            raise GyrodriftValueError(
+                f"{path}: unknown parameter {k!r}; use one of {sorted(names)}")
         if not isinstance(lim, dict) or not set(lim) <= {"min", "max"} or not lim:
-            raise ValueError(f"{path}: {k}: give limits as {{\"min\": x, \"max\": y}}")
+            raise GyrodriftValueError(f"{path}: {k}: give limits as {{\"min\": x, \"max\": y}}")
     return spec
 
 
@@ -176,10 +179,10 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     (out / "units").mkdir(parents=True, exist_ok=True)
     paths = [str(p) for p in paths]
     if not paths:
-        raise ValueError("no logs to characterize")
+        raise GyrodriftValueError("no logs to characterize")
     names = [unit_name(p, root) for p in paths]
     if len(set(names)) != len(names):
-        raise ValueError("two logs map to the same unit name; pass a common root")
+        raise GyrodriftValueError("two logs map to the same unit name; pass a common root")
     results: dict[str, dict[str, Any]] = {}
     todo = []
     for p, n in zip(paths, names, strict=True):
@@ -222,7 +225,7 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
     if client is None:
         if scheduler is None:
             if workers < 1:
-                raise ValueError(f"workers must be >= 1, got {workers}")
+                raise GyrodriftValueError(f"workers must be >= 1, got {workers}")
             # Loopback only, no dashboard (no port opened beyond the scheduler's).
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    host="127.0.0.1", dashboard_address=None)
@@ -237,7 +240,7 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
                 p, n = futures[fut]
                 try:
                     r = fut.result()
-                except Exception as exc:  # noqa: BLE001 - a worker lost, a pickling error
+                except Exception as exc:
                     reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
                     r = {"unit": n, "path": p, "status": "failed", "reason": reason}
                     d = out / "units" / n

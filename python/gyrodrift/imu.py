@@ -13,6 +13,33 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift import _native
+
+__all__ = [
+    "CHANNELS",
+    "FILTERS",
+    "FLAG_CONFIG_ERROR",
+    "FLAG_DUPLICATE",
+    "FLAG_FILTER_FAULT",
+    "FLAG_NAMES",
+    "FLAG_NON_FINITE",
+    "FLAG_OUT_OF_ORDER",
+    "FLAG_REJECTED",
+    "FLAG_RESYNC",
+    "FLAG_SATURATED",
+    "FLAG_SEQ_GAP",
+    "FLAG_STUCK",
+    "FLAG_TIME_JUMP",
+    "HEALTH_KEYS",
+    "RESYNC_AFTER",
+    "ImuChannelConfig",
+    "ImuConfig",
+    "ImuProcessor",
+    "ImuResult",
+    "WaveletSettings",
+    "describe_flags",
+]
+
 CHANNELS = 6
 FILTERS = ("pass_through", "bias_removal", "ar2_kalman", "wavelet")
 
@@ -194,7 +221,7 @@ class ImuProcessor:
         dtype: npt.DTypeLike = np.float64,
         wavelet: WaveletSettings | None = None,
     ) -> None:
-        from gyrodrift import _core  # the compiled module; imported late for clear errors
+        _core = _native.core("imu", "ImuProcessor")
 
         config.validate()
         self.dtype = np.dtype(dtype)

@@ -45,6 +45,7 @@ from typing import Any
 
 import numpy as np
 
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.io import LOG_SUFFIXES, _rate_from_time
 
 __all__ = [
@@ -130,7 +131,7 @@ def input_kind(path: str | Path) -> str:
     if p.is_dir():
         if (p / "metadata.yaml").is_file():
             return "rosbag2"
-        raise ValueError(f"{p}: a directory that is not a rosbag2 bag (no metadata.yaml)")
+        raise GyrodriftValueError(f"{p}: a directory that is not a rosbag2 bag (no metadata.yaml)")
     if suffix == ".bag":
         return "rosbag1"
     if suffix in (".db3", ".mcap"):
@@ -148,9 +149,10 @@ def input_kind(path: str | Path) -> str:
             if "gyro_z_rad_s" in first and "seq" in first:
                 return "replay-log"
         return "text"
-    raise ValueError(f"{p}: unsupported input {suffix!r}: use .npy, .csv/.txt/.dat/.tsv text, "
-                     f"PSINS .imu, an IMU log ({', '.join(LOG_SUFFIXES)}), or a ROS bag "
-                     "(.bag, a rosbag2 directory, .db3, .mcap)")
+    raise GyrodriftValueError(
+        f"{p}: unsupported input {suffix!r}: use .npy, .csv/.txt/.dat/.tsv text, "
+        f"PSINS .imu, an IMU log ({', '.join(LOG_SUFFIXES)}), or a ROS bag "
+        "(.bag, a rosbag2 directory, .db3, .mcap)")
 
 
 def load_imu(
@@ -187,15 +189,16 @@ def load_imu(
     if not p.exists():
         raise FileNotFoundError(f"no such file: {p}")
     if nan_policy not in ("refuse", "drop"):
-        raise ValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
+        raise GyrodriftValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
     if gyro_units not in GYRO_UNITS:
-        raise ValueError(f"unknown gyro units {gyro_units!r}; choose one of {list(GYRO_UNITS)}")
+        raise GyrodriftValueError(
+            f"unknown gyro units {gyro_units!r}; choose one of {list(GYRO_UNITS)}")
     if accel_units not in ACCEL_UNITS:
-        raise ValueError(f"unknown accel units {accel_units!r}; choose one of "
+        raise GyrodriftValueError(f"unknown accel units {accel_units!r}; choose one of "
                          f"{list(ACCEL_UNITS)}")
     if rate_hz is not None and not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz)
                                     and rate_hz > 0):
-        raise ValueError(f"rate must be positive and finite, got {rate_hz!r}")
+        raise GyrodriftValueError(f"rate must be positive and finite, got {rate_hz!r}")
     kind = input_kind(p)
     if kind == "npy":
         if spool_dir is not None:
@@ -220,23 +223,26 @@ def _default_names(k: int, source: str) -> list[str]:
         return list(CHANNELS[:3])
     if k == 1:
         return ["gyro_z"]
-    raise ValueError(f"{source}: {k} data columns; name them with columns= (CLI --columns, "
-                     f"e.g. gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z; '-' skips one)")
+    raise GyrodriftValueError(
+        f"{source}: {k} data columns; name them with columns= (CLI --columns, "
+        f"e.g. gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z; '-' skips one)")
 
 
 def _check_names(names: Sequence[str], k: int, source: str) -> list[str]:
     names = [n.strip() for n in names]
     if len(names) != k:
-        raise ValueError(f"{source}: {k} data columns but {len(names)} channel names {names}")
+        raise GyrodriftValueError(
+            f"{source}: {k} data columns but {len(names)} channel names {names}")
     used = [n for n in names if n != "-"]
     bad = [n for n in used if n not in CHANNELS]
     if bad:
-        raise ValueError(f"{source}: unknown channel names {bad}; use {', '.join(CHANNELS)} "
-                         "or '-'")
+        raise GyrodriftValueError(
+            f"{source}: unknown channel names {bad}; use {', '.join(CHANNELS)} "
+            "or '-'")
     if len(set(used)) != len(used):
-        raise ValueError(f"{source}: a channel is named twice in {names}")
+        raise GyrodriftValueError(f"{source}: a channel is named twice in {names}")
     if not used:
-        raise ValueError(f"{source}: no channel selected")
+        raise GyrodriftValueError(f"{source}: no channel selected")
     return names
 
 
@@ -252,15 +258,16 @@ def _finish(cols: dict[str, np.ndarray], rate_hz: float, source: str, fmt: str,
     ordered = {name: cols[name] for name in CHANNELS if name in cols}
     n_total = int(next(iter(ordered.values())).shape[0])
     if n_total < 3:
-        raise ValueError(f"{source}: {n_total} samples; too short for analysis")
+        raise GyrodriftValueError(f"{source}: {n_total} samples; too short for analysis")
     bad = np.zeros(n_total, dtype=bool)
     for v in ordered.values():
         bad |= ~np.isfinite(v)
     n_bad = int(np.count_nonzero(bad))
     if n_bad:
         if nan_policy != "drop":
-            raise ValueError(f"{source}: {n_bad} of {n_total} samples have NaN/Inf channels; "
-                             "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
+            raise GyrodriftValueError(
+                f"{source}: {n_bad} of {n_total} samples have NaN/Inf channels; "
+                "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
         ordered = {k: v[~bad] for k, v in ordered.items()}
     ordered = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in ordered.items()}
     return ImuData(ordered, float(rate_hz), source, fmt, n_total, n_bad, detail)
@@ -274,11 +281,11 @@ def _load_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gyr
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2:
-        raise ValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
+        raise GyrodriftValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
     if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise ValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
+        raise GyrodriftValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
     if rate_hz is None:
-        raise ValueError(f"{p}: a .npy record carries no sample rate; give --rate-hz")
+        raise GyrodriftValueError(f"{p}: a .npy record carries no sample rate; give --rate-hz")
     names = (_check_names(columns, arr.shape[1], str(p)) if columns
              else _default_names(arr.shape[1], str(p)))
     cols = {n: np.asarray(arr[:, j], dtype=np.float64) * _factor(n, gyro_units, accel_units,
@@ -296,16 +303,16 @@ def _spool_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gy
     if arr.ndim == 1:
         arr = arr[:, None]
     if arr.ndim != 2:
-        raise ValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
+        raise GyrodriftValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
     if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise ValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
+        raise GyrodriftValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
     if rate_hz is None:
-        raise ValueError(f"{p}: a .npy record carries no sample rate; give --rate-hz")
+        raise GyrodriftValueError(f"{p}: a .npy record carries no sample rate; give --rate-hz")
     if chunk_rows < 1:
-        raise ValueError(f"chunk_rows must be >= 1, got {chunk_rows}")
+        raise GyrodriftValueError(f"chunk_rows must be >= 1, got {chunk_rows}")
     n = int(arr.shape[0])
     if n < 3:
-        raise ValueError(f"{p}: {n} samples; too short for analysis")
+        raise GyrodriftValueError(f"{p}: {n} samples; too short for analysis")
     names = (_check_names(columns, arr.shape[1], str(p)) if columns
              else _default_names(arr.shape[1], str(p)))
     spool.mkdir(parents=True, exist_ok=True)
@@ -325,7 +332,7 @@ def _spool_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gy
         mm.flush()
     del outs
     if n_bad:
-        raise ValueError(f"{p}: {n_bad} NaN/Inf values; the chunked reader refuses them "
+        raise GyrodriftValueError(f"{p}: {n_bad} NaN/Inf values; the chunked reader refuses them "
                          "(repair the record, or characterize it alone with --drop-nan)")
     cols = {name: np.load(spool / f"{name}.npy", mmap_mode="r") for name in CHANNELS
             if name in idx}
@@ -368,7 +375,7 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
                 first = line.strip()
                 break
     if first is None:
-        raise ValueError(f"{source}: empty file")
+        raise GyrodriftValueError(f"{source}: empty file")
     delim = "," if "," in first else (";" if ";" in first else None)
     cells = _split(first, delim)
     has_header = not all(_is_number(c) for c in cells)
@@ -379,12 +386,13 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
                               comments="#", dtype=np.float64, invalid_raise=True, ndmin=2)
     except ValueError as exc:
         detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
-        raise ValueError(f"{source}: malformed text table: {detail}") from exc
+        raise GyrodriftValueError(f"{source}: malformed text table: {detail}") from exc
     if table.size == 0:
-        raise ValueError(f"{source}: no data rows")
+        raise GyrodriftValueError(f"{source}: no data rows")
     k = table.shape[1]
     if k != len(cells):
-        raise ValueError(f"{source}: rows have {k} fields, the first line has {len(cells)}")
+        raise GyrodriftValueError(
+            f"{source}: rows have {k} fields, the first line has {len(cells)}")
     header = cells if has_header else [str(i) for i in range(k)]
     # Time column.
     t_idx: int | None
@@ -400,10 +408,11 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
     elif isinstance(time_column, int) or str(time_column).isdigit():
         t_idx = int(time_column)
         if not 0 <= t_idx < k:
-            raise ValueError(f"{source}: time column {t_idx} out of range (0..{k - 1})")
+            raise GyrodriftValueError(f"{source}: time column {t_idx} out of range (0..{k - 1})")
     else:
         if time_column not in header:
-            raise ValueError(f"{source}: no time column {time_column!r}; columns are {header}")
+            raise GyrodriftValueError(
+                f"{source}: no time column {time_column!r}; columns are {header}")
         t_idx = header.index(str(time_column))
     data_idx = [i for i in range(k) if i != t_idx]
     if columns:
@@ -421,7 +430,7 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
         t_rate = _rate_from_time(table[:, t_idx], source)
         rate_hz = t_rate if rate_hz is None else rate_hz
     if rate_hz is None:
-        raise ValueError(f"{source}: no time column to infer the rate; give --rate-hz")
+        raise GyrodriftValueError(f"{source}: no time column to infer the rate; give --rate-hz")
     cols = {n: table[:, i] * _factor(n, gyro_units, accel_units, rate_hz)
             for i, n in zip(data_idx, names, strict=True) if n != "-"}
     return _finish(cols, rate_hz, source, "text", nan_policy,
@@ -447,12 +456,12 @@ def _load_replay_log(p: Path, rate_hz: float | None, nan_policy: str) -> ImuData
 
     samples = read_imu_log(p, "csv" if p.suffix.lower() == ".csv" else None)
     if len(samples) < 3:
-        raise ValueError(f"{p}: {len(samples)} samples; too short for analysis")
+        raise GyrodriftValueError(f"{p}: {len(samples)} samples; too short for analysis")
     seq = np.asarray(samples.seq, dtype=np.int64)
     steps = np.diff(seq) % 65536
     lost = int(np.count_nonzero(steps != 1))
     if lost:
-        raise ValueError(f"{p}: {lost} breaks in the sequence numbers (lost, repeated or "
+        raise GyrodriftValueError(f"{p}: {lost} breaks in the sequence numbers (lost, repeated or "
                          "reordered samples); Allan/PSD analysis needs uniform sampling")
     t_rate = _rate_from_time(np.asarray(samples.t_s, dtype=np.float64), str(p))
     rate = t_rate if rate_hz is None else rate_hz
@@ -505,12 +514,14 @@ def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
                             for t, cs in sorted(imu.items())) or "none"
         if topic is None:
             if len(imu) != 1:
-                raise ValueError(f"{source}: choose a sensor_msgs/msg/Imu topic with --topic; "
-                                 f"the bag has: {listing}")
+                raise GyrodriftValueError(
+                    f"{source}: choose a sensor_msgs/msg/Imu topic with --topic; "
+                    f"the bag has: {listing}")
             topic = next(iter(imu))
         if topic not in imu:
-            raise ValueError(f"{source}: no sensor_msgs/msg/Imu topic {topic!r}; the bag has: "
-                             f"{listing}")
+            raise GyrodriftValueError(
+                f"{source}: no sensor_msgs/msg/Imu topic {topic!r}; the bag has: "
+                f"{listing}")
         conns = imu[topic]
         n = sum(int(c.msgcount) for c in conns)
         vals = np.empty((n, 6))
@@ -521,15 +532,16 @@ def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
             st = msg.header.stamp
             stamp = int(st.sec) * 1_000_000_000 + int(st.nanosec)
             if i >= n:
-                raise ValueError(f"{source}: more {topic} messages than the bag index says")
+                raise GyrodriftValueError(
+                    f"{source}: more {topic} messages than the bag index says")
             t_ns[i] = stamp if stamp > 0 else int(bag_t_ns)
             w, a = msg.angular_velocity, msg.linear_acceleration
             vals[i] = (w.x, w.y, w.z, a.x, a.y, a.z)
             i += 1
     if i != n:
-        raise ValueError(f"{source}: {topic}: read {i} messages, the bag index says {n}")
+        raise GyrodriftValueError(f"{source}: {topic}: read {i} messages, the bag index says {n}")
     if n < 3:
-        raise ValueError(f"{source}: {topic}: {n} messages; too short for analysis")
+        raise GyrodriftValueError(f"{source}: {topic}: {n} messages; too short for analysis")
     # Gaps and reordering are checked on the header stamps in bag order (the same check as a
     # CSV time column); relative times keep the nanoseconds exact in float64.
     t_rate = _rate_from_time((t_ns - t_ns[0]).astype(np.float64) * 1e-9, f"{source} {topic}")

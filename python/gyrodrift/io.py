@@ -36,11 +36,11 @@ GYRO_AXES = {"x": 0, "y": 1, "z": 2}
 class Record:
     """A rate record in deg/h.
 
-    rate_dph may be a read-only numpy.memmap (large .npy in deg/h without NaN), which the
-    Allan code reads in chunks; use np.asarray(rate_dph) to load it.
+    rate_deg_h may be a read-only numpy.memmap (large .npy in deg/h without NaN), which the
+    Allan code reads in chunks; use np.asarray(rate_deg_h) to load it.
     """
 
-    rate_dph: np.ndarray
+    rate_deg_h: np.ndarray
     rate_hz: float
     source: str
     column: str
@@ -50,7 +50,7 @@ class Record:
 
     @property
     def n(self) -> int:
-        return int(self.rate_dph.shape[0])
+        return int(self.rate_deg_h.shape[0])
 
     @property
     def dt_s(self) -> float:
@@ -181,7 +181,8 @@ def load_record(
                 values.dtype, np.integer):
             raise ValueError(f"{source}: expected numbers, got dtype {values.dtype}")
         if rate_hz is None:
-            raise ValueError(f"{source}: a .npy record carries no sample rate; give --rate")
+            raise ValueError(f"{source}: a .npy record carries no sample rate; "
+                             "give --rate-hz (rate_hz=)")
         n_total = int(values.shape[0])
         keep_mapped = (isinstance(values, np.memmap) and units == "deg/h"
                        and values.dtype == np.float64)
@@ -215,7 +216,8 @@ def load_record(
             t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")),
                          None)
             if t_idx is None:
-                raise ValueError(f"{source}: no t_s/time column to infer the rate; give --rate")
+                raise ValueError(f"{source}: no t_s/time column to infer the rate; "
+                                 "give --rate-hz (rate_hz=)")
             rate_hz = _rate_from_time(table[:, t_idx], source)
         x = to_deg_h(values, units, rate_hz)
         x, dropped = _apply_nan_policy(x, nan_policy, source)

@@ -35,7 +35,7 @@ __all__ = [
     "NoiseFit",
     "PaperFit",
     "SlopeReadout",
-    "allan_model_dph",
+    "allan_model_deg_h",
     "identify",
     "identify_noise",
     "paper_fit",
@@ -54,10 +54,10 @@ class NoiseFit:
     """IEEE Std 952 terms. q_arcsec is numerically (deg/h)*s; q_deg = q_arcsec / 3600."""
 
     q_arcsec: float
-    n_deg_rthr: float
+    n_deg_rt_h: float
     b_deg_h: float
-    k_deg_h_rthr: float
-    r_deg_h_h: float
+    k_deg_h_rt_h: float
+    r_deg_h2: float
     coeffs: tuple[float, float, float, float, float]  # C_-2 .. C_2, (deg/h)^2 s^k
     tau_min_s: float
     tau_max_s: float
@@ -85,7 +85,7 @@ class PaperFit:
     q_paper: float
     q_arcsec: float
     q_deg: float
-    n_deg_rthr: float
+    n_deg_rt_h: float
     b_deg_h: float
 
     def as_dict(self) -> dict[str, float]:
@@ -97,17 +97,17 @@ class SlopeReadout:
     """Slope-method read-offs; None where the curve has no stretch with that slope."""
 
     q_arcsec: float | None
-    n_deg_rthr: float | None
+    n_deg_rt_h: float | None
     b_deg_h: float | None
-    k_deg_h_rthr: float | None
+    k_deg_h_rt_h: float | None
 
     def as_dict(self) -> dict[str, float | None]:
         return asdict(self)
 
 
-def _check_curve(tau_s: np.ndarray, adev_dph: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _check_curve(tau_s: np.ndarray, adev_deg_h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     tau = np.asarray(tau_s, dtype=np.float64)
-    sig = np.asarray(adev_dph, dtype=np.float64)
+    sig = np.asarray(adev_deg_h, dtype=np.float64)
     if tau.ndim != 1 or tau.shape != sig.shape:
         raise ValueError(f"tau_s and adev must be 1-D of equal length, got {tau.shape}, "
                          f"{sig.shape}")
@@ -118,27 +118,27 @@ def _check_curve(tau_s: np.ndarray, adev_dph: np.ndarray) -> tuple[np.ndarray, n
     return tau, sig
 
 
-def allan_model_dph(tau_s: np.ndarray, q_arcsec: float = 0.0, n_deg_rthr: float = 0.0,
-                    b_deg_h: float = 0.0, k_deg_h_rthr: float = 0.0, r_deg_h_h: float = 0.0
+def allan_model_deg_h(tau_s: np.ndarray, q_arcsec: float = 0.0, n_deg_rt_h: float = 0.0,
+                    b_deg_h: float = 0.0, k_deg_h_rt_h: float = 0.0, r_deg_h2: float = 0.0
                     ) -> np.ndarray:
     """sigma(tau) in deg/h of IEEE Std 952 table C.2 for tau in s."""
     tau = np.asarray(tau_s, dtype=np.float64)
-    n_ = n_deg_rthr * 60.0
-    k_ = k_deg_h_rthr / 60.0
-    r_ = r_deg_h_h / 3600.0
+    n_ = n_deg_rt_h * 60.0
+    k_ = k_deg_h_rt_h / 60.0
+    r_ = r_deg_h2 / 3600.0
     var = (3.0 * q_arcsec**2 / tau**2 + n_**2 / tau + (B_FLOOR_FACTOR * b_deg_h) ** 2
            + k_**2 * tau / 3.0 + r_**2 * tau**2 / 2.0)
     return np.sqrt(var)
 
 
-def identify(tau_s: np.ndarray, adev_dph: np.ndarray, edf: np.ndarray | None = None,
+def identify(tau_s: np.ndarray, adev_deg_h: np.ndarray, edf: np.ndarray | None = None,
              powers: tuple[int, ...] = (-2, -1, 0, 1, 2)) -> NoiseFit:
     """IEEE Std 952 Annex C weighted non-negative least squares (module docstring).
 
     edf: equivalent degrees of freedom per tau (AllanResult.edf); None weights every point
     as if it had the same relative uncertainty. `powers` restricts the model (e.g. no ramp).
     """
-    tau, sig = _check_curve(tau_s, adev_dph)
+    tau, sig = _check_curve(tau_s, adev_deg_h)
     use = np.isin(POWERS, np.asarray(powers))
     if tau.size < int(use.sum()):
         raise ValueError(f"{tau.size} taus cannot identify {int(use.sum())} terms")
@@ -168,22 +168,22 @@ def identify(tau_s: np.ndarray, adev_dph: np.ndarray, edf: np.ndarray | None = N
     c[use] = coef_used
     return NoiseFit(
         q_arcsec=math.sqrt(c[0] / 3.0),
-        n_deg_rthr=math.sqrt(c[1]) / 60.0,
+        n_deg_rt_h=math.sqrt(c[1]) / 60.0,
         b_deg_h=math.sqrt(c[2]) / B_FLOOR_FACTOR,
-        k_deg_h_rthr=60.0 * math.sqrt(3.0 * c[3]),
-        r_deg_h_h=3600.0 * math.sqrt(2.0 * c[4]),
+        k_deg_h_rt_h=60.0 * math.sqrt(3.0 * c[3]),
+        r_deg_h2=3600.0 * math.sqrt(2.0 * c[4]),
         coeffs=(float(c[0]), float(c[1]), float(c[2]), float(c[3]), float(c[4])),
         tau_min_s=float(tau.min()),
         tau_max_s=float(tau.max()),
     )
 
 
-def paper_fit(tau_s: np.ndarray, adev_dph: np.ndarray, edf: np.ndarray | None = None
+def paper_fit(tau_s: np.ndarray, adev_deg_h: np.ndarray, edf: np.ndarray | None = None
               ) -> PaperFit:
     """The 2006 paper's eq. (8) fit with A >= 0 (module docstring). Each residual of sigma is
     weighted by 1/(sigma/sqrt(2 edf)), the standard error of a deviation; without edf, by
     1/sigma (relative residuals)."""
-    tau, sig = _check_curve(tau_s, adev_dph)
+    tau, sig = _check_curve(tau_s, adev_deg_h)
     if tau.size < 3:
         raise ValueError(f"{tau.size} taus cannot fit the 3-term model")
     w = np.ones_like(tau) if edf is None else np.sqrt(2.0 * np.asarray(edf, dtype=np.float64))
@@ -194,15 +194,15 @@ def paper_fit(tau_s: np.ndarray, adev_dph: np.ndarray, edf: np.ndarray | None = 
     a0, a_m1, a_m2 = (float(v) for v in a_scaled / col)
     q = a_m2 / math.sqrt(3.0)
     return PaperFit(a0=a0, a_m1=a_m1, a_m2=a_m2, q_paper=q, q_arcsec=q, q_deg=q / 3600.0,
-                    n_deg_rthr=a_m1 / 60.0, b_deg_h=a0 / PAPER_B_FACTOR)
+                    n_deg_rt_h=a_m1 / 60.0, b_deg_h=a0 / PAPER_B_FACTOR)
 
 
-def slope_method(tau_s: np.ndarray, adev_dph: np.ndarray, tolerance: float = 0.15
+def slope_method(tau_s: np.ndarray, adev_deg_h: np.ndarray, tolerance: float = 0.15
                  ) -> SlopeReadout:
     """IEEE Std 952 slope read-offs (module docstring). A term is read where the local
     log-log slope is within `tolerance` of its nominal slope (the point closest to it);
     B from the minimum if the slope there is within `tolerance` of 0."""
-    tau, sig = _check_curve(tau_s, adev_dph)
+    tau, sig = _check_curve(tau_s, adev_deg_h)
     if tau.size < 3:
         raise ValueError("the slope method needs at least 3 taus")
     slope = np.gradient(np.log(sig), np.log(tau))
@@ -225,7 +225,7 @@ def slope_method(tau_s: np.ndarray, adev_dph: np.ndarray, tolerance: float = 0.1
     if (i := at(0.5)) is not None:
         # sigma = K sqrt(tau / 3) with tau in h: K = line value at tau = 3 h.
         k_ = float(sig[i] * math.sqrt(3.0 * 3600.0 / tau[i]))
-    return SlopeReadout(q_arcsec=q, n_deg_rthr=n, b_deg_h=b, k_deg_h_rthr=k_)
+    return SlopeReadout(q_arcsec=q, n_deg_rt_h=n, b_deg_h=b, k_deg_h_rt_h=k_)
 
 
 #: Package-level name (gyrodrift.identify_noise).

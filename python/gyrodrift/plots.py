@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from gyrodrift.allan import AllanResult
-from gyrodrift.noise_id import NoiseFit, allan_model_dph
+from gyrodrift.noise_id import NoiseFit, allan_model_deg_h
 from gyrodrift.psd import Psd, log_binned
 
 if TYPE_CHECKING:
@@ -36,19 +36,19 @@ def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
         tau_lo = min(r.tau_s[0] for _, r in results)
         tau_hi = max(r.tau_s[-1] for _, r in results)
         tau = np.logspace(np.log10(tau_lo), np.log10(tau_hi), 200)
-        ax.plot(tau, allan_model_dph(tau, fit.q_arcsec, fit.n_deg_rthr, fit.b_deg_h,
-                                     fit.k_deg_h_rthr, fit.r_deg_h_h), "k-", lw=1.5,
+        ax.plot(tau, allan_model_deg_h(tau, fit.q_arcsec, fit.n_deg_rt_h, fit.b_deg_h,
+                                     fit.k_deg_h_rt_h, fit.r_deg_h2), "k-", lw=1.5,
                 label="IEEE 952 fit")
         parts = {
             f"Q = {fit.q_arcsec:.3g} arcsec": {"q_arcsec": fit.q_arcsec},
-            f"N = {fit.n_deg_rthr:.3g} deg/sqrt(h)": {"n_deg_rthr": fit.n_deg_rthr},
+            f"N = {fit.n_deg_rt_h:.3g} deg/sqrt(h)": {"n_deg_rt_h": fit.n_deg_rt_h},
             f"B = {fit.b_deg_h:.3g} deg/h": {"b_deg_h": fit.b_deg_h},
-            f"K = {fit.k_deg_h_rthr:.3g} deg/h/sqrt(h)": {"k_deg_h_rthr": fit.k_deg_h_rthr},
-            f"R = {fit.r_deg_h_h:.3g} deg/h/h": {"r_deg_h_h": fit.r_deg_h_h},
+            f"K = {fit.k_deg_h_rt_h:.3g} deg/h/sqrt(h)": {"k_deg_h_rt_h": fit.k_deg_h_rt_h},
+            f"R = {fit.r_deg_h2:.3g} deg/h/h": {"r_deg_h2": fit.r_deg_h2},
         }
         for label, kw in parts.items():
             if next(iter(kw.values())) > 0:
-                ax.plot(tau, allan_model_dph(tau, **kw), "--", lw=0.8, label=label)
+                ax.plot(tau, allan_model_deg_h(tau, **kw), "--", lw=0.8, label=label)
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("tau (s)")

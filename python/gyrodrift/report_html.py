@@ -38,8 +38,10 @@ _CHAR_TEMPLATE = """<!DOCTYPE html>
 <table id="terms"><tr><th class="l">channel</th><th class="l">term</th><th>value</th>
 <th>interval</th><th class="l">unit (SI)</th><th>value</th><th>interval</th>
 <th class="l">unit (IEEE)</th></tr>
-{% for r in rows %}<tr><td class="l">{{ r.channel }}</td><td class="l">{{ r.term }} ({{ r.meaning }})</td>
-<td>{{ "%.4g"|format(r.value) }}</td><td>[{{ "%.3g"|format(r.ci_low) }}, {{ "%.3g"|format(r.ci_high) }}]</td>
+{% for r in rows %}<tr><td class="l">{{ r.channel }}</td>
+<td class="l">{{ r.term }} ({{ r.meaning }})</td>
+<td>{{ "%.4g"|format(r.value) }}</td>
+<td>[{{ "%.3g"|format(r.ci_low) }}, {{ "%.3g"|format(r.ci_high) }}]</td>
 <td class="l">{{ r.unit }}</td><td>{{ "%.4g"|format(r.ieee_value) }}</td>
 <td>[{{ "%.3g"|format(r.ieee_low) }}, {{ "%.3g"|format(r.ieee_high) }}]</td>
 <td class="l">{{ r.ieee_unit }}</td></tr>
@@ -51,12 +53,16 @@ was identified again: {{ "every term recovered inside its interval" if self_chec
 else "some terms NOT recovered inside their intervals" }}.</p>
 <table id="selfcheck"><tr><th class="l">channel</th><th class="l">term</th><th>simulated</th>
 <th>identified</th><th>interval</th><th class="l">inside</th></tr>
-{% for r in self_check.rows %}<tr class="{{ '' if r.inside else 'bad' }}"><td class="l">{{ r.channel }}</td>
-<td class="l">{{ r.term }}</td><td>{{ "%.4g"|format(r.truth) }}</td><td>{{ "%.4g"|format(r.estimate) }}</td>
-<td>[{{ "%.3g"|format(r.ci_low) }}, {{ "%.3g"|format(r.ci_high) }}]</td><td class="l">{{ r.inside }}</td></tr>
+{% for r in self_check.rows %}<tr class="{{ '' if r.inside else 'bad' }}">
+<td class="l">{{ r.channel }}</td>
+<td class="l">{{ r.term }}</td><td>{{ "%.4g"|format(r.truth) }}</td>
+<td>{{ "%.4g"|format(r.estimate) }}</td>
+<td>[{{ "%.3g"|format(r.ci_low) }}, {{ "%.3g"|format(r.ci_high) }}]</td>
+<td class="l">{{ r.inside }}</td></tr>
 {% endfor %}</table>{% endif %}
 <h2>Allan deviation</h2>
-{% for title, uri in images %}<figure><img alt="{{ title }}" src="{{ uri }}"><figcaption>{{ title }}</figcaption></figure>
+{% for title, uri in images %}<figure><img alt="{{ title }}" src="{{ uri }}">
+<figcaption>{{ title }}</figcaption></figure>
 {% endfor %}
 </body></html>
 """
@@ -66,26 +72,34 @@ _FLEET_TEMPLATE = """<!DOCTYPE html>
 <style>{{ css }}</style></head><body>
 <h1>Fleet summary</h1>
 <p>gyrodrift {{ version }}: {{ n_done }} units characterized, {{ n_failed }} failed,
-{{ n_flagged }} outside the spec{{ " (" + spec_name + ")" if spec_name else " (no --spec given)" }}.</p>
+{{ n_flagged }} outside the spec
+{{ " (" + spec_name + ")" if spec_name else " (no --spec given)" }}.</p>
 <h2>Distribution over units</h2>
 <table id="distribution"><tr>{% for h in dist_head %}<th class="l">{{ h }}</th>{% endfor %}</tr>
 {% for r in dist_rows %}<tr>{% for c in r %}<td>{{ c }}</td>{% endfor %}</tr>{% endfor %}</table>
-{% for title, uri in images %}<figure><img alt="{{ title }}" src="{{ uri }}"><figcaption>{{ title }}</figcaption></figure>
+{% for title, uri in images %}<figure><img alt="{{ title }}" src="{{ uri }}">
+<figcaption>{{ title }}</figcaption></figure>
 {% endfor %}
 <h2>Units outside the spec</h2>
 {% if flagged %}<table id="flagged"><tr><th class="l">unit</th><th class="l">parameter</th>
 <th class="l">channel</th><th>value</th><th>limit</th></tr>
-{% for f in flagged %}<tr class="bad"><td class="l">{{ f.unit }}</td><td class="l">{{ f.parameter }}</td>
-<td class="l">{{ f.channel }}</td><td>{{ "%.4g"|format(f.value) }}</td><td>{{ f.limit }}</td></tr>{% endfor %}
+{% for f in flagged %}<tr class="bad"><td class="l">{{ f.unit }}</td>
+<td class="l">{{ f.parameter }}</td>
+<td class="l">{{ f.channel }}</td><td>{{ "%.4g"|format(f.value) }}</td><td>{{ f.limit }}</td>
+</tr>{% endfor %}
 </table>{% else %}<p>none</p>{% endif %}
 <h2>Failed logs</h2>
 {% if failed %}<table id="failed"><tr><th class="l">log</th><th class="l">reason</th></tr>
-{% for f in failed %}<tr class="bad"><td class="l">{{ f.path }}</td><td class="l">{{ f.reason }}</td></tr>{% endfor %}
+{% for f in failed %}<tr class="bad"><td class="l">{{ f.path }}</td>
+<td class="l">{{ f.reason }}</td></tr>{% endfor %}
 </table>{% else %}<p>none</p>{% endif %}
 <h2>Units</h2>
 <table id="units"><tr><th class="l">unit</th><th class="l">status</th><th class="l">report</th></tr>
-{% for u in units %}<tr class="{{ 'bad' if u.status != 'done' else '' }}"><td class="l">{{ u.name }}</td>
-<td class="l">{{ u.status }}</td><td class="l">{% if u.link %}<a href="{{ u.link }}">{{ u.link }}</a>{% endif %}</td></tr>{% endfor %}
+{% for u in units %}<tr class="{{ 'bad' if u.status != 'done' else '' }}">
+<td class="l">{{ u.name }}</td>
+<td class="l">{{ u.status }}</td>
+<td class="l">{% if u.link %}<a href="{{ u.link }}">{{ u.link }}</a>{% endif %}</td>
+</tr>{% endfor %}
 </table>
 </body></html>
 """

@@ -45,25 +45,22 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.fft
 import scipy.signal
 
+from gyrodrift import earth
+
 __all__ = [
-    "EARTH_RATE_RAD_S",
     "GyroRecord",
     "ImuRecord",
     "NoiseTerms",
     "ar2_stationary_covariance",
-    "gravity_wgs84",
     "simulate",
     "simulate_imu",
 ]
-
-#: WGS-84 Earth rotation rate, rad/s.
-EARTH_RATE_RAD_S = 7.292115e-5
 
 # Order in which terms draw their child seed streams (fixed forever: changing it would change
 # every seeded record other areas rely on).
@@ -76,10 +73,10 @@ class NoiseTerms:
 
     Attributes:
         q_deg: quantization noise coefficient Q, deg.
-        n_deg_rthr: angle random walk N, deg/sqrt(h).
+        n_deg_rt_h: angle random walk N, deg/sqrt(h).
         b_deg_h: bias instability B, deg/h (Allan floor 0.664 B).
-        k_deg_h_rthr: rate random walk K, deg/h/sqrt(h).
-        r_deg_h_h: rate ramp R, deg/h/h (may be negative: the sign is the ramp direction).
+        k_deg_h_rt_h: rate random walk K, deg/h/sqrt(h).
+        r_deg_h2: rate ramp R, deg/h/h (may be negative: the sign is the ramp direction).
         bias_deg_h: constant bias, deg/h (any sign).
         ar2: (a1, a2, sigma_deg_h) of the AR(2) drift component, or None.
         pulse_deg: if > 0, the output is pulse-counted like a ring-laser gyro: the sum of all
@@ -89,20 +86,20 @@ class NoiseTerms:
     """
 
     q_deg: float = 0.0
-    n_deg_rthr: float = 0.0
+    n_deg_rt_h: float = 0.0
     b_deg_h: float = 0.0
-    k_deg_h_rthr: float = 0.0
-    r_deg_h_h: float = 0.0
+    k_deg_h_rt_h: float = 0.0
+    r_deg_h2: float = 0.0
     bias_deg_h: float = 0.0
     ar2: tuple[float, float, float] | None = None
     pulse_deg: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("q_deg", "n_deg_rthr", "b_deg_h", "k_deg_h_rthr", "pulse_deg"):
+        for name in ("q_deg", "n_deg_rt_h", "b_deg_h", "k_deg_h_rt_h", "pulse_deg"):
             value = getattr(self, name)
             if not _is_finite_number(value) or value < 0.0:
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        for name in ("r_deg_h_h", "bias_deg_h"):
+        for name in ("r_deg_h2", "bias_deg_h"):
             value = getattr(self, name)
             if not _is_finite_number(value):
                 raise ValueError(f"{name} must be a finite number, got {value!r}")
@@ -129,8 +126,11 @@ class NoiseTerms:
 class _TimeBase:
     """dt_s and t_s of a record with `n` samples at `rate_hz` (shared by the record types)."""
 
-    n: int
     rate_hz: float
+
+    @property
+    def n(self) -> int:
+        raise NotImplementedError
 
     @property
     def dt_s(self) -> float:
@@ -147,17 +147,17 @@ class GyroRecord(_TimeBase):
     """A simulated gyro rate record.
 
     Attributes:
-        rate_dph: rate in deg/h, shape (n,) for one axis or (n, axes), float64, C-contiguous.
+        rate_deg_h: rate in deg/h, shape (n,) for one axis or (n, axes), float64, C-contiguous.
         rate_hz: sample rate, Hz.
         terms: the noise terms the record was generated from.
         seed: the seed that reproduces it.
-        components: per-term contributions in deg/h (same shape as rate_dph) when
+        components: per-term contributions in deg/h (same shape as rate_deg_h) when
             ``keep_components=True`` was passed, keyed "quantization", "arw",
             "bias_instability", "rrw", "ramp", "bias", "ar2" and "pulse_quantization" (the
             pulse-counting error); otherwise empty.
     """
 
-    rate_dph: np.ndarray
+    rate_deg_h: np.ndarray
     rate_hz: float
     terms: NoiseTerms
     seed: int
@@ -165,26 +165,26 @@ class GyroRecord(_TimeBase):
 
     @property
     def n(self) -> int:
-        return int(self.rate_dph.shape[0])
+        return int(self.rate_deg_h.shape[0])
 
     @property
     def axes(self) -> int:
-        return 1 if self.rate_dph.ndim == 1 else int(self.rate_dph.shape[1])
+        return 1 if self.rate_deg_h.ndim == 1 else int(self.rate_deg_h.shape[1])
 
     @property
-    def rate_dps(self) -> np.ndarray:
+    def rate_deg_s(self) -> np.ndarray:
         """Rate in deg/s."""
-        return self.rate_dph / 3600.0
+        return self.rate_deg_h / 3600.0
 
     @property
-    def rate_rads(self) -> np.ndarray:
+    def rate_rad_s(self) -> np.ndarray:
         """Rate in rad/s."""
-        return np.deg2rad(self.rate_dph / 3600.0)
+        return np.deg2rad(self.rate_deg_h / 3600.0)
 
     @property
     def dtheta_deg(self) -> np.ndarray:
         """Angle increments per sample (rate x dt), deg."""
-        return self.rate_dph * (self.dt_s / 3600.0)
+        return self.rate_deg_h * (self.dt_s / 3600.0)
 
     @property
     def dtheta_rad(self) -> np.ndarray:
@@ -201,48 +201,49 @@ class ImuRecord(_TimeBase):
     clockwise seen from above. Accelerometers read specific force, +g on z when level.
 
     Attributes:
-        gyro_rads: (n, 3) angular rate, rad/s (Earth rate in body axes + gyro errors).
-        accel_mps2: (n, 3) specific force, m/s^2 (gravity reaction + accelerometer errors).
+        gyro_rad_s: (n, 3) angular rate, rad/s (Earth rate in body axes + gyro errors).
+        accel_m_s2: (n, 3) specific force, m/s^2 (gravity reaction + accelerometer errors).
         rate_hz: sample rate, Hz.
         latitude_deg, height_m, heading_deg: the static pose.
-        gravity_mps2: normal gravity magnitude used (WGS-84 Somigliana + free-air).
-        gyro_true_rads: (3,) error-free body rate.
-        accel_true_mps2: (3,) error-free specific force.
-        gyro_err_dph: (n, 3) gyro errors that were added, deg/h.
+        gravity_m_s2: normal gravity magnitude used (gyrodrift.earth.gravity_m_s2: WGS-84
+            normal gravity series + free-air).
+        gyro_true_rad_s: (3,) error-free body rate.
+        accel_true_m_s2: (3,) error-free specific force.
+        gyro_err_deg_h: (n, 3) gyro errors that were added, deg/h.
         gyro_terms: the (x, y, z) gyro error terms.
-        accel_bias_mps2: (3,) constant accelerometer bias that was added.
-        vrw_mps_rthr: (3,) velocity random walk coefficients, m/s/sqrt(h).
+        accel_bias_m_s2: (3,) constant accelerometer bias that was added.
+        vrw_m_s_rt_h: (3,) velocity random walk coefficients, m/s/sqrt(h).
         seed: reproduces the record.
     """
 
-    gyro_rads: np.ndarray
-    accel_mps2: np.ndarray
+    gyro_rad_s: np.ndarray
+    accel_m_s2: np.ndarray
     rate_hz: float
     latitude_deg: float
     height_m: float
     heading_deg: float
-    gravity_mps2: float
-    gyro_true_rads: np.ndarray
-    accel_true_mps2: np.ndarray
-    gyro_err_dph: np.ndarray
+    gravity_m_s2: float
+    gyro_true_rad_s: np.ndarray
+    accel_true_m_s2: np.ndarray
+    gyro_err_deg_h: np.ndarray
     gyro_terms: tuple[NoiseTerms, NoiseTerms, NoiseTerms]
-    accel_bias_mps2: np.ndarray
-    vrw_mps_rthr: np.ndarray
+    accel_bias_m_s2: np.ndarray
+    vrw_m_s_rt_h: np.ndarray
     seed: int
 
     @property
     def n(self) -> int:
-        return int(self.gyro_rads.shape[0])
+        return int(self.gyro_rad_s.shape[0])
 
     @property
     def dtheta_rad(self) -> np.ndarray:
         """(n, 3) gyro angle increments per sample, rad."""
-        return self.gyro_rads * self.dt_s
+        return self.gyro_rad_s * self.dt_s
 
     @property
-    def dv_mps(self) -> np.ndarray:
+    def dv_m_s(self) -> np.ndarray:
         """(n, 3) accelerometer velocity increments per sample, m/s."""
-        return self.accel_mps2 * self.dt_s
+        return self.accel_m_s2 * self.dt_s
 
 
 def _is_finite_number(value: object) -> bool:
@@ -329,19 +330,19 @@ def _generate(
         rng = np.random.default_rng(streams["q"])
         angle_deg = terms.q_deg * rng.standard_normal((axes, n + 1))
         add("quantization", np.diff(angle_deg, axis=1) / dt_h)
-    if terms.n_deg_rthr > 0.0:
+    if terms.n_deg_rt_h > 0.0:
         rng = np.random.default_rng(streams["n"])
-        add("arw", (terms.n_deg_rthr / math.sqrt(dt_h)) * rng.standard_normal((axes, n)))
+        add("arw", (terms.n_deg_rt_h / math.sqrt(dt_h)) * rng.standard_normal((axes, n)))
     if terms.b_deg_h > 0.0:
         rng = np.random.default_rng(streams["b"])
         add("bias_instability", _flicker(rng, terms.b_deg_h, n, dt_s, axes))
-    if terms.k_deg_h_rthr > 0.0:
+    if terms.k_deg_h_rt_h > 0.0:
         rng = np.random.default_rng(streams["k"])
-        steps = (terms.k_deg_h_rthr * math.sqrt(dt_h)) * rng.standard_normal((axes, n))
+        steps = (terms.k_deg_h_rt_h * math.sqrt(dt_h)) * rng.standard_normal((axes, n))
         add("rrw", np.cumsum(steps, axis=1))
-    if terms.r_deg_h_h != 0.0:
+    if terms.r_deg_h2 != 0.0:
         t_h = np.arange(n, dtype=np.float64) * dt_h
-        add("ramp", np.broadcast_to(terms.r_deg_h_h * t_h, (axes, n)))
+        add("ramp", np.broadcast_to(terms.r_deg_h2 * t_h, (axes, n)))
     if terms.bias_deg_h != 0.0:
         add("bias", np.full((axes, n), float(terms.bias_deg_h)))
     if terms.ar2 is not None and terms.ar2[2] > 0.0:
@@ -384,10 +385,10 @@ def simulate(
     n: int | None = None,
     rate_hz: float = 400.0,
     q_deg: float = 0.0,
-    n_deg_rthr: float = 0.0,
+    n_deg_rt_h: float = 0.0,
     b_deg_h: float = 0.0,
-    k_deg_h_rthr: float = 0.0,
-    r_deg_h_h: float = 0.0,
+    k_deg_h_rt_h: float = 0.0,
+    r_deg_h2: float = 0.0,
     bias_deg_h: float = 0.0,
     ar2: tuple[float, float, float] | None = None,
     pulse_deg: float = 0.0,
@@ -406,10 +407,10 @@ def simulate(
     """
     terms = NoiseTerms(
         q_deg=q_deg,
-        n_deg_rthr=n_deg_rthr,
+        n_deg_rt_h=n_deg_rt_h,
         b_deg_h=b_deg_h,
-        k_deg_h_rthr=k_deg_h_rthr,
-        r_deg_h_h=r_deg_h_h,
+        k_deg_h_rt_h=k_deg_h_rt_h,
+        r_deg_h2=r_deg_h2,
         bias_deg_h=bias_deg_h,
         ar2=ar2,
         pulse_deg=pulse_deg,
@@ -444,19 +445,12 @@ def simulate_terms(
     seed = _resolve_seed(seed)
     rate, parts = _generate(terms, n_samples, float(rate_hz), int(axes), seed, keep_components)
     return GyroRecord(
-        rate_dph=_layout(rate, int(axes)),
+        rate_deg_h=_layout(rate, int(axes)),
         rate_hz=float(rate_hz),
         terms=terms,
         seed=seed,
         components={k: _layout(v, int(axes)) for k, v in parts.items()},
     )
-
-
-def gravity_wgs84(latitude_deg: float, height_m: float = 0.0) -> float:
-    """WGS-84 normal gravity (Somigliana closed form) with the linear free-air term, m/s^2."""
-    s2 = math.sin(math.radians(latitude_deg)) ** 2
-    g0 = 9.7803253359 * (1.0 + 0.00193185265241 * s2) / math.sqrt(1.0 - 0.00669437999013 * s2)
-    return g0 - 3.086e-6 * height_m
 
 
 def _per_axis(value: float | Sequence[float], name: str) -> np.ndarray:
@@ -477,8 +471,8 @@ def simulate_imu(
     height_m: float = 0.0,
     heading_deg: float = 0.0,
     gyro: NoiseTerms | Sequence[NoiseTerms] = NoiseTerms(),
-    accel_bias_mps2: float | Sequence[float] = 0.0,
-    vrw_mps_rthr: float | Sequence[float] = 0.0,
+    accel_bias_m_s2: float | Sequence[float] = 0.0,
+    vrw_m_s_rt_h: float | Sequence[float] = 0.0,
     seed: int = 0,
 ) -> ImuRecord:
     """Simulate a static, level strapdown IMU: 3 gyros (rad/s) and 3 accelerometers (m/s^2).
@@ -510,10 +504,10 @@ def simulate_imu(
         gyro_terms = list(gyro)
         if len(gyro_terms) != 3 or not all(isinstance(t, NoiseTerms) for t in gyro_terms):
             raise ValueError("gyro must be a NoiseTerms or a sequence of 3 NoiseTerms")
-    bias = _per_axis(accel_bias_mps2, "accel_bias_mps2")
-    vrw = _per_axis(vrw_mps_rthr, "vrw_mps_rthr")
+    bias = _per_axis(accel_bias_m_s2, "accel_bias_m_s2")
+    vrw = _per_axis(vrw_m_s_rt_h, "vrw_m_s_rt_h")
     if np.any(vrw < 0.0):
-        raise ValueError(f"vrw_mps_rthr must be >= 0, got {vrw_mps_rthr!r}")
+        raise ValueError(f"vrw_m_s_rt_h must be >= 0, got {vrw_m_s_rt_h!r}")
 
     rate_hz = float(rate_hz)
     dt_s = 1.0 / rate_hz
@@ -531,7 +525,7 @@ def simulate_imu(
 
     lat = math.radians(latitude_deg)
     psi = math.radians(heading_deg)
-    w_e = EARTH_RATE_RAD_S
+    w_e = earth.EARTH_RATE_RAD_S
     gyro_true = np.array(
         [
             -math.sin(psi) * w_e * math.cos(lat),
@@ -539,32 +533,28 @@ def simulate_imu(
             w_e * math.sin(lat),
         ]
     )
-    g = gravity_wgs84(latitude_deg, height_m)
+    g = earth.gravity_m_s2(lat, height_m)
     accel_true = np.array([0.0, 0.0, g])
 
     rng = np.random.default_rng(accel_seed)
     accel_noise = rng.standard_normal((n_samples, 3)) * (vrw / 60.0 / math.sqrt(dt_s))
     gyro_err_nx3 = np.ascontiguousarray(gyro_err.T)
-    gyro_rads = gyro_true + np.deg2rad(gyro_err_nx3 / 3600.0)
+    gyro_rad_s = gyro_true + np.deg2rad(gyro_err_nx3 / 3600.0)
     accel = accel_true + bias + accel_noise
     return ImuRecord(
-        gyro_rads=np.ascontiguousarray(gyro_rads),
-        accel_mps2=np.ascontiguousarray(accel),
+        gyro_rad_s=np.ascontiguousarray(gyro_rad_s),
+        accel_m_s2=np.ascontiguousarray(accel),
         rate_hz=rate_hz,
         latitude_deg=float(latitude_deg),
         height_m=float(height_m),
         heading_deg=float(heading_deg),
-        gravity_mps2=g,
-        gyro_true_rads=gyro_true,
-        accel_true_mps2=accel_true,
-        gyro_err_dph=gyro_err_nx3,
+        gravity_m_s2=g,
+        gyro_true_rad_s=gyro_true,
+        accel_true_m_s2=accel_true,
+        gyro_err_deg_h=gyro_err_nx3,
         gyro_terms=(gyro_terms[0], gyro_terms[1], gyro_terms[2]),
-        accel_bias_mps2=bias,
-        vrw_mps_rthr=vrw,
+        accel_bias_m_s2=bias,
+        vrw_m_s_rt_h=vrw,
         seed=seed,
     )
 
-
-def terms_dict(terms: NoiseTerms) -> dict[str, object]:
-    """The terms as a plain dict (for JSON metadata of written records)."""
-    return asdict(terms)

@@ -20,18 +20,37 @@ from typing import Any
 
 import numpy as np
 
-from gyrodrift.reference.wavelet import MAD_TO_SIGMA, pad_symmetric
+from gyrodrift import _native
+from gyrodrift.fir import forced_fir_taps
 
 __all__ = [
+    "MAD_TO_SIGMA",
     "SUPPORTED_WAVELETS",
     "RealtimeWavelet",
-    "fir_group_delay",
-    "forced_fir_taps",
     "max_level",
+    "pad_symmetric",
     "wavedec",
     "wavelet_denoise",
     "waverec",
 ]
+
+#: median(|N(0,1)|): sigma = median(|d1|) / MAD_TO_SIGMA (paper 000 sec. 2.3, Donoho and
+#: Johnstone 1994).
+MAD_TO_SIGMA = 0.6745
+
+
+def pad_symmetric(x: np.ndarray, multiple: int) -> np.ndarray:
+    """Pad the end to a multiple of ``multiple`` by half-sample symmetric reflection
+    (x[n-1], x[n-2], ...; numpy.pad mode="symmetric").
+
+    Examples
+    --------
+    >>> pad_symmetric(np.arange(4), 8)
+    array([0, 1, 2, 3, 3, 2, 1, 0])
+    """
+    x = np.asarray(x)
+    return np.pad(x, (0, (-len(x)) % multiple), mode="symmetric")
+
 
 SUPPORTED_WAVELETS = ("db4", "db8")
 _MODES = ("soft", "hard", "forced")
@@ -39,9 +58,7 @@ _DTYPES = {np.dtype(np.float64): "F64", np.dtype(np.float32): "F32"}
 
 
 def _core() -> Any:
-    from gyrodrift import _core
-
-    return _core
+    return _native.core("wavelet", "realtime_wavelet_max_level")
 
 
 def _check_wavelet(wavelet: str) -> None:
@@ -148,27 +165,6 @@ def wavelet_denoise(
     return waverec(c, wavelet, level, dtype=dt)[:n]
 
 
-def forced_fir_taps(
-    wavelet: str = "db8", window: int = 256, level: int = 5, dtype: Any = np.float64
-) -> np.ndarray:
-    """The forced-mode real-time filter as an FIR in scipy.signal.lfilter convention:
-    y[k] = sum_i b[i] x[k - i] (b[0] multiplies the newest sample) once the window is full.
-    The taps sum to 1 (unit DC gain: the approximation space contains constants)."""
-    return RealtimeWavelet(wavelet, window, level, "forced", dtype=dtype).fir_taps()
-
-
-def fir_group_delay(
-    b: np.ndarray, rate_hz: float = 400.0, n_freqs: int = 512
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Frequency (Hz), magnitude |H| and group delay (s) of FIR taps b at the given rate."""
-    from scipy import signal
-
-    b = np.asarray(b, dtype=float)
-    f_hz, h = signal.freqz(b, 1, worN=n_freqs, fs=rate_hz)
-    _, gd_samples = signal.group_delay((b, 1), w=n_freqs, fs=rate_hz)
-    return f_hz, np.abs(h), gd_samples / rate_hz
-
-
 class RealtimeWavelet:
     """Sliding-window wavelet prefilter (paper 004 sec. 2.2) on the C++ core, per axis.
 
@@ -245,11 +241,10 @@ class RealtimeWavelet:
         return self._bank.fault_counts()
 
     def fir_taps(self) -> np.ndarray:
-        """Forced-mode equivalent FIR taps, lfilter convention (b[0] on the newest sample)."""
+        """Forced-mode equivalent FIR taps, newest first (`gyrodrift.fir`)."""
         if self.mode != "forced":
             raise ValueError("fir_taps(): only the forced mode is a linear (FIR) filter")
-        bank = self._bank or self._bank_cls(self.wavelet, self.window, self.level, self.mode, 1)
-        return np.ascontiguousarray(bank.taps()[::-1])
+        return forced_fir_taps(self.wavelet, self.window, self.level, self.dtype)
 
     def group_delay_s(self, rate_hz: float = 400.0, freq_hz: float = 0.0) -> float:
         """Group delay of the forced filter at freq_hz (default DC), seconds."""

@@ -10,6 +10,19 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = [
+    "dcm2euler",
+    "dcm2q",
+    "euler2dcm",
+    "misalignment",
+    "q2dcm",
+    "qmul",
+    "qnormalize",
+    "rv2q",
+    "skew",
+    "wrap_pi",
+]
+
 
 def skew(v: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])

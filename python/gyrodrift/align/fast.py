@@ -3,15 +3,23 @@ the plain-loop references in this package."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
-from .pipeline import AlignConfig
+from gyrodrift import _native
+
+from .config import AlignConfig
+
+__all__ = [
+    "coarse_align",
+    "run_alignment",
+    "strapdown_run",
+]
 
 
-def _core():  # imported lazily so the pure-Python references work without the extension
-    from gyrodrift import _core
-
-    return _core
+def _core() -> Any:  # lazily: the pure-Python references work without the extension
+    return _native.core("align", "align_run")
 
 
 def _n3(name: str, a: np.ndarray) -> np.ndarray:
@@ -26,12 +34,14 @@ def _n3(name: str, a: np.ndarray) -> np.ndarray:
 def run_alignment(dtheta: np.ndarray, dv: np.ndarray, cfg: AlignConfig) -> dict[str, np.ndarray]:
     """Whole alignment in C++ (GIL released). Same outputs as `run_alignment_reference`, plus
     `bad_samples` (non-finite samples counted and skipped) and `failed`."""
-    taps = np.zeros(0) if cfg.taps is None else np.ascontiguousarray(cfg.taps, dtype=np.float64)
+    # cfg.taps are newest first (gyrodrift.fir); the C++ pipeline takes them oldest first.
+    taps = (np.zeros(0) if cfg.taps is None
+            else np.ascontiguousarray(np.asarray(cfg.taps, dtype=np.float64)[::-1]))
     return _core().align_run(
         _n3("dtheta", dtheta), _n3("dv", dv), float(cfg.dt_s), float(cfg.lat_rad),
         float(cfg.lon_rad), float(cfg.h_m), int(cfg.coarse_samples()),
         bool(cfg.coarse_position_integral), int(cfg.n_states), int(cfg.kf_every),
-        cfg.p0_diag(), cfg.q_diag(), np.full(3, cfg.zv_sigma_mps ** 2), cfg.floor_diag(), taps,
+        cfg.p0_diag(), cfg.q_diag(), np.full(3, cfg.zv_sigma_m_s ** 2), cfg.floor_diag(), taps,
         int(cfg.accel_delay_samples), int(cfg.heading_stage_cycles()),
         float(cfg.heading_stage_q))
 

@@ -15,32 +15,34 @@ interpolation between neighbouring increments).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 
 import numpy as np
 
+from gyrodrift.earth import ARCSEC, DPH, DPSH, UG
 from gyrodrift.simulate import simulate
 
-from .earth import ARCSEC, DPH, DPSH, UG
+__all__ = [
+    "ImuErrors",
+    "add_imu_errors",
+    "kf_noise_from_samples",
+    "kf_noise_from_spec",
+]
 
 
 @dataclass(frozen=True)
 class ImuErrors:
-    gyro_bias_dph: tuple[float, float, float] = (0.01, 0.01, 0.01)
-    arw_deg_rthr: float = 0.001  # N, deg/sqrt(h)
-    bias_instability_dph: float = 0.0  # B, deg/h
+    gyro_bias_deg_h: tuple[float, float, float] = (0.01, 0.01, 0.01)
+    arw_deg_rt_h: float = 0.001  # N, deg/sqrt(h)
+    bias_instability_deg_h: float = 0.0  # B, deg/h
     q_deg: float = 0.0  # IEEE quantization coefficient (white angle error), deg
     gyro_lsb_arcsec: float = 0.0  # pulse quantization of the output (0 = off)
     dither_residue_arcsec: float = 0.0  # angle amplitude of the dither residue
     dither_hz: tuple[float, float, float] = (87.0, 93.0, 101.0)  # aliased residue frequencies
     accel_bias_ug: tuple[float, float, float] = (100.0, 100.0, 100.0)
-    vrw_ug_rhz: float = 10.0  # accelerometer white noise density, ug/sqrt(Hz)
-    accel_lsb_mps: float = 0.0  # pulse quantization of the velocity increments (0 = off)
+    vrw_ug_rt_hz: float = 10.0  # accelerometer white noise density, ug/sqrt(Hz)
+    accel_lsb_m_s: float = 0.0  # pulse quantization of the velocity increments (0 = off)
     timing_offset_samples: float = 0.0  # accelerometer lag behind the gyro, samples in [0, 1]
-    extra: dict[str, float] = field(default_factory=dict)
-
-    def with_(self, **kw: object) -> ImuErrors:
-        return replace(self, **kw)
 
 
 def _pulse_quantize(inc: np.ndarray, lsb: float) -> np.ndarray:
@@ -58,10 +60,10 @@ def add_imu_errors(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, err: ImuErro
     ss = np.random.SeedSequence(seed)
     s_gyro, s_acc, s_phase = ss.spawn(3)
     gyro_seed = int(s_gyro.generate_state(1)[0] & 0x7FFFFFFF)
-    rec = simulate(n=n, rate_hz=rate_hz, q_deg=err.q_deg, n_deg_rthr=err.arw_deg_rthr,
-                   b_deg_h=err.bias_instability_dph, axes=3, seed=gyro_seed)
-    rate_rps = rec.rate_dph * DPH + np.asarray(err.gyro_bias_dph) * DPH
-    g = dtheta + rate_rps * dt_s
+    rec = simulate(n=n, rate_hz=rate_hz, q_deg=err.q_deg, n_deg_rt_h=err.arw_deg_rt_h,
+                   b_deg_h=err.bias_instability_deg_h, axes=3, seed=gyro_seed)
+    rate_rad_s = rec.rate_deg_h * DPH + np.asarray(err.gyro_bias_deg_h) * DPH
+    g = dtheta + rate_rad_s * dt_s
     rng_phase = np.random.default_rng(s_phase)
     if err.dither_residue_arcsec > 0.0:
         t = dt_s * np.arange(n + 1)
@@ -73,22 +75,22 @@ def add_imu_errors(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, err: ImuErro
         g = _pulse_quantize(g, err.gyro_lsb_arcsec * ARCSEC)
     rng = np.random.default_rng(s_acc)
     a = dv + np.asarray(err.accel_bias_ug) * UG * dt_s
-    if err.vrw_ug_rhz > 0.0:
-        a = a + err.vrw_ug_rhz * UG * np.sqrt(dt_s) * rng.standard_normal((n, 3))
+    if err.vrw_ug_rt_hz > 0.0:
+        a = a + err.vrw_ug_rt_hz * UG * np.sqrt(dt_s) * rng.standard_normal((n, 3))
     if err.timing_offset_samples > 0.0:
         f = err.timing_offset_samples
         if f > 1.0:
             raise ValueError("timing_offset_samples must be in [0, 1]")
         prev = np.vstack([a[:1], a[:-1]])
         a = (1.0 - f) * a + f * prev
-    if err.accel_lsb_mps > 0.0:
-        a = _pulse_quantize(a, err.accel_lsb_mps)
+    if err.accel_lsb_m_s > 0.0:
+        a = _pulse_quantize(a, err.accel_lsb_m_s)
     return g, a
 
 
 def kf_noise_from_spec(err: ImuErrors) -> tuple[float, float]:
     """(ARW rad/sqrt(s), VRW m/s/sqrt(s)) for the KF process noise from the specification."""
-    return err.arw_deg_rthr * DPSH, max(err.vrw_ug_rhz, 1e-3) * UG
+    return err.arw_deg_rt_h * DPSH, max(err.vrw_ug_rt_hz, 1e-3) * UG
 
 
 def kf_noise_from_samples(dtheta: np.ndarray, dv: np.ndarray, dt_s: float) -> tuple[float, float]:

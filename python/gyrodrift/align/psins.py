@@ -15,19 +15,24 @@ from pathlib import Path
 
 import numpy as np
 
-from .earth import ARCSEC, DEG, UG
+from gyrodrift.earth import ARCSEC, DEG, UG
+
+__all__ = [
+    "PsinsRecord",
+    "read_psins_imu",
+]
 
 
 @dataclass
 class PsinsRecord:
     att0_deg: np.ndarray  # pitch, roll, yaw (approximate, as written in the file)
-    vn0_mps: np.ndarray
+    vn0_m_s: np.ndarray
     lat_rad: float
     lon_rad: float
     h_m: float
     t0_s: float
     dt_s: float
-    g_mps2: float
+    g_m_s2: float
     dtheta: np.ndarray  # (n, 3) rad
     dv: np.ndarray  # (n, 3) m/s
 
@@ -72,8 +77,8 @@ def read_psins_imu(path: str | Path) -> PsinsRecord:
     if not dt_s > 0:
         raise ValueError(f"{path}: sampling interval must be > 0 ms, got {l2[4]}")
     return PsinsRecord(
-        att0_deg=l1[:3], vn0_mps=l1[3:], lat_rad=l2[0] * DEG, lon_rad=l2[1] * DEG, h_m=l2[2],
-        t0_s=l2[3], dt_s=dt_s, g_mps2=l2[5],
+        att0_deg=l1[:3], vn0_m_s=l1[3:], lat_rad=l2[0] * DEG, lon_rad=l2[1] * DEG, h_m=l2[2],
+        t0_s=l2[3], dt_s=dt_s, g_m_s2=l2[5],
         dtheta=np.ascontiguousarray(counts[:, :3] * l3[:3] * ARCSEC),
         # ug*s -> m/s with 1 ug = 9.80665e-6 m/s^2 (conventional g).
         dv=np.ascontiguousarray(counts[:, 3:] * l3[3:] * UG),

@@ -9,12 +9,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .earth import ARCSEC, DEG, DPSH, UG
+from gyrodrift.earth import ARCSEC, DEG, DPSH, UG
+from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
+
+from .config import AlignConfig
 from .fast import run_alignment
 from .imu_errors import kf_noise_from_samples
-from .pipeline import AlignConfig
-from .prefilter import group_delay_dc_samples, realtime_wavelet_taps
 from .psins import PsinsRecord
+
+__all__ = [
+    "SegmentResult",
+    "align_segments",
+    "consistency_rows",
+]
 
 
 @dataclass
@@ -26,9 +33,9 @@ class SegmentResult:
 
 
 def align_segments(rec: PsinsRecord, segment_s: float = 300.0, coarse_s: float = 60.0,
-                   kf_noise: str = "spec", arw_deg_rthr: float = 0.005,
-                   zv_sigma_mps: float = 0.02) -> list[SegmentResult]:
-    """Align each full segment of the record; kf_noise 'spec' uses arw_deg_rthr and 50 ug/rtHz,
+                   kf_noise: str = "spec", arw_deg_rt_h: float = 0.005,
+                   zv_sigma_m_s: float = 0.02) -> list[SegmentResult]:
+    """Align each full segment of the record; kf_noise 'spec' uses arw_deg_rt_h and 50 ug/rtHz,
     'samples' the per-sample scatter of the (prefiltered) segment."""
     dt = rec.dt_s
     m = round(segment_s / dt)
@@ -37,7 +44,7 @@ def align_segments(rec: PsinsRecord, segment_s: float = 300.0, coarse_s: float =
     n_seg = rec.dtheta.shape[0] // m
     if n_seg < 2:
         raise ValueError(f"the record holds {n_seg} segment(s) of {segment_s} s; need >= 2")
-    taps = realtime_wavelet_taps()
+    taps = forced_fir_taps("db4", 256, 5)
     delay = round(group_delay_dc_samples(taps))
     out: list[SegmentResult] = []
     for i in range(n_seg):
@@ -49,14 +56,12 @@ def align_segments(rec: PsinsRecord, segment_s: float = 300.0, coarse_s: float =
         rl: dict[str, float] = {}
         for label, pre in (("raw gyro", False), ("wavelet prefilter", True)):
             if kf_noise == "samples":
-                from .prefilter import apply_realtime
-
-                arw, vrw = kf_noise_from_samples(apply_realtime(dth, taps) if pre else dth, dv, dt)
+                arw, vrw = kf_noise_from_samples(apply_fir(dth, taps) if pre else dth, dv, dt)
             else:
-                arw, vrw = arw_deg_rthr * DPSH, 50.0 * UG
+                arw, vrw = arw_deg_rt_h * DPSH, 50.0 * UG
             cfg = AlignConfig(dt_s=dt, lat_rad=rec.lat_rad, lon_rad=rec.lon_rad, h_m=rec.h_m,
                               coarse_s=coarse_s, kf_every=max(1, round(0.1 / dt)),
-                              arw_rad_rsqs=arw, vrw_mps_rsqs=vrw, zv_sigma_mps=zv_sigma_mps,
+                              arw_rad_s_rt_hz=arw, vrw_m_s2_rt_hz=vrw, zv_sigma_m_s=zv_sigma_m_s,
                               taps=taps if pre else None, accel_delay_samples=delay if pre else 0)
             res = run_alignment(dth, dv, cfg)
             if res["failed"]:

@@ -20,12 +20,29 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .earth import ARCMIN, ARCSEC, DPH, DPSH, EARTH_RATE_RPS, UG, gravity_mps2
+from gyrodrift.earth import ARCMIN, ARCSEC, DPH, DPSH, EARTH_RATE_RAD_S, UG, gravity_m_s2
+from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
+
+from .config import AlignConfig
 from .fast import run_alignment
 from .imu_errors import ImuErrors, add_imu_errors, kf_noise_from_samples, kf_noise_from_spec
-from .pipeline import AlignConfig
-from .prefilter import group_delay_dc_samples, realtime_wavelet_taps
 from .trajectory import Scenario, _dcm_vec, imu_increments, scenario, truth_at
+
+__all__ = [
+    "BAND_RAD",
+    "MECHANISMS",
+    "PUBLISHED_RAW_ROW",
+    "PUBLISHED_ROW",
+    "ConfigResult",
+    "StudyConfig",
+    "convergence_time_s",
+    "fmt",
+    "markdown_table",
+    "misalignment_batch",
+    "run_study",
+    "summary_rows",
+    "theory",
+]
 
 BAND_RAD = ARCMIN
 
@@ -47,7 +64,7 @@ def convergence_time_s(t_s: np.ndarray, psi: np.ndarray, band_rad: float = BAND_
 class StudyConfig:
     scenario: str = "ship_mild"
     runs: int = 30
-    minutes: float = 30.0
+    duration_s: float = 1800.0
     rate_hz: float = 400.0
     coarse_s: float = 60.0
     kf_hz: float = 10.0
@@ -82,7 +99,7 @@ def _cfg(sc: Scenario, st: StudyConfig, prefilter: bool, arw: float, vrw: float,
     return AlignConfig(
         dt_s=dt, lat_rad=sc.lat_rad, lon_rad=sc.lon_rad, h_m=sc.h_m, coarse_s=st.coarse_s,
         n_states=st.n_states, kf_every=max(1, round(st.rate_hz / st.kf_hz)),
-        arw_rad_rsqs=arw, vrw_mps_rsqs=vrw, zv_sigma_mps=sc.zero_velocity_sigma_mps,
+        arw_rad_s_rt_hz=arw, vrw_m_s2_rt_hz=vrw, zv_sigma_m_s=sc.zero_velocity_sigma_m_s,
         taps=taps if prefilter else None, accel_delay_samples=delay,
         heading_stage_s=stage_s, heading_stage_q=sc.heading_stage_q)
 
@@ -93,11 +110,11 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
     returns per-configuration results (keyed by prefilter on/off) and the theory values."""
     sc = scenario(st.scenario)
     dt = 1.0 / st.rate_hz
-    n = round(st.minutes * 60.0 * st.rate_hz)
+    n = round(st.duration_s * st.rate_hz)
     if n <= round(st.coarse_s * st.rate_hz) + 2 * round(st.rate_hz / st.kf_hz):
-        raise ValueError(f"--minutes {st.minutes} leaves no fine alignment after the "
+        raise ValueError(f"--duration-s {st.duration_s:g} leaves no fine alignment after the "
                          f"{st.coarse_s:g} s coarse alignment")
-    taps = realtime_wavelet_taps()
+    taps = forced_fir_taps("db4", 256, 5)
     delay = round(group_delay_dc_samples(taps)) if st.accel_delay else 0
     # Both configurations align the same stretch of motion: the prefiltered pipeline first
     # spends len(taps) - 1 samples filling its window and then runs `delay` samples late, so
@@ -167,23 +184,17 @@ def misalignment_batch(att: np.ndarray, cnb_true: np.ndarray) -> np.ndarray:
                            d[:, 1, 0] - d[:, 0, 1]], axis=-1)
 
 
-def apply_fir(x: np.ndarray, taps: np.ndarray) -> np.ndarray:
-    from .prefilter import apply_realtime
-
-    return apply_realtime(x, taps)
-
-
 def theory(sc: Scenario, st: StudyConfig, cnb_hist: np.ndarray) -> dict[str, float]:
     """Steady-state heading and level errors for the simulated constant biases (projected with
     the mean attitude) and the ARW limit at 7 min and 20 min of fine alignment."""
     c = cnb_hist.mean(axis=0)
     u, _, vt = np.linalg.svd(c)
     c = u @ vt  # nearest rotation to the mean DCM
-    eps_n = c @ (np.asarray(st.errors.gyro_bias_dph) * DPH)
+    eps_n = c @ (np.asarray(st.errors.gyro_bias_deg_h) * DPH)
     nab_n = c @ (np.asarray(st.errors.accel_bias_ug) * UG)
-    g = gravity_mps2(sc.lat_rad, sc.h_m)
-    wc = EARTH_RATE_RPS * np.cos(sc.lat_rad)
-    n_arw = st.errors.arw_deg_rthr * DPSH
+    g = gravity_m_s2(sc.lat_rad, sc.h_m)
+    wc = EARTH_RATE_RAD_S * np.cos(sc.lat_rad)
+    n_arw = st.errors.arw_deg_rt_h * DPSH
     return {
         "psi_ss_rad": -eps_n[0] / wc + nab_n[0] / g * np.tan(sc.lat_rad),
         "phi_e_ss_rad": -nab_n[1] / g,

@@ -19,7 +19,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .earth import DEG, EARTH_RATE_RPS, earth_params
+from gyrodrift.earth import DEG, earth_params
+
+__all__ = [
+    "SCENARIOS",
+    "Scenario",
+    "Sinusoid",
+    "imu_increments",
+    "scenario",
+    "truth_at",
+]
 
 
 @dataclass
@@ -41,7 +50,7 @@ class Scenario:
     lat_rad: float = 39.0 * DEG
     lon_rad: float = 116.0 * DEG
     h_m: float = 50.0
-    zero_velocity_sigma_mps: float = 0.01  # R of the zero-velocity measurement
+    zero_velocity_sigma_m_s: float = 0.01  # R of the zero-velocity measurement
     # Heading acquisition stage of the fine filter (AlignConfig.heading_stage_s/_q) for motions
     # whose 60 s coarse heading error reaches tens of degrees; 0 = off.
     heading_stage_s: float = 0.0
@@ -54,13 +63,13 @@ def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenar
     att0 = np.array([0.0, 0.0, yaw0_deg * DEG])
     lat = lat_deg * DEG
     if name == "static":
-        return Scenario(name, att0, lat_rad=lat, zero_velocity_sigma_mps=0.001)
+        return Scenario(name, att0, lat_rad=lat, zero_velocity_sigma_m_s=0.001)
     if name == "ship_mild":
         # Moored ship: pitch 3 deg/12 s, roll 5 deg/15 s, yaw 2 deg/30 s.
         ang = [[Sinusoid(3 * DEG, 12.0, 0.3)], [Sinusoid(5 * DEG, 15.0, 1.1)],
                [Sinusoid(2 * DEG, 30.0, 2.0)]]
         return Scenario(name, att0, ang, lever_arm_m=np.array([1.0, 2.0, 3.0]), lat_rad=lat,
-                        zero_velocity_sigma_mps=0.2)
+                        zero_velocity_sigma_m_s=0.2)
     if name == "ship_moderate":
         # [5, 5, 3] deg at [5, 7, 10] s plus about 1 m linear sway.
         ang = [[Sinusoid(5 * DEG, 5.0, 0.3)], [Sinusoid(5 * DEG, 7.0, 1.1)],
@@ -72,7 +81,7 @@ def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenar
         # term falls as T^-3: with a coarse window over 2 min the stage is not used (with 5 min
         # it made the 20-min heading spread worse: 395 vs 244 arcsec, 30 runs).
         return Scenario(name, att0, ang, sway, np.array([1.0, 2.0, 3.0]), lat_rad=lat,
-                        zero_velocity_sigma_mps=1.0, heading_stage_s=600.0,
+                        zero_velocity_sigma_m_s=1.0, heading_stage_s=600.0,
                         heading_stage_q=(0.1 * DEG) ** 2)
     if name == "vehicle_engine":
         # Parked vehicle, engine running: sub-degree body rocking at 1-1.75 Hz and engine
@@ -82,7 +91,7 @@ def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenar
                [Sinusoid(0.5 * DEG, 1 / 1.0, 1.1), Sinusoid(0.005 * DEG, 1 / 25.0, 0.1)],
                [Sinusoid(0.1 * DEG, 1 / 1.75, 2.0), Sinusoid(0.003 * DEG, 1 / 30.0, 1.3)]]
         return Scenario(name, att0, ang, lever_arm_m=np.array([0.3, 0.5, 0.4]), lat_rad=lat,
-                        zero_velocity_sigma_mps=0.02)
+                        zero_velocity_sigma_m_s=0.02)
     raise ValueError(f"unknown scenario {name!r}; choose from {', '.join(SCENARIOS)}")
 
 
@@ -183,5 +192,3 @@ def imu_increments(sc: Scenario, n: int, dt_s: float,
         dv += 0.5 * dt_s * wg * fb
     return dtheta, dv
 
-
-EARTH_RATE = EARTH_RATE_RPS

@@ -10,6 +10,10 @@ import argparse
 import importlib
 import sys
 
+from gyrodrift.errors import GyrodriftError
+
+__all__ = ["SUBCOMMAND_MODULES", "CliError", "build_parser", "main"]
+
 # Subcommand modules, in the order `gyrodrift --help` lists them.
 SUBCOMMAND_MODULES: list[str] = [
     "demo",
@@ -27,10 +31,20 @@ SUBCOMMAND_MODULES: list[str] = [
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``gyrodrift`` parser with every subcommand registered.
+
+    Examples
+    --------
+    >>> build_parser().prog
+    'gyrodrift'
+    """
+    from gyrodrift import __version__
+
     parser = argparse.ArgumentParser(
         prog="gyrodrift",
         description="Optical-gyro drift removal: filters, Allan/PSD analysis, CAN/serial replay.",
     )
+    parser.add_argument("--version", action="version", version=f"gyrodrift {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in SUBCOMMAND_MODULES:
         importlib.import_module(f"gyrodrift.cli.{name}").register(sub)
@@ -38,6 +52,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code (2 for a user error, one line on stderr).
+
+    Examples
+    --------
+    >>> main(["simulate", "--help"]) # doctest: +SKIP
+    """
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
@@ -45,13 +65,19 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except CliError as exc:
+    except GyrodriftError as exc:
         print(f"gyrodrift {args.command}: error: {exc}", file=sys.stderr)
         return 2
 
 
-class CliError(Exception):
-    """A user-facing error: printed as one line, exit code 2, no traceback."""
+class CliError(GyrodriftError):
+    """A user-facing error: printed as one line, exit code 2, no traceback.
+
+    Examples
+    --------
+    >>> issubclass(CliError, GyrodriftError)
+    True
+    """
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -1,10 +1,10 @@
 """`gyrodrift align`: SINS alignment on a rocking base (issue 6, paper 004).
 
-Monte Carlo study (default): for each scenario, --runs seeded records of --minutes at 400 Hz,
+Monte Carlo study (default): for each scenario, --runs seeded records of --duration-s at 400 Hz,
 1 min inertial-frame coarse alignment then 15-state zero-velocity Kalman fine alignment, with
 and without the real-time wavelet prefilter (db4, level 5, N = 256, forced; accelerometers
 delayed 8 samples to match). Writes table.md / table.csv (beside the published figures and
-the theory rows) and heading_<scenario>.png / level_<scenario>.png into --out.
+the theory rows) and heading_<scenario>.png / level_<scenario>.png into --out-dir.
 --mechanism: the prefilter mechanism study (which modelled effects make it help).
 --real PATH: heading consistency across segments of a PSINS IMU log (e.g. lasergyro.imu).
 """
@@ -18,20 +18,30 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gyrodrift.cli import CliError
+from gyrodrift.cli.common import (
+    add_json_arg,
+    add_progress_arg,
+    emit_json,
+    progress_enabled,
+)
+
+__all__ = ["register", "run"]
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``align`` subcommand."""
     p = subparsers.add_parser(
         "align", help="SINS alignment Monte Carlo study, mechanism study, real-data consistency",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scenario", default="all",
                    help="static, ship_mild, ship_moderate, vehicle_engine or all (all)")
     p.add_argument("--runs", type=int, default=30, help="Monte Carlo runs per scenario (30)")
-    p.add_argument("--minutes", type=float, default=30.0, help="record length, min (30)")
+    p.add_argument("--duration-s", type=float, default=1800.0,
+                   help="record length, s (1800 = 30 min)")
     p.add_argument("--rate-hz", type=float, default=400.0, help="IMU rate, Hz (400)")
     p.add_argument("--coarse-s", type=float, default=60.0, help="coarse alignment, s (60)")
     p.add_argument("--states", type=int, choices=(12, 15), default=15, help="KF states (15)")
@@ -41,12 +51,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[ty
                    help="gyro pulse quantization, arcsec (0 = off)")
     p.add_argument("--dither-arcsec", type=float, default=0.0,
                    help="dither residue amplitude, arcsec (0 = off)")
-    p.add_argument("--seed", type=int, default=2014)
+    p.add_argument("--seed", type=int, default=2014, help="Monte Carlo seed (2014)")
     p.add_argument("--mechanism", action="store_true", help="run the mechanism study instead")
     p.add_argument("--real", metavar="PATH", help="real-data mode on a PSINS IMU log")
-    p.add_argument("--segment-min", type=float, default=5.0, help="real-data segment, min (5)")
-    p.add_argument("--out", default="align_study", help="output directory (align_study)")
+    p.add_argument("--segment-s", type=float, default=300.0,
+                   help="real-data segment length, s (300 = 5 min)")
+    p.add_argument("--out-dir", default="align_study",
+                   help="output directory for the tables and plots (align_study)")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    add_json_arg(p)
+    add_progress_arg(p)
     p.set_defaults(func=run)
 
 
@@ -68,7 +82,7 @@ def _plots(out: Path, name: str, results: dict, th: dict[str, float]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from gyrodrift.align.earth import ARCSEC
+    from gyrodrift.earth import ARCSEC
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for pre, color in ((False, "tab:red"), (True, "tab:blue")):
@@ -115,6 +129,7 @@ def _save_fine_time_plot(fig: Figure, ax: Axes, path: Path, title: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift align``; returns the exit code."""
     from gyrodrift.align.imu_errors import ImuErrors
     from gyrodrift.align.study import (
         MECHANISMS,
@@ -126,23 +141,24 @@ def run(args: argparse.Namespace) -> int:
     )
     from gyrodrift.align.trajectory import SCENARIOS
 
-    out = Path(args.out)
+    out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     if args.real:
         return _run_real(args, out)
     if args.runs < 2:
         raise CliError("--runs must be >= 2 (a 1-sigma needs two runs)")
-    if not args.minutes > 0 or not args.rate_hz > 0:
-        raise CliError("--minutes and --rate-hz must be > 0")
+    if not args.duration_s > 0 or not args.rate_hz > 0:
+        raise CliError("--duration-s and --rate-hz must be > 0")
+    show = progress_enabled(args)
     t0 = time.perf_counter()
     rows: list[dict[str, object]] = []
     if args.mechanism:
         for label, (scen, errors, kf_noise) in MECHANISMS.items():
-            st = StudyConfig(scenario=scen, runs=args.runs, minutes=args.minutes,
+            st = StudyConfig(scenario=scen, runs=args.runs, duration_s=args.duration_s,
                              rate_hz=args.rate_hz, coarse_s=args.coarse_s,
                              n_states=args.states, errors=errors, kf_noise=kf_noise,
                              seed=args.seed)
-            res, th = run_study(st)
+            res, th = run_study(st, progress=show)
             for r in summary_rows(scen, res, th):
                 rows.append({"effect": label, **r})
         md = _write(rows, out, "mechanism", "Prefilter mechanism study")
@@ -154,11 +170,11 @@ def run(args: argparse.Namespace) -> int:
                                "or all")
             errors = ImuErrors(gyro_lsb_arcsec=args.gyro_lsb_arcsec,
                                dither_residue_arcsec=args.dither_arcsec)
-            st = StudyConfig(scenario=name, runs=args.runs, minutes=args.minutes,
+            st = StudyConfig(scenario=name, runs=args.runs, duration_s=args.duration_s,
                              rate_hz=args.rate_hz, coarse_s=args.coarse_s, n_states=args.states,
                              errors=errors, kf_noise=args.kf_noise, seed=args.seed)
             try:
-                res, th = run_study(st)
+                res, th = run_study(st, progress=show)
             except ValueError as exc:
                 raise CliError(str(exc)) from None
             rows += summary_rows(name, res, th)
@@ -166,8 +182,12 @@ def run(args: argparse.Namespace) -> int:
                 _plots(out, name, res, th)
         rows += [PUBLISHED_ROW, PUBLISHED_RAW_ROW]
         md = _write(rows, out, "table", "Alignment Monte Carlo (angles arcsec, times min)")
+    wall_s = time.perf_counter() - t0
+    if args.json:
+        emit_json({"rows": rows, "out_dir": str(out), "wall_time_s": wall_s})
+        return 0
     print(md)
-    print(f"wall time {time.perf_counter() - t0:.1f} s; outputs in {out}/")
+    print(f"wall time {wall_s:.1f} s; outputs in {out}/")
     return 0
 
 
@@ -182,12 +202,17 @@ def _run_real(args: argparse.Namespace, out: Path) -> int:
     rows = []
     for kf_noise in ("spec", "samples"):
         try:
-            segs = align_segments(rec, args.segment_min * 60.0, args.coarse_s, kf_noise=kf_noise)
+            segs = align_segments(rec, args.segment_s, args.coarse_s, kf_noise=kf_noise)
         except ValueError as exc:
             raise CliError(str(exc)) from None
         rows += [{"kf_noise": kf_noise, **r} for r in consistency_rows(segs)]
     md = _write(rows, out, "real", f"Real data {Path(args.real).name}: heading consistency "
-                f"across {args.segment_min:g}-min segments (no truth)")
+                f"across {args.segment_s:g}-s segments (no truth)")
+    if args.json:
+        emit_json({"rows": rows, "out_dir": str(out),
+                   "segments": [{"start_s": s.start_s, "heading_deg": dict(s.heading_deg)}
+                                for s in segs]})
+        return 0
     print(md)
     print("segment headings (deg): " + "; ".join(
         f"{s.start_s / 60:.0f} min: " + ", ".join(f"{k} {v:.4f}" for k, v in s.heading_deg.items())

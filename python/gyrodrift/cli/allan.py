@@ -1,74 +1,57 @@
 """`gyrodrift allan`: overlapping Allan deviation table with confidence intervals, identified
-noise terms (IEEE Std 952 NNLS, the 2006 paper's 3-term fit, slope method) and a PNG plot.
-
-Also holds the input options shared by the analysis subcommands (allan, psd, filter,
-compare): a record file (.npy, .csv, IMU log), --column, --rate, --units, --drop-nan.
-"""
+noise terms (IEEE Std 952 NNLS, the 2006 paper's 3-term fit, slope method) and a PNG plot."""
 
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from typing import Any
 
-import numpy as np
-
 from gyrodrift.cli import CliError
-from gyrodrift.io import UNITS, Record, load_record
+from gyrodrift.cli.common import (
+    add_ci_arg,
+    add_input_args,
+    add_json_arg,
+    add_progress_arg,
+    emit_json,
+    progress_enabled,
+    record_from_args,
+    write_csv,
+)
 
-
-def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
-    p.add_argument("input", nargs=None if required else "?",
-                   help="record: .npy, .csv, PSINS .imu, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
-    p.add_argument("--column", help="csv column name/index, npy column index, log gyro axis x|y|z")
-    p.add_argument("--rate", type=float, help="sample rate, Hz (required for .npy)")
-    p.add_argument("--units", choices=UNITS, default="deg/h",
-                   help="input units: rates deg/h, deg/s, rad/s; per-sample angle increments "
-                        "arcsec, deg, rad (default deg/h; IMU logs are rad/s)")
-    p.add_argument("--drop-nan", action="store_true",
-                   help="drop NaN/Inf samples (their count is reported); default: refuse")
-
-
-def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
-    try:
-        return load_record(args.input, column=args.column, rate_hz=args.rate, units=args.units,
-                           nan_policy="drop" if args.drop_nan else "refuse", mmap=mmap)
-    except (OSError, ValueError) as exc:
-        raise CliError(str(exc)) from exc
-
-
-def emit_json(payload: dict[str, Any]) -> None:
-    json.dump(payload, sys.stdout, indent=2, default=float)
-    sys.stdout.write("\n")
+__all__ = ["register", "run"]
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``allan`` subcommand."""
     p = subparsers.add_parser("allan", help="overlapping Allan deviation, noise terms, plot",
-                              description=__doc__.splitlines()[0])
+                              description=__doc__)
     add_input_args(p)
-    p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave")
+    p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave",
+                   help="averaging times: octave (m = 1, 2, 4, ...), decade (--per-decade "
+                        "points per decade) or all (every m; slow on long records)")
     p.add_argument("--per-decade", type=int, default=10, help="points per decade (--taus decade)")
-    p.add_argument("--ci", type=float, default=0.683, help="confidence-interval probability")
+    add_ci_arg(p)
     p.add_argument("--noise-id", choices=("slope", "acf"), default="slope",
                    help="noise type per tau for the edf: local slope (default) or the lag-1 "
                         "autocorrelation method (loads the record into memory)")
     p.add_argument("--png", help="write a log-log plot with error bars and the fitted terms")
     p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV")
-    p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
-    p.add_argument("--progress", choices=("auto", "always", "never"), default="auto",
-                   help="tqdm progress bar on stderr (auto: long records only)")
+    add_json_arg(p)
+    add_progress_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift allan``; returns the exit code."""
     from gyrodrift import noise_id
     from gyrodrift.allan import oadev
 
     rec = record_from_args(args)
-    progress: bool | str = {"auto": "auto", "always": True, "never": False}[args.progress]
+    # auto: a bar for long records, and only on a terminal.
+    show = progress_enabled(args)
+    progress: bool | str = "auto" if show and args.progress == "auto" else show
     try:
-        res = oadev(rec.rate_dph, rec.rate_hz, taus=args.taus, per_decade=args.per_decade,
+        res = oadev(rec.rate_deg_h, rec.rate_hz, taus=args.taus, per_decade=args.per_decade,
                     ci=args.ci, progress=progress,
                     alpha="acf" if args.noise_id == "acf" else None)
     except ValueError as exc:
@@ -85,10 +68,9 @@ def run(args: argparse.Namespace) -> int:
 
         plot_allan([(rec.source, res)], args.png, fit=fit)
     if args.csv_out:
-        table = np.column_stack([res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf,
-                                 res.terms])
-        np.savetxt(args.csv_out, table, delimiter=",", comments="",
-                   header="tau_s,m,adev_dph,ci_low_dph,ci_high_dph,edf,terms")
+        write_csv(args.csv_out,
+                  ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],
+                  [res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf, res.terms])
     if args.json:
         emit_json({"record": rec.summary(), "allan": res.as_dict(),
                    "ieee952": None if fit is None else fit.as_dict(),
@@ -98,17 +80,17 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz"
           + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
-    print(f"{'tau_s':>12} {'adev_dph':>12} {'ci_low':>12} {'ci_high':>12} {'edf':>10}")
+    print(f"{'tau_s':>12} {'adev_deg_h':>12} {'ci_low':>12} {'ci_high':>12} {'edf':>10}")
     for t, a, lo, hi, e in zip(res.tau_s, res.adev, res.ci_low, res.ci_high, res.edf,
                                strict=True):
         print(f"{t:12.5g} {a:12.5g} {lo:12.5g} {hi:12.5g} {e:10.4g}")
     if fit is not None:
         print(f"IEEE 952 fit: Q = {fit.q_arcsec:.4g} arcsec ({fit.q_deg:.4g} deg), "
-              f"N = {fit.n_deg_rthr:.4g} deg/sqrt(h), B = {fit.b_deg_h:.4g} deg/h, "
-              f"K = {fit.k_deg_h_rthr:.4g} deg/h/sqrt(h), R = {fit.r_deg_h_h:.4g} deg/h/h")
+              f"N = {fit.n_deg_rt_h:.4g} deg/sqrt(h), B = {fit.b_deg_h:.4g} deg/h, "
+              f"K = {fit.k_deg_h_rt_h:.4g} deg/h/sqrt(h), R = {fit.r_deg_h2:.4g} deg/h/h")
     if paper is not None:
         print(f"paper 2006 eq. 8 fit: Q = {paper.q_paper:.4g} (paper's 'deg' column; "
-              f"= arcsec), N = {paper.n_deg_rthr:.4g} deg/sqrt(h), B = {paper.b_deg_h:.4g} deg/h")
+              f"= arcsec), N = {paper.n_deg_rt_h:.4g} deg/sqrt(h), B = {paper.b_deg_h:.4g} deg/h")
     if slope is not None:
         print("slope method: " + ", ".join(
             f"{k} = {'n/a' if v is None else f'{v:.4g}'}" for k, v in slope.as_dict().items()))

@@ -11,8 +11,15 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from gyrodrift.allan import ONE_SIGMA_CI
 from gyrodrift.cli import CliError
+from gyrodrift.cli.common import (
+    add_ci_arg,
+    add_json_arg,
+    add_progress_arg,
+    emit_json,
+    progress_enabled,
+)
+from gyrodrift.errors import GyrodriftError
 from gyrodrift.imu_io import ACCEL_UNITS, GYRO_UNITS, ImuData, bag_imu_topics, load_imu
 
 __all__ = ["add_imu_input_args", "imu_from_args", "register", "run"]
@@ -44,7 +51,7 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
                         time_column=args.time_column, topic=args.topic,
                         gyro_units=args.gyro_units, accel_units=args.accel_units,
                         nan_policy="drop" if args.drop_nan else "refuse", **kw)
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
 
 
@@ -53,9 +60,9 @@ def add_analysis_args(p: argparse.ArgumentParser) -> None:
                    help="identification: IEEE 952 Allan fit (default) or GMWM (issue 11, when "
                         "installed)")
     p.add_argument("--terms", default="Q,N,B,K,R", help="IEEE 952 terms the fit may use")
-    p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave")
-    p.add_argument("--ci", type=float, default=ONE_SIGMA_CI,
-                   help="probability of every interval (default one sigma, 0.6827)")
+    p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave",
+                   help="Allan tau grid (default octave)")
+    add_ci_arg(p)
 
 
 def register(subparsers: Any) -> None:
@@ -74,9 +81,8 @@ def register(subparsers: Any) -> None:
                    help="simulate the identified model (same length and rate), identify it "
                         "again, report whether each term is recovered inside its interval")
     p.add_argument("--seed", type=int, default=0, help="seed of the self-check simulation")
-    p.add_argument("--json", action="store_true", help="machine-readable output on stdout")
-    p.add_argument("--progress", choices=("auto", "always", "never"), default="auto",
-                   help="progress lines on stderr (auto: when stderr is a terminal)")
+    add_json_arg(p)
+    add_progress_arg(p)
     p.set_defaults(func=run)
 
 
@@ -98,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(f"{args.input}: choose a sensor_msgs/msg/Imu topic with --topic; "
                            f"the bag has: {listing}")
     rec = imu_from_args(args)
-    show = {"always": True, "never": False}.get(args.progress, sys.stderr.isatty())
+    show = progress_enabled(args)
 
     def progress(name: str) -> None:
         if show:
@@ -110,7 +116,7 @@ def run(args: argparse.Namespace) -> int:
         kalibr = ch.kalibr_yaml(res, args.kalibr_axis) if (args.kalibr or args.html) else None
         sc = (ch.self_check(res, seed=args.seed, taus=args.taus, terms=_terms(args.terms))
               if args.self_check else None)
-    except ValueError as exc:
+    except (ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
     files = write_outputs(res, kalibr=kalibr, kalibr_path=args.kalibr, html_path=args.html,
                           out_dir=args.out_dir, self_check=sc)
@@ -120,8 +126,7 @@ def run(args: argparse.Namespace) -> int:
                              in ch.kalibr_values(res, args.kalibr_axis).items()}
         payload["self_check"] = None if sc is None else sc.as_dict()
         payload["files"] = files
-        json.dump(payload, sys.stdout, indent=2)
-        sys.stdout.write("\n")
+        emit_json(payload)
         return 0
     r = res.record
     print(f"# {r['source']} ({r['format']}): {r['n_used']} samples at {r['rate_hz']:g} Hz, "

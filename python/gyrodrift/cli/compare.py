@@ -10,22 +10,36 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.allan import add_input_args, emit_json, record_from_args
+from gyrodrift.cli.common import (
+    add_input_args,
+    add_json_arg,
+    add_progress_arg,
+    emit_json,
+    progress_enabled,
+    record_from_args,
+)
+
+__all__ = ["register", "run"]
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``compare`` subcommand."""
     p = subparsers.add_parser("compare", help="paper 2006 Table 1: filters compared by Allan/PSD",
-                              description=__doc__.splitlines()[0])
+                              description=__doc__)
     add_input_args(p, required=False)
-    p.add_argument("--out-dir", default="compare_out", help="report directory")
-    p.add_argument("--seed", type=int, default=None, help="seed of the default record")
-    p.add_argument("--json", action="store_true")
-    p.add_argument("--progress", choices=("always", "never"), default="always",
-                   help="tqdm progress bar on stderr (the default run takes a few seconds)")
+    p.add_argument("--out-dir", default="compare_out",
+                   help="report directory: table.md, table.csv and the PNG overlays "
+                        "(default compare_out)")
+    p.add_argument("--seed", type=int, default=None,
+                   help="without INPUT: seed of the simulated default record (default: the "
+                        "library's fixed seed)")
+    add_json_arg(p)
+    add_progress_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift compare``; returns the exit code."""
     from gyrodrift import compare
 
     try:
@@ -38,9 +52,9 @@ def run(args: argparse.Namespace) -> int:
                 source = ""
         else:
             rec = record_from_args(args, mmap=False)
-            x, rate, source = np.asarray(rec.rate_dph), rec.rate_hz, rec.source
+            x, rate, source = np.asarray(rec.rate_deg_h), rec.rate_hz, rec.source
         report = compare.run_compare(x, rate, out_dir=args.out_dir, source=source,
-                                     progress=args.progress == "always")
+                                     progress=progress_enabled(args))
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     if args.json:

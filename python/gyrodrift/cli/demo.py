@@ -10,43 +10,49 @@ reduction. `--json` prints the same numbers as one JSON object.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from typing import Any
 
 import numpy as np
 
+from gyrodrift.cli.common import add_json_arg, emit_json
+
+__all__ = ["DEFAULT_TERMS", "compute", "register", "run"]
+
 #: Demo record: a FOG-class gyro at rest, deg/h. AR(2) drift (0.6868, -0.0213) is paper 002's
 #: first FOG; the Earth-rate-like bias stands for the constant drift the model keeps as mean.
 DEFAULT_TERMS: dict[str, Any] = {
-    "n_deg_rthr": 0.0005,  # angle random walk, deg/sqrt(h)
+    "n_deg_rt_h": 0.0005,  # angle random walk, deg/sqrt(h)
     "b_deg_h": 0.02,  # bias instability, deg/h
     "bias_deg_h": 9.7,  # constant drift, deg/h
     "ar2": (0.6868, -0.0213, 0.5),  # a1, a2, sigma deg/h
 }
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``demo`` subcommand."""
     p = subparsers.add_parser(
         "demo",
         help="simulate a gyro record, filter it with the C++ AR(2)-Kalman, print before/after",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--seconds", type=float, default=600.0, help="record length, s (600)")
+    p.add_argument("--duration-s", type=float, default=600.0, help="record length, s (600)")
     p.add_argument("--rate-hz", type=float, default=100.0, help="sample rate, Hz (100)")
     p.add_argument("--seed", type=int, default=2006, help="simulator seed (2006)")
     p.add_argument(
         "--method", default="burg", choices=["yule-walker", "burg", "ls"],
         help="AR(2) identification method (burg)",
     )
-    p.add_argument("--q", type=float, default=None, help="process variance (default sigma2)")
-    p.add_argument("--r", type=float, default=None,
-                   help="measurement variance (default: AR(2) one-step error variance)")
+    p.add_argument("--kalman-q", type=float, default=None,
+                   help="Kalman process variance, (deg/h)^2 (default: the fitted sigma2)")
+    p.add_argument("--kalman-r", type=float, default=None,
+                   help="Kalman measurement variance, (deg/h)^2 (default: the AR(2) one-step "
+                        "prediction-error variance)")
     p.add_argument("--steady-state", action="store_true", help="constant-gain (DARE) Kalman")
     p.add_argument("--float32", action="store_true", help="run the filters in float32")
-    p.add_argument("--json", action="store_true", help="print the results as JSON")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
@@ -58,31 +64,33 @@ def _allan_numbers(x: np.ndarray, rate_hz: float) -> dict[str, float]:
     fit = paper_fit(res.tau_s, res.adev, res.edf)
     i1 = int(np.argmin(np.abs(res.tau_s - 1.0)))
     return {
-        "adev_1s_dph": float(res.adev[i1]),
-        "adev_min_dph": float(np.min(res.adev)),
+        "adev_1s_deg_h": float(res.adev[i1]),
+        "adev_min_deg_h": float(np.min(res.adev)),
         "q_arcsec": fit.q_arcsec,
-        "n_deg_rthr": fit.n_deg_rthr,
+        "n_deg_rt_h": fit.n_deg_rt_h,
         "b_deg_h": fit.b_deg_h,
     }
 
 
 def compute(args: argparse.Namespace) -> dict[str, Any]:
-    from gyrodrift import ar_filter, fit_ar2, kalman_filter, simulate
+    from gyrodrift import Ar2Model, ar_filter, fit_ar2, kalman_filter, simulate
     from gyrodrift.cli import CliError
 
-    if not (args.seconds > 0 and args.rate_hz > 0):
-        raise CliError("--seconds and --rate-hz must be positive")
-    rec = simulate(args.seconds, rate_hz=args.rate_hz, seed=args.seed, **DEFAULT_TERMS)
-    x = rec.rate_dph
+    if not (args.duration_s > 0 and args.rate_hz > 0):
+        raise CliError("--duration-s and --rate-hz must be positive")
+    rec = simulate(args.duration_s, rate_hz=args.rate_hz, seed=args.seed, **DEFAULT_TERMS)
+    x = rec.rate_deg_h
     if x.size < 1000:
         raise CliError(f"{x.size} samples is too short for a meaningful demo (>= 1000)")
     dtype = np.float32 if args.float32 else np.float64
     try:
         model = fit_ar2(x, args.method)
+        assert isinstance(model, Ar2Model)  # x is 1-D: one model
         filtered = {
             "AR filter": ar_filter(x, model, dtype=dtype),
             "AR(2)-Kalman": kalman_filter(
-                x, model, q=args.q, r=args.r, steady_state=args.steady_state, dtype=dtype
+                x, model, q=args.kalman_q, r=args.kalman_r, steady_state=args.steady_state,
+                dtype=dtype,
             ),
         }
     except ValueError as exc:
@@ -94,12 +102,12 @@ def compute(args: argparse.Namespace) -> dict[str, Any]:
     table: dict[str, dict[str, float]] = {}
     for name, sig in signals.items():
         s = np.asarray(sig[skip:], dtype=np.float64)
-        row = {"mean_dph": float(np.mean(s)), "std_dph": float(np.std(s))}
+        row = {"mean_deg_h": float(np.mean(s)), "std_deg_h": float(np.std(s))}
         row.update(_allan_numbers(s, args.rate_hz))
         table[name] = row
-    raw_std = table["raw"]["std_dph"]
+    raw_std = table["raw"]["std_deg_h"]
     for row in table.values():
-        row["std_reduction"] = raw_std / row["std_dph"] if row["std_dph"] > 0 else math.inf
+        row["std_reduction"] = raw_std / row["std_deg_h"] if row["std_deg_h"] > 0 else math.inf
     return {
         "record": {
             "samples": int(x.size),
@@ -113,13 +121,13 @@ def compute(args: argparse.Namespace) -> dict[str, Any]:
             "method": model.method,
             "a1": model.a1,
             "a2": model.a2,
-            "sigma2_dph2": model.sigma2,
-            "r_dph2": model.r,
-            "mean_dph": model.mean,
+            "sigma2_deg_h_sq": model.sigma2,
+            "r_deg_h_sq": model.r,
+            "mean_deg_h": model.mean,
         },
         "kalman": {
-            "q_dph2": model.sigma2 if args.q is None else args.q,
-            "r_dph2": model.r if args.r is None else args.r,
+            "q_deg_h_sq": model.sigma2 if args.kalman_q is None else args.kalman_q,
+            "r_deg_h_sq": model.r if args.kalman_r is None else args.kalman_r,
             "steady_state": bool(args.steady_state),
             "dtype": np.dtype(dtype).name,
         },
@@ -136,23 +144,23 @@ def _print_table(result: dict[str, Any], out: Any) -> None:
     )
     print(
         f"AR(2) model ({m['method']}): a1 = {m['a1']:.4f}, a2 = {m['a2']:.4f}, "
-        f"sigma2 = {m['sigma2_dph2']:.4g} (deg/h)^2, mean = {m['mean_dph']:.4f} deg/h "
+        f"sigma2 = {m['sigma2_deg_h_sq']:.4g} (deg/h)^2, mean = {m['mean_deg_h']:.4f} deg/h "
         "(AR(2) part simulated as 0.6868, -0.0213; the white noise on top lowers a1)",
         file=out,
     )
     print(
-        f"AR(2)-Kalman: q = {k['q_dph2']:.4g}, r = {k['r_dph2']:.4g} (deg/h)^2, "
+        f"AR(2)-Kalman: q = {k['q_deg_h_sq']:.4g}, r = {k['r_deg_h_sq']:.4g} (deg/h)^2, "
         f"{'steady-state gain' if k['steady_state'] else 'full Joseph-form filter'}, {k['dtype']}",
         file=out,
     )
     cols = list(result["table"])
     rows = [
-        ("mean (deg/h)", "mean_dph", "{:.4f}"),
-        ("STD (deg/h)", "std_dph", "{:.4f}"),
-        ("ADEV at 1 s (deg/h)", "adev_1s_dph", "{:.4f}"),
-        ("ADEV minimum (deg/h)", "adev_min_dph", "{:.4f}"),
+        ("mean (deg/h)", "mean_deg_h", "{:.4f}"),
+        ("STD (deg/h)", "std_deg_h", "{:.4f}"),
+        ("ADEV at 1 s (deg/h)", "adev_1s_deg_h", "{:.4f}"),
+        ("ADEV minimum (deg/h)", "adev_min_deg_h", "{:.4f}"),
         ("Q (arcsec), eq. 8 fit", "q_arcsec", "{:.4g}"),
-        ("N (deg/sqrt(h)), eq. 8 fit", "n_deg_rthr", "{:.4g}"),
+        ("N (deg/sqrt(h)), eq. 8 fit", "n_deg_rt_h", "{:.4g}"),
         ("B (deg/h), eq. 8 fit", "b_deg_h", "{:.4g}"),
         ("STD reduction (x)", "std_reduction", "{:.2f}"),
     ]
@@ -165,10 +173,10 @@ def _print_table(result: dict[str, Any], out: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift demo``; returns the exit code."""
     result = compute(args)
     if args.json:
-        json.dump(result, sys.stdout, indent=2)
-        print()
+        emit_json(result)
     else:
         _print_table(result, sys.stdout)
     return 0

@@ -1,6 +1,10 @@
-"""`gyrodrift filter`: filter a rate record with the AR model filter, the AR(2)-Kalman filter,
-db8 wavelet or bior3.7 wavelet-packet denoising, or the real-time wavelet prefilter, on the
-float (MCU) or double core; writes .npy or .csv and prints the before/after deviation."""
+"""`gyrodrift filter`: filter a rate record and print the before/after standard deviation.
+
+Methods: the AR model filter (ar), the AR(2)-Kalman filter (kalman), offline wavelet
+denoising (wavelet: db4 or db8, soft or hard threshold), bior3.7 wavelet-packet denoising
+(wpacket) or the real-time sliding-window wavelet prefilter (realtime-wavelet: forced, soft
+or hard). The C++ core runs in double or float (the MCU build). The filtered record is written
+to .npy or .csv (t_s, rate_deg_h)."""
 
 from __future__ import annotations
 
@@ -11,24 +15,49 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.allan import add_input_args, emit_json, record_from_args
+from gyrodrift.cli.common import (
+    add_input_args,
+    add_json_arg,
+    emit_json,
+    record_from_args,
+    write_csv,
+)
+
+__all__ = ["METHODS", "register", "run"]
 
 METHODS = ("ar", "kalman", "wavelet", "wpacket", "realtime-wavelet")
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``filter`` subcommand."""
     p = subparsers.add_parser("filter", help="AR / AR(2)-Kalman / wavelet filters",
-                              description=__doc__.splitlines()[0])
+                              description=__doc__)
     add_input_args(p)
-    p.add_argument("-o", "--output", required=True, help="filtered record (.npy or .csv)")
-    p.add_argument("--method", choices=METHODS, default="kalman")
+    p.add_argument("-o", "--output", required=True,
+                   help="filtered record: .npy (rate, deg/h) or .csv (t_s, rate_deg_h)")
+    p.add_argument("--method", choices=METHODS, default="kalman",
+                   help="filter (default kalman, the AR(2)-Kalman filter)")
     p.add_argument("--core", choices=("double", "float"), default="double",
                    help="scalar type of the C++ core (float = the MCU build)")
-    p.add_argument("--ar-method", choices=("yule-walker", "burg", "ls"), default="yule-walker")
-    p.add_argument("--steady-state", action="store_true", help="constant-gain Kalman")
-    p.add_argument("--level", type=int, default=None, help="wavelet level")
-    p.add_argument("--window", type=int, default=256, help="real-time wavelet window")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--ar-method", choices=("yule-walker", "burg", "ls"), default="yule-walker",
+                   help="AR(2) identification method for ar and kalman (default yule-walker)")
+    p.add_argument("--kalman-q", type=float, default=None,
+                   help="Kalman process variance, (deg/h)^2 (default: the fitted sigma2)")
+    p.add_argument("--kalman-r", type=float, default=None,
+                   help="Kalman measurement variance, (deg/h)^2 (default: the fitted model's "
+                        "one-step prediction-error variance)")
+    p.add_argument("--steady-state", action="store_true",
+                   help="constant-gain (steady-state) Kalman filter")
+    p.add_argument("--wavelet", choices=("db4", "db8"), default="db8",
+                   help="wavelet of the wavelet and realtime-wavelet methods (default db8)")
+    p.add_argument("--level", type=int, default=None,
+                   help="decomposition level J (default 5; wpacket 4)")
+    p.add_argument("--window", type=int, default=256,
+                   help="real-time wavelet window N, a power of two (default 256)")
+    p.add_argument("--threshold", choices=("forced", "soft", "hard"), default=None,
+                   help="threshold mode (default: soft for wavelet and wpacket, forced for "
+                        "realtime-wavelet; forced is realtime-wavelet only)")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
@@ -39,36 +68,51 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
     info: dict[str, Any] = {"method": args.method, "core": args.core}
     if args.method in ("ar", "kalman"):
         model = gyrodrift.fit_ar2(x, method=args.ar_method)
+        assert isinstance(model, gyrodrift.Ar2Model)  # x is 1-D: one model
         info["ar2"] = {"a1": model.a1, "a2": model.a2, "sigma2": model.sigma2,
                        "mean": model.mean, "method": args.ar_method}
         if args.method == "ar":
             return np.asarray(gyrodrift.ar_filter(x.astype(dtype), model)), info
-        return np.asarray(gyrodrift.kalman_filter(x.astype(dtype), model,
+        info["kalman"] = {"q": model.sigma2 if args.kalman_q is None else args.kalman_q,
+                          "r": model.measurement_variance if args.kalman_r is None
+                          else args.kalman_r, "steady_state": bool(args.steady_state)}
+        return np.asarray(gyrodrift.kalman_filter(x.astype(dtype), model, q=args.kalman_q,
+                                                  r=args.kalman_r,
                                                   steady_state=args.steady_state)), info
     if args.method == "wavelet":
         level = args.level or 5
-        info["level"] = level
-        return np.asarray(gyrodrift.wavelet_denoise(x, wavelet="db8", level=level,
-                                                    dtype=dtype)), info
+        mode = args.threshold or "soft"
+        if mode == "forced":
+            raise CliError("--threshold forced is the real-time prefilter's mode: use "
+                           "--method realtime-wavelet, or soft/hard")
+        info |= {"wavelet": args.wavelet, "level": level, "threshold": mode}
+        return np.asarray(gyrodrift.wavelet_denoise(x, wavelet=args.wavelet, level=level,
+                                                    mode=mode, dtype=dtype)), info
     if args.method == "wpacket":
         if args.core == "float":
             raise CliError("wpacket runs in Python (PyWavelets, float64) only; drop --core float")
         level = args.level or 4
-        info["level"] = level
-        return np.asarray(gyrodrift.wavelet_packet_denoise(x, wavelet="bior3.7",
-                                                           level=level)), info
+        mode = args.threshold or "soft"
+        if mode == "forced":
+            raise CliError("wpacket thresholds are soft or hard")
+        info |= {"wavelet": "bior3.7", "level": level, "threshold": mode}
+        return np.asarray(gyrodrift.wavelet_packet_denoise(x, wavelet="bior3.7", level=level,
+                                                           mode=mode)), info
     level = args.level or 5
-    info |= {"level": level, "window": args.window}
-    rt = gyrodrift.RealtimeWavelet("db8", window=args.window, level=level, dtype=dtype)
+    mode = args.threshold or "forced"
+    info |= {"wavelet": args.wavelet, "level": level, "window": args.window, "threshold": mode}
+    rt = gyrodrift.RealtimeWavelet(args.wavelet, window=args.window, level=level, mode=mode,
+                                   dtype=dtype)
     return np.asarray(rt.filter(x)), info
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift filter``; returns the exit code."""
     rec = record_from_args(args, mmap=False)
     out = Path(args.output)
     if out.suffix.lower() not in (".npy", ".csv"):
         raise CliError(f"output must end in .npy or .csv, got {out.name!r}")
-    x = np.ascontiguousarray(rec.rate_dph, dtype=np.float64)
+    x = np.ascontiguousarray(rec.rate_deg_h, dtype=np.float64)
     try:
         y, info = _run_filter(x, args)
     except ValueError as exc:
@@ -77,14 +121,12 @@ def run(args: argparse.Namespace) -> int:
     if out.suffix.lower() == ".npy":
         np.save(out, y)
     else:
-        t_s = np.arange(y.size) / rec.rate_hz
-        np.savetxt(out, np.column_stack([t_s, y]), delimiter=",", header="t_s,rate_dph",
-                   comments="", fmt="%.17g")
+        write_csv(out, ["t_s", "rate_deg_h"], [np.arange(y.size) / rec.rate_hz, y])
     result = {"record": rec.summary(), "filter": info, "output": str(out),
-              "std_in_dph": float(np.std(x)), "std_out_dph": float(np.std(y))}
+              "std_in_deg_h": float(np.std(x)), "std_out_deg_h": float(np.std(y))}
     if args.json:
         emit_json(result)
     else:
-        print(f"{args.method} ({args.core}): std {result['std_in_dph']:.5g} -> "
-              f"{result['std_out_dph']:.5g} deg/h; wrote {out}")
+        print(f"{args.method} ({args.core}): std {result['std_in_deg_h']:.5g} -> "
+              f"{result['std_out_deg_h']:.5g} deg/h; wrote {out}")
     return 0

@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import argparse
 import glob
-import json
 import os
-import sys
 from typing import Any
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.characterize import add_analysis_args, add_imu_input_args
+from gyrodrift.cli.common import add_json_arg, add_progress_arg, emit_json, progress_enabled
+from gyrodrift.errors import GyrodriftError
 
 __all__ = ["register", "run"]
 
@@ -32,9 +32,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--spec", help="JSON limits per parameter; units outside are flagged")
     add_imu_input_args(p)
     add_analysis_args(p)
-    p.add_argument("--json", action="store_true", help="the fleet summary on stdout")
-    p.add_argument("--progress", choices=("auto", "always", "never"), default="auto",
-                   help="progress bar on stderr (auto: when stderr is a terminal)")
+    add_json_arg(p)
+    add_progress_arg(p)
     p.set_defaults(func=run)
 
 
@@ -52,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
                        "as failed; characterize it alone to decide")
     try:
         spec = load_spec(args.spec) if args.spec else None
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
     opts = FleetOptions(
         rate_hz=args.rate_hz, columns=tuple(args.columns.split(",")) if args.columns else None,
@@ -60,17 +59,16 @@ def run(args: argparse.Namespace) -> int:
         accel_units=args.accel_units, ci=args.ci, taus=args.taus,
         terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),
         method=args.method)
-    show = {"always": True, "never": False}.get(args.progress, sys.stderr.isatty())
+    show = progress_enabled(args)
     root = os.path.commonpath([os.path.abspath(p) for p in paths]) if len(paths) > 1 else None
     try:
         summary = run_fleet([os.path.abspath(p) for p in paths], args.out_dir, opts=opts,
                             workers=args.workers, scheduler=args.scheduler, force=args.force,
                             spec=spec, root=root, progress=show)
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
     if args.json:
-        json.dump(summary, sys.stdout, indent=2)
-        sys.stdout.write("\n")
+        emit_json(summary)
     else:
         print(f"fleet: {summary['n_done']} done ({summary['n_skipped']} already done, skipped), "
               f"{summary['n_failed']} failed, {len({f['unit'] for f in summary['flagged']})} "

@@ -8,41 +8,51 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.allan import add_input_args, emit_json, record_from_args
+from gyrodrift.cli.common import (
+    add_input_args,
+    add_json_arg,
+    emit_json,
+    record_from_args,
+    write_csv,
+)
+
+__all__ = ["register", "run"]
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``psd`` subcommand."""
     p = subparsers.add_parser("psd", help="Welch PSD, (deg/h)^2/Hz, PNG",
-                              description=__doc__.splitlines()[0])
+                              description=__doc__)
     add_input_args(p)
     p.add_argument("--png", default="psd.png", help="output plot (default psd.png)")
     p.add_argument("--nperseg", type=int, help="Welch segment length (default: n/8, <= 65536)")
-    p.add_argument("--bins-per-decade", type=int, default=20)
+    p.add_argument("--bins-per-decade", type=int, default=20,
+                   help="log-spaced frequency bins per decade in the plot (default 20)")
     p.add_argument("--csv", dest="csv_out", help="write f_hz,psd as CSV")
-    p.add_argument("--json", action="store_true")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift psd``; returns the exit code."""
     from gyrodrift.plots import plot_psd
     from gyrodrift.psd import arw_from_white_level, log_binned, welch_psd
 
     rec = record_from_args(args, mmap=False)
     try:
-        res = welch_psd(np.asarray(rec.rate_dph), rec.rate_hz, nperseg=args.nperseg)
+        res = welch_psd(np.asarray(rec.rate_deg_h), rec.rate_hz, nperseg=args.nperseg)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     plot_psd([(rec.source, res)], args.png, bins_per_decade=args.bins_per_decade)
     if args.csv_out:
-        np.savetxt(args.csv_out, np.column_stack([res.f_hz, res.psd]), delimiter=",",
-                   header="f_hz,psd_dph2_per_hz", comments="")
+        write_csv(args.csv_out, ["f_hz", "psd_deg_h2_per_hz"], [res.f_hz, res.psd])
     # White level from the upper half of the band (where angle random walk usually rules).
     upper = res.f_hz > res.f_hz[-1] / 2
     level = float(np.median(res.psd[upper]))
     f_b, p_b = log_binned(res.f_hz, res.psd, args.bins_per_decade)
     out = {"record": rec.summary(), "nperseg": res.nperseg, "n_bins": int(res.f_hz.size),
-           "white_level_dph2_per_hz": level, "n_arw_deg_rthr": arw_from_white_level(level),
-           "variance_from_psd_dph2": float(np.trapezoid(res.psd, res.f_hz)),
+           "white_level_deg_h_sq_hz": level, "n_arw_deg_rt_h": arw_from_white_level(level),
+           "variance_from_psd_deg_h_sq": float(np.trapezoid(res.psd, res.f_hz)),
            "log_binned": {"f_hz": f_b.tolist(), "psd": p_b.tolist()},
            "files": {"png": args.png, "csv": args.csv_out}}
     if args.json:
@@ -50,5 +60,5 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, Welch nperseg {res.nperseg}")
     print(f"upper-band level {level:.4g} (deg/h)^2/Hz -> N = "
-          f"{out['n_arw_deg_rthr']:.4g} deg/sqrt(h) if white; PNG: {args.png}")
+          f"{out['n_arw_deg_rt_h']:.4g} deg/sqrt(h) if white; PNG: {args.png}")
     return 0

@@ -11,9 +11,14 @@ import math
 from pathlib import Path
 
 from gyrodrift.cli import CliError
+from gyrodrift.cli.common import add_json_arg, emit_json
+from gyrodrift.cli.simulate import parse_ar2
+
+__all__ = ["register", "run"]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    """Add the ``replay`` subcommand."""
     p = subparsers.add_parser(
         "replay",
         help="replay an IMU log into gyrodrift-loop (pty) or a target, and verify the outputs",
@@ -26,7 +31,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("input", nargs="?", help="IMU log; omitted: simulate --duration-s of data")
     p.add_argument("--format", dest="fmt", default=None,
                    help="log format (bin, csv, candump, asc, blf); default from the suffix")
-    p.add_argument("--transport", choices=("serial", "slcan", "socketcan"), default="serial")
+    p.add_argument("--transport", choices=("serial", "slcan", "socketcan"), default="serial",
+                   help="link to the loop: serial frames, SLCAN (CAN over a serial line) or "
+                        "SocketCAN (default serial)")
     p.add_argument("--device", default=None,
                    help="attach to a running target: serial device (/dev/ttyUSB0), SLCAN "
                         "adapter device, or SocketCAN interface (can0); default: start "
@@ -47,28 +54,47 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="do not ask the loop for SCHED_FIFO and mlockall")
     p.add_argument("--duration-s", type=float, default=5.0,
                    help="length of the simulated record without INPUT (default 5)")
-    p.add_argument("--sample-rate-hz", type=float, default=None,
-                   help="IMU sample rate (default: from the record, or 400 when simulating)")
+    p.add_argument("--rate-hz", type=float, default=None,
+                   help="IMU sample rate, Hz (default: from the record, or 400 when simulating)")
     g = p.add_argument_group("fault injection (rates per sample)")
-    for kind in ("drop", "corrupt", "duplicate", "reorder", "delay"):
-        g.add_argument(f"--{kind}", type=float, default=0.0, metavar="RATE")
-    g.add_argument("--delay-s", type=float, default=0.02, help="delay of a delayed sample")
-    g.add_argument("--seed", type=int, default=0)
+    for kind, done in (("drop", "dropped"), ("corrupt", "corrupted"),
+                       ("duplicate", "duplicated"), ("reorder", "reordered"),
+                       ("delay", "delayed")):
+        g.add_argument(f"--{kind}", type=float, default=0.0, metavar="RATE",
+                       help=f"probability that a sample is {done} (default 0)")
+    g.add_argument("--delay-s", type=float, default=0.02,
+                   help="delay of a delayed sample, s (default 0.02)")
+    g.add_argument("--seed", type=int, default=0,
+                   help="seed of the fault injection and of the simulated record (default 0)")
     pr = p.add_argument_group("processor (given to the loop and the reference alike)")
     pr.add_argument("--gyro-filter", default="ar2_kalman",
-                    choices=("ar2_kalman", "bias_removal", "pass_through"))
+                    choices=("ar2_kalman", "bias_removal", "pass_through"),
+                    help="filter of the three gyro channels (default ar2_kalman)")
     pr.add_argument("--accel-filter", default="pass_through",
-                    choices=("ar2_kalman", "bias_removal", "pass_through"))
-    pr.add_argument("--gyro-ar2", default="1.0,-0.25,1e-10,0.0", metavar="A1,A2,SIGMA2,MEAN")
-    pr.add_argument("--gyro-q", type=float, default=1e-10)
-    pr.add_argument("--gyro-r", type=float, default=1e-8)
-    pr.add_argument("--stuck-samples", type=int, default=0)
+                    choices=("ar2_kalman", "bias_removal", "pass_through"),
+                    help="filter of the three accelerometer channels (default pass_through)")
+    pr.add_argument("--ar2", default="1.0,-0.25", metavar="A1,A2",
+                    help="AR(2) model of the gyro channels (default 1.0,-0.25: a double root "
+                         "at 0.5, a demonstration model)")
+    pr.add_argument("--ar2-sigma2", type=float, default=1e-10,
+                    help="AR(2) driving-noise variance, (rad/s)^2 (default 1e-10)")
+    pr.add_argument("--ar2-mean", type=float, default=0.0,
+                    help="AR(2) model mean (constant drift), rad/s (default 0)")
+    pr.add_argument("--kalman-q", type=float, default=1e-10,
+                    help="Kalman process variance, (rad/s)^2 (default 1e-10)")
+    pr.add_argument("--kalman-r", type=float, default=1e-8,
+                    help="Kalman measurement variance, (rad/s)^2 (default 1e-8)")
+    pr.add_argument("--stuck-samples", type=int, default=0,
+                    help="samples of an unchanged value after which a channel is flagged "
+                         "stuck (0 = off)")
     p.add_argument("--out-dir", default="replay-report",
                    help="where report.json and report.png go (default ./replay-report)")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift replay``; returns the exit code (1 when the replay check fails)."""
     import numpy as np
 
     from gyrodrift.replay.faults import FaultSpec
@@ -84,27 +110,25 @@ def run(args: argparse.Namespace) -> int:
         except (OSError, ValueError) as exc:
             raise CliError(str(exc)) from None
         dt = np.diff(samples.t_us.astype(np.float64)) * 1e-6
-        rate = args.sample_rate_hz or (1.0 / float(np.median(dt)) if dt.size and
+        rate = args.rate_hz or (1.0 / float(np.median(dt)) if dt.size and
                                        np.median(dt) > 0 else 400.0)
     else:
         from gyrodrift.simulate import NoiseTerms, simulate_imu
 
         if not (args.duration_s > 0 and math.isfinite(args.duration_s)):
             raise CliError("--duration-s must be > 0")
-        rate = args.sample_rate_hz or 400.0
+        rate = args.rate_hz or 400.0
         rec = simulate_imu(args.duration_s, rate_hz=rate, seed=args.seed,
-                           gyro=NoiseTerms(n_deg_rthr=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)),
-                           vrw_mps_rthr=0.02)
-        n = rec.gyro_rads.shape[0]
-        samples = make_samples(np.arange(n) / rate, rec.gyro_rads, rec.accel_mps2)
-    try:
-        a1, a2, sigma2, mean = (float(v) for v in args.gyro_ar2.split(","))
-    except ValueError:
-        raise CliError(f"--gyro-ar2 {args.gyro_ar2!r}: expected A1,A2,SIGMA2,MEAN") from None
+                           gyro=NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)),
+                           vrw_m_s_rt_h=0.02)
+        n = rec.gyro_rad_s.shape[0]
+        samples = make_samples(np.arange(n) / rate, rec.gyro_rad_s, rec.accel_m_s2)
+    a1, a2 = parse_ar2(args.ar2) or (1.0, -0.25)
     try:
         proc = ProcessorSettings(gyro_filter=args.gyro_filter, accel_filter=args.accel_filter,
-                                 a1=a1, a2=a2, sigma2=sigma2, mean=mean, q=args.gyro_q,
-                                 r=args.gyro_r, stuck_samples=args.stuck_samples,
+                                 a1=a1, a2=a2, sigma2=args.ar2_sigma2,
+                                 mean=args.ar2_mean, q=args.kalman_q, r=args.kalman_r,
+                                 stuck_samples=args.stuck_samples,
                                  sample_rate_hz=rate)
         faults = FaultSpec(drop=args.drop, corrupt=args.corrupt, duplicate=args.duplicate,
                            reorder=args.reorder, delay=args.delay, delay_s=args.delay_s,
@@ -124,8 +148,11 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(str(exc)) from None
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    print(format_table(result))
     j = write_json(result, out / "report.json")
     png = write_png(result, out / "report.png")
-    print(f"report: {j} {png}")
+    if args.json:
+        emit_json({**result.report, "files": {"json": str(j), "png": str(png)}})
+    else:
+        print(format_table(result))
+        print(f"report: {j} {png}")
     return 0 if result.ok else 1

@@ -1,50 +1,94 @@
-"""`gyrodrift simulate`: a seeded gyro record (IEEE Std 952 terms + AR(2) drift) to .npy/.csv,
-or a 6-channel static IMU log for replay (.bin/.gdf frames, .log candump, .asc, .blf)."""
+"""`gyrodrift simulate`: a seeded gyro rate record (IEEE Std 952 terms plus an AR(2) drift)
+written to .npy or .csv, or a six-channel static IMU log for replay (bin/.gdf frame log,
+candump .log, Vector .asc, .blf)."""
 
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.allan import emit_json
+from gyrodrift.cli.common import add_json_arg, emit_json, write_csv
 
-LOG_FORMATS = {"frames": "bin", "candump": "candump", "asc": "asc", "blf": "blf"}
+__all__ = ["LOG_FORMATS", "LOG_SUFFIXES", "register", "run"]
+
+#: --format choice -> write_imu_log format.
+LOG_FORMATS = {"bin": "bin", "candump": "candump", "asc": "asc", "blf": "blf"}
 LOG_SUFFIXES = {".bin", ".gdf", ".log", ".asc", ".blf"}
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``simulate`` subcommand."""
     p = subparsers.add_parser("simulate", help="simulate a gyro record or an IMU log",
-                              description=__doc__.splitlines()[0])
-    p.add_argument("output", help=".npy, .csv, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
+                              description=__doc__)
+    p.add_argument("-o", "--output", required=True,
+                   help=".npy or .csv (t_s, rate_deg_h), or an IMU log (.bin/.gdf/.log/.asc/.blf)")
     length = p.add_mutually_exclusive_group(required=True)
     length.add_argument("--n", type=int, help="number of samples")
-    length.add_argument("--duration", type=float, help="duration, s")
-    p.add_argument("--rate", type=float, default=400.0, help="sample rate, Hz (default 400)")
-    p.add_argument("--q", type=float, default=0.0, help="quantization Q, deg")
-    p.add_argument("--arw", type=float, default=0.0, help="angle random walk N, deg/sqrt(h)")
-    p.add_argument("--bi", type=float, default=0.0, help="bias instability B, deg/h")
-    p.add_argument("--rrw", type=float, default=0.0, help="rate random walk K, deg/h/sqrt(h)")
-    p.add_argument("--ramp", type=float, default=0.0, help="rate ramp R, deg/h/h")
-    p.add_argument("--bias", type=float, default=0.0, help="constant bias, deg/h")
-    p.add_argument("--ar2", type=float, nargs=3, metavar=("A1", "A2", "SIGMA_DPH"),
-                   help="AR(2) drift component")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--format", choices=tuple(LOG_FORMATS), help="IMU log format (else suffix)")
-    p.add_argument("--json", action="store_true")
+    length.add_argument("--duration-s", type=float, help="duration, s")
+    p.add_argument("--rate-hz", type=float, default=400.0, help="sample rate, Hz (default 400)")
+    p.add_argument("--quant-arcsec", type=float, default=0.0,
+                   help="quantization noise Q, arcsec (default 0)")
+    p.add_argument("--arw-deg-rt-h", type=float, default=0.0,
+                   help="angle random walk N, deg/sqrt(h) (default 0)")
+    p.add_argument("--bias-inst-deg-h", type=float, default=0.0,
+                   help="bias instability B, deg/h (default 0)")
+    p.add_argument("--rrw-deg-h-rt-h", type=float, default=0.0,
+                   help="rate random walk K, deg/h/sqrt(h) (default 0)")
+    p.add_argument("--ramp-deg-h2", type=float, default=0.0,
+                   help="rate ramp R, deg/h^2 (default 0)")
+    p.add_argument("--bias-deg-h", type=float, default=0.0, help="constant bias, deg/h (default 0)")
+    p.add_argument("--ar2", metavar="A1,A2",
+                   help="AR(2) drift component with coefficients A1, A2 (needs --ar2-sigma2)")
+    p.add_argument("--ar2-sigma2", type=float, default=None,
+                   help="driving-noise variance of the AR(2) drift, (deg/h)^2")
+    p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    p.add_argument("--format", choices=tuple(LOG_FORMATS),
+                   help="IMU log format (default: from the output suffix)")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
+def parse_ar2(text: str | None, flag: str = "--ar2") -> tuple[float, float] | None:
+    """``"A1,A2"`` -> (a1, a2); None stays None; anything else is a :class:`CliError`.
+
+    Examples
+    --------
+    >>> parse_ar2("0.6868,-0.0213")
+    (0.6868, -0.0213)
+    """
+    if text is None:
+        return None
+    try:
+        a1, a2 = (float(v) for v in text.split(","))
+    except ValueError:
+        raise CliError(f"{flag} {text!r}: expected A1,A2 (two numbers)") from None
+    return a1, a2
+
+
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift simulate``; returns the exit code."""
     import gyrodrift
 
     out = Path(args.output)
     suffix = out.suffix.lower()
-    kw = {"q_deg": args.q, "n_deg_rthr": args.arw, "b_deg_h": args.bi,
-          "k_deg_h_rthr": args.rrw, "r_deg_h_h": args.ramp, "bias_deg_h": args.bias}
+    kw = {"q_deg": args.quant_arcsec / 3600.0, "n_deg_rt_h": args.arw_deg_rt_h,
+          "b_deg_h": args.bias_inst_deg_h, "k_deg_h_rt_h": args.rrw_deg_h_rt_h,
+          "r_deg_h2": args.ramp_deg_h2, "bias_deg_h": args.bias_deg_h}
+    ab = parse_ar2(args.ar2)
+    ar2: tuple[float, float, float] | None = None
+    if ab is not None:
+        s2 = args.ar2_sigma2
+        if s2 is None or not (s2 >= 0 and math.isfinite(s2)):
+            raise CliError("--ar2 needs --ar2-sigma2 S2 >= 0, the driving-noise variance in "
+                           "(deg/h)^2")
+        ar2 = (ab[0], ab[1], math.sqrt(s2))
+    elif args.ar2_sigma2 is not None:
+        raise CliError("--ar2-sigma2 needs --ar2 A1,A2")
     is_log = args.format is not None or suffix in LOG_SUFFIXES
     if not is_log and suffix not in (".npy", ".csv"):
         raise CliError(f"cannot tell what to write from {out.name!r}: use .npy, .csv, or an "
@@ -53,32 +97,31 @@ def run(args: argparse.Namespace) -> int:
         if is_log:
             from gyrodrift.replay.logs import write_imu_log
 
-            if args.ar2 is not None:
+            if ar2 is not None:
                 raise CliError("--ar2 is not available for IMU logs (static IMU simulator)")
-            imu = gyrodrift.simulate_imu(n=args.n, duration_s=args.duration, rate_hz=args.rate,
-                                         gyro=gyrodrift.NoiseTerms(**kw), seed=args.seed)
-            t_s = np.arange(imu.gyro_rads.shape[0]) / args.rate
+            imu = gyrodrift.simulate_imu(n=args.n, duration_s=args.duration_s,
+                                         rate_hz=args.rate_hz, gyro=gyrodrift.NoiseTerms(**kw),
+                                         seed=args.seed)
+            t_s = np.arange(imu.gyro_rad_s.shape[0]) / args.rate_hz
             fmt = LOG_FORMATS[args.format] if args.format else None
-            write_imu_log(out, t_s, imu.gyro_rads, imu.accel_mps2, fmt=fmt)
+            write_imu_log(out, t_s, imu.gyro_rad_s, imu.accel_m_s2, fmt=fmt)
             n = int(t_s.size)
             kind = f"imu log ({fmt or suffix})"
         else:
-            rec = gyrodrift.simulate(n=args.n, duration_s=args.duration, rate_hz=args.rate,
-                                     ar2=tuple(args.ar2) if args.ar2 else None, seed=args.seed,
-                                     **kw)
+            rec = gyrodrift.simulate(n=args.n, duration_s=args.duration_s, rate_hz=args.rate_hz,
+                                     ar2=ar2, seed=args.seed, **kw)
             n = rec.n
             if suffix == ".npy":
-                np.save(out, rec.rate_dph)
+                np.save(out, rec.rate_deg_h)
             else:
-                np.savetxt(out, np.column_stack([rec.t_s, rec.rate_dph]), delimiter=",",
-                           header="t_s,rate_dph", comments="", fmt="%.17g")
+                write_csv(out, ["t_s", "rate_deg_h"], [rec.t_s, rec.rate_deg_h])
             kind = "rate deg/h"
     except ValueError as exc:
         raise CliError(str(exc)) from exc
-    info = {"output": str(out), "kind": kind, "n": n, "rate_hz": args.rate, "seed": args.seed,
-            "terms": kw | {"ar2": args.ar2}}
+    info = {"output": str(out), "kind": kind, "n": n, "rate_hz": args.rate_hz,
+            "seed": args.seed, "terms": kw | {"ar2": None if ar2 is None else list(ar2)}}
     if args.json:
         emit_json(info)
     else:
-        print(f"wrote {out} ({kind}, {n} samples at {args.rate:g} Hz, seed {args.seed})")
+        print(f"wrote {out} ({kind}, {n} samples at {args.rate_hz:g} Hz, seed {args.seed})")
     return 0

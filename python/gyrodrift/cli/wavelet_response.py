@@ -4,33 +4,42 @@ prefilter (paper 004 sec. 2.2) at a sample rate, as a PNG (and --json)."""
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from typing import Any
 
 import numpy as np
 
 from gyrodrift.cli import CliError
+from gyrodrift.cli.common import add_json_arg, emit_json
+
+__all__ = ["cutoff_hz", "register", "run"]
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``wavelet-response`` subcommand."""
     p = subparsers.add_parser(
         "wavelet-response",
         help="frequency response (magnitude, group delay) of the forced wavelet prefilter",
-        description=__doc__.splitlines()[0],
+        description=__doc__,
     )
-    p.add_argument("--wavelet", default="db4", choices=["db4", "db8"], help="default db4")
+    p.add_argument("--wavelet", default="db4", choices=["db4", "db8"], help="wavelet (db4)")
     p.add_argument("--window", type=int, default=256, help="window N, power of two (256)")
     p.add_argument("--level", type=int, default=5, help="decomposition level J (5)")
     p.add_argument("--rate-hz", type=float, default=400.0, help="sample rate, Hz (400)")
     p.add_argument("--n-freqs", type=int, default=1024, help="frequency points (1024)")
-    p.add_argument("--png", default="wavelet_response.png", help="output plot")
-    p.add_argument("--json", action="store_true", help="print the response as JSON on stdout")
+    p.add_argument("--png", default="wavelet_response.png",
+                   help="output plot (default wavelet_response.png)")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
 def cutoff_hz(f_hz: np.ndarray, mag: np.ndarray, level_db: float) -> float:
-    """First frequency where |H| falls below level_db (linear interpolation in dB)."""
+    """First frequency where |H| falls below level_db (linear interpolation in dB).
+
+    Examples
+    --------
+    >>> cutoff_hz(np.array([0.0, 1.0, 2.0]), np.array([1.0, 0.9, 0.1]), -3.0) > 1.0
+    True
+    """
     db = 20.0 * np.log10(np.maximum(mag, 1e-300))
     below = np.nonzero(db < level_db)[0]
     if below.size == 0 or below[0] == 0:
@@ -40,7 +49,9 @@ def cutoff_hz(f_hz: np.ndarray, mag: np.ndarray, level_db: float) -> float:
 
 
 def run(args: argparse.Namespace) -> int:
-    from gyrodrift.wavelet import RealtimeWavelet, fir_group_delay
+    """Run ``gyrodrift wavelet-response``; returns the exit code."""
+    from gyrodrift.fir import fir_group_delay
+    from gyrodrift.wavelet import RealtimeWavelet
 
     if not args.rate_hz > 0 or not np.isfinite(args.rate_hz):
         raise CliError(f"--rate-hz must be a positive number, got {args.rate_hz}")
@@ -69,8 +80,7 @@ def run(args: argparse.Namespace) -> int:
     }
     _plot(f_hz, mag, gd_s, args, f3)
     if args.json:
-        json.dump(out, sys.stdout)
-        sys.stdout.write("\n")
+        emit_json(out)
         return 0
     print(
         f"# forced {args.wavelet} J={args.level} N={args.window} at {args.rate_hz:g} Hz: "

@@ -12,11 +12,23 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import cache
 from importlib import resources
+from typing import Any
 
 import can
 import cantools
 import numpy as np
 import numpy.typing as npt
+
+__all__ = [
+    "FRAMES_PER_SAMPLE",
+    "INPUT_BASE_ID",
+    "OUTPUT_BASE_ID",
+    "CanRxStats",
+    "CanSample",
+    "SampleAssembler",
+    "encode_sample",
+    "load_dbc",
+]
 
 INPUT_BASE_ID = 0x100
 OUTPUT_BASE_ID = 0x180
@@ -29,7 +41,9 @@ def load_dbc() -> cantools.database.can.Database:
     """The IMU database shipped in the package (gyrodrift/data/gyrodrift_imu.dbc)."""
     path = resources.files("gyrodrift") / "data" / "gyrodrift_imu.dbc"
     with resources.as_file(path) as p:
-        return cantools.database.load_file(str(p))
+        db = cantools.database.load_file(str(p))
+    assert isinstance(db, cantools.database.can.Database)  # a .dbc file is a CAN database
+    return db
 
 
 def _prefix(base_id: int) -> str:
@@ -126,7 +140,8 @@ class SampleAssembler:
             st.bad_dlc += 1
             st.frames_dropped += 1
             return None
-        sig = load_dbc().decode_message(fid, bytes(msg.data), decode_choices=False)
+        sig: dict[str, Any] = load_dbc().decode_message(  # type: ignore[assignment]
+            fid, bytes(msg.data), decode_choices=False)
         role = fid - self.base_id
         half = role // 2
         axes = ("Gyro", "Accel")[half]

@@ -17,6 +17,25 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+__all__ = [
+    "CRC_OFFSET",
+    "FRAME_DTYPE",
+    "FRAME_SIZE",
+    "PAYLOAD_LEN",
+    "SYNC0",
+    "SYNC1",
+    "TYPE_INPUT",
+    "TYPE_OUTPUT",
+    "FrameError",
+    "FrameParser",
+    "ImuFrame",
+    "ParserStats",
+    "crc16_ccitt_false",
+    "decode_frame",
+    "encode_frame",
+    "encode_frames",
+]
+
 SYNC0 = 0xA5
 SYNC1 = 0x5A
 TYPE_INPUT = 0x01

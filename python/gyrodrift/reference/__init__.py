@@ -6,6 +6,22 @@ C++ core is tested against; they are not the fast path.
 
 from __future__ import annotations
 
+__all__ = [
+    "FineAlignKF",
+    "InertialCoarseAlign",
+    "Strapdown",
+    "ar_filter",
+    "fit_ar2",
+    "kalman_filter",
+    "oadev_phase",
+    "oadev_rate",
+    "process_imu",
+    "realtime_wavelet",
+    "run_alignment_reference",
+    "steady_state_gain",
+    "wavelet_denoise",
+]
+
 # --- foundation (issue 2) ---
 from gyrodrift.reference.ar2 import ar_filter as ar_filter
 from gyrodrift.reference.ar2 import fit_ar2 as fit_ar2
@@ -28,7 +44,7 @@ from gyrodrift.reference.imu import process_imu as process_imu
 
 # --- alignment (issue 6) ---
 # isort: split
-from gyrodrift.align.coarse import InertialCoarseAlign as InertialCoarseAlign
-from gyrodrift.align.fine_kf import FineAlignKF as FineAlignKF
-from gyrodrift.align.pipeline import run_alignment_reference as run_alignment_reference
-from gyrodrift.align.strapdown import Strapdown as Strapdown
+from gyrodrift.reference.align import FineAlignKF as FineAlignKF
+from gyrodrift.reference.align import InertialCoarseAlign as InertialCoarseAlign
+from gyrodrift.reference.align import Strapdown as Strapdown
+from gyrodrift.reference.align import run_alignment_reference as run_alignment_reference

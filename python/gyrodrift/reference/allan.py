@@ -14,6 +14,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
+__all__ = [
+    "oadev_phase",
+    "oadev_rate",
+]
+
 
 def oadev_rate(y: np.ndarray, m: int) -> tuple[float, int]:
     """Overlapping Allan deviation of rate samples at averaging factor m (same units as y).

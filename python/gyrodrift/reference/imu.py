@@ -13,11 +13,11 @@ This is what the replay harness compares the loop's outputs against.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift.ar2 import Ar2Model
 from gyrodrift.imu import (
     CHANNELS,
     FLAG_DUPLICATE,
@@ -41,17 +41,6 @@ from gyrodrift.imu import (
 __all__ = ["WaveletSettings", "process_imu"]
 
 
-@dataclass(frozen=True)
-class _Model:
-    """Duck-typed AR(2) model for reference.ar2.kalman_filter (q and r are passed explicitly)."""
-
-    a1: float
-    a2: float
-    sigma2: float
-    mean: float
-    r: float
-
-
 def _channel_filter(
     x: np.ndarray, cc: ImuChannelConfig, good: np.ndarray, wavelet: WaveletSettings | None
 ) -> np.ndarray:
@@ -60,7 +49,7 @@ def _channel_filter(
     if cc.filter == "ar2_kalman":
         from gyrodrift.reference.ar2 import kalman_filter
 
-        model = _Model(cc.a1, cc.a2, cc.sigma2, cc.mean, cc.r)
+        model = Ar2Model(a1=cc.a1, a2=cc.a2, sigma2=cc.sigma2, mean=cc.mean, r=cc.r)
         return kalman_filter(z, model, q=cc.q, r=cc.r, p0=cc.p0) - cc.bias
     if cc.filter == "wavelet":
         if wavelet is None:

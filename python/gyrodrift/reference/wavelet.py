@@ -19,6 +19,19 @@ from collections.abc import Iterator
 import numpy as np
 import pywt
 
+__all__ = [
+    "MAD_TO_SIGMA",
+    "admissible_bases",
+    "best_basis_bruteforce",
+    "forced_fir_taps",
+    "pad_symmetric",
+    "realtime_wavelet",
+    "realtime_window",
+    "shannon_cost",
+    "threshold_value",
+    "wavelet_denoise",
+]
+
 MAD_TO_SIGMA = 0.6745  # median(|N(0,1)|); paper 000 sec. 2.3, Donoho & Johnstone 1994
 
 
@@ -97,9 +110,11 @@ def realtime_wavelet(
 
 
 def forced_fir_taps(wavelet: str, window: int, level: int) -> np.ndarray:
-    """Forced-mode taps, oldest first, by linearity: the response to each unit window."""
+    """Forced-mode taps, newest first (the package's one order, gyrodrift.fir), by linearity:
+    b[i] is the output for a window holding 1 at age i (i samples before the newest)."""
     eye = np.eye(window)
-    return np.array([realtime_window(eye[i], wavelet, level, "forced") for i in range(window)])
+    return np.array([realtime_window(eye[window - 1 - i], wavelet, level, "forced")
+                     for i in range(window)])
 
 
 # ---------------------------------------------------------------------------------------------

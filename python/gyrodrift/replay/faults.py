@@ -9,6 +9,16 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+__all__ = [
+    "FAULT_KINDS",
+    "FaultSpec",
+    "TransmissionPlan",
+    "Unit",
+    "corrupt_serial_frame",
+    "corrupt_slcan_line",
+    "plan_transmission",
+]
+
 FAULT_KINDS: tuple[str, ...] = ("drop", "corrupt", "duplicate", "reorder", "delay")
 
 

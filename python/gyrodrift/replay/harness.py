@@ -45,6 +45,17 @@ from gyrodrift.replay.transport import (
 )
 from gyrodrift.replay.wire import Samples, decode_stream
 
+__all__ = [
+    "LOOP_RELATIVE",
+    "SLCAN_LINE_BYTES",
+    "TRANSPORTS",
+    "ReplayError",
+    "ReplayOptions",
+    "ReplayResult",
+    "find_loop_binary",
+    "run_replay",
+]
+
 TRANSPORTS = ("serial", "slcan", "socketcan")
 LOOP_RELATIVE = Path("cpp") / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
 # An SLCAN line for one standard 8-byte frame: "t" + 3 id + 1 dlc + 16 hex + CR.

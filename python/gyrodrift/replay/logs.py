@@ -21,6 +21,17 @@ from gyrodrift.replay.wire import (
     make_samples,
 )
 
+__all__ = [
+    "CAN_FORMATS",
+    "CSV_COLUMNS",
+    "FORMATS",
+    "SUFFIX_FORMATS",
+    "log_format",
+    "read_imu_log",
+    "write_imu_log",
+    "write_samples",
+]
+
 # Suffix -> format name. "bin" is a plain concatenation of 42-byte input frames, exactly the
 # bytes the IMU puts on its serial line.
 SUFFIX_FORMATS: dict[str, str] = {

@@ -9,6 +9,11 @@ from dataclasses import asdict, dataclass
 
 from gyrodrift.imu import ImuChannelConfig, ImuConfig
 
+__all__ = [
+    "LOOP_FILTERS",
+    "ProcessorSettings",
+]
+
 LOOP_FILTERS = ("ar2_kalman", "bias_removal", "pass_through")
 
 

@@ -11,6 +11,12 @@ import numpy as np
 
 from gyrodrift.replay.harness import ReplayResult
 
+__all__ = [
+    "format_table",
+    "write_json",
+    "write_png",
+]
+
 
 def _fmt(x: Any, digits: int = 1) -> str:
     if x is None:

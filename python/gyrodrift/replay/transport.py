@@ -20,6 +20,16 @@ from dataclasses import dataclass, field
 import can
 import serial
 
+__all__ = [
+    "CAN_FRAME_BITS",
+    "UART_BITS_PER_BYTE",
+    "CanLink",
+    "Capture",
+    "PtyPair",
+    "SerialLink",
+    "sleep_until_ns",
+]
+
 # Nominal bits of a classic CAN data frame with an 11-bit ID and 8 data bytes, without
 # stuffing: SOF 1 + ID 11 + RTR/IDE/r0 3 + DLC 4 + data 64 + CRC 15 + delimiters/ACK/EOF 13
 # + intermission 3 (ISO 11898-1 frame format).
@@ -139,7 +149,8 @@ class CanLink:
         injected, since python-can only ever writes well-formed lines."""
         if self.interface != "slcan":
             raise ValueError("raw lines need the slcan interface")
-        port = self.bus.serialPortOrig  # python-can's pyserial port of the slcan bus
+        # python-can's pyserial port of the slcan bus (not in BusABC's type)
+        port = self.bus.serialPortOrig  # type: ignore[attr-defined]
         port.write(line)
         port.flush()
 

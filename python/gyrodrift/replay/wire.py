@@ -10,7 +10,7 @@ hand-checked bytes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,6 +25,14 @@ from gyrodrift.codecs.serial_frame import (
     TYPE_INPUT,
     crc16_ccitt_false,
 )
+
+__all__ = [
+    "DecodedStream",
+    "Samples",
+    "decode_stream",
+    "encode_frames",
+    "make_samples",
+]
 
 _SYNC_WORD = bytes((SYNC0, SYNC1))
 
@@ -89,15 +97,12 @@ class DecodedStream:
     crc_errors: int = 0
     garbage_bytes: int = 0
     truncated_bytes: int = 0
-    other: dict[str, int] = field(default_factory=dict)
 
 
 def decode_stream(data: bytes) -> DecodedStream:
-    """Find every valid frame in a byte stream (resynchronising on the sync word).
-
-    Fast path: while the stream is frame-aligned, whole runs are checked with numpy; any
-    misalignment (garbage, a corrupted length) falls back to a byte-wise sync search.
-    """
+    """Find every valid frame in a byte stream (resynchronising on the sync word): a frame
+    is accepted where sync, length and CRC check; elsewhere the search moves to the next
+    sync word. The accepted frames are then decoded together with numpy."""
     buf = memoryview(data)
     n = len(buf)
     starts: list[int] = []

@@ -23,8 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .attitude import skew
-from .earth import EARTH_RATE_RPS, GRAVITY_DH_PER_S2, EarthParams
+from gyrodrift.align.attitude import skew
+from gyrodrift.earth import EARTH_RATE_RAD_S, GRAVITY_DH_PER_S2, EarthParams
+
+__all__ = [
+    "FineAlignKF",
+]
 
 
 class FineAlignKF:
@@ -53,8 +57,8 @@ class FineAlignKF:
         f[3:6, 3:6] = -skew(2.0 * ep.wnie + ep.wnen)
         f[3:6, self.i_db:self.i_db + 3] = cnb
         if n == 15:
-            f[1, 7] = -EARTH_RATE_RPS * np.sin(lat_rad) / ep.rm_h_m
-            f[2, 7] = EARTH_RATE_RPS * np.cos(lat_rad) / ep.rm_h_m
+            f[1, 7] = -EARTH_RATE_RAD_S * np.sin(lat_rad) / ep.rm_h_m
+            f[2, 7] = EARTH_RATE_RAD_S * np.cos(lat_rad) / ep.rm_h_m
             f[5, 8] = GRAVITY_DH_PER_S2
             f[6:9, 3:6] = np.eye(3)
         del vn  # the -[w x] v terms of the error model vanish at the near-zero velocity

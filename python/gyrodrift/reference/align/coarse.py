@@ -21,8 +21,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from .attitude import q2dcm, qmul, qnormalize, rv2q
-from .earth import EARTH_RATE_RPS, gravity_mps2
+from gyrodrift.align.attitude import q2dcm, qmul, qnormalize, rv2q
+from gyrodrift.earth import EARTH_RATE_RAD_S, gravity_m_s2
+
+__all__ = [
+    "InertialCoarseAlign",
+    "earth_rotation_i0_n",
+    "gravity_integral_i0",
+    "triad",
+]
 
 
 def _series_1mcos(x: float) -> float:
@@ -49,30 +56,30 @@ def _series_x2h_m_1mcos(x: float) -> float:
     return x2 * x2 / 24 * (1 - x2 / 30 * (1 - x2 / 56 * (1 - x2 / 90 * (1 - x2 / 132))))
 
 
-def gravity_integral_i0(t_s: float, lat_rad: float, g_mps2: float, position: bool) -> np.ndarray:
+def gravity_integral_i0(t_s: float, lat_rad: float, g_m_s2: float, position: bool) -> np.ndarray:
     """V^i0(t) (velocity variant) or S^i0(t) (position variant) of -g^n = [0, 0, g].
 
     C_n(t)^i0 e_U = [cL sin(Wt), sL cL (1 - cos Wt), cos Wt + sL^2 (1 - cos Wt)]; its
     integrals in closed form (W = Omega).
     """
-    w = EARTH_RATE_RPS
+    w = EARTH_RATE_RAD_S
     sl, cl = np.sin(lat_rad), np.cos(lat_rad)
     x = w * t_s
     if not position:
         a = _series_1mcos(x) / w  # int sin
         b = _series_xmsin(x) / w  # int (1 - cos)
         c = t_s - b  # int cos
-        return g_mps2 * np.array([cl * a, sl * cl * b, c + sl * sl * b])
+        return g_m_s2 * np.array([cl * a, sl * cl * b, c + sl * sl * b])
     a = _series_xmsin(x) / (w * w)  # int int sin
     b = _series_x2h_m_1mcos(x) / (w * w)  # int int (1 - cos)
     c = 0.5 * t_s * t_s - b  # int int cos
-    return g_mps2 * np.array([cl * a, sl * cl * b, c + sl * sl * b])
+    return g_m_s2 * np.array([cl * a, sl * cl * b, c + sl * sl * b])
 
 
 def earth_rotation_i0_n(t_s: float, lat_rad: float) -> np.ndarray:
     """C_n(t)^i0: rotation by Omega t about u = [0, cos L, sin L] (Rodrigues)."""
     u = np.array([0.0, np.cos(lat_rad), np.sin(lat_rad)])
-    x = EARTH_RATE_RPS * t_s
+    x = EARTH_RATE_RAD_S * t_s
     ux = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
     return np.eye(3) + np.sin(x) * ux + _series_1mcos(x) * (ux @ ux)
 
@@ -93,7 +100,7 @@ class InertialCoarseAlign:
         self.n = n_samples
         self.dt = dt_s
         self.lat = lat_rad
-        self.g = gravity_mps2(lat_rad, h_m)
+        self.g = gravity_m_s2(lat_rad, h_m)
         self.position = position_integral
         self.q = np.array([1.0, 0.0, 0.0, 0.0])  # C_b^ib0
         self.vib0 = np.zeros(3)

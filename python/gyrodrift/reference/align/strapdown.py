@@ -16,15 +16,19 @@ from __future__ import annotations
 
 import numpy as np
 
-from .attitude import q2dcm, qmul, qnormalize, rv2q
-from .earth import earth_params
+from gyrodrift.align.attitude import q2dcm, qmul, qnormalize, rv2q
+from gyrodrift.earth import earth_params
+
+__all__ = [
+    "Strapdown",
+]
 
 
 class Strapdown:
-    def __init__(self, q_nb: np.ndarray, vn_mps: np.ndarray, lat_rad: float, lon_rad: float,
+    def __init__(self, q_nb: np.ndarray, vn_m_s: np.ndarray, lat_rad: float, lon_rad: float,
                  h_m: float) -> None:
         self.q = np.array(q_nb, dtype=float)
-        self.vn = np.array(vn_mps, dtype=float)
+        self.vn = np.array(vn_m_s, dtype=float)
         self.pos = np.array([lat_rad, lon_rad, h_m], dtype=float)
         self.prev_dtheta = np.zeros(3)
         self.prev_dv = np.zeros(3)

@@ -5,87 +5,17 @@ Reference for nav_align_pipeline.hpp (same order of operations, same results wit
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from .attitude import dcm2euler, dcm2q, q2dcm, qmul, qnormalize, rv2q
+from gyrodrift.align.attitude import dcm2euler, dcm2q, q2dcm, qmul, qnormalize, rv2q
+from gyrodrift.align.config import AlignConfig
+from gyrodrift.earth import earth_params
+
 from .coarse import InertialCoarseAlign
-from .earth import ARCMIN, DEG, DPH, UG, earth_params
 from .fine_kf import FineAlignKF
 from .strapdown import Strapdown
 
-
-@dataclass
-class AlignConfig:
-    """Alignment settings; angles rad, rates rad/s, noise densities per sqrt(s)."""
-
-    dt_s: float = 1.0 / 400.0
-    lat_rad: float = 39.0 * DEG
-    lon_rad: float = 116.0 * DEG
-    h_m: float = 50.0
-    coarse_s: float = 60.0
-    coarse_position_integral: bool = True
-    n_states: int = 15
-    kf_every: int = 40  # samples per KF cycle (400 Hz / 40 = 10 Hz)
-    p0_phi_rad: np.ndarray = field(default_factory=lambda: np.array([1.0, 1.0, 10.0]) * DEG)
-    p0_dv_mps: float = 0.5
-    p0_dp_m: float = 1.0
-    p0_eb_rps: float = 0.02 * DPH
-    p0_db_mps2: float = 100.0 * UG
-    arw_rad_rsqs: float = 0.001 * DEG / 60.0  # gyro angle random walk (process noise)
-    vrw_mps_rsqs: float = 10.0 * UG  # accelerometer velocity random walk
-    eb_rw: float = 0.0  # gyro drift random walk (rad/s/sqrt(s))
-    db_rw: float = 0.0
-    dp_q: float = 0.0  # position process noise (m^2/s), absorbs lever-arm sway
-    zv_sigma_mps: float = 0.01  # zero-velocity measurement noise
-    # Heading acquisition stage (two-stage fine alignment for a large coarse heading error):
-    # during the first heading_stage_s of fine alignment the Up attitude process noise gets
-    # heading_stage_q (rad^2/s) added, so the small-angle filter keeps following the heading
-    # while the nonlinear error (sin psi, 1 - cos psi) is still large instead of becoming
-    # overconfident; then the filter continues with the specification noise. 0 = off.
-    heading_stage_s: float = 0.0
-    heading_stage_q: float = 0.0
-    floor_phi_rad: float = 0.01 * ARCMIN / 60.0
-    floor_dv_mps: float = 1e-6
-    floor_dp_m: float = 1e-6
-    floor_eb_rps: float = 1e-6 * DPH
-    floor_db_mps2: float = 0.01 * UG
-    taps: np.ndarray | None = None  # gyro prefilter taps (oldest first); None = off
-    accel_delay_samples: int = 0  # delay matching the prefilter's group delay
-
-    def heading_stage_cycles(self) -> int:
-        """KF cycles (predictions) that use the acquisition noise."""
-        return round(self.heading_stage_s / (self.kf_every * self.dt_s))
-
-    def q_stage_diag(self) -> np.ndarray:
-        q = self.q_diag()
-        q[2] += self.heading_stage_q
-        return q
-
-    def coarse_samples(self) -> int:
-        return round(self.coarse_s / self.dt_s)
-
-    def p0_diag(self) -> np.ndarray:
-        parts = [np.asarray(self.p0_phi_rad) ** 2, np.full(3, self.p0_dv_mps ** 2)]
-        if self.n_states == 15:
-            parts.append(np.full(3, self.p0_dp_m ** 2))
-        parts += [np.full(3, self.p0_eb_rps ** 2), np.full(3, self.p0_db_mps2 ** 2)]
-        return np.concatenate(parts)
-
-    def q_diag(self) -> np.ndarray:
-        parts = [np.full(3, self.arw_rad_rsqs ** 2), np.full(3, self.vrw_mps_rsqs ** 2)]
-        if self.n_states == 15:
-            parts.append(np.full(3, self.dp_q))
-        parts += [np.full(3, self.eb_rw ** 2), np.full(3, self.db_rw ** 2)]
-        return np.concatenate(parts)
-
-    def floor_diag(self) -> np.ndarray:
-        parts = [np.full(3, self.floor_phi_rad ** 2), np.full(3, self.floor_dv_mps ** 2)]
-        if self.n_states == 15:
-            parts.append(np.full(3, self.floor_dp_m ** 2))
-        parts += [np.full(3, self.floor_eb_rps ** 2), np.full(3, self.floor_db_mps2 ** 2)]
-        return np.concatenate(parts)
+__all__ = ["run_alignment_reference"]
 
 
 def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
@@ -129,14 +59,15 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
             continue
         g = dtheta[k_in]
         if taps is not None and k_in >= nt - 1:
-            g = taps @ dtheta[k_in - nt + 1:k_in + 1]
+            # y_k = sum_i b_i x_{k-i}, taps newest first (gyrodrift.fir)
+            g = taps @ dtheta[k_in - nt + 1:k_in + 1][::-1]
         a = dv[k_in - d] if k_in >= d else dv[k_in]
         if k < n_coarse:
             if coarse.add(g, a):
                 coarse_cnb = coarse.solve()
                 sd = Strapdown(dcm2q(coarse_cnb), np.zeros(3), cfg.lat_rad, cfg.lon_rad, cfg.h_m)
                 kf = FineAlignKF(cfg.n_states, cfg.p0_diag(), cfg.q_diag(),
-                                 np.full(3, cfg.zv_sigma_mps ** 2), cfg.floor_diag())
+                                 np.full(3, cfg.zv_sigma_m_s ** 2), cfg.floor_diag())
             continue
         assert sd is not None and kf is not None
         dvn_sum += sd.step(g - eb * cfg.dt_s, a - db * cfg.dt_s, cfg.dt_s)
@@ -150,7 +81,7 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
             # End of acquisition: drop what the drift/bias states learnt under the wrong
             # small-angle model (psi leaks into eps_E as W cos L sin psi); restart from P0.
             kf = FineAlignKF(cfg.n_states, cfg.p0_diag(), cfg.q_diag(),
-                             np.full(3, cfg.zv_sigma_mps ** 2), cfg.floor_diag())
+                             np.full(3, cfg.zv_sigma_m_s ** 2), cfg.floor_diag())
             eb = np.zeros(3)
             db = np.zeros(3)
         kf.q = q_stage if cycles < n_stage else q_spec

@@ -1,0 +1,258 @@
+"""Input and output helpers shared by every subcommand (the conventions of CONTRIBUTING.md).
+
+- input record: positional ``INPUT``, ``--column``, ``--rate-hz``, ``--units``, ``--drop-nan``
+  (:func:`add_input_args`, :func:`record_from_args`);
+- ``--json`` (:func:`add_json_arg`) printed by the one JSON writer :func:`emit_json`;
+- ``--progress auto|always|never`` (:func:`add_progress_arg`, :func:`progress_enabled`): auto
+  shows a bar only when stderr is a terminal;
+- ``--ci P`` with the library's ``ONE_SIGMA_CI`` as default (:func:`add_ci_arg`);
+- CSV tables written with the digits the numbers carry (:func:`write_csv`: floats as
+  ``repr`` (the shortest string that reads back to the same double, at most ``%.17g``
+  digits), integers as integers).
+
+Examples
+--------
+>>> import argparse
+>>> p = argparse.ArgumentParser()
+>>> add_progress_arg(p)
+>>> progress_enabled(p.parse_args(["--progress", "never"]))
+False
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+
+from gyrodrift.cli import CliError
+from gyrodrift.errors import GyrodriftError
+from gyrodrift.io import UNITS, Record, load_record
+
+__all__ = [
+    "PROGRESS_CHOICES",
+    "add_ci_arg",
+    "add_input_args",
+    "add_json_arg",
+    "add_progress_arg",
+    "emit_json",
+    "format_csv_value",
+    "json_default",
+    "progress_enabled",
+    "record_from_args",
+    "write_csv",
+]
+
+PROGRESS_CHOICES = ("auto", "always", "never")
+
+
+def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
+    """Add the input-record arguments: ``INPUT``, ``--column``, ``--rate-hz``, ``--units``,
+    ``--drop-nan``.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser()
+    >>> add_input_args(p)
+    >>> p.parse_args(["x.npy", "--rate-hz", "100"]).rate_hz
+    100.0
+    """
+    p.add_argument("input", nargs=None if required else "?",
+                   help="record: .npy, .csv, PSINS .imu, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
+    p.add_argument("--column",
+                   help="csv column name or index, npy column index, or IMU-log gyro axis x|y|z")
+    p.add_argument("--rate-hz", type=float,
+                   help="sample rate, Hz (required for .npy; csv and logs give it by their time "
+                        "column)")
+    p.add_argument("--units", choices=UNITS, default="deg/h",
+                   help="input units: rates deg/h, deg/s, rad/s; per-sample angle increments "
+                        "arcsec, deg, rad (default deg/h; IMU logs are rad/s)")
+    p.add_argument("--drop-nan", action="store_true",
+                   help="drop NaN/Inf samples (their count is reported); default: refuse")
+
+
+def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
+    """Load the record the input arguments name; a bad file or value is a :class:`CliError`.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp(); f = os.path.join(d, "x.npy"); np.save(f, np.arange(5.0))
+    >>> ns = argparse.Namespace(input=f, column=None, rate_hz=10.0, units="deg/h",
+    ...                         drop_nan=False)
+    >>> record_from_args(ns).n
+    5
+    """
+    try:
+        return load_record(args.input, column=args.column, rate_hz=args.rate_hz,
+                           units=args.units, nan_policy="drop" if args.drop_nan else "refuse",
+                           mmap=mmap)
+    except (OSError, ValueError, GyrodriftError) as exc:
+        raise CliError(str(exc)) from exc
+
+
+def add_json_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--json`` (the machine-readable result on stdout).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_json_arg(p)
+    >>> p.parse_args(["--json"]).json
+    True
+    """
+    p.add_argument("--json", action="store_true",
+                   help="print the result as one JSON object on stdout (no table)")
+
+
+def add_progress_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--progress auto|always|never`` (default auto: a bar only on a terminal).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_progress_arg(p)
+    >>> p.parse_args([]).progress
+    'auto'
+    """
+    p.add_argument("--progress", choices=PROGRESS_CHOICES, default="auto",
+                   help="progress bar on stderr: auto (only when stderr is a terminal), "
+                        "always or never (default auto)")
+
+
+def progress_enabled(args: argparse.Namespace, stream: IO[str] | None = None) -> bool:
+    """Whether to draw progress: ``always``; ``never``; ``auto`` when ``stream`` (stderr by
+    default) is a terminal.
+
+    Examples
+    --------
+    >>> import io
+    >>> progress_enabled(argparse.Namespace(progress="auto"), io.StringIO())
+    False
+    >>> progress_enabled(argparse.Namespace(progress="always"))
+    True
+    """
+    choice = getattr(args, "progress", "auto")
+    if choice == "always":
+        return True
+    if choice == "never":
+        return False
+    s = sys.stderr if stream is None else stream
+    try:
+        return bool(s.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+def add_ci_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--ci P`` (confidence level, default the library's ``ONE_SIGMA_CI`` = 0.6827).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_ci_arg(p)
+    >>> round(p.parse_args([]).ci, 4)
+    0.6827
+    """
+    from gyrodrift.allan import ONE_SIGMA_CI
+
+    p.add_argument("--ci", type=float, default=ONE_SIGMA_CI,
+                   help="confidence-interval probability (default 0.6827, one sigma)")
+
+
+def json_default(obj: Any) -> Any:
+    """``json`` fallback for numpy scalars and arrays, paths, tuples and dataclass results.
+
+    Examples
+    --------
+    >>> json_default(np.float32(0.5)), json_default(np.arange(2))
+    (0.5, [0, 1])
+    """
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.floating):
+        return float(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    as_dict = getattr(obj, "as_dict", None)
+    if callable(as_dict):
+        return as_dict()
+    raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
+
+
+def emit_json(payload: Any, stream: IO[str] | None = None) -> None:
+    """Write ``payload`` as indented JSON and a newline (stdout by default): the one JSON
+    writer of the command line.
+
+    Examples
+    --------
+    >>> emit_json({"n": np.int64(3), "x": np.float64(0.25)})
+    {
+      "n": 3,
+      "x": 0.25
+    }
+    """
+    out = sys.stdout if stream is None else stream
+    json.dump(payload, out, indent=2, default=json_default)
+    out.write("\n")
+
+
+def format_csv_value(v: Any) -> str:
+    """One CSV cell: integers as integers, floats with the digits they carry (``repr``).
+
+    Examples
+    --------
+    >>> format_csv_value(1.0), format_csv_value(np.int64(7)), format_csv_value(0.1)
+    ('1.0', '7', '0.1')
+    >>> format_csv_value(float("nan"))
+    'nan'
+    """
+    if isinstance(v, (bool, np.bool_)):
+        return str(int(v))
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        f = float(v)
+        if math.isnan(f):
+            return "nan"
+        if math.isinf(f):
+            return "inf" if f > 0 else "-inf"
+        return repr(f)
+    return str(v)
+
+
+def write_csv(path: str | Path, header: Sequence[str], columns: Sequence[Any]) -> Path:
+    """Write columns (equal-length sequences) as CSV with a header line.
+
+    Integer columns (numpy integer dtype or Python ints) are written as integers, floats with
+    ``repr`` (round-trip exact).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> f = os.path.join(tempfile.mkdtemp(), "t.csv")
+    >>> _ = write_csv(f, ["m", "adev"], [np.array([1, 2]), np.array([0.5, 0.1])])
+    >>> print(open(f).read(), end="")
+    m,adev
+    1,0.5
+    2,0.1
+    """
+    if len(header) != len(columns):
+        raise ValueError(f"{len(header)} header names for {len(columns)} columns")
+    cols = [c.tolist() if isinstance(c, np.ndarray) else list(c) for c in columns]
+    n = len(cols[0]) if cols else 0
+    if any(len(c) != n for c in cols):
+        raise ValueError("CSV columns differ in length")
+    p = Path(path)
+    with p.open("w", newline="") as fh:
+        fh.write(",".join(header) + "\n")
+        for i in range(n):
+            fh.write(",".join(format_csv_value(c[i]) for c in cols) + "\n")
+    return p
