@@ -181,3 +181,24 @@ def test_html_report_renders_in_headless_chromium(tmp_path: Path) -> None:
     widths = [int(w) for w in m.group(1).split(",") if w]
     assert len(widths) == 2 and all(w > 0 for w in widths), widths
     assert int(m.group(2)) == 1 + 6 * 5  # header + 6 channels x 5 terms
+
+
+def test_real_lasergyro_record(lasergyro_path: Path) -> None:
+    """The shared vehicle record (engine running): all six channels are read from the PSINS
+    file; the IEEE 952 term model cannot describe the vibration hump and tau^-1 slope of the
+    gyros, which the result must say (band_scale > 1) rather than hide behind narrow
+    intervals."""
+    from gyrodrift.imu_io import load_imu
+
+    rec = load_imu(lasergyro_path)
+    assert rec.names == CHANNELS and rec.rate_hz == pytest.approx(100.0)
+    assert rec.n == 184718
+    res = characterize(rec)
+    for c in res.channels:
+        for t in c.terms.values():
+            assert t.ci_low <= t.value <= t.ci_high
+        if c.sensor == "gyro":
+            assert c.extra["band_scale"] > 2.0, c.channel
+    # The z gyro sees the vertical Earth rate, 7.292115e-5 sin(34.246 deg) rad/s, as its mean.
+    z_mean = float(np.mean(rec.channels["gyro_z"]))
+    assert z_mean == pytest.approx(7.292115e-5 * math.sin(math.radians(34.246048)), rel=0.05)
