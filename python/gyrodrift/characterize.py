@@ -409,7 +409,11 @@ def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | No
     lines.append(f"update_rate: {rate!r}")
     for (sensor, term), key in KALIBR_KEYS.items():
         if key in vals:
-            v, ch, _ = vals[key]
+            v, ch, t = vals[key]
+            if v == 0.0:
+                # A zero density makes a filter trust that sensor blindly: say so in the file.
+                lines.append(f"# WARNING: {key} was fitted as 0 (term not identified; upper "
+                             f"limit {t.ci_high:.4g}): do not use 0 in a filter")
             lines.append(f"{key}: {v!r}  # {SI_UNITS[sensor][term]}, from {ch}")
         else:
             lines.append(f"# {key}: no {sensor} channel in the record")
