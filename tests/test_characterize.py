@@ -202,3 +202,41 @@ def test_real_lasergyro_record(lasergyro_path: Path) -> None:
     # The z gyro sees the vertical Earth rate, 7.292115e-5 sin(34.246 deg) rad/s, as its mean.
     z_mean = float(np.mean(rec.channels["gyro_z"]))
     assert z_mean == pytest.approx(7.292115e-5 * math.sin(math.radians(34.246048)), rel=0.05)
+
+
+def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
+    """--method gmwm goes through gyrodrift.identify_gmwm (issue 11's published API, results in
+    IEEE units of the deg/h record unit). A stand-in returning known values checks the channel
+    scaling and the conversions back to SI; without the function the error is clear."""
+    import gyrodrift
+    from gyrodrift.characterize import characterize_channel
+
+    x = np.random.default_rng(0).standard_normal(4000) * 1e-3
+    if not hasattr(gyrodrift, "identify_gmwm"):
+        with pytest.raises(ValueError, match="identify_gmwm"):
+            characterize_channel(x, 100.0, "gyro_x", method="gmwm")
+
+    class P:
+        def __init__(self, name: str, value: float) -> None:
+            self.name, self.value, self.ci_low, self.ci_high, self.unit = (
+                name, value, 0.5 * value, 2.0 * value, "")
+
+    seen = {}
+
+    def fake(xd, rate_hz, *, ci):
+        seen["x"] = xd
+        return type("R", (), {"model": "N+K", "params": (P("N", 0.3), P("K", 12.0))})()
+
+    monkeypatch.setattr(gyrodrift, "identify_gmwm", fake, raising=False)
+    c = characterize_channel(x, 100.0, "gyro_x", method="gmwm")
+    # The gyro channel goes in as deg/h.
+    np.testing.assert_allclose(seen["x"], x * 180.0 / math.pi * 3600.0, rtol=1e-15)
+    # N 0.3 deg/sqrt(h) -> rad/s/sqrt(Hz); K 12 deg/h/sqrt(h) -> rad/s^2/sqrt(Hz) (by hand).
+    assert c.terms["N"].value == pytest.approx(0.3 * math.pi / 180.0 / 60.0, rel=1e-12)
+    assert c.terms["K"].value == pytest.approx(12.0 * math.pi / 180.0 / 3600.0 / 60.0,
+                                               rel=1e-12)
+    assert c.terms["K"].ci_high == pytest.approx(2.0 * c.terms["K"].value, rel=1e-12)
+    # An accelerometer channel goes in unscaled: N 0.3 (m/s^2) sqrt(h) -> 18 m/s^2/sqrt(Hz).
+    a = characterize_channel(x, 100.0, "accel_x", method="gmwm")
+    np.testing.assert_allclose(seen["x"], x, rtol=0)
+    assert a.terms["N"].value == pytest.approx(0.3 * 60.0, rel=1e-12)

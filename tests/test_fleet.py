@@ -104,3 +104,17 @@ def test_spec_flags_units_outside_limits(logs: list[Path], tmp_path: Path) -> No
     spec_path.write_text(json.dumps({"gyro_noise": {"max": 1}}))
     with pytest.raises(ValueError, match="unknown parameter"):
         load_spec(spec_path)
+
+
+def test_cli_on_an_existing_scheduler(client, logs: list[Path], tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    from gyrodrift.cli import main
+
+    code = main(["fleet", str(logs[0].parent / "unit[05].npy"), "--out-dir",
+                 str(tmp_path / "out"), "--rate-hz", "100", "--scheduler",
+                 client.scheduler.address, "--progress", "never"])
+    assert code == 1  # one failed log
+    out = capsys.readouterr().out
+    assert "1 done" in out and "1 failed" in out
+    assert "failed: " in out and "unit5.npy" in out
+    assert (tmp_path / "out" / "units" / "unit0" / "result.json").is_file()
