@@ -124,7 +124,7 @@ def test_characterize_cli_outputs(tmp_path: Path, capsys: pytest.CaptureFixture[
     np.save(tmp_path / "imu.npy", x)
     code = main(["characterize", str(tmp_path / "imu.npy"), "--rate-hz", "100",
                  "--kalibr", str(tmp_path / "imu.yaml"), "--html", str(tmp_path / "r.html"),
-                 "--out-dir", str(tmp_path / "plots"), "--json"])
+                 "--out-dir", str(tmp_path / "plots"), "--self-check", "--json"])
     assert code == 0
     import json
 
@@ -134,6 +134,10 @@ def test_characterize_cli_outputs(tmp_path: Path, capsys: pytest.CaptureFixture[
     # White noise of std s at rate f: N = s / sqrt(f).
     assert n_gyro["value"] == pytest.approx(1e-3 / 10.0, rel=0.03)
     assert n_gyro["ci_low"] <= n_gyro["value"] <= n_gyro["ci_high"]
+    assert len(doc["self_check"]["rows"]) == 6 * 5
+    assert doc["kalibr"]["gyroscope_noise_density"]["unit"] == "rad/s/sqrt(Hz)"
+    html = (tmp_path / "r.html").read_text()
+    assert "Self-check" in html and html.count("data:image/png;base64,") == 2
     assert (tmp_path / "plots" / "gyro.png").stat().st_size > 1000
     assert (tmp_path / "plots" / "accel.png").stat().st_size > 1000
     assert (tmp_path / "imu.yaml").read_text().count("_density:") == 2
