@@ -40,6 +40,11 @@ OWN_FLAGS: dict[str, set[str]] = {
     "compare": set(),
     "wavelet-response": {"--n-freqs"},
     "config": {"--emit-cpp", "--namespace"},
+    "characterize": {"--columns", "--time-column", "--topic", "--gyro-units", "--accel-units",
+                     "--method", "--terms", "--taus", "--kalibr", "--kalibr-axis", "--html",
+                     "--self-check"},
+    "fleet": {"--columns", "--time-column", "--topic", "--gyro-units", "--accel-units",
+              "--method", "--terms", "--taus", "--workers", "--scheduler", "--force", "--spec"},
     "align": {"--scenario", "--runs", "--coarse-s", "--states", "--kf-noise", "--gyro-lsb-arcsec",
               "--dither-arcsec", "--mechanism", "--real", "--segment-s", "--no-plots"},
 }

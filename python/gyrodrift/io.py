@@ -1,6 +1,8 @@
 """Loading gyro records for analysis: .npy (memory-mapped when possible), .csv with a column
 choice, and the replay harness's IMU logs (.bin/.gdf, .log candump, .asc, .blf; the IMU csv
-with the replay columns is recognised by its header). Every record becomes a rate in deg/h.
+with the replay columns is recognised by its header), and the PSINS `.imu` text log (gyro
+angle increments, `gyrodrift.align.psins`). Every record becomes a rate in deg/h. Six-channel
+records (gyro and accelerometer) are read by `gyrodrift.imu_io.load_imu`.
 
 Units (`units=`): rates "deg/h", "deg/s", "rad/s"; angle increments per sample "arcsec",
 "deg", "rad" (divided by dt). NaN/Inf rows are never dropped silently: nan_policy="refuse"
@@ -183,6 +185,8 @@ def load_record(
                                   "(.log, .asc, .blf)")
     if suffix in LOG_SUFFIXES or is_replay_csv:
         return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate)
+    if suffix == ".imu":
+        return _load_psins(p, column, rate_hz, units, nan_policy)
     if suffix == ".npy":
         arr = _load_npy(p, mmap)
         if arr.ndim == 2:
@@ -254,8 +258,8 @@ def load_record(
         x = to_deg_h(values, units, rate_hz)
         x, dropped = _apply_nan_policy(x, nan_policy, source)
         return Record(x, float(rate_hz), source, names[idx], units, int(values.size), dropped)
-    raise ValueError(f"{source}: unsupported file type {suffix!r} (use .npy, .csv, or an IMU "
-                     f"log {', '.join(LOG_SUFFIXES)})")
+    raise ValueError(f"{source}: unsupported file type {suffix!r} (use .npy, .csv, PSINS .imu, "
+                     f"or an IMU log {', '.join(LOG_SUFFIXES)})")
 
 
 #: sample rates accepted from the user (outside them the analyses' fits overflow)
@@ -351,3 +355,24 @@ def _load_log(p: Path, column: str | int | None, rate_hz: float | None, units: s
     return Record(x, float(rate_hz), str(p), f"gyro_{axis_name}", log_units,
                   int(gyro_rad_s.size), dropped,
                   samples.log_report.summary() if samples.log_report is not None else "")
+
+
+def _load_psins(p: Path, column: str | int | None, rate_hz: float | None, units: str,
+                nan_policy: str) -> Record:
+    """One gyro axis of a PSINS .imu log (angle increments in rad per sample, divided by dt)."""
+    from gyrodrift.align.psins import read_psins_imu  # the "align" area's reader
+
+    axis_name = "z" if column is None else str(column).lower()
+    if axis_name not in GYRO_AXES:
+        raise ValueError(f"{p}: PSINS .imu logs hold gyro axes x, y, z; got column {column!r}")
+    if units not in ("deg/h", "rad"):
+        raise ValueError(f"{p}: PSINS .imu logs carry their own units (angle increments); "
+                         f"--units {units} does not apply")
+    rec = read_psins_imu(p)
+    file_rate = 1.0 / rec.dt_s
+    if rate_hz is not None and not math.isclose(rate_hz, file_rate, rel_tol=1e-9):
+        raise ValueError(f"{p}: the file says {file_rate:g} Hz, --rate-hz says {rate_hz:g}")
+    x = to_deg_h(rec.dtheta[:, GYRO_AXES[axis_name]], "rad", file_rate)
+    x, dropped = _apply_nan_policy(x, nan_policy, str(p))
+    return Record(x, float(file_rate), str(p), f"gyro_{axis_name}", "rad (increments)",
+                  int(rec.dtheta.shape[0]), dropped)

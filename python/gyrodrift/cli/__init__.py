@@ -30,6 +30,8 @@ SUBCOMMAND_MODULES: list[str] = [
     "wavelet_response",
     "align",
     "config",
+    "characterize",
+    "fleet",
 ]
 
 

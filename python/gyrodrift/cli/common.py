@@ -74,7 +74,7 @@ def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None
     100.0
     """
     p.add_argument("input", nargs=None if required else "?",
-                   help="record: .npy, .csv, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
+                   help="record: .npy, .csv, PSINS .imu, or an IMU log (.bin/.gdf/.log/.asc/.blf)")
     p.add_argument("--column",
                    help="csv column name or index, npy column index, or IMU-log gyro axis x|y|z")
     p.add_argument("--rate-hz", type=float,

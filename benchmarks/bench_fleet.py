@@ -1,0 +1,99 @@
+"""Fleet throughput on 1 vs 2 Dask workers (LocalCluster, processes, loopback) and memory per
+worker with the chunked .npy reader.
+
+Logs: N_LOGS records of N_SAMPLES x 6 channels (float32 .npy, white noise + random walk),
+written once in chunks into --dir (reused when present). Each configuration runs the whole
+fleet from scratch (--force semantics: fresh out dir) and reports wall time, logs/s,
+samples/s (all channels), the ratio against 1 worker and the largest peak RSS of a worker
+process (ru_maxrss inside the task).
+
+    python benchmarks/bench_fleet.py [--logs 8] [--samples 1e7] [--dir /tmp/gyrodrift-fleet]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _bench_util import machine
+from gyrodrift.fleet import FleetOptions, run_fleet
+
+
+def make_logs(d: Path, n_logs: int, n: int, rate_hz: float) -> list[Path]:
+    d.mkdir(parents=True, exist_ok=True)
+    paths = []
+    dt = 1.0 / rate_hz
+    dens = np.array([1.9e-4, 1.9e-4, 1.9e-4, 2.5e-3, 2.5e-3, 2.5e-3])
+    walks = np.array([2.6e-6, 2.6e-6, 2.6e-6, 7.0e-5, 7.0e-5, 7.0e-5])
+    for i in range(n_logs):
+        p = d / f"unit{i:02d}.npy"
+        paths.append(p)
+        if p.is_file():
+            continue
+        rng = np.random.default_rng(1000 + i)
+        mm = np.lib.format.open_memmap(p.with_suffix(".tmp.npy"), mode="w+",
+                                       dtype=np.float32, shape=(n, 6))
+        level = np.zeros(6)
+        chunk = 1 << 20
+        for lo in range(0, n, chunk):
+            m = min(chunk, n - lo)
+            steps = rng.standard_normal((m, 6)) * (walks * math.sqrt(dt))
+            walk = level + np.cumsum(steps, axis=0)
+            level = walk[-1]
+            mm[lo:lo + m] = walk + rng.standard_normal((m, 6)) * (dens / math.sqrt(dt))
+        mm.flush()
+        del mm
+        p.with_suffix(".tmp.npy").rename(p)
+    return paths
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--logs", type=int, default=8)
+    ap.add_argument("--samples", type=float, default=1e7)
+    ap.add_argument("--rate-hz", type=float, default=200.0)
+    ap.add_argument("--dir", default="/tmp/gyrodrift-fleet-bench")
+    ap.add_argument("--workers", default="1,2")
+    args = ap.parse_args()
+    n = int(args.samples)
+    d = Path(args.dir)
+    t0 = time.perf_counter()
+    paths = make_logs(d / "logs", args.logs, n, args.rate_hz)
+    print(f"# logs ready in {time.perf_counter() - t0:.1f} s: {args.logs} x {n} samples x 6 "
+          f"channels float32 ({paths[0].stat().st_size / 2**20:.0f} MiB each)")
+    print(f"# {machine()}")
+    opts = FleetOptions(rate_hz=args.rate_hz, plots=True)
+    rows = []
+    for w in (int(v) for v in args.workers.split(",")):
+        out = d / f"out-w{w}"
+        shutil.rmtree(out, ignore_errors=True)
+        peaks: list[float] = []
+
+        def keep(r: dict, peaks: list[float] = peaks) -> None:
+            peaks.append(float(r.get("peak_rss_mib", math.nan)))
+
+        t = time.perf_counter()
+        s = run_fleet(paths, out, opts=opts, workers=w, root=d / "logs", on_result=keep)
+        wall = time.perf_counter() - t
+        if s["n_failed"]:
+            raise SystemExit(f"failed logs: {s['failed']}")
+        rows.append((w, wall, max(peaks)))
+    base = rows[0][1]
+    print(f"{'workers':>7} {'wall_s':>8} {'logs/s':>8} {'samples/s':>11} {'ratio':>6} "
+          f"{'peak_rss_MiB/worker':>20}")
+    for w, wall, peak in rows:
+        print(f"{w:7d} {wall:8.1f} {args.logs / wall:8.3f} {args.logs * n * 6 / wall:11.3g} "
+              f"{base / wall:6.2f} {peak:20.0f}")
+    print(f"# record size {n * 6 * 4 / 2**20:.0f} MiB per log; the chunked reader holds "
+          f"{(1 << 18) * 6 * 8 / 2**20:.0f} MiB of rows at a time")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,188 @@
+"""`gyrodrift characterize`: every channel of an IMU record (3 gyros + 3 accelerometers, or the
+subset present): Allan deviation with intervals, noise terms with intervals, a per-axis table,
+one plot per sensor type, and the outputs filter users need (--json, --kalibr imu.yaml, --html).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from gyrodrift.cli import CliError
+from gyrodrift.cli.common import (
+    add_ci_arg,
+    add_json_arg,
+    add_progress_arg,
+    emit_json,
+    progress_enabled,
+)
+from gyrodrift.errors import GyrodriftError
+from gyrodrift.imu_io import ACCEL_UNITS, GYRO_UNITS, ImuData, bag_imu_topics, load_imu
+
+__all__ = ["add_imu_input_args", "imu_from_args", "register", "run"]
+
+
+def add_imu_input_args(p: argparse.ArgumentParser) -> None:
+    """Input options of the multi-channel readers (gyrodrift.imu_io)."""
+    p.add_argument("--rate-hz", type=float, help="sample rate, Hz (required for .npy and for "
+                   "text without a time column)")
+    p.add_argument("--columns", help="channel per data column, comma-separated from gyro_x, "
+                   "gyro_y, gyro_z, accel_x, accel_y, accel_z, '-' to skip (default: from the "
+                   "header, or gyro x,y,z[,accel x,y,z] for 3 [6] columns)")
+    p.add_argument("--time-column", help="text: time column name/index, or 'none' (default: "
+                   "detected)")
+    p.add_argument("--topic", help="ROS bag: the sensor_msgs/msg/Imu topic (listed when absent)")
+    p.add_argument("--gyro-units", choices=tuple(GYRO_UNITS), default="rad/s",
+                   help="gyro column units for .npy/text (rates, or per-sample increments "
+                        "rad/deg/arcsec)")
+    p.add_argument("--accel-units", choices=tuple(ACCEL_UNITS), default="m/s^2",
+                   help="accelerometer column units for .npy/text (m/s = per-sample increments)")
+    p.add_argument("--drop-nan", action="store_true",
+                   help="drop rows with NaN/Inf (their count is reported); default: refuse")
+
+
+def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) -> ImuData:
+    try:
+        return load_imu(path or args.input, rate_hz=args.rate_hz,
+                        columns=args.columns.split(",") if args.columns else None,
+                        time_column=args.time_column, topic=args.topic,
+                        gyro_units=args.gyro_units, accel_units=args.accel_units,
+                        nan_policy="drop" if args.drop_nan else "refuse", **kw)
+    except (OSError, ValueError, GyrodriftError) as exc:
+        raise CliError(str(exc)) from exc
+
+
+def add_analysis_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--method", choices=("allan-nnls", "gmwm"), default="allan-nnls",
+                   help="identification: IEEE 952 Allan fit (default) or GMWM (issue 11, when "
+                        "installed)")
+    p.add_argument("--terms", default="Q,N,B,K,R", help="IEEE 952 terms the fit may use")
+    p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave",
+                   help="Allan tau grid (default octave)")
+    add_ci_arg(p)
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser("characterize", help="whole-IMU noise characterization, Kalibr "
+                              "imu.yaml, HTML report", description=__doc__.splitlines()[0])
+    p.add_argument("input", help="record: .npy (n, k), CSV/text, PSINS .imu, an IMU log, or a "
+                   "ROS bag (.bag, rosbag2 directory, .db3, .mcap)")
+    add_imu_input_args(p)
+    add_analysis_args(p)
+    p.add_argument("--kalibr", metavar="FILE", help="write Kalibr's imu.yaml")
+    p.add_argument("--kalibr-axis", choices=("worst", "x", "y", "z"), default="worst",
+                   help="axis exported to Kalibr (default: the worst per parameter)")
+    p.add_argument("--html", metavar="FILE", help="write a self-contained HTML report")
+    p.add_argument("--out-dir", help="write the plots (gyro.png, accel.png) there")
+    p.add_argument("--self-check", action="store_true",
+                   help="simulate the identified model (same length and rate), identify it "
+                        "again, report whether each term is recovered inside its interval")
+    p.add_argument("--seed", type=int, default=0, help="seed of the self-check simulation")
+    add_json_arg(p)
+    add_progress_arg(p)
+    p.set_defaults(func=run)
+
+
+def _terms(text: str) -> list[str]:
+    return [t.strip().upper() for t in text.split(",") if t.strip()]
+
+
+def run(args: argparse.Namespace) -> int:
+    from gyrodrift import characterize as ch
+
+    if args.input and Path(args.input).suffix.lower() in (".bag", ".db3", ".mcap") \
+            and args.topic is None:
+        try:
+            topics = bag_imu_topics(args.input)
+        except (OSError, ValueError) as exc:
+            raise CliError(str(exc)) from exc
+        if len(topics) != 1:
+            listing = ", ".join(f"{t} ({n} messages)" for t, n in topics.items()) or "none"
+            raise CliError(f"{args.input}: choose a sensor_msgs/msg/Imu topic with --topic; "
+                           f"the bag has: {listing}")
+    rec = imu_from_args(args)
+    show = progress_enabled(args)
+
+    def progress(name: str) -> None:
+        if show:
+            print(f"characterize: {name}", file=sys.stderr, flush=True)
+
+    try:
+        res = ch.characterize(rec, ci=args.ci, taus=args.taus, terms=_terms(args.terms),
+                              method=args.method, progress=progress)
+        kalibr = ch.kalibr_yaml(res, args.kalibr_axis) if (args.kalibr or args.html) else None
+        sc = (ch.self_check(res, seed=args.seed, taus=args.taus, terms=_terms(args.terms))
+              if args.self_check else None)
+    except (ValueError, GyrodriftError) as exc:
+        raise CliError(str(exc)) from exc
+    files = write_outputs(res, kalibr=kalibr, kalibr_path=args.kalibr, html_path=args.html,
+                          out_dir=args.out_dir, self_check=sc)
+    if args.json:
+        payload = res.as_dict()
+        payload["kalibr"] = {k: {"value": v, "channel": c, "unit": t.unit} for k, (v, c, t)
+                             in ch.kalibr_values(res, args.kalibr_axis).items()}
+        payload["self_check"] = None if sc is None else sc.as_dict()
+        payload["files"] = files
+        emit_json(payload)
+        return 0
+    r = res.record
+    print(f"# {r['source']} ({r['format']}): {r['n_used']} samples at {r['rate_hz']:g} Hz, "
+          f"{r['duration_s']:.6g} s; channels {', '.join(rec.names)}"
+          + (f"; {rec.n_dropped} rows with NaN/Inf dropped" if rec.n_dropped else ""))
+    print(f"# method {res.method}, intervals at probability {res.ci:.4g}")
+    print(f"{'channel':8} {'term':4} {'value':>11} {'ci_low':>11} {'ci_high':>11} {'unit':18} "
+          f"{'value':>11} {'ci_low':>11} {'ci_high':>11} unit")
+    for row in ch.table_rows(res):
+        print(f"{row['channel']:8} {row['term']:4} {row['value']:11.4g} {row['ci_low']:11.4g} "
+              f"{row['ci_high']:11.4g} {row['unit']:18} {row['ieee_value']:11.4g} "
+              f"{row['ieee_low']:11.4g} {row['ieee_high']:11.4g} {row['ieee_unit']}")
+    for c in res.channels:
+        scale = c.extra.get("band_scale")
+        if isinstance(scale, float) and scale > 1.0:
+            print(f"# {c.channel}: no model of the chosen terms fits inside the Allan interval "
+                  f"band; band widened x{scale:.3g} for the term intervals (misfit)")
+    if sc is not None:
+        n_in = sum(bool(row["inside"]) for row in sc.rows)
+        print(f"self-check (seed {sc.seed}): {n_in} of {len(sc.rows)} terms recovered inside "
+              "their intervals" + ("" if sc.all_inside else "; NOT recovered: " + ", ".join(
+                  f"{row['channel']} {row['term']}" for row in sc.rows if not row["inside"])))
+    for k, v in files.items():
+        if v:
+            print(f"wrote {k}: {v}")
+    return 0
+
+
+def write_outputs(res: Any, *, kalibr: str | None, kalibr_path: str | None,
+                  html_path: str | None, out_dir: str | None, self_check: Any = None,
+                  json_path: str | None = None) -> dict[str, Any]:
+    """Plots, Kalibr yaml, HTML report and JSON of one characterization; returns the paths."""
+    from gyrodrift import characterize as ch
+    from gyrodrift.report_html import characterize_html
+
+    files: dict[str, Any] = {"kalibr": None, "html": None, "plots": []}
+    pngs = {s: ch.plot_sensor(res, s) for s in ch.sensors_present(res)}
+    if out_dir:
+        d = Path(out_dir)
+        d.mkdir(parents=True, exist_ok=True)
+        for s, data in pngs.items():
+            (d / f"{s}.png").write_bytes(data)
+            files["plots"].append(str(d / f"{s}.png"))
+    if kalibr_path and kalibr is not None:
+        Path(kalibr_path).write_text(kalibr)
+        files["kalibr"] = kalibr_path
+    if html_path:
+        text = characterize_html(
+            name=Path(str(res.record["source"])).name, version=res.version, method=res.method,
+            ci=res.ci, record=res.record, rows=ch.table_rows(res),
+            images=[(f"{'Gyroscopes' if s == 'gyro' else 'Accelerometers'}",
+                     ch.png_data_uri(data)) for s, data in pngs.items()],
+            kalibr=kalibr, self_check=None if self_check is None else self_check.as_dict())
+        Path(html_path).write_text(text)
+        files["html"] = html_path
+    if json_path:
+        Path(json_path).write_text(json.dumps(res.as_dict(), indent=1))
+        files["json"] = json_path
+    return files

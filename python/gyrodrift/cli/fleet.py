@@ -1,0 +1,81 @@
+"""`gyrodrift fleet`: characterize every log matching a glob on Dask (dask.distributed): one
+task per log, results written per log as they finish, resumable, failed logs listed with their
+reason, and a fleet summary (distribution per parameter and axis, spec flags, one HTML page).
+"""
+
+from __future__ import annotations
+
+import argparse
+import glob
+import os
+from typing import Any
+
+from gyrodrift.cli import CliError
+from gyrodrift.cli.characterize import add_analysis_args, add_imu_input_args
+from gyrodrift.cli.common import add_json_arg, add_progress_arg, emit_json, progress_enabled
+from gyrodrift.errors import GyrodriftError
+
+__all__ = ["register", "run"]
+
+
+def register(subparsers: Any) -> None:
+    p = subparsers.add_parser("fleet", help="characterize many IMU logs on Dask, fleet summary",
+                              description=__doc__.splitlines()[0])
+    p.add_argument("input", metavar="GLOB", nargs="+",
+                   help="log files or glob patterns (quote them; ** recurses)")
+    p.add_argument("--out-dir", required=True, help="per-unit results and the fleet summary")
+    p.add_argument("--workers", type=int, default=2,
+                   help="LocalCluster worker processes (default 2; 0: serial, no Dask)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="use an existing dask.distributed scheduler (e.g. tcp://127.0.0.1:8786)")
+    p.add_argument("--force", action="store_true", help="redo logs that are already done")
+    p.add_argument("--spec", help="JSON limits per parameter; units outside are flagged")
+    add_imu_input_args(p)
+    add_analysis_args(p)
+    add_json_arg(p)
+    add_progress_arg(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from gyrodrift.fleet import FleetOptions, load_spec, run_fleet
+
+    paths: list[str] = []
+    for pat in args.input:
+        hits = sorted(glob.glob(pat, recursive=True)) if glob.has_magic(pat) else [pat]
+        if not hits:
+            raise CliError(f"no log matches {pat!r}")
+        paths.extend(h for h in hits if h not in paths)
+    if args.drop_nan:
+        raise CliError("--drop-nan is not offered for fleets: a log with NaN/Inf is reported "
+                       "as failed; characterize it alone to decide")
+    try:
+        spec = load_spec(args.spec) if args.spec else None
+    except (OSError, ValueError, GyrodriftError) as exc:
+        raise CliError(str(exc)) from exc
+    opts = FleetOptions(
+        rate_hz=args.rate_hz, columns=tuple(args.columns.split(",")) if args.columns else None,
+        time_column=args.time_column, topic=args.topic, gyro_units=args.gyro_units,
+        accel_units=args.accel_units, ci=args.ci, taus=args.taus,
+        terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),
+        method=args.method)
+    show = progress_enabled(args)
+    root = os.path.commonpath([os.path.abspath(p) for p in paths]) if len(paths) > 1 else None
+    try:
+        summary = run_fleet([os.path.abspath(p) for p in paths], args.out_dir, opts=opts,
+                            workers=args.workers, scheduler=args.scheduler, force=args.force,
+                            spec=spec, root=root, progress=show)
+    except (OSError, ValueError, GyrodriftError) as exc:
+        raise CliError(str(exc)) from exc
+    if args.json:
+        emit_json(summary)
+    else:
+        print(f"fleet: {summary['n_done']} done ({summary['n_skipped']} already done, skipped), "
+              f"{summary['n_failed']} failed, {len({f['unit'] for f in summary['flagged']})} "
+              f"outside the spec; summary: {os.path.join(args.out_dir, 'summary.html')}")
+        for f in summary["failed"]:
+            print(f"failed: {f['path']}: {f['reason']}")
+        for f in summary["flagged"]:
+            print(f"outside spec: {f['unit']} {f['parameter']} {f['channel']} = "
+                  f"{f['value']:.4g} ({f['limit']})")
+    return 1 if summary["n_failed"] else 0

@@ -1,0 +1,352 @@
+"""Characterize a fleet of IMU logs on Dask (`gyrodrift fleet`).
+
+One task per log, run by `characterize_log` inside a worker: the worker reads its own log
+(large .npy records in chunks of rows, spooled to one file per channel that the Allan code
+reads in chunks: bounded memory), characterizes it and writes `<out>/units/<name>/result.json`
+and its plots itself; only the small per-unit summary goes back through the scheduler.
+`result.json` is written last (atomic rename), so a unit with it is done: a resumed run skips
+it unless `force`. A failed log's one-line reason is written to `failed.json` beside it and
+listed in the summary, never dropped.
+
+The fleet summary (`summary.json`, `summary.html`, `boxplot.png`) gives per parameter and axis
+the distribution over units (count, min, quartiles, max) and flags units outside a spec file:
+JSON ``{"gyroscope_noise_density": {"max": 2e-4}, "gyro_B": {"min": 0, "max": 1e-5}}``, keys
+either the Kalibr names (checked on every axis) or ``<sensor>_<term>`` (gyro_N, accel_K, ...).
+
+Example
+-------
+>>> unit_name("/data/unit 7/imu.npy", "/data")
+'unit_7__imu'
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import tempfile
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gyrodrift.errors import GyrodriftValueError
+
+__all__ = ["FleetOptions", "characterize_log", "load_spec", "run_fleet", "unit_name",
+           "write_summary"]
+
+PARAMS: tuple[tuple[str, str, str], ...] = (
+    ("gyro", "N", "gyroscope_noise_density"), ("gyro", "K", "gyroscope_random_walk"),
+    ("gyro", "B", "gyro_bias_instability"), ("accel", "N", "accelerometer_noise_density"),
+    ("accel", "K", "accelerometer_random_walk"), ("accel", "B", "accel_bias_instability"),
+)
+
+
+@dataclass(frozen=True)
+class FleetOptions:
+    """What every task does (picklable: sent once per task, small)."""
+
+    rate_hz: float | None = None
+    columns: tuple[str, ...] | None = None
+    time_column: str | None = None
+    topic: str | None = None
+    gyro_units: str = "rad/s"
+    accel_units: str = "m/s^2"
+    ci: float = math.erf(1.0 / math.sqrt(2.0))
+    taus: str = "octave"
+    terms: tuple[str, ...] = ("Q", "N", "B", "K", "R")
+    method: str = "allan-nnls"
+    chunk_rows: int = 1 << 18
+    plots: bool = True
+
+
+def unit_name(path: str | Path, root: str | Path | None = None) -> str:
+    """A directory name for a log, unique within a fleet: its path relative to `root` with
+    separators as '__' and anything but [A-Za-z0-9._-] as '_' (suffix dropped)."""
+    p = Path(path)
+    rel = p.relative_to(root) if root is not None and p.is_relative_to(root) else Path(p.name)
+    rel = rel.with_suffix("") if rel.suffix else rel
+    return re.sub(r"[^A-Za-z0-9._-]", "_", "__".join(rel.parts))
+
+
+def _atomic_write(path: Path, text: str) -> None:
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.chmod(tmp, 0o644)  # mkstemp makes it private; results are for everyone to read
+    os.replace(tmp, path)
+
+
+def _peak_rss_mib() -> float:
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, Any]:
+    """The task: characterize one log, write its outputs into unit_dir; return the summary
+    (unit, status, kalibr-style parameters per channel). Never raises for a bad log: the
+    failure's one-line reason is returned (and written to failed.json)."""
+    from gyrodrift import characterize as ch
+    from gyrodrift.cli.characterize import write_outputs
+    from gyrodrift.imu_io import load_imu
+
+    d = Path(unit_dir)
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "failed.json").unlink(missing_ok=True)
+    try:
+        with tempfile.TemporaryDirectory(dir=d, prefix="spool.") as spool:
+            is_npy = Path(path).suffix.lower() == ".npy"
+            rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
+                           time_column=opts.time_column, topic=opts.topic,
+                           gyro_units=opts.gyro_units, accel_units=opts.accel_units,
+                           spool_dir=spool if is_npy else None, chunk_rows=opts.chunk_rows)
+            res = ch.characterize(rec, ci=opts.ci, taus=opts.taus, terms=opts.terms,
+                                  method=opts.method, threads=1)
+            del rec
+        if opts.plots:
+            write_outputs(res, kalibr=None, kalibr_path=None, html_path=None, out_dir=str(d))
+        kal = ch.kalibr_yaml(res)
+        (d / "imu.yaml").write_text(kal)
+        summary = {"unit": d.name, "path": str(path), "status": "done",
+                   "params": _params(res), "record": res.record,
+                   "peak_rss_mib": _peak_rss_mib()}
+        payload = {"summary": summary, "result": res.as_dict()}
+        _atomic_write(d / "result.json", json.dumps(payload, indent=1))
+        return summary
+    except Exception as exc:
+        reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+        info = {"unit": d.name, "path": str(path), "status": "failed", "reason": reason,
+                "traceback": traceback.format_exc(limit=4)}
+        _atomic_write(d / "failed.json", json.dumps(info, indent=1))
+        return {k: info[k] for k in ("unit", "path", "status", "reason")}
+
+
+def _params(res: Any) -> dict[str, dict[str, dict[str, float]]]:
+    """parameter name -> channel -> {value, ci_low, ci_high} (SI units)."""
+    out: dict[str, dict[str, dict[str, float]]] = {}
+    for sensor, term, key in PARAMS:
+        for c in res.channels:
+            if c.sensor == sensor and term in c.terms:
+                t = c.terms[term]
+                out.setdefault(key, {})[c.channel] = {"value": t.value, "ci_low": t.ci_low,
+                                                      "ci_high": t.ci_high, "unit": t.unit}
+    return out
+
+
+def load_spec(path: str | Path) -> dict[str, dict[str, float]]:
+    """A spec file: JSON {parameter: {"min": x, "max": y}} (module docstring)."""
+    try:
+        spec = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as exc:
+        raise GyrodriftValueError(f"{path}: not JSON: {exc}") from exc
+    names = {k for _, _, k in PARAMS} | {f"{s}_{t}" for s, t, _ in PARAMS}
+    if not isinstance(spec, dict):
+        raise GyrodriftValueError(f"{path}: expected an object of parameter limits")
+    for k, lim in spec.items():
+        if k not in names:
+            raise GyrodriftValueError(
+                f"{path}: unknown parameter {k!r}; use one of {sorted(names)}")
+        if not isinstance(lim, dict) or not set(lim) <= {"min", "max"} or not lim:
+            raise GyrodriftValueError(f"{path}: {k}: give limits as {{\"min\": x, \"max\": y}}")
+    return spec
+
+
+def _spec_key(key: str) -> str:
+    for s, t, k in PARAMS:
+        if k == key:
+            return f"{s}_{t}"
+    return key
+
+
+def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOptions,
+              workers: int = 2, scheduler: str | None = None, force: bool = False,
+              spec: dict[str, dict[str, float]] | None = None, root: str | Path | None = None,
+              progress: bool = False, client: Any = None,
+              on_result: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+    """Characterize every log on Dask and write the fleet summary (module docstring).
+
+    workers = 0 runs serially in this process (no Dask; the reference the Dask run equals).
+    scheduler: address of an existing dask.distributed scheduler; else a LocalCluster of
+    `workers` processes (one thread each) on 127.0.0.1 is started and closed. `client`: an
+    existing distributed.Client to use instead (tests share one).
+    Returns the summary dict (also written to out_dir/summary.json).
+    """
+    out = Path(out_dir)
+    (out / "units").mkdir(parents=True, exist_ok=True)
+    paths = [str(p) for p in paths]
+    if not paths:
+        raise GyrodriftValueError("no logs to characterize")
+    names = [unit_name(p, root) for p in paths]
+    if len(set(names)) != len(names):
+        raise GyrodriftValueError("two logs map to the same unit name; pass a common root")
+    results: dict[str, dict[str, Any]] = {}
+    todo = []
+    for p, n in zip(paths, names, strict=True):
+        done = out / "units" / n / "result.json"
+        if done.is_file() and not force:
+            try:
+                results[n] = {**json.loads(done.read_text())["summary"], "skipped": True}
+                continue
+            except (json.JSONDecodeError, KeyError):
+                pass  # a damaged result is redone
+        todo.append((p, n))
+
+    def record(r: dict[str, Any]) -> None:
+        results[r["unit"]] = r
+        if on_result is not None:
+            on_result(r)
+
+    if todo and workers == 0 and scheduler is None and client is None:
+        from tqdm import tqdm
+
+        for p, n in tqdm(todo, disable=not progress, desc="fleet", unit="log"):
+            record(characterize_log(p, str(out / "units" / n), opts))
+    elif todo:
+        _run_dask(todo, out, opts, workers, scheduler, progress, client, record)
+    ordered = [results[n] for n in names]
+    summary = write_summary(ordered, out, spec)
+    summary["n_skipped"] = sum(1 for r in ordered if r.get("skipped"))
+    summary["n_run"] = len(todo)
+    return summary
+
+
+def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, workers: int,
+              scheduler: str | None, progress: bool, client: Any,
+              record: Callable[[dict[str, Any]], None]) -> None:
+    from distributed import Client, LocalCluster, as_completed
+    from tqdm import tqdm
+
+    cluster = None
+    own_client = client is None
+    if client is None:
+        if scheduler is None:
+            if workers < 1:
+                raise GyrodriftValueError(f"workers must be >= 1, got {workers}")
+            # Loopback only, no dashboard (no port opened beyond the scheduler's).
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   host="127.0.0.1", dashboard_address=None)
+            client = Client(cluster)
+        else:
+            client = Client(scheduler)
+    try:
+        futures = {client.submit(characterize_log, p, str(out / "units" / n), opts, pure=False,
+                                 key=f"characterize-{n}"): (p, n) for p, n in todo}
+        with tqdm(total=len(futures), disable=not progress, desc="fleet", unit="log") as bar:
+            for fut in as_completed(futures):
+                p, n = futures[fut]
+                try:
+                    r = fut.result()
+                except Exception as exc:
+                    reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
+                    r = {"unit": n, "path": p, "status": "failed", "reason": reason}
+                    d = out / "units" / n
+                    d.mkdir(parents=True, exist_ok=True)
+                    _atomic_write(d / "failed.json", json.dumps(r, indent=1))
+                record(r)
+                bar.update(1)
+    finally:
+        if own_client:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+def _quantiles(v: np.ndarray) -> dict[str, float]:
+    q = np.quantile(v, [0.0, 0.25, 0.5, 0.75, 1.0])
+    return {"n": int(v.size), "min": float(q[0]), "q1": float(q[1]), "median": float(q[2]),
+            "q3": float(q[3]), "max": float(q[4]), "mean": float(v.mean())}
+
+
+def write_summary(units: Sequence[dict[str, Any]], out: Path,
+                  spec: dict[str, dict[str, float]] | None) -> dict[str, Any]:
+    """summary.json, boxplot.png and summary.html of the fleet (module docstring)."""
+    from gyrodrift.characterize import png_data_uri, version
+    from gyrodrift.report_html import fleet_html
+
+    done = [u for u in units if u["status"] == "done"]
+    failed = [{"unit": u["unit"], "path": u["path"], "reason": u["reason"]}
+              for u in units if u["status"] != "done"]
+    dist: dict[str, dict[str, dict[str, float]]] = {}
+    series: dict[tuple[str, str], list[float]] = {}
+    for u in done:
+        for key, per in u["params"].items():
+            for chan, t in per.items():
+                series.setdefault((key, chan), []).append(float(t["value"]))
+    for (key, chan), vals in series.items():
+        dist.setdefault(key, {})[chan] = _quantiles(np.asarray(vals))
+    flagged = []
+    for u in done:
+        for key, per in u["params"].items():
+            for k in (key, _spec_key(key)):
+                lim = (spec or {}).get(k)
+                if not lim:
+                    continue
+                for chan, t in per.items():
+                    v = float(t["value"])
+                    if "max" in lim and v > lim["max"]:
+                        flagged.append({"unit": u["unit"], "parameter": k, "channel": chan,
+                                        "value": v, "limit": f"max {lim['max']:g}"})
+                    if "min" in lim and v < lim["min"]:
+                        flagged.append({"unit": u["unit"], "parameter": k, "channel": chan,
+                                        "value": v, "limit": f"min {lim['min']:g}"})
+    summary = {"version": version(), "n_units": len(units), "n_done": len(done),
+               "n_failed": len(failed), "failed": failed, "flagged": flagged,
+               "distribution": dist,
+               "units": [{"unit": u["unit"], "path": u["path"], "status": u["status"]}
+                         for u in units]}
+    images = []
+    if series:
+        png = _boxplot(series)
+        (out / "boxplot.png").write_bytes(png)
+        images.append(("Distribution over units per parameter and axis", png_data_uri(png)))
+    _atomic_write(out / "summary.json", json.dumps(summary, indent=1))
+    dist_head = ["parameter", "channel", "unit", "n", "min", "q1", "median", "q3", "max"]
+    units_si = {}
+    for u in done:
+        for key, per in u["params"].items():
+            for t in per.values():
+                units_si[key] = t["unit"]
+    dist_rows = [[key, chan, units_si.get(key, ""), d["n"]] + [f"{d[s]:.4g}" for s in
+                                                               ("min", "q1", "median", "q3",
+                                                                "max")]
+                 for key, per in dist.items() for chan, d in per.items()]
+    flagged_units = {f["unit"] for f in flagged}
+    page = fleet_html(
+        version=version(), n_done=len(done), n_failed=len(failed), n_flagged=len(flagged_units),
+        spec_name="spec" if spec else "", dist_head=dist_head, dist_rows=dist_rows,
+        images=images, flagged=flagged, failed=failed,
+        units=[{"name": u["unit"], "status": u["status"],
+                "link": f"units/{u['unit']}/result.json" if u["status"] == "done" else
+                f"units/{u['unit']}/failed.json"} for u in units])
+    _atomic_write(out / "summary.html", page)
+    return summary
+
+
+def _boxplot(series: dict[tuple[str, str], list[float]]) -> bytes:
+    import io
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = sorted({k for k, _ in series}, key=lambda k: [p[2] for p in PARAMS].index(k))
+    fig, axes = plt.subplots(1, len(keys), figsize=(3.0 * len(keys), 4.2), dpi=90,
+                             squeeze=False)
+    for ax, key in zip(axes[0], keys, strict=True):
+        chans = sorted(c for k, c in series if k == key)
+        ax.boxplot([series[(key, c)] for c in chans])
+        ax.set_xticks(range(1, len(chans) + 1), [c.split("_")[1] for c in chans])
+        ax.set_title(key.replace("_", " "), fontsize=8)
+        ax.ticklabel_format(axis="y", style="sci", scilimits=(-2, 3))
+        ax.grid(True, alpha=0.3)
+    fig.subplots_adjust(left=0.06, right=0.98, bottom=0.08, top=0.9, wspace=0.45)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png")
+    plt.close(fig)
+    return buf.getvalue()

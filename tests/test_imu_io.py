@@ -1,0 +1,242 @@
+"""Multi-channel IMU inputs (gyrodrift.imu_io): .npy, text tables, PSINS .imu, replay logs and
+ROS bags written by rosbags' own writers (rosbag1, rosbag2 with sqlite3 and MCAP storage)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gyrodrift.imu_io import CHANNELS, load_imu
+
+RATE = 100.0
+
+
+def _data(n: int = 400, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / RATE
+    vals = rng.standard_normal((n, 6)) * [1e-3, 2e-3, 3e-3, 1e-2, 2e-2, 3e-2] + [0, 0, 0, 0, 0,
+                                                                                   9.8]
+    return t, vals
+
+
+def _check(rec, vals: np.ndarray, rtol: float = 0.0) -> None:
+    assert rec.names == CHANNELS
+    assert rec.rate_hz == pytest.approx(RATE, rel=1e-9)
+    for j, name in enumerate(CHANNELS):
+        np.testing.assert_allclose(rec.channels[name], vals[:, j], rtol=rtol, atol=0)
+
+
+def test_npy_six_columns_and_chunked_spool(tmp_path: Path) -> None:
+    _, vals = _data()
+    np.save(tmp_path / "imu.npy", vals)
+    _check(load_imu(tmp_path / "imu.npy", rate_hz=RATE), vals)
+    # The chunked reader (fleet workers): chunks of 7 rows give the same values, memory-mapped.
+    rec = load_imu(tmp_path / "imu.npy", rate_hz=RATE, spool_dir=tmp_path / "spool",
+                   chunk_rows=7)
+    assert isinstance(rec.channels["gyro_x"], np.memmap)
+    _check(rec, vals)
+    with pytest.raises(ValueError, match="rate"):
+        load_imu(tmp_path / "imu.npy")
+
+
+def test_npy_units_and_named_columns(tmp_path: Path) -> None:
+    _, vals = _data()
+    np.save(tmp_path / "deg.npy", np.column_stack([vals[:, 3], np.degrees(vals[:, 0])]))
+    rec = load_imu(tmp_path / "deg.npy", rate_hz=RATE, columns=["accel_x", "gyro_x"],
+                   gyro_units="deg/s")
+    assert rec.names == ("gyro_x", "accel_x")
+    np.testing.assert_allclose(rec.channels["gyro_x"], vals[:, 0], rtol=1e-14)
+    # Angle increments per sample are divided by dt.
+    np.save(tmp_path / "inc.npy", vals[:, :3] / RATE)
+    rec = load_imu(tmp_path / "inc.npy", rate_hz=RATE, gyro_units="rad")
+    np.testing.assert_allclose(rec.channels["gyro_y"], vals[:, 1], rtol=1e-14)
+
+
+@pytest.mark.parametrize("delim,header", [(",", True), (",", False), (";", True),
+                                          (" ", False), ("\t", True)])
+def test_text_tables(tmp_path: Path, delim: str, header: bool) -> None:
+    t, vals = _data()
+    path = tmp_path / "imu.txt"
+    lines = []
+    if header:
+        lines.append(delim.join(["time", "gx", "gy", "gz", "ax", "ay", "az"]))
+    for k in range(t.size):
+        lines.append(delim.join([f"{t[k]:.6f}", *(repr(float(v)) for v in vals[k])]))
+    path.write_text("\n".join(lines) + "\n")
+    rec = load_imu(path)
+    _check(rec, vals)
+    assert rec.detail["time_column"] == ("time" if header else "0")
+
+
+def test_text_gaps_reordering_and_nan(tmp_path: Path) -> None:
+    t, vals = _data()
+    rows = np.column_stack([t, vals])
+    gap = tmp_path / "gap.csv"
+    np.savetxt(gap, np.delete(rows, 50, axis=0), delimiter=",", header="t_s,gx,gy,gz,ax,ay,az",
+               comments="")
+    with pytest.raises(ValueError, match="1 gaps"):
+        load_imu(gap)
+    swapped = rows.copy()
+    swapped[[60, 61]] = swapped[[61, 60]]
+    back = tmp_path / "back.csv"
+    np.savetxt(back, swapped, delimiter=",", header="t_s,gx,gy,gz,ax,ay,az", comments="")
+    with pytest.raises(ValueError, match="backward"):
+        load_imu(back)
+    bad = rows.copy()
+    bad[10, 3] = np.nan
+    nan = tmp_path / "nan.csv"
+    np.savetxt(nan, bad, delimiter=",", header="t_s,gx,gy,gz,ax,ay,az", comments="")
+    with pytest.raises(ValueError, match="1 of 400 samples"):
+        load_imu(nan)
+    rec = load_imu(nan, nan_policy="drop")
+    assert rec.n == 399 and rec.n_dropped == 1
+
+
+def _write_psins(path: Path, counts: np.ndarray, dt_ms: float = 10.0) -> None:
+    head = ["% PSINS-format SIMU log file. (DO NOT EDIT!)",
+            "0 0 0 0 0 0", f"34.2 108.9 380 0 {dt_ms} 9.78",
+            "0.1 0.1 0.1 125 125 125"]
+    body = [" ".join(str(int(c)) for c in row) for row in counts]
+    path.write_text("\n".join(head + body) + "\n")
+
+
+def test_psins_imu(tmp_path: Path) -> None:
+    rng = np.random.default_rng(5)
+    counts = rng.integers(-50, 50, size=(300, 6))
+    path = tmp_path / "rec.imu"
+    _write_psins(path, counts)
+    rec = load_imu(path)
+    arcsec = math.pi / 180.0 / 3600.0
+    # angle increment = count * 0.1 arcsec per 10 ms; velocity = count * 125 ug*s per 10 ms.
+    np.testing.assert_allclose(rec.channels["gyro_y"], counts[:, 1] * 0.1 * arcsec * 100.0,
+                               rtol=1e-14)
+    np.testing.assert_allclose(rec.channels["accel_z"],
+                               counts[:, 5] * 125e-6 * 9.80665 * 100.0, rtol=1e-14)
+    assert rec.rate_hz == pytest.approx(100.0)
+    # The one-channel reader (allan, psd, filter) takes it too, in deg/h.
+    from gyrodrift.io import load_record
+
+    one = load_record(path, column="x")
+    np.testing.assert_allclose(one.rate_deg_h, counts[:, 0] * 0.1 * 100.0, rtol=1e-12)
+
+
+def test_allan_cli_accepts_psins(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rng = np.random.default_rng(6)
+    path = tmp_path / "rec.imu"
+    _write_psins(path, rng.integers(-50, 50, size=(2000, 6)))
+    from gyrodrift.cli import main
+
+    assert main(["allan", str(path), "--column", "y", "--json"]) == 0
+    assert '"n_used": 2000' in capsys.readouterr().out
+
+
+def test_replay_log(tmp_path: Path) -> None:
+    from gyrodrift.replay.logs import write_imu_log
+
+    t, vals = _data()
+    path = write_imu_log(tmp_path / "imu.bin", t, vals[:, :3], vals[:, 3:])
+    rec = load_imu(path)
+    # The wire carries float32.
+    _check(rec, vals.astype(np.float32).astype(np.float64))
+    assert rec.fmt == "replay-log"
+
+
+# ------------------------------------------------------------------------------- ROS bags
+
+def _imu_msg(ts, i: int, t_ns: int, v: np.ndarray):
+    Imu = ts.types["sensor_msgs/msg/Imu"]
+    H = ts.types["std_msgs/msg/Header"]
+    T = ts.types["builtin_interfaces/msg/Time"]
+    V = ts.types["geometry_msgs/msg/Vector3"]
+    Q = ts.types["geometry_msgs/msg/Quaternion"]
+    hk = {"stamp": T(sec=t_ns // 10**9, nanosec=t_ns % 10**9), "frame_id": "imu"}
+    if "seq" in H.__dataclass_fields__:  # ROS 1 header
+        hk["seq"] = i
+    z9 = np.zeros(9)
+    return Imu(header=H(**hk), orientation=Q(x=0.0, y=0.0, z=0.0, w=1.0),
+               orientation_covariance=z9,
+               angular_velocity=V(x=float(v[0]), y=float(v[1]), z=float(v[2])),
+               angular_velocity_covariance=z9,
+               linear_acceleration=V(x=float(v[3]), y=float(v[4]), z=float(v[5])),
+               linear_acceleration_covariance=z9)
+
+
+def write_bag(path: Path, kind: str, vals: np.ndarray, *, order: np.ndarray | None = None,
+              extra_topic: bool = False) -> Path:
+    """A bag with /imu (and optionally /imu2) written by rosbags' writers; stamps 10 ms
+    apart, messages in `order` (default: time order)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    idx = np.arange(vals.shape[0]) if order is None else order
+    t0 = 1_700_000_000 * 10**9
+    if kind == "rosbag1":
+        from rosbags.rosbag1 import Writer as W1
+
+        ts = get_typestore(Stores.ROS1_NOETIC)
+        writer = W1(path)
+        ser = ts.serialize_ros1
+    else:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        ts = get_typestore(Stores.ROS2_HUMBLE)
+        plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+        writer = Writer(path, version=9, storage_plugin=plugin)
+        ser = ts.serialize_cdr
+    with writer as w:
+        topics = ["/imu", "/imu2"] if extra_topic else ["/imu"]
+        conns = [w.add_connection(tp, "sensor_msgs/msg/Imu", typestore=ts) for tp in topics]
+        for k, i in enumerate(idx):
+            t_ns = t0 + int(i) * 10_000_000
+            for c in conns:
+                w.write(c, t0 + k * 10_000_000,
+                        ser(_imu_msg(ts, int(i), t_ns, vals[i]), "sensor_msgs/msg/Imu"))
+    return path
+
+
+@pytest.mark.parametrize("kind", ["rosbag1", "sqlite3", "mcap"])
+def test_ros_bags(tmp_path: Path, kind: str) -> None:
+    _, vals = _data(n=200)
+    path = write_bag(tmp_path / ("imu.bag" if kind == "rosbag1" else "imu_bag"), kind, vals)
+    rec = load_imu(path)
+    _check(rec, vals)
+    assert rec.fmt == ("rosbag1" if kind == "rosbag1" else "rosbag2")
+    assert rec.detail["topic"] == "/imu"
+    if kind != "rosbag1":
+        # The storage file itself is accepted too.
+        storage = next(path.glob("*.mcap" if kind == "mcap" else "*.db3"))
+        _check(load_imu(storage), vals)
+
+
+@pytest.mark.parametrize("kind", ["rosbag1", "sqlite3", "mcap"])
+def test_ros_bag_topics_and_reordering(tmp_path: Path, kind: str) -> None:
+    _, vals = _data(n=100)
+    two = write_bag(tmp_path / ("two.bag" if kind == "rosbag1" else "two"), kind, vals,
+                    extra_topic=True)
+    with pytest.raises(ValueError, match=r"--topic.*/imu \(100 messages\), /imu2"):
+        load_imu(two)
+    _check(load_imu(two, topic="/imu2"), vals)
+    with pytest.raises(ValueError, match="no sensor_msgs/msg/Imu topic '/nope'"):
+        load_imu(two, topic="/nope")
+    order = np.arange(100)
+    order[[40, 41]] = order[[41, 40]]
+    swapped = write_bag(tmp_path / ("sw.bag" if kind == "rosbag1" else "sw"), kind, vals,
+                        order=order)
+    with pytest.raises(ValueError, match="backward"):
+        load_imu(swapped)
+    gap = write_bag(tmp_path / ("gap.bag" if kind == "rosbag1" else "gap"), kind, vals,
+                    order=np.delete(np.arange(100), 30))
+    with pytest.raises(ValueError, match="1 gaps"):
+        load_imu(gap)
+
+
+def test_characterize_cli_lists_bag_topics(tmp_path: Path,
+                                          capsys: pytest.CaptureFixture[str]) -> None:
+    _, vals = _data(n=50)
+    two = write_bag(tmp_path / "two.bag", "rosbag1", vals, extra_topic=True)
+    from gyrodrift.cli import main
+
+    assert main(["characterize", str(two)]) == 2
+    err = capsys.readouterr().err
+    assert "/imu (50 messages), /imu2 (50 messages)" in err
