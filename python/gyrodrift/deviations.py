@@ -24,7 +24,7 @@ Example:
     >>> import numpy as np, gyrodrift
     >>> y = np.random.default_rng(0).standard_normal(10_000)
     >>> r = gyrodrift.deviation(y, 100.0, "mdev")
-    >>> r.deviation, r.tau_s[0], r.noise_id[0]
+    >>> r.deviation, float(r.tau_s[0]), str(r.noise_id[0])
     ('mdev', 0.01, 'acf')
 """
 

@@ -106,7 +106,7 @@ def edf_greenhall(alpha: int, d: int, m: int, n_phase: int, *, overlapping: bool
 
     Example:
         >>> round(edf_greenhall(0, 2, 1, 1001, overlapping=True, modified=True), 1)
-        998.4
+        782.0
     """
     alpha, d, m, n = int(alpha), int(d), int(m), int(n_phase)
     if d not in (1, 2, 3):

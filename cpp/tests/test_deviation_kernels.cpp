@@ -1,0 +1,188 @@
+// Deviation-family kernels (include/gyrodrift/deviation_*.hpp) against their definitions
+// (explicit window sums in long double, NIST SP 1065 eqs. 14, 18, 20, 25 on the rate),
+// the blocked in-memory drivers against the streaming ones, chunk splits, a large constant
+// rate, float input, bad factors, and no allocation.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <gyrodrift/deviation_blocked.hpp>
+#include <gyrodrift/deviation_hadamard.hpp>
+#include <gyrodrift/deviation_modified.hpp>
+#include <gyrodrift/deviation_total.hpp>
+#include <vector>
+
+#include "alloc_counter.hpp"
+
+namespace {
+
+std::vector<double> record(std::size_t n, double offset, std::uint64_t seed) {
+  std::vector<double> y(n);
+  std::uint64_t s = seed;
+  double walk = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+    const double u = static_cast<double>(s >> 11) * 0x1.0p-53 * 2.0 - 1.0;
+    walk += 1e-3 * u;
+    y[i] = offset + u + walk;
+  }
+  return y;
+}
+
+long double window(const std::vector<double>& y, std::ptrdiff_t start, std::size_t m,
+                   bool reflect) {
+  long double s = 0.0L;
+  for (std::size_t k = 0; k < m; ++k) {
+    const std::ptrdiff_t idx = start + static_cast<std::ptrdiff_t>(k);
+    s += static_cast<long double>(
+        reflect ? gyrodrift::totdev_reflected(y.data(), y.size(), idx)
+                : y[static_cast<std::size_t>(idx)]);
+  }
+  return s;
+}
+
+// Definitions, O(N m) (long double window sums S_i).
+long double def_mdev(const std::vector<double>& y, std::size_t m) {
+  const std::size_t n = y.size() - 3 * m + 2;
+  long double sum = 0.0L;
+  for (std::size_t j = 0; j < n; ++j) {
+    long double v = 0.0L;
+    for (std::size_t i = j; i < j + m; ++i) {
+      const auto is = static_cast<std::ptrdiff_t>(i);
+      const auto ms = static_cast<std::ptrdiff_t>(m);
+      v += window(y, is + ms, m, false) - window(y, is, m, false);
+    }
+    sum += v * v;
+  }
+  const long double mm = static_cast<long double>(m);
+  return sum / (2.0L * mm * mm * mm * mm * static_cast<long double>(n));
+}
+
+long double def_hadamard(const std::vector<double>& y, std::size_t m, std::size_t stride) {
+  long double sum = 0.0L;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i + 3 * m <= y.size(); i += stride) {
+    const auto is = static_cast<std::ptrdiff_t>(i);
+    const auto ms = static_cast<std::ptrdiff_t>(m);
+    const long double h = window(y, is + 2 * ms, m, false) -
+                          2.0L * window(y, is + ms, m, false) + window(y, is, m, false);
+    sum += h * h;
+    ++n;
+  }
+  const long double mm = static_cast<long double>(m);
+  return sum / (6.0L * mm * mm * static_cast<long double>(n));
+}
+
+long double def_totdev(const std::vector<double>& y, std::size_t m) {
+  const std::size_t n = y.size() - 1;
+  long double sum = 0.0L;
+  const auto ms = static_cast<std::ptrdiff_t>(m);
+  for (std::size_t i = 1; i <= n; ++i) {
+    const auto is = static_cast<std::ptrdiff_t>(i);
+    const long double d = window(y, is, m, true) - window(y, is - ms, m, true);
+    sum += d * d;
+  }
+  const long double mm = static_cast<long double>(m);
+  return sum / (2.0L * mm * mm * static_cast<long double>(n));
+}
+
+double rel(double a, long double b) {
+  return static_cast<double>(std::fabs(static_cast<long double>(a) / b - 1.0L));
+}
+
+}  // namespace
+
+TEST_CASE("every kernel equals its definition, streaming and blocked, large offset") {
+  const auto y = record(3001, 1.0e4, 7);  // offset 1e4 on unit noise
+  double work[3 * gyrodrift::blocked_detail::kBlock];
+  for (std::size_t m : {1u, 2u, 5u, 64u, 333u, 1000u}) {
+    double s2 = 0.0;
+    std::size_t terms = 0;
+    const long double md = def_mdev(y, m);
+    REQUIRE(gyrodrift::mdev<double, double>(y.data(), y.size(), &m, 1, &s2, &terms));
+    CHECK(rel(s2, md) < 1e-10);
+    REQUIRE(gyrodrift::mdev_blocked(y.data(), y.size(), m, s2, terms));
+    CHECK(rel(s2, md) < 1e-10);
+    CHECK(terms == y.size() - 3 * m + 2);
+    const long double oh = def_hadamard(y, m, 1);
+    REQUIRE(gyrodrift::ohdev<double, double>(y.data(), y.size(), &m, 1, &s2, &terms));
+    CHECK(rel(s2, oh) < 1e-10);
+    REQUIRE(gyrodrift::ohdev_blocked(y.data(), y.size(), m, s2, terms));
+    CHECK(rel(s2, oh) < 1e-10);
+    if (m <= gyrodrift::hdev_max_m(y.size())) {
+      REQUIRE(gyrodrift::hdev<double, double>(y.data(), y.size(), &m, 1, &s2, &terms));
+      CHECK(rel(s2, def_hadamard(y, m, m)) < 1e-10);
+    }
+    const long double td = def_totdev(y, m);
+    REQUIRE(gyrodrift::totdev<double, double>(y.data(), y.size(), &m, 1, work,
+                                              gyrodrift::blocked_detail::kBlock, &s2,
+                                              &terms));
+    CHECK(rel(s2, td) < 1e-10);
+    REQUIRE(gyrodrift::totdev_blocked(y.data(), y.size(), m, work, s2, terms));
+    CHECK(rel(s2, td) < 1e-10);
+  }
+}
+
+TEST_CASE("streaming splits give the whole-array result; hdev cascade equals per tau") {
+  const auto y = record(5000, 3.0, 11);
+  const std::size_t m = 37;
+  double whole = 0.0;
+  std::size_t terms = 0;
+  REQUIRE(gyrodrift::mdev<double, double>(y.data(), y.size(), &m, 1, &whole, &terms));
+  gyrodrift::ModAllanSums<long double> s;
+  const double* p = y.data();
+  gyrodrift::mdev_rate_seed_diff(s, p, p + m, 10);
+  gyrodrift::mdev_rate_seed_diff(s, p + 10, p + m + 10, m - 10);
+  gyrodrift::mdev_rate_seed_inner(s, p, p + m, p + 2 * m, 20);
+  gyrodrift::mdev_rate_seed_inner(s, p + 20, p + m + 20, p + 2 * m + 20, m - 20);
+  const std::size_t n_adv = y.size() - 3 * m;
+  gyrodrift::mdev_rate_advance(s, p, p + m, p + 2 * m, p + 3 * m, 1000);
+  gyrodrift::mdev_rate_advance(s, p + 1000, p + m + 1000, p + 2 * m + 1000, p + 3 * m + 1000,
+                               n_adv - 1000);
+  gyrodrift::mdev_rate_finish(s);
+  double split = 0.0;
+  REQUIRE(gyrodrift::mdev_sigma2(s, m, split));
+  CHECK(split == whole);
+  const std::size_t ms[] = {1, 2, 4, 8, 12, 16, 48, 300, 1024};
+  double cascade[9];
+  std::size_t ct[9];
+  gyrodrift::HdevCascade<16> hc;
+  REQUIRE(hc.plan(y.size(), ms, 9));
+  std::vector<long double> wk(hc.workspace_len());
+  REQUIRE(hc.run(y.data(), wk.data(), wk.size(), cascade, ct));
+  for (std::size_t j = 0; j < 9; ++j) {
+    double per = 0.0;
+    std::size_t t = 0;
+    REQUIRE(gyrodrift::hdev<double, double>(y.data(), y.size(), &ms[j], 1, &per, &t));
+    CHECK(rel(cascade[j], per) < 1e-13);
+    CHECK(ct[j] == t);
+  }
+}
+
+TEST_CASE("float input, bad factors, no allocation") {
+  const auto y = record(2000, 0.5, 3);
+  std::vector<float> yf(y.begin(), y.end());
+  const std::size_t m = 9;
+  double a = 0.0;
+  double b = 0.0;
+  std::size_t t = 0;
+  std::vector<double> yd(yf.begin(), yf.end());
+  REQUIRE(gyrodrift::ohdev_blocked(yf.data(), yf.size(), m, a, t));
+  REQUIRE(gyrodrift::ohdev_blocked(yd.data(), yd.size(), m, b, t));
+  CHECK(rel(a, b) < 1e-14);  // same values, float only in storage
+  const std::size_t too_big = gyrodrift::mdev_max_m(y.size()) + 1;
+  CHECK_FALSE(gyrodrift::mdev_blocked(y.data(), y.size(), too_big, a, t));
+  CHECK_FALSE(gyrodrift::ohdev_blocked(y.data(), y.size(), 0, a, t));
+  double work[3 * gyrodrift::blocked_detail::kBlock];
+  CHECK_FALSE(gyrodrift::totdev_blocked(y.data(), y.size(), y.size() + 1, work, a, t));
+  bool ok = true;
+  gyrodrift::test::AllocationScope scope;
+  ok = ok && gyrodrift::mdev_blocked(y.data(), y.size(), m, a, t);
+  ok = ok && gyrodrift::totdev_blocked(y.data(), y.size(), m, work, a, t);
+  ok = ok && gyrodrift::ohdev<double, double>(y.data(), y.size(), &m, 1, &a, &t);
+  const long n_alloc = scope.allocations();  // read before any CHECK (doctest allocates)
+  CHECK(ok);
+  CHECK(n_alloc == 0);
+}
