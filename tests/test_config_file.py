@@ -242,3 +242,22 @@ def test_committed_cortex_m_header_is_generated(tmp_path: Path) -> None:
     cfg = load_config(root / "budget_config.toml")
     want = emit_cpp(cfg, "budget_config", source="budget_config.toml")
     assert (root / "generated" / "gyrodrift_budget_config.hpp").read_text() == want
+
+
+def test_replay_with_config_passes(tmp_path: Path) -> None:
+    """`gyrodrift replay --config` gives the file to the loop (--config) and the reference."""
+    import json as _json
+
+    from gyrodrift.cli import main
+
+    path = write_config(default_config(), tmp_path / "d.toml")
+    out = tmp_path / "rep"
+    code = main(["replay", "--config", str(path), "--fast", "--no-rt", "--duration-s", "1.5",
+                 "--drop", "0.02", "--duplicate", "0.02", "--out-dir", str(out)])
+    report = _json.loads((out / "report.json").read_text())
+    assert code == 0, report.get("checks")
+    assert report["processor"]["config"]["channels"]["gx"]["stages"][0]["type"] == "wavelet"
+    bad = tmp_path / "r.toml"
+    bad.write_text(path.read_text().replace("sample_rate_hz = 400.0", "sample_rate_hz = 100.0"))
+    assert main(["replay", "--config", str(bad), "--rate-hz", "400", "--fast",
+                 "--out-dir", str(out)]) == 2  # contradicting rates: refused
