@@ -45,12 +45,15 @@ def test_wheel_contains_loop_and_replays_from_a_clean_venv(tmp_path: Path) -> No
     site = Path(subprocess.run([str(py), "-c", "import sysconfig; print(sysconfig.get_path("
                                 "'purelib'))"], capture_output=True, text=True,
                                check=True).stdout.strip())
-    (site / "zz_shared_deps.pth").write_text(sysconfig.get_path("purelib") + "\n")
+    # Install first: with the .pth in place pip would see the shared venv's gyrodrift as
+    # "already satisfied".
     inst = subprocess.run(
         [sys.executable, "-m", "pip", "--python", str(py), "install", "--no-deps", "--no-index",
          str(wheels[0]), "-q"], capture_output=True, text=True, env=env, timeout=600,
         check=False)
     assert inst.returncode == 0, inst.stderr[-3000:]
+    assert (env_dir / "bin" / "gyrodrift-loop").is_file()
+    (site / "zz_shared_deps.pth").write_text(sysconfig.get_path("purelib") + "\n")
     clean = {"PATH": "/usr/bin:/bin", "HOME": str(tmp_path), "LANG": "C.UTF-8"}
     where = subprocess.run(
         [str(py), "-c", "import gyrodrift, gyrodrift._core; "

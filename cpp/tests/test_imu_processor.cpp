@@ -11,6 +11,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <gyrodrift/ar2_steady_state.hpp>
+#include <gyrodrift/fir_prefilter.hpp>
 #include <gyrodrift/imu_processor.hpp>
 #include <gyrodrift/realtime_wavelet.hpp>
 #include <limits>
@@ -236,4 +238,64 @@ TEST_CASE("invalid configuration rejects every sample") {
   ImuProcessor<float> p3(cfg3);
   CHECK(p3.status() == ImuStatus::bad_channel_config);
   CHECK(p3.bad_channel() == 1);
+}
+
+// Issue 12: FirPrefilter (flash taps, one circular window) is RealtimeWavelet's forced mode
+// bit for bit when given its taps; NaN skipped the same way.
+TEST_CASE("FirPrefilter equals RealtimeWavelet forced bit for bit") {
+  using W = RealtimeWavelet<float, 64>;
+  W rt(WaveletKind::db4, 3);
+  FirPrefilter<float, 64> fir(rt.taps());
+  REQUIRE(fir.status() == FirPrefilterStatus::ok);
+  std::mt19937 gen(7);
+  std::normal_distribution<float> d(0.5f, 0.1f);
+  for (int k = 0; k < 500; ++k) {
+    const float x = (k % 97 == 50) ? std::numeric_limits<float>::quiet_NaN() : d(gen);
+    const float a = rt.step(x), b = fir.step(x);
+    REQUIRE(std::memcmp(&a, &b, sizeof a) == 0);
+  }
+  CHECK(fir.fault_count() == rt.fault_count());
+  CHECK(FirPrefilter<float, 64>().status() == FirPrefilterStatus::no_taps);
+}
+
+// Issue 12: the chain wavelet -> steady-state AR(2)-Kalman equals the two filters run by hand,
+// a missing value is "missing" for the second stage, and the wavelet exists only on the first
+// WaveletChannels channels (asking for it on channel 3 of a 3-channel build is refused).
+TEST_CASE("chain wavelet -> steady-state Kalman; WaveletChannels") {
+  using W = RealtimeWavelet<float, 64, false>;
+  ImuConfig<float> cfg;
+  for (auto& cc : cfg.channels) cc.filter = ChannelFilter::pass_through;
+  auto& g = cfg.channels[0];
+  g.filter = ChannelFilter::wavelet;
+  g.filter2 = ChannelFilter::ar2_kalman;
+  g.steady_state = true;
+  g.model = Ar2Model<float>{0.6868f, -0.0213f, 0.01f, 0.5f};
+  g.q = 0.01f;
+  g.r = 0.02f;
+  ImuProcessor<float, W, 3> p(cfg, W(WaveletKind::db4, 3));
+  REQUIRE(p.status() == ImuStatus::ok);
+  W w(WaveletKind::db4, 3);
+  Ar2SteadyStateKalman<float> kf(g.model, g.q, g.r);
+  ImuSample<float> s;
+  ImuOutput<float> y;
+  std::mt19937 gen(3);
+  std::normal_distribution<float> d(0.5f, 0.1f);
+  for (std::uint16_t k = 0; k < 300; ++k) {
+    s.seq = k;
+    s.t_us = 2500u * k;
+    s.values.fill(1.0f);
+    s.values[0] = (k == 150) ? std::numeric_limits<float>::quiet_NaN() : d(gen);
+    p.step(s, y);
+    const float pre = w.step(s.values[0]);
+    const float want = kf.step(std::isfinite(s.values[0]) ? pre : std::numeric_limits<float>::quiet_NaN());
+    REQUIRE(std::memcmp(&want, &y.values[0], sizeof want) == 0);
+  }
+  cfg.channels[3].filter = ChannelFilter::wavelet;
+  ImuProcessor<float, W, 3> q(cfg, W(WaveletKind::db4, 3));
+  CHECK(q.status() == ImuStatus::wavelet_unavailable);
+  CHECK(q.bad_channel() == 3);
+  cfg.channels[3].filter = ChannelFilter::pass_through;
+  cfg.channels[0].filter2 = ChannelFilter::wavelet;  // a stage twice
+  ImuProcessor<float, W, 3> r(cfg, W(WaveletKind::db4, 3));
+  CHECK(r.status() == ImuStatus::bad_channel_config);
 }

@@ -29,6 +29,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Union
 
+from gyrodrift.errors import GyrodriftValueError
+
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - Python 3.10
@@ -72,8 +74,9 @@ _OTHER_SUFFIXES = (
 )
 
 
-class ConfigError(ValueError):
-    """A configuration problem: a one-line message that starts with the offending key."""
+class ConfigError(GyrodriftValueError):
+    """A configuration problem: a one-line message that starts with the offending key
+    (`.key`). A GyrodriftValueError (so also a ValueError)."""
 
     def __init__(self, key: str, message: str) -> None:
         self.key = key
