@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gyrodrift.earth import ARCSEC, DPH, DPSH, UG
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.simulate import simulate
 
 __all__ = [
@@ -32,6 +33,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class ImuErrors:
+    """IMU error model of the alignment study (biases in deg/h and micro-g, noise densities,
+    quantization, dither residue).
+
+    Examples
+    --------
+    >>> ImuErrors(arw_deg_rt_h=0.002).arw_deg_rt_h
+    0.002
+    """
     gyro_bias_deg_h: tuple[float, float, float] = (0.01, 0.01, 0.01)
     arw_deg_rt_h: float = 0.001  # N, deg/sqrt(h)
     bias_instability_deg_h: float = 0.0  # B, deg/h
@@ -80,7 +89,7 @@ def add_imu_errors(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, err: ImuErro
     if err.timing_offset_samples > 0.0:
         f = err.timing_offset_samples
         if f > 1.0:
-            raise ValueError("timing_offset_samples must be in [0, 1]")
+            raise GyrodriftValueError("timing_offset_samples must be in [0, 1]")
         prev = np.vstack([a[:1], a[:-1]])
         a = (1.0 - f) * a + f * prev
     if err.accel_lsb_m_s > 0.0:
@@ -89,7 +98,14 @@ def add_imu_errors(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, err: ImuErro
 
 
 def kf_noise_from_spec(err: ImuErrors) -> tuple[float, float]:
-    """(ARW rad/sqrt(s), VRW m/s/sqrt(s)) for the KF process noise from the specification."""
+    """(ARW rad/sqrt(s), VRW m/s/sqrt(s)) for the KF process noise from the specification.
+
+    Examples
+    --------
+    >>> arw, vrw = kf_noise_from_spec(ImuErrors(arw_deg_rt_h=0.001))
+    >>> round(arw / DPSH, 6)
+    0.001
+    """
     return err.arw_deg_rt_h * DPSH, max(err.vrw_ug_rt_hz, 1e-3) * UG
 
 
