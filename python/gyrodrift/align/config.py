@@ -112,6 +112,7 @@ class AlignResult:
     coarse_cnb : (3, 3) C_b^n at the end of coarse alignment.
     bad_samples : non-finite samples counted and skipped (C++ pipeline; 0 for the reference).
     failed : the pipeline stopped (coarse solve or KF numerics failed).
+    reason : why it failed ("" when it did not; filled when the binding reports one).
 
     Examples
     --------
@@ -129,10 +130,11 @@ class AlignResult:
     coarse_cnb: np.ndarray
     bad_samples: int = 0
     failed: bool = False
+    reason: str = ""
 
     def as_dict(self) -> dict[str, object]:
         """JSON-ready values (arrays as nested lists)."""
         return {"t_s": self.t_s.tolist(), "att": self.att.tolist(), "eb": self.eb.tolist(),
                 "db": self.db.tolist(), "p_phi": self.p_phi.tolist(),
                 "coarse_cnb": self.coarse_cnb.tolist(), "bad_samples": int(self.bad_samples),
-                "failed": bool(self.failed)}
+                "failed": bool(self.failed), "reason": self.reason}

@@ -75,7 +75,8 @@ def run_alignment(dtheta: np.ndarray, dv: np.ndarray, cfg: AlignConfig) -> Align
     c.taps = [] if cfg.taps is None else np.asarray(cfg.taps, dtype=np.float64)[::-1]
     out = core.align_run(_n3("dtheta", dtheta), _n3("dv", dv), c)
     return AlignResult(out["t_s"], out["att"], out["eb"], out["db"], out["p_phi"],
-                       out["coarse_cnb"], int(out["bad_samples"]), bool(out["failed"]))
+                       out["coarse_cnb"], int(out["bad_samples"]), bool(out["failed"]),
+                       str(out.get("reason", "")))
 
 
 def strapdown_run(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, q0: np.ndarray,
