@@ -97,3 +97,27 @@ def test_every_api_name_has_an_example() -> None:
         if ">>>" not in doc:
             missing.append(name)
     assert not missing, f"API names without a docstring example: {missing}"
+
+
+def test_one_core_loader_with_one_message(monkeypatch: pytest.MonkeyPatch) -> None:
+    """gyrodrift._native.core() is the only place that imports the extension; a missing
+    extension or binding area is one clear ImportError."""
+    from gyrodrift import _native
+
+    assert _native.core("ar2", "ar2_fit").__name__ == "gyrodrift._core"
+    with pytest.raises(ImportError, match="built without the 'nope' binding area"):
+        _native.core("nope", "no_such_function")
+    monkeypatch.setitem(sys.modules, "gyrodrift._core", None)  # import now fails
+    monkeypatch.delattr(gyrodrift, "_core", raising=False)
+    with pytest.raises(ImportError, match="C\\+\\+ extension\\) is not available"):
+        _native.core()
+    # no other module imports the extension itself
+    pkg = os.path.dirname(gyrodrift.__file__)
+    offenders = []
+    for root, _, files in os.walk(pkg):
+        for f in files:
+            if f.endswith(".py") and f != "_native.py":
+                text = open(os.path.join(root, f), encoding="utf-8").read()
+                if "from gyrodrift import _core" in text or "import gyrodrift._core" in text:
+                    offenders.append(f)
+    assert not offenders
