@@ -71,6 +71,13 @@ def convergence_time_s(t_s: np.ndarray, psi: np.ndarray, band_rad: float = BAND_
 
 @dataclass
 class StudyConfig:
+    """Settings of a Monte Carlo alignment study (record length in s, rates in Hz).
+
+    Examples
+    --------
+    >>> StudyConfig(scenario="static", runs=2).duration_s
+    1800.0
+    """
     scenario: str = "ship_mild"
     runs: int = 30
     duration_s: float = 1800.0
@@ -187,7 +194,14 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
 
 
 def misalignment_batch(att: np.ndarray, cnb_true: np.ndarray) -> np.ndarray:
-    """Vectorised `attitude.misalignment` for (m, 3) Euler angles against (m, 3, 3) truth."""
+    """Vectorised `attitude.misalignment` for (m, 3) Euler angles against (m, 3, 3) truth.
+
+    Examples
+    --------
+    >>> att = np.zeros((2, 3))
+    >>> misalignment_batch(att, np.stack([np.eye(3)] * 2)).tolist()
+    [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    """
     c_est = _dcm_vec(att.T)
     d = np.einsum("nij,nkj->nik", cnb_true, c_est)  # C_true C_est^T = I + [phi x]
     return 0.5 * np.stack([d[:, 2, 1] - d[:, 1, 2], d[:, 0, 2] - d[:, 2, 0],
