@@ -291,6 +291,11 @@ def lag1_noise_id(y: np.ndarray, m: int, *, dmax: int = 2, max_points: int = 1 <
     (d times) until delta < 0.25; alpha = -round(2 delta) - 2 d. Uses at most `max_points`
     averages (the first max_points * m samples): the sd of r1 is ~1/sqrt(points).
     Returns None when fewer than 30 averages exist (the method's minimum).
+
+    Examples
+    --------
+    >>> lag1_noise_id(np.random.default_rng(0).standard_normal(10_000), 1)  # white FM
+    0
     """
     y = np.asarray(y, dtype=np.float64)
     n_avg = min(y.size // m, max_points)

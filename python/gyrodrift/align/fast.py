@@ -82,7 +82,16 @@ def run_alignment(dtheta: np.ndarray, dv: np.ndarray, cfg: AlignConfig) -> Align
 def strapdown_run(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, q0: np.ndarray,
                   v0: np.ndarray,
                   pos0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """C++ strapdown over increments: (q history, v history, final position, skipped count)."""
+    """C++ strapdown over increments: (q history, v history, final position, skipped count).
+
+    Examples
+    --------
+    >>> q0, pos0 = np.array([1.0, 0, 0, 0]), np.array([0.7, 2.0, 0.0])
+    >>> q, v, pos, bad = strapdown_run(np.zeros((10, 3)), np.zeros((10, 3)), 0.01, q0,
+    ...                                np.zeros(3), pos0)
+    >>> q.shape, v.shape, bad
+    ((10, 4), (10, 3), 0)
+    """
     return _core().strapdown_run(_n3("dtheta", dtheta), _n3("dv", dv), float(dt_s),
                                  np.asarray(q0, dtype=np.float64), np.asarray(v0, dtype=np.float64),
                                  np.asarray(pos0, dtype=np.float64))
@@ -90,6 +99,16 @@ def strapdown_run(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, q0: np.ndarra
 
 def coarse_align(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, lat_rad: float, h_m: float,
                  position_integral: bool = True) -> np.ndarray:
-    """C++ inertial-frame coarse alignment over the whole window; C_b^n at its end."""
+    """C++ inertial-frame coarse alignment over the whole window; C_b^n at its end.
+
+    Examples
+    --------
+    >>> from gyrodrift.align import imu_increments, scenario
+    >>> sc = scenario("static")
+    >>> dth, dv = imu_increments(sc, 4000, 0.01)
+    >>> c = coarse_align(dth, dv, 0.01, sc.lat_rad, sc.h_m)
+    >>> bool(np.allclose(c @ c.T, np.eye(3)))  # a rotation matrix
+    True
+    """
     return _core().coarse_align(_n3("dtheta", dtheta), _n3("dv", dv), float(dt_s),
                                 float(lat_rad), float(h_m), bool(position_integral))

@@ -34,6 +34,13 @@ __all__ = [
 
 @dataclass
 class Sinusoid:
+    """One sinusoidal motion term: amplitude (rad for angles, m for sway), period, phase.
+
+    Examples
+    --------
+    >>> Sinusoid(amp=0.01, period_s=8.0).phase_rad
+    0.0
+    """
     amp: float  # rad (angles) or m (sway)
     period_s: float
     phase_rad: float = 0.0
@@ -41,7 +48,13 @@ class Sinusoid:
 
 @dataclass
 class Scenario:
-    """A rocking-base motion. Angles: [pitch, roll, yaw] means plus sinusoids per axis."""
+    """A rocking-base motion. Angles: [pitch, roll, yaw] means plus sinusoids per axis.
+
+    Examples
+    --------
+    >>> Scenario(name="at rest").lever_arm_m.tolist()
+    [0.0, 0.0, 0.0]
+    """
 
     name: str
     att0_rad: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 30.0 * DEG]))
