@@ -159,9 +159,15 @@ def test_semicolon_csv_is_read(tmp_path: Path, capsys) -> None:
 
 
 @pytest.mark.parametrize("rate", ["1e-300", "1e300", "0", "-5", "nan", "inf"])
-def test_absurd_rates(rec: Path, capsys, rate: str) -> None:
-    code, _, err = run(capsys, "allan", rec, "--rate-hz", rate)
-    one_line_error(code, err, "rate")
+def test_absurd_rates(tmp_path: Path, rec: Path, capsys, rate: str) -> None:
+    before = files(tmp_path)
+    for argv in (("allan", rec, "--rate-hz", rate),
+                 ("simulate", "-o", tmp_path / "s.npy", "--n", "100", "--rate-hz", rate,
+                  "--arw-deg-rt-h", "1"),
+                 ("wavelet-response", "--rate-hz", rate, "--png", tmp_path / "w.png")):
+        code, _, err = run(capsys, *argv)
+        one_line_error(code, err, "rate")
+    assert files(tmp_path) == before
 
 
 # ----------------------------------------------------- refused instead of accepted
