@@ -256,3 +256,33 @@ def test_ctrl_c_exits_130_with_one_line_and_no_partial_output(tmp_path: Path) ->
     assert proc.returncode == 130, text
     assert text.strip().splitlines() == ["gyrodrift align: interrupted"]
     assert not out.exists()
+
+
+def test_ctrl_c_during_replay_ends_the_loop_child(tmp_path: Path, cpp_build_dir: Path) -> None:
+    """SIGINT to the command alone (not its process group, so the loop child gets no signal
+    of its own) while the replay runs: the harness ends the gyrodrift-loop child, the command
+    exits 130 with one line and leaves no report files."""
+    from gyrodrift.replay.harness import LOOP_RELATIVE
+
+    out = tmp_path / "rep"
+    proc = _cli("replay", "--duration-s", "120", "--no-rt", "--out-dir", out,
+                "--loop-binary", cpp_build_dir / LOOP_RELATIVE, stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE, start_new_session=True)
+
+    def children() -> list[int]:
+        got = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True)
+        return [int(x) for x in got.stdout.split()]
+
+    deadline = time.monotonic() + 180
+    while not children() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    kids = children()
+    assert kids, "the replay did not start its loop child"
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err.decode()
+    assert err.decode().strip().splitlines() == ["gyrodrift replay: interrupted"]
+    time.sleep(0.5)
+    assert not [k for k in kids if Path(f"/proc/{k}").exists()], "loop child still running"
+    assert not out.exists() or files(out) == set()
