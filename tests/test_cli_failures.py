@@ -286,3 +286,25 @@ def test_ctrl_c_during_replay_ends_the_loop_child(tmp_path: Path, cpp_build_dir:
     time.sleep(0.5)
     assert not [k for k in kids if Path(f"/proc/{k}").exists()], "loop child still running"
     assert not out.exists() or files(out) == set()
+
+
+@pytest.mark.parametrize("failing", ["plot_allan", "plot_psd"])
+def test_compare_failure_midway_leaves_no_file(tmp_path: Path, rec: Path, capsys,
+                                               monkeypatch: pytest.MonkeyPatch,
+                                               failing: str) -> None:
+    """`compare --out-dir` writes five files; a writer that fails after writing part of its
+    file (a full disk) must leave none of them, partial or complete, and no directory it
+    made. Before, compare.md and compare.csv stayed, and the failing PNG stayed half
+    written (issue 13)."""
+    from gyrodrift import plots
+
+    def fail_midway(series: object, path: str | Path, **kw: object) -> None:
+        Path(path).write_bytes(b"\x89PNG partial")
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(plots, failing, fail_midway)
+    out = tmp_path / "report"
+    code, _, err = run(capsys, "compare", rec, "--rate-hz", "100", "--out-dir", out)
+    one_line_error(code, err, "No space left on device")
+    assert not out.exists() or files(out) == set(), files(out)
+    assert files(tmp_path) == {"rec.npy"} or files(tmp_path) == {"rec.npy", "report"}
