@@ -218,7 +218,8 @@ class OadevStream {
 };
 
 // Fused multi-tau sums for a record read in pieces (memory-mapped files): plan, seeds,
-// consecutive term ranges with one window of y per segment, finish.
+// consecutive term ranges with one window of y per segment, finish. Like OadevStream, every
+// method touching the sums runs under the stream's lock (shared by threads: issue 13).
 class OadevFusedStream {
  public:
   OadevFusedStream(std::int64_t n_data, const CArray<std::int64_t>& m_in, std::int64_t block)
@@ -257,6 +258,7 @@ class OadevFusedStream {
     const auto n = static_cast<std::size_t>(lo.shape(0));
     require_finite(lo.data(), n, "lo");
     require_finite(hi.data(), n, "hi");
+    ReleasedAndLocked guard(this);  // GIL released, then this stream's lock
     fused_->seed_add(j, lo.data(), hi.data(), n);
   }
 
@@ -265,7 +267,6 @@ class OadevFusedStream {
     if (static_cast<std::size_t>(py::len(windows)) != n_seg) {
       throw py::value_error("process(): need one window per segment");
     }
-    if (b_begin != next_) throw py::value_error("process(): term ranges must be consecutive");
     std::vector<CArray<double>> keep;
     std::vector<const double*> bases(n_seg, nullptr);
     keep.reserve(n_seg);
@@ -285,24 +286,39 @@ class OadevFusedStream {
       require_finite(w.data(), have, "window");
       bases[k] = w.data();
     }
+    // The order check, the work and the move of next_ are one step under the stream's lock:
+    // checked before the lock, a second call on the same range passed while the first one
+    // was still running (GIL released) and the sums counted the range twice (issue 13).
+    bool in_order = false;
     bool ok = false;
     {
-      py::gil_scoped_release release;
-      ok = fused_->process_blocks(bases.data(), b_begin, b_end, work_.data(), work_.size());
+      ReleasedAndLocked guard(this);
+      in_order = b_begin == next_;
+      if (in_order) {
+        ok = fused_->process_blocks(bases.data(), b_begin, b_end, work_.data(), work_.size());
+        if (ok) next_ = b_end;
+      }
     }
+    if (!in_order) throw py::value_error("process(): term ranges must be consecutive");
     if (!ok) throw py::value_error("process(): b_begin/b_end must be multiples of the block");
-    next_ = b_end;
   }
 
   py::tuple finish() const {
     const std::size_t n_m = fused_->factors();
-    if (next_ < fused_->n_terms(0)) throw py::value_error("finish(): not all terms processed");
     py::array_t<double> sigma2(static_cast<py::ssize_t>(n_m));
     py::array_t<std::int64_t> terms_out(static_cast<py::ssize_t>(n_m));
     std::vector<std::size_t> terms(n_m);
-    if (!fused_->finish(sigma2.mutable_data(), terms.data())) {
-      throw py::value_error("the Allan sums are not finite (values too large?)");
+    std::vector<double> s2(n_m);
+    bool done = false;
+    bool ok = false;
+    {
+      ReleasedAndLocked guard(this);
+      done = next_ >= fused_->n_terms(0);
+      ok = done && fused_->finish(s2.data(), terms.data());
     }
+    if (!done) throw py::value_error("finish(): not all terms processed");
+    if (!ok) throw py::value_error("the Allan sums are not finite (values too large?)");
+    std::copy(s2.begin(), s2.end(), sigma2.mutable_data());
     std::int64_t* t = terms_out.mutable_data();
     for (std::size_t j = 0; j < n_m; ++j) t[j] = static_cast<std::int64_t>(terms[j]);
     return py::make_tuple(sigma2, terms_out);

@@ -159,9 +159,15 @@ def test_semicolon_csv_is_read(tmp_path: Path, capsys) -> None:
 
 
 @pytest.mark.parametrize("rate", ["1e-300", "1e300", "0", "-5", "nan", "inf"])
-def test_absurd_rates(rec: Path, capsys, rate: str) -> None:
-    code, _, err = run(capsys, "allan", rec, "--rate-hz", rate)
-    one_line_error(code, err, "rate")
+def test_absurd_rates(tmp_path: Path, rec: Path, capsys, rate: str) -> None:
+    before = files(tmp_path)
+    for argv in (("allan", rec, "--rate-hz", rate),
+                 ("simulate", "-o", tmp_path / "s.npy", "--n", "100", "--rate-hz", rate,
+                  "--arw-deg-rt-h", "1"),
+                 ("wavelet-response", "--rate-hz", rate, "--png", tmp_path / "w.png")):
+        code, _, err = run(capsys, *argv)
+        one_line_error(code, err, "rate")
+    assert files(tmp_path) == before
 
 
 # ----------------------------------------------------- refused instead of accepted
@@ -250,3 +256,55 @@ def test_ctrl_c_exits_130_with_one_line_and_no_partial_output(tmp_path: Path) ->
     assert proc.returncode == 130, text
     assert text.strip().splitlines() == ["gyrodrift align: interrupted"]
     assert not out.exists()
+
+
+def test_ctrl_c_during_replay_ends_the_loop_child(tmp_path: Path, cpp_build_dir: Path) -> None:
+    """SIGINT to the command alone (not its process group, so the loop child gets no signal
+    of its own) while the replay runs: the harness ends the gyrodrift-loop child, the command
+    exits 130 with one line and leaves no report files."""
+    from gyrodrift.replay.harness import LOOP_RELATIVE
+
+    out = tmp_path / "rep"
+    proc = _cli("replay", "--duration-s", "120", "--no-rt", "--out-dir", out,
+                "--loop-binary", cpp_build_dir / LOOP_RELATIVE, stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE, start_new_session=True)
+
+    def children() -> list[int]:
+        got = subprocess.run(["pgrep", "-P", str(proc.pid)], capture_output=True, text=True)
+        return [int(x) for x in got.stdout.split()]
+
+    deadline = time.monotonic() + 180
+    while not children() and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)
+    kids = children()
+    assert kids, "the replay did not start its loop child"
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err.decode()
+    assert err.decode().strip().splitlines() == ["gyrodrift replay: interrupted"]
+    time.sleep(0.5)
+    assert not [k for k in kids if Path(f"/proc/{k}").exists()], "loop child still running"
+    assert not out.exists() or files(out) == set()
+
+
+@pytest.mark.parametrize("failing", ["plot_allan", "plot_psd"])
+def test_compare_failure_midway_leaves_no_file(tmp_path: Path, rec: Path, capsys,
+                                               monkeypatch: pytest.MonkeyPatch,
+                                               failing: str) -> None:
+    """`compare --out-dir` writes five files; a writer that fails after writing part of its
+    file (a full disk) must leave none of them, partial or complete, and no directory it
+    made. Before, compare.md and compare.csv stayed, and the failing PNG stayed half
+    written (issue 13)."""
+    from gyrodrift import plots
+
+    def fail_midway(series: object, path: str | Path, **kw: object) -> None:
+        Path(path).write_bytes(b"\x89PNG partial")
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(plots, failing, fail_midway)
+    out = tmp_path / "report"
+    code, _, err = run(capsys, "compare", rec, "--rate-hz", "100", "--out-dir", out)
+    one_line_error(code, err, "No space left on device")
+    assert not out.exists() or files(out) == set(), files(out)
+    assert files(tmp_path) == {"rec.npy"} or files(tmp_path) == {"rec.npy", "report"}

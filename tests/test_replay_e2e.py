@@ -171,3 +171,33 @@ def test_attach_to_a_running_target(loop_bin: str) -> None:
     assert loop["frames_out"] == acc["outputs_received"]
     assert loop["rejected"]["crc"] == acc["injected"]["corrupt"]
     assert loop["rejected"]["duplicate"] == acc["injected"]["duplicate"]
+
+
+@pytest.mark.parametrize("interrupt", [KeyboardInterrupt, RuntimeError])
+def test_interrupt_during_loop_start_up_ends_the_child(
+        loop_bin: str, interrupt: type[BaseException], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C (or any failure) while the harness waits for the loop's ready line: before,
+    the start-up ran outside run_replay's try/finally and the gyrodrift-loop child was left
+    running (issue 13)."""
+    from gyrodrift.replay import harness
+
+    started: list[subprocess.Popen[bytes]] = []
+
+    def wait_ready(self: harness._Target, ready: object, timeout_s: float) -> bool:
+        assert self.proc is not None
+        started.append(self.proc)
+        raise interrupt("during the ready wait")
+
+    monkeypatch.setattr(harness._Target, "_wait_ready", wait_ready)
+    with pytest.raises(interrupt, match="during the ready wait"):
+        run_replay(_record(50, 400.0), ReplayOptions(
+            transport="serial", speed=0.0, loop_binary=loop_bin, processor=_settings(400.0)))
+    assert len(started) == 1
+    proc = started[0]
+    try:
+        # stop() has returned: the child has exited and been reaped, nothing to wait for
+        assert proc.poll() is not None, "gyrodrift-loop still running after the interrupt"
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()

@@ -24,6 +24,7 @@ through these choices (see README "issue-4 analysis"):
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import json
 import math
@@ -233,18 +234,36 @@ def _finish_report(rows: list[CompareRow], x: np.ndarray, rate_hz: float, model:
     report = CompareReport(float(rate_hz), int(x.size), source or "input record",
                            (float(model.a1), float(model.a2)), rows)
     if out_dir is not None:
-        out = Path(out_dir)
-        out.mkdir(parents=True, exist_ok=True)
-        md = out / "compare.md"
-        md.write_text("# Paper 000 Table 1: published vs measured\n\n" + report.markdown())
-        report.write_csv(out / "compare.csv")
-        plots.plot_allan([(r.signal, r.allan) for r in rows], out / "compare_allan.png",
-                         title="Allan deviation before/after filtering")
-        plots.plot_psd([(r.signal, r.psd) for r in rows], out / "compare_psd.png",
-                       title="Welch PSD before/after filtering")
-        report.files = {"markdown": str(md), "csv": str(out / "compare.csv"),
-                        "allan_png": str(out / "compare_allan.png"),
-                        "psd_png": str(out / "compare_psd.png")}
-        (out / "compare.json").write_text(json.dumps(report.as_dict(), indent=2))
-        report.files["json"] = str(out / "compare.json")
+        _write_report(report, rows, Path(out_dir), plots)
     return report
+
+
+def _write_report(report: CompareReport, rows: list[CompareRow], out: Path, plots: Any) -> None:
+    """The five report files, all or none: each is written to a temporary file next to it
+    and renamed only when every one has been written (cli.common.atomic_output); on any
+    failure or Ctrl-C the temporary files go, and so does the directory if this made it."""
+    from gyrodrift.cli.common import atomic_output
+
+    made = not out.exists()
+    out.mkdir(parents=True, exist_ok=True)
+    report.files = {"markdown": str(out / "compare.md"), "csv": str(out / "compare.csv"),
+                    "allan_png": str(out / "compare_allan.png"),
+                    "psd_png": str(out / "compare_psd.png"),
+                    "json": str(out / "compare.json")}
+    try:
+        with contextlib.ExitStack() as stack:
+            tmp = {k: stack.enter_context(atomic_output(v)) for k, v in report.files.items()}
+            tmp["markdown"].write_text("# Paper 000 Table 1: published vs measured\n\n"
+                                       + report.markdown())
+            report.write_csv(tmp["csv"])
+            plots.plot_allan([(r.signal, r.allan) for r in rows], tmp["allan_png"],
+                             title="Allan deviation before/after filtering")
+            plots.plot_psd([(r.signal, r.psd) for r in rows], tmp["psd_png"],
+                           title="Welch PSD before/after filtering")
+            tmp["json"].write_text(json.dumps(report.as_dict(), indent=2))
+    except BaseException:
+        report.files = {}
+        if made:
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise

@@ -51,6 +51,7 @@ __all__ = [
     "atomic_output",
     "check_out_dir",
     "check_output",
+    "check_rate_hz",
     "emit_json",
     "format_csv_value",
     "json_default",
@@ -269,6 +270,23 @@ def write_csv(path: str | Path, header: Sequence[str], columns: Sequence[Any]) -
         for i in range(n):
             fh.write(",".join(format_csv_value(c[i]) for c in cols) + "\n")
     return p
+
+
+def check_rate_hz(rate_hz: float, flag: str = "--rate-hz") -> float:
+    """A sample rate given on the command line: finite and within the range the analyses
+    handle (gyrodrift.io.RATE_MIN_HZ..RATE_MAX_HZ), else a :class:`CliError`.
+
+    Examples
+    --------
+    >>> check_rate_hz(400.0)
+    400.0
+    """
+    from gyrodrift.io import RATE_MAX_HZ, RATE_MIN_HZ
+
+    if not (math.isfinite(rate_hz) and RATE_MIN_HZ <= rate_hz <= RATE_MAX_HZ):
+        raise CliError(f"{flag} {rate_hz:g}: a sample rate must be within {RATE_MIN_HZ:g}.."
+                       f"{RATE_MAX_HZ:g} Hz")
+    return rate_hz
 
 
 def _png_suffixes() -> tuple[str, ...]:

@@ -16,6 +16,7 @@ from gyrodrift.cli.common import (
     add_json_arg,
     atomic_output,
     check_output,
+    check_rate_hz,
     emit_json,
     write_csv,
 )
@@ -117,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("no noise term and no bias given: the record would be all zeros; give "
                        "at least one of --quant-arcsec, --arw-deg-rt-h, --bias-inst-deg-h, "
                        "--rrw-deg-h-rt-h, --ramp-deg-h2, --bias-deg-h, --ar2")
+    check_rate_hz(args.rate_hz)
     check_output(out, "-o")
     try:
         if is_log:

@@ -9,7 +9,13 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_json_arg, atomic_output, check_output, emit_json
+from gyrodrift.cli.common import (
+    add_json_arg,
+    atomic_output,
+    check_output,
+    check_rate_hz,
+    emit_json,
+)
 
 __all__ = ["cutoff_hz", "register", "run"]
 
@@ -53,8 +59,7 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift.fir import fir_group_delay
     from gyrodrift.wavelet import RealtimeWavelet
 
-    if not args.rate_hz > 0 or not np.isfinite(args.rate_hz):
-        raise CliError(f"--rate-hz must be a positive number, got {args.rate_hz}")
+    check_rate_hz(args.rate_hz)
     check_output(args.png, "--png")
     if args.n_freqs < 8:
         raise CliError("--n-freqs must be >= 8")

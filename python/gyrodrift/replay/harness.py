@@ -237,6 +237,8 @@ class _Target:
         self.stderr_lines: list[str] = []
         self.stdout = b""
         self.table_path = ""
+        self._stopped = False
+        self._stats: dict[str, Any] | None = None
 
     def start(self) -> None:
         if self.opt.attach is not None:
@@ -272,13 +274,22 @@ class _Target:
             ready.set()
 
         threading.Thread(target=pump, name="loop-stderr", daemon=True).start()
-        if not ready.wait(10.0) or self.proc.poll() is not None:
+        if not self._wait_ready(ready, 10.0) or self.proc.poll() is not None:
             err = "\n".join(self.stderr_lines) or "no output"
             self.stop()
             raise ReplayError(f"gyrodrift-loop did not start: {err}")
 
+    def _wait_ready(self, ready: threading.Event, timeout_s: float) -> bool:
+        """Wait for the loop's ready line (a method so a test can interrupt it)."""
+        return ready.wait(timeout_s)
+
     def stop(self, timeout_s: float = 10.0) -> dict[str, Any] | None:
-        """Close our end (the loop sees end of input), collect its JSON statistics."""
+        """Close our end (the loop sees end of input), collect its JSON statistics.
+        A second call returns the first one's result (start-up failures stop the target
+        before run_replay's finally does)."""
+        if self._stopped:
+            return self._stats
+        self._stopped = True
         if self.pty is not None:
             self.pty.close()
         if self.table_path:
@@ -290,12 +301,17 @@ class _Target:
             out, _ = self.proc.communicate(timeout=timeout_s)
         except subprocess.TimeoutExpired:
             self.proc.send_signal(signal.SIGTERM)
-            out, _ = self.proc.communicate(timeout=5.0)
+            try:
+                out, _ = self.proc.communicate(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                out, _ = self.proc.communicate()
         self.stdout = out
         try:
-            return json.loads(out.decode())
+            self._stats = json.loads(out.decode())
         except (json.JSONDecodeError, UnicodeDecodeError):
-            return None
+            self._stats = None
+        return self._stats
 
 
 def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
@@ -353,7 +369,6 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
             payload.append((cache[u.index], u.corrupt))
 
     target = _Target(opt)
-    target.start()
     link: SerialLink | CanLink | None = None
     write_ns = np.zeros(n_units, dtype=np.int64)
     # Sender and receiver run SCHED_FIFO just below the loop (80): each thread asks for
@@ -362,6 +377,9 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     harness_rt = {"sender": "not requested", "receiver": "not requested"}
     switch_interval_s = sys.getswitchinterval()
     try:
+        # Start-up inside the try: a Ctrl-C or failure while waiting for the loop's ready
+        # line must end the child too (issue 13).
+        target.start()
         if opt.transport == "serial":
             link = SerialLink(target.device, opt.baud, realtime_priority=rt_prio)
         else:
