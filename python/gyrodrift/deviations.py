@@ -108,11 +108,13 @@ class _Source:
         hi = stop + (1 if self.phase else 0)
         if self.file:
             mm = self.data
-            with open(mm.filename, "rb") as fh:
+            assert isinstance(mm, np.memmap)  # self.file implies it (constructor)
+            name = str(mm.filename)
+            with open(name, "rb") as fh:
                 fh.seek(mm.offset + start * mm.dtype.itemsize)
                 raw = np.fromfile(fh, dtype=mm.dtype, count=hi - start)
             if raw.size != hi - start:
-                raise GyrodriftValueError(f"{mm.filename}: file shorter than its header says")
+                raise GyrodriftValueError(f"{name}: file shorter than its header says")
         else:
             raw = self.data[start:hi]
         raw = np.asarray(raw, dtype=np.float64)
