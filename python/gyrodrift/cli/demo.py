@@ -157,7 +157,7 @@ def compute(args: argparse.Namespace) -> dict[str, Any]:
 def _yardstick(x: np.ndarray, rec: Any, papers: Any, rate_hz: float, skip: int,
                dtype: Any) -> dict[str, Any]:
     """MSE against the simulated drift, steady-state filters tuned three ways (see above)."""
-    from gyrodrift import Ar2Model, fit_drift_model, kalman_filter
+    from gyrodrift import Ar2Model, DriftModelFit, fit_drift_model, kalman_filter
 
     white = sum(rec.components[k] for k in ("arw", "quantization") if k in rec.components)
     drift = x - white
@@ -165,6 +165,7 @@ def _yardstick(x: np.ndarray, rec: Any, papers: Any, rate_hz: float, skip: int,
     r_true = float(np.var(white)) if np.ndim(white) else 0.0
     true_model = Ar2Model(a1=a1, a2=a2, sigma2=sigma**2, mean=DEFAULT_TERMS["bias_deg_h"])
     ml = fit_drift_model(x, rate_hz, "ar2+white")
+    assert isinstance(ml, DriftModelFit)  # x is 1-D: one fit
     rows = {
         "raw": x,
         "papers' tuning": kalman_filter(x, papers, steady_state=True, dtype=dtype),
