@@ -519,7 +519,9 @@ def steady_state_response(a1: float, a2: float, q: float, r: float, rate_hz: flo
     X_k = (I - K C) A X_{k-1} + K y_k, output C X_k, so
     H(z) = C (I - (I - K C) A z^-1)^-1 K; DC gain H(1); -3 dB point where |H| = |H(1)| / sqrt 2.
     The gain K comes from the C++ DARE solver (Ar2SteadyStateKalman)."""
-    k0, k1 = core("ar2", "Ar2SteadyStateKalman").Ar2SteadyStateKalman(a1, a2, q, 0.0, q, r).gain
+    ar2 = core("ar2", "Ar2KalmanSettings")
+    k0, k1 = ar2.Ar2SteadyStateKalman(
+        ar2.Ar2KalmanSettings(a1=a1, a2=a2, sigma2=q, mean=0.0, q=q, r=r)).gain
     kv = np.array([k0, k1])
     a = np.array([[a1, a2], [1.0, 0.0]])
     abar = (np.eye(2) - np.outer(kv, [1.0, 0.0])) @ a

@@ -41,8 +41,8 @@ def build_parser() -> argparse.ArgumentParser:
     Examples
     --------
     >>> sub = next(a for a in build_parser()._actions if a.dest == "command")
-    >>> list(sub.choices)  # each module's register() added its subcommand
-    ['demo', 'replay', 'simulate', 'filter', 'allan', 'psd', 'compare', 'wavelet-response', 'align']
+    >>> " ".join(sub.choices)  # each module's register() added its subcommand
+    'demo replay simulate filter allan fit psd compare wavelet-response align'
     """
     from gyrodrift import __version__
 

@@ -22,6 +22,8 @@ import numpy as np
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_input_args, add_json_arg, emit_json, record_from_args
 
+__all__ = ["config_toml", "register", "run"]
+
 #: deg/h -> rad/s (the record is in deg/h; the configuration in SI).
 _DEG_H_TO_RAD_S = math.pi / 180.0 / 3600.0
 
