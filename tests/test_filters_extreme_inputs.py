@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 import pytest
 from gyrodrift import _core
-from gyrodrift.ar2 import Ar2Model, kalman_filter
+from gyrodrift.ar2 import Ar2Model, kalman_filter_result
 from gyrodrift.imu import ImuChannelConfig, ImuConfig, ImuProcessor, WaveletSettings
 from gyrodrift.wavelet import RealtimeWavelet
 from hypothesis import given, settings
@@ -85,7 +85,8 @@ def test_issue13_wavelet_one_huge_sample(dtype: type, mode: str) -> None:
 @pytest.mark.parametrize("dtype", DTYPES)
 def test_issue13_ar_filter_near_max(dtype: type) -> None:
     x = np.full(10, float(np.finfo(dtype).max) * 0.9, dtype=dtype)
-    out, faults = _core.ar_filter_batch(x, [(0.6, 0.35, 1.0, 0.0, 1.0, 1.0)], None)
+    out, faults = _core.ar_filter_batch(
+        x, [_core.Ar2KalmanSettings(a1=0.6, a2=0.35, sigma2=1.0, mean=0.0, q=1.0, r=1.0)], None)
     assert np.all(np.isfinite(out))
     assert int(faults[0]) == 10
 
@@ -114,14 +115,15 @@ def test_property_ar_filters_any_value(width: int, data: st.DataObject) -> None:
     dtype = np.float32 if width == 32 else np.float64
     hits = data.draw(hits_strategy(width))
     bad, as_nan, refused = inject(base_record(dtype), hits)
-    params = [(MODEL.a1, MODEL.a2, MODEL.sigma2, MODEL.mean, MODEL.sigma2, MODEL.r)]
+    params = [_core.Ar2KalmanSettings(a1=MODEL.a1, a2=MODEL.a2, sigma2=MODEL.sigma2,
+                                      mean=MODEL.mean, q=MODEL.sigma2, r=MODEL.r)]
     out, faults = _core.ar_filter_batch(bad, params, None)
     ref, _ = _core.ar_filter_batch(as_nan, params, None)
     check(out, ref, int(faults[0]), refused)
     for steady in (False, True):
-        out, faults = kalman_filter(bad, MODEL, steady_state=steady, return_faults=True)
-        ref, _ = kalman_filter(as_nan, MODEL, steady_state=steady, return_faults=True)
-        check(out, ref, int(faults[0]), refused)
+        res = kalman_filter_result(bad, MODEL, steady_state=steady)
+        ref = kalman_filter_result(as_nan, MODEL, steady_state=steady).y
+        check(res.y, ref, int(res.faults[0]), refused)
 
 
 @pytest.mark.parametrize("width", [32, 64])
@@ -170,8 +172,8 @@ def test_kalman_state_stays_finite_after_a_run_of_huge_values() -> None:
     x[100:110] = 3.0e38
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        out, faults = kalman_filter(x, MODEL, return_faults=True)
-    assert np.all(np.isfinite(out)) and int(faults[0]) == 10
+        res = kalman_filter_result(x, MODEL)
+    assert np.all(np.isfinite(res.y)) and int(res.faults[0]) == 10
 
 
 @pytest.mark.parametrize("dtype", DTYPES)

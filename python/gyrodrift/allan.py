@@ -558,7 +558,8 @@ def _oadev_alpha(alpha: int | np.ndarray | str | None, data: np.ndarray, kind: s
         return noise_type.alpha_per_tau(averages, m, n_rate, slope_alpha)
     if isinstance(alpha, str):
         if alpha != "slope":
-            raise ValueError(f"alpha must be None, 'acf', 'slope', or integers, got {alpha!r}")
+            raise GyrodriftValueError(
+                f"alpha must be None, 'acf', 'slope', or integers, got {alpha!r}")
         return noise_alpha_from_slope(tau_s, adev), np.full(m.size, "slope")
     alpha_arr = np.broadcast_to(np.asarray(alpha, dtype=np.int64), m.shape).copy()
     return alpha_arr, np.full(m.size, "given")

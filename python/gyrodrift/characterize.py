@@ -198,8 +198,10 @@ def _term_intervals(tau: np.ndarray, a: AllanResult, pos: np.ndarray, coeffs: np
     log_lo, log_hi = np.log(lo / dev), np.log(hi / dev)
 
     def solve(scale: float) -> dict[str, tuple[float, float]] | None:
-        b_hi = np.exp(2.0 * scale * log_hi)
-        b_lo = np.exp(2.0 * scale * log_lo)
+        # Exponents capped below exp's overflow: a band that wide no longer limits the
+        # model, so a misfit of any size still ends the widening with a finite scale.
+        b_hi = np.exp(np.minimum(2.0 * scale * log_hi, 690.0))
+        b_lo = np.exp(np.maximum(2.0 * scale * log_lo, -690.0))
         a_ub = np.vstack([design, -design])
         b_ub = np.concatenate([b_hi, -b_lo])
         out: dict[str, tuple[float, float]] = {}

@@ -29,6 +29,7 @@ from gyrodrift.config import (
     ProcessorConfig,
     WaveletStage,
 )
+from gyrodrift.errors import GyrodriftValueError
 
 __all__ = ["emit_cpp", "float_literal"]
 
@@ -46,7 +47,7 @@ def float_literal(x: float) -> str:
     if np.isinf(v):
         return ("-" if v < 0 else "") + "std::numeric_limits<float>::infinity()"
     if np.isnan(v):
-        raise ValueError("NaN has no place in a configuration")
+        raise GyrodriftValueError("NaN has no place in a configuration")
     return np.format_float_scientific(v, unique=True, trim="0") + "f"
 
 

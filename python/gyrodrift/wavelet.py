@@ -183,7 +183,7 @@ def wavelet_denoise(
     if not np.all(np.isfinite(c)):
         # Finite but huge input (near the dtype's maximum) overflows the lifting sums: say
         # so, instead of the inverse transform's complaint about non-finite coefficients.
-        raise ValueError(
+        raise GyrodriftValueError(
             f"x: values up to {float(np.max(np.abs(arr))):.3g} overflow the {dt.name} wavelet "
             f"transform (its largest value is {float(np.finfo(dt).max):.3g}); scale the record"
         )
@@ -201,7 +201,7 @@ def wavelet_denoise(
             c[band] = _threshold(c[band], t, mode)
     y = waverec(c, wavelet, level, dtype=dt)[:n]
     if not np.all(np.isfinite(y)):
-        raise ValueError(
+        raise GyrodriftValueError(
             f"x: values up to {float(np.max(np.abs(arr))):.3g} overflow the {dt.name} inverse "
             "wavelet transform; scale the record"
         )

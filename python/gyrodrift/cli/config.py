@@ -10,6 +10,8 @@ from typing import Any
 
 from gyrodrift.cli import CliError
 
+__all__ = ["ACTIONS", "register", "run"]
+
 ACTIONS = ("validate", "show", "write-default", "emit-cpp")
 
 

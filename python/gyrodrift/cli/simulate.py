@@ -85,7 +85,8 @@ def run(args: argparse.Namespace) -> int:
     >>> import argparse, os, tempfile
     >>> p = argparse.ArgumentParser(); register(p.add_subparsers())
     >>> out = os.path.join(tempfile.mkdtemp(), "r.csv")
-    >>> args = p.parse_args(["simulate", "-o", out, "--n", "3", "--rate-hz", "10"])
+    >>> args = p.parse_args(["simulate", "-o", out, "--n", "3", "--rate-hz", "10",
+    ...                       "--arw-deg-rt-h", "0.01"])
     >>> run(args)  # doctest: +ELLIPSIS
     wrote .../r.csv (rate deg/h, 3 samples at 10 Hz, seed 0)
     0
