@@ -526,7 +526,7 @@ def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
 
     source = str(p)
     with AnyReader([_bag_paths(p, kind)], default_typestore=_typestore()) as reader:
-        imu = {}
+        imu: dict[str, list[Any]] = {}
         for c in reader.connections:
             if c.msgtype in IMU_MSGTYPES:
                 imu.setdefault(c.topic, []).append(c)
@@ -548,7 +548,7 @@ def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
         t_ns = np.empty(n, dtype=np.int64)
         i = 0
         for conn, bag_t_ns, raw in reader.messages(connections=conns):
-            msg = reader.deserialize(raw, conn.msgtype)
+            msg: Any = reader.deserialize(raw, conn.msgtype)
             st = msg.header.stamp
             stamp = int(st.sec) * 1_000_000_000 + int(st.nanosec)
             if i >= n:
