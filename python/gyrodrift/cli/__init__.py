@@ -36,8 +36,9 @@ def build_parser() -> argparse.ArgumentParser:
     Examples
     --------
     >>> sub = next(a for a in build_parser()._actions if a.dest == "command")
-    >>> list(sub.choices)  # each module's register() added its subcommand
-    ['demo', 'replay', 'simulate', 'filter', 'allan', 'psd', 'compare', 'wavelet-response', 'align']
+    >>> list(sub.choices)  # doctest: +NORMALIZE_WHITESPACE
+    ['demo', 'replay', 'simulate', 'filter', 'allan', 'psd', 'compare', 'wavelet-response',
+     'align', 'characterize', 'fleet']
     """
     from gyrodrift import __version__
 
