@@ -240,3 +240,18 @@ def test_characterize_cli_lists_bag_topics(tmp_path: Path,
     assert main(["characterize", str(two)]) == 2
     err = capsys.readouterr().err
     assert "/imu (50 messages), /imu2 (50 messages)" in err
+
+
+def test_chunked_reader_fortran_order_one_column_and_truncation(tmp_path: Path) -> None:
+    _, vals = _data(n=101)
+    np.save(tmp_path / "f.npy", np.asfortranarray(vals))
+    _check(load_imu(tmp_path / "f.npy", rate_hz=RATE, spool_dir=tmp_path / "s1", chunk_rows=10),
+           vals)
+    np.save(tmp_path / "one.npy", vals[:, 2].astype(np.float32))
+    rec = load_imu(tmp_path / "one.npy", rate_hz=RATE, spool_dir=tmp_path / "s2", chunk_rows=9)
+    np.testing.assert_array_equal(rec.channels["gyro_z"], vals[:, 2].astype(np.float32))
+    np.save(tmp_path / "t.npy", vals)
+    data = (tmp_path / "t.npy").read_bytes()
+    (tmp_path / "t.npy").write_bytes(data[:-100])
+    with pytest.raises(ValueError):
+        load_imu(tmp_path / "t.npy", rate_hz=RATE, spool_dir=tmp_path / "s3")

@@ -178,15 +178,15 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     """
     out = Path(out_dir)
     (out / "units").mkdir(parents=True, exist_ok=True)
-    paths = [str(p) for p in paths]
-    if not paths:
+    path_strs = [str(p) for p in paths]
+    if not path_strs:
         raise GyrodriftValueError("no logs to characterize")
-    names = [unit_name(p, root) for p in paths]
+    names = [unit_name(p, root) for p in path_strs]
     if len(set(names)) != len(names):
         raise GyrodriftValueError("two logs map to the same unit name; pass a common root")
     results: dict[str, dict[str, Any]] = {}
-    todo = []
-    for p, n in zip(paths, names, strict=True):
+    todo: list[tuple[str, str]] = []
+    for p, n in zip(path_strs, names, strict=True):
         done = out / "units" / n / "result.json"
         if done.is_file() and not force:
             try:

@@ -299,9 +299,8 @@ def _spool_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gy
                accel_units: str, spool: Path, chunk_rows: int) -> ImuData:
     """Chunked copy of an (n, k) .npy to one float64 .npy per channel; memory ~ chunk_rows x k.
     NaN/Inf are refused (counted over all chunks first, nothing is half-written silently)."""
-    arr = np.load(p, mmap_mode="r", allow_pickle=False)
-    if arr.ndim == 1:
-        arr = arr[:, None]
+    base = np.load(p, mmap_mode="r", allow_pickle=False)
+    arr = base[:, None] if base.ndim == 1 else base
     if arr.ndim != 2:
         raise GyrodriftValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
     if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
@@ -316,24 +315,45 @@ def _spool_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gy
     names = (_check_names(columns, arr.shape[1], str(p)) if columns
              else _default_names(arr.shape[1], str(p)))
     spool.mkdir(parents=True, exist_ok=True)
-    outs: dict[str, np.memmap] = {}
     idx = {name: j for j, name in enumerate(names) if name != "-"}
+    # Plain file reads and writes, never touching a mapping: mapped pages of a 1e7-sample
+    # record would count in the worker's resident memory (and stay there until evicted).
+    header_len = {}
     for name in idx:
-        outs[name] = np.lib.format.open_memmap(spool / f"{name}.npy", mode="w+",
-                                               dtype=np.float64, shape=(n,))
+        mm = np.lib.format.open_memmap(spool / f"{name}.npy", mode="w+", dtype=np.float64,
+                                       shape=(n,))
+        header_len[name] = int(mm.offset)
+        del mm
+    k = int(arr.shape[1])
+    # The file holds rows one after the other (C order; a 1-D record too) from base.offset.
+    c_order = isinstance(base, np.memmap) and bool(base.flags.c_contiguous)
     n_bad = 0
-    for lo in range(0, n, chunk_rows):
-        block = np.asarray(arr[lo:lo + chunk_rows], dtype=np.float64)
-        for name, j in idx.items():
-            col = block[:, j] * _factor(name, gyro_units, accel_units, rate_hz)
-            n_bad += int(np.count_nonzero(~np.isfinite(col)))
-            outs[name][lo:lo + block.shape[0]] = col
-    for mm in outs.values():
-        mm.flush()
-    del outs
+    outs = {name: open(spool / f"{name}.npy", "r+b") for name in idx}
+    try:
+        with open(p, "rb") as src:
+            for lo in range(0, n, chunk_rows):
+                m = min(chunk_rows, n - lo)
+                if c_order:
+                    src.seek(base.offset + lo * k * arr.dtype.itemsize)
+                    raw = np.fromfile(src, dtype=arr.dtype, count=m * k)
+                    if raw.size != m * k:
+                        raise GyrodriftValueError(f"{p}: file shorter than its header says")
+                    block = raw.reshape(m, k).astype(np.float64)
+                else:  # Fortran order or a 1-D record: slices of the mapping
+                    block = np.asarray(arr[lo:lo + m], dtype=np.float64)
+                for name, j in idx.items():
+                    col = block[:, j] * _factor(name, gyro_units, accel_units, rate_hz)
+                    n_bad += int(np.count_nonzero(~np.isfinite(col)))
+                    fh = outs[name]
+                    fh.seek(header_len[name] + lo * 8)
+                    fh.write(np.ascontiguousarray(col).tobytes())
+    finally:
+        for fh in outs.values():
+            fh.close()
     if n_bad:
-        raise GyrodriftValueError(f"{p}: {n_bad} NaN/Inf values; the chunked reader refuses them "
-                         "(repair the record, or characterize it alone with --drop-nan)")
+        raise GyrodriftValueError(
+            f"{p}: {n_bad} NaN/Inf values; the chunked reader refuses them "
+            "(repair the record, or characterize it alone with --drop-nan)")
     cols = {name: np.load(spool / f"{name}.npy", mmap_mode="r") for name in CHANNELS
             if name in idx}
     return ImuData(cols, float(rate_hz), str(p), "npy", n, 0,
@@ -506,7 +526,7 @@ def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
 
     source = str(p)
     with AnyReader([_bag_paths(p, kind)], default_typestore=_typestore()) as reader:
-        imu = {}
+        imu: dict[str, list[Any]] = {}
         for c in reader.connections:
             if c.msgtype in IMU_MSGTYPES:
                 imu.setdefault(c.topic, []).append(c)
@@ -528,7 +548,7 @@ def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
         t_ns = np.empty(n, dtype=np.int64)
         i = 0
         for conn, bag_t_ns, raw in reader.messages(connections=conns):
-            msg = reader.deserialize(raw, conn.msgtype)
+            msg: Any = reader.deserialize(raw, conn.msgtype)
             st = msg.header.stamp
             stamp = int(st.sec) * 1_000_000_000 + int(st.nanosec)
             if i >= n:
