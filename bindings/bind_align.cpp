@@ -2,6 +2,7 @@
 // of increments, so a Monte Carlo run costs one call with the GIL released.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
 
 #include <gyrodrift/nav_align_pipeline.hpp>
 #include <gyrodrift/nav_coarse_align.hpp>
@@ -25,6 +26,15 @@ using Mat3 = Eigen::Matrix<double, 3, 3>;
 constexpr int kMaxTaps = 256;
 constexpr int kMaxDelay = 32;
 
+// Everything align_run needs besides the data, as one bound configuration object (Python:
+// gyrodrift._core.AlignRunConfig, filled by gyrodrift.align.run_alignment from AlignConfig).
+struct AlignRunConfig {
+  AlignSettings<double> settings{};
+  int n_states{15};
+  std::vector<double> p0_diag, q_diag, r_diag, floor_diag;
+  std::vector<double> taps;  // prefilter taps, oldest first (the pipeline's order); empty = off
+};
+
 std::size_t require_n3_pair(const CArray<double>& dtheta, const CArray<double>& dv) {
   if (dtheta.ndim() != 2 || dtheta.shape(1) != 3)
     throw py::value_error("dtheta: expected an (n, 3) float64 array of gyro angle increments (rad)");
@@ -34,6 +44,17 @@ std::size_t require_n3_pair(const CArray<double>& dtheta, const CArray<double>& 
     throw py::value_error("dtheta and dv must have the same number of rows, got " +
                           std::to_string(dtheta.shape(0)) + " and " + std::to_string(dv.shape(0)));
   return static_cast<std::size_t>(dtheta.shape(0));
+}
+
+template <int N>
+Eigen::Matrix<double, N, 1> vec_n(const std::vector<double>& a, const char* what) {
+  if (a.size() != static_cast<std::size_t>(N))
+    throw py::value_error(std::string(what) + ": expected " + std::to_string(N) + " values, got " +
+                          std::to_string(a.size()));
+  require_finite(a.data(), a.size(), what);
+  Eigen::Matrix<double, N, 1> v;
+  for (int i = 0; i < N; ++i) v(i) = a[static_cast<std::size_t>(i)];
+  return v;
 }
 
 template <int N>
@@ -48,25 +69,26 @@ Eigen::Matrix<double, N, 1> vec_n(const CArray<double>& a, const char* what) {
 
 template <int N>
 py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
-                      const AlignSettings<double>& s, const CArray<double>& p0,
-                      const CArray<double>& q, const CArray<double>& r,
-                      const CArray<double>& floor, const CArray<double>& taps) {
+                      const AlignRunConfig& c) {
+  const AlignSettings<double>& s = c.settings;
+  const std::vector<double>& taps = c.taps;
   const std::size_t n = require_n3_pair(dtheta, dv);
-  const long n_taps = static_cast<long>(taps.ndim() == 1 ? taps.shape(0) : 0);
+  const long n_taps = static_cast<long>(taps.size());
   const long warmup = n_taps > 0 ? std::max(n_taps - 1, static_cast<long>(s.accel_delay_samples))
                                  : static_cast<long>(s.accel_delay_samples);
   if (static_cast<long>(n) <= s.coarse_samples + warmup)
     throw py::value_error("need more samples (" + std::to_string(n) +
                           ") than the prefilter warm-up plus the coarse-alignment window (" +
                           std::to_string(warmup + s.coarse_samples) + ")");
-  if (taps.ndim() != 1 || taps.shape(0) > kMaxTaps)
-    throw py::value_error("taps: expected a 1-D array of at most 256 prefilter taps (empty = off)");
-  require_finite(taps.data(), static_cast<std::size_t>(taps.shape(0)), "taps");
+  if (n_taps > kMaxTaps)
+    throw py::value_error("taps: expected at most 256 prefilter taps (empty = off)");
+  require_finite(taps.data(), taps.size(), "taps");
   if (s.accel_delay_samples < 0 || s.accel_delay_samples > kMaxDelay)
     throw py::value_error("accel_delay_samples must be in [0, 32]");
   auto pipe = std::make_unique<AlignPipeline<double, N, kMaxTaps, kMaxDelay>>();
-  if (!pipe->reset(s, vec_n<N>(p0, "p0_diag"), vec_n<N>(q, "q_diag"), vec_n<3>(r, "r_diag"),
-                   vec_n<N>(floor, "floor_diag"), taps.data(), static_cast<int>(taps.shape(0))))
+  if (!pipe->reset(s, vec_n<N>(c.p0_diag, "p0_diag"), vec_n<N>(c.q_diag, "q_diag"),
+                   vec_n<3>(c.r_diag, "r_diag"), vec_n<N>(c.floor_diag, "floor_diag"), taps.data(),
+                   static_cast<int>(n_taps)))
     throw py::value_error("invalid alignment settings (dt_s > 0, coarse_samples >= 4, kf_every >= 1, "
                           "p0 and r > 0, q and floors >= 0)");
   const std::size_t n_kf = n / static_cast<std::size_t>(s.kf_every) + 1;
@@ -126,40 +148,45 @@ py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
 }  // namespace
 
 void bind_align(py::module_& m) {
+  py::class_<AlignSettings<double>>(m, "AlignSettings",
+                                    "Scalar settings of the alignment pipeline (AlignSettings<double>).")
+      .def(py::init<>())
+      .def_readwrite("dt_s", &AlignSettings<double>::dt_s)
+      .def_readwrite("lat_rad", &AlignSettings<double>::lat_rad)
+      .def_readwrite("lon_rad", &AlignSettings<double>::lon_rad)
+      .def_readwrite("h_m", &AlignSettings<double>::h_m)
+      .def_readwrite("coarse_samples", &AlignSettings<double>::coarse_samples)
+      .def_readwrite("coarse_position_integral", &AlignSettings<double>::coarse_position_integral)
+      .def_readwrite("kf_every", &AlignSettings<double>::kf_every)
+      .def_readwrite("accel_delay_samples", &AlignSettings<double>::accel_delay_samples)
+      .def_readwrite("heading_stage_cycles", &AlignSettings<double>::heading_stage_cycles)
+      .def_readwrite("heading_stage_q", &AlignSettings<double>::heading_stage_q);
+  py::class_<AlignRunConfig>(m, "AlignRunConfig",
+                             "Settings, state count, KF diagonals and prefilter taps of align_run.")
+      .def(py::init<>())
+      .def_readwrite("settings", &AlignRunConfig::settings)
+      .def_readwrite("n_states", &AlignRunConfig::n_states)
+      .def_readwrite("p0_diag", &AlignRunConfig::p0_diag)
+      .def_readwrite("q_diag", &AlignRunConfig::q_diag)
+      .def_readwrite("r_diag", &AlignRunConfig::r_diag)
+      .def_readwrite("floor_diag", &AlignRunConfig::floor_diag)
+      .def_readwrite("taps", &AlignRunConfig::taps);
+
   m.def(
       "align_run",
-      [](const CArray<double>& dtheta, const CArray<double>& dv, double dt_s, double lat_rad,
-         double lon_rad, double h_m, long coarse_samples, bool coarse_position_integral,
-         int n_states, int kf_every, const CArray<double>& p0_diag, const CArray<double>& q_diag,
-         const CArray<double>& r_diag, const CArray<double>& floor_diag,
-         const CArray<double>& taps, int accel_delay_samples, long heading_stage_cycles,
-         double heading_stage_q) -> py::dict {
-        AlignSettings<double> s;
-        s.dt_s = dt_s;
-        s.lat_rad = lat_rad;
-        s.lon_rad = lon_rad;
-        s.h_m = h_m;
-        s.coarse_samples = coarse_samples;
-        s.coarse_position_integral = coarse_position_integral;
-        s.kf_every = kf_every;
-        s.accel_delay_samples = accel_delay_samples;
-        s.heading_stage_cycles = heading_stage_cycles;
-        s.heading_stage_q = heading_stage_q;
-        if (heading_stage_cycles < 0 || !(heading_stage_q >= 0.0) || !std::isfinite(heading_stage_q))
+      [](const CArray<double>& dtheta, const CArray<double>& dv, const AlignRunConfig& c) -> py::dict {
+        const AlignSettings<double>& s = c.settings;
+        if (s.heading_stage_cycles < 0 || !(s.heading_stage_q >= 0.0) ||
+            !std::isfinite(s.heading_stage_q))
           throw py::value_error("heading_stage_cycles must be >= 0 and heading_stage_q finite >= 0");
-        if (!(dt_s > 0.0)) throw py::value_error("dt_s must be > 0");
-        if (n_states == 15) return run_pipeline<15>(dtheta, dv, s, p0_diag, q_diag, r_diag, floor_diag, taps);
-        if (n_states == 12) return run_pipeline<12>(dtheta, dv, s, p0_diag, q_diag, r_diag, floor_diag, taps);
-        throw py::value_error("n_states must be 12 or 15, got " + std::to_string(n_states));
+        if (!(s.dt_s > 0.0)) throw py::value_error("dt_s must be > 0");
+        if (c.n_states == 15) return run_pipeline<15>(dtheta, dv, c);
+        if (c.n_states == 12) return run_pipeline<12>(dtheta, dv, c);
+        throw py::value_error("n_states must be 12 or 15, got " + std::to_string(c.n_states));
       },
-      py::arg("dtheta").noconvert(), py::arg("dv").noconvert(), py::arg("dt_s"),
-      py::arg("lat_rad"), py::arg("lon_rad"), py::arg("h_m"), py::arg("coarse_samples"),
-      py::arg("coarse_position_integral"), py::arg("n_states"), py::arg("kf_every"),
-      py::arg("p0_diag").noconvert(), py::arg("q_diag").noconvert(), py::arg("r_diag").noconvert(),
-      py::arg("floor_diag").noconvert(), py::arg("taps").noconvert(), py::arg("accel_delay_samples"),
-      py::arg("heading_stage_cycles") = 0L, py::arg("heading_stage_q") = 0.0,
-      "Whole alignment (prefilter, coarse, strapdown + fine KF) over (n, 3) float64 increments; "
-      "GIL released. Use gyrodrift.align.run_alignment for the keyword-friendly wrapper.");
+      py::arg("dtheta").noconvert(), py::arg("dv").noconvert(), py::arg("config"),
+      "Whole alignment (prefilter, coarse, strapdown + fine KF) over (n, 3) float64 increments "
+      "with an AlignRunConfig; GIL released. gyrodrift.align.run_alignment is the wrapper.");
 
   m.def(
       "strapdown_run",

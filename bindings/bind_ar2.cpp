@@ -5,9 +5,10 @@
 //   ar2_kalman_batch(x, params, p0, steady_state, out=None) -> (out, faults[axes])
 //   ar_filter_batch(x, params, out=None) -> (out, faults[axes])
 // x is float32 or float64, 1-D or (n, 3), C-contiguous, taken without copy (.noconvert());
-// params is a list of 1 (all axes) or `axes` tuples (a1, a2, sigma2, mean, q, r).
-// Classes Ar2Kalman / Ar2KalmanF32 / Ar2SteadyStateKalman / Ar2SteadyStateKalmanF32 are
-// per-sample stateful filters.
+// params is a list of 1 (all axes) or `axes` Ar2KalmanSettings (a bound configuration
+// struct: a1, a2, sigma2, mean, q, r, keyword-only). Classes Ar2Kalman / Ar2KalmanF32
+// (settings, p0) / Ar2SteadyStateKalman / Ar2SteadyStateKalmanF32 (settings) are per-sample
+// stateful filters.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -32,6 +33,19 @@ namespace gyrodrift::py_bindings {
 namespace {
 
 using Params = std::array<double, 6>;  // a1, a2, sigma2, mean, q, r
+
+// The model and filter variances of one AR(2)-Kalman channel, as one bound object.
+struct Ar2KalmanSettings {
+  double a1{0.0}, a2{0.0}, sigma2{0.0}, mean{0.0}, q{0.0}, r{0.0};
+  Params params() const { return Params{a1, a2, sigma2, mean, q, r}; }
+};
+
+std::vector<Params> params_of(const std::vector<Ar2KalmanSettings>& settings) {
+  std::vector<Params> out;
+  out.reserve(settings.size());
+  for (const auto& st : settings) out.push_back(st.params());
+  return out;
+}
 
 template <class T>
 Ar2Model<T> model_of(const Params& p) {
@@ -121,8 +135,9 @@ template <class T>
 void def_batches(py::module_& m) {
   m.def(
       "ar2_kalman_batch",
-      [](const CArray<T>& x, const std::vector<Params>& params, double p0, bool steady_state,
-         const py::object& out) {
+      [](const CArray<T>& x, const std::vector<Ar2KalmanSettings>& settings, double p0,
+         bool steady_state, const py::object& out) {
+        const std::vector<Params> params = params_of(settings);
         if (steady_state) {
           return run_batch<T>(
               x, params,
@@ -144,7 +159,8 @@ void def_batches(py::module_& m) {
       "AR(2)-Kalman over a C-contiguous float32/float64 array (n,) or (n, 3); returns (out, faults).");
   m.def(
       "ar_filter_batch",
-      [](const CArray<T>& x, const std::vector<Params>& params, const py::object& out) {
+      [](const CArray<T>& x, const std::vector<Ar2KalmanSettings>& settings, const py::object& out) {
+        const std::vector<Params> params = params_of(settings);
         return run_batch<T>(
             x, params, [](const Params& p) { return ArFilter<T>(model_of<T>(p)); }, "ar_filter_batch",
             out);
@@ -176,14 +192,13 @@ template <class T>
 void def_kalman_class(py::module_& m, const char* name) {
   using K = Ar2Kalman<T>;
   py::class_<K> cls(m, name, "Per-sample AR(2)-Kalman filter (Joseph form).");
-  cls.def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r, double p0) {
-            K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r),
+  cls.def(py::init([](const Ar2KalmanSettings& st, double p0) {
+            K k(model_of<T>(st.params()), static_cast<T>(st.q), static_cast<T>(st.r),
                 static_cast<T>(p0));
             require_ok(k, "Ar2Kalman");
             return k;
           }),
-          py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"),
-          py::arg("p0") = 1.0);
+          py::arg("settings"), py::arg("p0") = 1.0);
   def_filter_methods<T>(cls, [](K& k, const T* in, T* o, std::size_t n) { k.process(in, o, n); });
   cls.def_property_readonly("state",
                             [](const K& k) {
@@ -202,12 +217,12 @@ template <class T>
 void def_steady_class(py::module_& m, const char* name) {
   using K = Ar2SteadyStateKalman<T>;
   py::class_<K> cls(m, name, "Per-sample constant-gain AR(2)-Kalman filter (DARE gain).");
-  cls.def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r) {
-            K k(model_of<T>(Params{a1, a2, sigma2, mean, q, r}), static_cast<T>(q), static_cast<T>(r));
+  cls.def(py::init([](const Ar2KalmanSettings& st) {
+            K k(model_of<T>(st.params()), static_cast<T>(st.q), static_cast<T>(st.r));
             require_ok(k, "Ar2SteadyStateKalman");
             return k;
           }),
-          py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean"), py::arg("q"), py::arg("r"));
+          py::arg("settings"));
   def_filter_methods<T>(cls, [](K& k, const T* in, T* o, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) o[i] = k.step(in[i]);
   });
@@ -263,6 +278,20 @@ void bind_ar2(py::module_& m) {
       .value("bad_argument", Ar2Status::bad_argument)
       .value("not_converged", Ar2Status::not_converged);
   m.attr("AR2_MIN_SAMPLES") = kAr2MinSamples;
+  py::class_<Ar2KalmanSettings>(m, "Ar2KalmanSettings",
+                                "AR(2) model (a1, a2, sigma2, mean) and Kalman variances q, r of "
+                                "one channel, in (record units)^2.")
+      .def(py::init([](double a1, double a2, double sigma2, double mean, double q, double r) {
+             return Ar2KalmanSettings{a1, a2, sigma2, mean, q, r};
+           }),
+           py::kw_only(), py::arg("a1"), py::arg("a2"), py::arg("sigma2"), py::arg("mean") = 0.0,
+           py::arg("q"), py::arg("r"))
+      .def_readwrite("a1", &Ar2KalmanSettings::a1)
+      .def_readwrite("a2", &Ar2KalmanSettings::a2)
+      .def_readwrite("sigma2", &Ar2KalmanSettings::sigma2)
+      .def_readwrite("mean", &Ar2KalmanSettings::mean)
+      .def_readwrite("q", &Ar2KalmanSettings::q)
+      .def_readwrite("r", &Ar2KalmanSettings::r);
 
   def_fit<double>(m);
   def_fit<float>(m);

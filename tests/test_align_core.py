@@ -310,7 +310,7 @@ def test_fine_alignment_converges_to_steady_state_formulas(n_states: int) -> Non
     cfg = AlignConfig(dt_s=dt, kf_every=1, n_states=n_states, lat_rad=sc.lat_rad,
                       lon_rad=sc.lon_rad, h_m=sc.h_m, zv_sigma_m_s=0.001)
     out = run_alignment_reference(dth, dv, cfg)
-    phi = misalignment(euler2dcm(out["att"][-1]), c)
+    phi = misalignment(euler2dcm(out.att[-1]), c)
     g = gravity_m_s2(sc.lat_rad, sc.h_m)
     theory = np.array([-nab_n[1] / g, nab_n[0] / g,
                        -eps_n[0] / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad))
@@ -319,7 +319,7 @@ def test_fine_alignment_converges_to_steady_state_formulas(n_states: int) -> Non
     assert abs(eps_n[0] / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad)) / ARCSEC - 176.0) < 1.0
     assert np.all(np.abs(phi - theory) <= 0.05 * np.abs(theory))
     cpp = run_alignment(dth, dv, cfg)
-    assert np.abs(cpp["att"] - out["att"]).max() < 1e-9
+    assert np.abs(cpp.att - out.att).max() < 1e-9
 
 
 @pytest.mark.parametrize("name", SCENARIOS)
@@ -338,13 +338,13 @@ def test_pipeline_cpp_equals_reference_on_noisy_rocking_data(name: str, prefilte
                       accel_delay_samples=8 if prefilter else 0)
     ref = run_alignment_reference(dth, dv, cfg)
     cpp = run_alignment(dth, dv, cfg)
-    assert not cpp["failed"] and cpp["bad_samples"] == 0
-    assert np.array_equal(ref["t_s"], cpp["t_s"])
-    assert np.abs(ref["coarse_cnb"] - cpp["coarse_cnb"]).max() < 1e-9
-    assert np.abs(ref["att"] - cpp["att"]).max() < 1e-9
-    assert np.abs(ref["eb"] - cpp["eb"]).max() < 1e-9 * DPH
-    assert np.abs(ref["db"] - cpp["db"]).max() < 1e-9
-    assert np.abs(ref["p_phi"] - cpp["p_phi"]).max() < 1e-9
+    assert not cpp.failed and cpp.bad_samples == 0
+    assert np.array_equal(ref.t_s, cpp.t_s)
+    assert np.abs(ref.coarse_cnb - cpp.coarse_cnb).max() < 1e-9
+    assert np.abs(ref.att - cpp.att).max() < 1e-9
+    assert np.abs(ref.eb - cpp.eb).max() < 1e-9 * DPH
+    assert np.abs(ref.db - cpp.db).max() < 1e-9
+    assert np.abs(ref.p_phi - cpp.p_phi).max() < 1e-9
 
 
 def test_pipeline_cpp_equals_reference_with_heading_stage() -> None:
@@ -362,17 +362,17 @@ def test_pipeline_cpp_equals_reference_with_heading_stage() -> None:
     assert cfg.heading_stage_cycles() == 200
     ref = run_alignment_reference(dth, dv, cfg)
     cpp = run_alignment(dth, dv, cfg)
-    assert not cpp["failed"]
-    assert np.abs(ref["att"] - cpp["att"]).max() < 1e-9
-    assert np.abs(ref["eb"] - cpp["eb"]).max() < 1e-9 * DPH
-    assert np.abs(ref["db"] - cpp["db"]).max() < 1e-9
-    assert np.abs(ref["p_phi"] - cpp["p_phi"]).max() < 1e-9
+    assert not cpp.failed
+    assert np.abs(ref.att - cpp.att).max() < 1e-9
+    assert np.abs(ref.eb - cpp.eb).max() < 1e-9 * DPH
+    assert np.abs(ref.db - cpp.db).max() < 1e-9
+    assert np.abs(ref.p_phi - cpp.p_phi).max() < 1e-9
     # The restart is visible: the heading sigma returns to its P0 (10 deg) after the stage,
     # from about 4 deg at its end (the acquisition noise keeps it open).
     k = cfg.heading_stage_cycles()
-    assert ref["p_phi"][k, 2] > 2.0 * ref["p_phi"][k - 1, 2]
+    assert ref.p_phi[k, 2] > 2.0 * ref.p_phi[k - 1, 2]
     off = dataclasses.replace(cfg, heading_stage_s=0.0)
-    assert np.abs(run_alignment(dth, dv, off)["att"][-1] - cpp["att"][-1]).max() > 1e-6
+    assert np.abs(run_alignment(dth, dv, off).att[-1] - cpp.att[-1]).max() > 1e-6
 
 
 @pytest.mark.parametrize("t0_s", [5.0, 30.0, 10.0])
@@ -397,10 +397,10 @@ def test_heading_stage_converges_from_large_coarse_heading_error(t0_s: float) ->
                       zv_sigma_m_s=sc.zero_velocity_sigma_m_s,
                       heading_stage_s=sc.heading_stage_s, heading_stage_q=sc.heading_stage_q)
     out = run_alignment(dth, dv, cfg)
-    assert not out["failed"]
-    cnb = truth_at(sc, out["t_s"] + t0_s)["cnb"]
+    assert not out.failed
+    cnb = truth_at(sc, out.t_s + t0_s)["cnb"]
     # Heading error after the first KF cycle (Up component of the misalignment = sin psi).
-    psi0 = np.arcsin(misalignment(euler2dcm(out["att"][0]), cnb[0])[2])
+    psi0 = np.arcsin(misalignment(euler2dcm(out.att[0]), cnb[0])[2])
     assert 15.0 * np.pi / 180 < abs(psi0) < 85.0 * np.pi / 180  # large coarse error indeed
     c = cnb.mean(axis=0)
     u, _, vt = np.linalg.svd(c)
@@ -409,12 +409,12 @@ def test_heading_stage_converges_from_large_coarse_heading_error(t0_s: float) ->
     g = gravity_m_s2(sc.lat_rad, sc.h_m)
     psi_ss = (-eps_n[0] / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad))
               + nab_n[0] / g * np.tan(sc.lat_rad))
-    sigma_end = out["p_phi"][-1, 2]
-    psi_end = misalignment(euler2dcm(out["att"][-1]), cnb[-1])[2]
+    sigma_end = out.p_phi[-1, 2]
+    psi_end = misalignment(euler2dcm(out.att[-1]), cnb[-1])[2]
     assert abs(psi_end - psi_ss) <= 2.0 * sigma_end
     if t0_s == 10.0:
         base = run_alignment(dth, dv, dataclasses.replace(cfg, heading_stage_s=0.0))
-        psi_base = misalignment(euler2dcm(base["att"][-1]), cnb[-1])[2]
+        psi_base = misalignment(euler2dcm(base.att[-1]), cnb[-1])[2]
         assert abs(psi_base - psi_ss) > 5.0 * 2.0 * sigma_end
 
 
@@ -427,8 +427,8 @@ def test_pipeline_counts_nan_samples_and_validates_arguments() -> None:
     bad[1500, 2] = np.nan
     bad[1700, 0] = np.inf
     out = run_alignment(bad, dv, cfg)
-    assert out["bad_samples"] == 2 and not out["failed"]
-    assert np.isfinite(out["att"]).all()
+    assert out.bad_samples == 2 and not out.failed
+    assert np.isfinite(out.att).all()
     with pytest.raises(TypeError):
         run_alignment(dth.astype(np.float32), dv, cfg)
     with pytest.raises(ValueError, match="coarse"):
@@ -454,6 +454,6 @@ def test_fine_alignment_heading_noise_near_arw_limit() -> None:
     cfg = AlignConfig(dt_s=dt, kf_every=2, lat_rad=sc.lat_rad, lon_rad=sc.lon_rad,
                       h_m=sc.h_m, arw_rad_s_rt_hz=arw, zv_sigma_m_s=0.001, p0_eb_rad_s=1e-6 * DPH)
     out = run_alignment(dth, dv, cfg)
-    t_fine = out["t_s"][-1] - cfg.coarse_s
+    t_fine = out.t_s[-1] - cfg.coarse_s
     limit = arw / (EARTH_RATE_RAD_S * np.cos(sc.lat_rad) * np.sqrt(t_fine))
-    assert limit <= out["p_phi"][-1, 2] <= 1.5 * limit
+    assert limit <= out.p_phi[-1, 2] <= 1.5 * limit

@@ -120,9 +120,9 @@ def test_white_noise_plus_bias_gains_nothing_from_the_prefilter() -> None:
         pre = run_alignment(g, a, AlignConfig(**base, taps=taps, accel_delay_samples=8))
         raw = run_alignment(np.ascontiguousarray(g[247:-8]), np.ascontiguousarray(a[247:-8]),
                             AlignConfig(**base))
-        assert np.allclose(pre["t_s"] - 2.47, raw["t_s"], atol=1e-9)
-        assert np.abs(pre["att"][-1] - raw["att"][-1]).max() < 1.0 * ARCSEC
-        yaw.append(raw["att"][-1, 2])
+        assert np.allclose(pre.t_s - 2.47, raw.t_s, atol=1e-9)
+        assert np.abs(pre.att[-1] - raw.att[-1]).max() < 1.0 * ARCSEC
+        yaw.append(raw.att[-1, 2])
     assert np.std(yaw, ddof=1) > 100 * ARCSEC
 
 

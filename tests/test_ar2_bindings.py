@@ -6,9 +6,12 @@ import gyrodrift
 import numpy as np
 import pytest
 from gyrodrift import Ar2Model, KalmanFilter, _core
+from gyrodrift.ar2 import kalman_filter_result
 
 MODEL = Ar2Model(a1=0.45, a2=0.12, sigma2=0.8, mean=3.0, r=1.1)
-PARAMS = [(MODEL.a1, MODEL.a2, MODEL.sigma2, MODEL.mean, MODEL.sigma2, MODEL.r)]
+S = _core.Ar2KalmanSettings
+PARAMS = [_core.Ar2KalmanSettings(a1=MODEL.a1, a2=MODEL.a2, sigma2=MODEL.sigma2, mean=MODEL.mean,
+                                   q=MODEL.sigma2, r=MODEL.r)]
 
 
 @pytest.fixture()
@@ -80,11 +83,15 @@ def test_core_is_strict_zero_copy(x) -> None:
     with pytest.raises(ValueError, match=r"\(n, 3\)"):
         _core.ar2_kalman_batch(np.zeros((5, 2)), PARAMS)
     with pytest.raises(ValueError, match="non-stationary"):
-        _core.ar2_kalman_batch(x, [(1.5, 0.0, 1.0, 0.0, 1.0, 1.0)])
+        _core.ar2_kalman_batch(x, [S(a1=1.5, a2=0.0, sigma2=1.0, q=1.0, r=1.0)])
     with pytest.raises(ValueError, match="bad argument"):
-        _core.ar2_kalman_batch(x, [(0.1, 0.0, 1.0, 0.0, 1.0, 0.0)])  # r = 0
+        _core.ar2_kalman_batch(x, [S(a1=0.1, a2=0.0, sigma2=1.0, q=1.0, r=0.0)])  # r = 0
     with pytest.raises(ValueError, match="non-finite"):
-        _core.Ar2Kalman(0.1, 0.0, 1.0, float("inf"), 1.0, 1.0)
+        _core.Ar2Kalman(S(a1=0.1, a2=0.0, sigma2=1.0, mean=float("inf"), q=1.0, r=1.0))
+    with pytest.raises(TypeError):  # a bound configuration, not 13 positional numbers
+        _core.ar2_kalman_batch(x, [(0.1, 0.0, 1.0, 0.0, 1.0, 1.0)])
+    with pytest.raises(TypeError):  # keyword-only fields
+        S(0.1, 0.0, 1.0, 0.0, 1.0, 1.0)
 
 
 def test_stateful_filter_arguments(x) -> None:
@@ -102,7 +109,8 @@ def test_stateful_filter_arguments(x) -> None:
 def test_large_batch_three_axes_float32(rng) -> None:
     # 2e5 x 3 samples through the GIL-free batch path, float32 in and out, finite.
     a = rng.normal(0.0, 1.0, (200_000, 3)).astype(np.float32)
-    out, faults = gyrodrift.kalman_filter(a, MODEL, return_faults=True)
+    res = kalman_filter_result(a, MODEL)
+    out, faults = res.y, res.faults
     assert out.dtype == np.float32 and faults.tolist() == [0, 0, 0]
     assert np.all(np.isfinite(out))
 

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter as FilterPyKF
 from gyrodrift import Ar2Model, KalmanFilter
+from gyrodrift.ar2 import kalman_filter_result
 
 N = 100_000  # the comparison length
 
@@ -147,7 +148,8 @@ def test_non_finite_samples_are_predict_only_and_counted(
 ) -> None:
     x = record[:5000].astype(dtype)
     x[[10, 11, 12, 400, 4999]] = [np.nan, np.inf, -np.inf, np.nan, np.nan]
-    out, faults = gyrodrift.kalman_filter(x, model, steady_state=steady_state, return_faults=True)
+    res = kalman_filter_result(x, model, steady_state=steady_state)
+    out, faults = res.y, res.faults
     assert faults.tolist() == [5]
     assert np.all(np.isfinite(out))
     want = ref.kalman_filter(x.astype(np.float64), model, steady_state=steady_state)

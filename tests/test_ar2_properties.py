@@ -11,6 +11,7 @@ import gyrodrift.reference as ref
 import numpy as np
 import pytest
 from gyrodrift import Ar2Model, KalmanFilter
+from gyrodrift.ar2 import kalman_filter_result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -46,7 +47,8 @@ def records(draw: st.DrawFn, model: Ar2Model) -> np.ndarray:
 def test_cpp_equals_reference_on_random_models(data, model, r_scale, steady) -> None:
     x = data.draw(records(model))
     r = model.sigma2 * r_scale
-    out, faults = gyrodrift.kalman_filter(x, model, r=r, steady_state=steady, return_faults=True)
+    res = kalman_filter_result(x, model, r=r, steady_state=steady)
+    out, faults = res.y, res.faults
     want = ref.kalman_filter(x, model, r=r, steady_state=steady)
     assert np.all(np.isfinite(out))
     assert int(faults[0]) == int(np.sum(~np.isfinite(x)))

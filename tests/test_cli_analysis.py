@@ -156,6 +156,59 @@ def test_filter_cli_matches_library(tmp_path: Path, capsys, method: str) -> None
     assert out["std_out_deg_h"] < out["std_in_deg_h"]
 
 
+@pytest.mark.parametrize("extra", [
+    ["--method", "kalman", "--kalman-q", "0.05", "--kalman-r", "2.0"],
+    ["--method", "wavelet", "--wavelet", "db4", "--level", "4", "--threshold", "hard"],
+    ["--method", "realtime-wavelet", "--wavelet", "db4", "--window", "64", "--level", "3",
+     "--threshold", "soft"],
+    ["--method", "wpacket", "--threshold", "hard"],
+])
+def test_filter_cli_options_reach_the_library(tmp_path: Path, capsys, extra: list[str]) -> None:
+    """issue 9: filter has the Kalman variances, the wavelet choice and the threshold mode."""
+    rec = gyrodrift.simulate(n=4096, rate_hz=100.0, n_deg_rt_h=0.01,
+                             ar2=(0.6868, -0.0213, 0.5), seed=5)
+    np.save(tmp_path / "r.npy", rec.rate_deg_h)
+    out = run_json(["filter", tmp_path / "r.npy", "--rate-hz", 100, "-o", tmp_path / "f.npy",
+                    *extra], capsys)
+    x, y = rec.rate_deg_h, np.load(tmp_path / "f.npy")
+    method = extra[1]
+    if method == "kalman":
+        expected = gyrodrift.kalman_filter(x, gyrodrift.fit_ar2(x), q=0.05, r=2.0)
+        assert out["filter"]["kalman"] == {"q": 0.05, "r": 2.0, "steady_state": False}
+    elif method == "wavelet":
+        expected = gyrodrift.wavelet_denoise(x, wavelet="db4", level=4, mode="hard")
+    elif method == "realtime-wavelet":
+        expected = gyrodrift.RealtimeWavelet("db4", window=64, level=3, mode="soft").filter(x)
+    else:
+        expected = gyrodrift.wavelet_packet_denoise(x, wavelet="bior3.7", level=4, mode="hard")
+    np.testing.assert_array_equal(y, expected)
+    code, _, err = run(["filter", tmp_path / "r.npy", "--rate-hz", 100, "-o",
+                        tmp_path / "g.npy", "--method", "wavelet", "--threshold", "forced"],
+                       capsys)
+    assert code == 2 and "realtime-wavelet" in err
+
+
+def test_csv_outputs_carry_every_digit(tmp_path: Path, capsys) -> None:
+    """issue 9: allan --csv wrote integers as 1.000000000000000000e+00; filter -o x.csv wrote
+    rounded times. Floats now read back bit for bit, integers are integers."""
+    rec = gyrodrift.simulate(n=3000, rate_hz=3.0, n_deg_rt_h=0.01, seed=6)
+    np.save(tmp_path / "r.npy", rec.rate_deg_h)
+    out = run_json(["allan", tmp_path / "r.npy", "--rate-hz", 3, "--csv", tmp_path / "a.csv"],
+                   capsys)
+    lines = (tmp_path / "a.csv").read_text().splitlines()
+    assert lines[0] == "tau_s,m,adev_deg_h,ci_low_deg_h,ci_high_deg_h,edf,terms"
+    first = lines[1].split(",")
+    assert first[1] == "1" and first[6] == str(out["allan"]["terms"][0])  # integers
+    table = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)
+    assert table[:, 2].tolist() == out["allan"]["adev"]  # exact round trip
+    run_json(["filter", tmp_path / "r.npy", "--rate-hz", 3, "-o", tmp_path / "f.csv"], capsys)
+    t_s, y = np.loadtxt(tmp_path / "f.csv", delimiter=",", skiprows=1, unpack=True)
+    assert t_s[1] == 1 / 3 and (tmp_path / "f.csv").read_text().splitlines()[2].startswith(
+        f"{1 / 3!r},")
+    np.testing.assert_array_equal(y, gyrodrift.kalman_filter(rec.rate_deg_h,
+                                                             gyrodrift.fit_ar2(rec.rate_deg_h)))
+
+
 def test_filter_float_core_close_to_double(tmp_path: Path, capsys) -> None:
     rec = gyrodrift.simulate(n=4096, rate_hz=100.0, ar2=(0.6868, -0.0213, 0.5), seed=9)
     np.save(tmp_path / "r.npy", rec.rate_deg_h)

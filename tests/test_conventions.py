@@ -183,3 +183,24 @@ def test_alignment_references_live_under_reference() -> None:
         assert not hasattr(align, name), name
     assert not (PACKAGE / "align" / "earth.py").exists()
     assert not (PACKAGE / "align" / "prefilter.py").exists()
+
+
+# ------------------------------------------------------------------ errors
+# Areas whose owners are rewriting them in parallel (issues 12 and 13) convert on their side.
+ERRORS_PENDING = {"imu.py", "replay", "codecs"}
+
+
+def test_production_raises_gyrodrift_errors() -> None:
+    """Every ValueError/TypeError the package raises on purpose is a GyrodriftValueError /
+    GyrodriftTypeError (CONTRIBUTING.md: one base class, catchable as GyrodriftError)."""
+    bad = []
+    for path in _modules(PACKAGE):
+        rel = path.relative_to(PACKAGE)
+        if "reference" in rel.parts or rel.parts[0] in ERRORS_PENDING:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Raise) and isinstance(node.exc, ast.Call)
+                    and isinstance(node.exc.func, ast.Name)
+                    and node.exc.func.id in ("ValueError", "TypeError")):
+                bad.append(f"{rel}:{node.lineno}: raise {node.exc.func.id}")
+    assert not bad, "use gyrodrift.errors:\n" + "\n".join(bad)

@@ -8,6 +8,7 @@ import pytest
 import pywt
 from gyrodrift import best_basis, wavelet_packet_denoise
 from gyrodrift.reference.wavelet import best_basis_bruteforce
+from gyrodrift.wavelet_packet import wavelet_packet_denoise_result
 
 LEAVES3 = ["aaa", "aad", "ada", "add", "daa", "dad", "dda", "ddd"]
 
@@ -68,7 +69,9 @@ def test_packet_denoise_reduces_noise_and_keeps_length() -> None:
     t = np.arange(n) / 100.0
     truth = np.sin(2 * np.pi * 0.3 * t) + 0.2 * np.sin(2 * np.pi * 1.1 * t)
     noisy = truth + 0.4 * rng.standard_normal(n)
-    y, basis = wavelet_packet_denoise(noisy, "bior3.7", 4, return_basis=True)
+    res = wavelet_packet_denoise_result(noisy, "bior3.7", 4)
+    y, basis = res.y, res.basis
+    np.testing.assert_array_equal(y, wavelet_packet_denoise(noisy, "bior3.7", 4))
     assert y.shape == (n,)
     assert basis == best_basis(noisy, "bior3.7", 4)
     rms_in = np.sqrt(np.mean((noisy - truth) ** 2))

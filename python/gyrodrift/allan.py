@@ -35,6 +35,7 @@ import scipy.stats
 from tqdm import tqdm
 
 from gyrodrift import _native
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
     "ONE_SIGMA_CI",
@@ -85,6 +86,12 @@ class AllanResult:
         n_samples: record length (rate samples, or phase samples for kind="phase").
         rate_hz: sample rate.
         kind: "rate" or "phase".
+
+    Examples
+    --------
+    >>> r = oadev(np.random.default_rng(0).standard_normal(1000), 10.0)
+    >>> r.tau_s[:3].tolist(), r.kind
+    ([0.1, 0.2, 0.4], 'rate')
     """
 
     tau_s: np.ndarray
@@ -103,7 +110,7 @@ class AllanResult:
     def scaled(self, factor: float) -> AllanResult:
         """The same result with the deviation in another unit (deviation x factor > 0)."""
         if not (factor > 0 and math.isfinite(factor)):
-            raise ValueError(f"factor must be positive and finite, got {factor!r}")
+            raise GyrodriftValueError(f"factor must be positive and finite, got {factor!r}")
         return AllanResult(
             self.tau_s, self.m, self.adev * factor, self.terms, self.edf, self.alpha,
             self.ci_low * factor, self.ci_high * factor, self.ci, self.n_samples,
@@ -142,27 +149,34 @@ def averaging_factors(
     taus: "octave" (1, 2, 4, ...), "decade" (round(10^(k/per_decade)), duplicates removed),
     "all" (1, 2, 3, ...), or explicit taus in seconds (rounded to m = tau * rate_hz; every one
     must fit the record, else ValueError naming the longest tau the record supports).
+
+    Examples
+    --------
+    >>> averaging_factors(100).tolist()
+    [1, 2, 4, 8, 16, 32]
     """
     if kind not in ("rate", "phase"):
-        raise ValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
+        raise GyrodriftValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
     max_m = _max_m(int(n_data), kind)
     if max_m < 1:
-        raise ValueError(
+        raise GyrodriftValueError(
             f"record too short for Allan analysis: {n_data} {kind} samples "
             f"(need at least {3 if kind == 'rate' else 4})"
         )
     if isinstance(taus, str):
         if taus not in ("octave", "decade", "all"):
-            raise ValueError(f"taus must be 'octave', 'decade', 'all' or an array, got {taus!r}")
+            raise GyrodriftValueError(
+                f"taus must be 'octave', 'decade', 'all' or an array, got {taus!r}")
         return np.asarray(_lib().tau_grid(taus, max_m, per_decade), dtype=np.int64)
     tau_arr = np.asarray(taus, dtype=np.float64)
     if tau_arr.ndim != 1 or tau_arr.size == 0 or not np.all(np.isfinite(tau_arr)):
-        raise ValueError("taus: expected a non-empty 1-D array of finite taus in seconds")
+        raise GyrodriftValueError("taus: expected a non-empty 1-D array of finite taus in seconds")
     m = np.unique(np.rint(tau_arr * rate_hz).astype(np.int64))
     if m[0] < 1:
-        raise ValueError(f"tau {tau_arr.min()} s is shorter than one sample (1/{rate_hz} s)")
+        raise GyrodriftValueError(
+            f"tau {tau_arr.min()} s is shorter than one sample (1/{rate_hz} s)")
     if m[-1] > max_m:
-        raise ValueError(
+        raise GyrodriftValueError(
             f"record too short for tau = {tau_arr.max():g} s: {n_data} samples at {rate_hz:g} Hz "
             f"support tau <= {max_m / rate_hz:g} s (two non-overlapping clusters of 2 tau)"
         )
@@ -174,6 +188,11 @@ def edf_simple(n_phase: int | np.ndarray, m: int | np.ndarray, alpha: int | np.n
     """Equivalent degrees of freedom of the overlapping Allan variance, NIST SP 1065 Table 5
     (Stein 1985), for n_phase phase points (= rate samples + 1), factor m, noise exponent
     alpha in {2, 1, 0, -1, -2} (white PM, flicker PM, white FM, flicker FM, random-walk FM).
+
+    Examples
+    --------
+    >>> bool(edf_simple(1001, 1, 0) > 500)  # white FM, m = 1: of the order of n
+    True
     """
     n_arr, m_arr, a_arr = np.broadcast_arrays(
         np.asarray(n_phase, dtype=np.float64), np.asarray(m, dtype=np.float64),
@@ -199,16 +218,23 @@ def edf_simple(n_phase: int | np.ndarray, m: int | np.ndarray, alpha: int | np.n
             edf = (n - 2.0) / (mm * (n - 3.0) ** 2) * (
                 (n - 1.0) ** 2 - 3.0 * mm * (n - 1.0) + 4.0 * mm * mm)
         else:
-            raise ValueError(f"alpha must be one of 2, 1, 0, -1, -2, got {a}")
+            raise GyrodriftValueError(f"alpha must be one of 2, 1, 0, -1, -2, got {a}")
         out[idx] = edf
     return out
 
 
 def chi2_interval(dev: np.ndarray, edf: np.ndarray, ci: float = ONE_SIGMA_CI
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Two-sided chi-squared interval of a deviation (NIST SP 1065 eq. 45), probability ci."""
+    """Two-sided chi-squared interval of a deviation (NIST SP 1065 eq. 45), probability ci.
+
+    Examples
+    --------
+    >>> lo, hi = chi2_interval(np.array([1.0]), np.array([100.0]))
+    >>> bool(lo[0] < 1.0 < hi[0])
+    True
+    """
     if not 0.0 < ci < 1.0:
-        raise ValueError(f"ci must be in (0, 1), got {ci!r}")
+        raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     dev = np.asarray(dev, dtype=np.float64)
     edf = np.asarray(edf, dtype=np.float64)
     p_low = (1.0 - ci) / 2.0
@@ -228,6 +254,12 @@ def noise_alpha_from_slope(tau_s: np.ndarray, adev: np.ndarray) -> np.ndarray:
     the dominant term moves from tau^-2 towards tau^+2 as tau grows, so a steep drop at the
     last few taus (few differences, large scatter) must not be read as white phase noise,
     whose edf would be ~N and would make those scattered points dominate a weighted fit.
+
+    Examples
+    --------
+    >>> tau = np.logspace(0, 3, 10)
+    >>> noise_alpha_from_slope(tau, 1 / np.sqrt(tau)).tolist()  # slope -1/2: white FM
+    [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]
     """
     tau_s = np.asarray(tau_s, dtype=np.float64)
     adev = np.asarray(adev, dtype=np.float64)
@@ -259,6 +291,11 @@ def lag1_noise_id(y: np.ndarray, m: int, *, dmax: int = 2, max_points: int = 1 <
     (d times) until delta < 0.25; alpha = -round(2 delta) - 2 d. Uses at most `max_points`
     averages (the first max_points * m samples): the sd of r1 is ~1/sqrt(points).
     Returns None when fewer than 30 averages exist (the method's minimum).
+
+    Examples
+    --------
+    >>> lag1_noise_id(np.random.default_rng(0).standard_normal(10_000), 1)  # white FM
+    0
     """
     y = np.asarray(y, dtype=np.float64)
     n_avg = min(y.size // m, max_points)
@@ -281,7 +318,7 @@ def lag1_noise_id(y: np.ndarray, m: int, *, dmax: int = 2, max_points: int = 1 <
 
 def _filename(mm: np.memmap) -> str:
     if mm.filename is None:  # a memmap always has a file; None only for anonymous maps
-        raise ValueError("memory map without a file")
+        raise GyrodriftValueError("memory map without a file")
     return str(mm.filename)
 
 
@@ -295,7 +332,7 @@ def _file_chunks(mm: np.memmap, start: int, stop: int, chunk: int) -> Iterator[n
             fh.seek(mm.offset + pos * itemsize)
             piece = np.fromfile(fh, dtype=mm.dtype, count=count)
             if piece.size != count:
-                raise ValueError(f"{mm.filename}: file shorter than its header says")
+                raise GyrodriftValueError(f"{mm.filename}: file shorter than its header says")
             yield np.ascontiguousarray(piece, dtype=np.float64)
             pos += count
 
@@ -308,7 +345,7 @@ def _read_range(fh: Any, mm: np.memmap, start: int, stop: int) -> np.ndarray:
     fh.seek(mm.offset + start * mm.dtype.itemsize)
     piece = np.fromfile(fh, dtype=mm.dtype, count=stop - start)
     if piece.size != stop - start:
-        raise ValueError(f"{mm.filename}: file shorter than its header says")
+        raise GyrodriftValueError(f"{mm.filename}: file shorter than its header says")
     return np.ascontiguousarray(piece, dtype=np.float64)
 
 
@@ -418,17 +455,24 @@ def oadev(
 
     Raises:
         ValueError: not 1-D, too short for the taus, NaN/Inf (with their count), bad rate.
+
+    Examples
+    --------
+    >>> x = np.random.default_rng(0).standard_normal(100_000)  # white rate noise
+    >>> r = oadev(x, 100.0, progress=False)
+    >>> bool(abs(r.adev[0] - 1.0) < 0.01)  # ADEV at tau0 of unit white noise is 1
+    True
     """
     if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise ValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
+        raise GyrodriftValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
     if kind not in ("rate", "phase"):
-        raise ValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
+        raise GyrodriftValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
     is_memmap = isinstance(x, np.memmap)
     arr = x if is_memmap else np.asarray(x)
     if arr.ndim != 1:
-        raise ValueError(f"x: expected a 1-D record, got shape {arr.shape}")
+        raise GyrodriftValueError(f"x: expected a 1-D record, got shape {arr.shape}")
     if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise TypeError(f"x: expected real numbers, got dtype {arr.dtype}")
+        raise GyrodriftTypeError(f"x: expected real numbers, got dtype {arr.dtype}")
     n_data = int(arr.shape[0])
     m = averaging_factors(n_data, taus, rate_hz=rate_hz, kind=kind, per_decade=per_decade)
     n_terms = n_data - 2 * m + (1 if kind == "rate" else 0)
@@ -437,13 +481,13 @@ def oadev(
     chunked = is_memmap or chunk_samples is not None
     n_threads = (os.cpu_count() or 1) if threads is None else int(threads)
     if n_threads < 1:
-        raise ValueError(f"threads must be >= 1, got {threads!r}")
+        raise GyrodriftValueError(f"threads must be >= 1, got {threads!r}")
     with tqdm(total=work, disable=not show, unit="term", unit_scale=True,
               desc="Allan", leave=False) as bar:
         if chunked:
             chunk = int(chunk_samples or DEFAULT_CHUNK_SAMPLES)
             if chunk < 1:
-                raise ValueError(f"chunk_samples must be >= 1, got {chunk}")
+                raise GyrodriftValueError(f"chunk_samples must be >= 1, got {chunk}")
             if not (is_memmap and isinstance(arr.base, mmap.mmap) and arr.flags.c_contiguous):
                 # In-memory arrays (and views into a memmap, whose file offset numpy does not
                 # track) take the same chunked sums over views instead of file reads.
@@ -467,7 +511,7 @@ def oadev(
                 except ValueError as exc:
                     bad = int(np.count_nonzero(~np.isfinite(x)))
                     if bad:
-                        raise ValueError(
+                        raise GyrodriftValueError(
                             f"x: {bad} NaN/Inf samples; drop or repair them first "
                             "(gyrodrift.io.load_record has an explicit nan_policy)") from exc
                     raise
@@ -475,7 +519,7 @@ def oadev(
                 terms[lo:lo + group] = t
                 bar.update(int(n_terms[lo:lo + group].sum()))
     if not np.any(sigma2 > 0):
-        raise ValueError(f"x: the record is constant (its Allan deviation is zero at all "
+        raise GyrodriftValueError(f"x: the record is constant (its Allan deviation is zero at all "
                          f"{m.size} taus); nothing to analyse")
     if kind == "phase":
         sigma2 = sigma2 * rate_hz * rate_hz  # the kernel leaves out 1/tau0^2
@@ -485,7 +529,7 @@ def oadev(
         alpha_arr = noise_alpha_from_slope(tau_s, adev)
     elif isinstance(alpha, str):
         if alpha != "acf":
-            raise ValueError(f"alpha must be None, 'acf', or integers, got {alpha!r}")
+            raise GyrodriftValueError(f"alpha must be None, 'acf', or integers, got {alpha!r}")
         # Lag-1 ACF noise ID where >= 30 averages exist, the slope estimate (capped by the
         # last ACF value, noise types do not move back towards white PM) beyond.
         x_id = np.asarray(x, dtype=np.float64) if kind == "rate" else np.diff(x) * rate_hz
@@ -513,7 +557,7 @@ def _chunked_in_memory(x: np.ndarray, m_all: np.ndarray, kind: str, chunk: int,
     x = np.ascontiguousarray(x, dtype=np.float64)
     bad = int(np.count_nonzero(~np.isfinite(x)))
     if bad:
-        raise ValueError(f"x: {bad} NaN/Inf samples; drop or repair them first")
+        raise GyrodriftValueError(f"x: {bad} NaN/Inf samples; drop or repair them first")
 
     def pieces(start: int, stop: int) -> Iterator[np.ndarray]:
         for lo in range(start, stop, chunk):

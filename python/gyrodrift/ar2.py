@@ -29,17 +29,19 @@ from typing import Any
 import numpy as np
 
 from gyrodrift import _native
-from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
     "MIN_SAMPLES",
     "Ar2FitError",
     "Ar2Model",
+    "FilterResult",
     "KalmanFilter",
     "ar_filter",
     "fit_ar2",
     "is_stationary",
     "kalman_filter",
+    "kalman_filter_result",
 ]
 
 #: Fewest samples a fit accepts (include/gyrodrift/ar2_model.hpp kAr2MinSamples).
@@ -82,13 +84,20 @@ class Ar2FitError(GyrodriftValueError):
 def normalise_method(method: str) -> str:
     key = str(method).lower()
     if key not in _METHODS:
-        raise ValueError(f"unknown AR(2) method {method!r}; use 'yule-walker', 'burg' or 'ls'")
+        raise GyrodriftValueError(
+            f"unknown AR(2) method {method!r}; use 'yule-walker', 'burg' or 'ls'")
     return _METHODS[key]
 
 
 def is_stationary(a1: float, a2: float) -> bool:
     """Both roots of z^2 - a1 z - a2 strictly inside the unit circle (stationarity triangle),
-    with the C++ core's margin of 64 eps for "on the circle"."""
+    with the C++ core's margin of 64 eps for "on the circle".
+
+    Examples
+    --------
+    >>> is_stationary(0.5, 0.1), is_stationary(1.5, 0.0)
+    (True, False)
+    """
     one = 1.0 - _STATIONARITY_MARGIN
     return (
         math.isfinite(a1)
@@ -113,6 +122,12 @@ class Ar2Model:
         r: variance of the AR(2) estimation (one-step prediction) error on the fitting record,
             (units of y)^2; the Kalman filter's default measurement variance. NaN if unknown
             (then kalman_filter uses sigma2).
+
+    Examples
+    --------
+    >>> m = Ar2Model(a1=0.5, a2=0.1, sigma2=1.0)
+    >>> m.stationary, m.measurement_variance
+    (True, 1.0)
     """
 
     a1: float
@@ -126,9 +141,10 @@ class Ar2Model:
     def __post_init__(self) -> None:
         for name in ("a1", "a2", "sigma2", "mean"):
             if not math.isfinite(float(getattr(self, name))):
-                raise ValueError(f"Ar2Model.{name} must be finite, got {getattr(self, name)!r}")
+                raise GyrodriftValueError(
+                    f"Ar2Model.{name} must be finite, got {getattr(self, name)!r}")
         if self.sigma2 < 0:
-            raise ValueError(f"Ar2Model.sigma2 must be >= 0, got {self.sigma2!r}")
+            raise GyrodriftValueError(f"Ar2Model.sigma2 must be >= 0, got {self.sigma2!r}")
 
     @property
     def stationary(self) -> bool:
@@ -159,17 +175,18 @@ def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
     if dtype is not None:
         dt = np.dtype(dtype)  # type: ignore[call-overload]
         if dt not in (np.float32, np.float64):
-            raise TypeError(f"dtype must be float32 or float64, got {dt}")
+            raise GyrodriftTypeError(f"dtype must be float32 or float64, got {dt}")
     a = np.asarray(x)
     if a.dtype.kind not in "fiu" or a.dtype == np.float16:
-        raise TypeError(
+        raise GyrodriftTypeError(
             f"{name} must be a real numeric array (float32/float64 or integers), "
             f"got dtype {a.dtype}"
         )
     if a.ndim == 0:  # np.ascontiguousarray would silently make it 1-D
-        raise ValueError(f"{name} must be an array of samples, got a scalar (shape ())")
+        raise GyrodriftValueError(f"{name} must be an array of samples, got a scalar (shape ())")
     if a.dtype.kind == "f" and a.dtype.itemsize > 8:
-        raise TypeError(f"{name}: dtype {a.dtype} is not supported; use float32 or float64")
+        raise GyrodriftTypeError(
+            f"{name}: dtype {a.dtype} is not supported; use float32 or float64")
     if dtype is None:
         dt = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
     return np.ascontiguousarray(a, dtype=dt)
@@ -178,9 +195,9 @@ def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
 def _check_shape(a: np.ndarray, name: str) -> None:
     if a.ndim == 1 or (a.ndim == 2 and a.shape[1] == 3):
         if a.shape[0] == 0:
-            raise ValueError(f"{name} is empty")
+            raise GyrodriftValueError(f"{name} is empty")
         return
-    raise ValueError(f"{name} must have shape (n,) or (n, 3), got {a.shape}")
+    raise GyrodriftValueError(f"{name} must have shape (n,) or (n, 3), got {a.shape}")
 
 
 def _models_for(model: Ar2Model | Sequence[Ar2Model], axes: int) -> list[Ar2Model]:
@@ -188,7 +205,7 @@ def _models_for(model: Ar2Model | Sequence[Ar2Model], axes: int) -> list[Ar2Mode
         return [model]
     models = list(model)
     if len(models) != axes or not all(isinstance(m, Ar2Model) for m in models):
-        raise TypeError(
+        raise GyrodriftTypeError(
             f"model must be an Ar2Model or a sequence of {axes} Ar2Model (one per axis)"
         )
     return models
@@ -198,16 +215,22 @@ def _variance(value: float | None, default: float, name: str, positive: bool) ->
     v = default if value is None else float(value)
     if not math.isfinite(v) or v < 0 or (positive and v == 0):
         bound = "> 0" if positive else ">= 0"
-        raise ValueError(f"{name} must be finite and {bound}, got {v!r}")
+        raise GyrodriftValueError(f"{name} must be finite and {bound}, got {v!r}")
     return v
 
 
 def _params(m: Ar2Model, q: float | None, r: float | None) -> tuple[float, ...]:
     if not m.stationary:
-        raise ValueError(f"non-stationary AR(2) model a1={m.a1}, a2={m.a2}")
+        raise GyrodriftValueError(f"non-stationary AR(2) model a1={m.a1}, a2={m.a2}")
     qv = _variance(q, m.sigma2, "q", positive=False)
     rv = _variance(r, m.measurement_variance, "r", positive=True)
     return (m.a1, m.a2, m.sigma2, m.mean, qv, rv)
+
+
+def _settings(m: Ar2Model, q: float | None, r: float | None) -> Any:
+    """The bound C++ configuration of one channel (gyrodrift._core.Ar2KalmanSettings)."""
+    a1, a2, sigma2, mean, qv, rv = _params(m, q, r)
+    return _core().Ar2KalmanSettings(a1=a1, a2=a2, sigma2=sigma2, mean=mean, q=qv, r=rv)
 
 
 def _report_faults(faults: np.ndarray, what: str) -> None:
@@ -240,13 +263,22 @@ def fit_ar2(
         Ar2FitError (a ValueError): too short (< 8 samples), constant, NaN/Inf, or a
             non-stationary result; the message names the cause.
         TypeError: non-numeric input.
+
+    Examples
+    --------
+    >>> import scipy.signal
+    >>> e = np.random.default_rng(0).standard_normal(20_000)
+    >>> x = scipy.signal.lfilter([1.0], [1.0, -0.6, 0.1], e)  # AR(2): 0.6, -0.1
+    >>> m = fit_ar2(x, "burg")
+    >>> round(m.a1, 1), round(m.a2, 1)
+    (0.6, -0.1)
     """
     name = normalise_method(method)
     a = _float_array(x, "x", dtype)
     if a.ndim == 2 and a.shape[1] == 3:
         return tuple(fit_ar2(a[:, i], name, dtype) for i in range(3))  # type: ignore[misc]
     if a.ndim != 1:
-        raise ValueError(f"x must have shape (n,) or (n, 3), got {a.shape}")
+        raise GyrodriftValueError(f"x must have shape (n,) or (n, 3), got {a.shape}")
     core = _core()
     cpp_method = {
         "yule-walker": core.Ar2Method.yule_walker,
@@ -275,17 +307,44 @@ def ar_filter(
 ) -> np.ndarray:
     """AR filter, paper 000 sec. 2.1: y_k minus its one-step residual, i.e. the one-step AR(2)
     prediction plus the mean. x: (n,) or (n, 3), float32/float64 kept (integers -> float64).
-    out: optional C-contiguous array of x's shape and the computation dtype (may be x)."""
+    out: optional C-contiguous array of x's shape and the computation dtype (may be x).
+
+    Examples
+    --------
+    >>> m = Ar2Model(a1=0.5, a2=0.0, sigma2=1.0)
+    >>> ar_filter(np.array([1.0, 2.0, 3.0, 4.0]), m).shape
+    (4,)
+    """
     a = _float_array(x, "x", dtype)
     _check_shape(a, "x")
     axes = 1 if a.ndim == 1 else 3
-    params = [_params(m, None, None) for m in _models_for(model, axes)]
+    params = [_settings(m, None, None) for m in _models_for(model, axes)]
     out, faults = _core().ar_filter_batch(a, params, out)
     _report_faults(faults, "ar_filter")
     return out
 
 
-def kalman_filter(
+@dataclass(frozen=True)
+class FilterResult:
+    """A filtered record and the non-finite samples the filter skipped, per axis.
+
+    Examples
+    --------
+    >>> m = Ar2Model(0.5, 0.1, 1.0)
+    >>> r = kalman_filter_result(np.array([1.0, np.nan, 2.0, 0.5] * 4), m)
+    >>> r.faults.tolist()
+    [4]
+    """
+
+    y: np.ndarray
+    faults: np.ndarray
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-ready values."""
+        return {"y": self.y.tolist(), "faults": self.faults.tolist()}
+
+
+def kalman_filter_result(
     x: object,
     model: Ar2Model | Sequence[Ar2Model],
     q: float | None = None,
@@ -293,38 +352,81 @@ def kalman_filter(
     steady_state: bool = False,
     dtype: object = None,
     p0: float = 1.0,
-    return_faults: bool = False,
     out: np.ndarray | None = None,
-) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """AR(2)-Kalman filter (C++ core) of a record of shape (n,) or (n, 3).
+) -> FilterResult:
+    """AR(2)-Kalman filter (C++ core) of a record of shape (n,) or (n, 3), with the count of
+    skipped non-finite samples per axis (`kalman_filter` warns instead).
 
-    q, r: process / measurement variances, (units of x)^2; default model.sigma2 and model.r.
-    steady_state: constant gain from the discrete algebraic Riccati equation (solved once).
-    dtype: computation dtype, float32 or float64; default: x's float dtype, float64 for integers.
-    A float32/float64 C-contiguous input of that dtype is read without a copy.
-    NaN/Inf samples are predict-only steps; their count per axis is returned with
-    return_faults=True, otherwise reported with a RuntimeWarning.
-    out: optional C-contiguous array of x's shape and the computation dtype to write into
-    (no allocation; may be x itself for in-place filtering); TypeError/ValueError otherwise.
+    Parameters
+    ----------
+    x : array (n,) or (n, 3)
+    model : Ar2Model, or one per axis
+    q, r : float, optional
+        Process / measurement variances, (units of x)^2; default model.sigma2 and model.r.
+    steady_state : bool
+        Constant gain from the discrete algebraic Riccati equation (solved once).
+    dtype : float32 or float64, optional
+        Computation dtype; default: x's float dtype, float64 for integers. A float32/float64
+        C-contiguous input of that dtype is read without a copy.
+    p0 : float
+        Initial covariance P0 = p0 I.
+    out : array, optional
+        C-contiguous array of x's shape and the computation dtype to write into (no
+        allocation; may be x itself for in-place filtering); TypeError/ValueError otherwise.
+
+    Returns
+    -------
+    FilterResult
+        ``y`` (the filtered record) and ``faults`` (NaN/Inf samples, which are predict-only
+        steps, per axis).
+
+    Examples
+    --------
+    >>> m = Ar2Model(0.5, 0.1, 1.0, r=1.0)
+    >>> kalman_filter_result(np.zeros(10), m).y.shape
+    (10,)
     """
     a = _float_array(x, "x", dtype)
     _check_shape(a, "x")
     axes = 1 if a.ndim == 1 else 3
-    params = [_params(m, q, r) for m in _models_for(model, axes)]
+    params = [_settings(m, q, r) for m in _models_for(model, axes)]
     p0 = _variance(p0, 1.0, "p0", positive=False)
-    out, faults = _core().ar2_kalman_batch(a, params, p0, bool(steady_state), out)
-    if return_faults:
-        return out, faults
-    _report_faults(faults, "kalman_filter")
-    return out
+    y, faults = _core().ar2_kalman_batch(a, params, p0, bool(steady_state), out)
+    return FilterResult(y, np.asarray(faults))
+
+
+def kalman_filter(x: object, model: Ar2Model | Sequence[Ar2Model], q: float | None = None,
+                  r: float | None = None, steady_state: bool = False, dtype: object = None,
+                  p0: float = 1.0, out: np.ndarray | None = None) -> np.ndarray:
+    """AR(2)-Kalman filter (C++ core) of a record of shape (n,) or (n, 3).
+
+    Parameters as `kalman_filter_result`; NaN/Inf samples are predict-only steps, reported
+    with a RuntimeWarning (`kalman_filter_result` returns their count instead).
+
+    Examples
+    --------
+    >>> import gyrodrift
+    >>> rec = gyrodrift.simulate(n=2000, rate_hz=100.0, n_deg_rt_h=0.01,
+    ...                          ar2=(0.6868, -0.0213, 0.5), seed=1)
+    >>> model = gyrodrift.fit_ar2(rec.rate_deg_h)
+    >>> y = kalman_filter(rec.rate_deg_h, model)
+    >>> bool(np.std(y) < np.std(rec.rate_deg_h))
+    True
+    """
+    res = kalman_filter_result(x, model, q, r, steady_state, dtype, p0, out)
+    _report_faults(res.faults, "kalman_filter")
+    return res.y
 
 
 class KalmanFilter:
     """Stateful per-sample AR(2)-Kalman filter (C++ Ar2Kalman / Ar2SteadyStateKalman).
 
+    >>> model = Ar2Model(a1=0.5, a2=0.1, sigma2=1.0, r=1.0)
     >>> kf = KalmanFilter(model)            # q = model.sigma2, r = model.r
-    >>> y_hat = kf.step(y)                  # one sample
-    >>> block = kf.process(samples)         # continues from the current state
+    >>> y_hat = kf.step(0.3)                # one sample
+    >>> block = kf.process(np.zeros(10))    # continues from the current state
+    >>> block.shape
+    (10,)
     """
 
     def __init__(
@@ -337,23 +439,23 @@ class KalmanFilter:
         p0: float = 1.0,
     ) -> None:
         if not isinstance(model, Ar2Model):
-            raise TypeError(f"model must be an Ar2Model, got {type(model).__name__}")
+            raise GyrodriftTypeError(f"model must be an Ar2Model, got {type(model).__name__}")
         dt = np.dtype(dtype)  # type: ignore[call-overload]
         if dt not in (np.float32, np.float64):
-            raise TypeError(f"dtype must be float32 or float64, got {dt}")
+            raise GyrodriftTypeError(f"dtype must be float32 or float64, got {dt}")
         self.model = model
         self.dtype = dt
         self.steady_state = bool(steady_state)
-        a1, a2, sigma2, mean, self.q, self.r = _params(model, q, r)
+        settings = _settings(model, q, r)
+        self.q, self.r = float(settings.q), float(settings.r)
         core = _core()
         f32 = dt == np.float32
         if self.steady_state:
             cls = core.Ar2SteadyStateKalmanF32 if f32 else core.Ar2SteadyStateKalman
-            self._f = cls(a1, a2, sigma2, mean, self.q, self.r)
+            self._f = cls(settings)
         else:
             cls = core.Ar2KalmanF32 if f32 else core.Ar2Kalman
-            self._f = cls(a1, a2, sigma2, mean, self.q, self.r,
-                          _variance(p0, 1.0, "p0", positive=False))
+            self._f = cls(settings, _variance(p0, 1.0, "p0", positive=False))
 
     def step(self, y: float) -> float:
         """Filter one sample; NaN/Inf -> predict-only (fault_count increments)."""
@@ -363,7 +465,7 @@ class KalmanFilter:
         """Filter a 1-D block, continuing from the current state."""
         a = _float_array(x, "x", self.dtype)
         if a.ndim != 1:
-            raise ValueError(f"x must be 1-D, got shape {a.shape}")
+            raise GyrodriftValueError(f"x must be 1-D, got shape {a.shape}")
         return self._f.process(a)
 
     def reset(self) -> None:
@@ -395,7 +497,7 @@ class KalmanFilter:
         the fixed point of X = A X + K (d - C A X) with the DARE gain K = (k0, k1). G < 1:
         true rate changes are attenuated, so the filter suits drift (static) records only."""
         m = self.model
-        k0, k1 = _core().Ar2SteadyStateKalman(m.a1, m.a2, m.sigma2, m.mean, self.q, self.r).gain
+        k0, k1 = _core().Ar2SteadyStateKalman(_settings(m, self.q, self.r)).gain
         u = k0 + m.a2 * k1
         return float(u / ((1.0 - m.a1 - m.a2) * (1.0 - k0) + u))
 

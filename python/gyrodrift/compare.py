@@ -37,6 +37,7 @@ import numpy as np
 import gyrodrift
 from gyrodrift import noise_id
 from gyrodrift.allan import AllanResult, oadev
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.psd import Psd, welch_psd
 
 __all__ = [
@@ -72,7 +73,13 @@ def _ar2_gamma(a1: float, a2: float) -> float:
 
 
 def default_record_rate_hz() -> float:
-    """Sample rate at which AR(2)(N) + quantization(Q) have the published STD (docstring)."""
+    """Sample rate at which AR(2)(N) + quantization(Q) have the published STD (docstring).
+
+    Examples
+    --------
+    >>> 1.5 < default_record_rate_hz() < 2.0  # about one sample per 0.6 s
+    True
+    """
     _, n_pub, _, std_pub = PAPER_TABLE1["original"]
     q_as = PAPER_TABLE1["original"][0]
     n_line = 60.0 * n_pub  # (deg/h) sqrt(s)
@@ -84,7 +91,14 @@ def default_record_rate_hz() -> float:
 
 def default_record(n: int = DEFAULT_N_SAMPLES, seed: int = DEFAULT_SEED) -> tuple[np.ndarray,
                                                                                    float]:
-    """(rate_deg_h, rate_hz) of the default record (module docstring)."""
+    """(rate_deg_h, rate_hz) of the default record (module docstring).
+
+    Examples
+    --------
+    >>> x, fs = default_record(n=1024)
+    >>> x.shape, fs == default_record_rate_hz()
+    ((1024,), True)
+    """
     rate_hz = default_record_rate_hz()
     a1, a2 = PAPER_AR2
     n_line = 60.0 * PAPER_TABLE1["original"][1]
@@ -199,7 +213,7 @@ def run_compare(x: np.ndarray | None = None, rate_hz: float | None = None, *,
         source = source or (f"default simulated record (AR(2) {PAPER_AR2}, N, Q of the paper; "
                             f"seed {DEFAULT_SEED})")
     if rate_hz is None:
-        raise ValueError("rate_hz is required with an input record")
+        raise GyrodriftValueError("rate_hz is required with an input record")
     x = np.ascontiguousarray(x, dtype=np.float64)
     model = gyrodrift.fit_ar2(x, method="yule-walker")
     with tqdm(total=6, desc="compare", unit="step",

@@ -100,6 +100,12 @@ class ImuChannelConfig:
     ar2_kalman needs a1, a2, sigma2, mean (the AR(2) model, units of the channel), q and r
     (units^2) and p0 (P_0 = p0 I). saturation: |x| >= saturation marks the value bad.
     stuck_samples: the N-th identical value in a row is stuck (0 = off).
+
+    Examples
+    --------
+    >>> ch = ImuChannelConfig(filter="bias_removal", bias=0.01)
+    >>> ch.filter, ch.bias
+    ('bias_removal', 0.01)
     """
 
     filter: str = "pass_through"
@@ -152,7 +158,15 @@ def _default_channels() -> list[ImuChannelConfig]:
 
 @dataclass
 class ImuConfig:
-    """Processor configuration. Gyros default to ar2_kalman (a model must be supplied)."""
+    """Processor configuration. Gyros default to ar2_kalman (a model must be supplied).
+
+    Examples
+    --------
+    >>> cfg = ImuConfig(channels=[ImuChannelConfig() for _ in range(6)])
+    >>> cfg.validate()
+    >>> cfg.period_us
+    2500
+    """
 
     channels: list[ImuChannelConfig] = field(default_factory=_default_channels)
     period_us: int = 2500  # nominal sample period (400 Hz)
@@ -213,7 +227,16 @@ def _as_inputs(
 
 
 class ImuProcessor:
-    """The C++ ImuProcessor (float64 or float32) over whole records, stateful across calls."""
+    """The C++ ImuProcessor (float64 or float32) over whole records, stateful across calls.
+
+    Examples
+    --------
+    >>> cfg = ImuConfig(channels=[ImuChannelConfig() for _ in range(6)])  # pass-through
+    >>> proc = ImuProcessor(cfg)
+    >>> out = proc.process(np.arange(3), np.arange(3) * 2500, np.ones((3, 6)))
+    >>> out.values.shape, bool(out.accepted.all())
+    ((3, 6), True)
+    """
 
     def __init__(
         self,

@@ -30,6 +30,8 @@ from dataclasses import asdict, dataclass
 import numpy as np
 import scipy.optimize
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "B_FLOOR_FACTOR",
     "NoiseFit",
@@ -51,7 +53,15 @@ POWERS = np.array([-2, -1, 0, 1, 2])
 
 @dataclass(frozen=True)
 class NoiseFit:
-    """IEEE Std 952 terms. q_arcsec is numerically (deg/h)*s; q_deg = q_arcsec / 3600."""
+    """IEEE Std 952 terms. q_arcsec is numerically (deg/h)*s; q_deg = q_arcsec / 3600.
+
+    Examples
+    --------
+    >>> tau = np.logspace(-1, 3, 30)
+    >>> fit = identify(tau, allan_model_deg_h(tau, n_deg_rt_h=0.01))
+    >>> round(fit.n_deg_rt_h, 6)
+    0.01
+    """
 
     q_arcsec: float
     n_deg_rt_h: float
@@ -77,7 +87,14 @@ class NoiseFit:
 class PaperFit:
     """The 2006 paper's eq. (8) fit. q_paper is the number the paper prints under 'Q (deg)';
     it is A_-2/sqrt(3) in (deg/h)*s, i.e. arcsec (q_arcsec, same number); q_deg is the true
-    angle in degrees (q_arcsec / 3600)."""
+    angle in degrees (q_arcsec / 3600).
+
+    Examples
+    --------
+    >>> tau = np.logspace(-1, 3, 30)
+    >>> round(paper_fit(tau, allan_model_deg_h(tau, n_deg_rt_h=0.01)).n_deg_rt_h, 6)
+    0.01
+    """
 
     a0: float
     a_m1: float
@@ -94,7 +111,14 @@ class PaperFit:
 
 @dataclass(frozen=True)
 class SlopeReadout:
-    """Slope-method read-offs; None where the curve has no stretch with that slope."""
+    """Slope-method read-offs; None where the curve has no stretch with that slope.
+
+    Examples
+    --------
+    >>> tau = np.logspace(0, 3, 16)
+    >>> slope_method(tau, 0.01 * 60 / np.sqrt(tau)).b_deg_h is None  # no flat part
+    True
+    """
 
     q_arcsec: float | None
     n_deg_rt_h: float | None
@@ -109,19 +133,25 @@ def _check_curve(tau_s: np.ndarray, adev_deg_h: np.ndarray) -> tuple[np.ndarray,
     tau = np.asarray(tau_s, dtype=np.float64)
     sig = np.asarray(adev_deg_h, dtype=np.float64)
     if tau.ndim != 1 or tau.shape != sig.shape:
-        raise ValueError(f"tau_s and adev must be 1-D of equal length, got {tau.shape}, "
+        raise GyrodriftValueError(f"tau_s and adev must be 1-D of equal length, got {tau.shape}, "
                          f"{sig.shape}")
     if not (np.all(np.isfinite(tau)) and np.all(np.isfinite(sig))):
-        raise ValueError("tau_s and adev must be finite")
+        raise GyrodriftValueError("tau_s and adev must be finite")
     if np.any(tau <= 0) or np.any(sig <= 0):
-        raise ValueError("tau_s and adev must be positive")
+        raise GyrodriftValueError("tau_s and adev must be positive")
     return tau, sig
 
 
 def allan_model_deg_h(tau_s: np.ndarray, q_arcsec: float = 0.0, n_deg_rt_h: float = 0.0,
                     b_deg_h: float = 0.0, k_deg_h_rt_h: float = 0.0, r_deg_h2: float = 0.0
                     ) -> np.ndarray:
-    """sigma(tau) in deg/h of IEEE Std 952 table C.2 for tau in s."""
+    """sigma(tau) in deg/h of IEEE Std 952 table C.2 for tau in s.
+
+    Examples
+    --------
+    >>> allan_model_deg_h(np.array([3600.0]), n_deg_rt_h=1.0).tolist()  # N / sqrt(tau) at 1 h
+    [1.0]
+    """
     tau = np.asarray(tau_s, dtype=np.float64)
     n_ = n_deg_rt_h * 60.0
     k_ = k_deg_h_rt_h / 60.0
@@ -137,14 +167,23 @@ def identify(tau_s: np.ndarray, adev_deg_h: np.ndarray, edf: np.ndarray | None =
 
     edf: equivalent degrees of freedom per tau (AllanResult.edf); None weights every point
     as if it had the same relative uncertainty. `powers` restricts the model (e.g. no ramp).
+
+    Examples
+    --------
+    >>> from gyrodrift import oadev, simulate
+    >>> rec = simulate(n=200_000, rate_hz=10.0, n_deg_rt_h=0.01, seed=1)
+    >>> r = oadev(rec.rate_deg_h, 10.0, progress=False)
+    >>> fit = identify(r.tau_s, r.adev, r.edf)
+    >>> bool(abs(fit.n_deg_rt_h - 0.01) < 0.001)
+    True
     """
     tau, sig = _check_curve(tau_s, adev_deg_h)
     use = np.isin(POWERS, np.asarray(powers))
     if tau.size < int(use.sum()):
-        raise ValueError(f"{tau.size} taus cannot identify {int(use.sum())} terms")
+        raise GyrodriftValueError(f"{tau.size} taus cannot identify {int(use.sum())} terms")
     w = np.ones_like(tau) if edf is None else np.sqrt(np.asarray(edf, dtype=np.float64) / 2.0)
     if w.shape != tau.shape or not np.all(np.isfinite(w)) or np.any(w <= 0):
-        raise ValueError("edf must be positive, finite, one per tau")
+        raise GyrodriftValueError("edf must be positive, finite, one per tau")
     var = sig * sig
     basis = tau[:, None] ** POWERS[use][None, :]
     # Row i scaled by sqrt(edf_i / 2) / sigma_i^2 (1 / standard error of sigma_i^2). The
@@ -182,10 +221,19 @@ def paper_fit(tau_s: np.ndarray, adev_deg_h: np.ndarray, edf: np.ndarray | None 
               ) -> PaperFit:
     """The 2006 paper's eq. (8) fit with A >= 0 (module docstring). Each residual of sigma is
     weighted by 1/(sigma/sqrt(2 edf)), the standard error of a deviation; without edf, by
-    1/sigma (relative residuals)."""
+    1/sigma (relative residuals).
+
+    Examples
+    --------
+    >>> from gyrodrift import oadev, simulate
+    >>> rec = simulate(n=200_000, rate_hz=10.0, n_deg_rt_h=0.01, seed=1)
+    >>> r = oadev(rec.rate_deg_h, 10.0, progress=False)
+    >>> bool(abs(paper_fit(r.tau_s, r.adev, r.edf).n_deg_rt_h - 0.01) < 0.001)
+    True
+    """
     tau, sig = _check_curve(tau_s, adev_deg_h)
     if tau.size < 3:
-        raise ValueError(f"{tau.size} taus cannot fit the 3-term model")
+        raise GyrodriftValueError(f"{tau.size} taus cannot fit the 3-term model")
     w = np.ones_like(tau) if edf is None else np.sqrt(2.0 * np.asarray(edf, dtype=np.float64))
     row = w / sig
     design = np.column_stack([np.ones_like(tau), tau**-0.5, 1.0 / tau]) * row[:, None]
@@ -201,10 +249,18 @@ def slope_method(tau_s: np.ndarray, adev_deg_h: np.ndarray, tolerance: float = 0
                  ) -> SlopeReadout:
     """IEEE Std 952 slope read-offs (module docstring). A term is read where the local
     log-log slope is within `tolerance` of its nominal slope (the point closest to it);
-    B from the minimum if the slope there is within `tolerance` of 0."""
+    B from the minimum if the slope there is within `tolerance` of 0.
+
+    Examples
+    --------
+    >>> tau = np.logspace(0, 3, 16)
+    >>> s = slope_method(tau, 0.01 * 60 / np.sqrt(tau))  # pure angle random walk, deg/h
+    >>> round(s.n_deg_rt_h, 6)
+    0.01
+    """
     tau, sig = _check_curve(tau_s, adev_deg_h)
     if tau.size < 3:
-        raise ValueError("the slope method needs at least 3 taus")
+        raise GyrodriftValueError("the slope method needs at least 3 taus")
     slope = np.gradient(np.log(sig), np.log(tau))
 
     def at(target: float) -> int | None:

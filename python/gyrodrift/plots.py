@@ -29,7 +29,17 @@ def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
                fit: NoiseFit | None = None, title: str = "Overlapping Allan deviation",
                unit: str = "deg/h") -> Path:
     """Log-log Allan deviation with confidence-interval error bars, one curve per result;
-    with `fit`, the identified model and its separate terms as lines."""
+    with `fit`, the identified model and its separate terms as lines.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from gyrodrift.allan import oadev
+    >>> r = oadev(np.random.default_rng(0).standard_normal(1000), 10.0, progress=False)
+    >>> p = plot_allan([("white", r)], os.path.join(tempfile.mkdtemp(), "a.png"))
+    >>> p.read_bytes()[1:4]
+    b'PNG'
+    """
     fig, ax = plt.subplots(figsize=(7.5, 5.5), dpi=110)
     for label, r in results:
         err = np.vstack([r.adev - r.ci_low, r.ci_high - r.adev])
@@ -60,7 +70,16 @@ def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
 
 def plot_psd(psds: Sequence[tuple[str, Psd]], path: str | Path, *, bins_per_decade: int = 20,
              title: str = "Welch PSD", unit: str = "deg/h") -> Path:
-    """Log-log one-sided PSDs, log-binned for display."""
+    """Log-log one-sided PSDs, log-binned for display.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> from gyrodrift.psd import welch_psd
+    >>> r = welch_psd(np.random.default_rng(0).standard_normal(4096), 100.0)
+    >>> plot_psd([("white", r)], os.path.join(tempfile.mkdtemp(), "p.png")).suffix
+    '.png'
+    """
     fig, ax = plt.subplots(figsize=(7.5, 5.0), dpi=110)
     for label, p in psds:
         f, s = log_binned(p.f_hz, p.psd, bins_per_decade)

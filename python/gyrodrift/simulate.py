@@ -55,6 +55,7 @@ import scipy.fft
 import scipy.signal
 
 from gyrodrift import earth
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
     "GyroRecord",
@@ -89,6 +90,11 @@ class NoiseTerms:
             terms is integrated to angle and the output is whole pulses of this size per
             sample (rate = counts x pulse_deg / dt). Quantization noise then has
             Q = pulse_deg / sqrt(12) when the angle sweeps many pulses (IEEE Std 952, C.1).
+
+    Examples
+    --------
+    >>> NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.1).b_deg_h
+    0.1
     """
 
     q_deg: float = 0.0
@@ -116,25 +122,25 @@ class NoiseTerms:
         for name in ("q_deg", "n_deg_rt_h", "b_deg_h", "k_deg_h_rt_h", "pulse_deg"):
             value = getattr(self, name)
             if not _is_finite_number(value) or value < 0.0:
-                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+                raise GyrodriftValueError(f"{name} must be a finite number >= 0, got {value!r}")
         for name in ("r_deg_h2", "bias_deg_h"):
             value = getattr(self, name)
             if not _is_finite_number(value):
-                raise ValueError(f"{name} must be a finite number, got {value!r}")
+                raise GyrodriftValueError(f"{name} must be a finite number, got {value!r}")
         if self.ar2 is not None:
             try:
                 a1, a2, sigma = (float(v) for v in self.ar2)
             except (TypeError, ValueError):
-                raise ValueError(
+                raise GyrodriftValueError(
                     f"ar2 must be a tuple (a1, a2, sigma_deg_h), got {self.ar2!r}"
                 ) from None
             if not all(math.isfinite(v) for v in (a1, a2, sigma)):
-                raise ValueError(f"ar2 values must be finite, got {self.ar2!r}")
+                raise GyrodriftValueError(f"ar2 values must be finite, got {self.ar2!r}")
             if sigma < 0.0:
-                raise ValueError(f"ar2 sigma_deg_h must be >= 0, got {sigma!r}")
+                raise GyrodriftValueError(f"ar2 sigma_deg_h must be >= 0, got {sigma!r}")
             # Stationarity triangle of z^2 - a1 z - a2 (both roots strictly inside |z| = 1).
             if not (abs(a2) < 1.0 and a2 + a1 < 1.0 and a2 - a1 < 1.0):
-                raise ValueError(
+                raise GyrodriftValueError(
                     f"ar2 (a1={a1}, a2={a2}) is not stationary: the roots of "
                     "z^2 - a1 z - a2 must lie strictly inside the unit circle"
                 )
@@ -174,6 +180,12 @@ class GyroRecord(_TimeBase):
             "bias_instability", "rrw", "ramp", "bias", "ar2", "gauss_markov" (all GM terms)
             and "pulse_quantization" (the
             pulse-counting error); otherwise empty.
+
+    Examples
+    --------
+    >>> rec = simulate(n=100, rate_hz=10.0, n_deg_rt_h=0.01, seed=0)
+    >>> rec.n, rec.dt_s, rec.rate_deg_h.shape
+    (100, 0.1, (100,))
     """
 
     rate_deg_h: np.ndarray
@@ -233,6 +245,12 @@ class ImuRecord(_TimeBase):
         accel_bias_m_s2: (3,) constant accelerometer bias that was added.
         vrw_m_s_rt_h: (3,) velocity random walk coefficients, m/s/sqrt(h).
         seed: reproduces the record.
+
+    Examples
+    --------
+    >>> imu = simulate_imu(n=10, rate_hz=100.0)
+    >>> imu.gyro_rad_s.shape, imu.accel_m_s2.shape
+    ((10, 3), (10, 3))
     """
 
     gyro_rad_s: np.ndarray
@@ -275,24 +293,24 @@ def _is_finite_number(value: object) -> bool:
 
 def _resolve_n(duration_s: float | None, n: int | None, rate_hz: float, min_n: int = 2) -> int:
     if not _is_finite_number(rate_hz) or rate_hz <= 0.0:
-        raise ValueError(f"rate_hz must be a finite number > 0, got {rate_hz!r}")
+        raise GyrodriftValueError(f"rate_hz must be a finite number > 0, got {rate_hz!r}")
     if (duration_s is None) == (n is None):
-        raise ValueError("give exactly one of duration_s or n")
+        raise GyrodriftValueError("give exactly one of duration_s or n")
     if n is None:
         if not _is_finite_number(duration_s) or duration_s <= 0.0:  # type: ignore[operator]
-            raise ValueError(f"duration_s must be a finite number > 0, got {duration_s!r}")
+            raise GyrodriftValueError(f"duration_s must be a finite number > 0, got {duration_s!r}")
         n = round(float(duration_s) * float(rate_hz))  # type: ignore[arg-type]
     elif not isinstance(n, (int, np.integer)) or isinstance(n, bool):
-        raise ValueError(f"n must be an integer, got {n!r}")
+        raise GyrodriftValueError(f"n must be an integer, got {n!r}")
     n = int(n)
     if n < min_n:
-        raise ValueError(f"too few samples: n={n}, need at least {min_n}")
+        raise GyrodriftValueError(f"too few samples: n={n}, need at least {min_n}")
     return n
 
 
 def _resolve_seed(seed: int) -> int:
     if not isinstance(seed, (int, np.integer)) or isinstance(seed, bool) or seed < 0:
-        raise ValueError(f"seed must be a non-negative integer, got {seed!r}")
+        raise GyrodriftValueError(f"seed must be a non-negative integer, got {seed!r}")
     return int(seed)
 
 
@@ -301,6 +319,11 @@ def ar2_stationary_covariance(a1: float, a2: float, sigma2: float) -> tuple[floa
 
     From the Yule-Walker equations gamma1 = a1 gamma0 + a2 gamma1 and
     gamma0 = a1 gamma1 + a2 gamma2 + sigma2 with gamma2 = a1 gamma1 + a2 gamma0.
+
+    Examples
+    --------
+    >>> ar2_stationary_covariance(0.0, 0.0, 2.0)  # white noise
+    (2.0, 0.0)
     """
     gamma0 = sigma2 * (1.0 - a2) / ((1.0 + a2) * ((1.0 - a2) ** 2 - a1**2))
     gamma1 = a1 * gamma0 / (1.0 - a2)
@@ -438,6 +461,12 @@ def simulate(
     Raises:
         ValueError: negative or non-finite terms, non-stationary ar2, rate_hz <= 0, both or
             neither of duration_s / n, fewer than 2 samples, axes < 1, bad seed.
+
+    Examples
+    --------
+    >>> rec = simulate(duration_s=10.0, rate_hz=100.0, bias_deg_h=5.0, seed=1)
+    >>> rec.n, float(rec.rate_deg_h.mean())
+    (1000, 5.0)
     """
     terms = NoiseTerms(
         q_deg=q_deg,
@@ -473,10 +502,10 @@ def simulate_terms(
 ) -> GyroRecord:
     """`simulate` with the terms given as a `NoiseTerms` object."""
     if not isinstance(terms, NoiseTerms):
-        raise TypeError(f"terms must be a NoiseTerms, got {type(terms).__name__}")
+        raise GyrodriftTypeError(f"terms must be a NoiseTerms, got {type(terms).__name__}")
     n_samples = _resolve_n(duration_s, n, rate_hz)
     if not isinstance(axes, (int, np.integer)) or isinstance(axes, bool) or axes < 1:
-        raise ValueError(f"axes must be an integer >= 1, got {axes!r}")
+        raise GyrodriftValueError(f"axes must be an integer >= 1, got {axes!r}")
     seed = _resolve_seed(seed)
     rate, parts = _generate(terms, n_samples, float(rate_hz), int(axes), seed, keep_components)
     return GyroRecord(
@@ -493,7 +522,8 @@ def _per_axis(value: float | Sequence[float], name: str) -> np.ndarray:
     if arr.ndim == 0:
         arr = np.full(3, float(arr))
     if arr.shape != (3,) or not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be a finite number or 3 finite numbers, got {value!r}")
+        raise GyrodriftValueError(
+            f"{name} must be a finite number or 3 finite numbers, got {value!r}")
     return arr
 
 
@@ -521,6 +551,12 @@ def simulate_imu(
     the same code as `simulate` and converted to rad/s; accelerometers get a constant bias and
     velocity random walk (white specific force of std vrw / 60 / sqrt(dt_s) m/s^2 for vrw in
     m/s/sqrt(h)).
+
+    Examples
+    --------
+    >>> imu = simulate_imu(n=100, latitude_deg=45.0, seed=2)
+    >>> bool(np.allclose(imu.accel_m_s2[:, 2], imu.gravity_m_s2))  # level, no accel noise
+    True
     """
     n_samples = _resolve_n(duration_s, n, rate_hz)
     seed = _resolve_seed(seed)
@@ -530,19 +566,19 @@ def simulate_imu(
         ("heading_deg", heading_deg),
     ):
         if not _is_finite_number(value):
-            raise ValueError(f"{name} must be a finite number, got {value!r}")
+            raise GyrodriftValueError(f"{name} must be a finite number, got {value!r}")
     if abs(latitude_deg) > 90.0:
-        raise ValueError(f"latitude_deg must be within [-90, 90], got {latitude_deg!r}")
+        raise GyrodriftValueError(f"latitude_deg must be within [-90, 90], got {latitude_deg!r}")
     if isinstance(gyro, NoiseTerms):
         gyro_terms = [gyro, gyro, gyro]
     else:
         gyro_terms = list(gyro)
         if len(gyro_terms) != 3 or not all(isinstance(t, NoiseTerms) for t in gyro_terms):
-            raise ValueError("gyro must be a NoiseTerms or a sequence of 3 NoiseTerms")
+            raise GyrodriftValueError("gyro must be a NoiseTerms or a sequence of 3 NoiseTerms")
     bias = _per_axis(accel_bias_m_s2, "accel_bias_m_s2")
     vrw = _per_axis(vrw_m_s_rt_h, "vrw_m_s_rt_h")
     if np.any(vrw < 0.0):
-        raise ValueError(f"vrw_m_s_rt_h must be >= 0, got {vrw_m_s_rt_h!r}")
+        raise GyrodriftValueError(f"vrw_m_s_rt_h must be >= 0, got {vrw_m_s_rt_h!r}")
 
     rate_hz = float(rate_hz)
     dt_s = 1.0 / rate_hz

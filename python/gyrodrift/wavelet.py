@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift import _native
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.fir import forced_fir_taps
 
 __all__ = [
@@ -63,7 +64,7 @@ def _core() -> Any:
 
 def _check_wavelet(wavelet: str) -> None:
     if wavelet not in SUPPORTED_WAVELETS:
-        raise ValueError(
+        raise GyrodriftValueError(
             f"unsupported wavelet {wavelet!r}: the lifting core implements {SUPPORTED_WAVELETS}"
         )
 
@@ -71,34 +72,54 @@ def _check_wavelet(wavelet: str) -> None:
 def _check_dtype(dtype: Any) -> np.dtype:
     dt = np.dtype(dtype)
     if dt not in _DTYPES:
-        raise TypeError(f"dtype must be float64 or float32, got {dt}")
+        raise GyrodriftTypeError(f"dtype must be float64 or float32, got {dt}")
     return dt
 
 
 def _as_float_array(x: Any, dtype: np.dtype, what: str = "x") -> np.ndarray:
     arr = np.asarray(x)
     if arr.dtype.kind not in "fiub":
-        raise TypeError(f"{what}: expected a real numeric array, got dtype {arr.dtype}")
+        raise GyrodriftTypeError(f"{what}: expected a real numeric array, got dtype {arr.dtype}")
     if arr.ndim == 0:  # ascontiguousarray would make it 1-D
         return np.asarray(arr, dtype=dtype)
     return np.ascontiguousarray(arr, dtype=dtype)
 
 
 def max_level(window: int, wavelet: str = "db8") -> int:
-    """Largest level the real-time filter accepts: pywt.dwt_max_level(2*window, filter_len)."""
+    """Largest level the real-time filter accepts: pywt.dwt_max_level(2*window, filter_len).
+
+    Examples
+    --------
+    >>> max_level(256, "db4")
+    6
+    """
     _check_wavelet(wavelet)
     return int(_core().realtime_wavelet_max_level(int(window), wavelet))
 
 
 def wavedec(x: Any, wavelet: str = "db8", level: int = 5, dtype: Any = np.float64) -> np.ndarray:
-    """Lifting DWT, Mallat layout [cA_J, cD_J, ..., cD_1]; len(x) must be a multiple of 2**level."""
+    """Lifting DWT, Mallat layout [cA_J, cD_J, ..., cD_1]; len(x) must be a multiple of 2**level.
+
+    Examples
+    --------
+    >>> c = wavedec(np.arange(64.0), "db4", 2)
+    >>> c.shape
+    (64,)
+    """
     _check_wavelet(wavelet)
     arr = _as_float_array(x, _check_dtype(dtype))
     return _core().wavedec_periodization(arr, wavelet, int(level))
 
 
 def waverec(c: Any, wavelet: str = "db8", level: int = 5, dtype: Any = np.float64) -> np.ndarray:
-    """Inverse of :func:`wavedec`."""
+    """Inverse of :func:`wavedec`.
+
+    Examples
+    --------
+    >>> x = np.random.default_rng(0).standard_normal(64)
+    >>> bool(np.allclose(waverec(wavedec(x, "db8", 3), "db8", 3), x))
+    True
+    """
     _check_wavelet(wavelet)
     arr = _as_float_array(c, _check_dtype(dtype), "c")
     return _core().wavedec_periodization(arr, wavelet, int(level), inverse=True)
@@ -120,10 +141,18 @@ def wavelet_denoise(
     per_level_sigma: bool = False,
     dtype: Any = np.float64,
 ) -> np.ndarray:
-    """Offline wavelet denoising of a 1-D record or of each column of an (n, 3) array."""
+    """Offline wavelet denoising of a 1-D record or of each column of an (n, 3) array.
+
+    Examples
+    --------
+    >>> x = np.sin(np.arange(1024) / 50.0)
+    >>> y = wavelet_denoise(x + 0.1 * np.random.default_rng(0).standard_normal(1024), "db8", 4)
+    >>> bool(np.std(y - x) < 0.05)
+    True
+    """
     _check_wavelet(wavelet)
     if mode not in _MODES:
-        raise ValueError(f"mode must be one of {_MODES}, got {mode!r}")
+        raise GyrodriftValueError(f"mode must be one of {_MODES}, got {mode!r}")
     dt = _check_dtype(dtype)
     arr = _as_float_array(x, dt)
     if arr.ndim == 2 and arr.shape[1] == 3:
@@ -137,15 +166,16 @@ def wavelet_denoise(
             axis=1,
         )
     if arr.ndim != 1:
-        raise ValueError(f"x: expected a 1-D or (n, 3) array, got shape {arr.shape}")
+        raise GyrodriftValueError(f"x: expected a 1-D or (n, 3) array, got shape {arr.shape}")
     level = int(level)
     if not 1 <= level <= 8:
-        raise ValueError(f"level must be in 1..8, got {level}")
+        raise GyrodriftValueError(f"level must be in 1..8, got {level}")
     n = arr.shape[0]
     if n < 2**level:
-        raise ValueError(f"x: {n} samples are too short for level {level} (need >= {2**level})")
+        raise GyrodriftValueError(
+            f"x: {n} samples are too short for level {level} (need >= {2**level})")
     if not np.all(np.isfinite(arr)):
-        raise ValueError(
+        raise GyrodriftValueError(
             f"x: non-finite value (NaN or Inf) at index {int(np.argmin(np.isfinite(arr)))}"
         )
     xp = np.ascontiguousarray(pad_symmetric(arr, 2**level), dtype=dt)
@@ -173,6 +203,13 @@ class RealtimeWavelet:
     first call. Start-up: the first ``window - 1`` samples pass through unfiltered
     (``ready`` is False). NaN/Inf samples are counted (``fault_counts``), left out of the
     window, and the previous output of that channel is repeated.
+
+    Examples
+    --------
+    >>> f = RealtimeWavelet("db4", window=64, level=3)
+    >>> y = f.filter(np.full(100, 2.0))
+    >>> f.ready, round(float(y[-1]), 9)  # unit DC gain
+    (True, 2.0)
     """
 
     def __init__(
@@ -186,10 +223,10 @@ class RealtimeWavelet:
     ) -> None:
         _check_wavelet(wavelet)
         if mode not in _MODES:
-            raise ValueError(f"mode must be one of {_MODES}, got {mode!r}")
+            raise GyrodriftValueError(f"mode must be one of {_MODES}, got {mode!r}")
         window = int(window)
         if window < 8 or window & (window - 1):
-            raise ValueError(f"window must be a power of two in 8..2048, got {window}")
+            raise GyrodriftValueError(f"window must be a power of two in 8..2048, got {window}")
         self.dtype = _check_dtype(dtype)
         self.wavelet, self.window, self.level, self.mode = wavelet, window, int(level), mode
         self._bank_cls = getattr(_core(), "RealtimeWaveletBank" + _DTYPES[self.dtype])
@@ -200,7 +237,7 @@ class RealtimeWavelet:
         if self._bank is None:
             self._bank = self._bank_cls(self.wavelet, self.window, self.level, self.mode, channels)
         elif self._bank.channels != channels:
-            raise ValueError(
+            raise GyrodriftValueError(
                 f"this filter runs {self._bank.channels} channel(s); got {channels} (call reset())"
             )
         return self._bank
@@ -214,7 +251,7 @@ class RealtimeWavelet:
         elif arr.ndim == 2 and arr.shape[1] == 3:
             channels = 3
         else:
-            raise ValueError(f"x: expected a 1-D or (n, 3) array, got shape {arr.shape}")
+            raise GyrodriftValueError(f"x: expected a 1-D or (n, 3) array, got shape {arr.shape}")
         return self._get_bank(channels).filter(arr, recompute)
 
     def step(self, sample: Any) -> Any:
@@ -223,7 +260,7 @@ class RealtimeWavelet:
             return self.dtype.type(self.filter(arr.reshape(1))[0])
         if arr.shape == (3,):
             return self.filter(arr.reshape(1, 3))[0]
-        raise ValueError(f"sample: expected a scalar or a 3-vector, got shape {arr.shape}")
+        raise GyrodriftValueError(f"sample: expected a scalar or a 3-vector, got shape {arr.shape}")
 
     def reset(self) -> None:
         """Back to the start-up state; the channel count may change after a reset."""
@@ -243,7 +280,7 @@ class RealtimeWavelet:
     def fir_taps(self) -> np.ndarray:
         """Forced-mode equivalent FIR taps, newest first (`gyrodrift.fir`)."""
         if self.mode != "forced":
-            raise ValueError("fir_taps(): only the forced mode is a linear (FIR) filter")
+            raise GyrodriftValueError("fir_taps(): only the forced mode is a linear (FIR) filter")
         return forced_fir_taps(self.wavelet, self.window, self.level, self.dtype)
 
     def group_delay_s(self, rate_hz: float = 400.0, freq_hz: float = 0.0) -> float:

@@ -17,14 +17,22 @@ the end (as in gyrodrift.wavelet.wavelet_denoise) and truncated back.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pywt
 
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.wavelet import MAD_TO_SIGMA, pad_symmetric
 
-__all__ = ["best_basis", "wavelet_packet_denoise"]
+__all__ = [
+    "PacketDenoiseResult",
+    "best_basis",
+    "shannon_cost",
+    "wavelet_packet_denoise",
+    "wavelet_packet_denoise_result",
+]
 
 
 def shannon_cost(c: np.ndarray) -> float:
@@ -47,18 +55,19 @@ def _tree(x: np.ndarray, wavelet: str, level: int) -> pywt.WaveletPacket:
 def _check(x: Any, wavelet: str, level: int) -> np.ndarray:
     arr = np.asarray(x)
     if arr.dtype.kind not in "fiu":
-        raise TypeError(f"x: expected a real numeric array, got dtype {arr.dtype}")
+        raise GyrodriftTypeError(f"x: expected a real numeric array, got dtype {arr.dtype}")
     arr = np.asarray(arr, dtype=float)
     if arr.ndim != 1:
-        raise ValueError(f"x: expected a 1-D array, got shape {arr.shape}")
+        raise GyrodriftValueError(f"x: expected a 1-D array, got shape {arr.shape}")
     if wavelet not in pywt.wavelist(kind="discrete"):
-        raise ValueError(f"unsupported wavelet {wavelet!r} (not a PyWavelets discrete wavelet)")
+        raise GyrodriftValueError(
+            f"unsupported wavelet {wavelet!r} (not a PyWavelets discrete wavelet)")
     if not 1 <= int(level) <= 10:
-        raise ValueError(f"level must be in 1..10, got {level}")
+        raise GyrodriftValueError(f"level must be in 1..10, got {level}")
     if len(arr) < 2**level:
-        raise ValueError(f"x: {len(arr)} samples are too short for level {level}")
+        raise GyrodriftValueError(f"x: {len(arr)} samples are too short for level {level}")
     if not np.all(np.isfinite(arr)):
-        raise ValueError("x: contains NaN or Inf")
+        raise GyrodriftValueError("x: contains NaN or Inf")
     return arr
 
 
@@ -81,24 +90,57 @@ def _best_from_tree(wp: pywt.WaveletPacket, level: int) -> list[str]:
 
 
 def best_basis(x: Any, wavelet: str = "bior3.7", level: int = 4) -> list[str]:
-    """Node paths ('a'/'d' strings) of the Shannon best basis (Coifman-Wickerhauser)."""
+    """Node paths ('a'/'d' strings) of the Shannon best basis (Coifman-Wickerhauser).
+
+    Examples
+    --------
+    >>> b = best_basis(np.random.default_rng(0).standard_normal(256), "bior3.7", 3)
+    >>> all(set(p) <= {"a", "d"} for p in b)
+    True
+    """
     arr = _check(x, wavelet, level)
     xp = pad_symmetric(arr, 2**level)
     return _best_from_tree(_tree(xp, wavelet, level), level)
 
 
-def wavelet_packet_denoise(
+@dataclass(frozen=True)
+class PacketDenoiseResult:
+    """Wavelet-packet denoising: the denoised record and the best basis it used.
+
+    Examples
+    --------
+    >>> x = np.random.default_rng(0).standard_normal(256)
+    >>> r = wavelet_packet_denoise_result(x, "bior3.7", 3)
+    >>> r.y.shape, all(set(p) <= {"a", "d"} for p in r.basis)
+    ((256,), True)
+    """
+
+    y: np.ndarray
+    basis: list[str]
+    threshold: float
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-ready values."""
+        return {"y": self.y.tolist(), "basis": list(self.basis), "threshold": self.threshold}
+
+
+def wavelet_packet_denoise_result(
     x: Any,
     wavelet: str = "bior3.7",
     level: int = 4,
     mode: str = "soft",
-    *,
-    return_basis: bool = False,
-) -> Any:
-    """Packet denoising (see the module doc). Returns the denoised array, or
-    (array, basis paths) with return_basis=True."""
+) -> PacketDenoiseResult:
+    """Packet denoising (see the module doc) with the basis and threshold it used.
+
+    Examples
+    --------
+    >>> x = np.sin(np.arange(512) / 20) + 0.1 * np.random.default_rng(1).standard_normal(512)
+    >>> r = wavelet_packet_denoise_result(x, level=3)
+    >>> bool(np.std(r.y - np.sin(np.arange(512) / 20)) < 0.1)
+    True
+    """
     if mode not in ("soft", "hard"):
-        raise ValueError(f"mode must be 'soft' or 'hard', got {mode!r}")
+        raise GyrodriftValueError(f"mode must be 'soft' or 'hard', got {mode!r}")
     arr = _check(x, wavelet, level)
     n = len(arr)
     xp = pad_symmetric(arr, 2**level)
@@ -111,4 +153,23 @@ def wavelet_packet_denoise(
         data = wp[path].data
         out[path] = data if set(path) == {"a"} else pywt.threshold(data, t, mode=mode)
     y = out.reconstruct(update=False)
-    return (y[:n], basis) if return_basis else y[:n]
+    return PacketDenoiseResult(np.asarray(y[:n]), basis, t)
+
+
+def wavelet_packet_denoise(
+    x: Any,
+    wavelet: str = "bior3.7",
+    level: int = 4,
+    mode: str = "soft",
+) -> np.ndarray:
+    """Packet denoising (see the module doc): the denoised array.
+
+    `wavelet_packet_denoise_result` also returns the best basis and the threshold.
+
+    Examples
+    --------
+    >>> y = wavelet_packet_denoise(np.random.default_rng(0).standard_normal(256), level=3)
+    >>> y.shape
+    (256,)
+    """
+    return wavelet_packet_denoise_result(x, wavelet, level, mode).y

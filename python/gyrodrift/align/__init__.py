@@ -18,13 +18,14 @@ Examples
 from __future__ import annotations
 
 from .attitude import dcm2euler, euler2dcm, misalignment
-from .config import AlignConfig
+from .config import AlignConfig, AlignResult
 from .fast import coarse_align, run_alignment, strapdown_run
 from .trajectory import SCENARIOS, Scenario, imu_increments, scenario, truth_at
 
 __all__ = [
     "SCENARIOS",
     "AlignConfig",
+    "AlignResult",
     "Scenario",
     "coarse_align",
     "dcm2euler",

@@ -25,10 +25,24 @@ __all__ = [
 
 
 def skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrix [v x]: skew(v) @ w = v x w.
+
+    Examples
+    --------
+    >>> skew(np.array([1.0, 2.0, 3.0])) @ np.array([1.0, 0.0, 0.0])  # v x e1
+    array([ 0.,  3., -2.])
+    """
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Quaternion product p * q (scalar first).
+
+    Examples
+    --------
+    >>> qmul(np.array([1.0, 0, 0, 0]), np.array([0.0, 1, 0, 0]))
+    array([0., 1., 0., 0.])
+    """
     pw, px, py, pz = p
     qw, qx, qy, qz = q
     return np.array([
@@ -40,7 +54,14 @@ def qmul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def rv2q(rv: np.ndarray) -> np.ndarray:
-    """Rotation vector to quaternion; Taylor series below 1e-4 rad keeps full precision."""
+    """Rotation vector to quaternion; Taylor series below 1e-4 rad keeps full precision.
+
+    Examples
+    --------
+    >>> q = rv2q(np.array([0.0, 0.0, np.pi / 2]))
+    >>> np.round(q, 6).tolist()
+    [0.707107, 0.0, 0.0, 0.707107]
+    """
     a2 = float(rv @ rv)
     if a2 < 1e-8:
         c = 1.0 - a2 / 8.0 + a2 * a2 / 384.0
@@ -53,10 +74,24 @@ def rv2q(rv: np.ndarray) -> np.ndarray:
 
 
 def qnormalize(q: np.ndarray) -> np.ndarray:
+    """The quaternion scaled to unit norm.
+
+    Examples
+    --------
+    >>> qnormalize(np.array([2.0, 0.0, 0.0, 0.0]))
+    array([1., 0., 0., 0.])
+    """
     return q / np.sqrt(q @ q)
 
 
 def q2dcm(q: np.ndarray) -> np.ndarray:
+    """
+
+    Examples
+    --------
+    >>> bool(np.allclose(q2dcm(np.array([1.0, 0, 0, 0])), np.eye(3)))
+    True
+    """
     w, x, y, z = q
     return np.array([
         [w * w + x * x - y * y - z * z, 2 * (x * y - w * z), 2 * (x * z + w * y)],
@@ -66,7 +101,14 @@ def q2dcm(q: np.ndarray) -> np.ndarray:
 
 
 def dcm2q(c: np.ndarray) -> np.ndarray:
-    """Shepperd's method (largest diagonal pivot), sign fixed to w >= 0."""
+    """Shepperd's method (largest diagonal pivot), sign fixed to w >= 0.
+
+    Examples
+    --------
+    >>> q = rv2q(np.array([0.1, -0.2, 0.3]))
+    >>> bool(np.allclose(dcm2q(q2dcm(q)), q))
+    True
+    """
     tr = c[0, 0] + c[1, 1] + c[2, 2]
     cand = [tr, c[0, 0], c[1, 1], c[2, 2]]
     k = int(np.argmax(cand))
@@ -90,7 +132,14 @@ def dcm2q(c: np.ndarray) -> np.ndarray:
 
 
 def euler2dcm(att: np.ndarray) -> np.ndarray:
-    """C_b^n from [pitch, roll, yaw] (rad), C = Rz(yaw) Rx(pitch) Ry(roll)."""
+    """C_b^n from [pitch, roll, yaw] (rad), C = Rz(yaw) Rx(pitch) Ry(roll).
+
+    Examples
+    --------
+    >>> att = np.array([0.01, -0.02, 0.5])
+    >>> bool(np.allclose(dcm2euler(euler2dcm(att)), att))
+    True
+    """
     sp, cp = np.sin(att[0]), np.cos(att[0])
     sr, cr = np.sin(att[1]), np.cos(att[1])
     sy, cy = np.sin(att[2]), np.cos(att[2])
@@ -102,7 +151,13 @@ def euler2dcm(att: np.ndarray) -> np.ndarray:
 
 
 def dcm2euler(c: np.ndarray) -> np.ndarray:
-    """[pitch, roll, yaw] from C_b^n (pitch in [-90, 90] deg)."""
+    """[pitch, roll, yaw] from C_b^n (pitch in [-90, 90] deg).
+
+    Examples
+    --------
+    >>> np.abs(dcm2euler(np.eye(3))).tolist()
+    [0.0, 0.0, 0.0]
+    """
     pitch = np.arcsin(np.clip(c[2, 1], -1.0, 1.0))
     roll = np.arctan2(-c[2, 0], c[2, 2])
     yaw = np.arctan2(-c[0, 1], c[1, 1])
@@ -110,11 +165,25 @@ def dcm2euler(c: np.ndarray) -> np.ndarray:
 
 
 def wrap_pi(a: np.ndarray | float) -> np.ndarray | float:
+    """
+
+    Examples
+    --------
+    >>> round(wrap_pi(3 * np.pi / 2), 6)
+    -1.570796
+    """
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
 
 
 def misalignment(c_est: np.ndarray, c_true: np.ndarray) -> np.ndarray:
     """phi with C_est = (I - [phi x]) C_true (small angles): the ENU misalignment, whose Up
-    component equals the heading error (clockwise-from-North heading, estimated - true)."""
+    component equals the heading error (clockwise-from-North heading, estimated - true).
+
+    Examples
+    --------
+    >>> c = euler2dcm(np.array([0.0, 0.0, 0.3]))
+    >>> misalignment(c, c).tolist()
+    [0.0, 0.0, 0.0]
+    """
     d = c_true @ c_est.T  # = I + [phi x]
     return 0.5 * np.array([d[2, 1] - d[1, 2], d[0, 2] - d[2, 0], d[1, 0] - d[0, 1]])

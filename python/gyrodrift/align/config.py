@@ -1,5 +1,5 @@
-"""Alignment settings shared by the C++ fast path (`gyrodrift.align.run_alignment`) and the
-plain-loop reference (`gyrodrift.reference.align.run_alignment_reference`).
+"""Alignment settings and result, shared by the C++ fast path (`gyrodrift.align.run_alignment`)
+and the plain-loop reference (`gyrodrift.reference.align.run_alignment_reference`).
 
 Examples
 --------
@@ -16,12 +16,18 @@ import numpy as np
 
 from gyrodrift.earth import ARCMIN, DEG, DPH, UG
 
-__all__ = ["AlignConfig"]
+__all__ = ["AlignConfig", "AlignResult"]
 
 
 @dataclass
 class AlignConfig:
-    """Alignment settings; angles rad, rates rad/s, noise densities per sqrt(s)."""
+    """Alignment settings; angles rad, rates rad/s, noise densities per sqrt(s).
+
+    Examples
+    --------
+    >>> AlignConfig(dt_s=0.01).coarse_samples()  # 60 s of coarse alignment
+    6000
+    """
 
     dt_s: float = 1.0 / 400.0
     lat_rad: float = 39.0 * DEG
@@ -90,3 +96,45 @@ class AlignConfig:
             parts.append(np.full(3, self.floor_dp_m ** 2))
         parts += [np.full(3, self.floor_eb_rad_s ** 2), np.full(3, self.floor_db_m_s2 ** 2)]
         return np.concatenate(parts)
+
+
+@dataclass(frozen=True)
+class AlignResult:
+    """Histories of an alignment run, one row per KF update.
+
+    Attributes
+    ----------
+    t_s : (m,) time each solution refers to, s (end of the KF cycle from the first input
+        sample, minus the accelerometer delay that matches the prefilter).
+    att : (m, 3) pitch, roll, yaw, rad.
+    eb, db : (m, 3) estimated gyro drift (rad/s) and accelerometer bias (m/s^2).
+    p_phi : (m, 3) standard deviation of the attitude error states, rad.
+    coarse_cnb : (3, 3) C_b^n at the end of coarse alignment.
+    bad_samples : non-finite samples counted and skipped (C++ pipeline; 0 for the reference).
+    failed : the pipeline stopped (coarse solve or KF numerics failed).
+    reason : why it failed ("" when it did not; filled when the binding reports one).
+
+    Examples
+    --------
+    >>> r = AlignResult(np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)),
+    ...                 np.zeros((1, 3)), np.eye(3))
+    >>> sorted(r.as_dict())[:3]
+    ['att', 'bad_samples', 'coarse_cnb']
+    """
+
+    t_s: np.ndarray
+    att: np.ndarray
+    eb: np.ndarray
+    db: np.ndarray
+    p_phi: np.ndarray
+    coarse_cnb: np.ndarray
+    bad_samples: int = 0
+    failed: bool = False
+    reason: str = ""
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-ready values (arrays as nested lists)."""
+        return {"t_s": self.t_s.tolist(), "att": self.att.tolist(), "eb": self.eb.tolist(),
+                "db": self.db.tolist(), "p_phi": self.p_phi.tolist(),
+                "coarse_cnb": self.coarse_cnb.tolist(), "bad_samples": int(self.bad_samples),
+                "failed": bool(self.failed), "reason": self.reason}

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gyrodrift.earth import ARCSEC, DPH, DPSH, UG
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.simulate import simulate
 
 __all__ = [
@@ -32,6 +33,14 @@ __all__ = [
 
 @dataclass(frozen=True)
 class ImuErrors:
+    """IMU error model of the alignment study (biases in deg/h and micro-g, noise densities,
+    quantization, dither residue).
+
+    Examples
+    --------
+    >>> ImuErrors(arw_deg_rt_h=0.002).arw_deg_rt_h
+    0.002
+    """
     gyro_bias_deg_h: tuple[float, float, float] = (0.01, 0.01, 0.01)
     arw_deg_rt_h: float = 0.001  # N, deg/sqrt(h)
     bias_instability_deg_h: float = 0.0  # B, deg/h
@@ -54,7 +63,16 @@ def _pulse_quantize(inc: np.ndarray, lsb: float) -> np.ndarray:
 
 def add_imu_errors(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, err: ImuErrors,
                    seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """Return erroneous copies of the truth increments (n, 3) for one Monte Carlo run."""
+    """Return erroneous copies of the truth increments (n, 3) for one Monte Carlo run.
+
+    Examples
+    --------
+    >>> from gyrodrift.align import imu_increments, scenario
+    >>> dth, dv = imu_increments(scenario("static"), 100, 0.01)
+    >>> g, a = add_imu_errors(dth, dv, 0.01, ImuErrors(), seed=1)
+    >>> g.shape == dth.shape and not np.array_equal(g, dth)
+    True
+    """
     n = dtheta.shape[0]
     rate_hz = 1.0 / dt_s
     ss = np.random.SeedSequence(seed)
@@ -80,7 +98,7 @@ def add_imu_errors(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, err: ImuErro
     if err.timing_offset_samples > 0.0:
         f = err.timing_offset_samples
         if f > 1.0:
-            raise ValueError("timing_offset_samples must be in [0, 1]")
+            raise GyrodriftValueError("timing_offset_samples must be in [0, 1]")
         prev = np.vstack([a[:1], a[:-1]])
         a = (1.0 - f) * a + f * prev
     if err.accel_lsb_m_s > 0.0:
@@ -89,14 +107,30 @@ def add_imu_errors(dtheta: np.ndarray, dv: np.ndarray, dt_s: float, err: ImuErro
 
 
 def kf_noise_from_spec(err: ImuErrors) -> tuple[float, float]:
-    """(ARW rad/sqrt(s), VRW m/s/sqrt(s)) for the KF process noise from the specification."""
+    """(ARW rad/sqrt(s), VRW m/s/sqrt(s)) for the KF process noise from the specification.
+
+    Examples
+    --------
+    >>> arw, vrw = kf_noise_from_spec(ImuErrors(arw_deg_rt_h=0.001))
+    >>> round(arw / DPSH, 6)
+    0.001
+    """
     return err.arw_deg_rt_h * DPSH, max(err.vrw_ug_rt_hz, 1e-3) * UG
 
 
 def kf_noise_from_samples(dtheta: np.ndarray, dv: np.ndarray, dt_s: float) -> tuple[float, float]:
     """(ARW, VRW) as a practitioner would take them from the raw per-sample scatter of a record
     (std of the increments about a moving mean, divided by sqrt(dt)): every high-frequency
-    component (quantization, dither residue, vibration) is then read as white rate noise."""
+    component (quantization, dither residue, vibration) is then read as white rate noise.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> dth = 1e-6 * rng.standard_normal((4000, 3))
+    >>> arw, vrw = kf_noise_from_samples(dth, np.zeros((4000, 3)), 0.01)
+    >>> bool(arw > 0.0)
+    True
+    """
     def scatter(x: np.ndarray) -> float:
         m = 64
         k = (x.shape[0] // m) * m

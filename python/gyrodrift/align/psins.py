@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from gyrodrift.earth import ARCSEC, DEG, UG
+from gyrodrift.errors import GyrodriftValueError
 
 __all__ = [
     "PsinsRecord",
@@ -53,29 +54,30 @@ def read_psins_imu(path: str | Path) -> PsinsRecord:
                 try:
                     vals = np.array([float(v) for v in s.split()])
                 except ValueError:
-                    raise ValueError(f"{path}:{lineno}: header line is not numeric") from None
+                    raise GyrodriftValueError(
+                        f"{path}:{lineno}: header line is not numeric") from None
                 if vals.size != 6:
-                    raise ValueError(
+                    raise GyrodriftValueError(
                         f"{path}:{lineno}: header line needs 6 values, got {vals.size}")
                 header.append(vals)
                 continue
             rows.append(s)
     if len(header) < 3:
-        raise ValueError(f"{path}: missing the three PSINS header lines")
+        raise GyrodriftValueError(f"{path}: missing the three PSINS header lines")
     if not rows:
-        raise ValueError(f"{path}: no data lines")
+        raise GyrodriftValueError(f"{path}: no data lines")
     try:
         counts = np.loadtxt(rows, dtype=np.float64, ndmin=2)
     except ValueError as exc:
-        raise ValueError(f"{path}: malformed data line ({exc})") from None
+        raise GyrodriftValueError(f"{path}: malformed data line ({exc})") from None
     if counts.shape[1] != 6:
-        raise ValueError(f"{path}: data lines need 6 counts, got {counts.shape[1]}")
+        raise GyrodriftValueError(f"{path}: data lines need 6 counts, got {counts.shape[1]}")
     if not np.isfinite(counts).all():
-        raise ValueError(f"{path}: non-finite counts in the data lines")
+        raise GyrodriftValueError(f"{path}: non-finite counts in the data lines")
     l1, l2, l3 = header
     dt_s = l2[4] / 1000.0
     if not dt_s > 0:
-        raise ValueError(f"{path}: sampling interval must be > 0 ms, got {l2[4]}")
+        raise GyrodriftValueError(f"{path}: sampling interval must be > 0 ms, got {l2[4]}")
     return PsinsRecord(
         att0_deg=l1[:3], vn0_m_s=l1[3:], lat_rad=l2[0] * DEG, lon_rad=l2[1] * DEG, h_m=l2[2],
         t0_s=l2[3], dt_s=dt_s, g_m_s2=l2[5],

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gyrodrift.earth import ARCSEC, DEG, DPSH, UG
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
 
 from .config import AlignConfig
@@ -40,10 +41,11 @@ def align_segments(rec: PsinsRecord, segment_s: float = 300.0, coarse_s: float =
     dt = rec.dt_s
     m = round(segment_s / dt)
     if m * dt <= coarse_s + 30.0:
-        raise ValueError(f"segment of {segment_s} s leaves under 30 s of fine alignment")
+        raise GyrodriftValueError(f"segment of {segment_s} s leaves under 30 s of fine alignment")
     n_seg = rec.dtheta.shape[0] // m
     if n_seg < 2:
-        raise ValueError(f"the record holds {n_seg} segment(s) of {segment_s} s; need >= 2")
+        raise GyrodriftValueError(
+            f"the record holds {n_seg} segment(s) of {segment_s} s; need >= 2")
     taps = forced_fir_taps("db4", 256, 5)
     delay = round(group_delay_dc_samples(taps))
     out: list[SegmentResult] = []
@@ -64,9 +66,9 @@ def align_segments(rec: PsinsRecord, segment_s: float = 300.0, coarse_s: float =
                               arw_rad_s_rt_hz=arw, vrw_m_s2_rt_hz=vrw, zv_sigma_m_s=zv_sigma_m_s,
                               taps=taps if pre else None, accel_delay_samples=delay if pre else 0)
             res = run_alignment(dth, dv, cfg)
-            if res["failed"]:
+            if res.failed:
                 raise RuntimeError(f"alignment failed on segment {i} ({label})")
-            att = res["att"][-1]
+            att = res.att[-1]
             hd[label] = float((-att[2] / DEG) % 360.0)
             pt[label] = float(att[0] / DEG)
             rl[label] = float(att[1] / DEG)

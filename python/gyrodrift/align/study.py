@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gyrodrift.earth import ARCMIN, ARCSEC, DPH, DPSH, EARTH_RATE_RAD_S, UG, gravity_m_s2
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
 
 from .config import AlignConfig
@@ -50,7 +51,15 @@ BAND_RAD = ARCMIN
 def convergence_time_s(t_s: np.ndarray, psi: np.ndarray, band_rad: float = BAND_RAD,
                        min_hold_s: float = 60.0) -> float:
     """First t with |psi(t') - psi(end)| <= band for all t' >= t; NaN (not converged) when the
-    band is entered less than min_hold_s before the end (it would then hold trivially)."""
+    band is entered less than min_hold_s before the end (it would then hold trivially).
+
+    Examples
+    --------
+    >>> t = np.arange(0.0, 600.0, 1.0)
+    >>> psi = np.where(t < 100.0, 1e-2, 0.0)  # settles at t = 100 s
+    >>> convergence_time_s(t, psi)
+    100.0
+    """
     outside = np.abs(psi - psi[-1]) > band_rad
     if not outside.any():
         return float(t_s[0])
@@ -62,6 +71,13 @@ def convergence_time_s(t_s: np.ndarray, psi: np.ndarray, band_rad: float = BAND_
 
 @dataclass
 class StudyConfig:
+    """Settings of a Monte Carlo alignment study (record length in s, rates in Hz).
+
+    Examples
+    --------
+    >>> StudyConfig(scenario="static", runs=2).duration_s
+    1800.0
+    """
     scenario: str = "ship_mild"
     runs: int = 30
     duration_s: float = 1800.0
@@ -112,8 +128,9 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
     dt = 1.0 / st.rate_hz
     n = round(st.duration_s * st.rate_hz)
     if n <= round(st.coarse_s * st.rate_hz) + 2 * round(st.rate_hz / st.kf_hz):
-        raise ValueError(f"--duration-s {st.duration_s:g} leaves no fine alignment after the "
-                         f"{st.coarse_s:g} s coarse alignment")
+        raise GyrodriftValueError(
+            f"--duration-s {st.duration_s:g} leaves no fine alignment after the "
+            f"{st.coarse_s:g} s coarse alignment")
     taps = forced_fir_taps("db4", 256, 5)
     delay = round(group_delay_dc_samples(taps)) if st.accel_delay else 0
     # Both configurations align the same stretch of motion: the prefiltered pipeline first
@@ -155,13 +172,13 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
             t0 = time.perf_counter()
             out = run_alignment(dth, dv, cfg)
             wall[pre] += time.perf_counter() - t0
-            if out["failed"]:
+            if out.failed:
                 raise RuntimeError(f"alignment failed in run {r} ({st.scenario}, prefilter={pre})")
-            t_abs = out["t_s"] + (off + first) * dt
+            t_abs = out.t_s + (off + first) * dt
             t_hist[pre] = t_abs - off * dt
             cnb = truth_at(sc, t_abs)["cnb"]
             cnb_mean += cnb.mean(axis=0)
-            phi = misalignment_batch(out["att"], cnb)
+            phi = misalignment_batch(out.att, cnb)
             psi_all[pre].append(phi[:, 2])
             lvl_all[pre].append(phi[:, :2])
     for pre in configs:
@@ -177,7 +194,14 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
 
 
 def misalignment_batch(att: np.ndarray, cnb_true: np.ndarray) -> np.ndarray:
-    """Vectorised `attitude.misalignment` for (m, 3) Euler angles against (m, 3, 3) truth."""
+    """Vectorised `attitude.misalignment` for (m, 3) Euler angles against (m, 3, 3) truth.
+
+    Examples
+    --------
+    >>> att = np.zeros((2, 3))
+    >>> misalignment_batch(att, np.stack([np.eye(3)] * 2)).tolist()
+    [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    """
     c_est = _dcm_vec(att.T)
     d = np.einsum("nij,nkj->nik", cnb_true, c_est)  # C_true C_est^T = I + [phi x]
     return 0.5 * np.stack([d[:, 2, 1] - d[:, 1, 2], d[:, 0, 2] - d[:, 2, 0],
@@ -274,6 +298,13 @@ MECHANISMS: dict[str, tuple[str, ImuErrors, str]] = {
 
 
 def fmt(v: object) -> str:
+    """One table cell: floats with one decimal, inf as not converged, NaN as n/a.
+
+    Examples
+    --------
+    >>> fmt(1.234), fmt(float("inf")), fmt("x")
+    ('1.2', 'not conv.', 'x')
+    """
     if isinstance(v, float):
         if np.isinf(v):
             return "not conv."
@@ -282,6 +313,15 @@ def fmt(v: object) -> str:
 
 
 def markdown_table(rows: list[dict[str, object]]) -> str:
+    """Rows of dicts (the first row's keys are the columns) as a markdown table.
+
+    Examples
+    --------
+    >>> print(markdown_table([{"a": 1.0, "b": "x"}]))
+    | a | b |
+    |---|---|
+    | 1.0 | x |
+    """
     keys = list(rows[0].keys())
     lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
     lines += ["| " + " | ".join(fmt(r.get(k, "")) for k in keys) + " |" for r in rows]

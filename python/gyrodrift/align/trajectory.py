@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gyrodrift.earth import DEG, earth_params
+from gyrodrift.errors import GyrodriftValueError
 
 __all__ = [
     "SCENARIOS",
@@ -33,6 +34,13 @@ __all__ = [
 
 @dataclass
 class Sinusoid:
+    """One sinusoidal motion term: amplitude (rad for angles, m for sway), period, phase.
+
+    Examples
+    --------
+    >>> Sinusoid(amp=0.01, period_s=8.0).phase_rad
+    0.0
+    """
     amp: float  # rad (angles) or m (sway)
     period_s: float
     phase_rad: float = 0.0
@@ -40,7 +48,13 @@ class Sinusoid:
 
 @dataclass
 class Scenario:
-    """A rocking-base motion. Angles: [pitch, roll, yaw] means plus sinusoids per axis."""
+    """A rocking-base motion. Angles: [pitch, roll, yaw] means plus sinusoids per axis.
+
+    Examples
+    --------
+    >>> Scenario(name="at rest").lever_arm_m.tolist()
+    [0.0, 0.0, 0.0]
+    """
 
     name: str
     att0_rad: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 30.0 * DEG]))
@@ -59,7 +73,14 @@ class Scenario:
 
 
 def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenario:
-    """Named scenarios of issue 6: static, ship_mild, ship_moderate, vehicle_engine."""
+    """Named scenarios of issue 6: static, ship_mild, ship_moderate, vehicle_engine.
+
+    Examples
+    --------
+    >>> sc = scenario("static")
+    >>> round(float(np.degrees(sc.lat_rad)), 6)
+    39.0
+    """
     att0 = np.array([0.0, 0.0, yaw0_deg * DEG])
     lat = lat_deg * DEG
     if name == "static":
@@ -92,7 +113,7 @@ def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenar
                [Sinusoid(0.1 * DEG, 1 / 1.75, 2.0), Sinusoid(0.003 * DEG, 1 / 30.0, 1.3)]]
         return Scenario(name, att0, ang, lever_arm_m=np.array([0.3, 0.5, 0.4]), lat_rad=lat,
                         zero_velocity_sigma_m_s=0.02)
-    raise ValueError(f"unknown scenario {name!r}; choose from {', '.join(SCENARIOS)}")
+    raise GyrodriftValueError(f"unknown scenario {name!r}; choose from {', '.join(SCENARIOS)}")
 
 
 SCENARIOS = ("static", "ship_mild", "ship_moderate", "vehicle_engine")
@@ -154,7 +175,13 @@ def _velocity(sc: Scenario, t: np.ndarray) -> np.ndarray:
 
 
 def truth_at(sc: Scenario, t: np.ndarray) -> dict[str, np.ndarray]:
-    """Attitude (pitch, roll, yaw), C_b^n, IMU velocity and position offset (ENU m) at t."""
+    """Attitude (pitch, roll, yaw), C_b^n, IMU velocity and position offset (ENU m) at t.
+
+    Examples
+    --------
+    >>> truth_at(scenario("static"), np.array([0.0, 1.0]))["cnb"].shape
+    (2, 3, 3)
+    """
     t = np.asarray(t, dtype=float)
     att, _ = _angles(sc, t)
     cnb = _dcm_vec(att)
@@ -169,7 +196,14 @@ _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 def imu_increments(sc: Scenario, n: int, dt_s: float,
                    t0_s: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Ideal gyro angle increments (rad) and accelerometer velocity increments (m/s), (n, 3)
-    each, for samples ending at t0 + k dt, k = 1..n."""
+    each, for samples ending at t0 + k dt, k = 1..n.
+
+    Examples
+    --------
+    >>> dth, dv = imu_increments(scenario("static"), 400, 1 / 400)
+    >>> dth.shape, round(float(dv[:, 2].sum()), 2)  # one second of gravity reaction, m/s
+    ((400, 3), 9.8)
+    """
     ep = earth_params(sc.lat_rad, sc.h_m, np.zeros(3))
     dtheta = np.zeros((n, 3))
     dv = np.zeros((n, 3))

@@ -32,7 +32,7 @@ from typing import IO, Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.errors import GyrodriftError
+from gyrodrift.errors import GyrodriftError, GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.io import UNITS, Record, load_record
 
 __all__ = [
@@ -184,7 +184,7 @@ def json_default(obj: Any) -> Any:
     as_dict = getattr(obj, "as_dict", None)
     if callable(as_dict):
         return as_dict()
-    raise TypeError(f"not JSON-serialisable: {type(obj).__name__}")
+    raise GyrodriftTypeError(f"not JSON-serialisable: {type(obj).__name__}")
 
 
 def emit_json(payload: Any, stream: IO[str] | None = None) -> None:
@@ -245,11 +245,11 @@ def write_csv(path: str | Path, header: Sequence[str], columns: Sequence[Any]) -
     2,0.1
     """
     if len(header) != len(columns):
-        raise ValueError(f"{len(header)} header names for {len(columns)} columns")
+        raise GyrodriftValueError(f"{len(header)} header names for {len(columns)} columns")
     cols = [c.tolist() if isinstance(c, np.ndarray) else list(c) for c in columns]
     n = len(cols[0]) if cols else 0
     if any(len(c) != n for c in cols):
-        raise ValueError("CSV columns differ in length")
+        raise GyrodriftValueError("CSV columns differ in length")
     p = Path(path)
     with p.open("w", newline="") as fh:
         fh.write(",".join(header) + "\n")

@@ -73,6 +73,16 @@ def _allan_numbers(x: np.ndarray, rate_hz: float) -> dict[str, float]:
 
 
 def compute(args: argparse.Namespace) -> dict[str, Any]:
+    """
+
+    Examples
+    --------
+    >>> import argparse
+    >>> p = argparse.ArgumentParser(); register(p.add_subparsers())
+    >>> r = compute(p.parse_args(["demo", "--duration-s", "60"]))
+    >>> r["record"]["samples"], sorted(r["table"])
+    (6000, ['AR filter', 'AR(2)-Kalman', 'raw'])
+    """
     from gyrodrift import Ar2Model, ar_filter, fit_ar2, kalman_filter, simulate
     from gyrodrift.cli import CliError
 

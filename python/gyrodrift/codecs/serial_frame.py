@@ -64,7 +64,13 @@ assert FRAME_DTYPE.itemsize == FRAME_SIZE
 
 
 def crc16_ccitt_false(data: bytes | bytearray | memoryview) -> int:
-    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, xorout 0); check value 0x29B1."""
+    """CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF, xorout 0); check value 0x29B1.
+
+    Examples
+    --------
+    >>> hex(crc16_ccitt_false(b"123456789"))  # the CRC catalogue's check value
+    '0x29b1'
+    """
     return binascii.crc_hqx(bytes(data), 0xFFFF)
 
 
@@ -85,7 +91,13 @@ def encode_frame(
     frame_type: int = TYPE_INPUT,
     flags: int = 0,
 ) -> bytes:
-    """One 42-byte frame. values: 6 numbers, stored as float32."""
+    """One 42-byte frame. values: 6 numbers, stored as float32.
+
+    Examples
+    --------
+    >>> len(encode_frame(1, 2500, [0.1] * 6))
+    42
+    """
     v = np.asarray(values, dtype=np.float64).reshape(-1)
     if v.size != 6:
         raise ValueError(f"values: expected 6 channels, got {v.size}")
@@ -129,7 +141,14 @@ class FrameError(ValueError):
 
 
 def decode_frame(frame: bytes | bytearray | memoryview) -> ImuFrame:
-    """Decodes exactly one frame; raises FrameError with the reason otherwise."""
+    """Decodes exactly one frame; raises FrameError with the reason otherwise.
+
+    Examples
+    --------
+    >>> f = decode_frame(encode_frame(7, 2500, [1.0, 2, 3, 4, 5, 6]))
+    >>> f.seq, f.t_us, f.values[:2]
+    (7, 2500, (1.0, 2.0))
+    """
     b = bytes(frame)
     if len(b) != FRAME_SIZE:
         raise FrameError(f"expected {FRAME_SIZE} bytes, got {len(b)}")

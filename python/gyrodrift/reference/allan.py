@@ -24,6 +24,12 @@ def oadev_rate(y: np.ndarray, m: int) -> tuple[float, int]:
     """Overlapping Allan deviation of rate samples at averaging factor m (same units as y).
 
     Returns (sigma, number of squared differences).
+
+    Examples
+    --------
+    >>> dev, terms = oadev_rate(np.array([1.0, -1.0, 1.0, -1.0]), 1)
+    >>> round(dev, 6), terms  # sqrt(mean((2)^2) / 2)
+    (1.414214, 3)
     """
     y = np.asarray(y, dtype=np.float64)
     if y.ndim != 1:
@@ -39,6 +45,12 @@ def oadev_rate(y: np.ndarray, m: int) -> tuple[float, int]:
 def oadev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
     """Overlapping Allan deviation from phase (cumulative angle) samples x_k, NIST SP 1065
     eq. 11: sigma^2 = sum (x_{i+2m} - 2 x_{i+m} + x_i)^2 / (2 (m tau0)^2 (Np - 2m)).
+
+    Examples
+    --------
+    >>> dev, terms = oadev_phase(np.arange(10.0), 1, 1.0)  # a constant rate has zero deviation
+    >>> dev, terms
+    (0.0, 8)
     """
     x = np.asarray(x, dtype=np.float64)
     n_terms = x.size - 2 * m

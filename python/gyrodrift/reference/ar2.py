@@ -40,6 +40,14 @@ def fit_ar2(x: object, method: str = "yule-walker") -> Ar2Model:
     ls: forward-backward least squares (stacked design matrix, numpy lstsq),
     sigma2 = residual sum of squares / (2 (n - 2)).
     r (all methods): mean squared one-step prediction error of the fitted model on x.
+
+    Examples
+    --------
+    >>> import scipy.signal
+    >>> e = np.random.default_rng(0).standard_normal(20_000)
+    >>> x = scipy.signal.lfilter([1.0], [1.0, -0.5], e)
+    >>> round(fit_ar2(x).a1, 1)
+    0.5
     """
     method = normalise_method(method)
     y = _as_record(x)
@@ -94,6 +102,11 @@ def ar_filter(x: object, model: Ar2Model) -> np.ndarray:
 
     History before the first sample is the mean; a NaN/Inf sample is replaced in the history
     by its own prediction.
+
+    Examples
+    --------
+    >>> ar_filter(np.array([1.0, 2.0, 3.0]), Ar2Model(0.5, 0.0, 1.0)).shape
+    (3,)
     """
     y = _as_record(x)
     out = np.empty_like(y)
@@ -127,6 +140,11 @@ def kalman_filter(
     (model.sigma2 when r is unknown).
 
     NaN/Inf samples are predict-only steps (as in the C++ filter).
+
+    Examples
+    --------
+    >>> kalman_filter(np.zeros(5), Ar2Model(0.5, 0.0, 1.0), q=1.0, r=1.0).tolist()
+    [0.0, 0.0, 0.0, 0.0, 0.0]
     """
     y = _as_record(x)
     q = model.sigma2 if q is None else float(q)
@@ -161,14 +179,28 @@ def kalman_filter(
 
 def steady_state_gain(model: Ar2Model, q: float, r: float) -> np.ndarray:
     """Gain of the stabilising DARE solution (scipy.linalg.solve_discrete_are, an independent
-    solver): P = A P A^T + Q - A P C^T (C P C^T + r)^-1 C P A^T, K = P C^T / (C P C^T + r)."""
+    solver): P = A P A^T + Q - A P C^T (C P C^T + r)^-1 C P A^T, K = P C^T / (C P C^T + r).
+
+    Examples
+    --------
+    >>> k = steady_state_gain(Ar2Model(0.5, 0.0, 1.0), 1.0, 1.0)
+    >>> bool(0.0 < k[0] < 1.0)
+    True
+    """
     a, bqb, c = _matrices(model, q)
     p = scipy.linalg.solve_discrete_are(a.T, c.T, bqb, np.array([[r]]))
     return (p @ c.T / ((c @ p @ c.T).item() + r)).ravel()
 
 
 def fit_ar2_axes(x: object, method: str = "yule-walker") -> Sequence[Ar2Model]:
-    """fit_ar2 per column of an (n, axes) record."""
+    """fit_ar2 per column of an (n, axes) record.
+
+    Examples
+    --------
+    >>> x = np.random.default_rng(1).standard_normal((1000, 3))
+    >>> len(fit_ar2_axes(x))
+    3
+    """
     a = np.asarray(x, dtype=np.float64)
     if a.ndim != 2:
         raise ValueError(f"expected an (n, axes) record, got shape {a.shape}")

@@ -127,8 +127,11 @@ class ReplayOptions:
         return self.transport in ("slcan", "socketcan")
 
 
-@dataclass
+@dataclass(frozen=True)
 class ReplayResult:
+    """The outcome of a replay: the report (accounting, comparison, latency, throughput; the
+    JSON file's content), per-output latencies and arrival times, and the loop's statistics."""
+
     report: dict[str, Any]
     latency_us: np.ndarray  # per received output, in output order
     output_arrival_s: np.ndarray  # arrival time of each output, from the first write
@@ -137,6 +140,10 @@ class ReplayResult:
     @property
     def ok(self) -> bool:
         return bool(self.report["ok"])
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values: the report (what report.json holds)."""
+        return dict(self.report)
 
 
 def _unit_wire_time_ns(opt: ReplayOptions) -> int:

@@ -71,6 +71,14 @@ def write_imu_log(path: str | Path, t_s: np.ndarray, gyro_rad_s: np.ndarray,
     The format comes from `fmt` ("bin", "csv", "candump", "asc", "blf") or the suffix. Values
     are stored as float32 (what the wire carries); sequence numbers count from 0 and wrap at
     65536. Returns the path written.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "imu.bin")
+    >>> t = np.arange(5) / 400.0
+    >>> write_imu_log(path, t, np.zeros((5, 3)), np.zeros((5, 3))).suffix
+    '.bin'
     """
     path = Path(path)
     kind = log_format(path, fmt)
@@ -116,6 +124,15 @@ def read_imu_log(path: str | Path, fmt: str | None = None) -> Samples:
     Bad content is an error with the reason, never silently dropped: a binary log with CRC
     errors, garbage or a truncated tail, or a CAN log with incomplete samples, raises
     ValueError.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "imu.bin")
+    >>> _ = write_imu_log(path, np.arange(5) / 400.0, np.ones((5, 3)), np.zeros((5, 3)))
+    >>> s = read_imu_log(path)
+    >>> len(s), s.channels.shape, float(s.channels[0, 0])
+    (5, (5, 6), 1.0)
     """
     path = Path(path)
     if not path.exists():

@@ -77,7 +77,13 @@ def gravity_integral_i0(t_s: float, lat_rad: float, g_m_s2: float, position: boo
 
 
 def earth_rotation_i0_n(t_s: float, lat_rad: float) -> np.ndarray:
-    """C_n(t)^i0: rotation by Omega t about u = [0, cos L, sin L] (Rodrigues)."""
+    """C_n(t)^i0: rotation by Omega t about u = [0, cos L, sin L] (Rodrigues).
+
+    Examples
+    --------
+    >>> bool(np.allclose(earth_rotation_i0_n(0.0, 0.5), np.eye(3)))
+    True
+    """
     u = np.array([0.0, np.cos(lat_rad), np.sin(lat_rad)])
     x = EARTH_RATE_RAD_S * t_s
     ux = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
@@ -85,6 +91,14 @@ def earth_rotation_i0_n(t_s: float, lat_rad: float) -> np.ndarray:
 
 
 def triad(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """
+
+    Examples
+    --------
+    >>> c = triad(np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
+    >>> c.shape
+    (3, 3)
+    """
     c = np.cross(a, b)
     d = np.cross(a, c)
     return np.column_stack([a / np.linalg.norm(a), c / np.linalg.norm(c), d / np.linalg.norm(d)])

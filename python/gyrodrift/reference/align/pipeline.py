@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from gyrodrift.align.attitude import dcm2euler, dcm2q, q2dcm, qmul, qnormalize, rv2q
-from gyrodrift.align.config import AlignConfig
+from gyrodrift.align.config import AlignConfig, AlignResult
 from gyrodrift.earth import earth_params
 
 from .coarse import InertialCoarseAlign
@@ -19,11 +19,9 @@ __all__ = ["run_alignment_reference"]
 
 
 def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
-                            cfg: AlignConfig) -> dict[str, np.ndarray]:
-    """Plain-loop reference. Returns per-KF-update histories:
-    t_s (time the solution refers to: end of the KF cycle from the first input sample, minus
-    the accelerometer delay that matches the prefilter), att (pitch, roll, yaw rad), eb, db,
-    p_phi (std of phi, rad), and `coarse_cnb` (C_b^n at the end of coarse alignment).
+                            cfg: AlignConfig) -> AlignResult:
+    """Plain-loop reference. Returns the per-KF-update histories as an `AlignResult`
+    (bad_samples 0, failed False: the reference has no fault handling).
     Alignment starts after the warm-up max(n_taps - 1, delay) samples that fill the prefilter
     window and the delay line (see nav_align_pipeline.hpp for why)."""
     dtheta = np.asarray(dtheta, dtype=float)
@@ -103,6 +101,7 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
         hist["eb"].append(eb.copy())
         hist["db"].append(db.copy())
         hist["p_phi"].append(np.sqrt(np.diag(kf.P)[0:3]))
-    out = {key: np.array(v) for key, v in hist.items()}
-    out["coarse_cnb"] = coarse_cnb
-    return out
+    def arr(key: str) -> np.ndarray:
+        return np.array(hist[key]).reshape(-1, 3) if key != "t_s" else np.array(hist[key])
+
+    return AlignResult(arr("t_s"), arr("att"), arr("eb"), arr("db"), arr("p_phi"), coarse_cnb)
