@@ -125,11 +125,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--n", type=int, default=1 << 14)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--max-model", default="Q+N+K+R+GM+GM")
+    ap.add_argument("--case", type=int, action="append",
+                    help="run only these cases (1-based; repeatable; default all)")
     args = ap.parse_args(argv)
     print(f"# GMWM Monte Carlo: {args.reps} replicates per case, n = {args.n} samples at "
           f"{RATE_HZ:g} Hz, model selection among the sub-models of {args.max_model}, "
           f"nominal 95 % asymptotic intervals")
-    for case in CASES:
+    for k, case in enumerate(CASES, 1):
+        if args.case and k not in args.case:
+            continue
         t0 = time.perf_counter()
         s = run_case(case, args.reps, args.n, args.max_model, args.workers)
         dt = time.perf_counter() - t0

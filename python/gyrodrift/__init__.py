@@ -16,6 +16,8 @@ tested. Conventions (unit suffixes, results, errors): CONTRIBUTING.md.
   `ReplayOptions`, `run_replay`, `read_imu_log`, `write_imu_log` (the replay names import
   python-can, cantools and pyserial on first use only).
 - Alignment: `AlignConfig`, `run_alignment`.
+- GMWM noise-model identification with intervals and selection: `identify_gmwm`,
+  `GmwmResult` (issue 11; the Allan fit with selection is `gyrodrift.allan_fit`).
 - Errors: `GyrodriftError`, `GyrodriftValueError`, `GyrodriftTypeError`.
 
 Examples

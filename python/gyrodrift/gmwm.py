@@ -680,6 +680,13 @@ class GmwmResult:
         candidates: (model, WIC) of every sub-model tried, best first (model="auto").
         ci, ci_method: interval probability and "asymptotic" or "bootstrap".
         param_cov: covariance of the log parameters (internal, model order).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> res = identify_gmwm(np.random.default_rng(2).standard_normal(2048), 10.0, model="N")
+    >>> res.model, [p.name for p in res.params], sorted(res.as_dict())[:3]
+    ('N', ['N'], ['candidates', 'ci', 'ci_method'])
     """
 
     model: str
@@ -844,7 +851,16 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             that of the levels kept.
 
     Raises:
-        ValueError: bad record (not 1-D, NaN/Inf, too short), bad model, bad ci.
+        GyrodriftValueError: bad record (not 1-D, NaN/Inf, too short), bad model, bad ci.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.random.default_rng(1).standard_normal(4096) * 30.0  # white, 30 deg/h per sample
+    >>> res = identify_gmwm(x, 100.0, model="N")
+    >>> p = res.param("N")
+    >>> p.unit, p.ci_low < 30.0 * 0.1 / 60.0 < p.ci_high   # N = sigma sqrt(dt) / 60
+    ('deg/sqrt(h)', True)
     """
     arr = _check_record(x, rate_hz)
     if not 0.0 < ci < 1.0:

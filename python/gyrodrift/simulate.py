@@ -111,13 +111,14 @@ class NoiseTerms:
         try:
             gm = tuple((float(s), float(t)) for s, t in self.gm)
         except (TypeError, ValueError):
-            raise ValueError(
+            raise GyrodriftValueError(
                 f"gm must be a tuple of (sigma_deg_h, tau_s) pairs, got {self.gm!r}") from None
         if len(gm) > 3:
-            raise ValueError(f"at most 3 Gauss-Markov terms, got {len(gm)}")
+            raise GyrodriftValueError(f"at most 3 Gauss-Markov terms, got {len(gm)}")
         for sigma, tau in gm:
             if not (math.isfinite(sigma) and sigma >= 0.0 and math.isfinite(tau) and tau > 0.0):
-                raise ValueError(f"gm terms need sigma_deg_h >= 0 and tau_s > 0, got {gm!r}")
+                raise GyrodriftValueError(
+                    f"gm terms need sigma_deg_h >= 0 and tau_s > 0, got {gm!r}")
         object.__setattr__(self, "gm", gm)
         for name in ("q_deg", "n_deg_rt_h", "b_deg_h", "k_deg_h_rt_h", "pulse_deg"):
             value = getattr(self, name)

@@ -32,7 +32,17 @@ def _num(v: float | None) -> str:
 
 def format_terms(rows: Sequence[Row], ci: float) -> list[str]:
     """The terms table: value and interval in IEEE Std 952 units, then the continuous-time
-    density (rad/s/sqrt(Hz), rad/s^2/sqrt(Hz)) where the term has one."""
+    density (rad/s/sqrt(Hz), rad/s^2/sqrt(Hz)) where the term has one.
+
+    Examples
+    --------
+    >>> lines = format_terms([("N", 0.05, "deg/sqrt(h)", 0.049, 0.051, 1.45e-5,
+    ...                        "rad/s/sqrt(Hz)", 1.43e-5, 1.48e-5)], 0.95)
+    >>> lines[0]
+    '# intervals: 95.00 % two-sided'
+    >>> lines[2].split()[:5]
+    ['N', '0.05', '0.049', '0.051', 'deg/sqrt(h)']
+    """
     head = (f"{'term':<10} {'value':>11} {'ci_low':>11} {'ci_high':>11} {'unit':<14} "
             f"{'density':>11} {'ci_low':>11} {'ci_high':>11} {'density unit':<16}")
     lines = [f"# intervals: {100 * ci:.2f} % two-sided", head]
