@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -39,6 +38,7 @@ import gyrodrift
 from gyrodrift import noise_id
 from gyrodrift.allan import AllanResult, oadev
 from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.json_text import json_text
 from gyrodrift.psd import Psd, welch_psd
 
 __all__ = [
@@ -260,7 +260,7 @@ def _write_report(report: CompareReport, rows: list[CompareRow], out: Path, plot
                              title="Allan deviation before/after filtering")
             plots.plot_psd([(r.signal, r.psd) for r in rows], tmp["psd_png"],
                            title="Welch PSD before/after filtering")
-            tmp["json"].write_text(json.dumps(report.as_dict(), indent=2))
+            tmp["json"].write_text(json_text(report.as_dict()))
     except BaseException:
         report.files = {}
         if made:

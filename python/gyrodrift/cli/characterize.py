@@ -6,7 +6,6 @@ one plot per sensor type, and the outputs filter users need (--json, --kalibr im
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -21,6 +20,7 @@ from gyrodrift.cli.common import (
 )
 from gyrodrift.errors import GyrodriftError
 from gyrodrift.imu_io import ACCEL_UNITS, GYRO_UNITS, ImuData, bag_imu_topics, load_imu
+from gyrodrift.json_text import json_text
 
 __all__ = ["add_imu_input_args", "imu_from_args", "register", "run"]
 
@@ -183,6 +183,6 @@ def write_outputs(res: Any, *, kalibr: str | None, kalibr_path: str | None,
         Path(html_path).write_text(text)
         files["html"] = html_path
     if json_path:
-        Path(json_path).write_text(json.dumps(res.as_dict(), indent=1))
+        Path(json_path).write_text(json_text(res.as_dict(), indent=1))
         files["json"] = json_path
     return files

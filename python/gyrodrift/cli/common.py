@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import math
 import os
 import sys
@@ -39,8 +38,9 @@ from typing import IO, Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.errors import GyrodriftError, GyrodriftTypeError, GyrodriftValueError
+from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.io import UNITS, Record, load_record
+from gyrodrift.json_text import json_default, json_text
 
 __all__ = [
     "PROGRESS_CHOICES",
@@ -177,45 +177,23 @@ def add_ci_arg(p: argparse.ArgumentParser) -> None:
                    help="confidence-interval probability (default 0.6827, one sigma)")
 
 
-def json_default(obj: Any) -> Any:
-    """``json`` fallback for numpy scalars and arrays, paths, tuples and dataclass results.
-
-    Examples
-    --------
-    >>> json_default(np.float32(0.5)), json_default(np.arange(2))
-    (0.5, [0, 1])
-    """
-    if isinstance(obj, np.integer):
-        return int(obj)
-    if isinstance(obj, np.floating):
-        return float(obj)
-    if isinstance(obj, np.bool_):
-        return bool(obj)
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Path):
-        return str(obj)
-    as_dict = getattr(obj, "as_dict", None)
-    if callable(as_dict):
-        return as_dict()
-    raise GyrodriftTypeError(f"not JSON-serialisable: {type(obj).__name__}")
-
-
 def emit_json(payload: Any, stream: IO[str] | None = None) -> None:
     """Write ``payload`` as indented JSON and a newline (stdout by default): the one JSON
     writer of the command line.
 
     Examples
     --------
-    >>> emit_json({"n": np.int64(3), "x": np.float64(0.25)})
+    >>> emit_json({"n": np.int64(3), "x": np.float64(0.25), "fit": float("nan")})
     {
       "n": 3,
-      "x": 0.25
+      "x": 0.25,
+      "fit": null
     }
     """
     out = sys.stdout if stream is None else stream
-    json.dump(payload, out, indent=2, default=json_default)
+    out.write(json_text(payload, indent=2))  # NaN/Inf as null: strict JSON
     out.write("\n")
+
 
 
 def format_csv_value(v: Any) -> str:

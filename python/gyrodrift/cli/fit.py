@@ -21,6 +21,7 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_input_args, add_json_arg, emit_json, record_from_args
+from gyrodrift.json_text import json_text
 
 __all__ = ["config_toml", "register", "run"]
 
@@ -101,11 +102,9 @@ def run(args: argparse.Namespace) -> int:
         if out.suffix.lower() == ".toml":
             text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source)
         elif out.suffix.lower() == ".json":
-            import json
 
-            from gyrodrift.cli.common import json_default
 
-            text = json.dumps(payload, indent=2, default=json_default) + "\n"
+            text = json_text(payload) + "\n"
         else:
             raise CliError(f"-o/--output: unknown suffix {out.suffix!r}; use .toml or .json")
         try:
