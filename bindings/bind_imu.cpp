@@ -11,7 +11,8 @@
 //       "forced"|"soft"|"hard"[, channel_wavelets=[(wavelet, level, mode) or None] * 6]):
 //       the same with RealtimeWavelet<T, 256> as the wavelet stage (per channel if given)
 //   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS, IMU_REJECTION_KEYS (tuples), IMU_RESYNC_AFTER, IMU_DEFAULT_PERIOD_US,
-//   IMU_DEFAULT_TIME_TOLERANCE_US: the processor contract from imu_processor.hpp
+//   IMU_DEFAULT_TIME_TOLERANCE_US, IMU_DEMO_AR2 {a1 a2 sigma2 mean q r}: the processor contract
+//   from imu_processor.hpp
 //   crc16_ccitt_false(bytes) -> int
 //   serial_encode_frame(frame_type, seq, flags, t_us, values[6]) -> bytes
 //   serial_parse(data, chunk, finish) -> (frames list, stats dict)   (C++ parser, 256-B buffer)
@@ -375,6 +376,9 @@ void bind_imu(py::module_& m) {
   for_each_rejection_field(h0, [&rejections](const char* name, std::uint64_t) { rejections.append(name); });
   m.attr("IMU_REJECTION_KEYS") = py::tuple(rejections);
   m.attr("IMU_RESYNC_AFTER") = kImuResyncAfter;
+  m.attr("IMU_DEMO_AR2") = py::dict(py::arg("a1") = ImuDemoAr2::a1, py::arg("a2") = ImuDemoAr2::a2,
+                                    py::arg("sigma2") = ImuDemoAr2::sigma2, py::arg("mean") = ImuDemoAr2::mean,
+                                    py::arg("q") = ImuDemoAr2::q, py::arg("r") = ImuDemoAr2::r);
   m.attr("IMU_DEFAULT_PERIOD_US") = kImuDefaultPeriodUs;
   m.attr("IMU_DEFAULT_TIME_TOLERANCE_US") = kImuDefaultTimeToleranceUs;
   m.attr("IMU_CHANNELS") = kImuChannels;

@@ -76,3 +76,24 @@ def test_readme_flag_table_matches() -> None:
 def test_gyrodrift_loop_help_mentions_config(loop_bin: Path) -> None:  # noqa: F811
     r = subprocess.run([str(loop_bin), "--help"], capture_output=True, timeout=10)
     assert r.returncode == 0 and b"--config FILE" in r.stdout
+
+
+def test_loop_demo_model_has_one_source(loop_bin: Path) -> None:  # noqa: F811
+    """The loop's demonstration AR(2) model (no identified model given) is ImuDemoAr2 in
+    imu_processor.hpp; the loop's defaults, its --help text and the replay harness's
+    ProcessorSettings all carry the exported values (before: three hand-typed copies)."""
+    from gyrodrift.replay.processor import ProcessorSettings
+
+    demo = dict(core("imu", "IMU_DEMO_AR2").IMU_DEMO_AR2)
+    s = ProcessorSettings()
+    assert {k: getattr(s, k) for k in demo} == demo
+    processing = (ROOT / "cpp" / "programs" / "gyrodrift-loop" / "processing.hpp").read_text()
+    assert "-0.25" not in processing and "ImuDemoAr2::a1" in processing
+    text = subprocess.run([str(loop_bin), "--help"], capture_output=True, timeout=10,
+                          text=True).stdout
+    ar2 = re.search(r"--gyro-ar2 A1,A2,SIGMA2,MEAN .*\(default ([^:]+):", text)
+    qr = re.search(r"--gyro-q Q --gyro-r R .*\(default ([^,]+), ([^)]+)\)", text)
+    assert ar2 and qr, text
+    assert [float(v) for v in ar2[1].split(",")] == [demo[k] for k in ("a1", "a2", "sigma2",
+                                                                        "mean")]
+    assert (float(qr[1]), float(qr[2])) == (demo["q"], demo["r"])

@@ -91,6 +91,14 @@ inline constexpr std::uint32_t kImuDefaultPeriodUs = 2500;         // 400 Hz
 inline constexpr std::uint32_t kImuDefaultTimeToleranceUs = 1250;  // half a period
 inline constexpr std::uint32_t kImuResyncAfter = 8;  // consecutive rejections -> source restart
 
+// The loop program's demonstration gyro model, used when no identified model is given: AR(2)
+// with a double root at 0.5 (stationary); sigma2, q, r in (rad/s)^2, mean in rad/s. The one
+// copy: the loop's command-line defaults and gyrodrift._core.IMU_DEMO_AR2 (the replay
+// harness's ProcessorSettings) both read it.
+struct ImuDemoAr2 {
+  static constexpr double a1 = 1.0, a2 = -0.25, sigma2 = 1e-10, mean = 0.0, q = 1e-10, r = 1e-8;
+};
+
 template <class Scalar>
 struct ImuChannelConfig {
   ChannelFilter filter = ChannelFilter::pass_through;   // first stage

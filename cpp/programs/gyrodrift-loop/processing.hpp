@@ -24,7 +24,8 @@ struct ProcessingOptions {
   ChannelFilter gyro_filter = ChannelFilter::ar2_kalman;
   ChannelFilter accel_filter = ChannelFilter::pass_through;
   // a1, a2 (roots 0.5, 0.5: stationary), sigma2 and mean (rad/s), q and r ((rad/s)^2).
-  double a1 = 1.0, a2 = -0.25, sigma2 = 1e-10, mean = 0.0, q = 1e-10, r = 1e-8;
+  double a1 = ImuDemoAr2::a1, a2 = ImuDemoAr2::a2, sigma2 = ImuDemoAr2::sigma2,
+         mean = ImuDemoAr2::mean, q = ImuDemoAr2::q, r = ImuDemoAr2::r;
   double gyro_bias = 0.0, accel_bias = 0.0;
   double gyro_saturation = INFINITY, accel_saturation = INFINITY;
   std::uint32_t stuck_samples = 0;

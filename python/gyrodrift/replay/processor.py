@@ -10,7 +10,7 @@ from __future__ import annotations
 import hashlib
 import math
 import tempfile
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -27,6 +27,13 @@ __all__ = [
 LOOP_FILTERS = ("ar2_kalman", "bias_removal", "pass_through")
 
 
+def _demo_ar2(key: str) -> float:
+    """One number of the loop's demonstration AR(2) model (C++ ImuDemoAr2, via _core)."""
+    from gyrodrift import _native
+
+    return float(_native.core("imu", "IMU_DEMO_AR2").IMU_DEMO_AR2[key])
+
+
 @dataclass(frozen=True)
 class ProcessorSettings:
     """Gyro chain (all three axes) and accelerometer chain (all three axes).
@@ -37,12 +44,13 @@ class ProcessorSettings:
 
     gyro_filter: str = "ar2_kalman"
     accel_filter: str = "pass_through"
-    a1: float = 1.0
-    a2: float = -0.25
-    sigma2: float = 1e-10
-    mean: float = 0.0
-    q: float = 1e-10
-    r: float = 1e-8
+    # The demonstration model's numbers live once, in imu_processor.hpp (ImuDemoAr2).
+    a1: float = field(default_factory=lambda: _demo_ar2("a1"))
+    a2: float = field(default_factory=lambda: _demo_ar2("a2"))
+    sigma2: float = field(default_factory=lambda: _demo_ar2("sigma2"))
+    mean: float = field(default_factory=lambda: _demo_ar2("mean"))
+    q: float = field(default_factory=lambda: _demo_ar2("q"))
+    r: float = field(default_factory=lambda: _demo_ar2("r"))
     gyro_bias: float = 0.0
     accel_bias: float = 0.0
     gyro_saturation: float = math.inf
