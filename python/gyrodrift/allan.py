@@ -43,6 +43,7 @@ __all__ = [
     "averaging_factors",
     "chi2_interval",
     "edf_simple",
+    "factors_for_taus",
     "lag1_noise_id",
     "noise_alpha_from_slope",
     "oadev",
@@ -171,6 +172,23 @@ def averaging_factors(
             f"record too short for Allan analysis: {n_data} {kind} samples "
             f"(need at least {3 if kind == 'rate' else 4})"
         )
+    return factors_for_taus(taus, max_m, rate_hz, per_decade,
+                            f"record too short for tau = {{tau:g}} s: {n_data} samples at "
+                            f"{rate_hz:g} Hz support tau <= {max_m / rate_hz:g} s (two "
+                            "non-overlapping clusters of 2 tau)")
+
+
+def factors_for_taus(taus: str | np.ndarray | list[float], max_m: int, rate_hz: float,
+                     per_decade: int, too_long: str) -> np.ndarray:
+    """Averaging factors m (int64, increasing, 1..max_m) for a tau grid name ("octave",
+    "decade", "all") or explicit taus in seconds; `too_long` is the error message for a tau
+    beyond max_m, with ``{tau}`` for the longest tau asked for. Shared by every deviation.
+
+    Examples
+    --------
+    >>> factors_for_taus([0.1, 0.2], 10, 10.0, 10, "too long: {tau}").tolist()
+    [1, 2]
+    """
     if isinstance(taus, str):
         if taus not in ("octave", "decade", "all"):
             raise GyrodriftValueError(
@@ -184,10 +202,7 @@ def averaging_factors(
         raise GyrodriftValueError(
             f"tau {tau_arr.min()} s is shorter than one sample (1/{rate_hz} s)")
     if m[-1] > max_m:
-        raise GyrodriftValueError(
-            f"record too short for tau = {tau_arr.max():g} s: {n_data} samples at {rate_hz:g} Hz "
-            f"support tau <= {max_m / rate_hz:g} s (two non-overlapping clusters of 2 tau)"
-        )
+        raise GyrodriftValueError(too_long.format(tau=float(tau_arr.max())))
     return m
 
 

@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift import _native, noise_type
-from gyrodrift.allan import ONE_SIGMA_CI, AllanResult, chi2_interval, oadev
+from gyrodrift.allan import ONE_SIGMA_CI, AllanResult, chi2_interval, factors_for_taus, oadev
 from gyrodrift.edf import edf_for
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
@@ -69,23 +69,9 @@ def _factors(name: str, n_rate: int, taus: Any, rate_hz: float, per_decade: int)
     max_m = max_factor(name, n_rate)
     if max_m < 1:
         raise GyrodriftValueError(f"record too short for {name}: {n_rate} rate samples")
-    if isinstance(taus, str):
-        if taus not in ("octave", "decade", "all"):
-            raise GyrodriftValueError(
-                f"taus must be 'octave', 'decade', 'all' or an array, got {taus!r}")
-        return np.asarray(_lib().tau_grid(taus, max_m, per_decade), dtype=np.int64)
-    tau_arr = np.asarray(taus, dtype=np.float64)
-    if tau_arr.ndim != 1 or tau_arr.size == 0 or not np.all(np.isfinite(tau_arr)):
-        raise GyrodriftValueError("taus: expected a non-empty 1-D array of finite taus in seconds")
-    m = np.unique(np.rint(tau_arr * rate_hz).astype(np.int64))
-    if m[0] < 1:
-        raise GyrodriftValueError(
-            f"tau {tau_arr.min()} s is shorter than one sample (1/{rate_hz} s)")
-    if m[-1] > max_m:
-        raise GyrodriftValueError(f"record too short for {name} at tau = {tau_arr.max():g} s: "
-                         f"{n_rate} samples at {rate_hz:g} Hz support tau <= "
-                         f"{max_m / rate_hz:g} s")
-    return m
+    return factors_for_taus(taus, max_m, rate_hz, per_decade,
+                            f"record too short for {name} at tau = {{tau:g}} s: {n_rate} "
+                            f"samples at {rate_hz:g} Hz support tau <= {max_m / rate_hz:g} s")
 
 
 class _Source:
