@@ -10,6 +10,7 @@ import os
 import statistics
 import subprocess
 import time
+import tracemalloc
 from collections.abc import Callable
 
 
@@ -38,3 +39,23 @@ def median_seconds(
         fn()
         times.append(clock() - t0)
     return statistics.median(times)
+
+
+def measure_wall_cpu_peak(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
+    """(median wall s, median CPU s of this process, peak traced bytes above the start).
+
+    CPU time is reported too because this machine is shared: under load, wall time mostly
+    measures the neighbours; CPU time still includes cache/memory contention.
+    """
+    walls, cpus = [], []
+    peak = 0
+    for _ in range(repeats):
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        c0, t0 = time.process_time(), time.perf_counter()
+        fn()
+        walls.append(time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
+        peak = max(peak, tracemalloc.get_traced_memory()[1] - base)
+        tracemalloc.stop()
+    return statistics.median(walls), statistics.median(cpus), float(peak)

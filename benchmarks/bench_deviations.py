@@ -13,35 +13,16 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import tempfile
-import time
-import tracemalloc
-from collections.abc import Callable
 from pathlib import Path
 
 import allantools
 import gyrodrift
 import numpy as np
 from _bench_util import machine
+from _bench_util import measure_wall_cpu_peak as measure
 
 NAMES = ("mdev", "tdev", "hdev", "ohdev", "totdev")
-
-
-def measure(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
-    """(median wall s, median CPU s of this process, peak traced bytes above the start)."""
-    walls, cpus = [], []
-    peak = 0
-    for _ in range(repeats):
-        tracemalloc.start()
-        base = tracemalloc.get_traced_memory()[0]
-        c0, t0 = time.process_time(), time.perf_counter()
-        fn()
-        walls.append(time.perf_counter() - t0)
-        cpus.append(time.process_time() - c0)
-        peak = max(peak, tracemalloc.get_traced_memory()[1] - base)
-        tracemalloc.stop()
-    return statistics.median(walls), statistics.median(cpus), float(peak)
 
 
 def main() -> None:
