@@ -16,9 +16,10 @@
    normal priority, competing with stress-ng) from the harness and the loop.
    Goal: 0 lost, latency p99 <= 2 ms, loop period jitter p99 <= 200 us.
 
-Set-up for part 3 (only this benchmark needs it, not the tests): stress-ng, from Debian
-(`apt-get install -y stress-ng`); the benchmark refuses `--stress-cpu` without it and says
-so. Real-time scheduling needs root or CAP_SYS_NICE (the report says when it was refused).
+Set-up for part 3 (only this benchmark needs it, not the tests): stress-ng, from Debian; the
+benchmark installs it itself (`apt-get install -y stress-ng`, as root or through sudo) and
+stops with that command when it cannot. Real-time scheduling needs root or CAP_SYS_NICE (the
+report says when it was refused).
 
 Prints markdown tables and the machine. Not a test: the machine is shared and noisy.
 
@@ -189,12 +190,27 @@ def cpp_bench(args: argparse.Namespace) -> list[str]:
             "| max ns |", "| --- | --- | --- | --- | --- | --- | --- |", out.strip()]
 
 
-def start_stress(n_cpu: int) -> subprocess.Popen[bytes]:
-    """`stress-ng --cpu N` in its own process group (ended by stop_stress)."""
+def install_stress_ng() -> str:
+    """The benchmark's own set-up (not the tests'): Debian's stress-ng through apt-get, as
+    root or through sudo; exits with the command to run when that is not possible."""
+    apt = shutil.which("apt-get")
+    sudo = [] if os.geteuid() == 0 else ["sudo", "-n"]
+    if apt is not None and (not sudo or shutil.which("sudo")):
+        print("# installing stress-ng (apt-get install -y stress-ng)", file=sys.stderr)
+        env = {**os.environ, "DEBIAN_FRONTEND": "noninteractive"}
+        for cmd in ([*sudo, apt, "update", "-qq"],
+                    [*sudo, apt, "install", "-y", "-qq", "--no-install-recommends", "stress-ng"]):
+            subprocess.run(cmd, env=env, stdout=subprocess.DEVNULL, check=False)
     exe = shutil.which("stress-ng")
     if exe is None:
-        sys.exit("--stress-cpu needs stress-ng: install it with `apt-get install -y stress-ng` "
-                 "(Debian/Ubuntu; the benchmark's only extra set-up)")
+        sys.exit("--stress-cpu needs stress-ng and installing it failed: run "
+                 "`apt-get install -y stress-ng` (Debian/Ubuntu) as root")
+    return exe
+
+
+def start_stress(n_cpu: int) -> subprocess.Popen[bytes]:
+    """`stress-ng --cpu N` in its own process group (ended by stop_stress)."""
+    exe = shutil.which("stress-ng") or install_stress_ng()
     proc = subprocess.Popen([exe, "--cpu", str(n_cpu), "--quiet"], start_new_session=True,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     time.sleep(2.0)  # let the workers spin up
