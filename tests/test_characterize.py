@@ -244,3 +244,17 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
     a = characterize_channel(x, 100.0, "accel_x", method="gmwm")
     np.testing.assert_allclose(seen["x"], x, rtol=0)
     assert a.terms["N"].value == pytest.approx(0.3 * 60.0, rel=1e-12)
+
+
+def test_gmwm_method_with_the_real_identify_gmwm() -> None:
+    """--method gmwm end to end with issue 11's GMWM (not a stand-in): white gyro noise of a
+    known density is identified as model N, and the density's 95 % interval holds the truth."""
+    from gyrodrift.characterize import characterize_channel
+
+    rate_hz, n_true = 100.0, 1e-4  # rad/s/sqrt(Hz)
+    x = np.random.default_rng(3).standard_normal(2**14) * n_true * math.sqrt(rate_hz)
+    c = characterize_channel(x, rate_hz, "gyro_x", method="gmwm", ci=0.95)
+    assert c.method == "gmwm" and c.extra["model"] == "N"
+    n = c.terms["N"]
+    assert n.ci_low <= n_true <= n.ci_high
+    assert n.value == pytest.approx(n_true, rel=0.05)
