@@ -8,6 +8,7 @@ recorded input.
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -238,6 +239,23 @@ def _frame_key(m: can.Message) -> str:
     return f"{m.arbitration_id:#05x}"
 
 
+def _imu_frames(path: Path, rep: CanLogReport,
+                is_imu: Callable[[can.Message], bool]) -> Iterator[can.Message]:
+    """The IMU's data frames of a CAN log; every other frame is counted in `rep` (error and
+    remote frames separately, foreign data frames by ID) and skipped."""
+    for m in can.LogReader(str(path)):
+        rep.frames_total += 1
+        if m.is_error_frame:
+            rep.error_frames += 1
+        elif m.is_remote_frame:
+            rep.remote_frames += 1
+        elif not is_imu(m):
+            key = _frame_key(m)
+            rep.foreign_frames_by_id[key] = rep.foreign_frames_by_id.get(key, 0) + 1
+        else:
+            yield m
+
+
 def _read_can_log(path: Path) -> Samples:
     """IMU samples of a CAN log; every other frame is skipped and counted (a bus capture
     normally carries other nodes' traffic). Refused only when no IMU sample is found."""
@@ -247,18 +265,10 @@ def _read_can_log(path: Path) -> Samples:
     flags: list[int] = []
     values: list[tuple[float, ...]] = []
     stamps: list[float] = []
-    for m in can.LogReader(str(path)):
-        rep.frames_total += 1
-        if m.is_error_frame:
-            rep.error_frames += 1
-            continue
-        if m.is_remote_frame:
-            rep.remote_frames += 1
-            continue
-        if m.is_extended_id or not 0 <= m.arbitration_id - INPUT_BASE_ID < 4:
-            key = _frame_key(m)
-            rep.foreign_frames_by_id[key] = rep.foreign_frames_by_id.get(key, 0) + 1
-            continue
+    def is_imu(m: can.Message) -> bool:
+        return not m.is_extended_id and 0 <= m.arbitration_id - INPUT_BASE_ID < 4
+
+    for m in _imu_frames(path, rep, is_imu):
         s = asm.push(m)
         if s is not None:
             seq.append(s.seq)
@@ -291,18 +301,7 @@ def _read_can_log_with_map(path: Path, smap: SignalMap) -> Samples:
     seq: list[int] = []
     values: list[tuple[float, ...]] = []
     stamps_us: list[int] = []
-    for m in can.LogReader(str(path)):
-        rep.frames_total += 1
-        if m.is_error_frame:
-            rep.error_frames += 1
-            continue
-        if m.is_remote_frame:
-            rep.remote_frames += 1
-            continue
-        if not asm.is_mapped(m):
-            key = _frame_key(m)
-            rep.foreign_frames_by_id[key] = rep.foreign_frames_by_id.get(key, 0) + 1
-            continue
+    for m in _imu_frames(path, rep, asm.is_mapped):
         s = asm.push(m)
         if s is not None:
             seq.append(s.seq)
