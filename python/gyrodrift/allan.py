@@ -41,6 +41,7 @@ __all__ = [
     "ONE_SIGMA_CI",
     "AllanResult",
     "averaging_factors",
+    "checked_record",
     "chi2_interval",
     "edf_simple",
     "factors_for_taus",
@@ -176,6 +177,27 @@ def averaging_factors(
                             f"record too short for tau = {{tau:g}} s: {n_data} samples at "
                             f"{rate_hz:g} Hz support tau <= {max_m / rate_hz:g} s (two "
                             "non-overlapping clusters of 2 tau)")
+
+
+def checked_record(x: object, rate_hz: object, kind: str, arg: str) -> np.ndarray:
+    """``x`` as a 1-D real array (a numpy.memmap stays one, for the streamed paths), after
+    checking the rate and kind shared by every deviation; `arg` names x in the messages.
+
+    Examples
+    --------
+    >>> checked_record([1.0, 2.0, 3.0], 10.0, "rate", "x").shape
+    (3,)
+    """
+    if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
+        raise GyrodriftValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
+    if kind not in ("rate", "phase"):
+        raise GyrodriftValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
+    arr = x if isinstance(x, np.memmap) else np.asarray(x)
+    if arr.ndim != 1:
+        raise GyrodriftValueError(f"{arg}: expected a 1-D record, got shape {arr.shape}")
+    if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
+        raise GyrodriftTypeError(f"{arg}: expected real numbers, got dtype {arr.dtype}")
+    return arr
 
 
 def factors_for_taus(taus: str | np.ndarray | list[float], max_m: int, rate_hz: float,
@@ -478,16 +500,8 @@ def oadev(
     >>> bool(abs(r.adev[0] - 1.0) < 0.01)  # ADEV at tau0 of unit white noise is 1
     True
     """
-    if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise GyrodriftValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
-    if kind not in ("rate", "phase"):
-        raise GyrodriftValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
     is_memmap = isinstance(x, np.memmap)
-    arr = x if is_memmap else np.asarray(x)
-    if arr.ndim != 1:
-        raise GyrodriftValueError(f"x: expected a 1-D record, got shape {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise GyrodriftTypeError(f"x: expected real numbers, got dtype {arr.dtype}")
+    arr = checked_record(x, rate_hz, kind, "x")
     n_data = int(arr.shape[0])
     m = averaging_factors(n_data, taus, rate_hz=rate_hz, kind=kind, per_decade=per_decade)
     n_terms = n_data - 2 * m + (1 if kind == "rate" else 0)

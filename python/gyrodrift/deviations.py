@@ -39,9 +39,16 @@ from typing import Any
 import numpy as np
 
 from gyrodrift import _native, noise_type
-from gyrodrift.allan import ONE_SIGMA_CI, AllanResult, chi2_interval, factors_for_taus, oadev
+from gyrodrift.allan import (
+    ONE_SIGMA_CI,
+    AllanResult,
+    checked_record,
+    chi2_interval,
+    factors_for_taus,
+    oadev,
+)
 from gyrodrift.edf import edf_for
-from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
+from gyrodrift.errors import GyrodriftValueError
 
 __all__ = ["DEVIATIONS", "deviation", "hdev", "mdev", "ohdev", "tdev", "totdev"]
 
@@ -230,16 +237,8 @@ def deviation(
         return oadev(data, rate_hz, kind=kind, taus=taus, per_decade=per_decade, ci=ci,
                      alpha=alpha, chunk_samples=chunk_samples, progress=progress,
                      threads=threads)
-    if not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz) and rate_hz > 0):
-        raise GyrodriftValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
-    if kind not in ("rate", "phase"):
-        raise GyrodriftValueError(f"kind must be 'rate' or 'phase', got {kind!r}")
     is_memmap = isinstance(data, np.memmap)
-    arr = data if is_memmap else np.asarray(data)
-    if arr.ndim != 1:
-        raise GyrodriftValueError(f"data: expected a 1-D record, got shape {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.number) or np.iscomplexobj(arr):
-        raise GyrodriftTypeError(f"data: expected real numbers, got dtype {arr.dtype}")
+    arr = checked_record(data, rate_hz, kind, "data")
     n_rate = int(arr.shape[0]) - (1 if kind == "phase" else 0)
     m = _factors(name, n_rate, taus, float(rate_hz), per_decade)
     n_threads = (os.cpu_count() or 1) if threads is None else int(threads)
