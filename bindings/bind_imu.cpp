@@ -8,8 +8,9 @@
 //     .health() -> dict, .reset(), .status -> str
 //     keyword-only extras: filters2[6] (second stage, 0 = none), steady_state[6] (bool)
 //   ImuProcessorWavelet / ImuProcessorWaveletF32(..., wavelet "db4"|"db8", level, mode
-//       "forced"|"soft"|"hard"[, channel_wavelets=[(wavelet, level, mode) or None] * 6]):
-//       the same with RealtimeWavelet<T, 256> as the wavelet stage (per channel if given)
+//       "forced"|"soft"|"hard"[, channel_wavelets=[(wavelet, window, level, mode) or None] * 6,
+//       window=256]): the same with RealtimeWavelet<T, window> as the wavelet stage (window a
+//       power of two in 16..4096, chosen per channel at construction: RealtimeWaveletAnyWindow)
 //   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS, IMU_REJECTION_KEYS (tuples), IMU_RESYNC_AFTER, IMU_DEFAULT_PERIOD_US,
 //   IMU_DEFAULT_TIME_TOLERANCE_US, IMU_DEMO_AR2 {a1 a2 sigma2 mean q r}: the processor contract
 //   from imu_processor.hpp
@@ -37,6 +38,7 @@
 #include <gyrodrift/crc16.hpp>
 #include <gyrodrift/imu_processor.hpp>
 #include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/realtime_wavelet_windows.hpp>
 #include <gyrodrift/serial_frame.hpp>
 #include <gyrodrift/slcan.hpp>
 #include <limits>
@@ -110,22 +112,39 @@ py::dict health_dict(const ImuHealth& h) {
   return d;
 }
 
+// The wavelet stage over every window of the configuration format (16..4096), chosen per
+// channel at construction; the filter itself is RealtimeWavelet<T, N> for that window.
 template <class T>
-using WaveletStage = RealtimeWavelet<T, 256>;
+using WaveletStage = RealtimeWaveletAnyWindow<T>;
 
-template <class T>
-WaveletStage<T> make_wavelet(const std::string& wavelet, int level, const std::string& mode) {
+// One wavelet stage's settings, checked; ValueError "<who>.window: ..." / "<who>.level: ..."
+// (who empty: the shared wavelet arguments) in the configuration reader's wording.
+struct WaveletSpec {
   WaveletKind kind = WaveletKind::db8;
-  if (wavelet == "db4") kind = WaveletKind::db4;
-  else if (wavelet != "db8") throw py::value_error("wavelet: expected 'db4' or 'db8', got '" + wavelet + "'");
-  WaveletMode m = WaveletMode::forced;
-  if (mode == "soft") m = WaveletMode::soft;
-  else if (mode == "hard") m = WaveletMode::hard;
-  else if (mode != "forced") throw py::value_error("mode: expected 'forced', 'soft' or 'hard', got '" + mode + "'");
-  WaveletStage<T> w(kind, level, m);
-  if (w.status() != RealtimeWaveletStatus::ok) {
-    throw py::value_error("wavelet level " + std::to_string(level) + " out of range for a 256-sample window");
+  std::size_t window = 256;
+  int level = 5;
+  WaveletMode mode = WaveletMode::forced;
+};
+
+WaveletSpec wavelet_spec(const std::string& who, const std::string& wavelet, long long window, int level,
+                         const std::string& mode) {
+  const std::string at = who.empty() ? "" : who + ".";
+  WaveletSpec w;
+  if (wavelet == "db4") w.kind = WaveletKind::db4;
+  else if (wavelet != "db8") throw py::value_error(at + "wavelet: expected 'db4' or 'db8', got '" + wavelet + "'");
+  if (mode == "soft") w.mode = WaveletMode::soft;
+  else if (mode == "hard") w.mode = WaveletMode::hard;
+  else if (mode != "forced") throw py::value_error(at + "mode: expected 'forced', 'soft' or 'hard', got '" + mode + "'");
+  if (!config_wavelet_window_ok(window)) {
+    throw py::value_error(at + "window: expected a power of two in 16..4096, got " + std::to_string(window));
   }
+  w.window = static_cast<std::size_t>(window);
+  const int jmax = realtime_wavelet_max_level(w.window, w.kind);
+  if (level < 1 || level > jmax) {
+    throw py::value_error(at + "level: expected 1.." + std::to_string(jmax) + " for " + wavelet + " with window " +
+                          std::to_string(window) + ", got " + std::to_string(level));
+  }
+  w.level = level;
   return w;
 }
 
@@ -211,35 +230,44 @@ template <class T>
 void bind_wavelet_processor(py::module_& m, const char* name) {
   using Proc = ImuProcessor<T, WaveletStage<T>>;
   py::class_<Proc> cls(m, name);
+  using ChannelWavelet = std::tuple<std::string, long long, int, std::string>;  // wavelet, window, level, mode
   cls.def(py::init([](const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
                       const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
                       const Six& p0, const Six& saturation,
                       const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
                       std::uint32_t tol_us, const std::string& wavelet, int level, const std::string& mode,
                       const std::optional<SixInt>& filters2, const std::optional<SixBool>& steady_state,
-                      const std::optional<std::vector<std::optional<std::tuple<std::string, int, std::string>>>>&
-                          channel_wavelets) {
-            // The processor holds six 256-sample wavelet windows: keep it on the heap.
+                      const std::optional<std::vector<std::optional<ChannelWavelet>>>& channel_wavelets,
+                      long long window) {
+            // Six wavelet stages sized for the largest window: keep the processor on the heap.
             const ImuConfig<T> cfg = make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
                                                     stuck, period_us, tol_us, filters2, steady_state);
-            const WaveletStage<T> proto = make_wavelet<T>(wavelet, level, mode);
-            if (!channel_wavelets) return std::make_unique<Proc>(cfg, proto);
-            if (channel_wavelets->size() != kImuChannels) {
-              throw py::value_error("channel_wavelets: expected 6 entries (None or (wavelet, level, mode))");
+            std::array<WaveletSpec, kImuChannels> specs;
+            specs.fill(wavelet_spec("", wavelet, window, level, mode));
+            if (channel_wavelets) {
+              if (channel_wavelets->size() != kImuChannels) {
+                throw py::value_error("channel_wavelets: expected 6 entries (None or (wavelet, window, level, mode))");
+              }
+              for (std::size_t c = 0; c < kImuChannels; ++c) {
+                const auto& e = (*channel_wavelets)[c];
+                if (e) {
+                  specs[c] = wavelet_spec("channel_wavelets[" + std::to_string(c) + "]", std::get<0>(*e),
+                                          std::get<1>(*e), std::get<2>(*e), std::get<3>(*e));
+                }
+              }
             }
-            auto ws = std::make_unique<typename Proc::WaveletArray>();
-            for (std::size_t c = 0; c < kImuChannels; ++c) {
-              const auto& e = (*channel_wavelets)[c];
-              (*ws)[c] = e ? make_wavelet<T>(std::get<0>(*e), std::get<1>(*e), std::get<2>(*e)) : proto;
-            }
-            return std::make_unique<Proc>(cfg, *ws);
+            // Each stage built in place in the processor (no window-sized temporaries).
+            return std::make_unique<Proc>(cfg, [&specs](std::size_t c) {
+              const WaveletSpec& w = specs[c];
+              return WaveletStage<T>(w.window, w.kind, w.level, w.mode);
+            });
           }),
           py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
           py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
           py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"),
           py::arg("wavelet"), py::arg("level"), py::arg("mode"), py::kw_only(),
           py::arg("filters2") = py::none(), py::arg("steady_state") = py::none(),
-          py::arg("channel_wavelets") = py::none());
+          py::arg("channel_wavelets") = py::none(), py::arg("window") = 256);
   def_processor_methods<T, Proc>(cls);
 }
 

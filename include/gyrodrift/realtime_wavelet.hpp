@@ -56,6 +56,7 @@ enum class RealtimeWaveletStatus : std::uint8_t {
   ok = 0,
   level_out_of_range,  // level < 1, or (filter_length - 1) * 2^level > 2N (pywt dwt_max_level)
   bad_mode,
+  window_unavailable,  // RealtimeWaveletWindows without a filter for the window asked for
 };
 
 // Largest level allowed for a 2N-sample extended window: pywt.dwt_max_level(2N, filter_len).

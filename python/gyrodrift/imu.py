@@ -126,12 +126,30 @@ def describe_flags(flags: int) -> list[str]:
 @dataclass(frozen=True)
 class WaveletSettings:
     """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
-    all of them. The C++ processor is built with a 256-sample window."""
+    all of them, or per channel (ImuChannelConfig.wavelet). window: a power of two in
+    16..4096 (the configuration format's windows; the C++ stage takes any of them)."""
 
     wavelet: str = "db8"
     window: int = 256
     level: int = 5
     mode: str = "forced"
+
+
+def _check_wavelet(key: str, ws: WaveletSettings) -> None:
+    """One-line ValueError naming `key`.window / `key`.level, in the configuration reader's
+    words, for a window outside the format or a level too deep for it."""
+    from gyrodrift.config import max_wavelet_level
+
+    n = ws.window
+    if not (isinstance(n, int) and 16 <= n <= 4096 and n & (n - 1) == 0):
+        raise ValueError(f"{key}.window: expected a power of two in 16..4096, got {n}")
+    if ws.wavelet in ("db4", "db8"):
+        jmax = max_wavelet_level(n, ws.wavelet)
+        if not 1 <= ws.level <= jmax:
+            raise ValueError(
+                f"{key}.level: expected 1..{jmax} for {ws.wavelet} with window {n}, "
+                f"got {ws.level}"
+            )
 
 
 @dataclass
@@ -355,7 +373,7 @@ class ImuProcessor:
         uses_wavelet = [c.filter == "wavelet" or c.filter2 == "wavelet" for c in ch]
         if any(uses_wavelet):
             settings = [c.wavelet or wavelet for c in ch]
-            per_channel: list[tuple[str, int, str] | None] = []
+            per_channel: list[tuple[str, int, int, str] | None] = []
             for i, (used, ws) in enumerate(zip(uses_wavelet, settings, strict=True)):
                 if not used:
                     per_channel.append(None)
@@ -364,15 +382,12 @@ class ImuProcessor:
                     raise ValueError(
                         f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
                     )
-                if ws.window != 256:
-                    raise ValueError(
-                        f"channels[{i}].wavelet.window: the C++ stage has 256 samples, "
-                        f"got {ws.window}"
-                    )
-                per_channel.append((ws.wavelet, ws.level, ws.mode))
+                _check_wavelet(f"channels[{i}].wavelet", ws)
+                per_channel.append((ws.wavelet, ws.window, ws.level, ws.mode))
             first = next(w for w in per_channel if w is not None)
             cls = core.ImuProcessorWavelet if f64 else core.ImuProcessorWaveletF32
-            extra = first
+            extra = (first[0], first[2], first[3])
+            kw["window"] = first[1]
             kw["channel_wavelets"] = per_channel
         else:
             cls = core.ImuProcessor if f64 else core.ImuProcessorF32

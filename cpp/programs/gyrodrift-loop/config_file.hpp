@@ -19,6 +19,7 @@
 
 #include <gyrodrift/imu_processor.hpp>
 #include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/realtime_wavelet_windows.hpp>
 
 namespace gyrodrift::loop {
 
@@ -390,14 +391,14 @@ inline bool read_config_file(const std::string& path, FileConfig& out, std::stri
         if (!rd.string(st + ".threshold", thr, false, err)) return fail(err);
         WaveletSpec& ws = fc.wavelets[c];
         ws.kind = w == "db4" ? WaveletKind::db4 : WaveletKind::db8;
-        if (window != 256) {
-          return fail(st + ".window: this gyrodrift-loop has 256-sample wavelet windows, got " + std::to_string(window));
+        if (!config_wavelet_window_ok(window)) {
+          return fail(st + ".window: expected a power of two in 16..4096, got " + std::to_string(window));
         }
-        ws.window = 256;
-        const int jmax = realtime_wavelet_max_level(256, ws.kind);
+        ws.window = static_cast<std::size_t>(window);
+        const int jmax = realtime_wavelet_max_level(ws.window, ws.kind);
         if (level < 1 || level > jmax) {
-          return fail(st + ".level: expected 1.." + std::to_string(jmax) + " for " + w + " with window 256, got " +
-                      std::to_string(level));
+          return fail(st + ".level: expected 1.." + std::to_string(jmax) + " for " + w + " with window " +
+                      std::to_string(window) + ", got " + std::to_string(level));
         }
         ws.level = static_cast<int>(level);
         if (thr == "forced") ws.mode = WaveletMode::forced;

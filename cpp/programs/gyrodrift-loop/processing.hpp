@@ -1,17 +1,16 @@
-// The loop's processing stage: ImuProcessor<float> (with the real-time wavelet stage)
-// configured from a configuration file (--config, config_file.hpp) or from the command line,
-// and its JSON counters (names from imu_processor.hpp, the one list).
+// The loop's processing stage: ImuProcessor<float> (with the real-time wavelet stage, any
+// window of the format) configured from a configuration file (--config, config_file.hpp) or
+// from the command line, and its JSON counters (names from imu_processor.hpp, the one list).
 #pragma once
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <memory>
 #include <optional>
 #include <string>
 
 #include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/realtime_wavelet_windows.hpp>
 
 #include "config_file.hpp"
 
@@ -56,7 +55,9 @@ inline bool parse_csv4(const char* s, double (&v)[4]) noexcept {
 
 class Processing {
  public:
-  using Wavelet = RealtimeWavelet<float, 256>;
+  // The window comes from the configuration file at run time: one stage type over every
+  // window of the format (16..4096), each channel holding the instance it was given.
+  using Wavelet = RealtimeWaveletAnyWindow<float>;
   using Proc = ImuProcessor<float, Wavelet>;
 
   // Builds the processor from command-line settings; false (with a message) if the
@@ -81,7 +82,7 @@ class Processing {
     cfg.time_tolerance_us = static_cast<std::uint32_t>(
         o.time_tolerance_us < 0 ? std::lround(period_us / 2.0) : o.time_tolerance_us);
     sample_rate_hz_ = o.sample_rate_hz;
-    proc_.emplace(cfg);
+    proc_.emplace(cfg, [](std::size_t) { return Wavelet{}; });  // no wavelet stage from the command line
     if (proc_->status() != ImuStatus::ok) {
       error = "invalid processor configuration (channel " + std::to_string(proc_->bad_channel()) +
               "): check --gyro-ar2/--gyro-q/--gyro-r, biases (pass_through needs bias 0) and saturation";
@@ -91,14 +92,13 @@ class Processing {
   }
 
   // Builds the processor from a configuration file's content (already checked key by key).
+  // Each channel's wavelet stage is built in place for the file's window.
   bool init(const FileConfig& fc, std::string& error) {
-    auto ws = std::make_unique<Proc::WaveletArray>();
-    for (std::size_t c = 0; c < kImuChannels; ++c) {
-      const WaveletSpec& w = fc.wavelets[c];
-      (*ws)[c] = Wavelet(w.kind, w.level, w.mode);
-    }
     sample_rate_hz_ = fc.sample_rate_hz;
-    proc_.emplace(fc.imu, *ws);
+    proc_.emplace(fc.imu, [&fc](std::size_t c) {
+      const WaveletSpec& w = fc.wavelets[c];
+      return Wavelet(w.window, w.kind, w.level, w.mode);
+    });
     if (proc_->status() != ImuStatus::ok) {
       error = "invalid processor configuration (channel " + std::to_string(proc_->bad_channel()) + ")";
       return false;
