@@ -17,6 +17,7 @@
 #include <gyrodrift/crc16.hpp>
 #include <gyrodrift/imu_processor.hpp>
 #include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/realtime_wavelet_windows.hpp>
 #include <gyrodrift/serial_frame.hpp>
 #include <gyrodrift/slcan.hpp>
 #include <memory>
@@ -171,7 +172,27 @@ int main(int argc, char** argv) {
     const auto in = record<float>(n / 4);
     auto p = std::make_unique<ImuProcessor<float, W>>(cfg, W(WaveletKind::db4, 5));
     const Stats st = time_processor(*p, in, repeats);
-    row("same chain, RealtimeWavelet stage (the loop's)", st.median_ns, "", &st);
+    row("same chain, RealtimeWavelet<float, 256> stage", st.median_ns, "", &st);
+  }
+  {
+    // The loop's stage: the window chosen at run time from the configuration (256 here).
+    using W = RealtimeWaveletAnyWindow<float>;
+    ImuConfig<float> cfg = budget_config::kImuConfig;
+    const auto in = record<float>(n / 4);
+    auto p = std::make_unique<ImuProcessor<float, W>>(
+        cfg, [](std::size_t) { return W(256, WaveletKind::db4, 5, WaveletMode::forced); });
+    const Stats st = time_processor(*p, in, repeats);
+    row("same chain, RealtimeWaveletAnyWindow stage, N=256 (the loop's)", st.median_ns, "", &st);
+  }
+  {
+    // The largest window of the format: the forced FIR has 4096 taps per gyro.
+    using W = RealtimeWaveletAnyWindow<float>;
+    ImuConfig<float> cfg = budget_config::kImuConfig;
+    const auto in = record<float>(n / 4);
+    auto p = std::make_unique<ImuProcessor<float, W>>(
+        cfg, [](std::size_t) { return W(4096, WaveletKind::db4, 8, WaveletMode::forced); });
+    const Stats st = time_processor(*p, in, repeats);
+    row("same chain, RealtimeWaveletAnyWindow stage, db4 N=4096 J=8", st.median_ns, "", &st);
   }
 
   // Codecs.
