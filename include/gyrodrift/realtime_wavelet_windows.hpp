@@ -6,9 +6,9 @@
 // this header). RealtimeWaveletWindows<Scalar, N1, N2, ...> holds one of those instances, or
 // none, in a std::variant: constructed in place for the window given, no heap, and step()
 // dispatches on the held window with a fixed chain of index comparisons (no virtual call, no
-// allocation, noexcept). Its size is that of the largest window's filter, so a six-channel
-// host processor over every format window (RealtimeWaveletAnyWindow, 16..4096) holds about
-// 6 x 15 x 4096 scalars, of which only the chosen window's part is ever touched.
+// allocation, noexcept). Its size is that of the largest window's filter: over every format
+// window (RealtimeWaveletAnyWindow, 16..4096) about 13 x 4096 scalars per channel (210 KiB
+// float), of which only the chosen window's part is ever touched.
 //
 // A window not in the list, like a default-constructed stage, holds no filter: status()
 // reports RealtimeWaveletStatus::window_unavailable (ImuProcessor then refuses a channel
