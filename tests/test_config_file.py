@@ -308,3 +308,28 @@ def test_real_record_chain_from_a_fitted_configuration(cpp_build_dir: Path) -> N
     # vehicle record: part of the variance is motion, which the filters must keep)
     assert np.all(filt_std < 0.85 * raw_std), (raw_std, filt_std)
     print(f"\nreal record, gyro std rad/s raw {raw_std} -> chain {filt_std}")
+
+
+def test_fit_output_is_read_by_both_readers(loop_bin: Path, tmp_path: Path) -> None:  # noqa: F811
+    """`gyrodrift fit -o x.toml` writes the format by its own hand-written text: both readers
+    accept it, and the loop runs the fitted model as the Python processor does."""
+    from gyrodrift.cli import main
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(3)
+    drift = lfilter([1.0], [1.0, -0.6868, 0.0213], rng.normal(0, 0.5, 3000))
+    rec = tmp_path / "drift.npy"
+    np.save(rec, 9.7 + drift + rng.normal(0, 0.3, 3000))
+    path = tmp_path / "fit.toml"
+    assert main(["fit", str(rec), "--rate-hz", "100", "-o", str(path)]) == 0
+    cfg = load_config(path)
+    assert [c.stages[0].type for c in cfg.channels] == ["ar2_kalman"] + ["pass_through"] * 5
+    assert parse_config(dumps_config(cfg)) == cfg
+    seq, t_us, v = record()
+    out, _, stats = run_loop(loop_bin, path, seq, t_us, v)
+    res = ImuProcessor(ImuConfig.from_processor_config(path, float32=True),
+                       dtype=np.float32).process(seq, t_us, v)
+    acc = (res.flags & FLAG_REJECTED) == 0
+    assert stats["frames_out"] == acc.sum()
+    np.testing.assert_array_equal(out, res.values[acc].astype(np.float64))
+    assert np.nanmax(np.abs(out[:, 0] - v[acc][:, 0])) > 1e-5  # the Kalman stage ran on gx

@@ -6,7 +6,7 @@ ar2_kalman, plus saturation and stuck detection, and the timing (sample rate, ti
 tolerance, loop rate). ``gyrodrift-loop --config``, ``gyrodrift replay --config``, the Python
 ``ImuProcessor``, the numpy reference processor and ``gyrodrift config emit-cpp`` read it;
 ``gyrodrift fit`` writes it. The format is documented in README.md (section "Processor
-configuration file") and /work/coord/config-schema.md.
+configuration file"); ``gyrodrift config write-default`` writes a full example.
 
 Every problem is a :class:`ConfigError` whose one-line message starts with the key
 (``channels.gx.stages[1].a1: ...``).
