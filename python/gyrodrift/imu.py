@@ -141,7 +141,7 @@ def _check_wavelet(key: str, ws: WaveletSettings) -> None:
     from gyrodrift.config import max_wavelet_level
 
     n = ws.window
-    if not (isinstance(n, int) and 16 <= n <= 4096 and n & (n - 1) == 0):
+    if not (isinstance(n, (int, np.integer)) and 16 <= n <= 4096 and n & (n - 1) == 0):
         raise ValueError(f"{key}.window: expected a power of two in 16..4096, got {n}")
     if ws.wavelet in ("db4", "db8"):
         jmax = max_wavelet_level(n, ws.wavelet)
