@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gyrodrift import _native
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 if TYPE_CHECKING:
     from gyrodrift.config import ProcessorConfig
@@ -211,20 +212,20 @@ class ImuConfig:
 
     def validate(self) -> None:
         if len(self.channels) != CHANNELS:
-            raise ValueError(
+            raise GyrodriftValueError(
                 f"channels: expected {CHANNELS} channel configs, got {len(self.channels)}"
             )
         for i, ch in enumerate(self.channels):
             for name in ("filter", "filter2"):
                 if getattr(ch, name) not in FILTERS:
-                    raise ValueError(
+                    raise GyrodriftValueError(
                         f"channels[{i}].{name}: expected one of {FILTERS}, "
                         f"got {getattr(ch, name)!r}"
                     )
             if ch.stuck_samples < 0:
-                raise ValueError(f"channels[{i}].stuck_samples must be >= 0")
+                raise GyrodriftValueError(f"channels[{i}].stuck_samples must be >= 0")
         if not 0 <= self.period_us < 2**32 or not 0 <= self.time_tolerance_us < 2**32:
-            raise ValueError("period_us and time_tolerance_us must fit in u32")
+            raise GyrodriftValueError("period_us and time_tolerance_us must fit in u32")
 
     @classmethod
     def from_processor_config(
@@ -295,24 +296,25 @@ def _as_inputs(
     # Refuse what a cast would silently mangle (complex: imaginary part dropped; strings:
     # parsed), as the other array APIs do (gyrodrift.ar2, gyrodrift.wavelet).
     if raw.dtype.kind not in "fiu":
-        raise TypeError(
+        raise GyrodriftTypeError(
             f"values: expected a real numeric array (float or integer), got dtype {raw.dtype}"
         )
     v = np.ascontiguousarray(raw, dtype=dtype)
     if v.ndim != 2 or v.shape[1] != CHANNELS:
-        raise ValueError(f"values: expected shape (n, 6), got {v.shape}")
+        raise GyrodriftValueError(f"values: expected shape (n, 6), got {v.shape}")
     s = np.asarray(seq)
     t = np.asarray(t_us)
     if s.shape != (v.shape[0],) or t.shape != (v.shape[0],):
-        raise ValueError(
+        raise GyrodriftValueError(
             f"seq and t_us: expected shape ({v.shape[0]},), got {s.shape} and {t.shape}"
         )
     if not np.issubdtype(s.dtype, np.integer) or not np.issubdtype(t.dtype, np.integer):
-        raise TypeError(f"seq and t_us: expected integer arrays, got {s.dtype} and {t.dtype}")
+        raise GyrodriftTypeError(f"seq and t_us: expected integer arrays, got {s.dtype} and "
+                                 f"{t.dtype}")
     if s.size and (s.min() < 0 or s.max() > 0xFFFF):
-        raise ValueError("seq: values must be in 0..65535")
+        raise GyrodriftValueError("seq: values must be in 0..65535")
     if t.size and np.issubdtype(t.dtype, np.signedinteger) and t.min() < 0:
-        raise ValueError("t_us: timestamps must be >= 0")
+        raise GyrodriftValueError("t_us: timestamps must be >= 0")
     return (
         np.ascontiguousarray(s, dtype=np.uint16),
         np.ascontiguousarray(t, dtype=np.uint64),
@@ -344,7 +346,7 @@ class ImuProcessor:
         config.validate()
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
-            raise TypeError(f"dtype: expected float64 or float32, got {self.dtype}")
+            raise GyrodriftTypeError(f"dtype: expected float64 or float32, got {self.dtype}")
         f64 = self.dtype == np.float64
         ch = config.channels
         extra: tuple[object, ...] = ()
@@ -361,11 +363,11 @@ class ImuProcessor:
                     per_channel.append(None)
                     continue
                 if ws is None:
-                    raise ValueError(
+                    raise GyrodriftValueError(
                         f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
                     )
                 if ws.window != 256:
-                    raise ValueError(
+                    raise GyrodriftValueError(
                         f"channels[{i}].wavelet.window: the C++ stage has 256 samples, "
                         f"got {ws.window}"
                     )
@@ -395,7 +397,8 @@ class ImuProcessor:
         )
         if self._proc.status != "ok":
             where = f" (channel {self._proc.bad_channel})" if self._proc.bad_channel >= 0 else ""
-            raise ValueError(f"invalid IMU processor configuration: {self._proc.status}{where}")
+            raise GyrodriftValueError(f"invalid IMU processor configuration: "
+                                      f"{self._proc.status}{where}")
         self.config = config
 
     def process(self, seq: npt.ArrayLike, t_us: npt.ArrayLike, values: npt.ArrayLike) -> ImuResult:

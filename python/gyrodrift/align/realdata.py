@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from gyrodrift.earth import ARCSEC, DEG, DPSH, UG
-from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
 
 from .config import AlignConfig
@@ -67,7 +67,7 @@ def align_segments(rec: PsinsRecord, segment_s: float = 300.0, coarse_s: float =
                               taps=taps if pre else None, accel_delay_samples=delay if pre else 0)
             res = run_alignment(dth, dv, cfg)
             if res.failed:
-                raise RuntimeError(f"alignment failed on segment {i} ({label}): {res.reason}")
+                raise GyrodriftError(f"alignment failed on segment {i} ({label}): {res.reason}")
             att = res.att[-1]
             hd[label] = float((-att[2] / DEG) % 360.0)
             pt[label] = float(att[0] / DEG)

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gyrodrift.earth import ARCMIN, ARCSEC, DPH, DPSH, EARTH_RATE_RAD_S, UG, gravity_m_s2
-from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
 
 from .config import AlignConfig
@@ -173,8 +173,8 @@ def run_study(st: StudyConfig, configs: tuple[bool, ...] = (False, True),
             out = run_alignment(dth, dv, cfg)
             wall[pre] += time.perf_counter() - t0
             if out.failed:
-                raise RuntimeError(f"alignment failed in run {r} ({st.scenario}, prefilter={pre}): "
-                                   f"{out.reason}")
+                raise GyrodriftError(f"alignment failed in run {r} ({st.scenario}, "
+                                     f"prefilter={pre}): {out.reason}")
             t_abs = out.t_s + (off + first) * dt
             t_hist[pre] = t_abs - off * dt
             cnb = truth_at(sc, t_abs)["cnb"]

@@ -19,6 +19,8 @@ import cantools
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "FRAMES_PER_SAMPLE",
     "INPUT_BASE_ID",
@@ -51,7 +53,7 @@ def _prefix(base_id: int) -> str:
         return "IMU"
     if base_id == OUTPUT_BASE_ID:
         return "OUT"
-    raise ValueError(f"base_id: expected 0x100 or 0x180, got {base_id:#x}")
+    raise GyrodriftValueError(f"base_id: expected 0x100 or 0x180, got {base_id:#x}")
 
 
 def encode_sample(
@@ -60,7 +62,7 @@ def encode_sample(
     """The four frames of one sample, in transmit order (values stored as float32)."""
     v = np.asarray(values, dtype=np.float32).reshape(-1)
     if v.size != 6:
-        raise ValueError(f"values: expected 6 channels, got {v.size}")
+        raise GyrodriftValueError(f"values: expected 6 channels, got {v.size}")
     db = load_dbc()
     prefix = _prefix(base_id)
     g = [float(x) for x in v]
@@ -123,7 +125,7 @@ class SampleAssembler:
     def __post_init__(self) -> None:
         _prefix(self.base_id)
         if self.slots < 1:
-            raise ValueError("slots must be >= 1")
+            raise GyrodriftValueError("slots must be >= 1")
 
     @property
     def pending_frames(self) -> int:

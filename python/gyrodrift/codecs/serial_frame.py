@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "CRC_OFFSET",
     "FRAME_DTYPE",
@@ -100,9 +102,9 @@ def encode_frame(
     """
     v = np.asarray(values, dtype=np.float64).reshape(-1)
     if v.size != 6:
-        raise ValueError(f"values: expected 6 channels, got {v.size}")
+        raise GyrodriftValueError(f"values: expected 6 channels, got {v.size}")
     if frame_type not in (TYPE_INPUT, TYPE_OUTPUT):
-        raise ValueError(f"type: expected 0x01 or 0x81, got {frame_type:#x}")
+        raise GyrodriftValueError(f"type: expected 0x01 or 0x81, got {frame_type:#x}")
     body = _BODY.pack(
         SYNC0, SYNC1, frame_type, PAYLOAD_LEN, seq & 0xFFFF, flags & 0xFFFF, int(t_us), *v.tolist()
     )
@@ -120,7 +122,7 @@ def encode_frames(
     """n frames back to back (vectorised layout; CRC per frame)."""
     vals = np.asarray(values, dtype=np.float32)
     if vals.ndim != 2 or vals.shape[1] != 6:
-        raise ValueError(f"values: expected shape (n, 6), got {vals.shape}")
+        raise GyrodriftValueError(f"values: expected shape (n, 6), got {vals.shape}")
     n = vals.shape[0]
     rec = np.zeros(n, dtype=FRAME_DTYPE)
     rec["sync0"] = SYNC0
@@ -136,7 +138,7 @@ def encode_frames(
     return rec.tobytes()
 
 
-class FrameError(ValueError):
+class FrameError(GyrodriftValueError):
     """A byte string that is not exactly one valid frame."""
 
 

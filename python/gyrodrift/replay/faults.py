@@ -9,6 +9,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "FAULT_KINDS",
     "FaultSpec",
@@ -46,11 +48,11 @@ class FaultSpec:
         rates = [getattr(self, k) for k in FAULT_KINDS]
         for k, r in zip(FAULT_KINDS, rates, strict=True):
             if not (0.0 <= r <= 1.0) or not np.isfinite(r):
-                raise ValueError(f"fault rate {k}={r} must be within [0, 1]")
+                raise GyrodriftValueError(f"fault rate {k}={r} must be within [0, 1]")
         if sum(rates) > 1.0 + 1e-12:
-            raise ValueError(f"fault rates sum to {sum(rates):.3f} > 1")
+            raise GyrodriftValueError(f"fault rates sum to {sum(rates):.3f} > 1")
         if not (self.delay_s >= 0.0 and np.isfinite(self.delay_s)):
-            raise ValueError(f"delay_s={self.delay_s} must be finite and >= 0")
+            raise GyrodriftValueError(f"delay_s={self.delay_s} must be finite and >= 0")
 
     @property
     def any(self) -> bool:

@@ -34,6 +34,7 @@ from gyrodrift.codecs.can_signals import (
     encode_sample_frames,
     load_signal_map,
 )
+from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.imu import FLAG_CONFIG_ERROR, FLAG_DUPLICATE, FLAG_OUT_OF_ORDER, FLAG_REJECTED
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.faults import (
@@ -77,7 +78,7 @@ HARNESS_SWITCH_INTERVAL_S = 1e-4  # GIL hand-over bound while the harness runs r
 SLCAN_LINE_BYTES = 22
 
 
-class ReplayError(RuntimeError):
+class ReplayError(GyrodriftError, RuntimeError):
     """The replay could not run (no loop binary, target did not start, bad options)."""
 
 
@@ -143,25 +144,30 @@ class ReplayOptions:
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
-            raise ValueError(f"transport must be one of {TRANSPORTS}, got {self.transport!r}")
+            raise GyrodriftValueError(f"transport must be one of {TRANSPORTS}, got "
+                                      f"{self.transport!r}")
         if not (self.speed >= 0 and np.isfinite(self.speed)):
-            raise ValueError(f"speed must be >= 0 (0 = as fast as possible), got {self.speed}")
+            raise GyrodriftValueError(f"speed must be >= 0 (0 = as fast as possible), got "
+                                      f"{self.speed}")
         if self.transport == "socketcan" and self.attach is None:
-            raise ValueError("socketcan replays attach to a running target on a real "
-                             "interface: pass attach='can0'")
+            raise GyrodriftValueError("socketcan replays attach to a running target on a real "
+                                      "interface: pass attach='can0'")
         if self.local_link not in ("pty", "socketpair"):
-            raise ValueError(f"local_link must be 'pty' or 'socketpair', got {self.local_link!r}")
+            raise GyrodriftValueError(f"local_link must be 'pty' or 'socketpair', got "
+                                      f"{self.local_link!r}")
         if self.local_link == "socketpair" and self.transport != "serial":
-            raise ValueError("local_link='socketpair' carries the serial transport only")
+            raise GyrodriftValueError("local_link='socketpair' carries the serial transport only")
         if self.can_signals is not None:
             if not self.can:
-                raise ValueError("can_signals applies to the slcan and socketcan transports")
+                raise GyrodriftValueError("can_signals applies to the slcan and socketcan "
+                                          "transports")
             f = self.faults
             if any((f.drop, f.corrupt, f.duplicate, f.reorder, f.delay)):
-                raise ValueError("fault injection needs the project's CAN frames; a replay in a "
-                                 "user's DBC layout (can_signals) runs clean")
+                raise GyrodriftValueError("fault injection needs the project's CAN frames; a "
+                                          "replay in a "
+                                          "user's DBC layout (can_signals) runs clean")
         if self.baud <= 0 or self.can_bitrate <= 0:
-            raise ValueError("baud and can_bitrate must be > 0")
+            raise GyrodriftValueError("baud and can_bitrate must be > 0")
 
     @property
     def can(self) -> bool:
@@ -317,9 +323,9 @@ class _Target:
 def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     """Replay `samples` into the target and check everything that comes back."""
     if len(samples) == 0:
-        raise ValueError("nothing to replay: the record is empty")
+        raise GyrodriftValueError("nothing to replay: the record is empty")
     if not np.all(np.diff(samples.t_us.astype(np.int64)) >= 0):
-        raise ValueError("record timestamps go backwards: cannot pace a replay")
+        raise GyrodriftValueError("record timestamps go backwards: cannot pace a replay")
     plan = plan_transmission(samples.t_s, opt.faults)
     rng = np.random.default_rng(opt.faults.seed + 1)
     smap = load_signal_map(opt.can_signals) if opt.can_signals is not None else None

@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.imu import ImuChannelConfig, ImuConfig
 
 if TYPE_CHECKING:
@@ -75,10 +76,10 @@ class ProcessorSettings:
     def __post_init__(self) -> None:
         for name in ("gyro_filter", "accel_filter"):
             if getattr(self, name) not in LOOP_FILTERS:
-                raise ValueError(f"{name} must be one of {LOOP_FILTERS}, "
-                                 f"got {getattr(self, name)!r}")
+                raise GyrodriftValueError(f"{name} must be one of {LOOP_FILTERS}, "
+                                          f"got {getattr(self, name)!r}")
         if not (self.sample_rate_hz > 0 and math.isfinite(self.sample_rate_hz)):
-            raise ValueError(f"sample_rate_hz must be > 0, got {self.sample_rate_hz}")
+            raise GyrodriftValueError(f"sample_rate_hz must be > 0, got {self.sample_rate_hz}")
 
     @property
     def period_us(self) -> int:

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 import can
 import serial
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "CAN_FRAME_BITS",
     "UART_BITS_PER_BYTE",
@@ -175,7 +177,8 @@ class CanLink:
     def __init__(self, interface: str, channel: str, *, bitrate: int = 500000,
                  tty_baud: int = 921600, realtime_priority: int | None = None) -> None:
         if interface not in ("slcan", "socketcan"):
-            raise ValueError(f"CAN interface must be 'slcan' or 'socketcan', got {interface!r}")
+            raise GyrodriftValueError(f"CAN interface must be 'slcan' or 'socketcan', got "
+                                      f"{interface!r}")
         self.interface = interface
         try:
             if interface == "slcan":
@@ -201,7 +204,7 @@ class CanLink:
         """Bytes straight onto the adapter's serial line (slcan only): how a line error is
         injected, since python-can only ever writes well-formed lines."""
         if self.interface != "slcan":
-            raise ValueError("raw lines need the slcan interface")
+            raise GyrodriftValueError("raw lines need the slcan interface")
         # python-can's pyserial port of the slcan bus (not in BusABC's type)
         port = self.bus.serialPortOrig  # type: ignore[attr-defined]
         port.write(line)

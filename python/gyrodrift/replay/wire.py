@@ -26,6 +26,7 @@ from gyrodrift.codecs.serial_frame import (
     TYPE_INPUT,
     crc16_ccitt_false,
 )
+from gyrodrift.errors import GyrodriftValueError
 
 if TYPE_CHECKING:
     from gyrodrift.replay.logs import CanLogReport
@@ -71,15 +72,15 @@ def make_samples(t_s: np.ndarray, gyro_rad_s: np.ndarray, accel_m_s2: np.ndarray
     gyro = np.asarray(gyro_rad_s, dtype=np.float64)
     accel = np.asarray(accel_m_s2, dtype=np.float64)
     if t_s.ndim != 1 or t_s.size == 0:
-        raise ValueError(f"t_s: expected a non-empty 1-D array, got shape {t_s.shape}")
+        raise GyrodriftValueError(f"t_s: expected a non-empty 1-D array, got shape {t_s.shape}")
     n = t_s.shape[0]
     for name, arr in (("gyro_rad_s", gyro), ("accel_m_s2", accel)):
         if arr.shape != (n, 3):
-            raise ValueError(f"{name}: expected shape ({n}, 3), got {arr.shape}")
+            raise GyrodriftValueError(f"{name}: expected shape ({n}, 3), got {arr.shape}")
     if not np.all(np.isfinite(t_s)):
-        raise ValueError("t_s: non-finite timestamp")
+        raise GyrodriftValueError("t_s: non-finite timestamp")
     if t_s[0] < 0 or np.any(np.diff(t_s) < 0):
-        raise ValueError("t_s: timestamps must be >= 0 and non-decreasing")
+        raise GyrodriftValueError("t_s: timestamps must be >= 0 and non-decreasing")
     seq = ((np.arange(n, dtype=np.int64) + seq0) % 65536).astype(np.uint16)
     t_us = np.round(t_s * 1e6).astype(np.uint64)
     channels = np.concatenate([gyro, accel], axis=1).astype(np.float32)
