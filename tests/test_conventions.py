@@ -54,9 +54,8 @@ RETIRED = {"--rate": "--rate-hz", "--duration": "--duration-s", "--seconds": "--
            "--q": "--kalman-q or --quant-arcsec", "--r": "--kalman-r", "--gyro-ar2": "--ar2",
            "--gyro-q": "--kalman-q", "--gyro-r": "--kalman-r", "--sample-rate-hz": "--rate-hz",
            "--segment-min": "--segment-s", "--arw": "--arw-deg-rt-h", "--bi": "--bias-inst-deg-h"}
-LONG_COMMANDS = {"allan", "compare", "align"}  # minutes of work on real inputs: --progress
-# Subcommands that may take longer without a bar of their own: replay runs in real time and
-# prints its accounting; its progress is the loop's.
+# Minutes of work on real inputs (replay: a record's length in real time): --progress
+LONG_COMMANDS = {"allan", "compare", "align", "replay"}
 
 
 def _subparsers() -> dict[str, argparse.ArgumentParser]:

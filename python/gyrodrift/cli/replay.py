@@ -11,7 +11,14 @@ import math
 from pathlib import Path
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_json_arg, atomic_output, check_out_dir, emit_json
+from gyrodrift.cli.common import (
+    add_json_arg,
+    add_progress_arg,
+    atomic_output,
+    check_out_dir,
+    emit_json,
+    progress_enabled,
+)
 from gyrodrift.cli.simulate import parse_ar2
 
 __all__ = ["register", "run"]
@@ -99,6 +106,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--out-dir", default="replay-report",
                    help="where report.json and report.png go (default ./replay-report)")
     add_json_arg(p)
+    add_progress_arg(p)
     p.set_defaults(func=run)
 
 
@@ -167,7 +175,7 @@ def run(args: argparse.Namespace) -> int:
                             attach=args.device, faults=faults, processor=proc,
                             # CAN replays then speak the user's DBC to the loop as well
                             can_signals=args.can_signals if args.transport != "serial"
-                            else None)
+                            else None, progress=progress_enabled(args))
     except ValueError as exc:
         raise CliError(str(exc)) from None
     if not 1.0 <= args.loop_rate_hz <= 2000.0:

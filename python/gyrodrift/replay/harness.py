@@ -18,6 +18,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -141,6 +142,9 @@ class ReplayOptions:
     # CAN replays in a user's DBC layout: the signal map (TOML path) whose DBC encodes the
     # frames sent, and whose decode table the started loop gets (--can-signals).
     can_signals: str | None = None
+    # A progress bar of the units sent (tqdm, on stderr), drawn by its own thread so the
+    # sender only stores a count; the command line sets it from --progress.
+    progress: bool = False
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
@@ -382,6 +386,8 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     rt_prio = HARNESS_RT_PRIORITY if opt.harness_realtime else None
     harness_rt = {"sender": "not requested", "receiver": "not requested"}
     switch_interval_s = sys.getswitchinterval()
+    sent = [0]  # units written so far, read by the progress thread
+    bar = _ProgressThread(n_units, lambda: sent[0]) if opt.progress else None
     try:
         # Start-up inside the try: a Ctrl-C or failure while waiting for the loop's ready
         # line must end the child too (issue 13).
@@ -414,6 +420,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                 # preempted sender would stamp after the reply arrived (negative latency).
                 write_ns[k] = time.perf_counter_ns()
                 _send(link, payload[k], rng)
+                sent[0] = k + 1
                 link_free = ready_ns
         elif opt.transport == "serial":
             assert isinstance(link, SerialLink)
@@ -422,10 +429,12 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                 chunk = b"".join(payload[k0:k0 + b])
                 write_ns[k0:k0 + b] = time.perf_counter_ns()  # before the first byte leaves
                 link.write(chunk)
+                sent[0] = min(k0 + b, n_units)
         else:
             for k in range(n_units):
                 write_ns[k] = time.perf_counter_ns()  # before the first byte leaves
                 _send(link, payload[k], rng)
+                sent[0] = k + 1
         end_write_ns = time.perf_counter_ns()
         # Wait for the outputs: all expected ones, or settle_s without anything new.
         duration_s = (t_rec[-1] - t_rec[0]) / opt.speed if opt.speed > 0 else 0.0
@@ -443,6 +452,8 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
             time.sleep(0.01)
         time.sleep(0.05)  # anything still in flight
     finally:
+        if bar is not None:
+            bar.stop()
         if link is not None:
             link.close()
         if opt.harness_realtime:
@@ -505,6 +516,36 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     lat = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
     arrival_s = (got_arrival - start_ns) * 1e-9
     return ReplayResult(report, lat, arrival_s, loop_stats)
+
+
+class _ProgressThread:
+    """A tqdm bar on stderr over `total` units, moved every 0.1 s by its own thread from
+    `count()`: the real-time sender only stores an integer."""
+
+    def __init__(self, total: int, count: Callable[[], int]) -> None:
+        from tqdm import tqdm
+
+        self._count = count
+        self._bar = tqdm(total=total, desc="replay", unit="sample", file=sys.stderr,
+                         mininterval=0.1)
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="replay-progress", daemon=True)
+        self._thread.start()
+
+    def _move(self) -> None:
+        n = self._count()
+        if n > self._bar.n:
+            self._bar.update(n - self._bar.n)
+
+    def _run(self) -> None:
+        while not self._done.wait(0.1):
+            self._move()
+
+    def stop(self) -> None:
+        self._done.set()
+        self._thread.join()
+        self._move()
+        self._bar.close()
 
 
 def _send(link: SerialLink | CanLink, unit: Any, rng: np.random.Generator) -> None:
