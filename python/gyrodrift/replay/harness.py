@@ -80,14 +80,29 @@ SLCAN_LINE_BYTES = 22
 
 
 class ReplayError(GyrodriftError, RuntimeError):
-    """The replay could not run (no loop binary, target did not start, bad options)."""
+    """The replay could not run (no loop binary, target did not start, bad options).
+
+    Examples
+    --------
+    >>> try:
+    ...     find_loop_binary("/nonexistent/gyrodrift-loop")
+    ... except ReplayError as exc:
+    ...     print(exc, isinstance(exc, RuntimeError))
+    loop binary /nonexistent/gyrodrift-loop does not exist or is not executable True
+    """
 
 
 def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
     """The gyrodrift-loop executable: `explicit`, $GYRODRIFT_LOOP, the C++ build named by
     $GYRODRIFT_CPP_BUILD_DIR, the repo's build/*/ trees, the scripts directory of this
     installation (where the wheel installs it, beside the `gyrodrift` command), or
-    `gyrodrift-loop` on PATH."""
+    `gyrodrift-loop` on PATH.
+
+    Examples
+    --------
+    >>> find_loop_binary().name
+    'gyrodrift-loop'
+    """
     if explicit:
         path = Path(explicit)
         if path.is_file() and os.access(path, os.X_OK):
@@ -119,6 +134,18 @@ def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
 
 @dataclass
 class ReplayOptions:
+    """How to replay: link and pacing, the loop program, fault injection and the processor.
+
+    Examples
+    --------
+    >>> opt = ReplayOptions(transport="slcan", speed=0.0, faults=FaultSpec(drop=0.01))
+    >>> opt.can, opt.baud
+    (True, 921600)
+    >>> ReplayOptions(transport="socketcan")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: socketcan replays attach to a running target ...
+    """
     transport: str = "serial"  # serial | slcan | socketcan (socketcan: attach to a real bus)
     speed: float = 1.0  # 1 = original timestamps, k = k times faster, 0 = as fast as possible
     baud: int = 921600  # serial line rate (frame pacing; a pty ignores it)
@@ -181,7 +208,16 @@ class ReplayOptions:
 @dataclass(frozen=True)
 class ReplayResult:
     """The outcome of a replay: the report (accounting, comparison, latency, throughput; the
-    JSON file's content), per-output latencies and arrival times, and the loop's statistics."""
+    JSON file's content), per-output latencies and arrival times, and the loop's statistics.
+
+    Examples
+    --------
+    >>> from gyrodrift.replay.wire import make_samples
+    >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
+    >>> res = run_replay(s, ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False))
+    >>> res.ok, res.latency_us.shape, res.as_dict()["accounting"]["outputs_received"]
+    (True, (40,), 40)
+    """
 
     report: dict[str, Any]
     latency_us: np.ndarray  # per received output, in output order
@@ -325,7 +361,19 @@ class _Target:
 
 
 def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
-    """Replay `samples` into the target and check everything that comes back."""
+    """Replay `samples` into the target and check everything that comes back.
+
+    Examples
+    --------
+    >>> from gyrodrift.replay.wire import make_samples
+    >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
+    >>> opt = ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False,
+    ...                     faults=FaultSpec(corrupt=0.1, seed=1))
+    >>> res = run_replay(s, opt)  # the loop program on a pty, as fast as possible
+    >>> acc = res.report["accounting"]
+    >>> res.ok, acc["sent"], acc["rejected_on_link"]["crc"] + acc["outputs_received"]
+    (True, 40, 40)
+    """
     if len(samples) == 0:
         raise GyrodriftValueError("nothing to replay: the record is empty")
     if not np.all(np.diff(samples.t_us.astype(np.int64)) >= 0):

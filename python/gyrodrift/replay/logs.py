@@ -114,7 +114,13 @@ class CanLogReport:
 
 
 def log_format(path: str | Path, fmt: str | None = None) -> str:
-    """The format name of a log: `fmt` if given, else from the file suffix."""
+    """The format name of a log: `fmt` if given, else from the file suffix.
+
+    Examples
+    --------
+    >>> log_format("flight.log"), log_format("bench.blf"), log_format("x.dat", "bin")
+    ('candump', 'blf', 'bin')
+    """
     if fmt is not None:
         if fmt not in FORMATS:
             raise GyrodriftValueError(f"unknown log format {fmt!r}; choose one of "
@@ -152,6 +158,17 @@ def write_imu_log(path: str | Path, t_s: np.ndarray, gyro_rad_s: np.ndarray,
 
 
 def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) -> Path:
+    """Write wire-typed samples as a log (binary frames, CSV or a CAN log by the suffix or `fmt`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.zeros((3, 3)))
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = write_samples(Path(d) / "rec.bin", s)
+    ...     print(path.stat().st_size, read_imu_log(path).seq)
+    126 [0 1 2]
+    """
     path = Path(path)
     kind = log_format(path, fmt)
     if kind == "bin":

@@ -41,6 +41,16 @@ class ProcessorSettings:
 
     The AR(2) default (a1=1.0, a2=-0.25: a double root at 0.5, stationary; sigma2, q, r in
     (rad/s)^2) is a demonstration model; identify the real gyro with gyrodrift.fit_ar2.
+
+    Examples
+    --------
+    >>> p = ProcessorSettings(gyro_filter="bias_removal", gyro_bias=0.01, sample_rate_hz=200.0)
+    >>> p.period_us, p.tolerance_us, p.loop_args()[:4]
+    (5000, 2500, ['--gyro-filter', 'bias_removal', '--accel-filter', 'pass_through'])
+    >>> ProcessorSettings(gyro_filter="median")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: gyro_filter must be one of (...), got 'median'
     """
 
     gyro_filter: str = "ar2_kalman"
