@@ -16,6 +16,15 @@ ACTIONS = ("validate", "show", "write-default", "emit-cpp")
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``config`` subcommand.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> args = p.parse_args(["config", "validate", "processor.toml"])
+    >>> args.action, args.file, args.namespace
+    ('validate', 'processor.toml', 'gyrodrift_config')
+    """
     p = subparsers.add_parser(
         "config", help="processor configuration file: validate, show, write-default, emit-cpp",
         description=__doc__.splitlines()[0])
@@ -39,6 +48,22 @@ def _output(args: argparse.Namespace) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift config``; returns the exit code.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = os.path.join(d, "processor.toml")
+    ...     run(p.parse_args(["config", "write-default", "-o", path]))
+    ...     run(p.parse_args(["config", "validate", path]))
+    wrote .../processor.toml
+    0
+    .../processor.toml: ok
+    0
+    """
     from gyrodrift.config import (
         ConfigError,
         atomic_write_text,

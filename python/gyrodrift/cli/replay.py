@@ -25,7 +25,15 @@ __all__ = ["register", "run"]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the ``replay`` subcommand."""
+    """Add the ``replay`` subcommand.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> args = p.parse_args(["replay", "flight.log", "--transport", "slcan", "--fast"])
+    >>> args.input, args.transport, args.fast, args.progress, args.out_dir
+    ('flight.log', 'slcan', True, 'auto', 'replay-report')
+    """
     p = subparsers.add_parser(
         "replay",
         help="replay an IMU log into gyrodrift-loop (pty) or a target, and verify the outputs",
@@ -111,7 +119,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``gyrodrift replay``; returns the exit code (1 when the replay check fails)."""
+    """Run ``gyrodrift replay``; returns the exit code (1 when the replay check fails).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> import numpy as np
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> with tempfile.TemporaryDirectory() as d:  # a simulated record into gyrodrift-loop
+    ...     run(p.parse_args(["replay", "--duration-s", "0.25", "--fast", "--no-rt",
+    ...                       "--out-dir", d]))
+    result                             PASS
+    ...
+    samples in record                  100
+    ...
+    outputs expected / received        100 / 100
+    unaccounted                        0
+    ...
+    report: .../report.json .../report.png
+    0
+    """
     import numpy as np
 
     from gyrodrift.replay.faults import FaultSpec
