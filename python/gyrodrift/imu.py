@@ -90,7 +90,15 @@ DEFAULT_TIME_TOLERANCE_US: int
 
 def contract() -> dict[str, Any]:
     """The processor contract from gyrodrift._core: ``flags`` {name: bit}, ``health_keys``,
-    ``resync_after``, ``default_period_us``, ``default_time_tolerance_us``."""
+    ``resync_after``, ``default_period_us``, ``default_time_tolerance_us``.
+
+    Examples
+    --------
+    >>> from gyrodrift import imu
+    >>> c = contract()  # read from the C++ processor (imu_processor.hpp) through the binding
+    >>> c["flags"]["duplicate"] == imu.FLAG_DUPLICATE, c["default_period_us"]
+    (True, 2500)
+    """
     if not _contract_cache:
         core = _native.core("imu", "IMU_FLAGS")
         _contract_cache.update(
@@ -120,14 +128,27 @@ def __getattr__(name: str) -> Any:
 
 
 def describe_flags(flags: int) -> list[str]:
-    """Names of the bits set in a flags word."""
+    """Names of the bits set in a flags word.
+
+    Examples
+    --------
+    >>> from gyrodrift import imu
+    >>> describe_flags(0), describe_flags(imu.FLAG_DUPLICATE | imu.FLAG_REJECTED)
+    ([], ['duplicate', 'rejected'])
+    """
     return [name for name, bit in contract()["flags"].items() if flags & bit]
 
 
 @dataclass(frozen=True)
 class WaveletSettings:
     """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
-    all of them. The C++ processor is built with a 256-sample window."""
+    all of them. The C++ processor is built with a 256-sample window.
+
+    Examples
+    --------
+    >>> WaveletSettings(level=4)  # the wavelet stage of the processor (window fixed at 256)
+    WaveletSettings(wavelet='db8', window=256, level=4, mode='forced')
+    """
 
     wavelet: str = "db8"
     window: int = 256
@@ -278,7 +299,16 @@ class ImuConfig:
 
 @dataclass
 class ImuResult:
-    """Outputs for every input row: rejected rows (flags & FLAG_REJECTED) are NaN."""
+    """Outputs for every input row: rejected rows (flags & FLAG_REJECTED) are NaN.
+
+    Examples
+    --------
+    >>> proc = ImuProcessor(ImuConfig(channels=[ImuChannelConfig() for _ in range(6)]))
+    >>> out = proc.process(np.array([0, 1, 1]), np.array([0, 2500, 2500]), np.ones((3, 6)))
+    >>> from gyrodrift import imu
+    >>> bool(out.flags[2] & imu.FLAG_DUPLICATE), out.accepted, out.health["samples_in"]
+    (True, array([ True,  True, False]), 3)
+    """
 
     values: np.ndarray  # (n, 6)
     flags: np.ndarray  # (n,) uint16
