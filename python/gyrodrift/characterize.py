@@ -144,6 +144,8 @@ class ChannelResult:
 
     Examples
     --------
+    One white gyro channel (1e-4 rad/s per sample at 100 Hz):
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rng = np.random.default_rng(0)
     >>> rec = ImuData({"gyro_x": rng.normal(0, 1e-4, 4096)}, rate_hz=100.0, source="bench",
@@ -182,6 +184,8 @@ class CharacterizeResult:
 
     Examples
     --------
+    The result of a one-channel record, and what its JSON form holds:
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rng = np.random.default_rng(0)
     >>> rec = ImuData({"gyro_x": rng.normal(0, 1e-4, 4096)}, rate_hz=100.0, source="bench",
@@ -380,6 +384,8 @@ def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave"
 
     Examples
     --------
+    A gyro and an accelerometer channel of white noise at 100 Hz:
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rng = np.random.default_rng(0)  # white gyro 1e-4 rad/s, white accel 1e-3 m/s^2, 100 Hz
     >>> rec = ImuData({"gyro_x": rng.normal(0, 1e-4, 4096), "accel_x": rng.normal(0, 1e-3, 4096)},
@@ -420,6 +426,8 @@ def kalibr_values(res: CharacterizeResult, axis: str = "worst"
 
     Examples
     --------
+    The four Kalibr parameters of a gyro and an accelerometer channel (white noise):
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rng = np.random.default_rng(0)
     >>> rec = ImuData({"gyro_x": rng.normal(0, 1e-4, 4096), "accel_x": rng.normal(0, 1e-3, 4096)},
@@ -452,6 +460,8 @@ def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | No
 
     Examples
     --------
+    The imu.yaml of a white gyro and accelerometer channel (comments give each source):
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rng = np.random.default_rng(0)
     >>> rec = ImuData({"gyro_x": rng.normal(0, 1e-4, 4096), "accel_x": rng.normal(0, 1e-3, 4096)},
@@ -506,6 +516,8 @@ class SelfCheck:
 
     Examples
     --------
+    The rows of a self-check: truth, estimate and interval per channel and term:
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rec = ImuData({"gyro_x": np.random.default_rng(0).normal(0, 1e-4, 4096)}, rate_hz=100.0,
     ...               source="bench", fmt="npy", n_total=4096)
@@ -553,6 +565,8 @@ def self_check(res: CharacterizeResult, *, seed: int = 0, taus: str = "octave",
 
     Examples
     --------
+    Every term of a white gyro channel, simulated from the fit and recovered inside its interval:
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rec = ImuData({"gyro_x": np.random.default_rng(0).normal(0, 1e-4, 4096)}, rate_hz=100.0,
     ...               source="bench", fmt="npy", n_total=4096)
@@ -582,6 +596,8 @@ def plot_sensor(res: CharacterizeResult, sensor: str, path: str | Path | None = 
 
     Examples
     --------
+    The Allan plot of the gyro channels as PNG bytes:
+
     >>> from gyrodrift.imu_io import ImuData
     >>> rec = ImuData({"gyro_x": np.random.default_rng(0).normal(0, 1e-4, 4096)}, rate_hz=100.0,
     ...               source="bench", fmt="npy", n_total=4096)

@@ -107,16 +107,16 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
 
     Examples
     --------
-    >>> import tempfile
-    >>> import os
-    >>> import numpy as np
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     log = os.path.join(d, "unit1.npy")
-    ...     np.save(log, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
-    ...     s = characterize_log(log, os.path.join(d, "u1"), FleetOptions(rate_hz=100.0,
-    ...                                                                   plots=False))
-    ...     print(s["status"], sorted(os.listdir(os.path.join(d, "u1"))))
-    done ['imu.yaml', 'result.json']
+    One log with three white gyro channels (rad/s) into its unit directory, without plots:
+
+    >>> import os, tempfile, numpy as np
+    >>> tmp = tempfile.TemporaryDirectory(); log = os.path.join(tmp.name, "unit1.npy")
+    >>> np.save(log, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
+    >>> s = characterize_log(log, os.path.join(tmp.name, "u1"), FleetOptions(rate_hz=100.0,
+    ...                                                                      plots=False))
+    >>> s["status"], sorted(os.listdir(os.path.join(tmp.name, "u1")))
+    ('done', ['imu.yaml', 'result.json'])
+    >>> tmp.cleanup()
     """
     from gyrodrift import characterize as ch
     from gyrodrift.cli.characterize import write_outputs
@@ -170,6 +170,8 @@ def load_spec(path: str | Path) -> dict[str, dict[str, float]]:
 
     Examples
     --------
+    A spec file with an upper limit on the gyro noise density:
+
     >>> import tempfile
     >>> import os
     >>> with tempfile.TemporaryDirectory() as d:
@@ -217,16 +219,17 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
 
     Examples
     --------
-    >>> import tempfile
-    >>> import os
-    >>> import numpy as np
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     log = os.path.join(d, "unit1.npy")
+    A fleet of two copies of one log, run in this process (workers=0: no Dask):
+
+    >>> import os, shutil, tempfile, numpy as np
+    >>> d = tempfile.mkdtemp()
+    >>> logs = [os.path.join(d, f"unit{k}.npy") for k in (1, 2)]
+    >>> for log in logs:
     ...     np.save(log, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
-    ...     s = run_fleet([log], os.path.join(d, "out"), opts=FleetOptions(rate_hz=100.0),
-    ...                   workers=0)  # 0: in this process, no Dask
-    ...     print(s["n_done"], s["n_failed"], sorted(os.listdir(os.path.join(d, "out"))))
-    1 0 ['boxplot.png', 'summary.html', 'summary.json', 'units']
+    >>> s = run_fleet(logs, os.path.join(d, "out"), opts=FleetOptions(rate_hz=100.0), workers=0)
+    >>> s["n_done"], s["n_failed"], sorted(os.listdir(os.path.join(d, "out")))
+    (2, 0, ['boxplot.png', 'summary.html', 'summary.json', 'units'])
+    >>> shutil.rmtree(d)
     """
     out = Path(out_dir)
     (out / "units").mkdir(parents=True, exist_ok=True)
@@ -320,6 +323,8 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
 
     Examples
     --------
+    The summary of a fleet whose one unit failed:
+
     >>> import tempfile
     >>> import os
     >>> from pathlib import Path

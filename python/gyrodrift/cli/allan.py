@@ -80,13 +80,13 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> import numpy as np
+    The Allan table of a white-noise record (1 deg/h per sample at 100 Hz) and its fit, N only:
+
+    >>> import os, tempfile, numpy as np
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     rec = os.path.join(d, "gyro.npy")  # white noise, 1 deg/h per sample, 100 Hz
-    ...     np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    ...     run(p.parse_args(["allan", rec, "--rate-hz", "100"]))
+    >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
+    >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
+    >>> run(p.parse_args(["allan", rec, "--rate-hz", "100"]))
     # .../gyro.npy: 4096 samples at 100 Hz
          tau (s)   adev (deg/h)       ci_low      ci_high        edf alpha noise_id ...
             0.01        0.99955 ...
@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
     N             0.001663 ... deg/sqrt(h) ...
     ...
     0
+    >>> tmp.cleanup()
     """
     from gyrodrift import noise_id
     from gyrodrift.deviations import deviation

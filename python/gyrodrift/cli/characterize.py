@@ -127,19 +127,20 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> import numpy as np
+    Three white gyro channels (1e-4 rad/s per sample at 100 Hz): N = 1e-4 * sqrt(0.01 s):
+
+    >>> import os, tempfile, numpy as np
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     rec = os.path.join(d, "imu.npy")  # three white gyro channels, rad/s, 100 Hz
-    ...     np.save(rec, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
-    ...     run(p.parse_args(["characterize", rec, "--rate-hz", "100"]))
+    >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "imu.npy")
+    >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
+    >>> run(p.parse_args(["characterize", rec, "--rate-hz", "100"]))
     # .../imu.npy (npy): 4096 samples at 100 Hz, 40.96 s; channels gyro_x, gyro_y, gyro_z
     # method allan-nnls, intervals at probability 0.6827
     ...
     gyro_x   N      1.014e-05 ... rad/s/sqrt(Hz) ... deg/sqrt(h)
     ...
     0
+    >>> tmp.cleanup()
     """
     from gyrodrift import characterize as ch
 

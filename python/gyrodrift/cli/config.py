@@ -52,17 +52,18 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
+    Write the default configuration, then check it:
+
     >>> import os, tempfile
-    >>> import numpy as np
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     path = os.path.join(d, "processor.toml")
-    ...     run(p.parse_args(["config", "write-default", "-o", path]))
-    ...     run(p.parse_args(["config", "validate", path]))
+    >>> tmp = tempfile.TemporaryDirectory(); path = os.path.join(tmp.name, "processor.toml")
+    >>> run(p.parse_args(["config", "write-default", "-o", path]))
     wrote .../processor.toml
     0
-    .../processor.toml: ok
+    >>> run(p.parse_args(["config", "validate", path]))
+    /.../processor.toml: ok
     0
+    >>> tmp.cleanup()
     """
     from gyrodrift.config import (
         ConfigError,

@@ -112,22 +112,22 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> import numpy as np
+    An AR(2) drift (a1 0.6, a2 0.2) under white noise, deg/h at 100 Hz; the AR(2) model wins:
+
+    >>> import os, tempfile, numpy as np
     >>> from scipy.signal import lfilter
-    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> rng = np.random.default_rng(1)  # AR(2) drift (a1 0.6, a2 0.2) under white noise, deg/h
+    >>> rng = np.random.default_rng(1)
     >>> x = lfilter([1.0], [1.0, -0.6, -0.2], rng.normal(0, 1, 4000)) + rng.normal(0, 0.5, 4000)
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     rec = os.path.join(d, "gyro.npy")
-    ...     np.save(rec, x)
-    ...     run(p.parse_args(["fit", rec, "--rate-hz", "100"]))
+    >>> tmp = tempfile.TemporaryDirectory(); np.save(os.path.join(tmp.name, "gyro.npy"), x)
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> run(p.parse_args(["fit", os.path.join(tmp.name, "gyro.npy"), "--rate-hz", "100"]))
     # .../gyro.npy: 4000 samples at 100 Hz, units deg/h (q, r in (deg/h)^2); ...
     model             loglike ...
     ...
     chosen: ar2+white (lowest AIC)
     ...
     0
+    >>> tmp.cleanup()
     """
     from gyrodrift.ar2 import Ar2FitError
     from gyrodrift.drift_model import compare_drift_models

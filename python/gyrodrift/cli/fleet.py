@@ -51,16 +51,17 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> import numpy as np
+    One unit with three white gyro channels (rad/s), characterized in this process (no Dask):
+
+    >>> import os, tempfile, numpy as np
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     rec = os.path.join(d, "unit1.npy")  # one unit, three white gyro channels (rad/s)
-    ...     np.save(rec, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
-    ...     run(p.parse_args(["fleet", rec, "--rate-hz", "100", "--workers", "0",
-    ...                       "--out-dir", os.path.join(d, "fleet")]))
+    >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "unit1.npy")
+    >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
+    >>> out = os.path.join(tmp.name, "fleet")
+    >>> run(p.parse_args(["fleet", rec, "--rate-hz", "100", "--workers", "0", "--out-dir", out]))
     fleet: 1 done (0 already done, skipped), 0 failed, 0 outside the spec; summary: .../summary.html
     0
+    >>> tmp.cleanup()
     """
     from gyrodrift.fleet import FleetOptions, load_spec, run_fleet
 

@@ -48,16 +48,17 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> import numpy as np
+    A white-noise record (1 deg/h per sample at 100 Hz): a flat PSD of 2 sigma^2 dt:
+
+    >>> import os, tempfile, numpy as np
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     rec = os.path.join(d, "gyro.npy")
-    ...     np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    ...     run(p.parse_args(["psd", rec, "--rate-hz", "100", "--png", os.path.join(d, "p.png")]))
+    >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
+    >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
+    >>> run(p.parse_args(["psd", rec, "--rate-hz", "100", "--png", rec.replace(".npy", ".png")]))
     # .../gyro.npy: 4096 samples at 100 Hz, Welch nperseg 512
-    upper-band level 0.02068 (deg/h)^2/Hz -> N = 0.001695 deg/sqrt(h) if white; PNG: .../p.png
+    upper-band level 0.02068 (deg/h)^2/Hz -> N = 0.001695 deg/sqrt(h) if white; PNG: .../gyro.png
     0
+    >>> tmp.cleanup()
     """
     from gyrodrift.plots import plot_psd
     from gyrodrift.psd import arw_from_white_level, log_binned, welch_psd

@@ -11,14 +11,7 @@ import math
 from pathlib import Path
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import (
-    add_json_arg,
-    add_progress_arg,
-    atomic_output,
-    check_out_dir,
-    emit_json,
-    progress_enabled,
-)
+from gyrodrift.cli.common import add_json_arg, add_progress_arg, atomic_output, check_out_dir
 from gyrodrift.cli.simulate import parse_ar2
 
 __all__ = ["register", "run"]
@@ -123,12 +116,13 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    >>> import os, tempfile
-    >>> import numpy as np
+    A simulated record (0.25 s at 400 Hz) into gyrodrift-loop on a pty, as fast as possible:
+
+    >>> import tempfile
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> with tempfile.TemporaryDirectory() as d:  # a simulated record into gyrodrift-loop
-    ...     run(p.parse_args(["replay", "--duration-s", "0.25", "--fast", "--no-rt",
-    ...                       "--out-dir", d]))
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> run(p.parse_args(["replay", "--duration-s", "0.25", "--fast", "--no-rt",
+    ...                   "--out-dir", tmp.name]))
     result                             PASS
     ...
     samples in record                  100
@@ -138,9 +132,11 @@ def run(args: argparse.Namespace) -> int:
     ...
     report: .../report.json .../report.png
     0
+    >>> tmp.cleanup()
     """
     import numpy as np
 
+    from gyrodrift.cli.common import emit_json, progress_enabled
     from gyrodrift.replay.faults import FaultSpec
     from gyrodrift.replay.harness import ReplayError, ReplayOptions, run_replay
     from gyrodrift.replay.logs import read_imu_log

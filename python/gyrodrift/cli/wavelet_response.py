@@ -67,13 +67,15 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
+    The default forced db4 prefilter (J = 5, 256 samples) at 400 Hz:
+
     >>> import os, tempfile
-    >>> import numpy as np
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     run(p.parse_args(["wavelet-response", "--png", os.path.join(d, "w.png")]))
+    >>> tmp = tempfile.TemporaryDirectory()
+    >>> run(p.parse_args(["wavelet-response", "--png", os.path.join(tmp.name, "w.png")]))
     # forced db4 J=5 N=256 at 400 Hz: -3 dB at 7.381 Hz, DC group delay 20.46 ms; PNG: .../w.png
     0
+    >>> tmp.cleanup()
     """
     from gyrodrift.fir import fir_group_delay
     from gyrodrift.wavelet import RealtimeWavelet

@@ -101,6 +101,8 @@ class SignalMap:
 
     Examples
     --------
+    The project's own DBC (gyrodrift_imu.dbc) mapped as if it were a user's:
+
     >>> from gyrodrift.codecs.can_frames import load_dbc  # the project's own DBC as the "user's"
     >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
     ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ",
@@ -249,6 +251,8 @@ def decode_table(smap: SignalMap) -> list[dict[str, Any]]:
 
     Examples
     --------
+    The decode table of the project's DBC mapped as a user's (one row per role):
+
     >>> from gyrodrift.codecs.can_frames import load_dbc
     >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
     ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
@@ -297,6 +301,8 @@ def decode_table_text(smap: SignalMap) -> str:
 
     Examples
     --------
+    The table line of the gx channel, as gyrodrift-loop reads it:
+
     >>> from gyrodrift.codecs.can_frames import load_dbc
     >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
     ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
@@ -323,6 +329,8 @@ def write_decode_table(smap: SignalMap, path: str | Path) -> Path:
 
     Examples
     --------
+    The decode table written for ``gyrodrift-loop --can-signals``:
+
     >>> import tempfile
     >>> from gyrodrift.codecs.can_frames import load_dbc
     >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
@@ -350,6 +358,8 @@ def encode_sample_frames(smap: SignalMap, seq: int, t_us: int,
 
     Examples
     --------
+    One sample encoded as the frames of the mapped messages:
+
     >>> from gyrodrift.codecs.can_frames import load_dbc
     >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
     ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
@@ -442,6 +452,8 @@ class SignalSampleAssembler:
 
     Examples
     --------
+    Frames encoded through a map, reassembled through the same map:
+
     >>> from gyrodrift.codecs.can_frames import load_dbc
     >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
     ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ",
