@@ -146,7 +146,7 @@ class WaveletSettings:
 
     Examples
     --------
-    >>> WaveletSettings(level=4)  # the wavelet stage of the processor (window fixed at 256)
+    >>> WaveletSettings(level=4)  # one setting for the processor's wavelet channels
     WaveletSettings(wavelet='db8', window=256, level=4, mode='forced')
     """
 
