@@ -1,5 +1,7 @@
 // Allan-variance kernels (include/gyrodrift/allan.hpp) for gyrodrift.allan.
-//   oadev_sigma2(data, m, kind, ...)      whole array, all factors, GIL released
+//   OadevOptions(kind=, method=, block=, threads=)  the options of oadev_sigma2, one bound
+//                                         configuration struct (keyword-only, checked)
+//   oadev_sigma2(data, m, options)        whole array, all factors, GIL released
 //   oadev_fused_groups(n_data, m, block)  groups of factors one fused pass can share
 //   OadevStream(m, kind)                  streaming sums for chunked (memory-mapped) records
 //   OadevFusedStream(n_data, m, block)    fused streaming sums for a group of factors
@@ -41,6 +43,28 @@ const T* require_1d(const CArray<T>& a, const char* what) {
 
 constexpr std::size_t kGroup = 64;
 
+// The options of oadev_sigma2 as one bound object (gyrodrift._core.OadevOptions): input kind
+// ('rate' or 'phase'), kernel ('fused' or 'per_tau'), fused block length (>= 16 samples) and
+// worker threads (>= 1). Checked when built and again when used (the fields are writable).
+struct OadevOptions {
+  std::string kind{"rate"};
+  std::string method{"fused"};
+  std::int64_t block{65536};
+  std::int64_t threads{1};
+
+  AllanInput checked_kind() const {
+    const AllanInput k = parse_kind(kind);
+    if (method != "fused" && method != "per_tau") {
+      throw py::value_error("method must be 'fused' or 'per_tau', got '" + method + "'");
+    }
+    if (block < 16) throw py::value_error("block must be >= 16, got " + std::to_string(block));
+    if (threads < 1) {
+      throw py::value_error("threads must be >= 1, got " + std::to_string(threads));
+    }
+    return k;
+  }
+};
+
 // Factor groups [lo, hi) of the fused kernel: runs of at most kGroup factors, each cut in
 // two where the estimated costs balance (oadev_fused_cut), so two threads can take one half
 // each. The cut depends only on (n_data, m, block), never on the thread count, so results
@@ -61,19 +85,17 @@ std::vector<std::pair<std::size_t, std::size_t>> fused_groups(std::size_t n_data
 
 template <class T>
 py::tuple oadev_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_in,
-                       const std::string& kind_name, const std::string& method,
-                       std::int64_t block, std::int64_t threads) {
-  const AllanInput kind = parse_kind(kind_name);
+                       const OadevOptions& options) {
+  const AllanInput kind = options.checked_kind();
+  const std::string& kind_name = options.kind;
+  const std::string& method = options.method;
+  const std::int64_t block = options.block;
+  const std::int64_t threads = options.threads;
   const T* x = require_1d(data, "data");
   const auto n_data = static_cast<std::size_t>(data.shape(0));
   const std::int64_t* m_raw = require_1d(m_in, "m");
   const auto n_m = static_cast<std::size_t>(m_in.shape(0));
   const std::size_t max_m = oadev_max_m(n_data, kind);
-  if (method != "fused" && method != "per_tau") {
-    throw py::value_error("method must be 'fused' or 'per_tau', got '" + method + "'");
-  }
-  if (block < 16) throw py::value_error("block must be >= 16");
-  if (threads < 1) throw py::value_error("threads must be >= 1");
   std::vector<std::size_t> m(n_m);
   for (std::size_t j = 0; j < n_m; ++j) {
     if (m_raw[j] < 1 || static_cast<std::size_t>(m_raw[j]) > max_m) {
@@ -382,18 +404,37 @@ py::array_t<std::int64_t> tau_grid_py(const std::string& grid_name, std::int64_t
 }  // namespace
 
 void bind_allan(pybind11::module_& m) {
+  py::class_<OadevOptions>(m, "OadevOptions",
+                           "Options of oadev_sigma2: kind ('rate' or 'phase'), method ('fused' "
+                           "or 'per_tau'), block (fused block length, >= 16 samples), threads "
+                           "(>= 1). Keyword-only; checked when built and when used.")
+      .def(py::init([](const std::string& kind, const std::string& method, std::int64_t block,
+                       std::int64_t threads) {
+             OadevOptions o{kind, method, block, threads};
+             o.checked_kind();
+             return o;
+           }),
+           py::kw_only(), py::arg("kind") = "rate", py::arg("method") = "fused",
+           py::arg("block") = 65536, py::arg("threads") = 1)
+      .def_readwrite("kind", &OadevOptions::kind)
+      .def_readwrite("method", &OadevOptions::method)
+      .def_readwrite("block", &OadevOptions::block)
+      .def_readwrite("threads", &OadevOptions::threads)
+      .def("__repr__", [](const OadevOptions& o) {
+        return "OadevOptions(kind='" + o.kind + "', method='" + o.method +
+               "', block=" + std::to_string(o.block) + ", threads=" + std::to_string(o.threads) +
+               ")";
+      });
   m.def("oadev_sigma2", &oadev_sigma2<double>, py::arg("data").noconvert(),
-        py::arg("m").noconvert(), py::arg("kind") = "rate", py::arg("method") = "fused",
-        py::arg("block") = 65536, py::arg("threads") = 1,
+        py::arg("m").noconvert(), py::arg("options") = OadevOptions{},
         "Overlapping Allan variance for strictly increasing averaging factors m (int64) of a\n"
-        "1-D float64/float32 record. kind='rate': (rate units)^2; kind='phase': (phase\n"
-        "units)^2 per sample^2 (divide by tau0^2). method='fused' (rate input: the factor\n"
-        "groups of fused_groups(), one pass each, OadevFused; `threads` workers take whole\n"
-        "groups, same result for any count) or 'per_tau'. Returns (sigma2, terms). GIL\n"
-        "released.");
+        "1-D float64/float32 record, with an OadevOptions. kind='rate': (rate units)^2;\n"
+        "kind='phase': (phase units)^2 per sample^2 (divide by tau0^2). method='fused' (rate\n"
+        "input: the factor groups of fused_groups(), one pass each, OadevFused; `threads`\n"
+        "workers take whole groups, same result for any count) or 'per_tau'. Returns\n"
+        "(sigma2, terms). GIL released.");
   m.def("oadev_sigma2", &oadev_sigma2<float>, py::arg("data").noconvert(),
-        py::arg("m").noconvert(), py::arg("kind") = "rate", py::arg("method") = "fused",
-        py::arg("block") = 65536, py::arg("threads") = 1);
+        py::arg("m").noconvert(), py::arg("options") = OadevOptions{});
   m.def("oadev_fused_groups", &fused_groups_py, py::arg("n_data"), py::arg("m").noconvert(),
         py::arg("block"),
         "[(lo, hi)]: factor-index groups of the fused kernel (cost-balanced halves of runs\n"

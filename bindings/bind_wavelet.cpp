@@ -1,4 +1,8 @@
 // Bindings of the lifting wavelet transform and the real-time wavelet prefilter.
+//   wavedec_periodization(x, wavelet, level, inverse=False)   lifting DWT, Mallat layout
+//   RealtimeWaveletConfig(wavelet=, window=, level=, mode=, channels=)   one bound
+//       configuration struct (keyword-only, checked) for
+//   RealtimeWaveletBankF64 / RealtimeWaveletBankF32(config)   per-channel real-time filters
 #include <gyrodrift/lifting_transform.hpp>
 #include <gyrodrift/realtime_wavelet.hpp>
 
@@ -124,17 +128,24 @@ std::unique_ptr<AnyRealtime<T>> make_realtime(std::size_t window, WaveletKind w,
   }
 }
 
-// A bank of identical per-channel filters (1 channel for (n,) input, 3 for (n, 3)).
-template <class T>
-class RealtimeBank {
- public:
-  RealtimeBank(const std::string& wavelet, std::size_t window, int level, const std::string& mode,
-               std::size_t channels)
-      : window_(window) {
+// The configuration of a real-time filter bank as one bound object
+// (gyrodrift._core.RealtimeWaveletConfig): wavelet ('db4' or 'db8'), window (a power of two in
+// 8..2048), level (1..the window's maximum), mode ('forced', 'soft' or 'hard') and channels
+// (1 or 3). Checked when built and again by the bank (the fields are writable).
+struct RealtimeWaveletConfig {
+  std::string wavelet{"db4"};
+  std::size_t window{256};
+  int level{1};
+  std::string mode{"forced"};
+  std::size_t channels{1};
+
+  void check() const {
     const WaveletKind w = parse_wavelet(wavelet);
-    const WaveletMode m = parse_mode(mode);
-    if (channels != 1 && channels != 3) throw py::value_error("channels must be 1 or 3");
-    if (window < 8 || (window & (window - 1)) != 0) {
+    parse_mode(mode);
+    if (channels != 1 && channels != 3) {
+      throw py::value_error("channels must be 1 or 3, got " + std::to_string(channels));
+    }
+    if (window < 8 || window > 2048 || (window & (window - 1)) != 0) {
       throw py::value_error("window must be a power of two in 8..2048, got " + std::to_string(window));
     }
     const int max_level = realtime_wavelet_max_level(window, w);
@@ -143,7 +154,20 @@ class RealtimeBank {
                             std::to_string(window) + " and " + wavelet + ": need 1 <= level <= " +
                             std::to_string(max_level) + " (pywt.dwt_max_level(2*window, filter length))");
     }
-    for (std::size_t c = 0; c < channels; ++c) ch_.push_back(make_realtime<T>(window, w, level, m));
+  }
+};
+
+// A bank of identical per-channel filters (1 channel for (n,) input, 3 for (n, 3)).
+template <class T>
+class RealtimeBank {
+ public:
+  explicit RealtimeBank(const RealtimeWaveletConfig& c) : window_(c.window) {
+    c.check();
+    const WaveletKind w = parse_wavelet(c.wavelet);
+    const WaveletMode m = parse_mode(c.mode);
+    for (std::size_t k = 0; k < c.channels; ++k) {
+      ch_.push_back(make_realtime<T>(c.window, w, c.level, m));
+    }
   }
 
   std::size_t channels() const { return ch_.size(); }
@@ -204,8 +228,7 @@ void bind_bank(py::module_& m, const char* name) {
   py::class_<RealtimeBank<T>>(m, name,
                               "Per-channel real-time sliding-window wavelet filters (C++ core); "
                               "see include/gyrodrift/realtime_wavelet.hpp")
-      .def(py::init<const std::string&, std::size_t, int, const std::string&, std::size_t>(),
-           py::arg("wavelet"), py::arg("window"), py::arg("level"), py::arg("mode"), py::arg("channels"))
+      .def(py::init<const RealtimeWaveletConfig&>(), py::arg("config"))
       .def("filter", &RealtimeBank<T>::filter, py::arg("x").noconvert(), py::arg("recompute") = false,
            "Filter (n,) or (n, 3) samples, continuing the stream; recompute=True takes every "
            "output from the full window recompute instead of the streaming path")
@@ -219,6 +242,29 @@ void bind_bank(py::module_& m, const char* name) {
 }  // namespace
 
 void bind_wavelet(pybind11::module_& m) {
+  py::class_<RealtimeWaveletConfig>(m, "RealtimeWaveletConfig",
+                                    "Configuration of a real-time wavelet filter bank: wavelet "
+                                    "('db4' or 'db8'), window (power of two, 8..2048), level, "
+                                    "mode ('forced', 'soft' or 'hard'), channels (1 or 3). "
+                                    "Keyword-only; checked when built and by the bank.")
+      .def(py::init([](const std::string& wavelet, std::size_t window, int level,
+                       const std::string& mode, std::size_t channels) {
+             RealtimeWaveletConfig c{wavelet, window, level, mode, channels};
+             c.check();
+             return c;
+           }),
+           py::kw_only(), py::arg("wavelet"), py::arg("window"), py::arg("level"),
+           py::arg("mode") = "forced", py::arg("channels") = 1)
+      .def_readwrite("wavelet", &RealtimeWaveletConfig::wavelet)
+      .def_readwrite("window", &RealtimeWaveletConfig::window)
+      .def_readwrite("level", &RealtimeWaveletConfig::level)
+      .def_readwrite("mode", &RealtimeWaveletConfig::mode)
+      .def_readwrite("channels", &RealtimeWaveletConfig::channels)
+      .def("__repr__", [](const RealtimeWaveletConfig& c) {
+        return "RealtimeWaveletConfig(wavelet='" + c.wavelet + "', window=" +
+               std::to_string(c.window) + ", level=" + std::to_string(c.level) + ", mode='" +
+               c.mode + "', channels=" + std::to_string(c.channels) + ")";
+      });
   m.def("wavedec_periodization", &transform<double>, py::arg("x").noconvert(), py::arg("wavelet"),
         py::arg("level"), py::arg("inverse") = false,
         "Lifting DWT (or inverse) in Mallat layout = concatenate(pywt.wavedec(x, w, 'periodization', level))");

@@ -221,8 +221,8 @@ def test_fused_kernel_equals_per_tau_kernel_on_drifting_record(rng) -> None:
     y = 1e3 + rng.normal(0.0, 1.0, n) + np.cumsum(rng.normal(0.0, 0.05, n))
     for grid in ("octave", "decade"):
         m = allan.averaging_factors(n, grid, per_decade=20)
-        a, ta = _core.oadev_sigma2(y, m, "rate", "fused")
-        b, tb = _core.oadev_sigma2(y, m, "rate", "per_tau")
+        a, ta = _core.oadev_sigma2(y, m, _core.OadevOptions(kind="rate", method="fused"))
+        b, tb = _core.oadev_sigma2(y, m, _core.OadevOptions(method="per_tau"))
         np.testing.assert_array_equal(ta, tb)
         np.testing.assert_allclose(a, b, rtol=1e-12)
     with pytest.raises(ValueError, match="strictly increasing"):
@@ -330,12 +330,12 @@ def test_fused_result_does_not_depend_on_thread_count(rng) -> None:
     m = allan.averaging_factors(n, "octave")
     groups = _core.oadev_fused_groups(n, m, 4096)
     assert len(groups) == 2 and groups[0][0] == 0 and groups[-1][1] == m.size
-    one, t1 = _core.oadev_sigma2(y, m, "rate", "fused", 4096, 1)
+    one, t1 = _core.oadev_sigma2(y, m, _core.OadevOptions(block=4096, threads=1))
     for threads in (2, 3):
-        many, tn = _core.oadev_sigma2(y, m, "rate", "fused", 4096, threads)
+        many, tn = _core.oadev_sigma2(y, m, _core.OadevOptions(block=4096, threads=threads))
         np.testing.assert_array_equal(many, one)
         np.testing.assert_array_equal(tn, t1)
-    ref, _ = _core.oadev_sigma2(y, m, "rate", "per_tau")
+    ref, _ = _core.oadev_sigma2(y, m, _core.OadevOptions(method="per_tau"))
     np.testing.assert_allclose(one, ref, rtol=1e-12)
     np.testing.assert_array_equal(allan.oadev(y, 1.0, threads=1).adev,
                                   allan.oadev(y, 1.0, threads=2).adev)

@@ -84,7 +84,8 @@ def test_reader_never_sees_half_a_processor_call() -> None:
 
 def test_reader_never_sees_half_a_wavelet_call() -> None:
     n = 2_000_000
-    bank = _core.RealtimeWaveletBankF64("db4", 8, 1, "forced", 1)
+    bank = _core.RealtimeWaveletBankF64(
+        _core.RealtimeWaveletConfig(wavelet="db4", window=8, level=1, mode="forced", channels=1))
     x = np.full(n, np.nan)
     seen = poll_while_running(lambda: bank.filter(x), lambda: int(bank.fault_counts()[0]), 3)
     assert seen <= {0, n, 2 * n, 3 * n}, sorted(seen)[:5]
@@ -110,7 +111,8 @@ def test_shared_imu_processor_counts_every_sample() -> None:
 
 def test_shared_realtime_wavelet_bank_counts_every_fault() -> None:
     n = 500_000
-    bank = _core.RealtimeWaveletBankF64("db4", 8, 1, "forced", 1)
+    bank = _core.RealtimeWaveletBankF64(
+        _core.RealtimeWaveletConfig(wavelet="db4", window=8, level=1, mode="forced", channels=1))
     x = np.full(n, np.nan)
     run_threads(lambda k: bank.filter(x))
     assert int(bank.fault_counts()[0]) == THREADS * CALLS * n

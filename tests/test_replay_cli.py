@@ -69,3 +69,19 @@ def test_user_errors(tmp_path: Path, loop_bin: str) -> None:
         _run(["--drop", "0.7", "--corrupt", "0.7", "--loop-binary", loop_bin])
     with pytest.raises(CliError, match="loop-rate-hz"):
         _run(["--loop-rate-hz", "5000", "--loop-binary", loop_bin])
+
+
+@pytest.mark.parametrize("choice", ["always", "never", "auto"])
+def test_progress_bar_only_when_asked_or_on_a_terminal(tmp_path: Path, loop_bin: str,
+                                                       choice: str,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    # capsys's stderr is not a terminal: `always` draws the bar there, `never` and `auto` stay
+    # quiet (CONTRIBUTING.md: --progress auto|always|never, auto only on a terminal).
+    rc = _run(["--duration-s", "0.5", "--fast", "--loop-binary", loop_bin, "--progress", choice,
+               "--out-dir", str(tmp_path)])
+    cap = capsys.readouterr()
+    assert rc == 0, cap.out
+    if choice == "always":
+        assert "replay" in cap.err and "200/200" in cap.err, cap.err
+    else:
+        assert cap.err == ""

@@ -535,8 +535,11 @@ def oadev(
             group = 8 if show else m.size
             for lo in range(0, m.size, group):
                 try:
-                    s2, t = _lib().oadev_sigma2(x, np.ascontiguousarray(m[lo:lo + group]),
-                                                kind, "fused", FUSED_BLOCK, n_threads)
+                    lib = _lib()
+                    s2, t = lib.oadev_sigma2(
+                        x, np.ascontiguousarray(m[lo:lo + group]),
+                        lib.OadevOptions(kind=kind, method="fused", block=FUSED_BLOCK,
+                                         threads=n_threads))
                 except ValueError as exc:
                     bad = int(np.count_nonzero(~np.isfinite(x)))
                     if bad:

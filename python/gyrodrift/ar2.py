@@ -422,6 +422,8 @@ def kalman_filter(x: object, model: Ar2Model | Sequence[Ar2Model], q: float | No
 class KalmanFilter:
     """Stateful per-sample AR(2)-Kalman filter (C++ Ar2Kalman / Ar2SteadyStateKalman).
 
+    Examples
+    --------
     >>> model = Ar2Model(a1=0.5, a2=0.1, sigma2=1.0, r=1.0)
     >>> kf = KalmanFilter(model)            # q = model.sigma2, r = model.r
     >>> y_hat = kf.step(0.3)                # one sample

@@ -111,6 +111,16 @@ def default_record(n: int = DEFAULT_N_SAMPLES, seed: int = DEFAULT_SEED) -> tupl
 
 @dataclass(frozen=True)
 class CompareRow:
+    """One signal of the Table-1 comparison: its Allan terms and STD (deg/h units), the published
+    values, and its AllanResult and PSD.
+
+    Examples
+    --------
+    >>> rep = run_compare(np.random.default_rng(0).normal(0.0, 1.0, 4096), 100.0)
+    >>> row = rep.rows[0]
+    >>> row.signal, round(row.n_deg_rt_h, 6), round(row.std_deg_h, 4), row.published
+    ('original', 0.001614, 0.9976, (0.0035, 0.0012, 0.0794, 0.0962))
+    """
     signal: str
     q_paper: float  # A_-2/sqrt(3), the paper's 'Q (deg)' column = arcsec
     n_deg_rt_h: float
@@ -123,6 +133,17 @@ class CompareRow:
 
 @dataclass
 class CompareReport:
+    """The comparison: the record, the AR(2) of the raw record, one row per signal, and the files
+    written.
+
+    Examples
+    --------
+    >>> rep = run_compare(np.random.default_rng(0).normal(0.0, 1.0, 4096), 100.0)
+    >>> rep.n_samples, rep.rate_hz, rep.files
+    (4096, 100.0, {})
+    >>> list(rep.as_dict())
+    ['rate_hz', 'n_samples', 'source', 'ar2_measured', 'ar2_paper', 'rows', 'files']
+    """
     rate_hz: float
     n_samples: int
     source: str
@@ -204,7 +225,16 @@ def run_compare(x: np.ndarray | None = None, rate_hz: float | None = None, *,
                 progress: bool = False) -> CompareReport:
     """Filter the record (default: default_record()) with the paper's four filters and
     measure Q, N, B, STD of each; write table (md, csv, json) and PNG overlays to out_dir.
-    progress: tqdm bar on stderr over the five signals (the default run takes a few s)."""
+    progress: tqdm bar on stderr over the five signals (the default run takes a few s).
+
+    Examples
+    --------
+    >>> rep = run_compare(np.random.default_rng(0).normal(0.0, 1.0, 4096), 100.0)
+    >>> [row.signal for row in rep.rows]
+    ['original', 'db8 wavelet', 'bior3.7 wavelet packet', 'AR model', 'AR(2)-Kalman']
+    >>> all(row.std_deg_h < rep.rows[0].std_deg_h for row in rep.rows[1:])  # each filter helps
+    True
+    """
     from tqdm import tqdm
 
     from gyrodrift import plots  # matplotlib only when plotting

@@ -76,7 +76,16 @@ _OTHER_SUFFIXES = (
 
 class ConfigError(GyrodriftValueError):
     """A configuration problem: a one-line message that starts with the offending key
-    (`.key`). A GyrodriftValueError (so also a ValueError)."""
+    (`.key`). A GyrodriftValueError (so also a ValueError).
+
+    Examples
+    --------
+    >>> try:
+    ...     parse_config('schema = "gyrodrift.processor"\\nversion = 2\\n')
+    ... except ConfigError as exc:
+    ...     print(exc.key, "|", exc, "|", isinstance(exc, ValueError))
+    version | version: this gyrodrift reads version 1, got 2 | True
+    """
 
     def __init__(self, key: str, message: str) -> None:
         self.key = key
@@ -93,14 +102,26 @@ def _units(channel: str) -> str:
 
 @dataclass(frozen=True)
 class PassThrough:
-    """y = x (only as the single stage of a chain)."""
+    """y = x (only as the single stage of a chain).
+
+    Examples
+    --------
+    >>> ChannelConfig("ax", (PassThrough(),)).stages[0].type
+    'pass_through'
+    """
 
     type: str = field(default="pass_through", init=False)
 
 
 @dataclass(frozen=True)
 class BiasRemoval:
-    """y = x - bias (bias in channel units)."""
+    """y = x - bias (bias in channel units).
+
+    Examples
+    --------
+    >>> BiasRemoval(bias=0.002).bias  # subtracted from every sample, channel units
+    0.002
+    """
 
     bias: float = 0.0
     type: str = field(default="bias_removal", init=False)
@@ -108,7 +129,13 @@ class BiasRemoval:
 
 @dataclass(frozen=True)
 class WaveletStage:
-    """Real-time sliding-window wavelet prefilter (paper 004 sec. 2.2)."""
+    """Real-time sliding-window wavelet prefilter (paper 004 sec. 2.2).
+
+    Examples
+    --------
+    >>> WaveletStage(wavelet="db8", level=4)
+    WaveletStage(wavelet='db8', window=256, level=4, threshold='forced', type='wavelet')
+    """
 
     wavelet: str = "db4"
     window: int = 256
@@ -119,7 +146,14 @@ class WaveletStage:
 
 @dataclass(frozen=True)
 class Ar2KalmanStage:
-    """AR(2)-Kalman filter (paper 000 sec. 2.2); mean in channel units, sigma2/q/r in units^2."""
+    """AR(2)-Kalman filter (paper 000 sec. 2.2); mean in channel units, sigma2/q/r in units^2.
+
+    Examples
+    --------
+    >>> st = Ar2KalmanStage(a1=0.5, a2=0.1, mean=0.0, q=1e-10, r=1e-8, steady_state=True)
+    >>> st.sigma2_value, st.type  # sigma2 defaults to q
+    (1e-10, 'ar2_kalman')
+    """
 
     a1: float
     a2: float
@@ -141,7 +175,14 @@ Stage = Union[PassThrough, BiasRemoval, WaveletStage, Ar2KalmanStage]  # noqa: U
 
 @dataclass(frozen=True)
 class ChannelConfig:
-    """One channel: its chain and its bad-value detection (saturation in channel units)."""
+    """One channel: its chain and its bad-value detection (saturation in channel units).
+
+    Examples
+    --------
+    >>> ch = ChannelConfig("gz", (BiasRemoval(bias=1e-4),), saturation=8.0)
+    >>> ch.units, ch.is_gyro
+    ('rad/s', True)
+    """
 
     name: str
     stages: tuple[Stage, ...]
@@ -160,7 +201,14 @@ class ChannelConfig:
 @dataclass(frozen=True)
 class Timing:
     """Sample rate, timestamp tolerance (None: half a period; 0: off) and loop rate (None: =
-    sample rate)."""
+    sample rate).
+
+    Examples
+    --------
+    >>> t = Timing(sample_rate_hz=400.0)
+    >>> t.period_us, t.tolerance_us, t.loop_hz  # tolerance: half a period; loop: the sample rate
+    (2500, 1250, 400.0)
+    """
 
     sample_rate_hz: float = 400.0
     time_tolerance_us: int | None = None
@@ -183,7 +231,17 @@ class Timing:
 
 @dataclass(frozen=True)
 class ProcessorConfig:
-    """The whole processor: six channels in the order gx gy gz ax ay az."""
+    """The whole processor: six channels in the order gx gy gz ax ay az.
+
+    Examples
+    --------
+    >>> cfg = default_config()
+    >>> [c.name for c in cfg.channels], cfg.uses("wavelet")
+    (['gx', 'gy', 'gz', 'ax', 'ay', 'az'], True)
+    >>> cfg2 = cfg.with_channel("gz", ChannelConfig("gz", (PassThrough(),)))
+    >>> cfg2.channel("gz").stages, cfg.channel("gz").stages[0].type
+    ((PassThrough(type='pass_through'),), 'wavelet')
+    """
 
     channels: tuple[ChannelConfig, ...]
     timing: Timing = Timing()
@@ -214,7 +272,13 @@ class ProcessorConfig:
 
 
 def max_wavelet_level(window: int, wavelet: str) -> int:
-    """pywt.dwt_max_level(2N, filter length): the deepest level of the extended window."""
+    """pywt.dwt_max_level(2N, filter length): the deepest level of the extended window.
+
+    Examples
+    --------
+    >>> max_wavelet_level(256, "db4"), max_wavelet_level(256, "db8")
+    (6, 5)
+    """
     flen = WAVELETS[wavelet] - 1
     level = 0
     while level < 8 and (flen << (level + 1)) <= 2 * window:
@@ -435,7 +499,17 @@ def _wrong_unit_key(t: _Table, base: str, ch: str) -> bool:
 
 
 def config_from_dict(data: Mapping[str, Any]) -> ProcessorConfig:
-    """Build and validate a configuration from the parsed TOML (or JSON) document."""
+    """Build and validate a configuration from the parsed TOML (or JSON) document.
+
+    Examples
+    --------
+    >>> import tomllib
+    >>> data = tomllib.loads(dumps_config(default_config()))
+    >>> list(data)
+    ['schema', 'version', 'meta', 'timing', 'channels']
+    >>> config_from_dict(data) == default_config()
+    True
+    """
     top = _Table("", data)
     schema = top.get("schema", "str")
     if schema != SCHEMA:
@@ -480,7 +554,18 @@ def config_from_dict(data: Mapping[str, Any]) -> ProcessorConfig:
 
 
 def parse_config(text: str, source: str = "<string>") -> ProcessorConfig:
-    """Parse TOML text. A TOML syntax error is a ConfigError naming `source`."""
+    """Parse TOML text. A TOML syntax error is a ConfigError naming `source`.
+
+    Examples
+    --------
+    >>> cfg = parse_config(dumps_config(default_config()))
+    >>> cfg.timing.sample_rate_hz, cfg.channel("gx").saturation
+    (400.0, 8.0)
+    >>> parse_config('schema = "gyrodrift.processor"\\nversion = 1\\n', "mine.toml")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.config.ConfigError: timing: missing value
+    """
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -492,6 +577,14 @@ def load_config(path: str | os.PathLike[str]) -> ProcessorConfig:
     """Read and validate a configuration file.
 
     Raises ConfigError (key named) for a bad configuration and OSError for an unreadable path.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = write_config(default_config(), Path(d) / "processor.toml")
+    ...     print(load_config(path) == default_config())
+    True
     """
     p = Path(path)
     try:
@@ -544,7 +637,23 @@ def _stage_items(ch: str, s: Stage) -> list[tuple[str, Any]]:
 
 
 def dumps_config(cfg: ProcessorConfig) -> str:
-    """The canonical TOML text of `cfg` (the subset the C++ loop reads)."""
+    """The canonical TOML text of `cfg` (the subset the C++ loop reads).
+
+    Examples
+    --------
+    >>> print("\\n".join(dumps_config(default_config()).splitlines()[1:12]))
+    schema = "gyrodrift.processor"
+    version = 1
+    <BLANKLINE>
+    [meta]
+    written_by = "gyrodrift config write-default"
+    <BLANKLINE>
+    [timing]
+    sample_rate_hz = 400.0
+    time_tolerance_us = 1250
+    loop_rate_hz = 400.0
+    <BLANKLINE>
+    """
     validate(cfg)
     lines = ["# gyrodrift processor configuration (README: Processor configuration file)",
              f"schema = {_str(SCHEMA)}", f"version = {VERSION}", ""]
@@ -576,7 +685,17 @@ def _to_dict(cfg: ProcessorConfig) -> dict[str, Any]:
 
 def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
     """Write `text` to `path` atomically (temporary file in the same directory, then rename;
-    on failure nothing is left behind); the file gets the usual umask permissions."""
+    on failure nothing is left behind); the file gets the usual umask permissions.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = atomic_write_text(Path(d) / "a.txt", "one\\n")  # temporary file, then rename
+    ...     print(path.read_text(), sorted(os.listdir(d)))
+    one
+     ['a.txt']
+    """
     p = Path(path)
     fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".tmp", dir=p.parent)
     try:
@@ -593,7 +712,16 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
 
 
 def write_config(cfg: ProcessorConfig, path: str | os.PathLike[str]) -> Path:
-    """Write `cfg` as canonical TOML, atomically; returns the path."""
+    """Write `cfg` as canonical TOML, atomically; returns the path.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = write_config(default_config(), Path(d) / "processor.toml")
+    ...     print(path.name, path.read_text().splitlines()[1])
+    processor.toml schema = "gyrodrift.processor"
+    """
     return atomic_write_text(path, dumps_config(cfg))
 
 
@@ -602,7 +730,16 @@ def default_config(
 ) -> ProcessorConfig:
     """The shipped default: gyros wavelet db4 N=256 J=5 forced -> steady-state AR(2)-Kalman
     (a demonstration model (a1, a2, mean_rad_s, q, r): identify yours with ``gyrodrift fit``),
-    accelerometers bias removal (bias 0), 400 Hz."""
+    accelerometers bias removal (bias 0), 400 Hz.
+
+    Examples
+    --------
+    >>> cfg = default_config()
+    >>> [s.type for s in cfg.channel("gx").stages], [s.type for s in cfg.channel("ax").stages]
+    (['wavelet', 'ar2_kalman'], ['bias_removal'])
+    >>> default_config((0.6, 0.2, 0.0, 1e-9, 1e-7)).channel("gy").stages[1].a1
+    0.6
+    """
     a1, a2, mean, q, r = gyro_model
     gyro = (
         WaveletStage("db4", 256, 5, "forced"),

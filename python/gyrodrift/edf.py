@@ -104,9 +104,10 @@ def edf_greenhall(alpha: int, d: int, m: int, n_phase: int, *, overlapping: bool
         m: averaging factor; n_phase: phase points (rate samples + 1).
         overlapping: True for oadev/mdev/tdev/ohdev (stride S = m); modified: mdev/tdev.
 
-    Example:
-        >>> round(edf_greenhall(0, 2, 1, 1001, overlapping=True, modified=True), 1)
-        782.0
+    Examples
+    --------
+    >>> round(edf_greenhall(0, 2, 1, 1001, overlapping=True, modified=True), 1)
+    782.0
     """
     alpha, d, m, n = int(alpha), int(d), int(m), int(n_phase)
     if d not in (1, 2, 3):
@@ -176,7 +177,13 @@ _TOTVAR_BC = {0: (1.50, 0.0), -1: (1.17, 0.22), -2: (0.93, 0.36)}
 
 def edf_totdev(n_phase: int, m: int, alpha: int) -> float:
     """TOTVAR edf, SP 1065 Table 7 with T / tau = n_phase / m (as Stable32 and allantools);
-    for alpha = 1, 2 the overlapping-Allan approximation (SP 1065 Table 5)."""
+    for alpha = 1, 2 the overlapping-Allan approximation (SP 1065 Table 5).
+
+    Examples
+    --------
+    >>> edf_totdev(1001, 10, 0)  # white FM: 1.5 (N - 1) / m (Howe's table)
+    150.15
+    """
     alpha = int(alpha)
     if alpha in _TOTVAR_BC:
         b, c = _TOTVAR_BC[alpha]
@@ -187,7 +194,13 @@ def edf_totdev(n_phase: int, m: int, alpha: int) -> float:
 
 
 def edf_for(name: str, n_phase: int, m: np.ndarray, alpha: np.ndarray) -> np.ndarray:
-    """edf per tau of deviation `name` (oadev, mdev, tdev, hdev, ohdev, totdev)."""
+    """edf per tau of deviation `name` (oadev, mdev, tdev, hdev, ohdev, totdev).
+
+    Examples
+    --------
+    >>> edf_for("oadev", 1001, np.array([1, 10]), np.array([0, 0])).round(1)
+    array([665.8, 146.2])
+    """
     from gyrodrift.allan import edf_simple
 
     m = np.asarray(m, dtype=np.int64)

@@ -81,8 +81,9 @@ def forced_fir_taps(
     window = int(window)
     if window < 8 or window & (window - 1):
         raise GyrodriftValueError(f"window must be a power of two in 8..2048, got {window}")
-    bank = getattr(_native.core("wavelet", _BANKS[dt]), _BANKS[dt])(
-        wavelet, window, int(level), "forced", 1)
+    core = _native.core("wavelet", _BANKS[dt])
+    bank = getattr(core, _BANKS[dt])(core.RealtimeWaveletConfig(
+        wavelet=wavelet, window=window, level=int(level), mode="forced", channels=1))
     return np.ascontiguousarray(np.asarray(bank.taps())[::-1])
 
 

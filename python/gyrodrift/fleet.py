@@ -48,7 +48,14 @@ PARAMS: tuple[tuple[str, str, str], ...] = (
 
 @dataclass(frozen=True)
 class FleetOptions:
-    """What every task does (picklable: sent once per task, small)."""
+    """What every task does (picklable: sent once per task, small).
+
+    Examples
+    --------
+    >>> opts = FleetOptions(rate_hz=400.0, terms=("N", "K"))
+    >>> opts.method, opts.taus, opts.terms
+    ('allan-nnls', 'octave', ('N', 'K'))
+    """
 
     rate_hz: float | None = None
     columns: tuple[str, ...] | None = None
@@ -66,7 +73,13 @@ class FleetOptions:
 
 def unit_name(path: str | Path, root: str | Path | None = None) -> str:
     """A directory name for a log, unique within a fleet: its path relative to `root` with
-    separators as '__' and anything but [A-Za-z0-9._-] as '_' (suffix dropped)."""
+    separators as '__' and anything but [A-Za-z0-9._-] as '_' (suffix dropped).
+
+    Examples
+    --------
+    >>> unit_name("/data/bench 7/imu.npy", "/data"), unit_name("/logs/a.b/run.csv")
+    ('bench_7__imu', 'run')
+    """
     p = Path(path)
     rel = p.relative_to(root) if root is not None and p.is_relative_to(root) else Path(p.name)
     rel = rel.with_suffix("") if rel.suffix else rel
@@ -90,7 +103,21 @@ def _peak_rss_mib() -> float:
 def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, Any]:
     """The task: characterize one log, write its outputs into unit_dir; return the summary
     (unit, status, kalibr-style parameters per channel). Never raises for a bad log: the
-    failure's one-line reason is returned (and written to failed.json)."""
+    failure's one-line reason is returned (and written to failed.json).
+
+    Examples
+    --------
+    One log with three white gyro channels (rad/s) into its unit directory, without plots:
+
+    >>> import os, tempfile, numpy as np
+    >>> tmp = tempfile.TemporaryDirectory(); log = os.path.join(tmp.name, "unit1.npy")
+    >>> np.save(log, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
+    >>> s = characterize_log(log, os.path.join(tmp.name, "u1"), FleetOptions(rate_hz=100.0,
+    ...                                                                      plots=False))
+    >>> s["status"], sorted(os.listdir(os.path.join(tmp.name, "u1")))
+    ('done', ['imu.yaml', 'result.json'])
+    >>> tmp.cleanup()
+    """
     from gyrodrift import characterize as ch
     from gyrodrift.cli.characterize import write_outputs
     from gyrodrift.imu_io import load_imu
@@ -139,7 +166,21 @@ def _params(res: Any) -> dict[str, dict[str, dict[str, float]]]:
 
 
 def load_spec(path: str | Path) -> dict[str, dict[str, float]]:
-    """A spec file: JSON {parameter: {"min": x, "max": y}} (module docstring)."""
+    """A spec file: JSON {parameter: {"min": x, "max": y}} (module docstring).
+
+    Examples
+    --------
+    A spec file with an upper limit on the gyro noise density:
+
+    >>> import tempfile
+    >>> import os
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = os.path.join(d, "spec.json")
+    ...     with open(path, "w") as fh:
+    ...         _ = fh.write('{"gyroscope_noise_density": {"max": 2e-4}}')
+    ...     print(load_spec(path))
+    {'gyroscope_noise_density': {'max': 0.0002}}
+    """
     try:
         spec = json.loads(Path(path).read_text())
     except json.JSONDecodeError as exc:
@@ -175,6 +216,20 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     `workers` processes (one thread each) on 127.0.0.1 is started and closed. `client`: an
     existing distributed.Client to use instead (tests share one).
     Returns the summary dict (also written to out_dir/summary.json).
+
+    Examples
+    --------
+    A fleet of two copies of one log, run in this process (workers=0: no Dask):
+
+    >>> import os, shutil, tempfile, numpy as np
+    >>> d = tempfile.mkdtemp()
+    >>> logs = [os.path.join(d, f"unit{k}.npy") for k in (1, 2)]
+    >>> for log in logs:
+    ...     np.save(log, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
+    >>> s = run_fleet(logs, os.path.join(d, "out"), opts=FleetOptions(rate_hz=100.0), workers=0)
+    >>> s["n_done"], s["n_failed"], sorted(os.listdir(os.path.join(d, "out")))
+    (2, 0, ['boxplot.png', 'summary.html', 'summary.json', 'units'])
+    >>> shutil.rmtree(d)
     """
     out = Path(out_dir)
     (out / "units").mkdir(parents=True, exist_ok=True)
@@ -264,7 +319,21 @@ def _quantiles(v: np.ndarray) -> dict[str, float]:
 
 def write_summary(units: Sequence[dict[str, Any]], out: Path,
                   spec: dict[str, dict[str, float]] | None) -> dict[str, Any]:
-    """summary.json, boxplot.png and summary.html of the fleet (module docstring)."""
+    """summary.json, boxplot.png and summary.html of the fleet (module docstring).
+
+    Examples
+    --------
+    The summary of a fleet whose one unit failed:
+
+    >>> import tempfile
+    >>> import os
+    >>> from pathlib import Path
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     s = write_summary([{"unit": "u1", "path": "u1.npy", "status": "failed",
+    ...                         "reason": "no data"}], Path(d), None)
+    ...     print(s["n_done"], s["n_failed"], sorted(os.listdir(d)))
+    0 1 ['summary.html', 'summary.json']
+    """
     from gyrodrift.characterize import png_data_uri, version
     from gyrodrift.report_html import fleet_html
 

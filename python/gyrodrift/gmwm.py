@@ -129,7 +129,13 @@ DEG = math.pi / 180.0
 
 
 def parse_model(model: str) -> tuple[str, ...]:
-    """'N+K+GM' -> canonical tuple ('N', 'K', 'GM'); ValueError on unknown or repeated terms."""
+    """'N+K+GM' -> canonical tuple ('N', 'K', 'GM'); ValueError on unknown or repeated terms.
+
+    Examples
+    --------
+    >>> parse_model("N+K"), parse_model("q+n+gm")
+    (('N', 'K'), ('Q', 'N', 'GM'))
+    """
     if not isinstance(model, str) or not model.strip():
         raise GyrodriftValueError(f"model must be a string like 'N+K+GM', got {model!r}")
     parts = [p.strip().upper() for p in model.split("+")]
@@ -181,6 +187,12 @@ class WaveletVariance:
         nu2: wavelet variance, (record unit)^2.
         n_coeffs: M_j, boundary-free coefficients behind each value.
         eta: chi-squared degrees of freedom max(M_j / 2^j, 1) (Percival & Walden eq. 313c).
+
+    Examples
+    --------
+    >>> wv = haar_wv(np.random.default_rng(0).normal(0, 1.0, 4096), 100.0)
+    >>> wv.level[:3], wv.tau_s[:3], wv.n_coeffs[:3]
+    (array([1, 2, 3]), array([0.02, 0.04, 0.08]), array([4095, 4093, 4089]))
     """
 
     tau_s: np.ndarray
@@ -227,6 +239,12 @@ def haar_wv(x: np.ndarray, rate_hz: float, *, max_level: int | None = None
     """Haar MODWT wavelet variance (module docstring), O(N) per level by one cumulative sum.
 
     max_level: highest level J (default floor(log2 N) - 1, so that M_J >= N / 2).
+
+    Examples
+    --------
+    >>> wv = haar_wv(np.random.default_rng(0).normal(0, 1.0, 4096), 100.0, max_level=3)
+    >>> wv.nu2.round(3)  # white noise: sigma^2 / 2^j
+    array([0.5  , 0.246, 0.126])
     """
     arr = _check_record(x, rate_hz, min_n=4)
     n = arr.size
@@ -305,6 +323,11 @@ def theoretical_wv(model: str | tuple[str, ...], params: np.ndarray, tau: np.nda
     params, in model order: Q -> q2 (variance of the angle error, (x dt)^2 / dt^2 = x^2);
     N -> s2 (variance of the white rate); K -> g2 (random-walk increment variance);
     R -> w^2 (squared ramp per sample); GM -> (sigma^2, T_c in samples).
+
+    Examples
+    --------
+    >>> theoretical_wv("N", np.array([0.01]), np.array([0.01, 0.02]))
+    array([1. , 0.5])
     """
     terms = parse_model(model) if isinstance(model, str) else model
     tau = np.asarray(tau, dtype=np.float64)
@@ -408,6 +431,12 @@ def wv_covariance(model: str | tuple[str, ...], params: np.ndarray, levels: np.n
     delta = 1); if that would exceed MAX_LAGS lags (scales more than ~8 octaves apart, whose
     covariance is small), delta grows to fit. Tested against the
     FFT route of `gyrodrift.reference.gmwm` and a Monte Carlo covariance.
+
+    Examples
+    --------
+    >>> wv_covariance("N", np.array([1.0]), np.array([1, 2]), n_samples=1024).round(6)
+    array([[0.000733, 0.000183],
+           [0.000183, 0.000214]])
     """
     terms = parse_model(model) if isinstance(model, str) else model
     p = np.asarray(params, dtype=np.float64)
@@ -648,6 +677,13 @@ class GmwmParam:
 
     density / density_unit: the continuous-time density a filter uses (N in
     rad/s/sqrt(Hz), K in rad/s^2/sqrt(Hz)); None for other terms.
+
+    Examples
+    --------
+    >>> p = GmwmParam(name="N", value=0.01, unit="deg/sqrt(h)", se=0.001, ci_low=0.008,
+    ...               ci_high=0.012)
+    >>> p.name, p.value, p.density is None
+    ('N', 0.01, True)
     """
 
     name: str

@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gyrodrift import _native
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 if TYPE_CHECKING:
     from gyrodrift.config import ProcessorConfig
@@ -89,7 +90,15 @@ DEFAULT_TIME_TOLERANCE_US: int
 
 def contract() -> dict[str, Any]:
     """The processor contract from gyrodrift._core: ``flags`` {name: bit}, ``health_keys``,
-    ``resync_after``, ``default_period_us``, ``default_time_tolerance_us``."""
+    ``resync_after``, ``default_period_us``, ``default_time_tolerance_us``.
+
+    Examples
+    --------
+    >>> from gyrodrift import imu
+    >>> c = contract()  # read from the C++ processor (imu_processor.hpp) through the binding
+    >>> c["flags"]["duplicate"] == imu.FLAG_DUPLICATE, c["default_period_us"]
+    (True, 2500)
+    """
     if not _contract_cache:
         core = _native.core("imu", "IMU_FLAGS")
         _contract_cache.update(
@@ -119,7 +128,14 @@ def __getattr__(name: str) -> Any:
 
 
 def describe_flags(flags: int) -> list[str]:
-    """Names of the bits set in a flags word."""
+    """Names of the bits set in a flags word.
+
+    Examples
+    --------
+    >>> from gyrodrift import imu
+    >>> describe_flags(0), describe_flags(imu.FLAG_DUPLICATE | imu.FLAG_REJECTED)
+    ([], ['duplicate', 'rejected'])
+    """
     return [name for name, bit in contract()["flags"].items() if flags & bit]
 
 
@@ -127,7 +143,13 @@ def describe_flags(flags: int) -> list[str]:
 class WaveletSettings:
     """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
     all of them, or per channel (ImuChannelConfig.wavelet). window: a power of two in
-    16..4096 (the configuration format's windows; the C++ stage takes any of them)."""
+    16..4096 (the configuration format's windows; the C++ stage takes any of them).
+
+    Examples
+    --------
+    >>> WaveletSettings(level=4)  # one setting for the processor's wavelet channels
+    WaveletSettings(wavelet='db8', window=256, level=4, mode='forced')
+    """
 
     wavelet: str = "db8"
     window: int = 256
@@ -142,11 +164,11 @@ def _check_wavelet(key: str, ws: WaveletSettings) -> None:
 
     n = ws.window
     if not (isinstance(n, (int, np.integer)) and 16 <= n <= 4096 and n & (n - 1) == 0):
-        raise ValueError(f"{key}.window: expected a power of two in 16..4096, got {n}")
+        raise GyrodriftValueError(f"{key}.window: expected a power of two in 16..4096, got {n}")
     if ws.wavelet in ("db4", "db8"):
         jmax = max_wavelet_level(n, ws.wavelet)
         if not 1 <= ws.level <= jmax:
-            raise ValueError(
+            raise GyrodriftValueError(
                 f"{key}.level: expected 1..{jmax} for {ws.wavelet} with window {n}, "
                 f"got {ws.level}"
             )
@@ -229,20 +251,20 @@ class ImuConfig:
 
     def validate(self) -> None:
         if len(self.channels) != CHANNELS:
-            raise ValueError(
+            raise GyrodriftValueError(
                 f"channels: expected {CHANNELS} channel configs, got {len(self.channels)}"
             )
         for i, ch in enumerate(self.channels):
             for name in ("filter", "filter2"):
                 if getattr(ch, name) not in FILTERS:
-                    raise ValueError(
+                    raise GyrodriftValueError(
                         f"channels[{i}].{name}: expected one of {FILTERS}, "
                         f"got {getattr(ch, name)!r}"
                     )
             if ch.stuck_samples < 0:
-                raise ValueError(f"channels[{i}].stuck_samples must be >= 0")
+                raise GyrodriftValueError(f"channels[{i}].stuck_samples must be >= 0")
         if not 0 <= self.period_us < 2**32 or not 0 <= self.time_tolerance_us < 2**32:
-            raise ValueError("period_us and time_tolerance_us must fit in u32")
+            raise GyrodriftValueError("period_us and time_tolerance_us must fit in u32")
 
     @classmethod
     def from_processor_config(
@@ -295,7 +317,16 @@ class ImuConfig:
 
 @dataclass
 class ImuResult:
-    """Outputs for every input row: rejected rows (flags & FLAG_REJECTED) are NaN."""
+    """Outputs for every input row: rejected rows (flags & FLAG_REJECTED) are NaN.
+
+    Examples
+    --------
+    >>> proc = ImuProcessor(ImuConfig(channels=[ImuChannelConfig() for _ in range(6)]))
+    >>> out = proc.process(np.array([0, 1, 1]), np.array([0, 2500, 2500]), np.ones((3, 6)))
+    >>> from gyrodrift import imu
+    >>> bool(out.flags[2] & imu.FLAG_DUPLICATE), out.accepted, out.health["samples_in"]
+    (True, array([ True,  True, False]), 3)
+    """
 
     values: np.ndarray  # (n, 6)
     flags: np.ndarray  # (n,) uint16
@@ -313,24 +344,25 @@ def _as_inputs(
     # Refuse what a cast would silently mangle (complex: imaginary part dropped; strings:
     # parsed), as the other array APIs do (gyrodrift.ar2, gyrodrift.wavelet).
     if raw.dtype.kind not in "fiu":
-        raise TypeError(
+        raise GyrodriftTypeError(
             f"values: expected a real numeric array (float or integer), got dtype {raw.dtype}"
         )
     v = np.ascontiguousarray(raw, dtype=dtype)
     if v.ndim != 2 or v.shape[1] != CHANNELS:
-        raise ValueError(f"values: expected shape (n, 6), got {v.shape}")
+        raise GyrodriftValueError(f"values: expected shape (n, 6), got {v.shape}")
     s = np.asarray(seq)
     t = np.asarray(t_us)
     if s.shape != (v.shape[0],) or t.shape != (v.shape[0],):
-        raise ValueError(
+        raise GyrodriftValueError(
             f"seq and t_us: expected shape ({v.shape[0]},), got {s.shape} and {t.shape}"
         )
     if not np.issubdtype(s.dtype, np.integer) or not np.issubdtype(t.dtype, np.integer):
-        raise TypeError(f"seq and t_us: expected integer arrays, got {s.dtype} and {t.dtype}")
+        raise GyrodriftTypeError(f"seq and t_us: expected integer arrays, got {s.dtype} and "
+                                 f"{t.dtype}")
     if s.size and (s.min() < 0 or s.max() > 0xFFFF):
-        raise ValueError("seq: values must be in 0..65535")
+        raise GyrodriftValueError("seq: values must be in 0..65535")
     if t.size and np.issubdtype(t.dtype, np.signedinteger) and t.min() < 0:
-        raise ValueError("t_us: timestamps must be >= 0")
+        raise GyrodriftValueError("t_us: timestamps must be >= 0")
     return (
         np.ascontiguousarray(s, dtype=np.uint16),
         np.ascontiguousarray(t, dtype=np.uint64),
@@ -362,7 +394,7 @@ class ImuProcessor:
         config.validate()
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
-            raise TypeError(f"dtype: expected float64 or float32, got {self.dtype}")
+            raise GyrodriftTypeError(f"dtype: expected float64 or float32, got {self.dtype}")
         f64 = self.dtype == np.float64
         ch = config.channels
         extra: tuple[object, ...] = ()
@@ -379,7 +411,7 @@ class ImuProcessor:
                     per_channel.append(None)
                     continue
                 if ws is None:
-                    raise ValueError(
+                    raise GyrodriftValueError(
                         f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
                     )
                 _check_wavelet(f"channels[{i}].wavelet", ws)
@@ -410,7 +442,8 @@ class ImuProcessor:
         )
         if self._proc.status != "ok":
             where = f" (channel {self._proc.bad_channel})" if self._proc.bad_channel >= 0 else ""
-            raise ValueError(f"invalid IMU processor configuration: {self._proc.status}{where}")
+            raise GyrodriftValueError(f"invalid IMU processor configuration: "
+                                      f"{self._proc.status}{where}")
         self.config = config
 
     def process(self, seq: npt.ArrayLike, t_us: npt.ArrayLike, values: npt.ArrayLike) -> ImuResult:

@@ -91,6 +91,12 @@ class ImuData:
         n_total: samples in the file before any were dropped.
         n_dropped: rows removed by nan_policy="drop".
         detail: what the reader decided (columns, units, topic, time column), for reports.
+
+    Examples
+    --------
+    >>> rec = ImuData({"gyro_z": np.zeros(4)}, rate_hz=100.0, source="x", fmt="npy", n_total=4)
+    >>> rec.names, rec.n, rec.duration_s
+    (('gyro_z',), 4, 0.04)
     """
 
     channels: dict[str, np.ndarray]
@@ -125,7 +131,13 @@ class ImuData:
 
 
 def input_kind(path: str | Path) -> str:
-    """The reader `load_imu` uses for a path (no file content read except a CSV header)."""
+    """The reader `load_imu` uses for a path (no file content read except a CSV header).
+
+    Examples
+    --------
+    >>> [input_kind(p) for p in ("a.npy", "a.csv", "a.bag", "a.imu", "a.bin")]
+    ['npy', 'text', 'rosbag1', 'psins', 'replay-log']
+    """
     p = Path(path)
     suffix = p.suffix.lower()
     if p.is_dir():
@@ -184,6 +196,17 @@ def load_imu(
     nan_policy : "refuse" or "drop" (rows with any NaN/Inf channel).
     spool_dir : .npy only: write one float64 file per channel there, in chunks of
         `chunk_rows` rows, and return memory maps of them (bounded memory).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = Path(d) / "imu.csv"  # time column and three gyro columns, rad/s
+    ...     _ = path.write_text("t,gx,gy,gz\\n0.00,0.1,0.2,0.3\\n0.01,0.1,0.2,0.3\\n"
+    ...                         "0.02,0.1,0.2,0.3\\n")
+    ...     rec = load_imu(path)
+    >>> rec.names, rec.rate_hz, rec.fmt, rec.channels["gyro_z"]
+    (('gyro_x', 'gyro_y', 'gyro_z'), 100.0, 'text', array([0.3, 0.3, 0.3]))
     """
     p = Path(path)
     if not p.exists():
@@ -501,7 +524,22 @@ def _bag_paths(p: Path, kind: str) -> Path:
 
 
 def bag_imu_topics(path: str | Path) -> dict[str, int]:
-    """sensor_msgs/msg/Imu topics of a ROS bag -> message count."""
+    """sensor_msgs/msg/Imu topics of a ROS bag -> message count.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from rosbags.rosbag1 import Writer
+    >>> from rosbags.typesys import Stores, get_typestore
+    >>> ts = get_typestore(Stores.ROS1_NOETIC)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = Path(d) / "run.bag"
+    ...     with Writer(path) as w:
+    ...         _ = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
+    ...         _ = w.add_connection("/note", "std_msgs/msg/String", typestore=ts)
+    ...     print(bag_imu_topics(path))  # the Imu topics only, with their message counts
+    {'/imu': 0}
+    """
     from rosbags.highlevel import AnyReader
 
     p = Path(path)

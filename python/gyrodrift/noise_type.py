@@ -34,7 +34,14 @@ MAX_ACF_POINTS = 1 << 14
 
 
 def lag1_alpha(z: np.ndarray, *, dmax: int = 2) -> int:
-    """alpha of a series of averages z by the lag-1 ACF method (module docstring)."""
+    """alpha of a series of averages z by the lag-1 ACF method (module docstring).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> lag1_alpha(rng.normal(size=1000)), lag1_alpha(np.cumsum(rng.normal(size=1000)))
+    (0, -2)
+    """
     z = np.array(z, dtype=np.float64)  # a copy, detrended in place
     # Least-squares line (frequency drift) removed in closed form: O(n) temporaries.
     n = z.size
@@ -59,7 +66,14 @@ def lag1_alpha(z: np.ndarray, *, dmax: int = 2) -> int:
 
 def slope_alpha(tau_s: np.ndarray, dev: np.ndarray, *, modified: bool = False) -> np.ndarray:
     """alpha per tau from the local slope of dev^2 (module docstring), made non-increasing
-    in tau. `modified`: the deviation is mdev (for tdev pass tdev / tau)."""
+    in tau. `modified`: the deviation is mdev (for tdev pass tdev / tau).
+
+    Examples
+    --------
+    >>> tau = np.array([1.0, 2.0, 4.0, 8.0])
+    >>> slope_alpha(tau, tau ** -0.5), slope_alpha(tau, tau ** 0.5)  # white FM, random walk FM
+    (array([0, 0, 0, 0]), array([-2, -2, -2, -2]))
+    """
     from gyrodrift.allan import noise_alpha_from_slope
 
     if not modified:
@@ -79,7 +93,16 @@ def alpha_per_tau(averages: Callable[[int, int], np.ndarray], m: np.ndarray, n_r
                   ) -> tuple[np.ndarray, np.ndarray]:
     """(alpha, method) per averaging factor: ACF where n_rate // m >= MIN_ACF_POINTS,
     else the slope value capped by the last ACF value. averages(m, n_avg) returns the first
-    n_avg non-overlapping averages of m rate samples. method is "acf" or "slope"."""
+    n_avg non-overlapping averages of m rate samples. method is "acf" or "slope".
+
+    Examples
+    --------
+    >>> y = np.random.default_rng(0).normal(size=4096)
+    >>> alpha, method = alpha_per_tau(averages_in_memory(y), np.array([1, 64, 512]), y.size,
+    ...                               slope=np.array([0, 0, 1]))
+    >>> alpha, method  # too few averages at m = 512 for the ACF: the slope, capped
+    (array([0, 0, 0]), array(['acf', 'acf', 'slope'], dtype='<U5'))
+    """
     alpha = np.empty(m.size, dtype=np.int64)
     method = np.empty(m.size, dtype=object)
     last: int | None = None

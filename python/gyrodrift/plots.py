@@ -105,7 +105,19 @@ def plot_allan_fit(result: AllanResult, fit: AllanFit, path: str | Path, *, labe
                    title: str = "Overlapping Allan deviation and IEEE 952 fit",
                    unit: str = "deg/h") -> Path:
     """Allan deviation with its interval bars, the fitted total and each kept term, drawn
-    only inside the fit range used (issue 11)."""
+    only inside the fit range used (issue 11).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from gyrodrift.allan import oadev
+    >>> from gyrodrift.allan_fit import fit_allan
+    >>> r = oadev(np.random.default_rng(0).normal(0.0, 1.0, 8192), 100.0)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     png = plot_allan_fit(r, fit_allan(r.tau_s, r.adev, r.edf), Path(d) / "allan.png")
+    ...     print(png.name, png.read_bytes()[:4])
+    allan.png b'\\x89PNG'
+    """
     fig, ax = plt.subplots(figsize=(7.5, 5.5), dpi=110)
     r = result
     err = np.vstack([r.adev - r.ci_low, r.ci_high - r.adev])
@@ -129,7 +141,18 @@ def plot_allan_fit(result: AllanResult, fit: AllanFit, path: str | Path, *, labe
 def plot_gmwm(res: GmwmResult, path: str | Path, *, label: str = "",
               title: str = "Haar wavelet variance and GMWM fit", unit: str = "deg/h") -> Path:
     """Empirical Haar wavelet variance with its interval band, the fitted total and each
-    component (issue 11)."""
+    component (issue 11).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from gyrodrift.gmwm import identify_gmwm
+    >>> res = identify_gmwm(np.random.default_rng(0).normal(0.0, 1.0, 4096), 100.0, model="N")
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     png = plot_gmwm(res, Path(d) / "gmwm.png")
+    ...     print(png.name, png.read_bytes()[:4])
+    gmwm.png b'\\x89PNG'
+    """
     fig, ax = plt.subplots(figsize=(7.5, 5.5), dpi=110)
     ax.fill_between(res.tau_s, res.wv_ci_low, res.wv_ci_high, color="C0", alpha=0.25,
                     label=f"{100 * res.ci:.0f} % interval")

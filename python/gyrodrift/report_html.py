@@ -115,19 +115,43 @@ def characterize_html(*, name: str, version: str, method: str, ci: float,
                       record: dict[str, object], rows: Sequence[dict[str, Any]],
                       images: Sequence[tuple[str, str]], kalibr: str | None,
                       self_check: dict[str, Any] | None) -> str:
-    """The characterize report (one file: tables, inline PNG plots, inputs, version)."""
+    """The characterize report (one file: tables, inline PNG plots, inputs, version).
+
+    Examples
+    --------
+    >>> page = characterize_html(name="bench", version="0.1", method="allan-nnls", ci=0.6827,
+    ...                          record={"source": "bench.npy"}, rows=[], images=[], kalibr=None,
+    ...                          self_check=None)
+    >>> page.startswith("<!DOCTYPE html>"), "bench" in page
+    (True, True)
+    """
     return _env().from_string(_CHAR_TEMPLATE).render(
         css=_CSS, name=name, version=version, method=method, ci=ci, record=record, rows=rows,
         images=images, kalibr=kalibr, self_check=self_check)
 
 
 def fleet_html(**kw: Any) -> str:
-    """The fleet summary page (see gyrodrift.fleet.write_summary for the fields)."""
+    """The fleet summary page (see gyrodrift.fleet.write_summary for the fields).
+
+    Examples
+    --------
+    >>> page = fleet_html(version="0.1", n_done=2, n_failed=0, n_flagged=0, spec_name="",
+    ...                   dist_head=[], dist_rows=[], images=[], flagged=[], failed=[],
+    ...                   units=[{"name": "unit1", "status": "done", "link": "units/unit1"}])
+    >>> page.startswith("<!DOCTYPE html>"), "unit1" in page
+    (True, True)
+    """
     return _env().from_string(_FLEET_TEMPLATE).render(css=_CSS, **kw)
 
 
 def render_table(rows: Sequence[dict[str, Any]]) -> str:
-    """A plain HTML table of dict rows (keys as the header)."""
+    """A plain HTML table of dict rows (keys as the header).
+
+    Examples
+    --------
+    >>> print(render_table([{"term": "N", "value": "1e-5"}, {"term": "K<", "value": 0}]))
+    <table><tr><th>term</th><th>value</th></tr><tr><td>N</td><td>1e-5</td></tr><tr><td>K&lt;...
+    """
     if not rows:
         return "<table></table>"
     keys = list(rows[0])

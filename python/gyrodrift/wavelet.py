@@ -243,12 +243,18 @@ class RealtimeWavelet:
         self.dtype = _check_dtype(dtype)
         self.wavelet, self.window, self.level, self.mode = wavelet, window, int(level), mode
         self._bank_cls = getattr(_core(), "RealtimeWaveletBank" + _DTYPES[self.dtype])
-        self._bank_cls(wavelet, window, self.level, mode, 1)  # validates level now
+        self._bank_cls(self._config(1))  # validates level now
         self._bank: Any = None
+
+    def _config(self, channels: int) -> Any:
+        """The bound configuration of the C++ bank (gyrodrift._core.RealtimeWaveletConfig)."""
+        return _core().RealtimeWaveletConfig(wavelet=self.wavelet, window=self.window,
+                                             level=self.level, mode=self.mode,
+                                             channels=channels)
 
     def _get_bank(self, channels: int) -> Any:
         if self._bank is None:
-            self._bank = self._bank_cls(self.wavelet, self.window, self.level, self.mode, channels)
+            self._bank = self._bank_cls(self._config(channels))
         elif self._bank.channels != channels:
             raise GyrodriftValueError(
                 f"this filter runs {self._bank.channels} channel(s); got {channels} (call reset())"

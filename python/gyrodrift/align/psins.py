@@ -26,6 +26,16 @@ __all__ = [
 
 @dataclass
 class PsinsRecord:
+    """A PSINS IMU log: initial attitude (deg) and velocity, position, timing, and the per-sample
+    increments (rad, m/s).
+
+    Examples
+    --------
+    >>> rec = PsinsRecord(np.zeros(3), np.zeros(3), 0.6, 2.0, 380.0, 0.0, 0.01, 9.79,
+    ...                   np.zeros((5, 3)), np.zeros((5, 3)))
+    >>> rec.dt_s, rec.dtheta.shape
+    (0.01, (5, 3))
+    """
     att0_deg: np.ndarray  # pitch, roll, yaw (approximate, as written in the file)
     vn0_m_s: np.ndarray
     lat_rad: float
@@ -39,7 +49,22 @@ class PsinsRecord:
 
 
 def read_psins_imu(path: str | Path) -> PsinsRecord:
-    """Parse a PSINS IMU log. Raises ValueError with the line number on malformed input."""
+    """Parse a PSINS IMU log. Raises ValueError with the line number on malformed input.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> text = ("% a PSINS log\\n0 0 30 0 0 0\\n34.2 108.9 380 0 10 9.79\\n"
+    ...         "0.01 0.01 0.01 50 50 50\\n1 2 3 0 0 196\\n1 2 3 0 0 196\\n")
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = Path(d) / "bench.imu"
+    ...     _ = path.write_text(text)
+    ...     rec = read_psins_imu(path)
+    >>> rec.dt_s, rec.dtheta.shape, round(float(np.rad2deg(rec.lat_rad)), 1)
+    (0.01, (2, 3), 34.2)
+    >>> rec.dtheta[0] / ARCSEC  # counts x 0.01 arcsec/count
+    array([0.01, 0.02, 0.03])
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")

@@ -36,7 +36,15 @@ if TYPE_CHECKING:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    """Add the ``align`` subcommand."""
+    """Add the ``align`` subcommand.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> args = p.parse_args(["align", "--scenario", "static", "--runs", "4"])
+    >>> args.scenario, args.runs, args.duration_s, args.rate_hz, args.progress
+    ('static', 4, 1800.0, 400.0, 'auto')
+    """
     p = subparsers.add_parser(
         "align", help="SINS alignment Monte Carlo study, mechanism study, real-data consistency",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -135,7 +143,18 @@ def _save_fine_time_plot(fig: Figure, ax: Axes, path: Path, title: str) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift align``; returns the exit code. The output directory is checked first
-    and, when this run creates it, removed again if the run fails (no empty directory)."""
+    and, when this run creates it, removed again if the run fails (no empty directory).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> with tempfile.TemporaryDirectory() as d:  # a study takes minutes; a bad option, at once
+    ...     run(p.parse_args(["align", "--runs", "1", "--out-dir", os.path.join(d, "out")]))
+    Traceback (most recent call last):
+    ...
+    gyrodrift.cli.CliError: --runs must be >= 2 (a 1-sigma needs two runs)
+    """
     out = check_out_dir(args.out_dir)
     assert out is not None
     top = out  # the outermost directory this run creates (None: it exists already)

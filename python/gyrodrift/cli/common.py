@@ -307,7 +307,21 @@ def check_output(path: str | Path | None, flag: str, suffixes: Sequence[str] | N
 
 def check_out_dir(path: str | Path | None, flag: str = "--out-dir") -> Path | None:
     """Check an output directory before any work: it exists and is writable, or can be made
-    (its nearest existing parent is writable). Nothing is created here."""
+    (its nearest existing parent is writable). Nothing is created here.
+
+    Examples
+    --------
+    >>> import shutil, tempfile
+    >>> d = tempfile.mkdtemp()
+    >>> check_out_dir(os.path.join(d, "new", "dir")).name, os.listdir(d)  # nothing made
+    ('dir', [])
+    >>> open(os.path.join(d, "file"), "w").close()
+    >>> check_out_dir(os.path.join(d, "file"))
+    Traceback (most recent call last):
+    ...
+    gyrodrift.cli.CliError: --out-dir .../file: exists and is not a directory
+    >>> shutil.rmtree(d)
+    """
     if path is None:
         return None
     p = Path(path)

@@ -24,7 +24,15 @@ __all__ = ["register", "run"]
 
 
 def register(subparsers: Any) -> None:
-    """Add the ``compare`` subcommand."""
+    """Add the ``compare`` subcommand.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> args = p.parse_args(["compare", "--seed", "3"])
+    >>> args.input, args.seed, args.out_dir, args.progress
+    (None, 3, 'compare_out', 'auto')
+    """
     p = subparsers.add_parser("compare", help="paper 2006 Table 1: filters compared by Allan/PSD",
                               description=__doc__)
     add_input_args(p, required=False)
@@ -40,7 +48,24 @@ def register(subparsers: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``gyrodrift compare``; returns the exit code."""
+    """Run ``gyrodrift compare``; returns the exit code.
+
+    Examples
+    --------
+    The paper's Table 1 on a white-noise record instead of the default simulated one:
+
+    >>> import os, tempfile, numpy as np
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
+    >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
+    >>> run(p.parse_args(["compare", rec, "--rate-hz", "100", "--out-dir", tmp.name]))
+    Record: .../gyro.npy, 4096 samples at 100 Hz. AR(2) of the raw record: ...
+    ...
+    | original | ours (measured) | 0.0001574 | 0.001614 | 0.007557 | 0.9976 |
+    ...
+    0
+    >>> tmp.cleanup()
+    """
     from gyrodrift import compare
 
     if args.out_dir is not None:

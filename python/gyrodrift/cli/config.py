@@ -16,6 +16,15 @@ ACTIONS = ("validate", "show", "write-default", "emit-cpp")
 
 
 def register(subparsers: Any) -> None:
+    """Add the ``config`` subcommand.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> args = p.parse_args(["config", "validate", "processor.toml"])
+    >>> args.action, args.file, args.namespace
+    ('validate', 'processor.toml', 'gyrodrift_config')
+    """
     p = subparsers.add_parser(
         "config", help="processor configuration file: validate, show, write-default, emit-cpp",
         description=__doc__.splitlines()[0])
@@ -39,6 +48,23 @@ def _output(args: argparse.Namespace) -> Path:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``gyrodrift config``; returns the exit code.
+
+    Examples
+    --------
+    Write the default configuration, then check it:
+
+    >>> import os, tempfile
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> tmp = tempfile.TemporaryDirectory(); path = os.path.join(tmp.name, "processor.toml")
+    >>> run(p.parse_args(["config", "write-default", "-o", path]))
+    wrote .../processor.toml
+    0
+    >>> run(p.parse_args(["config", "validate", path]))
+    /.../processor.toml: ok
+    0
+    >>> tmp.cleanup()
+    """
     from gyrodrift.config import (
         ConfigError,
         atomic_write_text,

@@ -31,7 +31,16 @@ METHODS = ("ar", "kalman", "wavelet", "wpacket", "realtime-wavelet")
 
 
 def register(subparsers: Any) -> None:
-    """Add the ``filter`` subcommand."""
+    """Add the ``filter`` subcommand.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> args = p.parse_args(["filter", "gyro.csv", "-o", "out.npy", "--method", "wavelet",
+    ...                       "--threshold", "soft"])
+    >>> args.method, args.wavelet, args.threshold, args.core
+    ('wavelet', 'db8', 'soft', 'double')
+    """
     p = subparsers.add_parser("filter", help="AR / AR(2)-Kalman / wavelet filters",
                               description=__doc__)
     add_input_args(p)
@@ -109,7 +118,21 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``gyrodrift filter``; returns the exit code."""
+    """Run ``gyrodrift filter``; returns the exit code.
+
+    Examples
+    --------
+    The AR(2)-Kalman filter (the default method) on a white-noise record halves its spread:
+
+    >>> import os, tempfile, numpy as np
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
+    >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
+    >>> run(p.parse_args(["filter", rec, "--rate-hz", "100", "-o", rec.replace("gyro", "f")]))
+    kalman (double): std 0.99756 -> 0.49867 deg/h; wrote .../f.npy
+    0
+    >>> tmp.cleanup()
+    """
     out = Path(args.output)
     if out.suffix.lower() not in (".npy", ".csv"):
         raise CliError(f"output must end in .npy or .csv, got {out.name!r}")

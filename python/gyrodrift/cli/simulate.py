@@ -29,7 +29,15 @@ LOG_SUFFIXES = {".bin", ".gdf", ".log", ".asc", ".blf"}
 
 
 def register(subparsers: Any) -> None:
-    """Add the ``simulate`` subcommand."""
+    """Add the ``simulate`` subcommand.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
+    >>> args = p.parse_args(["simulate", "-o", "gyro.csv", "--duration-s", "60"])
+    >>> args.duration_s, args.rate_hz, args.seed
+    (60.0, 400.0, 0)
+    """
     p = subparsers.add_parser("simulate", help="simulate a gyro record or an IMU log",
                               description=__doc__)
     p.add_argument("-o", "--output", required=True,

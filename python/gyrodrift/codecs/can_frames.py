@@ -19,6 +19,8 @@ import cantools
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "FRAMES_PER_SAMPLE",
     "INPUT_BASE_ID",
@@ -38,7 +40,16 @@ _ROLE_NAMES = ("GyroXY", "GyroZ", "AccelXY", "AccelZ")
 
 @cache
 def load_dbc() -> cantools.database.can.Database:
-    """The IMU database shipped in the package (gyrodrift/data/gyrodrift_imu.dbc)."""
+    """The IMU database shipped in the package (gyrodrift/data/gyrodrift_imu.dbc).
+
+    Examples
+    --------
+    >>> db = load_dbc()
+    >>> [m.name for m in db.messages][:4]
+    ['IMU_GyroXY', 'IMU_GyroZ', 'IMU_AccelXY', 'IMU_AccelZ']
+    >>> hex(db.get_message_by_name("OUT_GyroXY").frame_id)
+    '0x180'
+    """
     path = resources.files("gyrodrift") / "data" / "gyrodrift_imu.dbc"
     with resources.as_file(path) as p:
         db = cantools.database.load_file(str(p))
@@ -51,16 +62,23 @@ def _prefix(base_id: int) -> str:
         return "IMU"
     if base_id == OUTPUT_BASE_ID:
         return "OUT"
-    raise ValueError(f"base_id: expected 0x100 or 0x180, got {base_id:#x}")
+    raise GyrodriftValueError(f"base_id: expected 0x100 or 0x180, got {base_id:#x}")
 
 
 def encode_sample(
     seq: int, values: npt.ArrayLike, *, flags: int = 0, base_id: int = INPUT_BASE_ID
 ) -> list[can.Message]:
-    """The four frames of one sample, in transmit order (values stored as float32)."""
+    """The four frames of one sample, in transmit order (values stored as float32).
+
+    Examples
+    --------
+    >>> frames = encode_sample(5, [0.1, 0.2, 0.3, 0.0, 0.0, 9.8])
+    >>> [hex(m.arbitration_id) for m in frames], frames[0].dlc
+    (['0x100', '0x101', '0x102', '0x103'], 8)
+    """
     v = np.asarray(values, dtype=np.float32).reshape(-1)
     if v.size != 6:
-        raise ValueError(f"values: expected 6 channels, got {v.size}")
+        raise GyrodriftValueError(f"values: expected 6 channels, got {v.size}")
     db = load_dbc()
     prefix = _prefix(base_id)
     g = [float(x) for x in v]
@@ -81,6 +99,13 @@ def encode_sample(
 
 @dataclass
 class CanSample:
+    """One reassembled sample: sequence number, flags, and the six channel values.
+
+    Examples
+    --------
+    >>> CanSample(seq=5, flags=0, values=(0.0,) * 6).seq
+    5
+    """
     seq: int
     flags: int
     values: tuple[float, ...]  # gyro x y z (rad/s), accel x y z (m/s^2)
@@ -88,6 +113,17 @@ class CanSample:
 
 @dataclass
 class CanRxStats:
+    """The receive counters of a :class:`SampleAssembler` (frames in, used, dropped and why).
+
+    Examples
+    --------
+    >>> asm = SampleAssembler()
+    >>> for m in encode_sample(1, [0.0] * 6)[:3]:  # the AccelZ frame never arrives
+    ...     _ = asm.push(m)
+    >>> asm.finish()
+    >>> asm.stats.frames_in, asm.stats.frames_dropped, asm.stats.incomplete_samples
+    (3, 3, 1)
+    """
     frames_in: int = 0
     frames_used: int = 0
     frames_dropped: int = 0
@@ -111,7 +147,17 @@ class _Slot:
 
 @dataclass
 class SampleAssembler:
-    """Reassembles samples from frames (decoded with cantools); same rules as the C++ one."""
+    """Reassembles samples from frames (decoded with cantools); same rules as the C++ one.
+
+    Examples
+    --------
+    >>> asm = SampleAssembler()
+    >>> out = [asm.push(m) for m in encode_sample(5, [0.5, 0.25, 0.125, 0.0, 0.0, 9.75])]
+    >>> out[:3], out[3]
+    ([None, None, None], CanSample(seq=5, flags=0, values=(0.5, 0.25, 0.125, 0.0, 0.0, 9.75)))
+    >>> asm.stats.complete_samples, asm.stats.frames_used
+    (1, 4)
+    """
 
     base_id: int = INPUT_BASE_ID
     slots: int = 4
@@ -123,7 +169,7 @@ class SampleAssembler:
     def __post_init__(self) -> None:
         _prefix(self.base_id)
         if self.slots < 1:
-            raise ValueError("slots must be >= 1")
+            raise GyrodriftValueError("slots must be >= 1")
 
     @property
     def pending_frames(self) -> int:

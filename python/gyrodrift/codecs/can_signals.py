@@ -74,7 +74,18 @@ SCHEMA = "gyrodrift.can_signals"
 
 
 class MapError(GyrodriftValueError):
-    """A signal map that cannot be used (names the file and the key or signal at fault)."""
+    """A signal map that cannot be used (names the file and the key or signal at fault).
+
+    Examples
+    --------
+    >>> issubclass(MapError, ValueError)
+    True
+    >>> from gyrodrift.codecs.can_frames import load_dbc
+    >>> SignalMap(load_dbc(), {"gx": SignalRef("IMU_GyroXY", "GyroX")}, "my.toml")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.codecs.can_signals.MapError: my.toml: channels gy, gz, ax, ay, az are not mapped
+    """
 
 
 @dataclass(frozen=True)
@@ -86,7 +97,20 @@ class SignalRef:
 
 @dataclass
 class SignalMap:
-    """A user DBC (loaded with cantools) and the signals that make an IMU sample."""
+    """A user DBC (loaded with cantools) and the signals that make an IMU sample.
+
+    Examples
+    --------
+    The project's own DBC (gyrodrift_imu.dbc) mapped as if it were a user's:
+
+    >>> from gyrodrift.codecs.can_frames import load_dbc  # the project's own DBC as the "user's"
+    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ",
+    ...              seq="IMU_GyroZ.Seq")
+    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    >>> smap.seq_bits, sorted(hex(fid) for fid, _ in smap.messages)
+    (16, ['0x100', '0x101', '0x102', '0x103'])
+    """
 
     db: cantools.database.can.Database
     roles: dict[str, SignalRef]  # role (CHANNEL_ROLES, "seq", "time") -> signal
@@ -145,7 +169,26 @@ class SignalMap:
 
 
 def load_signal_map(path: str | Path) -> SignalMap:
-    """Read a signal map (TOML, module docstring) and the DBC it names."""
+    """Read a signal map (TOML, module docstring) and the DBC it names.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from importlib import resources
+    >>> dbc = resources.files("gyrodrift") / "data" / "gyrodrift_imu.dbc"
+    >>> toml = (f'schema = "gyrodrift.can_signals"\\nversion = 1\\ndbc = "{dbc}"\\n[channels]\\n'
+    ...         'gx = "IMU_GyroXY.GyroX"\\ngy = "IMU_GyroXY.GyroY"\\ngz = "IMU_GyroZ.GyroZ"\\n'
+    ...         'ax = "IMU_AccelXY.AccelX"\\nay = "IMU_AccelXY.AccelY"\\n'
+    ...         'az = "IMU_AccelZ.AccelZ"\\n[factors]\\ngx = 2.0\\n')
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = Path(d) / "map.toml"
+    ...     _ = path.write_text(toml)
+    ...     smap = load_signal_map(path)
+    >>> smap.roles["gx"]
+    SignalRef(message='IMU_GyroXY', signal='GyroX', factor=2.0)
+    >>> sorted(smap.roles)
+    ['ax', 'ay', 'az', 'gx', 'gy', 'gz']
+    """
     path = Path(path)
     try:
         doc = tomllib.loads(path.read_text())
@@ -204,7 +247,20 @@ def load_signal_map(path: str | Path) -> SignalMap:
 def decode_table(smap: SignalMap) -> list[dict[str, Any]]:
     """One entry per role: everything the C++ decoder needs, taken from cantools' parse of
     the DBC (bit position in DBC numbering, byte order, value type, scale, offset, the
-    multiplexer selector's field and value)."""
+    multiplexer selector's field and value).
+
+    Examples
+    --------
+    The decode table of the project's DBC mapped as a user's (one row per role):
+
+    >>> from gyrodrift.codecs.can_frames import load_dbc
+    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
+    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    >>> row = decode_table(smap)[2]
+    >>> row["role"], hex(row["id"]), row["start"], row["length"], row["type"]
+    ('gz', '0x101', 0, 32, 'f32')
+    """
     rows = []
     for role in ROLES:
         ref = smap.roles.get(role)
@@ -241,7 +297,19 @@ def decode_table_text(smap: SignalMap) -> str:
         ROLE ID EXT DLC START LENGTH ORDER TYPE SCALE OFFSET FACTOR MUX
 
     ID hex, EXT 0/1, ORDER le|be, TYPE u|s|f32|f64, numbers in repr() form (they round-trip
-    exactly through strtod), MUX '-' or START:LENGTH:ORDER:VALUE. '#' starts a comment."""
+    exactly through strtod), MUX '-' or START:LENGTH:ORDER:VALUE. '#' starts a comment.
+
+    Examples
+    --------
+    The table line of the gx channel, as gyrodrift-loop reads it:
+
+    >>> from gyrodrift.codecs.can_frames import load_dbc
+    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
+    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    >>> print(decode_table_text(smap).splitlines()[3])
+    gx 0x100 0 8 0 32 le f32 1.0 0.0 1.0 -  # IMU_GyroXY.GyroX
+    """
     lines = [TABLE_HEADER,
              f"# generated from {Path(smap.source).name or 'a signal map'} by "
              "gyrodrift.codecs.can_signals.decode_table_text",
@@ -256,6 +324,22 @@ def decode_table_text(smap: SignalMap) -> str:
 
 
 def write_decode_table(smap: SignalMap, path: str | Path) -> Path:
+    """Write :func:`decode_table_text` to `path` (for ``gyrodrift-loop --can-signals``);
+    returns the path.
+
+    Examples
+    --------
+    The decode table written for ``gyrodrift-loop --can-signals``:
+
+    >>> import tempfile
+    >>> from gyrodrift.codecs.can_frames import load_dbc
+    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
+    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     print(write_decode_table(smap, Path(d) / "imu.cansig").read_text().splitlines()[0])
+    gyrodrift-can-signals 1
+    """
     path = Path(path)
     path.write_text(decode_table_text(smap))
     return path
@@ -270,7 +354,19 @@ def encode_sample_frames(smap: SignalMap, seq: int, t_us: int,
     (each multiplexer page) once, the mapped signals set from the channel values (divided by
     their factor), the counter as seq modulo its width, the timestamp from t_us; every other
     signal of the message or page is 0. Integer signals are rounded and clipped to their
-    width (a value the DBC cannot carry is clipped, as the IMU would saturate)."""
+    width (a value the DBC cannot carry is clipped, as the IMU would saturate).
+
+    Examples
+    --------
+    One sample encoded as the frames of the mapped messages:
+
+    >>> from gyrodrift.codecs.can_frames import load_dbc
+    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
+    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    >>> [hex(m.arbitration_id) for m in encode_sample_frames(smap, 3, 0, [0.5] * 6)]
+    ['0x100', '0x101', '0x102', '0x103']
+    """
     vals = [float(v) for v in values]
     if len(vals) != len(CHANNEL_ROLES):
         raise MapError(f"values: expected 6 channels, got {len(vals)}")
@@ -318,6 +414,14 @@ def _to_raw(sig: Any, phys: float) -> float | int:
 
 @dataclass
 class SignalSample:
+    """One sample decoded through a signal map: sequence, the IMU's timestamp (us) if
+    mapped, six values.
+
+    Examples
+    --------
+    >>> SignalSample(seq=3, t_us=None, values=(0.0,) * 6).t_us is None
+    True
+    """
     seq: int  # 16-bit sequence (the unwrapped counter, or a running count without one)
     t_us: int | None  # the IMU's own time when mapped
     values: tuple[float, ...]  # gx gy gz (rad/s), ax ay az (m/s^2), as float (float64)
@@ -325,6 +429,13 @@ class SignalSample:
 
 @dataclass
 class SignalRxStats:
+    """The receive counters of a :class:`SignalSampleAssembler` (the module docstring's accounting).
+
+    Examples
+    --------
+    >>> SignalRxStats().frames_in
+    0
+    """
     frames_in: int = 0
     frames_used: int = 0
     frames_dropped: int = 0
@@ -337,7 +448,24 @@ class SignalRxStats:
 
 @dataclass
 class SignalSampleAssembler:
-    """Samples from frames decoded with cantools by a user's DBC (rules: module docstring)."""
+    """Samples from frames decoded with cantools by a user's DBC (rules: module docstring).
+
+    Examples
+    --------
+    Frames encoded through a map, reassembled through the same map:
+
+    >>> from gyrodrift.codecs.can_frames import load_dbc
+    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ",
+    ...              seq="IMU_GyroZ.Seq")
+    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    >>> asm = SignalSampleAssembler(smap)
+    >>> out = [asm.push(m) for m in encode_sample_frames(smap, 3, 0, [0.5, 0.25, 0, 0, 0, 9.75])]
+    >>> out[-1]
+    SignalSample(seq=3, t_us=None, values=(0.5, 0.25, 0.0, 0.0, 0.0, 9.75))
+    >>> asm.stats.complete_samples, asm.stats.frames_used
+    (1, 4)
+    """
 
     smap: SignalMap
     stats: SignalRxStats = field(default_factory=SignalRxStats)

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "CRC_OFFSET",
     "FRAME_DTYPE",
@@ -76,6 +78,13 @@ def crc16_ccitt_false(data: bytes | bytearray | memoryview) -> int:
 
 @dataclass
 class ImuFrame:
+    """One decoded serial frame: sequence, timestamp (us), six float32 values, type, flags.
+
+    Examples
+    --------
+    >>> decode_frame(encode_frame(3, 2500, [0.5] * 6))
+    ImuFrame(seq=3, t_us=2500, values=(0.5, 0.5, 0.5, 0.5, 0.5, 0.5), frame_type=1, flags=0)
+    """
     seq: int
     t_us: int
     values: tuple[float, ...]  # gyro x y z (rad/s), accel x y z (m/s^2), as float32 values
@@ -100,9 +109,9 @@ def encode_frame(
     """
     v = np.asarray(values, dtype=np.float64).reshape(-1)
     if v.size != 6:
-        raise ValueError(f"values: expected 6 channels, got {v.size}")
+        raise GyrodriftValueError(f"values: expected 6 channels, got {v.size}")
     if frame_type not in (TYPE_INPUT, TYPE_OUTPUT):
-        raise ValueError(f"type: expected 0x01 or 0x81, got {frame_type:#x}")
+        raise GyrodriftValueError(f"type: expected 0x01 or 0x81, got {frame_type:#x}")
     body = _BODY.pack(
         SYNC0, SYNC1, frame_type, PAYLOAD_LEN, seq & 0xFFFF, flags & 0xFFFF, int(t_us), *v.tolist()
     )
@@ -117,10 +126,17 @@ def encode_frames(
     frame_type: int = TYPE_INPUT,
     flags: npt.ArrayLike = 0,
 ) -> bytes:
-    """n frames back to back (vectorised layout; CRC per frame)."""
+    """n frames back to back (vectorised layout; CRC per frame).
+
+    Examples
+    --------
+    >>> data = encode_frames([1, 2], [0, 2500], np.zeros((2, 6)))
+    >>> len(data), decode_frame(data[FRAME_SIZE:]).t_us
+    (84, 2500)
+    """
     vals = np.asarray(values, dtype=np.float32)
     if vals.ndim != 2 or vals.shape[1] != 6:
-        raise ValueError(f"values: expected shape (n, 6), got {vals.shape}")
+        raise GyrodriftValueError(f"values: expected shape (n, 6), got {vals.shape}")
     n = vals.shape[0]
     rec = np.zeros(n, dtype=FRAME_DTYPE)
     rec["sync0"] = SYNC0
@@ -136,8 +152,17 @@ def encode_frames(
     return rec.tobytes()
 
 
-class FrameError(ValueError):
-    """A byte string that is not exactly one valid frame."""
+class FrameError(GyrodriftValueError):
+    """A byte string that is not exactly one valid frame.
+
+    Examples
+    --------
+    >>> try:
+    ...     decode_frame(b"\\x00" * FRAME_SIZE)
+    ... except FrameError as exc:
+    ...     print(exc, isinstance(exc, ValueError))
+    bad sync 0x00 0x00 True
+    """
 
 
 def decode_frame(frame: bytes | bytearray | memoryview) -> ImuFrame:
@@ -178,6 +203,15 @@ def _header_inside(b: bytes | bytearray, avail: int) -> int:
 
 @dataclass
 class ParserStats:
+    """The counters of a :class:`FrameParser`: bytes in, frames decoded, bytes discarded and why.
+
+    Examples
+    --------
+    >>> p = FrameParser()
+    >>> _ = p.feed(b"\\x00" + encode_frame(1, 0, [0.0] * 6))  # one stray byte before the frame
+    >>> p.stats.frames_ok, p.stats.garbage_bytes, p.stats.bytes_in
+    (1, 1, 43)
+    """
     bytes_in: int = 0
     frames_ok: int = 0
     discarded_bytes: int = 0
@@ -192,6 +226,13 @@ class FrameParser:
     """Stream parser with the C++ parser's rules and counters (unbounded buffer here).
 
     Invariant: bytes_in == FRAME_SIZE * frames_ok + discarded_bytes + buffered.
+
+    Examples
+    --------
+    >>> p = FrameParser()
+    >>> data = encode_frames([7, 8], [0, 2500], np.ones((2, 6)))
+    >>> [f.seq for f in p.feed(data[:50])], [f.seq for f in p.feed(data[50:])]
+    ([7], [8])
     """
 
     stats: ParserStats = field(default_factory=ParserStats)

@@ -28,7 +28,13 @@ __all__ = ["hdev_phase", "mdev_phase", "ohdev_phase", "rate_to_phase", "tdev_pha
 
 
 def rate_to_phase(y: np.ndarray, tau0_s: float) -> np.ndarray:
-    """x_k = tau0 sum_{i<k} (y_i - mean(y)), k = 0..N (N + 1 phase points)."""
+    """x_k = tau0 sum_{i<k} (y_i - mean(y)), k = 0..N (N + 1 phase points).
+
+    Examples
+    --------
+    >>> rate_to_phase(np.array([1.0, 2.0, 3.0]), 0.5)
+    array([ 0. , -0.5, -0.5,  0. ])
+    """
     y = np.asarray(y, dtype=np.float64)
     return tau0_s * np.concatenate([[0.0], np.cumsum(y - y.mean())])
 
@@ -41,7 +47,13 @@ def _check(x: np.ndarray, m: int, need: int) -> np.ndarray:
 
 
 def mdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
-    """(Mod sigma, number of terms), SP 1065 eq. 14."""
+    """(Mod sigma, number of terms), SP 1065 eq. 14.
+
+    Examples
+    --------
+    >>> mdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)  # (deviation, number of terms)
+    (1.4142135623730951, 6)
+    """
     x = _check(x, m, 3 * m + 1)
     d2 = x[2 * m:] - 2.0 * x[m:-m] + x[: -2 * m]  # i = 0 .. N-2m-1
     inner = sliding_window_view(d2, m).sum(axis=1)  # j = 0 .. N-3m
@@ -51,7 +63,13 @@ def mdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
 
 def tdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
-    """(time deviation, terms), SP 1065 eq. 15: tau / sqrt(3) Mod sigma."""
+    """(time deviation, terms), SP 1065 eq. 15: tau / sqrt(3) Mod sigma.
+
+    Examples
+    --------
+    >>> tdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)  # tau / sqrt(3) mdev
+    (0.8164965809277261, 6)
+    """
     md, n = mdev_phase(x, m, tau0_s)
     return m * tau0_s * md / math.sqrt(3.0), n
 
@@ -61,7 +79,13 @@ def _third(x: np.ndarray, m: int) -> np.ndarray:
 
 
 def ohdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
-    """(overlapping Hadamard deviation, terms), SP 1065 eq. 20."""
+    """(overlapping Hadamard deviation, terms), SP 1065 eq. 20.
+
+    Examples
+    --------
+    >>> ohdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
+    (1.632993161855452, 5)
+    """
     x = _check(x, m, 3 * m + 1)
     d3 = _third(x, m)
     tau = m * tau0_s
@@ -69,7 +93,13 @@ def ohdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
 
 def hdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
-    """(Hadamard deviation, terms), SP 1065 eq. 18 (i = 0, m, 2m, ...)."""
+    """(Hadamard deviation, terms), SP 1065 eq. 18 (i = 0, m, 2m, ...).
+
+    Examples
+    --------
+    >>> hdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
+    (1.632993161855452, 5)
+    """
     x = _check(x, m, 3 * m + 1)
     d3 = _third(x, m)[::m]
     tau = m * tau0_s
@@ -77,7 +107,13 @@ def hdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
 
 def totdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
-    """(total deviation, terms), SP 1065 eq. 25, 1 <= m <= N - 1."""
+    """(total deviation, terms), SP 1065 eq. 25, 1 <= m <= N - 1.
+
+    Examples
+    --------
+    >>> totdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
+    (1.4142135623730951, 6)
+    """
     x = _check(x, m, 3)
     n = x.size
     if m > n - 1:

@@ -24,6 +24,8 @@ def drift_loglike(
 ) -> tuple[float, np.ndarray]:
     """Exact Gaussian log-likelihood of a 1-D record and its standardised innovations.
 
+    Examples
+    --------
     >>> import numpy as np
     >>> ll, e = drift_loglike(np.array([0.1, -0.2, 0.3]), 0.0, 0.0, 0.0, 1.0, 0.0)
     >>> bool(abs(ll - (-1.5 * np.log(2 * np.pi) - 0.5 * 0.14)) < 1e-12)

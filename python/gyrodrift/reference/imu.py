@@ -97,7 +97,16 @@ def process_imu(
 ) -> ImuResult:
     """Reference processor over a whole record (float64). Rows that are rejected
     (duplicate / out-of-order seq) get NaN values and FLAG_REJECTED, as in the binding.
-    `config` may be a configuration file (or gyrodrift.config.ProcessorConfig)."""
+    `config` may be a configuration file (or gyrodrift.config.ProcessorConfig).
+
+    Examples
+    --------
+    >>> from gyrodrift.imu import ImuChannelConfig, ImuConfig
+    >>> cfg = ImuConfig(channels=[ImuChannelConfig() for _ in range(6)])  # pass-through
+    >>> out = process_imu(np.array([0, 1, 1]), np.array([0, 2500, 2500]), np.ones((3, 6)), cfg)
+    >>> out.values[:, 0], out.health["samples_in"]  # the repeated sample is rejected (NaN)
+    (array([ 1.,  1., nan]), 3)
+    """
     if not isinstance(config, ImuConfig):
         config = ImuConfig.from_processor_config(config)
     config.validate()

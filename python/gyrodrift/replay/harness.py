@@ -18,6 +18,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,7 @@ from gyrodrift.codecs.can_signals import (
     encode_sample_frames,
     load_signal_map,
 )
+from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.imu import FLAG_CONFIG_ERROR, FLAG_DUPLICATE, FLAG_OUT_OF_ORDER, FLAG_REJECTED
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.faults import (
@@ -77,15 +79,30 @@ HARNESS_SWITCH_INTERVAL_S = 1e-4  # GIL hand-over bound while the harness runs r
 SLCAN_LINE_BYTES = 22
 
 
-class ReplayError(RuntimeError):
-    """The replay could not run (no loop binary, target did not start, bad options)."""
+class ReplayError(GyrodriftError, RuntimeError):
+    """The replay could not run (no loop binary, target did not start, bad options).
+
+    Examples
+    --------
+    >>> try:
+    ...     find_loop_binary("/nonexistent/gyrodrift-loop")
+    ... except ReplayError as exc:
+    ...     print(exc, isinstance(exc, RuntimeError))
+    loop binary /nonexistent/gyrodrift-loop does not exist or is not executable True
+    """
 
 
 def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
     """The gyrodrift-loop executable: `explicit`, $GYRODRIFT_LOOP, the C++ build named by
     $GYRODRIFT_CPP_BUILD_DIR, the repo's build/*/ trees, the scripts directory of this
     installation (where the wheel installs it, beside the `gyrodrift` command), or
-    `gyrodrift-loop` on PATH."""
+    `gyrodrift-loop` on PATH.
+
+    Examples
+    --------
+    >>> find_loop_binary().name
+    'gyrodrift-loop'
+    """
     if explicit:
         path = Path(explicit)
         if path.is_file() and os.access(path, os.X_OK):
@@ -117,6 +134,18 @@ def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
 
 @dataclass
 class ReplayOptions:
+    """How to replay: link and pacing, the loop program, fault injection and the processor.
+
+    Examples
+    --------
+    >>> opt = ReplayOptions(transport="slcan", speed=0.0, faults=FaultSpec(drop=0.01))
+    >>> opt.can, opt.baud
+    (True, 921600)
+    >>> ReplayOptions(transport="socketcan")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: socketcan replays attach to a running target ...
+    """
     transport: str = "serial"  # serial | slcan | socketcan (socketcan: attach to a real bus)
     speed: float = 1.0  # 1 = original timestamps, k = k times faster, 0 = as fast as possible
     baud: int = 921600  # serial line rate (frame pacing; a pty ignores it)
@@ -140,28 +169,36 @@ class ReplayOptions:
     # CAN replays in a user's DBC layout: the signal map (TOML path) whose DBC encodes the
     # frames sent, and whose decode table the started loop gets (--can-signals).
     can_signals: str | None = None
+    # A progress bar of the units sent (tqdm, on stderr), drawn by its own thread so the
+    # sender only stores a count; the command line sets it from --progress.
+    progress: bool = False
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
-            raise ValueError(f"transport must be one of {TRANSPORTS}, got {self.transport!r}")
+            raise GyrodriftValueError(f"transport must be one of {TRANSPORTS}, got "
+                                      f"{self.transport!r}")
         if not (self.speed >= 0 and np.isfinite(self.speed)):
-            raise ValueError(f"speed must be >= 0 (0 = as fast as possible), got {self.speed}")
+            raise GyrodriftValueError(f"speed must be >= 0 (0 = as fast as possible), got "
+                                      f"{self.speed}")
         if self.transport == "socketcan" and self.attach is None:
-            raise ValueError("socketcan replays attach to a running target on a real "
-                             "interface: pass attach='can0'")
+            raise GyrodriftValueError("socketcan replays attach to a running target on a real "
+                                      "interface: pass attach='can0'")
         if self.local_link not in ("pty", "socketpair"):
-            raise ValueError(f"local_link must be 'pty' or 'socketpair', got {self.local_link!r}")
+            raise GyrodriftValueError(f"local_link must be 'pty' or 'socketpair', got "
+                                      f"{self.local_link!r}")
         if self.local_link == "socketpair" and self.transport != "serial":
-            raise ValueError("local_link='socketpair' carries the serial transport only")
+            raise GyrodriftValueError("local_link='socketpair' carries the serial transport only")
         if self.can_signals is not None:
             if not self.can:
-                raise ValueError("can_signals applies to the slcan and socketcan transports")
+                raise GyrodriftValueError("can_signals applies to the slcan and socketcan "
+                                          "transports")
             f = self.faults
             if any((f.drop, f.corrupt, f.duplicate, f.reorder, f.delay)):
-                raise ValueError("fault injection needs the project's CAN frames; a replay in a "
-                                 "user's DBC layout (can_signals) runs clean")
+                raise GyrodriftValueError("fault injection needs the project's CAN frames; a "
+                                          "replay in a "
+                                          "user's DBC layout (can_signals) runs clean")
         if self.baud <= 0 or self.can_bitrate <= 0:
-            raise ValueError("baud and can_bitrate must be > 0")
+            raise GyrodriftValueError("baud and can_bitrate must be > 0")
 
     @property
     def can(self) -> bool:
@@ -171,7 +208,16 @@ class ReplayOptions:
 @dataclass(frozen=True)
 class ReplayResult:
     """The outcome of a replay: the report (accounting, comparison, latency, throughput; the
-    JSON file's content), per-output latencies and arrival times, and the loop's statistics."""
+    JSON file's content), per-output latencies and arrival times, and the loop's statistics.
+
+    Examples
+    --------
+    >>> from gyrodrift.replay.wire import make_samples
+    >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
+    >>> res = run_replay(s, ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False))
+    >>> res.ok, res.latency_us.shape, res.as_dict()["accounting"]["outputs_received"]
+    (True, (40,), 40)
+    """
 
     report: dict[str, Any]
     latency_us: np.ndarray  # per received output, in output order
@@ -315,11 +361,23 @@ class _Target:
 
 
 def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
-    """Replay `samples` into the target and check everything that comes back."""
+    """Replay `samples` into the target and check everything that comes back.
+
+    Examples
+    --------
+    >>> from gyrodrift.replay.wire import make_samples
+    >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
+    >>> opt = ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False,
+    ...                     faults=FaultSpec(corrupt=0.1, seed=1))
+    >>> res = run_replay(s, opt)  # the loop program on a pty, as fast as possible
+    >>> acc = res.report["accounting"]
+    >>> res.ok, acc["sent"], acc["rejected_on_link"]["crc"] + acc["outputs_received"]
+    (True, 40, 40)
+    """
     if len(samples) == 0:
-        raise ValueError("nothing to replay: the record is empty")
+        raise GyrodriftValueError("nothing to replay: the record is empty")
     if not np.all(np.diff(samples.t_us.astype(np.int64)) >= 0):
-        raise ValueError("record timestamps go backwards: cannot pace a replay")
+        raise GyrodriftValueError("record timestamps go backwards: cannot pace a replay")
     plan = plan_transmission(samples.t_s, opt.faults)
     rng = np.random.default_rng(opt.faults.seed + 1)
     smap = load_signal_map(opt.can_signals) if opt.can_signals is not None else None
@@ -376,6 +434,8 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     rt_prio = HARNESS_RT_PRIORITY if opt.harness_realtime else None
     harness_rt = {"sender": "not requested", "receiver": "not requested"}
     switch_interval_s = sys.getswitchinterval()
+    sent = [0]  # units written so far, read by the progress thread
+    bar = _ProgressThread(n_units, lambda: sent[0]) if opt.progress else None
     try:
         # Start-up inside the try: a Ctrl-C or failure while waiting for the loop's ready
         # line must end the child too (issue 13).
@@ -408,6 +468,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                 # preempted sender would stamp after the reply arrived (negative latency).
                 write_ns[k] = time.perf_counter_ns()
                 _send(link, payload[k], rng)
+                sent[0] = k + 1
                 link_free = ready_ns
         elif opt.transport == "serial":
             assert isinstance(link, SerialLink)
@@ -416,10 +477,12 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
                 chunk = b"".join(payload[k0:k0 + b])
                 write_ns[k0:k0 + b] = time.perf_counter_ns()  # before the first byte leaves
                 link.write(chunk)
+                sent[0] = min(k0 + b, n_units)
         else:
             for k in range(n_units):
                 write_ns[k] = time.perf_counter_ns()  # before the first byte leaves
                 _send(link, payload[k], rng)
+                sent[0] = k + 1
         end_write_ns = time.perf_counter_ns()
         # Wait for the outputs: all expected ones, or settle_s without anything new.
         duration_s = (t_rec[-1] - t_rec[0]) / opt.speed if opt.speed > 0 else 0.0
@@ -437,6 +500,8 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
             time.sleep(0.01)
         time.sleep(0.05)  # anything still in flight
     finally:
+        if bar is not None:
+            bar.stop()
         if link is not None:
             link.close()
         if opt.harness_realtime:
@@ -499,6 +564,36 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     lat = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
     arrival_s = (got_arrival - start_ns) * 1e-9
     return ReplayResult(report, lat, arrival_s, loop_stats)
+
+
+class _ProgressThread:
+    """A tqdm bar on stderr over `total` units, moved every 0.1 s by its own thread from
+    `count()`: the real-time sender only stores an integer."""
+
+    def __init__(self, total: int, count: Callable[[], int]) -> None:
+        from tqdm import tqdm
+
+        self._count = count
+        self._bar = tqdm(total=total, desc="replay", unit="sample", file=sys.stderr,
+                         mininterval=0.1)
+        self._done = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="replay-progress", daemon=True)
+        self._thread.start()
+
+    def _move(self) -> None:
+        n = self._count()
+        if n > self._bar.n:
+            self._bar.update(n - self._bar.n)
+
+    def _run(self) -> None:
+        while not self._done.wait(0.1):
+            self._move()
+
+    def stop(self) -> None:
+        self._done.set()
+        self._thread.join()
+        self._move()
+        self._bar.close()
 
 
 def _send(link: SerialLink | CanLink, unit: Any, rng: np.random.Generator) -> None:

@@ -114,16 +114,23 @@ class CanLogReport:
 
 
 def log_format(path: str | Path, fmt: str | None = None) -> str:
-    """The format name of a log: `fmt` if given, else from the file suffix."""
+    """The format name of a log: `fmt` if given, else from the file suffix.
+
+    Examples
+    --------
+    >>> log_format("flight.log"), log_format("bench.blf"), log_format("x.dat", "bin")
+    ('candump', 'blf', 'bin')
+    """
     if fmt is not None:
         if fmt not in FORMATS:
-            raise ValueError(f"unknown log format {fmt!r}; choose one of {', '.join(FORMATS)}")
+            raise GyrodriftValueError(f"unknown log format {fmt!r}; choose one of "
+                                      f"{', '.join(FORMATS)}")
         return fmt
     suffix = Path(path).suffix.lower()
     if suffix not in SUFFIX_FORMATS:
         known = ", ".join(sorted(SUFFIX_FORMATS))
-        raise ValueError(f"cannot tell the log format of {path!s} from its suffix; "
-                         f"use one of {known} or pass fmt")
+        raise GyrodriftValueError(f"cannot tell the log format of {path!s} from its suffix; "
+                                  f"use one of {known} or pass fmt")
     return SUFFIX_FORMATS[suffix]
 
 
@@ -151,6 +158,17 @@ def write_imu_log(path: str | Path, t_s: np.ndarray, gyro_rad_s: np.ndarray,
 
 
 def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) -> Path:
+    """Write wire-typed samples as a log (binary frames, CSV or a CAN log by the suffix or `fmt`).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.zeros((3, 3)))
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = write_samples(Path(d) / "rec.bin", s)
+    ...     print(path.stat().st_size, read_imu_log(path).seq)
+    126 [0 1 2]
+    """
     path = Path(path)
     kind = log_format(path, fmt)
     if kind == "bin":
@@ -168,7 +186,7 @@ def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) ->
         # python-can picks the writer (CanutilsLogWriter, ASCWriter, BLFWriter) from the suffix.
         suffix = {"candump": ".log", "asc": ".asc", "blf": ".blf"}[kind]
         if path.suffix.lower() != suffix:
-            raise ValueError(f"{kind} logs must end in {suffix}, got {path.name}")
+            raise GyrodriftValueError(f"{kind} logs must end in {suffix}, got {path.name}")
         t_s = samples.t_s
         with can.Logger(str(path)) as writer:
             for k in range(len(samples)):
@@ -212,17 +230,18 @@ def read_imu_log(path: str | Path, fmt: str | None = None, *,
     kind = log_format(path, fmt)
     if signals is not None and kind not in CAN_FORMATS:
         raise GyrodriftValueError(f"{path}: a DBC signal map applies to CAN logs "
-                         f"({', '.join(CAN_FORMATS)}), not to {kind}")
+                                  f"({', '.join(CAN_FORMATS)}), not to {kind}")
     if kind == "bin":
         data = path.read_bytes()
         if len(data) < FRAME_SIZE:
-            raise ValueError(f"{path}: {len(data)} bytes, shorter than one {FRAME_SIZE}-byte frame")
+            raise GyrodriftValueError(f"{path}: {len(data)} bytes, shorter than one "
+                                      f"{FRAME_SIZE}-byte frame")
         dec = decode_stream(data)
         bad = {"crc_errors": dec.crc_errors, "garbage_bytes": dec.garbage_bytes,
                "truncated_bytes": dec.truncated_bytes,
                "non_input_frames": int(np.count_nonzero(dec.frame_type != TYPE_INPUT))}
         if any(bad.values()):
-            raise ValueError(f"{path}: corrupted binary frame log: {bad}")
+            raise GyrodriftValueError(f"{path}: corrupted binary frame log: {bad}")
         return dec.samples
     if kind == "csv":
         return _read_csv(path)
@@ -288,7 +307,7 @@ def _read_can_log(path: Path) -> Samples:
         raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
     if not seq:
         raise GyrodriftValueError(f"{path}: no IMU samples (CAN IDs 0x100..0x103) in the log; "
-                         f"{rep.summary()}")
+                                  f"{rep.summary()}")
     return Samples(np.asarray(seq, np.uint16), np.asarray(flags, np.uint16),
                    np.round(np.asarray(stamps) * 1e6).astype(np.uint64),
                    np.asarray(values, np.float32).reshape(-1, 6), log_report=rep)
@@ -319,7 +338,7 @@ def _read_can_log_with_map(path: Path, smap: SignalMap) -> Samples:
         raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
     if not seq:
         raise GyrodriftValueError(f"{path}: no IMU samples through the signal map {smap.source}; "
-                         f"{rep.summary()}")
+                                  f"{rep.summary()}")
     return Samples(np.asarray(seq, np.uint16), np.zeros(len(seq), np.uint16),
                    np.asarray(stamps_us, np.uint64),
                    np.asarray(values, np.float64).astype(np.float32).reshape(-1, 6),
@@ -331,18 +350,19 @@ def _read_csv(path: Path) -> Samples:
         reader = csv.reader(fh)
         header = next(reader, None)
         if header is None or tuple(h.strip() for h in header) != CSV_COLUMNS:
-            raise ValueError(f"{path}: expected CSV header {','.join(CSV_COLUMNS)}")
+            raise GyrodriftValueError(f"{path}: expected CSV header {','.join(CSV_COLUMNS)}")
         rows = [r for r in reader if r]
     if not rows:
-        raise ValueError(f"{path}: no data rows")
+        raise GyrodriftValueError(f"{path}: no data rows")
     try:
         arr = np.asarray(rows, dtype=np.float64)
     except ValueError as exc:
-        raise ValueError(f"{path}: non-numeric CSV field ({exc})") from None
+        raise GyrodriftValueError(f"{path}: non-numeric CSV field ({exc})") from None
     if arr.shape[1] != len(CSV_COLUMNS):
-        raise ValueError(f"{path}: expected {len(CSV_COLUMNS)} columns, got {arr.shape[1]}")
+        raise GyrodriftValueError(f"{path}: expected {len(CSV_COLUMNS)} columns, got "
+                                  f"{arr.shape[1]}")
     t_s = arr[:, 0]
     if not np.all(np.isfinite(t_s)) or t_s[0] < 0 or np.any(np.diff(t_s) < 0):
-        raise ValueError(f"{path}: t_s must be finite, >= 0 and non-decreasing")
+        raise GyrodriftValueError(f"{path}: t_s must be finite, >= 0 and non-decreasing")
     return Samples(arr[:, 1].astype(np.uint16), arr[:, 2].astype(np.uint16),
                    np.round(t_s * 1e6).astype(np.uint64), arr[:, 3:9].astype(np.float32))

@@ -14,6 +14,7 @@ from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.imu import ImuChannelConfig, ImuConfig
 
 if TYPE_CHECKING:
@@ -40,6 +41,16 @@ class ProcessorSettings:
 
     The AR(2) default (a1=1.0, a2=-0.25: a double root at 0.5, stationary; sigma2, q, r in
     (rad/s)^2) is a demonstration model; identify the real gyro with gyrodrift.fit_ar2.
+
+    Examples
+    --------
+    >>> p = ProcessorSettings(gyro_filter="bias_removal", gyro_bias=0.01, sample_rate_hz=200.0)
+    >>> p.period_us, p.tolerance_us, p.loop_args()[:4]
+    (5000, 2500, ['--gyro-filter', 'bias_removal', '--accel-filter', 'pass_through'])
+    >>> ProcessorSettings(gyro_filter="median")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: gyro_filter must be one of (...), got 'median'
     """
 
     gyro_filter: str = "ar2_kalman"
@@ -75,10 +86,10 @@ class ProcessorSettings:
     def __post_init__(self) -> None:
         for name in ("gyro_filter", "accel_filter"):
             if getattr(self, name) not in LOOP_FILTERS:
-                raise ValueError(f"{name} must be one of {LOOP_FILTERS}, "
-                                 f"got {getattr(self, name)!r}")
+                raise GyrodriftValueError(f"{name} must be one of {LOOP_FILTERS}, "
+                                          f"got {getattr(self, name)!r}")
         if not (self.sample_rate_hz > 0 and math.isfinite(self.sample_rate_hz)):
-            raise ValueError(f"sample_rate_hz must be > 0, got {self.sample_rate_hz}")
+            raise GyrodriftValueError(f"sample_rate_hz must be > 0, got {self.sample_rate_hz}")
 
     @property
     def period_us(self) -> int:

@@ -29,7 +29,19 @@ def _fmt(x: Any, digits: int = 1) -> str:
 
 
 def format_table(result: ReplayResult) -> str:
-    """The report as aligned text (what `gyrodrift replay` prints)."""
+    """The report as aligned text (what `gyrodrift replay` prints).
+
+    Examples
+    --------
+    >>> from gyrodrift.replay import ReplayOptions, run_replay
+    >>> from gyrodrift.replay.wire import make_samples
+    >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
+    >>> res = run_replay(s, ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False))
+    >>> print("\\n".join(format_table(res).splitlines()[:1] + format_table(res).splitlines()[8:10]))
+    result                             PASS
+    outputs expected / received        40 / 40
+    unaccounted                        0
+    """
     r = result.report
     a = r["accounting"]
     rows: list[tuple[str, str]] = [
@@ -90,6 +102,18 @@ def format_table(result: ReplayResult) -> str:
 
 
 def write_json(result: ReplayResult, path: str | Path) -> Path:
+    """Write the replay's report as JSON to `path` (what `gyrodrift replay` saves as report.json).
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> from pathlib import Path
+    >>> from gyrodrift.replay import ReplayResult
+    >>> res = ReplayResult({"ok": True, "transport": "serial"}, np.zeros(0), np.zeros(0), None)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     print(json.loads(write_json(res, Path(d) / "report.json").read_text())["ok"])
+    True
+    """
     path = Path(path)
 
     def clean(x: Any) -> Any:
@@ -109,7 +133,21 @@ def write_json(result: ReplayResult, path: str | Path) -> Path:
 
 def write_png(result: ReplayResult, path: str | Path) -> Path:
     """Latency of every output over the run, its distribution, and the output inter-arrival
-    jitter seen by the harness with the loop's own period-jitter percentiles."""
+    jitter seen by the harness with the loop's own period-jitter percentiles.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from gyrodrift.replay import ReplayResult
+    >>> rng = np.random.default_rng(0)  # 50 outputs, 2.5 ms apart with some jitter
+    >>> res = ReplayResult({"ok": True, "transport": "serial", "speed": "1x"},
+    ...                    rng.normal(300.0, 20.0, 50),
+    ...                    np.arange(50) * 0.0025 + rng.normal(0.0, 1e-5, 50), None)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     print(write_png(res, Path(d) / "report.png").stat().st_size > 10_000)
+    True
+    """
     import matplotlib
 
     matplotlib.use("Agg")

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 import can
 import serial
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = [
     "CAN_FRAME_BITS",
     "UART_BITS_PER_BYTE",
@@ -41,6 +43,17 @@ UART_BITS_PER_BYTE = 10
 
 @dataclass
 class PtyPair:
+    """A pseudo-terminal pair: the loop takes the master side, the harness opens the slave by
+    its path.
+
+    Examples
+    --------
+    >>> pty = PtyPair.open()
+    >>> _ = os.write(pty.master_fd, b"abc")
+    >>> os.read(pty.slave_fd, 3), pty.slave_path.startswith("/dev/pts/")
+    (b'abc', True)
+    >>> pty.close()
+    """
     master_fd: int
     slave_fd: int
     slave_path: str
@@ -74,7 +87,14 @@ class PtyPair:
 
 @dataclass
 class Capture:
-    """Everything the reader thread saw: (arrival_ns, payload) in arrival order."""
+    """Everything the reader thread saw: (arrival_ns, payload) in arrival order.
+
+    Examples
+    --------
+    >>> c = Capture(chunks=[(0, b"ab"), (5, b"cde")])
+    >>> c.byte_count
+    5
+    """
 
     chunks: list[tuple[int, bytes]] = field(default_factory=list)
     messages: list[tuple[int, can.Message]] = field(default_factory=list)
@@ -111,7 +131,21 @@ def set_thread_normal() -> None:
 class SerialLink:
     """A serial device opened with pyserial (raw 8N1); reads on a background thread, which
     runs SCHED_FIFO at `realtime_priority` when given and permitted (`receiver_realtime`
-    says what it got)."""
+    says what it got).
+
+    Examples
+    --------
+    >>> pty = PtyPair.open()
+    >>> link = SerialLink(pty.slave_path, 921600)
+    >>> _ = os.write(pty.master_fd, b"reply")  # what the target sends
+    >>> t_end = time.monotonic() + 5.0
+    >>> while link.received_bytes() < 5 and time.monotonic() < t_end:
+    ...     time.sleep(0.01)
+    >>> link.write(b"frame")
+    >>> link.received_bytes(), os.read(pty.master_fd, 5)
+    (5, b'frame')
+    >>> link.close(); pty.close()
+    """
 
     def __init__(self, path: str, baud: int, *, realtime_priority: int | None = None) -> None:
         self.port: serial.Serial | None = None
@@ -170,12 +204,25 @@ class SerialLink:
 
 class CanLink:
     """python-can bus: `slcan` over a serial device (USB-CAN adapters, or a pty in tests)
-    or `socketcan` on a kernel interface (can0). Never a network-backed interface."""
+    or `socketcan` on a kernel interface (can0). Never a network-backed interface.
+
+    Examples
+    --------
+    >>> from gyrodrift.codecs import encode_sample
+    >>> pty = PtyPair.open()  # an SLCAN adapter on a pseudo-terminal
+    >>> link = CanLink("slcan", pty.slave_path)
+    >>> link.send(encode_sample(1, [0.0] * 6)[0])
+    >>> time.sleep(0.1)
+    >>> os.read(pty.master_fd, 4096).split(b"\\r")[-2]  # the frame as an SLCAN line
+    b't10080000000000000000'
+    >>> link.close(); pty.close()
+    """
 
     def __init__(self, interface: str, channel: str, *, bitrate: int = 500000,
                  tty_baud: int = 921600, realtime_priority: int | None = None) -> None:
         if interface not in ("slcan", "socketcan"):
-            raise ValueError(f"CAN interface must be 'slcan' or 'socketcan', got {interface!r}")
+            raise GyrodriftValueError(f"CAN interface must be 'slcan' or 'socketcan', got "
+                                      f"{interface!r}")
         self.interface = interface
         try:
             if interface == "slcan":
@@ -201,7 +248,7 @@ class CanLink:
         """Bytes straight onto the adapter's serial line (slcan only): how a line error is
         injected, since python-can only ever writes well-formed lines."""
         if self.interface != "slcan":
-            raise ValueError("raw lines need the slcan interface")
+            raise GyrodriftValueError("raw lines need the slcan interface")
         # python-can's pyserial port of the slcan bus (not in BusABC's type)
         port = self.bus.serialPortOrig  # type: ignore[attr-defined]
         port.write(line)
@@ -230,7 +277,15 @@ class CanLink:
 
 
 def sleep_until_ns(t_ns: int, spin_ns: int = 200_000) -> None:
-    """Sleep to within spin_ns of t_ns, then spin: OS sleeps overshoot by ~50-100 us."""
+    """Sleep to within spin_ns of t_ns, then spin: OS sleeps overshoot by ~50-100 us.
+
+    Examples
+    --------
+    >>> t = time.perf_counter_ns() + 2_000_000  # 2 ms from now
+    >>> sleep_until_ns(t)
+    >>> time.perf_counter_ns() >= t
+    True
+    """
     while True:
         rem = t_ns - time.perf_counter_ns()
         if rem <= 0:

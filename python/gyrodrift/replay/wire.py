@@ -26,6 +26,7 @@ from gyrodrift.codecs.serial_frame import (
     TYPE_INPUT,
     crc16_ccitt_false,
 )
+from gyrodrift.errors import GyrodriftValueError
 
 if TYPE_CHECKING:
     from gyrodrift.replay.logs import CanLogReport
@@ -43,7 +44,16 @@ _SYNC_WORD = bytes((SYNC0, SYNC1))
 
 @dataclass
 class Samples:
-    """A record of IMU samples as carried on the wire (float32 channels)."""
+    """A record of IMU samples as carried on the wire (float32 channels).
+
+    Examples
+    --------
+    >>> s = make_samples(np.array([0.0, 0.0025]), np.zeros((2, 3)), np.zeros((2, 3)))
+    >>> len(s), s.t_s, s.channels.dtype
+    (2, array([0.    , 0.0025]), dtype('float32'))
+    >>> s.take(np.array([1])).seq
+    array([1], dtype=uint16)
+    """
 
     seq: np.ndarray  # (n,) uint16
     flags: np.ndarray  # (n,) uint16
@@ -66,20 +76,28 @@ class Samples:
 
 def make_samples(t_s: np.ndarray, gyro_rad_s: np.ndarray, accel_m_s2: np.ndarray,
                  seq0: int = 0) -> Samples:
-    """Validate a record and give it wire types: seq counts from seq0 and wraps at 65536."""
+    """Validate a record and give it wire types: seq counts from seq0 and wraps at 65536.
+
+    Examples
+    --------
+    >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.tile([0.0, 0.0, 9.8], (3, 1)),
+    ...                  seq0=65535)
+    >>> s.seq, s.t_us, s.channels[0, 5]
+    (array([65535,     0,     1], dtype=uint16), array([   0, 2500, 5000], dtype=uint64), 9.8)
+    """
     t_s = np.asarray(t_s, dtype=np.float64)
     gyro = np.asarray(gyro_rad_s, dtype=np.float64)
     accel = np.asarray(accel_m_s2, dtype=np.float64)
     if t_s.ndim != 1 or t_s.size == 0:
-        raise ValueError(f"t_s: expected a non-empty 1-D array, got shape {t_s.shape}")
+        raise GyrodriftValueError(f"t_s: expected a non-empty 1-D array, got shape {t_s.shape}")
     n = t_s.shape[0]
     for name, arr in (("gyro_rad_s", gyro), ("accel_m_s2", accel)):
         if arr.shape != (n, 3):
-            raise ValueError(f"{name}: expected shape ({n}, 3), got {arr.shape}")
+            raise GyrodriftValueError(f"{name}: expected shape ({n}, 3), got {arr.shape}")
     if not np.all(np.isfinite(t_s)):
-        raise ValueError("t_s: non-finite timestamp")
+        raise GyrodriftValueError("t_s: non-finite timestamp")
     if t_s[0] < 0 or np.any(np.diff(t_s) < 0):
-        raise ValueError("t_s: timestamps must be >= 0 and non-decreasing")
+        raise GyrodriftValueError("t_s: timestamps must be >= 0 and non-decreasing")
     seq = ((np.arange(n, dtype=np.int64) + seq0) % 65536).astype(np.uint16)
     t_us = np.round(t_s * 1e6).astype(np.uint64)
     channels = np.concatenate([gyro, accel], axis=1).astype(np.float32)
@@ -87,7 +105,14 @@ def make_samples(t_s: np.ndarray, gyro_rad_s: np.ndarray, accel_m_s2: np.ndarray
 
 
 def encode_frames(samples: Samples, frame_type: int = TYPE_INPUT) -> np.ndarray:
-    """All samples as serial frames: an (n, 42) uint8 array (row i = frame i)."""
+    """All samples as serial frames: an (n, 42) uint8 array (row i = frame i).
+
+    Examples
+    --------
+    >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.zeros((3, 3)))
+    >>> encode_frames(s).shape
+    (3, 42)
+    """
     raw = codecs.encode_frames(samples.seq, samples.t_us, samples.channels,
                                frame_type=frame_type, flags=samples.flags)
     return np.frombuffer(raw, dtype=np.uint8).reshape(len(samples), FRAME_SIZE)
@@ -95,7 +120,15 @@ def encode_frames(samples: Samples, frame_type: int = TYPE_INPUT) -> np.ndarray:
 
 @dataclass
 class DecodedStream:
-    """Frames found in a byte stream, in arrival order, and what had to be skipped."""
+    """Frames found in a byte stream, in arrival order, and what had to be skipped.
+
+    Examples
+    --------
+    >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.zeros((3, 3)))
+    >>> dec = decode_stream(b"junk" + encode_frames(s).tobytes())
+    >>> dec.samples.seq, dec.garbage_bytes, dec.end_offset
+    (array([0, 1, 2], dtype=uint16), 4, array([ 46,  88, 130]))
+    """
 
     frame_type: np.ndarray  # (m,) uint8
     samples: Samples
@@ -108,7 +141,17 @@ class DecodedStream:
 def decode_stream(data: bytes) -> DecodedStream:
     """Find every valid frame in a byte stream (resynchronising on the sync word): a frame
     is accepted where sync, length and CRC check; elsewhere the search moves to the next
-    sync word. The accepted frames are then decoded together with numpy."""
+    sync word. The accepted frames are then decoded together with numpy.
+
+    Examples
+    --------
+    >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.zeros((3, 3)))
+    >>> raw = bytearray(encode_frames(s).tobytes())
+    >>> raw[42 + 10] ^= 0xFF  # the second frame's CRC fails
+    >>> dec = decode_stream(bytes(raw[:-5]))  # and the third is cut short
+    >>> dec.samples.seq, dec.crc_errors, dec.truncated_bytes
+    (array([0], dtype=uint16), 1, 37)
+    """
     buf = memoryview(data)
     n = len(buf)
     starts: list[int] = []

@@ -61,6 +61,13 @@ def gravity_integral_i0(t_s: float, lat_rad: float, g_m_s2: float, position: boo
 
     C_n(t)^i0 e_U = [cL sin(Wt), sL cL (1 - cos Wt), cos Wt + sL^2 (1 - cos Wt)]; its
     integrals in closed form (W = Omega).
+
+    Examples
+    --------
+    >>> gravity_integral_i0(0.0, 0.5, 9.8, position=False)
+    array([0., 0., 0.])
+    >>> gravity_integral_i0(10.0, 0.5, 9.8, position=False).round(6)  # ~ g t up, Earth turning
+    array([3.1357000e-02, 4.0000000e-06, 9.7999993e+01])
     """
     w = EARTH_RATE_RAD_S
     sl, cl = np.sin(lat_rad), np.cos(lat_rad)
@@ -105,7 +112,19 @@ def triad(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 class InertialCoarseAlign:
-    """Accumulates increments for a fixed number of samples, then solves C_b^n at the end."""
+    """Accumulates increments for a fixed number of samples, then solves C_b^n at the end.
+
+    Examples
+    --------
+    >>> from gyrodrift.align import imu_increments, scenario
+    >>> from gyrodrift.align.attitude import dcm2euler
+    >>> sc = scenario("static")
+    >>> dth, dv = imu_increments(sc, 3000, 0.01)  # 30 s at rest, no sensor errors
+    >>> ca = InertialCoarseAlign(3000, 0.01, sc.lat_rad, sc.h_m)
+    >>> done = [ca.add(dth[k], dv[k]) for k in range(3000)][-1]
+    >>> done, np.rad2deg(dcm2euler(ca.solve())).round(3) + 0.0
+    (True, array([ 0.,  0., 30.]))
+    """
 
     def __init__(self, n_samples: int, dt_s: float, lat_rad: float, h_m: float,
                  position_integral: bool = True) -> None:

@@ -32,6 +32,16 @@ __all__ = [
 
 
 class FineAlignKF:
+    """The fine-alignment Kalman filter (12 or 15 states: attitude, velocity, [position], gyro and
+    accelerometer biases) with zero-velocity updates.
+
+    Examples
+    --------
+    >>> kf = FineAlignKF(12, np.ones(12), np.zeros(12), np.full(3, 0.01), np.zeros(12))
+    >>> x = kf.update(np.array([0.1, 0.0, 0.0]))  # v^n measured 0.1 m/s east at rest
+    >>> x[3:6].round(4), kf.P.shape
+    (array([0.099, 0.   , 0.   ]), (12, 12))
+    """
     def __init__(self, n_states: int, p0_diag: np.ndarray, q_diag: np.ndarray,
                  r_diag: np.ndarray, p_floor_diag: np.ndarray) -> None:
         if n_states not in (12, 15):

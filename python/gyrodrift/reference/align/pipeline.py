@@ -23,7 +23,18 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
     """Plain-loop reference. Returns the per-KF-update histories as an `AlignResult`
     (bad_samples 0, failed False: the reference has no fault handling).
     Alignment starts after the warm-up max(n_taps - 1, delay) samples that fill the prefilter
-    window and the delay line (see nav_align_pipeline.hpp for why)."""
+    window and the delay line (see nav_align_pipeline.hpp for why).
+
+    Examples
+    --------
+    >>> from gyrodrift.align import AlignConfig, imu_increments, scenario
+    >>> sc = scenario("static")
+    >>> dth, dv = imu_increments(sc, 100 * 50, 0.01)  # 50 s at rest, 100 Hz
+    >>> cfg = AlignConfig(dt_s=0.01, lat_rad=sc.lat_rad, h_m=sc.h_m, coarse_s=30.0)
+    >>> res = run_alignment_reference(dth, dv, cfg)
+    >>> res.failed, res.att.shape, np.rad2deg(res.att[-1]).round(3) + 0.0
+    (False, (50, 3), array([ 0.,  0., 30.]))
+    """
     dtheta = np.asarray(dtheta, dtype=float)
     dv = np.asarray(dv, dtype=float)
     n = dtheta.shape[0]

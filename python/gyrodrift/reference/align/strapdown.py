@@ -25,6 +25,16 @@ __all__ = [
 
 
 class Strapdown:
+    """Strapdown attitude, velocity and position update (two-sample coning and sculling), the
+    reference of nav_strapdown.hpp.
+
+    Examples
+    --------
+    >>> sd = Strapdown(np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3), 0.5, 0.0, 0.0)
+    >>> dvn = sd.step(np.zeros(3), np.array([0.0, 0.0, 9.8 * 0.01]), 0.01)  # level, at rest
+    >>> dvn.round(6) + 0.0, sd.vn.round(6) + 0.0  # gravity 9.7922 m/s^2 here: 7.8e-5 m/s left
+    (array([0.   , 0.   , 0.098]), array([0.0e+00, 0.0e+00, 7.8e-05]))
+    """
     def __init__(self, q_nb: np.ndarray, vn_m_s: np.ndarray, lat_rad: float, lon_rad: float,
                  h_m: float) -> None:
         self.q = np.array(q_nb, dtype=float)
