@@ -133,7 +133,8 @@ def test_one_channel_commands_accept_psins(tmp_path: Path, command: str,
     _write_psins(path, counts)
     from gyrodrift.cli import main
 
-    extra = ["-o", str(tmp_path / "out.npy")] if command == "filter" else []
+    extra = {"filter": ["-o", str(tmp_path / "out.npy")],
+             "psd": ["--png", str(tmp_path / "psd.png")]}.get(command, [])
     assert main([command, str(path), "--column", "y", "--json", *extra]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["record"]["column"] == "gyro_y" and doc["record"]["n_used"] == 2000
