@@ -4,8 +4,10 @@ worker with the chunked .npy reader.
 Logs: N_LOGS records of N_SAMPLES x 6 channels (float32 .npy, white noise + random walk),
 written once in chunks into --dir (reused when present). Each configuration runs the whole
 fleet from scratch (--force semantics: fresh out dir) and reports wall time, logs/s,
-samples/s (all channels), the ratio against 1 worker and the largest peak RSS of a worker
-process (ru_maxrss inside the task).
+samples/s (all channels), the ratio against 1 worker, the largest peak RSS of a worker during
+a task (the task's own high-water mark, VmHWM reset when it starts; not ru_maxrss, which a
+spawned worker inherits from this process) and the most a task added to the RSS it started
+from.
 
     python benchmarks/bench_fleet.py [--logs 8] [--samples 1e7] [--dir /tmp/gyrodrift-fleet]
 """
@@ -75,22 +77,24 @@ def main() -> None:
         out = d / f"out-w{w}"
         shutil.rmtree(out, ignore_errors=True)
         peaks: list[float] = []
+        added: list[float] = []
 
-        def keep(r: dict, peaks: list[float] = peaks) -> None:
+        def keep(r: dict, peaks: list[float] = peaks, added: list[float] = added) -> None:
             peaks.append(float(r.get("peak_rss_mib", math.nan)))
+            added.append(peaks[-1] - float(r.get("rss_start_mib") or math.nan))
 
         t = time.perf_counter()
         s = run_fleet(paths, out, opts=opts, workers=w, root=d / "logs", on_result=keep)
         wall = time.perf_counter() - t
         if s["n_failed"]:
             raise SystemExit(f"failed logs: {s['failed']}")
-        rows.append((w, wall, max(peaks)))
+        rows.append((w, wall, max(peaks), max(added)))
     base = rows[0][1]
     print(f"{'workers':>7} {'wall_s':>8} {'logs/s':>8} {'samples/s':>11} {'ratio':>6} "
-          f"{'peak_rss_MiB/worker':>20}")
-    for w, wall, peak in rows:
+          f"{'peak_rss_MiB/worker':>20} {'task_added_MiB':>15}")
+    for w, wall, peak, add in rows:
         print(f"{w:7d} {wall:8.1f} {args.logs / wall:8.3f} {args.logs * n * 6 / wall:11.3g} "
-              f"{base / wall:6.2f} {peak:20.0f}")
+              f"{base / wall:6.2f} {peak:20.0f} {add:15.0f}")
     print(f"# record size {n * 6 * 4 / 2**20:.0f} MiB per log; the chunked reader holds "
           f"{(1 << 18) * 6 * 8 / 2**20:.0f} MiB of rows at a time")
 

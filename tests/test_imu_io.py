@@ -3,6 +3,7 @@ ROS bags written by rosbags' own writers (rosbag1, rosbag2 with sqlite3 and MCAP
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -122,14 +123,26 @@ def test_psins_imu(tmp_path: Path) -> None:
     np.testing.assert_allclose(one.rate_deg_h, counts[:, 0] * 0.1 * 100.0, rtol=1e-12)
 
 
-def test_allan_cli_accepts_psins(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize("command", ["allan", "psd", "filter"])
+def test_one_channel_commands_accept_psins(tmp_path: Path, command: str,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    """allan, psd and filter read the PSINS .imu file (they refused it before issue 14)."""
     rng = np.random.default_rng(6)
     path = tmp_path / "rec.imu"
-    _write_psins(path, rng.integers(-50, 50, size=(2000, 6)))
+    counts = rng.integers(-50, 50, size=(2000, 6))
+    _write_psins(path, counts)
     from gyrodrift.cli import main
 
-    assert main(["allan", str(path), "--column", "y", "--json"]) == 0
-    assert '"n_used": 2000' in capsys.readouterr().out
+    extra = {"filter": ["-o", str(tmp_path / "out.npy")],
+             "psd": ["--png", str(tmp_path / "psd.png")]}.get(command, [])
+    assert main([command, str(path), "--column", "y", "--json", *extra]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["record"]["column"] == "gyro_y" and doc["record"]["n_used"] == 2000
+    assert doc["record"]["rate_hz"] == pytest.approx(100.0)
+    if command == "filter":
+        # 0.1 arcsec per 10 ms count = 10 arcsec/s = 10 deg/h per count.
+        assert doc["std_in_deg_h"] == pytest.approx(float(np.std(counts[:, 1] * 10.0)),
+                                                    rel=1e-12)
 
 
 def test_replay_log(tmp_path: Path) -> None:

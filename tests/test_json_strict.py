@@ -28,3 +28,54 @@ def test_nan_and_inf_are_written_as_null() -> None:
     emit_json(payload, buf)
     assert _strict_loads(buf.getvalue())["a"] is None
 
+
+
+def test_fleet_result_and_summary_files_are_strict(tmp_path, monkeypatch) -> None:
+    """The fleet's result.json and summary.json (were json.dumps: bare NaN/Infinity). A GMWM
+    result has no fitted Allan curve (fit_adev NaN at every tau) and an interval may be
+    unbounded (inf); a stand-in identify_gmwm gives both, run serially in this process."""
+    import gyrodrift
+    from gyrodrift.fleet import FleetOptions, run_fleet, write_summary
+
+    class P:
+        def __init__(self, name: str, value: float, hi: float) -> None:
+            self.name, self.value, self.ci_low, self.ci_high, self.unit = (
+                name, value, 0.5 * value, hi, "")
+
+    def fake(xd, rate_hz, *, ci):
+        return type("R", (), {"model": "N+K",
+                              "params": (P("N", 0.3, 0.6), P("K", 12.0, np.inf))})()
+
+    monkeypatch.setattr(gyrodrift, "identify_gmwm", fake, raising=False)
+    log = tmp_path / "unit0.npy"
+    np.save(log, np.random.default_rng(0).standard_normal((4000, 6)) * 1e-3)
+    s = run_fleet([log], tmp_path / "out", opts=FleetOptions(rate_hz=100.0, method="gmwm",
+                                                             plots=False), workers=0)
+    assert s["n_done"] == 1, s["failed"]
+    res = _strict_loads((tmp_path / "out" / "units" / "unit0" / "result.json").read_text())
+    gx = res["result"]["channels"]["gyro_x"]  # type: ignore[index]
+    assert gx["taus"][0]["fit_adev"] is None
+    assert gx["terms"]["K"]["ci_high"] is None
+    assert res["summary"]["params"]["gyroscope_random_walk"]["gyro_x"]["ci_high"] is None  # type: ignore[index]
+    # summary.json: a parameter whose value is NaN gives NaN quantiles.
+    unit = {"unit": "u0", "path": "u0.npy", "status": "done",
+            "params": {"gyroscope_noise_density": {
+                "gyro_x": {"value": float("nan"), "ci_low": 0.0, "ci_high": 1.0,
+                           "unit": "rad/s/sqrt(Hz)"}}}}
+    write_summary([unit], tmp_path / "out", None)
+    summ = _strict_loads((tmp_path / "out" / "summary.json").read_text())
+    assert summ["distribution"]["gyroscope_noise_density"]["gyro_x"]["median"] is None  # type: ignore[index]
+
+
+def test_replay_report_file_is_strict(tmp_path) -> None:
+    """replay's report.json (had its own cleaner: NaN as null but Inf as the strings "inf" /
+    "-inf", a number turned into text) goes through json_text like every JSON output."""
+    from gyrodrift.replay.harness import ReplayResult
+    from gyrodrift.replay.report import write_json
+
+    report = {"ok": False, "comparison": {"max_abs_error": [float("inf"), 1e-6, -np.inf]},
+              "latency_us": {"p50": float("nan"), "n": np.int64(0)}}
+    result = ReplayResult(report, np.empty(0), np.empty(0), None)
+    got = _strict_loads(write_json(result, tmp_path / "report.json").read_text())
+    assert got == {"ok": False, "comparison": {"max_abs_error": [None, 1e-6, None]},
+                   "latency_us": {"p50": None, "n": 0}}

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.json_text import json_text
 
 __all__ = ["FleetOptions", "characterize_log", "load_spec", "run_fleet", "unit_name",
            "write_summary"]
@@ -94,10 +95,41 @@ def _atomic_write(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
-def _peak_rss_mib() -> float:
+def _status_mib(field: str) -> float | None:
+    """A memory line of /proc/self/status (VmRSS, VmHWM) in MiB; None off Linux."""
+    try:
+        with open("/proc/self/status") as fh:
+            for line in fh:
+                if line.startswith(field + ":"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return None
+
+
+def _start_peak_window() -> str:
+    """Start measuring this task's peak resident memory; returns the scope measured.
+
+    ``ru_maxrss`` is no measure of a task: Linux keeps it across ``execve``, so a worker
+    spawned by a process that once held 500 MiB reports >= 500 MiB before it has read a
+    byte (and it never falls after an earlier, larger task). On Linux the high-water mark of
+    the process's own address space (VmHWM) is reset here (``/proc/self/clear_refs`` "5":
+    resets the peak only, no other state) and read when the task ends: "task". Elsewhere
+    ``ru_maxrss`` is the fallback: "process" (an upper bound)."""
+    try:
+        with open("/proc/self/clear_refs", "w") as fh:
+            fh.write("5")
+    except OSError:
+        return "process"
+    return "task" if _status_mib("VmHWM") is not None else "process"
+
+
+def _peak_rss_mib(scope: str) -> float:
     import resource
 
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    hwm = _status_mib("VmHWM") if scope == "task" else None
+    return hwm if hwm is not None else (
+        resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
 
 
 def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, Any]:
@@ -125,6 +157,8 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     d = Path(unit_dir)
     d.mkdir(parents=True, exist_ok=True)
     (d / "failed.json").unlink(missing_ok=True)
+    rss_scope = _start_peak_window()
+    rss_start = _status_mib("VmRSS")
     try:
         with tempfile.TemporaryDirectory(dir=d, prefix="spool.") as spool:
             is_npy = Path(path).suffix.lower() == ".npy"
@@ -141,15 +175,16 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
         (d / "imu.yaml").write_text(kal)
         summary = {"unit": d.name, "path": str(path), "status": "done",
                    "params": _params(res), "record": res.record,
-                   "peak_rss_mib": _peak_rss_mib()}
+                   "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
+                   "peak_rss_scope": rss_scope}
         payload = {"summary": summary, "result": res.as_dict()}
-        _atomic_write(d / "result.json", json.dumps(payload, indent=1))
+        _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary
     except Exception as exc:
         reason = f"{type(exc).__name__}: {exc}".splitlines()[0]
         info = {"unit": d.name, "path": str(path), "status": "failed", "reason": reason,
                 "traceback": traceback.format_exc(limit=4)}
-        _atomic_write(d / "failed.json", json.dumps(info, indent=1))
+        _atomic_write(d / "failed.json", json_text(info, indent=1))
         return {k: info[k] for k in ("unit", "path", "status", "reason")}
 
 
@@ -301,7 +336,7 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
                     r = {"unit": n, "path": p, "status": "failed", "reason": reason}
                     d = out / "units" / n
                     d.mkdir(parents=True, exist_ok=True)
-                    _atomic_write(d / "failed.json", json.dumps(r, indent=1))
+                    _atomic_write(d / "failed.json", json_text(r, indent=1))
                 record(r)
                 bar.update(1)
     finally:
@@ -373,7 +408,7 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
         png = _boxplot(series)
         (out / "boxplot.png").write_bytes(png)
         images.append(("Distribution over units per parameter and axis", png_data_uri(png)))
-    _atomic_write(out / "summary.json", json.dumps(summary, indent=1))
+    _atomic_write(out / "summary.json", json_text(summary, indent=1))
     dist_head = ["parameter", "channel", "unit", "n", "min", "q1", "median", "q3", "max"]
     units_si = {}
     for u in done:

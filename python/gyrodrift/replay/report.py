@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from gyrodrift.json_text import json_text
 from gyrodrift.replay.harness import ReplayResult
 
 __all__ = [
@@ -115,19 +115,7 @@ def write_json(result: ReplayResult, path: str | Path) -> Path:
     True
     """
     path = Path(path)
-
-    def clean(x: Any) -> Any:
-        if isinstance(x, float) and not math.isfinite(x):
-            return None if math.isnan(x) else ("inf" if x > 0 else "-inf")
-        if isinstance(x, dict):
-            return {k: clean(v) for k, v in x.items()}
-        if isinstance(x, list | tuple):
-            return [clean(v) for v in x]
-        if isinstance(x, np.generic):
-            return clean(x.item())
-        return x
-
-    path.write_text(json.dumps(clean(result.report), indent=2) + "\n")
+    path.write_text(json_text(result.report) + "\n")
     return path
 
 
