@@ -55,6 +55,7 @@ __all__ = [
     "FilterResponse",
     "LjungBox",
     "compare_drift_models",
+    "drift_fisher_information",
     "fit_drift_model",
     "steady_state_response",
 ]
@@ -73,6 +74,13 @@ _U_AR_BOUND = 7.5  # |tanh(u)| <= 1 - 6e-7: stays inside the core's stationarity
 _U_SPLIT_BOUND = 30.0
 _WARM_START_N = 1 << 14
 _MODE_KEEP_LL = 3.0
+#: The split check (_split_check): profile likelihood at these r/q, the drop that counts as a
+#: rejection (chi2_1 at 99.5 % is 7.88 = 2 x 3.94; near-white records at 2e4-6e4 samples give
+#: drops up to ~3 and occasionally 6 when the fit sits in a spurious mode, correlated ones 5-470
+#: at 2e4 and ~3x that at 6e4), and the longest prefix it runs on.
+_SPLIT_PROBES = (0.1, 10.0)
+_SPLIT_DROP_MIN = 4.0
+_PROFILE_N = 1 << 16
 
 
 def _core() -> Any:
@@ -130,6 +138,13 @@ class DriftModelFit:
     stderr: standard errors {a1, a2, q, r, mean} from the observed information (NaN for a
     parameter the model fixes, or when the information is singular at a boundary).
     start_loglike: log-likelihood at the start (Burg coefficients, best variance split).
+    split_drop: drops of the profile log-likelihood when the split is forced to r/q = 0.1 and
+    to r/q = 10 (inf for the white model). identified: False when both are below 4 (neither
+    rejected at 99.5 %): the record cannot tell drift from white noise. tuning: "ml" (the
+    filter uses the fitted a1, a2, q, r) or "minimax-split" (not identified: the filter uses
+    the profile fit at q = r, whose gain minimises the worst-case error over all splits; see
+    the README).
+    filter_params: (a1, a2, q, r) of the filter that `kalman()` and `response()` use.
     """
 
     model: str
@@ -147,30 +162,38 @@ class DriftModelFit:
     ljung_box: LjungBox
     start_loglike: float
     n_evaluations: int
+    split_drop: tuple[float, float]
+    identified: bool
+    tuning: str
+    filter_params: tuple[float, float, float, float]
 
     @property
     def n_params(self) -> int:
         return _N_PARAMS[self.model]
 
     def ar2_model(self) -> Ar2Model:
-        """The drift as an Ar2Model (sigma2 = q), for the AR(2)-Kalman filters."""
-        return Ar2Model(a1=self.a1, a2=self.a2, sigma2=self.q, mean=self.mean,
+        """The filter's drift model as an Ar2Model (sigma2 = q; `filter_params`)."""
+        a1, a2, q, _ = self.filter_params
+        return Ar2Model(a1=a1, a2=a2, sigma2=q, mean=self.mean,
                         method=f"ml:{self.model}", n=self.n, r=self._filter_r)
 
     @property
     def _filter_r(self) -> float:
         # The filters need r > 0; a fit on the r = 0 boundary gets a negligible r.
-        return max(self.r, 1e-12 * (self.q + self.r))
+        _, _, q, r = self.filter_params
+        return max(r, 1e-12 * (q + r))
 
     def kalman(self, steady_state: bool = True, dtype: object = np.float64) -> KalmanFilter:
-        """A ready AR(2)-Kalman filter tuned by this fit (q, r as fitted; steady-state gain by
-        default). Its output estimates mean + x_k, the drift without the white noise."""
-        return KalmanFilter(self.ar2_model(), q=self.q, r=self._filter_r,
+        """A ready AR(2)-Kalman filter tuned by this fit (`filter_params`: the fitted q, r, or
+        the minimax split when the split is not identified; steady-state gain by default). Its
+        output estimates mean + x_k, the drift without the white noise."""
+        return KalmanFilter(self.ar2_model(), q=self.filter_params[2], r=self._filter_r,
                             steady_state=steady_state, dtype=dtype)
 
     def response(self) -> FilterResponse:
         """Gain, DC gain and -3 dB bandwidth of the steady-state filter."""
-        return steady_state_response(self.a1, self.a2, self.q, self._filter_r, self.rate_hz)
+        a1, a2, q, _ = self.filter_params
+        return steady_state_response(a1, a2, q, self._filter_r, self.rate_hz)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -179,6 +202,9 @@ class DriftModelFit:
             "stderr": {k: _nan_to_none(v) for k, v in self.stderr.items()},
             "n": self.n, "rate_hz": self.rate_hz, "ljung_box": self.ljung_box.as_dict(),
             "start_loglike": self.start_loglike, "n_evaluations": self.n_evaluations,
+            "split_drop": [_nan_to_none(v) for v in self.split_drop],
+            "identified": self.identified,
+            "tuning": self.tuning, "filter_params": list(self.filter_params),
         }
 
 
@@ -514,6 +540,128 @@ def _observed_stderr(prof: _Profile, model: str, a1: float, a2: float, w: float,
     return out
 
 
+def drift_fisher_information(a1: float, a2: float, q: float, r: float, n: int,
+                             free: tuple[str, ...] = ("a1", "a2", "q", "r"),
+                             n_freq: int = 1 << 15) -> np.ndarray:
+    """Expected (Fisher) information of n samples about the drift model's parameters.
+
+    Whittle's asymptotic form for a stationary Gaussian record with spectrum
+    S(f) = q / |1 - a1 e^{-i w} - a2 e^{-2 i w}|^2 + r (w = 2 pi f / rate):
+    I_jk = (n / 2) (1 / pi) int_0^pi d_j log S(w) d_k log S(w) dw, evaluated on n_freq
+    midpoints (the mean is asymptotically orthogonal to these parameters and left out). The
+    test holds it to the numerical Hessian of the exact expected log-likelihood.
+
+    Parameters
+    ----------
+    a1, a2, q, r : float
+        Model parameters (q, r in (record units)^2).
+    n : int
+        Record length, samples.
+    free : tuple of str
+        The parameters in the matrix, in this order (a subset of a1, a2, q, r).
+    n_freq : int
+        Frequency grid size.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(free), len(free))
+
+    Examples
+    --------
+    >>> info = drift_fisher_information(0.0, 0.0, 0.0, 2.0, 1000, free=("r",))
+    >>> float(info[0, 0])   # n / (2 r^2) for white noise
+    125.0
+    """
+    w = (np.arange(n_freq) + 0.5) * (math.pi / n_freq)
+    z1 = np.exp(-1j * w)
+    a_poly = 1.0 - a1 * z1 - a2 * z1 * z1
+    a2abs = np.abs(a_poly) ** 2
+    spec = q / a2abs + r
+    rows = {
+        "a1": 2.0 * q * np.real(np.conj(a_poly) * z1) / a2abs**2,
+        "a2": 2.0 * q * np.real(np.conj(a_poly) * z1 * z1) / a2abs**2,
+        "q": 1.0 / a2abs,
+        "r": np.ones_like(w),
+    }
+    d = np.array([rows[k] for k in free]) / spec
+    return np.asarray(0.5 * n * (d @ d.T) / n_freq)
+
+
+def _profile_split(prof: _Profile, model: str, ratio: float,
+                   starts: list[tuple[float, float]]) -> tuple[float, np.ndarray]:
+    """Profile of the likelihood at a fixed split r/q = ratio: max over (a1, a2) (mean and scale
+    concentrated out) from each start; returns (-log L / n, u) of the best."""
+    w = 1.0 / (1.0 + ratio)
+    u_split = math.log(w / (1.0 - w))
+    k = 2 if model == "ar2+white" else 1
+
+    def negll(v: np.ndarray) -> float:
+        return prof.negll(np.r_[v, u_split])
+
+    bounds = [(-_U_AR_BOUND, _U_AR_BOUND)] * k
+    best_f, best_u = math.inf, np.zeros(k + 1)
+    for a1, a2 in starts:
+        v0 = _u_of(model, a1, a2, w)[:k]
+        res = scipy.optimize.minimize(negll, v0, method="L-BFGS-B", jac="2-point", bounds=bounds,
+                                      options={"ftol": 1e-3 / prof.n, "maxiter": 100})
+        for v in (np.asarray(res.x), v0):
+            f = negll(v)
+            if f < best_f:
+                best_f, best_u = f, np.r_[v, u_split]
+    return best_f, best_u
+
+
+def _yule_walker_at(d: np.ndarray, model: str, w: float) -> tuple[float, float]:
+    """(a1, a2) from the sample autocovariances when a share 1 - w of the variance is white."""
+    n = d.size
+    c = [float(d[: n - j] @ d[j:]) / n for j in range(3)]
+    g0 = c[0] * w
+    if model == "ar1+white":
+        return max(min(c[1] / g0, 0.99), -0.99), 0.0
+    det = g0 * g0 - c[1] * c[1]
+    if det <= 0:
+        return 0.0, 0.0
+    a1 = (c[1] * g0 - c[1] * c[2]) / det
+    a2 = max(min((c[2] * g0 - c[1] * c[1]) / det, 0.99), -0.99)
+    return max(min(a1, 0.99 * (1.0 - a2)), -0.99 * (1.0 - a2)), a2
+
+
+def _split_check(prof: _Profile, model: str, u_ml: np.ndarray
+                 ) -> tuple[tuple[float, float], tuple[float, float, float, float] | None]:
+    """Is the drift/white split identified? Profile log-likelihood drops at r/q = 0.1 and 10.
+
+    Returns ((drop at r/q = 0.1, drop at r/q = 10), minimax tuning or None). Both drops below
+    _SPLIT_DROP_MIN = 4 mean the record does not reject "white noise 10x the drift" nor "drift
+    10x the white noise" (at 99.5 %): the split is not identified, and the tuning returned is the
+    profile fit at q = r, (a1, a2, q, r). Why q = r: for such (nearly white) drift a gain g
+    gives the error (1 - g)^2 q + g^2 r; over all splits of the identified total q + r its
+    worst case is smallest, a quarter of the total, at g = 1/2, the steady-state gain of q = r
+    (minimax; README and scripts/drift_identifiability.py give the numbers). Records longer
+    than _PROFILE_N are profiled on their first _PROFILE_N samples with the drops scaled by
+    n / _PROFILE_N (the expected drop grows in proportion to n)."""
+    if model == "white":
+        return (math.inf, math.inf), None
+    n = prof.n
+    sub = prof if n <= _PROFILE_N else _Profile(prof.x[:_PROFILE_N], model, prof.center)
+    f_ml = sub.negll(u_ml)
+    a1, a2, _ = prof.natural(u_ml)
+    d = sub.x - prof.center
+    drops = []
+    for ratio in _SPLIT_PROBES:
+        f, _ = _profile_split(sub, model, ratio, [(a1, a2), _yule_walker_at(d, model,
+                                                                             1.0 / (1.0 + ratio))])
+        drops.append(max(f - f_ml, 0.0) * n)
+    prof.evaluations += sub.evaluations if sub is not prof else 0
+    if max(drops) > _SPLIT_DROP_MIN:
+        return (drops[0], drops[1]), None
+    # Not identified: the profile fit at q = r on the whole record.
+    _, u = _profile_split(prof, model, 1.0, [(a1, a2), _yule_walker_at(prof.x - prof.center,
+                                                                       model, 0.5)])
+    b1, b2, w = prof.natural(u)
+    _, scale, _ = prof.concentrated(b1, b2, w)
+    return (drops[0], drops[1]), (b1, b2, scale * w, scale * (1.0 - w))
+
+
 def ljung_box(e: np.ndarray, lags: int, model_df: int = 0) -> LjungBox:
     """Ljung-Box Q of a series (mean removed) with `lags` autocorrelations and chi-square
     degrees of freedom lags - model_df (at least 1)."""
@@ -538,7 +686,9 @@ def _prepare(x: object) -> np.ndarray:
 
 
 def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float, mean: float,
-            rate_hz: float, start_ll: float) -> DriftModelFit:
+            rate_hz: float, start_ll: float,
+            split: tuple[tuple[float, float], tuple[float, float, float, float] | None]
+            ) -> DriftModelFit:
     n = prof.n
     q, r = s * w, s * (1.0 - w)
     innov = np.empty(n)
@@ -546,11 +696,16 @@ def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float
     stderr = _observed_stderr(prof, model, a1, a2, w, s, mean)
     k = _N_PARAMS[model]
     lags = max(1, min(10, n // 5))
+    split_drop, minimax = split
+    identified = minimax is None
+    filter_params = (a1, a2, q, r) if minimax is None else minimax
     return DriftModelFit(
         model=model, a1=a1, a2=a2, q=q, r=r, mean=mean, loglike=ll,
         aic=2.0 * k - 2.0 * ll, bic=k * math.log(n) - 2.0 * ll, stderr=stderr, n=n,
         rate_hz=rate_hz, ljung_box=ljung_box(innov, lags, _MODEL_DF[model]),
-        start_loglike=start_ll, n_evaluations=prof.evaluations)
+        start_loglike=start_ll, n_evaluations=prof.evaluations, split_drop=split_drop,
+        identified=identified, tuning="ml" if identified else "minimax-split",
+        filter_params=tuple(float(v) for v in filter_params))  # type: ignore[arg-type]
 
 
 def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
@@ -564,7 +719,8 @@ def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
         r = float(np.mean((a - mean) ** 2))
         if not r > 0:
             raise Ar2FitError("constant", "all samples are equal")
-        return _finish(prof, model, 0.0, 0.0, 0.0, r, mean, rate_hz, math.nan)
+        return _finish(prof, model, 0.0, 0.0, 0.0, r, mean, rate_hz, math.nan,
+                       ((math.inf, math.inf), None))
     starts = _moment_starts(a - center, model, burg)
     prof = _Profile(a, model, center)
     if a.shape[0] > 2 * _WARM_START_N:
@@ -593,7 +749,8 @@ def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
         u = _best_of(prof, starts)
     a1, a2, w = prof.natural(u)
     _, s, mean = prof.concentrated(a1, a2, w)
-    return _finish(prof, model, a1, a2, w, s, mean, rate_hz, start_ll)
+    split = _split_check(prof, model, u)
+    return _finish(prof, model, a1, a2, w, s, mean, rate_hz, start_ll, split)
 
 
 def fit_drift_model(
