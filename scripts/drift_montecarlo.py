@@ -68,7 +68,7 @@ def main() -> None:
             print(f"{a1:8.4f} {a2:8.4f} {ratio:5.1f} {m['raw']:8.4f} {m['papers']:8.4f} "
                   f"{m['ml']:8.4f} {m['true']:8.4f} {m['ml'] / m['true']:8.4f} "
                   f"{m['papers'] / m['true']:8.4f} {m['ml'] / m['raw']:8.4f} "
-                  f"{int(round(m['minimax'] * args.seeds)):>5}/{args.seeds}")
+                  f"{round(m['minimax'] * args.seeds):>5}/{args.seeds}")
     print(f"# worst ML/true ratio: {worst:.4f}")
 
 
