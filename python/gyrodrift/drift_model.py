@@ -486,10 +486,12 @@ def _observed_stderr(prof: _Profile, model: str, a1: float, a2: float, w: float,
     hphi = np.zeros((k + 2, k + 2))  # order: theta..., s, mean
     grad_w = 0.0
     try:
-        h = np.array([min(1e-4, 0.5 * v, 0.5 * (1.0 - v)) if nm == "w" else 1e-4
+        # On the boundary (w = 0 or 1) no central difference fits inside [0, 1]: NaN standard
+        # errors (caught below; internal, never reaches the caller).
+        h = np.array([max(min(1e-4, 0.5 * v, 0.5 * (1.0 - v)), 0.0) if nm == "w" else 1e-4
                       for nm, v in zip(names, theta, strict=True)])
         if np.any(h <= 0):
-            raise ValueError("on the boundary")
+            raise np.linalg.LinAlgError("on the boundary of the split")
         p0 = parts(theta)
         ei = np.eye(k) * h
         pp = [parts(theta + ei[i]) for i in range(k)]
