@@ -20,9 +20,17 @@ grid of partial autocorrelations (+-0.9, 0) with 95 % white noise; each is optim
 the best optimum finely. On long records the multi-start runs on the first 2^14 samples and its
 optimum warm-starts the full-record fit.
 
-Standard errors are from the observed information: the numerical Hessian of the log-likelihood
-in the natural parameters (a1, a2, q, r) at the optimum, with the mean's row exact (the
-likelihood is quadratic in the mean). AIC = 2 k - 2 log L, BIC = k log n - 2 log L with k = 5
+Standard errors are from the observed information: the Hessian of the log-likelihood at the
+optimum, differenced in (a1, a2, q/(q+r)) and exact in the scale and the mean, carried to
+(a1, a2, q, r, mean) by the chain rule.
+
+The split of the record's variance between drift and white noise is checked (_split_check):
+when neither r/q = 0.1 nor r/q = 10 is rejected by the profile likelihood, or the model does
+not beat white noise by BIC, the record cannot tell them apart (nearly white drift; no
+estimator can then tune the filter reliably: scripts/drift_identifiability.py) and the filter
+is tuned at q = r, the minimax choice (fields identified, tuning, filter_params).
+
+AIC = 2 k - 2 log L, BIC = k log n - 2 log L with k = 5
 (ar2+white), 4 (ar1+white), 2 (white) parameters, mean included.
 
 >>> import numpy as np
