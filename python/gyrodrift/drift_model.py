@@ -18,7 +18,8 @@ q / (q + r) = logistic(u3). Starts: the papers' Yule-Walker/Burg-type fit (all v
 drift), four moment fits that give 30, 60, 85, 95 % of the variance to the white noise, and a
 grid of partial autocorrelations (+-0.9, 0) with 95 % white noise; each is optimised coarsely and
 the best optimum finely. On long records the multi-start runs on the first 2^14 samples and its
-optimum warm-starts the full-record fit.
+distinct modes (within 3 log-likelihood units) warm-start quasi-Newton refinements on the full
+record.
 
 Standard errors are from the observed information: the Hessian of the log-likelihood at the
 optimum, differenced in (a1, a2, q/(q+r)) and exact in the scale and the mean, carried to
