@@ -80,3 +80,23 @@ def test_demo_yardstick_rows(capsys: pytest.CaptureFixture[str]) -> None:
     assert mse["raw"] > 1.2 * mse["ML tuning"]
     for row in rows.values():
         assert row["std_deg_h"] > 0 and row["adev_1s_deg_h"] > 0
+
+
+def test_config_uses_the_minimax_tuning_when_not_identified() -> None:
+    # A near-white record (-0.0340/0.0252, r/q = 1): the fit cannot split drift from white
+    # noise, so the written stage is the q = r tuning (filter_params), not the raw ML q, r.
+    from gyrodrift.cli.fit import config_toml
+    from gyrodrift.drift_model import fit_drift_model
+
+    rng = np.random.default_rng(200)
+    x = lfilter([1.0], [1.0, 0.0340, -0.0252], rng.normal(0.0, 1.0, 22000))[2000:]
+    fit = fit_drift_model(9.7 + x + rng.normal(0.0, 1.0, 20000), rate_hz=100.0)
+    assert not fit.identified
+    cfg = tomllib.loads(config_toml(fit, 100.0, "gx", "near_white.npy"))
+    stage = cfg["channels"]["gx"]["stages"][0]
+    k = math.pi / 180 / 3600
+    a1, a2, q, _ = fit.filter_params
+    assert cfg["meta"]["tuning"] == "minimax-split"
+    assert stage["a1"] == a1 and stage["a2"] == a2
+    assert stage["q"] == pytest.approx(q * k * k, rel=1e-15)
+    assert stage["r"] == pytest.approx(stage["q"], rel=1e-9)  # q = r

@@ -18,11 +18,20 @@ q / (q + r) = logistic(u3). Starts: the papers' Yule-Walker/Burg-type fit (all v
 drift), four moment fits that give 30, 60, 85, 95 % of the variance to the white noise, and a
 grid of partial autocorrelations (+-0.9, 0) with 95 % white noise; each is optimised coarsely and
 the best optimum finely. On long records the multi-start runs on the first 2^14 samples and its
-optimum warm-starts the full-record fit.
+distinct modes (within 3 log-likelihood units) warm-start quasi-Newton refinements on the full
+record.
 
-Standard errors are from the observed information: the numerical Hessian of the log-likelihood
-in the natural parameters (a1, a2, q, r) at the optimum, with the mean's row exact (the
-likelihood is quadratic in the mean). AIC = 2 k - 2 log L, BIC = k log n - 2 log L with k = 5
+Standard errors are from the observed information: the Hessian of the log-likelihood at the
+optimum, differenced in (a1, a2, q/(q+r)) and exact in the scale and the mean, carried to
+(a1, a2, q, r, mean) by the chain rule.
+
+The split of the record's variance between drift and white noise is checked (_split_check):
+when neither r/q = 0.1 nor r/q = 10 is rejected by the profile likelihood, or the model does
+not beat white noise by BIC, the record cannot tell them apart (nearly white drift; no
+estimator can then tune the filter reliably: scripts/drift_identifiability.py) and the filter
+is tuned at q = r, the minimax choice (fields identified, tuning, filter_params).
+
+AIC = 2 k - 2 log L, BIC = k log n - 2 log L with k = 5
 (ar2+white), 4 (ar1+white), 2 (white) parameters, mean included.
 
 >>> import numpy as np
@@ -42,6 +51,7 @@ from typing import Any
 import numpy as np
 import scipy.optimize
 import scipy.stats
+from threadpoolctl import threadpool_limits
 
 from gyrodrift._native import core
 from gyrodrift.ar2 import Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
@@ -54,6 +64,7 @@ __all__ = [
     "FilterResponse",
     "LjungBox",
     "compare_drift_models",
+    "drift_fisher_information",
     "fit_drift_model",
     "steady_state_response",
 ]
@@ -71,6 +82,14 @@ _LOG_2PI = math.log(2.0 * math.pi)
 _U_AR_BOUND = 7.5  # |tanh(u)| <= 1 - 6e-7: stays inside the core's stationarity margin
 _U_SPLIT_BOUND = 30.0
 _WARM_START_N = 1 << 14
+_MODE_KEEP_LL = 3.0
+#: The split check (_split_check): profile likelihood at these r/q, the drop that counts as a
+#: rejection (chi2_1 at 99.5 % is 7.88 = 2 x 3.94; near-white records at 2e4-6e4 samples give
+#: drops up to ~3 and occasionally 6 when the fit sits in a spurious mode, correlated ones 5-470
+#: at 2e4 and ~3x that at 6e4), and the longest prefix it runs on.
+_SPLIT_PROBES = (0.1, 10.0)
+_SPLIT_DROP_MIN = 4.0
+_PROFILE_N = 1 << 16
 
 
 def _core() -> Any:
@@ -140,6 +159,14 @@ class DriftModelFit:
     stderr: standard errors {a1, a2, q, r, mean} from the observed information (NaN for a
     parameter the model fixes, or when the information is singular at a boundary).
     start_loglike: log-likelihood at the start (Burg coefficients, best variance split).
+    split_drop: drops of the profile log-likelihood when the split is forced to r/q = 0.1 and
+    to r/q = 10 (inf for the white model). identified: False when both are below 4 (neither
+    rejected at 99.5 %) or when the model does not beat the white model by BIC: the record
+    cannot tell drift from white noise. tuning: "ml" (the
+    filter uses the fitted a1, a2, q, r) or "minimax-split" (not identified: the filter uses
+    the profile fit at q = r, whose gain minimises the worst-case error over all splits; see
+    the README).
+    filter_params: (a1, a2, q, r) of the filter that `kalman()` and `response()` use.
 
     Examples
     --------
@@ -166,30 +193,38 @@ class DriftModelFit:
     ljung_box: LjungBox
     start_loglike: float
     n_evaluations: int
+    split_drop: tuple[float, float]
+    identified: bool
+    tuning: str
+    filter_params: tuple[float, float, float, float]
 
     @property
     def n_params(self) -> int:
         return _N_PARAMS[self.model]
 
     def ar2_model(self) -> Ar2Model:
-        """The drift as an Ar2Model (sigma2 = q), for the AR(2)-Kalman filters."""
-        return Ar2Model(a1=self.a1, a2=self.a2, sigma2=self.q, mean=self.mean,
+        """The filter's drift model as an Ar2Model (sigma2 = q; `filter_params`)."""
+        a1, a2, q, _ = self.filter_params
+        return Ar2Model(a1=a1, a2=a2, sigma2=q, mean=self.mean,
                         method=f"ml:{self.model}", n=self.n, r=self._filter_r)
 
     @property
     def _filter_r(self) -> float:
         # The filters need r > 0; a fit on the r = 0 boundary gets a negligible r.
-        return max(self.r, 1e-12 * (self.q + self.r))
+        _, _, q, r = self.filter_params
+        return max(r, 1e-12 * (q + r))
 
     def kalman(self, steady_state: bool = True, dtype: object = np.float64) -> KalmanFilter:
-        """A ready AR(2)-Kalman filter tuned by this fit (q, r as fitted; steady-state gain by
-        default). Its output estimates mean + x_k, the drift without the white noise."""
-        return KalmanFilter(self.ar2_model(), q=self.q, r=self._filter_r,
+        """A ready AR(2)-Kalman filter tuned by this fit (`filter_params`: the fitted q, r, or
+        the minimax split when the split is not identified; steady-state gain by default). Its
+        output estimates mean + x_k, the drift without the white noise."""
+        return KalmanFilter(self.ar2_model(), q=self.filter_params[2], r=self._filter_r,
                             steady_state=steady_state, dtype=dtype)
 
     def response(self) -> FilterResponse:
         """Gain, DC gain and -3 dB bandwidth of the steady-state filter."""
-        return steady_state_response(self.a1, self.a2, self.q, self._filter_r, self.rate_hz)
+        a1, a2, q, _ = self.filter_params
+        return steady_state_response(a1, a2, q, self._filter_r, self.rate_hz)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -198,6 +233,9 @@ class DriftModelFit:
             "stderr": {k: _nan_to_none(v) for k, v in self.stderr.items()},
             "n": self.n, "rate_hz": self.rate_hz, "ljung_box": self.ljung_box.as_dict(),
             "start_loglike": self.start_loglike, "n_evaluations": self.n_evaluations,
+            "split_drop": [_nan_to_none(v) for v in self.split_drop],
+            "identified": self.identified,
+            "tuning": self.tuning, "filter_params": list(self.filter_params),
         }
 
 
@@ -352,51 +390,327 @@ def _best_of(prof: _Profile, starts: list[np.ndarray]) -> np.ndarray:
     return u if prof.negll(u) <= prof.negll(best) else best
 
 
-def _observed_stderr(prof: _Profile, theta: np.ndarray, names: list[str], mean: float
-                     ) -> dict[str, float]:
-    """Standard errors from the inverse of minus the Hessian of log L in (theta, mean).
+def _prefix_modes(prof: _Profile, starts: list[np.ndarray], max_modes: int = 3
+                  ) -> list[np.ndarray]:
+    """Distinct local optima of the prefix likelihood worth refining on the full record.
 
-    theta holds the model's free natural parameters (subset of a1, a2, q, r, in `names`).
-    Central differences with relative steps; the mean's second derivative is exact (-S_gg)
-    and its cross terms are central differences of S_eg (d log L / d mean = S_eg at mean)."""
-    k = theta.size
+    A coarse optimisation from every start; the optima within _MODE_KEEP_LL log-likelihood
+    units of the best that differ by more than 0.05 in u (at most max_modes, best first).
+    They need no tight optimisation here: the Newton steps on the full record do that."""
+    coarse = sorted([_optimise(prof, u0, tight=False) for u0 in starts] + starts,
+                    key=prof.negll)
+    best_f = prof.negll(coarse[0])
+    modes: list[np.ndarray] = []
+    for u in coarse:
+        if (prof.negll(u) - best_f) * prof.n > _MODE_KEEP_LL or len(modes) == max_modes:
+            break
+        if all(np.max(np.abs(u - m)) > 0.05 for m in modes):
+            modes.append(u)
+    return modes
 
-    def evaluate(t: np.ndarray) -> tuple[float, float, float]:
-        p = dict(zip(names, t, strict=True))
-        ll, _, _, seg, sgg = prof.sums(p.get("a1", 0.0), p.get("a2", 0.0), p.get("q", 0.0),
-                                       p.get("r", 0.0), mean)
-        return ll, seg, sgg
 
-    h = np.array([1e-4 * max(abs(v), 1e-3) if nm in ("q", "r") else 1e-4
-                  for nm, v in zip(names, theta, strict=True)])
-    for i, nm in enumerate(names):  # stay inside the parameter space
-        if nm in ("q", "r"):
-            h[i] = min(h[i], 0.5 * theta[i]) if theta[i] > 0 else h[i]
-    hess = np.zeros((k + 1, k + 1))
+def _forward_gradient(fun: Any, u: np.ndarray, f0: float, h: float = 1e-6) -> np.ndarray:
+    """Forward-difference gradient (k passes). For -log L / n (about 1 per sample, computed to
+    ~1e-14 relative) h = 1e-6 leaves a truncation error h f'' / 2 ~ 5e-7 and a rounding error
+    ~1e-8: Newton steps are then exact to ~1e-6 in u, a small fraction of a standard error."""
+    e = np.eye(u.size) * h
+    return np.array([(fun(u + e[i]) - f0) / h for i in range(u.size)])
+
+
+def _fd_gradient_hessian(fun: Any, u: np.ndarray, h: float, hessian: bool
+                         ) -> tuple[float, np.ndarray, np.ndarray | None]:
+    """f(u), its central-difference gradient and (optionally) Hessian.
+
+    Gradient: 1 + 2k evaluations; Hessian from the same points plus one pair per off-diagonal
+    element, H_ij = (f(+i+j) + f(-i-j) - f(+i) - f(-i) - f(+j) - f(-j) + 2 f0) / (2 h^2)
+    (second order accurate like the four-point formula, at half its cost)."""
+    k = u.size
+    f0 = fun(u)
+    e = np.eye(k) * h
+    fp = np.array([fun(u + e[i]) for i in range(k)])
+    fm = np.array([fun(u - e[i]) for i in range(k)])
+    g = (fp - fm) / (2.0 * h)
+    if not hessian:
+        return f0, g, None
+    hess = np.diag((fp - 2.0 * f0 + fm) / h**2)
+    for i in range(k):
+        for j in range(i + 1, k):
+            fpp = fun(u + e[i] + e[j])
+            fmm = fun(u - e[i] - e[j])
+            hess[i, j] = hess[j, i] = (fpp + fmm - fp[i] - fm[i] - fp[j] - fm[j] + 2.0 * f0) / (
+                2.0 * h * h)
+    return f0, g, hess
+
+
+def _newton_refine(prof: _Profile, u0: np.ndarray, hess0: np.ndarray, f_best: float = math.inf,
+                   max_iter: int = 12) -> tuple[np.ndarray, float, str]:
+    """Quasi-Newton refinement of the profile likelihood on the full record from a warm start.
+
+    hess0: Hessian of -log L / n in u from the prefix fit (per sample, so it applies to the
+    full record up to sampling noise); forward-difference gradients (1 + k passes), a full
+    step with backtracking, BFGS updates of the Hessian. Returns (u, -log L(u) / n, status):
+    "converged" when
+    the predicted gain g' H^-1 g / 2 falls below 1e-5 log-likelihood units (the L-BFGS-B
+    criterion it replaces stopped at changes of ~1e-4, see _optimise); "behind" when even twice
+    the predicted gain cannot bring -log L / n below f_best (another mode is better: no need
+    to finish this one); "failed" otherwise (u is then the best point reached)."""
+    bounds = np.array([_U_AR_BOUND] * (u0.size - 1) + [_U_SPLIT_BOUND])
+    h = 1e-4
+    u = np.clip(u0, -bounds + 2 * h, bounds - 2 * h)
+    hess = hess0.copy()
     try:
-        f0, _, sgg0 = evaluate(theta)
+        f = prof.negll(u)
+        g = _forward_gradient(prof.negll, u, f)
+        for _ in range(max_iter):
+            if not (np.all(np.isfinite(g)) and math.isfinite(f)):
+                return u, f, "failed"
+            w, v = np.linalg.eigh(hess)
+            w = np.maximum(w, 1e-8 * max(float(w.max()), 1e-12))
+            step = -(v @ ((v.T @ g) / w))
+            gain = -0.5 * float(g @ step) * prof.n
+            if gain < 1e-5:
+                return u, f, "converged"
+            if (f - f_best) * prof.n > 2.0 * gain + 0.5:
+                return u, f, "behind"
+            t = 1.0
+            for _ in range(30):
+                un = np.clip(u + t * step, -bounds + 2 * h, bounds - 2 * h)
+                fn = prof.negll(un)
+                if fn <= f:
+                    break
+                t *= 0.5
+            else:
+                return u, f, ("converged" if gain < 1e-3 else "failed")
+            gn = _forward_gradient(prof.negll, un, fn)
+            s_, y_ = un - u, gn - g
+            sy = float(s_ @ y_)
+            if sy > 1e-12 * float(s_ @ s_):
+                hs = hess @ s_
+                hess = hess - np.outer(hs, hs) / float(s_ @ hs) + np.outer(y_, y_) / sy
+            u, f, g = un, fn, gn
+    except (ValueError, np.linalg.LinAlgError):
+        return u, prof.negll(u), "failed"
+    return u, f, "failed"
+
+
+def _observed_stderr(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float,
+                     mean: float) -> dict[str, float]:
+    """Standard errors from the inverse of minus the Hessian of log L in (a1, a2, q, r, mean).
+
+    The likelihood is computed in phi = (theta, s, mean), theta the model's free subset of
+    (a1, a2, w), q = s w, r = s (1 - w): one core pass at theta gives the sums from which log L
+    and its derivatives in the scale s and the mean are exact (see drift_likelihood.hpp),
+    log L = -1/2 (n log 2 pi + S_logF + n log s + (S_ee - 2 d S_eg + d^2 S_gg) / s).
+    Only theta is differenced (central differences, 1 + 2k + k(k-1)/2 passes: 13 for ar2+white
+    instead of 33 when all four variances are differenced); the cross terms in s and the mean
+    are central differences of their exact first derivatives. The Hessian is then carried to
+    (a1, a2, q, r, mean) by the chain rule, including the gradient term of w(q, r)."""
+    names = {"ar2+white": ["a1", "a2", "w"], "ar1+white": ["a1", "w"], "white": []}[model]
+    vals = {"a1": a1, "a2": a2, "w": w}
+    theta = np.array([vals[k] for k in names])
+    k = theta.size
+    d = mean - prof.center
+    n = prof.n
+
+    def parts(t: np.ndarray) -> np.ndarray:
+        """(log L, d log L / d s, d log L / d mean) at (t, s, mean)."""
+        p = dict(zip(names, t, strict=True))
+        ww = p.get("w", 0.0)
+        _, slog, see, seg, sgg = prof.sums(p.get("a1", 0.0), p.get("a2", 0.0), ww, 1.0 - ww,
+                                           prof.center)
+        sq = see - 2.0 * d * seg + d * d * sgg
+        ll = -0.5 * (n * (_LOG_2PI + math.log(s)) + slog + sq / s)
+        return np.array([ll, -0.5 * (n / s - sq / s**2), (seg - d * sgg) / s, sq, sgg])
+
+    hphi = np.zeros((k + 2, k + 2))  # order: theta..., s, mean
+    grad_w = 0.0
+    try:
+        # On the boundary (w = 0 or 1) no central difference fits inside [0, 1]: NaN standard
+        # errors (caught below; internal, never reaches the caller).
+        h = np.array([max(min(1e-4, 0.5 * v, 0.5 * (1.0 - v)), 0.0) if nm == "w" else 1e-4
+                      for nm, v in zip(names, theta, strict=True)])
+        if np.any(h <= 0):
+            raise np.linalg.LinAlgError("on the boundary of the split")
+        p0 = parts(theta)
         ei = np.eye(k) * h
-        fp = [evaluate(theta + ei[i]) for i in range(k)]
-        fm = [evaluate(theta - ei[i]) for i in range(k)]
+        pp = [parts(theta + ei[i]) for i in range(k)]
+        pm = [parts(theta - ei[i]) for i in range(k)]
         for i in range(k):
-            hess[i, i] = (fp[i][0] - 2.0 * f0 + fm[i][0]) / h[i] ** 2
-            hess[i, k] = hess[k, i] = (fp[i][1] - fm[i][1]) / (2.0 * h[i])
+            hphi[i, i] = (pp[i][0] - 2.0 * p0[0] + pm[i][0]) / h[i] ** 2
+            hphi[i, k] = hphi[k, i] = (pp[i][1] - pm[i][1]) / (2.0 * h[i])
+            hphi[i, k + 1] = hphi[k + 1, i] = (pp[i][2] - pm[i][2]) / (2.0 * h[i])
+            if names[i] == "w":
+                grad_w = (pp[i][0] - pm[i][0]) / (2.0 * h[i])
             for j in range(i + 1, k):
-                fpp = evaluate(theta + ei[i] + ei[j])[0]
-                fpm = evaluate(theta + ei[i] - ei[j])[0]
-                fmp = evaluate(theta - ei[i] + ei[j])[0]
-                fmm = evaluate(theta - ei[i] - ei[j])[0]
-                hess[i, j] = hess[j, i] = (fpp - fpm - fmp + fmm) / (4.0 * h[i] * h[j])
-        hess[k, k] = -sgg0
+                fpp = parts(theta + ei[i] + ei[j])[0]
+                fmm = parts(theta - ei[i] - ei[j])[0]
+                hphi[i, j] = hphi[j, i] = (fpp + fmm - pp[i][0] - pm[i][0] - pp[j][0]
+                                           - pm[j][0] + 2.0 * p0[0]) / (2.0 * h[i] * h[j])
+        sq, sgg = p0[3], p0[4]
+        hphi[k, k] = -0.5 * (-n / s**2 + 2.0 * sq / s**3)
+        hphi[k + 1, k + 1] = -sgg / s
+        hphi[k, k + 1] = hphi[k + 1, k] = -p0[2] / s
+        # Natural parameters psi = (theta without w, q, r, mean) (white: r, mean).
+        q, r = s * w, s * (1.0 - w)
+        nat = [nm for nm in names if nm != "w"] + (["q", "r"] if "w" in names else ["r"])
+        jac = np.zeros((k + 2, len(nat) + 1))  # d phi / d psi
+        for i, nm in enumerate(names):
+            if nm != "w":
+                jac[i, nat.index(nm)] = 1.0
+        if "w" in names:
+            iw, iq, ir = names.index("w"), nat.index("q"), nat.index("r")
+            jac[iw, iq], jac[iw, ir] = r / s**2, -q / s**2
+            jac[k, iq] = jac[k, ir] = 1.0
+        else:
+            jac[k, nat.index("r")] = 1.0
+        jac[k + 1, len(nat)] = 1.0
+        hess = jac.T @ hphi @ jac
+        if "w" in names:  # + dL/dw * d^2 w / d psi^2 (w = q / (q + r))
+            hess[iq, iq] += grad_w * (-2.0 * r / s**3)
+            hess[ir, ir] += grad_w * (2.0 * q / s**3)
+            hess[iq, ir] += grad_w * (q - r) / s**3
+            hess[ir, iq] = hess[iq, ir]
         cov = np.linalg.inv(-hess)
         var = np.diag(cov)
         se = np.where(var > 0, np.sqrt(np.abs(var)), np.nan)
     except (ValueError, np.linalg.LinAlgError):
-        se = np.full(k + 1, np.nan)
+        nat = [nm for nm in names if nm != "w"] + (["q", "r"] if "w" in names else ["r"])
+        se = np.full(len(nat) + 1, np.nan)
     out = {nm: math.nan for nm in ("a1", "a2", "q", "r", "mean")}
-    for nm, v in zip([*names, "mean"], se, strict=True):
+    for nm, v in zip([*nat, "mean"], se, strict=True):
         out[nm] = float(v)
     return out
+
+
+def drift_fisher_information(a1: float, a2: float, q: float, r: float, n: int,
+                             free: tuple[str, ...] = ("a1", "a2", "q", "r"),
+                             n_freq: int = 1 << 15) -> np.ndarray:
+    """Expected (Fisher) information of n samples about the drift model's parameters.
+
+    Whittle's asymptotic form for a stationary Gaussian record with spectrum
+    S(f) = q / |1 - a1 e^{-i w} - a2 e^{-2 i w}|^2 + r (w = 2 pi f / rate):
+    I_jk = (n / 2) (1 / pi) int_0^pi d_j log S(w) d_k log S(w) dw, evaluated on n_freq
+    midpoints (the mean is asymptotically orthogonal to these parameters and left out). The
+    test holds it to the numerical Hessian of the exact expected log-likelihood.
+
+    Parameters
+    ----------
+    a1, a2, q, r : float
+        Model parameters (q, r in (record units)^2).
+    n : int
+        Record length, samples.
+    free : tuple of str
+        The parameters in the matrix, in this order (a subset of a1, a2, q, r).
+    n_freq : int
+        Frequency grid size.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(free), len(free))
+
+    Examples
+    --------
+    >>> info = drift_fisher_information(0.0, 0.0, 0.0, 2.0, 1000, free=("r",))
+    >>> float(info[0, 0])   # n / (2 r^2) for white noise
+    125.0
+    """
+    w = (np.arange(n_freq) + 0.5) * (math.pi / n_freq)
+    z1 = np.exp(-1j * w)
+    a_poly = 1.0 - a1 * z1 - a2 * z1 * z1
+    a2abs = np.abs(a_poly) ** 2
+    spec = q / a2abs + r
+    rows = {
+        "a1": 2.0 * q * np.real(np.conj(a_poly) * z1) / a2abs**2,
+        "a2": 2.0 * q * np.real(np.conj(a_poly) * z1 * z1) / a2abs**2,
+        "q": 1.0 / a2abs,
+        "r": np.ones_like(w),
+    }
+    d = np.array([rows[k] for k in free]) / spec
+    return np.asarray(0.5 * n * (d @ d.T) / n_freq)
+
+
+def _profile_split(prof: _Profile, model: str, ratio: float,
+                   starts: list[tuple[float, float]]) -> tuple[float, np.ndarray]:
+    """Profile of the likelihood at a fixed split r/q = ratio: max over (a1, a2) (mean and scale
+    concentrated out) from each start; returns (-log L / n, u) of the best."""
+    w = 1.0 / (1.0 + ratio)
+    u_split = math.log(w / (1.0 - w))
+    k = 2 if model == "ar2+white" else 1
+
+    def negll(v: np.ndarray) -> float:
+        return prof.negll(np.r_[v, u_split])
+
+    bounds = [(-_U_AR_BOUND, _U_AR_BOUND)] * k
+    best_f, best_u = math.inf, np.zeros(k + 1)
+    for a1, a2 in starts:
+        v0 = _u_of(model, a1, a2, w)[:k]
+        res = scipy.optimize.minimize(negll, v0, method="L-BFGS-B", jac="2-point", bounds=bounds,
+                                      options={"ftol": 1e-3 / prof.n, "maxiter": 100})
+        for v in (np.asarray(res.x), v0):
+            f = negll(v)
+            if f < best_f:
+                best_f, best_u = f, np.r_[v, u_split]
+    return best_f, best_u
+
+
+def _yule_walker_at(d: np.ndarray, model: str, w: float) -> tuple[float, float]:
+    """(a1, a2) from the sample autocovariances when a share 1 - w of the variance is white."""
+    n = d.size
+    c = [float(d[: n - j] @ d[j:]) / n for j in range(3)]
+    g0 = c[0] * w
+    if model == "ar1+white":
+        return max(min(c[1] / g0, 0.99), -0.99), 0.0
+    det = g0 * g0 - c[1] * c[1]
+    if det <= 0:
+        return 0.0, 0.0
+    a1 = (c[1] * g0 - c[1] * c[2]) / det
+    a2 = max(min((c[2] * g0 - c[1] * c[1]) / det, 0.99), -0.99)
+    return max(min(a1, 0.99 * (1.0 - a2)), -0.99 * (1.0 - a2)), a2
+
+
+def _split_check(prof: _Profile, model: str, u_ml: np.ndarray
+                 ) -> tuple[tuple[float, float], tuple[float, float, float, float] | None]:
+    """Is the drift/white split identified? Profile log-likelihood drops at r/q = 0.1 and 10.
+
+    Returns ((drop at r/q = 0.1, drop at r/q = 10), minimax tuning or None). Both drops below
+    _SPLIT_DROP_MIN = 4 mean the record does not reject "white noise 10x the drift" nor "drift
+    10x the white noise" (at 99.5 %); a fit that does not beat the white model by BIC has found
+    no drift to split. Either way the split is not identified, and the tuning returned is the
+    profile fit at q = r, (a1, a2, q, r). Why q = r: for such (nearly white) drift a gain g
+    gives the error (1 - g)^2 q + g^2 r; over all splits of the identified total q + r its
+    worst case is smallest, a quarter of the total, at g = 1/2, the steady-state gain of q = r
+    (minimax; README and scripts/drift_identifiability.py give the numbers). Records longer
+    than _PROFILE_N are profiled on their first _PROFILE_N samples with the drops scaled by
+    n / _PROFILE_N (the expected drop grows in proportion to n)."""
+    if model == "white":
+        return (math.inf, math.inf), None
+    n = prof.n
+    sub = prof if n <= _PROFILE_N else _Profile(prof.x[:_PROFILE_N], model, prof.center)
+    f_ml = sub.negll(u_ml)
+    a1, a2, _ = prof.natural(u_ml)
+    d = sub.x - prof.center
+    drops = []
+    for ratio in _SPLIT_PROBES:
+        f, _ = _profile_split(sub, model, ratio, [(a1, a2), _yule_walker_at(d, model,
+                                                                             1.0 / (1.0 + ratio))])
+        drops.append(max(f - f_ml, 0.0) * n)
+    prof.evaluations += sub.evaluations if sub is not prof else 0
+    # Evidence of any drift structure at all: the model must beat "white noise + mean" by BIC.
+    # If it does not, the drift cannot be told from white noise whatever the probes say (the
+    # fit then sits in a spurious mode, e.g. a weak sharp resonance, that can make the probes'
+    # drops exceed the threshold: seen on -0.0069/0.0113 at 6e4 samples).
+    dx = prof.x - float(np.mean(prof.x))
+    ll_white = -0.5 * n * (_LOG_2PI + math.log(float(dx @ dx) / n) + 1.0)
+    ll_ml = -prof.negll(u_ml) * n
+    beats_white = ll_ml - ll_white > 0.5 * (_N_PARAMS[model] - _N_PARAMS["white"]) * math.log(n)
+    if beats_white and max(drops) > _SPLIT_DROP_MIN:
+        return (drops[0], drops[1]), None
+    # Not identified: the profile fit at q = r on the whole record.
+    _, u = _profile_split(prof, model, 1.0, [(a1, a2), _yule_walker_at(prof.x - prof.center,
+                                                                       model, 0.5)])
+    b1, b2, w = prof.natural(u)
+    _, scale, _ = prof.concentrated(b1, b2, w)
+    return (drops[0], drops[1]), (b1, b2, scale * w, scale * (1.0 - w))
 
 
 def ljung_box(e: np.ndarray, lags: int, model_df: int = 0) -> LjungBox:
@@ -422,22 +736,27 @@ def _prepare(x: object) -> np.ndarray:
     return a
 
 
-def _finish(prof: _Profile, model: str, a1: float, a2: float, q: float, r: float, mean: float,
-            rate_hz: float, start_ll: float) -> DriftModelFit:
+def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float, mean: float,
+            rate_hz: float, start_ll: float,
+            split: tuple[tuple[float, float], tuple[float, float, float, float] | None]
+            ) -> DriftModelFit:
     n = prof.n
+    q, r = s * w, s * (1.0 - w)
     innov = np.empty(n)
     ll = prof.core.drift_loglike(prof.x, a1, a2, q, r, mean, innov)[0]
-    names = {"ar2+white": ["a1", "a2", "q", "r"], "ar1+white": ["a1", "q", "r"],
-             "white": ["r"]}[model]
-    vals = {"a1": a1, "a2": a2, "q": q, "r": r}
-    stderr = _observed_stderr(prof, np.array([vals[k] for k in names]), names, mean)
+    stderr = _observed_stderr(prof, model, a1, a2, w, s, mean)
     k = _N_PARAMS[model]
     lags = max(1, min(10, n // 5))
+    split_drop, minimax = split
+    identified = minimax is None
+    filter_params = (a1, a2, q, r) if minimax is None else minimax
     return DriftModelFit(
         model=model, a1=a1, a2=a2, q=q, r=r, mean=mean, loglike=ll,
         aic=2.0 * k - 2.0 * ll, bic=k * math.log(n) - 2.0 * ll, stderr=stderr, n=n,
         rate_hz=rate_hz, ljung_box=ljung_box(innov, lags, _MODEL_DF[model]),
-        start_loglike=start_ll, n_evaluations=prof.evaluations)
+        start_loglike=start_ll, n_evaluations=prof.evaluations, split_drop=split_drop,
+        identified=identified, tuning="ml" if identified else "minimax-split",
+        filter_params=tuple(float(v) for v in filter_params))  # type: ignore[arg-type]
 
 
 def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
@@ -451,26 +770,38 @@ def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
         r = float(np.mean((a - mean) ** 2))
         if not r > 0:
             raise Ar2FitError("constant", "all samples are equal")
-        return _finish(prof, model, 0.0, 0.0, 0.0, r, mean, rate_hz, math.nan)
+        return _finish(prof, model, 0.0, 0.0, 0.0, r, mean, rate_hz, math.nan,
+                       ((math.inf, math.inf), None))
     starts = _moment_starts(a - center, model, burg)
-    extra = 0
-    if a.shape[0] > 2 * _WARM_START_N:
-        # Multi-start on a prefix of the long record (its optimum is close to the full one),
-        # then the exact fit on the whole record from there.
-        pre = _Profile(a[:_WARM_START_N], model, center)
-        starts = [_best_of(pre, starts)]
-        extra = pre.evaluations
     prof = _Profile(a, model, center)
-    start_ll = -min(prof.negll(u) for u in starts) * prof.n
-    if len(starts) == 1:
-        u = _optimise(prof, starts[0], tight=True)
-        u = u if prof.negll(u) <= prof.negll(starts[0]) else starts[0]
+    if a.shape[0] > 2 * _WARM_START_N:
+        # Multi-start on a prefix of the long record, then Newton steps on the whole record
+        # from its modes, with the prefix's Hessian (per sample) as the first curvature: 2-3
+        # steps of 1 + k passes instead of ~75 passes of L-BFGS-B with finite differences.
+        # Every distinct prefix mode within _MODE_KEEP_LL of the best is refined: on a prefix
+        # of 2^14 samples two modes (e.g. r -> 0 and an interior split) can be tied within
+        # 0.1, and the full record then prefers the other one by over 1 log-likelihood unit.
+        pre = _Profile(a[:_WARM_START_N], model, center)
+        modes = sorted(_prefix_modes(pre, starts), key=prof.negll)
+        start_ll = -prof.negll(modes[0]) * prof.n
+        u, f_u, status = modes[0], math.inf, "failed"
+        for u_pre in modes:  # best first on the full record
+            _, _, hess_pre = _fd_gradient_hessian(pre.negll, u_pre, 1e-4, hessian=True)
+            assert hess_pre is not None
+            cand, f_c, st = _newton_refine(prof, u_pre, hess_pre, f_best=f_u)
+            if st != "behind" and f_c < f_u:
+                u, f_u, status = cand, f_c, st
+        if status == "failed":  # the general optimiser from the best point reached
+            cand = _optimise(prof, u, tight=True)
+            u = cand if prof.negll(cand) <= f_u else u
+        prof.evaluations += pre.evaluations
     else:
+        start_ll = -min(prof.negll(u) for u in starts) * prof.n
         u = _best_of(prof, starts)
     a1, a2, w = prof.natural(u)
     _, s, mean = prof.concentrated(a1, a2, w)
-    prof.evaluations += extra
-    return _finish(prof, model, a1, a2, s * w, s * (1.0 - w), mean, rate_hz, start_ll)
+    split = _split_check(prof, model, u)
+    return _finish(prof, model, a1, a2, w, s, mean, rate_hz, start_ll, split)
 
 
 def fit_drift_model(
@@ -523,9 +854,13 @@ def fit_drift_model(
     if not (math.isfinite(rate) and rate > 0):
         raise GyrodriftValueError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
     a = np.asarray(x)
-    if a.ndim == 2 and a.shape[1] == 3:
-        return tuple(_fit_1d(_prepare(a[:, i]), rate, model) for i in range(3))
-    return _fit_1d(_prepare(a), rate, model)
+    # One BLAS thread: scipy's L-BFGS-B calls BLAS on 3-vectors, and OpenBLAS's thread
+    # hand-off then costs more than the whole likelihood (measured 1.3 -> 0.5 s CPU on a 1e6
+    # fit on 2 cores; on a loaded machine a trivial 3-parameter minimize took 45 ms instead of 2).
+    with threadpool_limits(limits=1, user_api="blas"):
+        if a.ndim == 2 and a.shape[1] == 3:
+            return tuple(_fit_1d(_prepare(a[:, i]), rate, model) for i in range(3))
+        return _fit_1d(_prepare(a), rate, model)
 
 
 def compare_drift_models(x: object, rate_hz: float, criterion: str = "aic"

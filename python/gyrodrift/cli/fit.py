@@ -79,6 +79,7 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
     lines = ["# gyrodrift processor configuration", 'schema = "gyrodrift.processor"',
              "version = 1", "", "[meta]", 'written_by = "gyrodrift fit"',
              f"record = {_toml_str(os.path.basename(source))}", f'model = "{fit.model}"',
+             f'tuning = "{fit.tuning}"',
              f"loglike = {fit.loglike!r}", "", "[timing]", f"sample_rate_hz = {float(rate_hz)!r}",
              ""]
     for name in ("gx", "gy", "gz", "ax", "ay", "az"):
@@ -86,10 +87,13 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
         lines += [f"[channels.{name}]", f"saturation_{unit} = inf", "stuck_samples = 0", "",
                   f"[[channels.{name}.stages]]"]
         if name == channel:
-            r = max(fit.r, 1e-12 * (fit.q + fit.r))
-            lines += ['type = "ar2_kalman"', f"a1 = {fit.a1!r}", f"a2 = {fit.a2!r}",
-                      f"mean_rad_s = {fit.mean * k!r}", f"sigma2 = {fit.q * k * k!r}",
-                      f"q = {fit.q * k * k!r}", f"r = {r * k * k!r}", "p0 = 1.0",
+            # The filter's parameters: the fit's, or the minimax q = r tuning when the fit
+            # could not tell drift from white noise (fit.tuning).
+            a1, a2, q, r = fit.filter_params
+            r = max(r, 1e-12 * (q + r))
+            lines += ['type = "ar2_kalman"', f"a1 = {a1!r}", f"a2 = {a2!r}",
+                      f"mean_rad_s = {fit.mean * k!r}", f"sigma2 = {q * k * k!r}",
+                      f"q = {q * k * k!r}", f"r = {r * k * k!r}", "p0 = 1.0",
                       "steady_state = true"]
         else:
             lines.append('type = "pass_through"')
@@ -172,6 +176,18 @@ def run(args: argparse.Namespace) -> int:
               f"{_fmt(f.r, se['r']):>18} {_fmt(f.mean, se['mean']):>18} "
               f"{f.ljung_box.pvalue:8.3g}")
     print(f"chosen: {cmp_.chosen} (lowest {args.criterion.upper()})")
+    if best.model != "white":
+        d01, d10 = best.split_drop
+        if best.identified:
+            print(f"drift/white split identified (profile log-likelihood drop {d01:.3g} at "
+                  f"r/q = 0.1, {d10:.3g} at r/q = 10); filter tuned by maximum likelihood")
+        else:
+            a1, a2, q, _ = best.filter_params
+            print(f"drift/white split NOT identified (profile log-likelihood drop {d01:.3g} "
+                  f"at r/q = 0.1, {d10:.3g} at r/q = 10, both < 4, or no BIC gain over the "
+                  "white model): the record cannot tell "
+                  f"drift from white noise; filter tuned at q = r (minimax over all splits): "
+                  f"a1 {a1:.5g}, a2 {a2:.5g}, q = r = {q:.5g}")
     bw = "none below Nyquist" if resp.bandwidth_hz is None else f"{resp.bandwidth_hz:.4g} Hz"
     print(f"steady-state gain K = ({resp.gain[0]:.6g}, {resp.gain[1]:.6g}), "
           f"DC gain {resp.dc_gain:.4g}, -3 dB bandwidth {bw}")
