@@ -17,7 +17,6 @@
 #include <cstdint>
 #include <new>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "array_checks.hpp"
@@ -61,8 +60,8 @@ constexpr std::size_t kGroup = 64;
 // Term indices per block of the fused kernels: 65536 measured ~15 % faster than 16384 at
 // 1e6 samples (octave taus: fewer far segments per term); a group whose workspace would
 // exceed kMaxWorkspace doubles (8 MiB: many widely spaced factors) halves its block, down
-// to kMinBlock, so the memory stays bounded whatever the grid. The block depends only on
-// (n_data, m): same result for any thread count.
+// to kMinBlock, so the memory stays bounded whatever the grid (two workspaces with two
+// threads). The block depends only on (n_data, m): same result for any thread count.
 constexpr std::size_t kFusedBlock = 1 << 16;
 constexpr std::size_t kMinBlock = 1 << 12;
 constexpr std::size_t kMaxWorkspace = 1 << 20;
@@ -81,30 +80,6 @@ std::size_t plan_block(DeviationFused<kGroup>& fused, FusedDeviation kind, std::
     if (fused.workspace_doubles() <= kMaxWorkspace || block == kMinBlock) return block;
   }
   return 0;
-}
-
-// Factor groups [lo, hi) of the fused kernel: runs of at most kGroup factors, each cut in
-// two where the estimated costs balance, so two workers can take one half each. The cut
-// depends only on (n_data, m), never on the thread count: same result for any `threads`.
-std::vector<std::pair<std::size_t, std::size_t>> fused_groups(Dev d, std::size_t n_data,
-                                                              const std::vector<std::size_t>& m) {
-  std::vector<std::pair<std::size_t, std::size_t>> out;
-  auto scratch = std::make_unique<DeviationFused<kGroup>>();
-  const FusedDeviation kind = fused_kind(d);
-  for (std::size_t lo = 0; lo < m.size(); lo += kGroup) {
-    const std::size_t hi = std::min(m.size(), lo + kGroup);
-    // cost per block: the prefix sums (workspace) plus ~one prefix element per factor term
-    const std::size_t cut = lo + fused_balanced_cut(hi - lo, [&](std::size_t a, std::size_t b) {
-      const std::size_t block = plan_block(*scratch, kind, n_data, m.data() + lo + a, b - a);
-      if (block == 0) return -1.0;
-      const double blocks = static_cast<double>(n_data) / static_cast<double>(block);
-      return blocks * (static_cast<double>(scratch->workspace_doubles()) +
-                       static_cast<double>((b - a) * block));
-    });
-    out.emplace_back(lo, cut);
-    if (cut < hi) out.emplace_back(cut, hi);
-  }
-  return out;
 }
 
 template <class T>
@@ -146,32 +121,49 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
       all_ok = cascade->run(x, work.data(), work.size(), s2 + lo, terms.data() + lo);
     }
   } else {
-    const auto groups = fused_groups(d, n_data, m);
-    std::vector<char> group_ok(groups.size(), 0);
+    // Groups of at most kGroup factors, each run as kParts stretches of its term range
+    // (the same split for any thread count, so the same result); workers take whole parts,
+    // each with its own plan and workspace.
+    constexpr std::size_t kParts = 2;
+    const FusedDeviation kind = fused_kind(d);
+    const std::size_t n_groups = (n_m + kGroup - 1) / kGroup;
+    std::vector<std::unique_ptr<DeviationFused<kGroup>>> parts(n_groups * kParts);
+    std::vector<char> part_ok(parts.size(), 0);
+    for (std::size_t t = 0; t < parts.size(); ++t) {
+      const std::size_t lo = (t / kParts) * kGroup;
+      parts[t] = std::make_unique<DeviationFused<kGroup>>();
+      if (plan_block(*parts[t], kind, n_data, m.data() + lo, std::min(kGroup, n_m - lo)) == 0) {
+        throw py::value_error("deviation_sigma2: could not plan the factors");
+      }
+    }
     std::atomic<std::size_t> next{0};
     std::atomic<bool> out_of_memory{false};
-    const FusedDeviation kind = fused_kind(d);
-    // Each worker takes whole groups (own plan, own workspace); outputs do not overlap.
     const auto worker = [&]() noexcept {
       try {  // the workspace allocation is the only thing that can throw here
-        auto fused = std::make_unique<DeviationFused<kGroup>>();
         std::vector<double> work;
-        for (std::size_t g = next++; g < groups.size(); g = next++) {
-          const std::size_t lo = groups[g].first;
-          const std::size_t cnt = groups[g].second - lo;
-          if (plan_block(*fused, kind, n_data, m.data() + lo, cnt) == 0) continue;
-          work.resize(fused->workspace_doubles());
-          group_ok[g] =
-              fused->run(x, work.data(), work.size(), s2 + lo, terms.data() + lo) ? 1 : 0;
+        for (std::size_t t = next++; t < parts.size(); t = next++) {
+          DeviationFused<kGroup>& f = *parts[t];
+          const std::size_t k = t % kParts;
+          work.resize(f.workspace_doubles());
+          part_ok[t] = f.accumulate(x, work.data(), work.size(), f.part_begin(k, kParts),
+                                    f.part_begin(k + 1, kParts))
+                           ? 1
+                           : 0;
         }
       } catch (...) {
         out_of_memory = true;
       }
     };
-    const std::size_t n_threads = std::min(groups.size(), static_cast<std::size_t>(threads));
+    const std::size_t n_threads = std::min(parts.size(), static_cast<std::size_t>(threads));
     run_workers(n_threads, worker);
     if (out_of_memory) throw std::bad_alloc();
-    all_ok = std::all_of(group_ok.begin(), group_ok.end(), [](char v) { return v != 0; });
+    all_ok = std::all_of(part_ok.begin(), part_ok.end(), [](char v) { return v != 0; });
+    for (std::size_t g = 0; g < n_groups && all_ok; ++g) {
+      const DeviationFused<kGroup>* group[kParts];
+      for (std::size_t k = 0; k < kParts; ++k) group[k] = parts[g * kParts + k].get();
+      all_ok = DeviationFused<kGroup>::finish_parts(group, kParts, s2 + g * kGroup,
+                                                    terms.data() + g * kGroup);
+    }
   }
   if (!all_ok) {
     throw py::value_error("data: the " + name + " sums are not finite (values too large?)");

@@ -183,6 +183,8 @@ class DeviationFused {
  public:
   static constexpr std::size_t kStreams = 4;
   static constexpr std::size_t kMaxOffsets = kStreams * MaxTaus;
+  // Terms per tile inside a block: the streams of a tile (~2 per factor x 16 kB) stay in L2.
+  static constexpr std::size_t kTile = 2048;
 
   // m: strictly increasing factors, each 1 <= m <= the estimator's max_m; block >= 16.
   bool plan(std::size_t n_data, FusedDeviation dev, const std::size_t* m, std::size_t n_m,
@@ -261,29 +263,86 @@ class DeviationFused {
   template <class Scalar, class Out>
   bool run(const Scalar* y, double* workspace, std::size_t workspace_len, Out* sigma2,
            std::size_t* terms) noexcept {
-    if (n_m_ == 0 || workspace_len < workspace_) return false;
-    seed(y);
+    const DeviationFused* whole[1] = {this};
+    return accumulate(y, workspace, workspace_len, 0, max_terms_) &&
+           finish_parts(whole, 1, sigma2, terms);
+  }
+
+  // Term indices of part k of `parts` equal stretches (multiples of the block): workers
+  // can run the parts of one plan side by side (each its own object and workspace, planned
+  // alike) and finish_parts() adds their sums in part order, so the result does not depend
+  // on how many workers ran them. Parts after the first start from values recomputed
+  // from the samples (anchor), not carried.
+  std::size_t part_begin(std::size_t k, std::size_t parts) const noexcept {
+    if (k == 0 || parts == 0) return 0;
+    if (k >= parts) return max_terms_;
+    const std::size_t blocks = (max_terms_ + block_ - 1) / block_;
+    return (blocks * k / parts) * block_;
+  }
+
+  // The sums of terms [b_begin, b_end) of every factor (b_begin a multiple of the block).
+  template <class Scalar>
+  bool accumulate(const Scalar* y, double* workspace, std::size_t workspace_len,
+                  std::size_t b_begin, std::size_t b_end) noexcept {
+    if (n_m_ == 0 || workspace_len < workspace_ || b_begin % block_ != 0) return false;
+    const double c = fused_detail::leading_level(y + (b_begin < n_data_ ? b_begin : 0),
+                                                 n_data_ - (b_begin < n_data_ ? b_begin : 0));
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      sum_sq_[j] = 0;
+      if (n_terms_[j] > b_begin) start_at(y, j, b_begin, c);
+    }
+    const std::size_t stop = b_end < max_terms_ ? b_end : max_terms_;
 #if GYRODRIFT_ALLAN_X86_DISPATCH
     if (fused_detail::wide_simd()) {
-      blocks_wide(y, workspace);
+      blocks_wide(y, workspace, b_begin, stop);
     } else {
-      blocks(y, workspace);
+      blocks(y, workspace, b_begin, stop);
     }
 #else
-    blocks(y, workspace);
+    blocks(y, workspace, b_begin, stop);
 #endif
-    return finish(sigma2, terms);
+    return true;
+  }
+
+  // sigma2[j], terms[j] (may be null) from the sums of parts[0..n_parts) (same plan), added
+  // in that order. False if a variance is not finite (outputs untouched).
+  template <class Out>
+  static bool finish_parts(const DeviationFused* const* parts, std::size_t n_parts, Out* sigma2,
+                           std::size_t* terms) noexcept {
+    const DeviationFused& f = *parts[0];
+    long double value[MaxTaus];
+    for (std::size_t j = 0; j < f.n_m_; ++j) {
+      long double sum{0};
+      for (std::size_t k = 0; k < n_parts; ++k) sum += parts[k]->sum_sq_[j];
+      const long double mm = static_cast<long double>(f.m_[j]);
+      const long double n = static_cast<long double>(f.n_terms_[j]);
+      if (f.dev_ == FusedDeviation::ohdev) {
+        value[j] = sum / (6.0L * mm * mm * n);
+      } else if (f.dev_ == FusedDeviation::mdev) {
+        value[j] = sum / (2.0L * mm * mm * mm * mm * n);
+      } else {
+        value[j] = sum / (2.0L * mm * mm * n);
+      }
+      if (!std::isfinite(value[j])) return false;
+    }
+    for (std::size_t j = 0; j < f.n_m_; ++j) {
+      sigma2[j] = static_cast<Out>(value[j]);
+      if (terms != nullptr) terms[j] = f.n_terms_[j];
+    }
+    return true;
   }
 
  private:
-  // Term 0 of every factor: H_0 (and V_0) or D_0 from range sums of (y - level), in double.
+  // The running values of factor j at term b (< its term count) from the samples. For mdev
+  // the last term (b = n - 1) has V but no H (it would read X_{N+1}): V_b = V_{b-1} + H_{b-1}.
   template <class Scalar>
-  void seed(const Scalar* y) noexcept {
-    const double c = fused_detail::leading_level(y, n_data_);
-    for (std::size_t j = 0; j < n_m_; ++j) {
-      sum_sq_[j] = 0;
-      anchor(y, j, 0, c);
+  void start_at(const Scalar* y, std::size_t j, std::size_t b, double c) noexcept {
+    if (!reflect_ && b + 3 * m_[j] > n_data_) {
+      anchor(y, j, b - 1, c);
+      inner_[j] += chain_[j];
+      return;
     }
+    anchor(y, j, b, c);
   }
 
   // The running values of factor j at term b from the samples (O(m), double, eight lanes):
@@ -325,13 +384,14 @@ class DeviationFused {
   }
 
   template <bool Wide, class Scalar>
-  GYRODRIFT_FUSED_INLINE void blocks_impl(const Scalar* y, double* workspace) noexcept {
+  GYRODRIFT_FUSED_INLINE void blocks_impl(const Scalar* y, double* workspace,
+                                          std::size_t b_begin, std::size_t b_end) noexcept {
     const std::size_t bsz = block_;
     std::size_t n_active = n_m_;
     const auto sn = static_cast<std::ptrdiff_t>(n_data_);
     // virtual samples y*[k] exist for k < v_end (the reflected record ends at 2N - 2)
     const std::ptrdiff_t v_end = reflect_ ? 2 * sn - 1 : sn;
-    for (std::size_t b = 0; b < max_terms_; b += bsz) {
+    for (std::size_t b = b_begin; b < b_end; b += bsz) {
       // factors are sorted by m: for ohdev/mdev the largest m has the fewest terms
       while (n_active > 0 && n_terms_[n_active - 1] <= b) --n_active;
       // One level for all streams of this block (it cancels: the coefficients sum to 0).
@@ -355,67 +415,86 @@ class DeviationFused {
         const std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
         prefix_virtual<Wide>(y, start, len, mean, workspace + seg_q_[k]);
       }
+      // Start values: k0[j] = (H_b or D_b) minus the combination of the Q at i = 0.
+      double k0[MaxTaus];
       for (std::size_t j = 0; j < n_active; ++j) {
-        const std::size_t left = n_terms_[j] - b;
-        const std::size_t len = left < bsz ? left : bsz;
-        const double* p0 = workspace + stream_[j][0];
-        const double* p1 = workspace + stream_[j][1];
-        const double* p2 = workspace + stream_[j][2];
-        const double* p3 = workspace + stream_[j][3];
+        const Streams p = streams(workspace, j);
         if (reflect_) {
-          const double k0 = static_cast<double>(chain_[j]) - ((p2[0] - 2.0 * p1[0]) + p0[0]);
-          sum_sq_[j] += static_cast<long double>(
-              fused_detail::sum_sq_second(p0, p1, p2, len, k0));
-          if (left > bsz) {
-            chain_[j] += (static_cast<long double>(p2[bsz]) - static_cast<long double>(p2[0])) -
-                         2.0L * (static_cast<long double>(p1[bsz]) -
-                                 static_cast<long double>(p1[0])) +
-                         (static_cast<long double>(p0[bsz]) - static_cast<long double>(p0[0]));
-          }
+          k0[j] = static_cast<double>(chain_[j]) - ((p[2][0] - 2.0 * p[1][0]) + p[0][0]);
           continue;
         }
-        if (dev_ == FusedDeviation::ohdev) {
-          const double k0 =
-              static_cast<double>(chain_[j]) - ((p3[0] - p0[0]) + 3.0 * (p1[0] - p2[0]));
-          sum_sq_[j] += static_cast<long double>(
-              fused_detail::sum_sq_third(p0, p1, p2, p3, len, k0));
-        } else {
+        if (dev_ == FusedDeviation::mdev && b > b_begin && b + 3 * m_[j] <= n_data_ &&
+            (b / bsz) % anchor_every_[j] == 0) {
           // Modified variance: V integrates H, so the rounding of the carried H and of the
           // Q sums would random-walk into V over the whole record (~sqrt(N) eps); V and H
           // are recomputed from the samples every max(B, 16 m) terms instead (O(m) each:
           // at most 3/16 of a sample per term), so it never accumulates beyond that.
-          if (b > 0 && b + 3 * m_[j] <= n_data_ && (b / bsz) % anchor_every_[j] == 0) {
-            anchor(y, j, b, mean);
-          }
-          const double k0 =
-              static_cast<double>(chain_[j]) - ((p3[0] - p0[0]) + 3.0 * (p1[0] - p2[0]));
-          // H_{b+i} exists for b + i <= n - 2 (it reads X_N at most)
-          const std::size_t n_h = left - 1 < bsz ? left - 1 : bsz;
-          inner_[j] =
-              fused_detail::integrate_sq(p0, p1, p2, p3, len, n_h, k0, inner_[j], sum_sq_[j]);
+          anchor(y, j, b, mean);
         }
-        const bool carry = dev_ == FusedDeviation::ohdev ? left > bsz : left > bsz + 1;
-        if (carry) {
-          chain_[j] += (static_cast<long double>(p3[bsz]) - static_cast<long double>(p3[0])) -
-                       (static_cast<long double>(p0[bsz]) - static_cast<long double>(p0[0])) +
-                       3.0L * ((static_cast<long double>(p1[bsz]) -
-                                static_cast<long double>(p1[0])) -
-                               (static_cast<long double>(p2[bsz]) -
-                                static_cast<long double>(p2[0])));
+        k0[j] = static_cast<double>(chain_[j]) -
+                ((p[3][0] - p[0][0]) + 3.0 * (p[1][0] - p[2][0]));
+      }
+      // The block's terms in tiles of kTile, every factor per tile, so the streams a tile
+      // reads stay in the core's cache (the whole workspace may not fit).
+      for (std::size_t t0 = 0; t0 < bsz; t0 += kTile) {
+        for (std::size_t j = 0; j < n_active; ++j) {
+          const std::size_t left = n_terms_[j] - b;
+          const std::size_t len = left < bsz ? left : bsz;
+          if (t0 >= len) continue;
+          const std::size_t cnt = len - t0 < kTile ? len - t0 : kTile;
+          const Streams p = streams(workspace, j);
+          if (reflect_) {
+            sum_sq_[j] += static_cast<long double>(
+                fused_detail::sum_sq_second(p[0] + t0, p[1] + t0, p[2] + t0, cnt, k0[j]));
+          } else if (dev_ == FusedDeviation::ohdev) {
+            sum_sq_[j] += static_cast<long double>(fused_detail::sum_sq_third(
+                p[0] + t0, p[1] + t0, p[2] + t0, p[3] + t0, cnt, k0[j]));
+          } else {
+            // H_{b+i} exists for b + i <= n - 2 (it reads X_N at most)
+            const std::size_t n_h = left - 1 < bsz ? left - 1 : bsz;
+            const std::size_t nh = n_h > t0 ? (n_h - t0 < cnt ? n_h - t0 : cnt) : 0;
+            inner_[j] = fused_detail::integrate_sq(p[0] + t0, p[1] + t0, p[2] + t0, p[3] + t0,
+                                                   cnt, nh, k0[j], inner_[j], sum_sq_[j]);
+          }
+        }
+      }
+      // Carry H (D) to the next block: exact differences of doubles, in long double.
+      for (std::size_t j = 0; j < n_active; ++j) {
+        const std::size_t left = n_terms_[j] - b;
+        const Streams p = streams(workspace, j);
+        const auto d = [&](std::size_t s) {
+          return static_cast<long double>(p[s][bsz]) - static_cast<long double>(p[s][0]);
+        };
+        if (reflect_) {
+          if (left > bsz) chain_[j] += (d(2) - 2.0L * d(1)) + d(0);
+        } else if (dev_ == FusedDeviation::ohdev ? left > bsz : left > bsz + 1) {
+          chain_[j] += (d(3) - d(0)) + 3.0L * (d(1) - d(2));
         }
       }
     }
   }
 
+  // The four stream pointers of factor j into the workspace (Q at its offsets).
+  struct Streams {
+    const double* p[kStreams];
+    const double* operator[](std::size_t s) const noexcept { return p[s]; }
+  };
+  Streams streams(const double* workspace, std::size_t j) const noexcept {
+    Streams out{};
+    for (std::size_t s = 0; s < kStreams; ++s) out.p[s] = workspace + stream_[j][s];
+    return out;
+  }
+
   template <class Scalar>
-  void blocks(const Scalar* y, double* workspace) noexcept {
-    blocks_impl<false>(y, workspace);
+  void blocks(const Scalar* y, double* workspace, std::size_t b0, std::size_t b1) noexcept {
+    blocks_impl<false>(y, workspace, b0, b1);
   }
 #if GYRODRIFT_ALLAN_X86_DISPATCH
   template <class Scalar>
-  __attribute__((target("avx2,fma"))) void blocks_wide(const Scalar* y,
-                                                       double* workspace) noexcept {
-    blocks_impl<true>(y, workspace);
+  __attribute__((target("avx2,fma"))) void blocks_wide(const Scalar* y, double* workspace,
+                                                       std::size_t b0,
+                                                       std::size_t b1) noexcept {
+    blocks_impl<true>(y, workspace, b0, b1);
   }
 #endif
 
@@ -456,28 +535,6 @@ class DeviationFused {
     }
 #endif
     fused_detail::prefix_sum(y, step, len, mean, q);
-  }
-
-  template <class Out>
-  bool finish(Out* sigma2, std::size_t* terms) const noexcept {
-    long double value[MaxTaus];
-    for (std::size_t j = 0; j < n_m_; ++j) {
-      const long double mm = static_cast<long double>(m_[j]);
-      const long double n = static_cast<long double>(n_terms_[j]);
-      if (dev_ == FusedDeviation::ohdev) {
-        value[j] = sum_sq_[j] / (6.0L * mm * mm * n);
-      } else if (dev_ == FusedDeviation::mdev) {
-        value[j] = sum_sq_[j] / (2.0L * mm * mm * mm * mm * n);
-      } else {
-        value[j] = sum_sq_[j] / (2.0L * mm * mm * n);
-      }
-      if (!std::isfinite(value[j])) return false;
-    }
-    for (std::size_t j = 0; j < n_m_; ++j) {
-      sigma2[j] = static_cast<Out>(value[j]);
-      if (terms != nullptr) terms[j] = n_terms_[j];
-    }
-    return true;
   }
 
   FusedDeviation dev_{FusedDeviation::ohdev};
