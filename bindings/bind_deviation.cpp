@@ -15,7 +15,6 @@
 #include <memory>
 #include <cstddef>
 #include <cstdint>
-#include <new>
 #include <string>
 #include <vector>
 
@@ -57,12 +56,13 @@ const T* require_vec(const CArray<T>& a, const char* what) {
 }
 
 constexpr std::size_t kGroup = 64;
-// Term indices per block of the fused kernels: 65536 measured ~15 % faster than 16384 at
-// 1e6 samples (octave taus: fewer far segments per term); a group whose workspace would
-// exceed kMaxWorkspace doubles (8 MiB: many widely spaced factors) halves its block, down
-// to kMinBlock, so the memory stays bounded whatever the grid (two workspaces with two
-// threads). The block depends only on (n_data, m): same result for any thread count.
-constexpr std::size_t kFusedBlock = 1 << 16;
+// Term indices per block of the fused kernels: 131072 measured ~10 % faster than 65536 for
+// ohdev at 1e6 samples (octave taus: fewer far segments per term, the prefix sums are a
+// third of the time); a group whose workspace would exceed kMaxWorkspace doubles (8 MiB:
+// longer records, many widely spaced factors) halves its block, down to kMinBlock, so the
+// memory stays bounded whatever the grid (one workspace per thread). The block depends
+// only on (n_data, m): same result for any thread count.
+constexpr std::size_t kFusedBlock = 1 << 17;
 constexpr std::size_t kMinBlock = 1 << 12;
 constexpr std::size_t kMaxWorkspace = 1 << 20;
 
@@ -136,27 +136,26 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
         throw py::value_error("deviation_sigma2: could not plan the factors");
       }
     }
+    const std::size_t n_threads = std::min(parts.size(), static_cast<std::size_t>(threads));
+    std::size_t largest = 0;
+    for (const auto& f : parts) largest = std::max(largest, f->workspace_doubles());
+    // One allocation for all workers' workspaces, on this thread and left uninitialized:
+    // the heap then reuses the same pages from call to call (per-thread or repeated
+    // multi-MB allocations are returned to the system and fault in again, ~1 ms per 4 MB).
+    const std::unique_ptr<double[]> work(new double[n_threads * largest]);
     std::atomic<std::size_t> next{0};
-    std::atomic<bool> out_of_memory{false};
-    const auto worker = [&]() noexcept {
-      try {  // the workspace allocation is the only thing that can throw here
-        std::vector<double> work;
-        for (std::size_t t = next++; t < parts.size(); t = next++) {
-          DeviationFused<kGroup>& f = *parts[t];
-          const std::size_t k = t % kParts;
-          work.resize(f.workspace_doubles());
-          part_ok[t] = f.accumulate(x, work.data(), work.size(), f.part_begin(k, kParts),
-                                    f.part_begin(k + 1, kParts))
-                           ? 1
-                           : 0;
-        }
-      } catch (...) {
-        out_of_memory = true;
+    const auto worker = [&](std::size_t id) noexcept {
+      double* w = work.get() + id * largest;
+      for (std::size_t t = next++; t < parts.size(); t = next++) {
+        DeviationFused<kGroup>& f = *parts[t];
+        const std::size_t k = t % kParts;
+        part_ok[t] = f.accumulate(x, w, largest, f.part_begin(k, kParts),
+                                  f.part_begin(k + 1, kParts))
+                         ? 1
+                         : 0;
       }
     };
-    const std::size_t n_threads = std::min(parts.size(), static_cast<std::size_t>(threads));
     run_workers(n_threads, worker);
-    if (out_of_memory) throw std::bad_alloc();
     all_ok = std::all_of(part_ok.begin(), part_ok.end(), [](char v) { return v != 0; });
     for (std::size_t g = 0; g < n_groups && all_ok; ++g) {
       const DeviationFused<kGroup>* group[kParts];

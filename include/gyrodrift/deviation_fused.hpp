@@ -40,9 +40,9 @@ enum class FusedDeviation : std::uint8_t { ohdev, mdev, totdev };
 
 namespace fused_detail {
 
-// Adds sum_i (p[i step] - mean) and sum_i (u0 + i) (p[i step] - mean), i < len, to the
-// eight lanes a0, a1 (step +1 or -1, a template argument so the +1 loop vectorizes).
-template <int Step, class Scalar>
+// Adds sum_i (p[i step] - mean) and (First) sum_i (u0 + i) (p[i step] - mean), i < len, to
+// the eight lanes a0, a1 (step +1 or -1, a template argument so the +1 loop vectorizes).
+template <int Step, bool First, class Scalar>
 GYRODRIFT_FUSED_INLINE void moments_run(const Scalar* p, std::size_t len, double u0,
                                         double mean, double* a0, double* a1) noexcept {
   constexpr std::size_t kLanes = 8;
@@ -53,20 +53,22 @@ GYRODRIFT_FUSED_INLINE void moments_run(const Scalar* p, std::size_t len, double
     for (std::size_t l = 0; l < kLanes; ++l) {
       const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i + l) * Step]) - mean;
       a0[l] += v;
-      a1[l] += w[l] * v;
-      w[l] += static_cast<double>(kLanes);  // exact: integers below 2^53
+      if (First) {
+        a1[l] += w[l] * v;
+        w[l] += static_cast<double>(kLanes);  // exact: integers below 2^53
+      }
     }
   }
   for (; i < len; ++i) {
     const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i) * Step]) - mean;
     a0[0] += v;
-    a1[0] += (u0 + static_cast<double>(i)) * v;
+    if (First) a1[0] += (u0 + static_cast<double>(i)) * v;
   }
 }
 
-// sum_{u < len} (y*[start + u] - mean) and sum u (y*[start + u] - mean) in double, eight
-// lanes; y* is y itself or (reflect) its even reflection, start may be negative then.
-template <class Scalar>
+// sum_{u < len} (y*[start + u] - mean) and (First) sum u (y*[start + u] - mean) in double,
+// eight lanes; y* is y itself or (reflect) its even reflection, start may be negative then.
+template <bool First, class Scalar>
 GYRODRIFT_FUSED_INLINE void range_moments(const Scalar* y, std::size_t n, bool reflect,
                                           std::ptrdiff_t start, std::size_t len, double mean,
                                           double& s0, double& s1) noexcept {
@@ -83,13 +85,13 @@ GYRODRIFT_FUSED_INLINE void range_moments(const Scalar* y, std::size_t n, bool r
     if (!reflect || (k >= 0 && k < sn)) {
       const auto room = static_cast<std::size_t>(sn - k);
       if (reflect && room < piece) piece = room;
-      moments_run<1>(y + k, piece, ud, mean, a0, a1);
+      moments_run<1, First>(y + k, piece, ud, mean, a0, a1);
     } else if (k < 0) {
       const auto room = static_cast<std::size_t>(-k);
       if (room < piece) piece = room;
-      moments_run<-1>(y + (-1 - k), piece, ud, mean, a0, a1);
+      moments_run<-1, First>(y + (-1 - k), piece, ud, mean, a0, a1);
     } else {
-      moments_run<-1>(y + (2 * sn - 1 - k), piece, ud, mean, a0, a1);
+      moments_run<-1, First>(y + (2 * sn - 1 - k), piece, ud, mean, a0, a1);
     }
     u += piece;
   }
@@ -365,14 +367,21 @@ class DeviationFused {
     double u1 = 0.0;
     double u2 = 0.0;
     if (reflect_) {
-      fused_detail::range_moments(y, n_data_, true, bs + 1 - ms, m, c, r0, u0);
-      fused_detail::range_moments(y, n_data_, true, bs + 1, m, c, r1, u1);
+      fused_detail::range_moments<false>(y, n_data_, true, bs + 1 - ms, m, c, r0, u0);
+      fused_detail::range_moments<false>(y, n_data_, true, bs + 1, m, c, r1, u1);
       chain_[j] = static_cast<long double>(r1) - static_cast<long double>(r0);
       return;
     }
-    fused_detail::range_moments(y, n_data_, false, bs, m, c, r0, u0);
-    fused_detail::range_moments(y, n_data_, false, bs + ms, m, c, r1, u1);
-    fused_detail::range_moments(y, n_data_, false, bs + 2 * ms, m, c, r2, u2);
+    const auto moments = [&](std::ptrdiff_t start, double& r, double& u) {
+      if (dev_ == FusedDeviation::mdev) {
+        fused_detail::range_moments<true>(y, n_data_, false, start, m, c, r, u);
+      } else {
+        fused_detail::range_moments<false>(y, n_data_, false, start, m, c, r, u);
+      }
+    };
+    moments(bs, r0, u0);
+    moments(bs + ms, r1, u1);
+    moments(bs + 2 * ms, r2, u2);
     chain_[j] = (static_cast<long double>(r2) - 2.0L * static_cast<long double>(r1)) +
                 static_cast<long double>(r0);
     if (dev_ == FusedDeviation::mdev) {
