@@ -41,6 +41,33 @@ def median_seconds(
     return statistics.median(times)
 
 
+def measure_side_by_side(fns: dict[str, Callable[[], object]], repeats: int
+                         ) -> dict[str, tuple[float, float, float]]:
+    """{name: (median wall s, median CPU s, peak traced bytes)} for several functions timed
+    in turns (repeat r runs every function once), so a change in the machine's load hits
+    all of them alike; the times are taken with tracemalloc off (its per-allocation hook
+    taxes code with many small allocations more than numpy-bulk code), the peak in one
+    extra traced call of each.
+    """
+    walls: dict[str, list[float]] = {k: [] for k in fns}
+    cpus: dict[str, list[float]] = {k: [] for k in fns}
+    for _ in range(repeats):
+        for name, fn in fns.items():
+            c0, t0 = time.process_time(), time.perf_counter()
+            fn()
+            walls[name].append(time.perf_counter() - t0)
+            cpus[name].append(time.process_time() - c0)
+    out = {}
+    for name, fn in fns.items():
+        tracemalloc.start()
+        base = tracemalloc.get_traced_memory()[0]
+        fn()
+        peak = tracemalloc.get_traced_memory()[1] - base
+        tracemalloc.stop()
+        out[name] = (statistics.median(walls[name]), statistics.median(cpus[name]), float(peak))
+    return out
+
+
 def measure_wall_cpu_peak(fn: Callable[[], object], repeats: int) -> tuple[float, float, float]:
     """(median wall s, median CPU s of this process, peak traced bytes above the start).
 

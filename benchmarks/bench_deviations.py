@@ -1,8 +1,12 @@
 """Benchmark: the deviation family (mdev, tdev, hdev, ohdev, totdev), gyrodrift's C++ kernels
 vs allantools' functions of the same name in the same process, octave taus on float64 rate
-records. Prints a markdown table (median of repeats, wall and CPU time, CPU ns per sample per
-tau, speed-up, peak extra memory from tracemalloc relative to the input; the C++ stack
-buffers, a few kB, are not traced), plus the memory-mapped path (chunked file reads).
+records (the same taus and term counts on both sides: tests/test_deviation.py). Both
+return the deviation per tau; gyrodrift adds the edf and chi-squared interval per tau
+(allantools its simple dev/sqrt(n) error). Prints a markdown table (median of repeats, the
+implementations timed in turns with tracemalloc off, wall and CPU time, CPU ns per sample
+per tau, speed-up, peak extra memory from one traced call relative to the input; the C++
+workspaces (std::vector, bounded: at most 8 MiB per factor group) are not traced), plus the
+memory-mapped path (chunked file reads).
 The deviation kernel alone is timed (alpha=0: no noise identification; the default lag-1
 ACF noise ID, timed in its own row, reads at most 16384 averages per tau).
 
@@ -19,7 +23,7 @@ from pathlib import Path
 import allantools
 import gyrodrift
 import numpy as np
-from _bench_util import machine
+from _bench_util import machine, measure_side_by_side
 from _bench_util import measure_wall_cpu_peak as measure
 
 NAMES = ("mdev", "tdev", "hdev", "ohdev", "totdev")
@@ -57,14 +61,15 @@ def main() -> None:
                 print(f"| {n:.0e} | {name} | {impl} | {n_taus} | {wall:.4f} | {cpu:.4f} | "
                       f"{cpu / n / n_taus * 1e9:.2f} | {ratio} | {mem / nbytes:.3f} |")
 
-            peer = measure(lambda name=name, y=y: getattr(allantools, name)(
-                y, rate=100.0, data_type="freq", taus="octave"), args.repeats)
-            ours = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0),
-                           args.repeats)
-            ours1 = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0,
-                                                                  threads=1), args.repeats)
-            full = measure(lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name),
-                           args.repeats)
+            runs = measure_side_by_side({
+                "peer": lambda name=name, y=y: getattr(allantools, name)(
+                    y, rate=100.0, data_type="freq", taus="octave"),
+                "ours": lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0),
+                "ours1": lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name, alpha=0,
+                                                                    threads=1),
+                "full": lambda name=name, y=y: gyrodrift.deviation(y, 100.0, name),
+            }, args.repeats)
+            peer, ours, ours1, full = (runs[k] for k in ("peer", "ours", "ours1", "full"))
             row("allantools", peer, "1.0")
             row(f"gyrodrift ({threads} threads)", ours,
                 f"{peer[0] / ours[0]:.1f}x / {peer[1] / ours[1]:.1f}x")

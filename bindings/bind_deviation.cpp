@@ -1,9 +1,11 @@
 // Deviation-family kernels (include/gyrodrift/deviation_*.hpp) for gyrodrift.deviation.
 // Part of the "allan" binding area (registered from bind_allan).
-//   deviation_sigma2(data, m, name, threads)   whole array, all factors, GIL released
+//   deviation_sigma2(data, m, name, threads)   whole array, all factors in fused passes
+//                                              (DeviationFused, HdevCascade), GIL released
 //   ModAllanStream / OhdevStream / HdevStream   streaming state for chunked records
 //   (the total variance streams through OadevStream on the reflected record)
 #include <gyrodrift/deviation_blocked.hpp>
+#include <gyrodrift/deviation_fused.hpp>
 #include <gyrodrift/deviation_hadamard.hpp>
 #include <gyrodrift/deviation_modified.hpp>
 #include <gyrodrift/deviation_total.hpp>
@@ -13,13 +15,12 @@
 #include <memory>
 #include <cstddef>
 #include <cstdint>
-#include <new>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "array_checks.hpp"
 #include "bindings.hpp"
+#include "workers.hpp"
 
 namespace gyrodrift::py_bindings {
 
@@ -54,55 +55,31 @@ const T* require_vec(const CArray<T>& a, const char* what) {
   return a.data();
 }
 
-constexpr std::size_t kTotdevBlock = blocked_detail::kBlock;
+constexpr std::size_t kGroup = 64;
+// Term indices per block of the fused kernels: 131072 measured ~10 % faster than 65536 for
+// ohdev at 1e6 samples (octave taus: fewer far segments per term, the prefix sums are a
+// third of the time); a group whose workspace would exceed kMaxWorkspace doubles (8 MiB:
+// longer records, many widely spaced factors) halves its block, down to kMinBlock, so the
+// memory stays bounded whatever the grid (one workspace per thread). The block depends
+// only on (n_data, m): same result for any thread count.
+constexpr std::size_t kFusedBlock = 1 << 17;
+constexpr std::size_t kMinBlock = 1 << 12;
+constexpr std::size_t kMaxWorkspace = 1 << 20;
 
-// AVX2+FMA builds of the blocked drivers, chosen at run time (GCC/Clang on x86): the
-// increment, prefix and square loops are plain double loops that widen to 4 lanes.
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__))
-#define GYRODRIFT_DEV_X86 1
-template <class T>
-__attribute__((target("avx2,fma"))) bool mdev_wide(const T* x, std::size_t n, std::size_t m,
-                                                   double& s2, std::size_t& terms) {
-  return mdev_blocked(x, n, m, s2, terms);
+FusedDeviation fused_kind(Dev d) {
+  return d == Dev::mdev ? FusedDeviation::mdev
+                        : d == Dev::ohdev ? FusedDeviation::ohdev : FusedDeviation::totdev;
 }
-template <class T>
-__attribute__((target("avx2,fma"))) bool ohdev_wide(const T* x, std::size_t n, std::size_t m,
-                                                    double& s2, std::size_t& terms) {
-  return ohdev_blocked(x, n, m, s2, terms);
-}
-template <class T>
-__attribute__((target("avx2,fma"))) bool totdev_wide(const T* x, std::size_t n, std::size_t m,
-                                                     T* work, double& s2, std::size_t& terms) {
-  return totdev_blocked(x, n, m, work, s2, terms);
-}
-bool cpu_wide() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-}
-#else
-#define GYRODRIFT_DEV_X86 0
-#endif
 
-// One factor on one thread; the workspace is for the total variance's reflected stretches.
-template <class T>
-bool one_factor(Dev d, const T* x, std::size_t n, std::size_t m, T* work, double& s2,
-                std::size_t& terms, bool wide) {
-  switch (d) {
-#if GYRODRIFT_DEV_X86
-    case Dev::mdev: return wide ? mdev_wide(x, n, m, s2, terms) : mdev_blocked(x, n, m, s2, terms);
-    case Dev::ohdev:
-      return wide ? ohdev_wide(x, n, m, s2, terms) : ohdev_blocked(x, n, m, s2, terms);
-    case Dev::totdev:
-      return wide ? totdev_wide(x, n, m, work, s2, terms)
-                  : totdev_blocked(x, n, m, work, s2, terms);
-#else
-    case Dev::mdev: return mdev_blocked(x, n, m, s2, terms);
-    case Dev::ohdev: return ohdev_blocked(x, n, m, s2, terms);
-    case Dev::totdev: return totdev_blocked(x, n, m, work, s2, terms);
-#endif
-    case Dev::hdev: return hdev<T, double>(x, n, &m, 1, &s2, &terms);
+// Plans `fused` with the largest block (kFusedBlock halved down to kMinBlock) whose
+// workspace stays within kMaxWorkspace doubles; returns it, or 0 if the plan fails.
+std::size_t plan_block(DeviationFused<kGroup>& fused, FusedDeviation kind, std::size_t n_data,
+                       const std::size_t* m, std::size_t n_m) {
+  for (std::size_t block = kFusedBlock; block >= kMinBlock; block /= 2) {
+    if (!fused.plan(n_data, kind, m, n_m, block)) return 0;
+    if (fused.workspace_doubles() <= kMaxWorkspace || block == kMinBlock) return block;
   }
-  return false;
+  return 0;
 }
 
 template <class T>
@@ -124,64 +101,70 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
                             std::to_string(max_m) + " leaves at least 2 terms)");
     }
     m[j] = static_cast<std::size_t>(m_raw[j]);
+    if (j > 0 && m[j] <= m[j - 1]) throw py::value_error("m must be strictly increasing");
   }
   require_finite(x, n_data, "data");
   py::array_t<double> sigma2(static_cast<py::ssize_t>(n_m));
   py::array_t<std::int64_t> terms_out(static_cast<py::ssize_t>(n_m));
   std::vector<std::size_t> terms(n_m, 0);
-  std::vector<char> ok(n_m, 0);
   double* s2 = sigma2.mutable_data();
-  std::atomic<std::size_t> next{0};
-  std::atomic<bool> out_of_memory{false};
-#if GYRODRIFT_DEV_X86
-  const bool wide = cpu_wide();
-#else
-  const bool wide = false;
-#endif
-  // Workers take whole factors, largest first is not needed: every factor costs ~N.
-  const auto worker = [&]() noexcept {
-    try {
-      std::vector<T> work(d == Dev::totdev ? 3 * kTotdevBlock : 0);
-      for (std::size_t j = next++; j < n_m; j = next++) {
-        ok[j] = one_factor(d, x, n_data, m[j], work.data(), s2[j], terms[j], wide) ? 1 : 0;
-      }
-    } catch (...) {
-      out_of_memory = true;
-    }
-  };
-  if (d == Dev::hdev) {  // one cascaded pass for all factors (groups of <= 64)
-    bool all_ok = true;
-    {
-      py::gil_scoped_release release;
-      auto cascade = std::make_unique<HdevCascade<64>>();
-      std::vector<long double> work;
-      for (std::size_t lo = 0; lo < n_m && all_ok; lo += 64) {
-        const std::size_t cnt = std::min<std::size_t>(64, n_m - lo);
-        if (!cascade->plan(n_data, m.data() + lo, cnt)) {
-          all_ok = false;
-          break;
-        }
-        work.resize(cascade->workspace_len());
-        all_ok = cascade->run(x, work.data(), work.size(), s2 + lo, terms.data() + lo);
-      }
-    }
-    std::fill(ok.begin(), ok.end(), all_ok ? 1 : 0);
-  }
-  const std::size_t n_threads =
-      d == Dev::hdev ? 0 : std::min(n_m, static_cast<std::size_t>(threads));
-  if (n_threads > 0) {
+  bool all_ok = true;
+  if (d == Dev::hdev) {  // one cascaded pass for all factors (groups of <= kGroup)
     py::gil_scoped_release release;
-    std::vector<std::thread> pool;
-    try {
-      for (std::size_t k = 1; k < n_threads; ++k) pool.emplace_back(worker);
-    } catch (...) {
-      // no more threads: the started ones and this one share the factors
+    auto cascade = std::make_unique<HdevCascade<kGroup>>();
+    std::vector<double> work;
+    for (std::size_t lo = 0; lo < n_m && all_ok; lo += kGroup) {
+      const std::size_t cnt = std::min<std::size_t>(kGroup, n_m - lo);
+      all_ok = cascade->plan(n_data, m.data() + lo, cnt);
+      if (!all_ok) break;
+      work.resize(cascade->workspace_len());
+      all_ok = cascade->run(x, work.data(), work.size(), s2 + lo, terms.data() + lo);
     }
-    worker();
-    for (auto& th : pool) th.join();
+  } else {
+    // Groups of at most kGroup factors, each run as kParts stretches of its term range
+    // (the same split for any thread count, so the same result); workers take whole parts,
+    // each with its own plan and workspace.
+    constexpr std::size_t kParts = 2;
+    const FusedDeviation kind = fused_kind(d);
+    const std::size_t n_groups = (n_m + kGroup - 1) / kGroup;
+    std::vector<std::unique_ptr<DeviationFused<kGroup>>> parts(n_groups * kParts);
+    std::vector<char> part_ok(parts.size(), 0);
+    for (std::size_t t = 0; t < parts.size(); ++t) {
+      const std::size_t lo = (t / kParts) * kGroup;
+      parts[t] = std::make_unique<DeviationFused<kGroup>>();
+      if (plan_block(*parts[t], kind, n_data, m.data() + lo, std::min(kGroup, n_m - lo)) == 0) {
+        throw py::value_error("deviation_sigma2: could not plan the factors");
+      }
+    }
+    const std::size_t n_threads = std::min(parts.size(), static_cast<std::size_t>(threads));
+    std::size_t largest = 0;
+    for (const auto& f : parts) largest = std::max(largest, f->workspace_doubles());
+    // One allocation for all workers' workspaces, on this thread and left uninitialized:
+    // the heap then reuses the same pages from call to call (per-thread or repeated
+    // multi-MB allocations are returned to the system and fault in again, ~1 ms per 4 MB).
+    const std::unique_ptr<double[]> work(new double[n_threads * largest]);
+    std::atomic<std::size_t> next{0};
+    const auto worker = [&](std::size_t id) noexcept {
+      double* w = work.get() + id * largest;
+      for (std::size_t t = next++; t < parts.size(); t = next++) {
+        DeviationFused<kGroup>& f = *parts[t];
+        const std::size_t k = t % kParts;
+        part_ok[t] = f.accumulate(x, w, largest, f.part_begin(k, kParts),
+                                  f.part_begin(k + 1, kParts))
+                         ? 1
+                         : 0;
+      }
+    };
+    run_workers(n_threads, worker);
+    all_ok = std::all_of(part_ok.begin(), part_ok.end(), [](char v) { return v != 0; });
+    for (std::size_t g = 0; g < n_groups && all_ok; ++g) {
+      const DeviationFused<kGroup>* group[kParts];
+      for (std::size_t k = 0; k < kParts; ++k) group[k] = parts[g * kParts + k].get();
+      all_ok = DeviationFused<kGroup>::finish_parts(group, kParts, s2 + g * kGroup,
+                                                    terms.data() + g * kGroup);
+    }
   }
-  if (out_of_memory) throw std::bad_alloc();
-  if (!std::all_of(ok.begin(), ok.end(), [](char v) { return v != 0; })) {
+  if (!all_ok) {
     throw py::value_error("data: the " + name + " sums are not finite (values too large?)");
   }
   std::int64_t* t = terms_out.mutable_data();
@@ -294,9 +277,9 @@ void bind_deviation(pybind11::module_& m) {
   m.def("deviation_sigma2", &deviation_sigma2<double>, py::arg("data").noconvert(),
         py::arg("m").noconvert(), py::arg("name"), py::arg("threads") = 1,
         "Variance of the deviation `name` ('mdev', 'ohdev', 'hdev', 'totdev') of 1-D rate\n"
-        "data (float64/float32) for averaging factors m (int64), in (rate units)^2.\n"
-        "`threads` workers take whole factors (same result for any count). Returns\n"
-        "(sigma2, terms). GIL released.");
+        "data (float64/float32) for strictly increasing averaging factors m (int64), in\n"
+        "(rate units)^2. `threads` workers take whole factor groups (same result for any\n"
+        "count). Returns (sigma2, terms). GIL released.");
   m.def("deviation_sigma2", &deviation_sigma2<float>, py::arg("data").noconvert(),
         py::arg("m").noconvert(), py::arg("name"), py::arg("threads") = 1);
   m.def("deviation_max_m", [](const std::string& name, std::int64_t n) {

@@ -106,7 +106,10 @@ def test_memmap_and_chunked_paths_equal_in_memory(rng: np.random.Generator, tmp_
     np.save(path, y)
     mapped = deviation(np.load(path, mmap_mode="r"), 100.0, name, chunk_samples=1000)
     for other in (chunked, mapped):
-        np.testing.assert_allclose(other.adev, whole.adev, rtol=1e-14, atol=0)
+        # the streamed path runs the per-tau long double kernels, the in-memory one the
+        # fused double kernels (prefix sums over one block of level-removed data; the C++
+        # test bounds them at 1e-12 of the variance, measured <= 2e-13)
+        np.testing.assert_allclose(other.adev, whole.adev, rtol=1e-12, atol=0)
         np.testing.assert_array_equal(other.terms, whole.terms)
         np.testing.assert_array_equal(other.alpha, whole.alpha)  # ACF from file reads too
     x = reference.rate_to_phase(y, 0.01)  # phase record streamed and differenced in chunks

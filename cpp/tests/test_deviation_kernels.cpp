@@ -1,7 +1,8 @@
 // Deviation-family kernels (include/gyrodrift/deviation_*.hpp) against their definitions
 // (explicit window sums in long double, NIST SP 1065 eqs. 14, 18, 20, 25 on the rate),
-// the blocked in-memory drivers against the streaming ones, chunk splits, a large constant
-// rate, float input, bad factors, and no allocation.
+// the fused in-memory kernels (DeviationFused, HdevCascade) against the streaming ones,
+// chunk splits, a large constant rate, a drifting record, float input, bad factors, and no
+// allocation.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
@@ -9,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <gyrodrift/deviation_blocked.hpp>
+#include <gyrodrift/deviation_fused.hpp>
 #include <gyrodrift/deviation_hadamard.hpp>
 #include <gyrodrift/deviation_modified.hpp>
 #include <gyrodrift/deviation_total.hpp>
@@ -92,36 +94,132 @@ double rel(double a, long double b) {
   return static_cast<double>(std::fabs(static_cast<long double>(a) / b - 1.0L));
 }
 
+// The fused kernel for the factors m[0..n_m) (block B), results in out.
+template <class Scalar>
+bool fused(const std::vector<Scalar>& y, gyrodrift::FusedDeviation dev, const std::size_t* m,
+           std::size_t n_m, std::size_t block, double* out, std::size_t* terms) {
+  gyrodrift::DeviationFused<16> f;
+  if (!f.plan(y.size(), dev, m, n_m, block)) return false;
+  std::vector<double> work(f.workspace_doubles());
+  return f.run(y.data(), work.data(), work.size(), out, terms);
+}
+
 }  // namespace
 
-TEST_CASE("every kernel equals its definition, streaming and blocked, large offset") {
+TEST_CASE("every kernel equals its definition, streaming and fused, large offset") {
+  using gyrodrift::FusedDeviation;
   const auto y = record(3001, 1.0e4, 7);  // offset 1e4 on unit noise
-  double work[3 * gyrodrift::blocked_detail::kBlock];
+  double work[3 * 512];
   for (std::size_t m : {1u, 2u, 5u, 64u, 333u, 1000u}) {
     double s2 = 0.0;
     std::size_t terms = 0;
     const long double md = def_mdev(y, m);
     REQUIRE(gyrodrift::mdev<double, double>(y.data(), y.size(), &m, 1, &s2, &terms));
     CHECK(rel(s2, md) < 1e-10);
-    REQUIRE(gyrodrift::mdev_blocked(y.data(), y.size(), m, s2, terms));
-    CHECK(rel(s2, md) < 1e-10);
-    CHECK(terms == y.size() - 3 * m + 2);
+    for (std::size_t block : {16u, 100u, 4096u}) {  // block edges, anchors, one block
+      REQUIRE(fused(y, FusedDeviation::mdev, &m, 1, block, &s2, &terms));
+      CHECK(rel(s2, md) < 1e-10);
+      CHECK(terms == y.size() - 3 * m + 2);
+    }
     const long double oh = def_hadamard(y, m, 1);
     REQUIRE(gyrodrift::ohdev<double, double>(y.data(), y.size(), &m, 1, &s2, &terms));
     CHECK(rel(s2, oh) < 1e-10);
-    REQUIRE(gyrodrift::ohdev_blocked(y.data(), y.size(), m, s2, terms));
-    CHECK(rel(s2, oh) < 1e-10);
+    for (std::size_t block : {16u, 100u, 4096u}) {
+      REQUIRE(fused(y, FusedDeviation::ohdev, &m, 1, block, &s2, &terms));
+      CHECK(rel(s2, oh) < 1e-10);
+      CHECK(terms == y.size() - 3 * m + 1);
+    }
     if (m <= gyrodrift::hdev_max_m(y.size())) {
+      const long double hd = def_hadamard(y, m, m);
       REQUIRE(gyrodrift::hdev<double, double>(y.data(), y.size(), &m, 1, &s2, &terms));
-      CHECK(rel(s2, def_hadamard(y, m, m)) < 1e-10);
+      CHECK(rel(s2, hd) < 1e-10);
+      gyrodrift::HdevCascade<4> hc;
+      REQUIRE(hc.plan(y.size(), &m, 1));
+      std::vector<double> wk(hc.workspace_len());
+      REQUIRE(hc.run(y.data(), wk.data(), wk.size(), &s2, &terms));
+      CHECK(rel(s2, hd) < 1e-10);
     }
     const long double td = def_totdev(y, m);
-    REQUIRE(gyrodrift::totdev<double, double>(y.data(), y.size(), &m, 1, work,
-                                              gyrodrift::blocked_detail::kBlock, &s2,
+    REQUIRE(gyrodrift::totdev<double, double>(y.data(), y.size(), &m, 1, work, 512, &s2,
                                               &terms));
     CHECK(rel(s2, td) < 1e-10);
-    REQUIRE(gyrodrift::totdev_blocked(y.data(), y.size(), m, work, s2, terms));
-    CHECK(rel(s2, td) < 1e-10);
+    for (std::size_t block : {16u, 100u, 4096u}) {
+      REQUIRE(fused(y, FusedDeviation::totdev, &m, 1, block, &s2, &terms));
+      CHECK(rel(s2, td) < 1e-10);
+      CHECK(terms == y.size() - 1);
+    }
+  }
+}
+
+TEST_CASE("fused groups equal the per-tau long double kernels on a drifting record") {
+  // 2e5 samples, offset 15, a random walk on top (the level moves across the record), an
+  // octave grid and a few uneven factors in one group; the fused kernels against the
+  // streaming long double ones. 1e-12: double prefix sums over one segment of level-removed
+  // data (~B eps relative) and, for mdev, V integrated over at most max(B, 16 m) terms
+  // between exact restarts; measured <= 2e-13.
+  using gyrodrift::FusedDeviation;
+  std::vector<double> y = record(200000, 15.0, 5);
+  for (std::size_t i = 0; i < y.size(); ++i) y[i] += 1e-5 * static_cast<double>(i);
+  const std::size_t ms[] = {1, 2, 3, 4, 8, 16, 32, 64, 100, 128, 256, 512, 1024, 4096,
+                            16384, 65536};
+  const std::size_t n_m = sizeof(ms) / sizeof(ms[0]);
+  double out[n_m];
+  double per[n_m];
+  std::size_t t_out[n_m];
+  std::size_t t_per[n_m];
+  REQUIRE(fused(y, FusedDeviation::ohdev, ms, n_m, 4096, out, t_out));
+  REQUIRE(gyrodrift::ohdev<double, double>(y.data(), y.size(), ms, n_m, per, t_per));
+  for (std::size_t j = 0; j < n_m; ++j) {
+    CHECK(rel(out[j], per[j]) < 1e-12);
+    CHECK(t_out[j] == t_per[j]);
+  }
+  REQUIRE(fused(y, FusedDeviation::mdev, ms, n_m, 4096, out, t_out));
+  REQUIRE(gyrodrift::mdev<double, double>(y.data(), y.size(), ms, n_m, per, t_per));
+  for (std::size_t j = 0; j < n_m; ++j) {
+    CHECK(rel(out[j], per[j]) < 1e-12);
+    CHECK(t_out[j] == t_per[j]);
+  }
+  const std::size_t mt[] = {1, 2, 5, 64, 1000, 65536, 150000, 200000};  // up to m = N
+  double wk[3 * 512];
+  REQUIRE(fused(y, FusedDeviation::totdev, mt, 8, 4096, out, t_out));
+  REQUIRE(gyrodrift::totdev<double, double>(y.data(), y.size(), mt, 8, wk, 512, per, t_per));
+  for (std::size_t j = 0; j < 8; ++j) {
+    CHECK(rel(out[j], per[j]) < 1e-12);
+    CHECK(t_out[j] == t_per[j]);
+  }
+}
+
+TEST_CASE("fused term-range parts add up to the whole run, for any number of parts") {
+  // Parts after the first start from values recomputed from the samples; for mdev a part
+  // may start at the last term (V without H: m = 995 on 3000 samples, 17 terms, block 16).
+  using gyrodrift::FusedDeviation;
+  const auto y = record(3000, 7.0, 9);
+  const std::size_t ms[] = {1, 3, 16, 100, 995};
+  for (auto dev : {FusedDeviation::ohdev, FusedDeviation::mdev, FusedDeviation::totdev}) {
+    for (std::size_t j = 0; j < 5; ++j) {
+      if (dev == FusedDeviation::ohdev && ms[j] > gyrodrift::ohdev_max_m(y.size())) continue;
+      double whole = 0.0;
+      std::size_t t_whole = 0;
+      REQUIRE(fused(y, dev, &ms[j], 1, 16, &whole, &t_whole));
+      for (std::size_t n_parts : {2u, 3u, 7u}) {
+        std::vector<gyrodrift::DeviationFused<4>> parts(n_parts);
+        std::vector<const gyrodrift::DeviationFused<4>*> ptrs;
+        for (std::size_t k = 0; k < n_parts; ++k) {
+          auto& f = parts[k];
+          REQUIRE(f.plan(y.size(), dev, &ms[j], 1, 16));
+          std::vector<double> work(f.workspace_doubles());
+          REQUIRE(f.accumulate(y.data(), work.data(), work.size(), f.part_begin(k, n_parts),
+                               f.part_begin(k + 1, n_parts)));
+          ptrs.push_back(&f);
+        }
+        double split = 0.0;
+        std::size_t t_split = 0;
+        REQUIRE(gyrodrift::DeviationFused<4>::finish_parts(ptrs.data(), n_parts, &split,
+                                                            &t_split));
+        CHECK(rel(split, whole) < 1e-12);
+        CHECK(t_split == t_whole);
+      }
+    }
   }
 }
 
@@ -150,18 +248,20 @@ TEST_CASE("streaming splits give the whole-array result; hdev cascade equals per
   std::size_t ct[9];
   gyrodrift::HdevCascade<16> hc;
   REQUIRE(hc.plan(y.size(), ms, 9));
-  std::vector<long double> wk(hc.workspace_len());
+  std::vector<double> wk(hc.workspace_len());
   REQUIRE(hc.run(y.data(), wk.data(), wk.size(), cascade, ct));
   for (std::size_t j = 0; j < 9; ++j) {
     double per = 0.0;
     std::size_t t = 0;
     REQUIRE(gyrodrift::hdev<double, double>(y.data(), y.size(), &ms[j], 1, &per, &t));
+    // double block sums of (y - level), pairwise for the octave levels: ~log2(m) eps
     CHECK(rel(cascade[j], per) < 1e-13);
     CHECK(ct[j] == t);
   }
 }
 
 TEST_CASE("float input, bad factors, no allocation") {
+  using gyrodrift::FusedDeviation;
   const auto y = record(2000, 0.5, 3);
   std::vector<float> yf(y.begin(), y.end());
   const std::size_t m = 9;
@@ -169,18 +269,42 @@ TEST_CASE("float input, bad factors, no allocation") {
   double b = 0.0;
   std::size_t t = 0;
   std::vector<double> yd(yf.begin(), yf.end());
-  REQUIRE(gyrodrift::ohdev_blocked(yf.data(), yf.size(), m, a, t));
-  REQUIRE(gyrodrift::ohdev_blocked(yd.data(), yd.size(), m, b, t));
-  CHECK(rel(a, b) < 1e-14);  // same values, float only in storage
+  for (auto dev : {FusedDeviation::ohdev, FusedDeviation::mdev, FusedDeviation::totdev}) {
+    REQUIRE(fused(yf, dev, &m, 1, 64, &a, &t));
+    REQUIRE(fused(yd, dev, &m, 1, 64, &b, &t));
+    CHECK(rel(a, b) < 1e-14);  // same values, float only in storage
+  }
+  gyrodrift::DeviationFused<4> f;
   const std::size_t too_big = gyrodrift::mdev_max_m(y.size()) + 1;
-  CHECK_FALSE(gyrodrift::mdev_blocked(y.data(), y.size(), too_big, a, t));
-  CHECK_FALSE(gyrodrift::ohdev_blocked(y.data(), y.size(), 0, a, t));
-  double work[3 * gyrodrift::blocked_detail::kBlock];
-  CHECK_FALSE(gyrodrift::totdev_blocked(y.data(), y.size(), y.size() + 1, work, a, t));
+  CHECK_FALSE(f.plan(y.size(), FusedDeviation::mdev, &too_big, 1, 64));
+  const std::size_t zero = 0;
+  CHECK_FALSE(f.plan(y.size(), FusedDeviation::ohdev, &zero, 1, 64));
+  const std::size_t beyond = y.size() + 1;
+  CHECK_FALSE(f.plan(y.size(), FusedDeviation::totdev, &beyond, 1, 64));
+  const std::size_t unsorted[] = {4, 2};
+  CHECK_FALSE(f.plan(y.size(), FusedDeviation::ohdev, unsorted, 2, 64));
+  CHECK_FALSE(f.plan(y.size(), FusedDeviation::ohdev, &m, 1, 8));  // block < 16
+  std::size_t largest = 0;
+  for (auto dev : {FusedDeviation::ohdev, FusedDeviation::mdev, FusedDeviation::totdev}) {
+    REQUIRE(f.plan(y.size(), dev, &m, 1, 64));
+    largest = f.workspace_doubles() > largest ? f.workspace_doubles() : largest;
+  }
+  REQUIRE(f.plan(y.size(), FusedDeviation::mdev, &m, 1, 64));
+  std::vector<double> work(largest);
+  CHECK_FALSE(f.run(y.data(), work.data(), f.workspace_doubles() - 1, &a, &t));  // too short
+  std::vector<double> bad(y);
+  bad[1500] = std::nan("");
+  CHECK_FALSE(f.run(bad.data(), work.data(), work.size(), &a, &t));
+  gyrodrift::HdevCascade<4> hc;
+  REQUIRE(hc.plan(y.size(), &m, 1));
+  std::vector<double> hwork(hc.workspace_len());
   bool ok = true;
   gyrodrift::test::AllocationScope scope;
-  ok = ok && gyrodrift::mdev_blocked(y.data(), y.size(), m, a, t);
-  ok = ok && gyrodrift::totdev_blocked(y.data(), y.size(), m, work, a, t);
+  for (auto dev : {FusedDeviation::ohdev, FusedDeviation::mdev, FusedDeviation::totdev}) {
+    ok = ok && f.plan(y.size(), dev, &m, 1, 64) && work.size() >= f.workspace_doubles() &&
+         f.run(y.data(), work.data(), work.size(), &a, &t);
+  }
+  ok = ok && hc.run(y.data(), hwork.data(), hwork.size(), &a, &t);
   ok = ok && gyrodrift::ohdev<double, double>(y.data(), y.size(), &m, 1, &a, &t);
   const long n_alloc = scope.allocations();  // read before any CHECK (doctest allocates)
   CHECK(ok);

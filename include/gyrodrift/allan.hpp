@@ -22,14 +22,7 @@
 #include <cstddef>
 #include <cstdint>
 
-// Run-time choice of an AVX2+FMA build of the fused kernel's hot loop (GCC/Clang on x86;
-// define GYRODRIFT_ALLAN_NO_DISPATCH to compile the portable loop only).
-#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && \
-    !defined(GYRODRIFT_ALLAN_NO_DISPATCH)
-#define GYRODRIFT_ALLAN_X86_DISPATCH 1
-#else
-#define GYRODRIFT_ALLAN_X86_DISPATCH 0
-#endif
+#include "fused_common.hpp"
 
 namespace gyrodrift {
 
@@ -225,28 +218,12 @@ class OadevFused {
       if (v != offsets[n_off - 1]) offsets[n_off++] = v;
     }
     // Greedy segments: an offset within B of the previous one's stretch joins its segment.
-    n_seg_ = 0;
-    std::size_t q_total = 0;
-    for (std::size_t k = 0; k < n_off; ++k) {
-      if (n_seg_ == 0 || offsets[k] > seg_start_[n_seg_ - 1] + seg_len_[n_seg_ - 1] - 1) {
-        seg_start_[n_seg_] = offsets[k];
-        seg_len_[n_seg_] = block + 1;  // Q[0..B]
-        ++n_seg_;
-      } else {
-        seg_len_[n_seg_ - 1] = offsets[k] - seg_start_[n_seg_ - 1] + block + 1;
-      }
-    }
-    for (std::size_t k = 0; k < n_seg_; ++k) {
-      seg_q_[k] = q_total;
-      q_total += seg_len_[k];
-    }
-    workspace_ = q_total;
+    n_seg_ = fused_detail::plan_segments(offsets, n_off, block, seg_start_, seg_len_, seg_q_,
+                                         workspace_);
     for (std::size_t j = 0; j < n_m; ++j) {
       const std::size_t offs[3] = {0, m[j], 2 * m[j]};
       for (std::size_t s = 0; s < 3; ++s) {
-        std::size_t k = n_seg_ - 1;
-        while (seg_start_[k] > offs[s]) --k;
-        stream_[j][s] = seg_q_[k] + (offs[s] - seg_start_[k]);
+        stream_[j][s] = fused_detail::segment_position(seg_start_, seg_q_, n_seg_, offs[s]);
       }
     }
     n_m_ = n_m;
@@ -301,7 +278,7 @@ class OadevFused {
     if (n_m_ == 0 || workspace_len < workspace_ || b_begin % block_ != 0) return false;
     if (b_end % block_ != 0 && b_end < n_terms_[0]) return false;
     const std::size_t bsz = block_;
-    const bool wide = wide_simd();
+    const bool wide = fused_detail::wide_simd();
     std::size_t n_active = n_m_;
     const std::size_t stop = b_end < n_terms_[0] ? b_end : n_terms_[0];
     for (std::size_t b = b_begin; b < stop; b += bsz) {
@@ -321,7 +298,8 @@ class OadevFused {
         const std::size_t start = b + seg_start_[k];
         const std::size_t avail = n_data_ > start ? n_data_ - start : 0;
         const std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
-        prefix_sum(seg_base[k] + rel, len, mean, workspace + seg_q_[k]);
+        workspace[seg_q_[k]] = 0.0;  // Q[0] = 0, Q[t+1] = Q[t] + (y[t] - mean)
+        fused_detail::prefix_sum(seg_base[k] + rel, 1, len, mean, workspace + seg_q_[k]);
       }
       for (std::size_t j = 0; j < n_active; ++j) {
         const std::size_t left = n_terms_[j] - b;
@@ -369,77 +347,19 @@ class OadevFused {
   std::size_t segment_span(std::size_t k) const noexcept { return seg_len_[k] - 1; }
 
  private:
-  // Q[0] = 0, Q[t+1] = Q[t] + (y[t] - mean), t < len; four independent chains then fix-ups,
-  // so the adds pipeline instead of waiting on each other.
-  template <class Scalar>
-  static void prefix_sum(const Scalar* y, std::size_t len, double mean, double* q) noexcept {
-    q[0] = 0.0;
-    const std::size_t h = len / 4;
-    double s0 = 0.0;
-    double s1 = 0.0;
-    double s2 = 0.0;
-    double s3 = 0.0;
-    for (std::size_t t = 0; t < h; ++t) {
-      s0 += static_cast<double>(y[t]) - mean;
-      s1 += static_cast<double>(y[h + t]) - mean;
-      s2 += static_cast<double>(y[2 * h + t]) - mean;
-      s3 += static_cast<double>(y[3 * h + t]) - mean;
-      q[t + 1] = s0;
-      q[h + t + 1] = s1;
-      q[2 * h + t + 1] = s2;
-      q[3 * h + t + 1] = s3;
-    }
-    for (std::size_t t = 4 * h; t < len; ++t) {
-      s3 += static_cast<double>(y[t]) - mean;
-      q[t + 1] = s3;
-    }
-    for (std::size_t part = 1; part < 4; ++part) {
-      const std::size_t lo = part * h + 1;
-      const std::size_t hi = part == 3 ? len + 1 : (part + 1) * h + 1;
-      const double base = q[part * h];
-      for (std::size_t t = lo; t < hi; ++t) q[t] += base;
-    }
-  }
-
-  // sum_i (k0 + (p2[i] - 2 p1[i]) + p0[i])^2 over len terms, four independent sums.
+  // sum_i (k0 + (p2[i] - 2 p1[i]) + p0[i])^2 over len terms (fused_detail::sum_sq_second).
   // Half of the kernel's time; on x86 the same loop is also compiled for AVX2+FMA and
   // chosen at run time (block_sum_sq_dispatch), ~1.6x faster there. Only the rounding of
   // the fused multiply-adds differs between the two (both double, ~1e-16 relative).
-#if defined(__GNUC__)
-  __attribute__((always_inline))
-#endif
-  static inline double block_sum_sq(const double* p0, const double* p1, const double* p2,
-                                    std::size_t len, double k0) noexcept {
-    // 16 independent partial sums: the add (or FMA) latency is hidden at any vector width
-    // (8 SSE2 or 4 AVX2 accumulators).
-    constexpr std::size_t kLanes = 16;
-    double acc[kLanes] = {};
-    std::size_t i = 0;
-    for (; i + kLanes <= len; i += kLanes) {
-      for (std::size_t k = 0; k < kLanes; ++k) {
-        const double v = k0 + ((p2[i + k] - 2.0 * p1[i + k]) + p0[i + k]);
-        acc[k] += v * v;
-      }
-    }
-    for (; i < len; ++i) {
-      const double v = k0 + ((p2[i] - 2.0 * p1[i]) + p0[i]);
-      acc[0] += v * v;
-    }
-    for (std::size_t w = kLanes / 2; w > 0; w /= 2) {  // pairwise combination
-      for (std::size_t k = 0; k < w; ++k) acc[k] += acc[k + w];
-    }
-    return acc[0];
-  }
-
 #if GYRODRIFT_ALLAN_X86_DISPATCH
   __attribute__((target("avx2,fma"))) static double block_sum_sq_avx2(
       const double* p0, const double* p1, const double* p2, std::size_t len,
       double k0) noexcept {
-    return block_sum_sq(p0, p1, p2, len, k0);
+    return fused_detail::sum_sq_second(p0, p1, p2, len, k0);
   }
   static double block_sum_sq_base(const double* p0, const double* p1, const double* p2,
                                   std::size_t len, double k0) noexcept {
-    return block_sum_sq(p0, p1, p2, len, k0);
+    return fused_detail::sum_sq_second(p0, p1, p2, len, k0);
   }
 #endif
 
@@ -450,17 +370,7 @@ class OadevFused {
                 : block_sum_sq_base(p0, p1, p2, len, k0);
 #else
     (void)wide;
-    return block_sum_sq(p0, p1, p2, len, k0);
-#endif
-  }
-
-  // True when the AVX2+FMA build of block_sum_sq can run on this CPU.
-  static bool wide_simd() noexcept {
-#if GYRODRIFT_ALLAN_X86_DISPATCH
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-#else
-    return false;
+    return fused_detail::sum_sq_second(p0, p1, p2, len, k0);
 #endif
   }
 
@@ -489,23 +399,11 @@ class OadevFused {
 template <std::size_t MaxTaus>
 inline std::size_t oadev_fused_cut(std::size_t n_data, const std::size_t* m, std::size_t n_m,
                                    std::size_t block, OadevFused<MaxTaus>& scratch) noexcept {
-  const auto cost = [&](std::size_t lo, std::size_t hi) {
+  return fused_balanced_cut(n_m, [&](std::size_t lo, std::size_t hi) {
     if (!scratch.plan(n_data, m + lo, hi - lo, block)) return -1.0;
     return static_cast<double>(scratch.workspace_doubles()) +
            0.45 * static_cast<double>((hi - lo) * block);
-  };
-  std::size_t best_cut = n_m;
-  double best = cost(0, n_m);
-  for (std::size_t cut = 1; cut < n_m; ++cut) {
-    const double a = cost(0, cut);
-    const double b = cost(cut, n_m);
-    const double c = a > b ? a : b;
-    if (a >= 0.0 && b >= 0.0 && c < best) {
-      best = c;
-      best_cut = cut;
-    }
-  }
-  return best_cut;
+  });
 }
 
 // Averaging-factor grids. Each writes up to `capacity` strictly increasing factors

@@ -1,246 +1,43 @@
-// Fast whole-array drivers for the overlapping Hadamard, modified Allan and total variances
-// (the running sums of deviation_hadamard.hpp / deviation_modified.hpp / deviation_total.hpp
-// restructured for speed), used for records in memory.
+// Non-overlapping Hadamard variance for many averaging factors in one pass over a record in
+// memory (the fast path of gyrodrift.hdev; hdev_rate_push in deviation_hadamard.hpp is the
+// streaming kernel and the oracle).
 //
-// The running chains (H for ohdev, D for totdev, H and V for mdev) are carried in double
-// inside blocks of kBlock terms, as prefix sums of the per-term increments computed into a
-// small stack buffer: the increments vectorize, the prefix runs as four independent chains
-// (the adds pipeline) and the squares are summed in 16 lanes. Precision: every R terms
-// (a "segment", R = max(kSegment, 8 m) for H/D, max(kSegmentMod, 16 m) for mdev) the chain
-// is restarted from its exact value recomputed in long double in O(m) from the samples,
-// so its double rounding (which random-walks, and which mdev integrates once more) never
-// accumulates over more than one segment: relative error ~ R^(1/2) 2^-53 for H/D and
-// ~ R^(3/2) 2^-53 / m for V (below 1e-13 with these R). The increments
-// (y3 - y0) + 3 (y1 - y2) are differences of samples; for a gyro with a large constant rate
-// the samples are within a factor 2 of each other and these differences are exact
-// (Sterbenz), so a large offset costs no precision. Segment restarts cost O(m) per R >= 8 m
-// terms, so the total stays O(N) per factor.
-// No allocation (fixed stack buffers), no exceptions; false on bad m or non-finite sums.
+// Per factor the block sums Z_k of m samples are needed, H = Z_{k+2} - 2 Z_{k+1} + Z_k
+// (SP 1065 eq. 18). When a factor is a multiple of a smaller one (octave grids: every one),
+// its block sums are sums of r = m_j / m_i consecutive block sums of that smaller factor, so
+// the levels form a cascade: the record is read once in chunks of kChunk samples, the first
+// level(s) sum samples, every other level sums its parent's block sums emitted for the same
+// chunk. Work: ~2 N additions for an octave grid instead of N per factor.
+// Precision: the sums are in double over (y - c), c the mean of the first 64 samples (it
+// cancels from H exactly in real arithmetic: the weights 1, -2, 1 of three equal blocks add
+// up to zero), so a large constant rate costs nothing; an octave cascade is a pairwise
+// summation, whose rounding grows like log2(m) eps |Z|. Each level's H^2 are summed in
+// sixteen lanes per chunk, then into long double. m = 1 (H_i = y_{i+2} - 2 y_{i+1} + y_i,
+// the overlapping and non-overlapping cases coincide) is one vectorized pass over y.
+// No allocation (caller-owned workspace of workspace_len() doubles, <= 2 kChunk + 2 factors),
+// no exceptions; false on bad factors or non-finite sums.
 #pragma once
 #include <cmath>
 #include <cstddef>
 
 #include "deviation_hadamard.hpp"
-#include "deviation_modified.hpp"
-#include "deviation_total.hpp"
+#include "fused_common.hpp"
 
 namespace gyrodrift {
-namespace blocked_detail {
+namespace hdev_detail {
 
-// The helpers are always inlined so that an AVX2 build of a driver (a caller compiled with
-// target("avx2,fma"), see bindings/bind_deviation.cpp) compiles them with AVX2 too.
-#if defined(__GNUC__)
-#define GYRODRIFT_DEV_INLINE __attribute__((always_inline)) inline
-#else
-#define GYRODRIFT_DEV_INLINE inline
-#endif
-
-constexpr std::size_t kBlock = 512;
-constexpr std::size_t kSegment = 4096;
-constexpr std::size_t kSegmentMod = 256;
-
-// out[0] = start, out[i + 1] = out[i] + in[i] for i < len (len + 1 values); four chains
-// over quarters, then the quarter offsets are added (so the adds do not wait on each other).
-GYRODRIFT_DEV_INLINE void prefix(const double* in, std::size_t len, double start,
-                                 double* out) noexcept {
-  out[0] = start;
-  const std::size_t q = len / 4;
-  double s0 = start;
-  double s1 = 0.0;
-  double s2 = 0.0;
-  double s3 = 0.0;
-  for (std::size_t i = 0; i < q; ++i) {
-    s0 += in[i];
-    s1 += in[q + i];
-    s2 += in[2 * q + i];
-    s3 += in[3 * q + i];
-    out[i + 1] = s0;
-    out[q + i + 1] = s1;
-    out[2 * q + i + 1] = s2;
-    out[3 * q + i + 1] = s3;
-  }
-  for (std::size_t i = 4 * q; i < len; ++i) {
-    s3 += in[i];
-    out[i + 1] = s3;
-  }
-  for (std::size_t part = 1; part < 4; ++part) {
-    const std::size_t lo = part * q + 1;
-    const std::size_t hi = part == 3 ? len + 1 : (part + 1) * q + 1;
-    const double base = out[part * q];
-    for (std::size_t i = lo; i < hi; ++i) out[i] += base;
-  }
+// sum_k (z[k+2] - 2 z[k+1] + z[k])^2 for k + 2 < n (differences of neighbours first).
+template <class V>
+GYRODRIFT_FUSED_INLINE double second_diff_sq(const V* z, std::size_t n) noexcept {
+  if (n < 3) return 0.0;
+  return fused_detail::sum_sq16(n - 2, [&](std::size_t i) {
+    return (static_cast<double>(z[i + 2]) - static_cast<double>(z[i + 1])) -
+           (static_cast<double>(z[i + 1]) - static_cast<double>(z[i]));
+  });
 }
 
-// sum v[i]^2, i < len, in 16 independent lanes.
-GYRODRIFT_DEV_INLINE double sum_sq(const double* v, std::size_t len) noexcept {
-  constexpr std::size_t kLanes = 16;
-  double acc[kLanes] = {};
-  std::size_t i = 0;
-  for (; i + kLanes <= len; i += kLanes) {
-    for (std::size_t k = 0; k < kLanes; ++k) acc[k] += v[i + k] * v[i + k];
-  }
-  for (; i < len; ++i) acc[0] += v[i] * v[i];
-  for (std::size_t w = kLanes / 2; w > 0; w /= 2) {
-    for (std::size_t k = 0; k < w; ++k) acc[k] += acc[k + w];
-  }
-  return acc[0];
-}
+}  // namespace hdev_detail
 
-// Third-difference increments inc[i] = (y3 - y0) + 3 (y1 - y2) at y_s = p + j + s m.
-template <class Scalar>
-GYRODRIFT_DEV_INLINE void third_inc(const Scalar* p, std::size_t j, std::size_t m,
-                                    std::size_t len, double* inc) noexcept {
-  const Scalar* y0 = p + j;
-  const Scalar* y1 = y0 + m;
-  const Scalar* y2 = y1 + m;
-  const Scalar* y3 = y2 + m;
-  for (std::size_t i = 0; i < len; ++i) {
-    inc[i] = (static_cast<double>(y3[i]) - static_cast<double>(y0[i])) +
-             3.0 * (static_cast<double>(y1[i]) - static_cast<double>(y2[i]));
-  }
-}
-
-// Exact H_j = S_{j+2m} - 2 S_{j+m} + S_j in long double, O(m).
-template <class Scalar>
-inline long double exact_third(const Scalar* y, std::size_t j, std::size_t m) noexcept {
-  HadamardSums<long double> s;
-  ohdev_rate_seed(s, y + j, y + j + m, y + j + 2 * m, m);
-  return s.third;
-}
-
-}  // namespace blocked_detail
-
-// Overlapping Hadamard variance of one factor m (1 <= m <= ohdev_max_m), (rate units)^2.
-template <class Scalar>
-GYRODRIFT_DEV_INLINE bool ohdev_blocked(const Scalar* y, std::size_t n_data, std::size_t m, double& sigma2,
-                          std::size_t& terms) noexcept {
-  using namespace blocked_detail;
-  if (m == 0 || m > ohdev_max_m(n_data)) return false;
-  const std::size_t n = ohdev_terms(n_data, m);
-  const std::size_t seg = (8 * m > kSegment ? 8 * m : kSegment);
-  double inc[kBlock];
-  double h[kBlock + 1];
-  long double sq{0};
-  for (std::size_t s0 = 0; s0 < n; s0 += seg) {
-    double hd = static_cast<double>(exact_third(y, s0, m));
-    const std::size_t s1 = s0 + seg < n ? s0 + seg : n;
-    for (std::size_t b = s0; b < s1; b += kBlock) {
-      const std::size_t len = s1 - b < kBlock ? s1 - b : kBlock;
-      // the last term has no successor (its increment would read y[N])
-      const std::size_t n_inc = b + len == n ? len - 1 : len;
-      third_inc(y, b, m, n_inc, inc);
-      prefix(inc, n_inc, hd, h);
-      sq += static_cast<long double>(sum_sq(h, len));
-      hd = h[n_inc];
-    }
-  }
-  return hadamard_sigma2(sq, n, m, sigma2) && (terms = n, true);
-}
-
-// Total variance of one factor m (1 <= m <= totdev_max_m): the Allan D chain on the evenly
-// reflected record (deviation_total.hpp); stretches crossing an end are copied to `work`
-// (3 * kBlock Scalars).
-template <class Scalar>
-GYRODRIFT_DEV_INLINE bool totdev_blocked(const Scalar* y, std::size_t n_data, std::size_t m, Scalar* work,
-                           double& sigma2, std::size_t& terms) noexcept {
-  using namespace blocked_detail;
-  if (m == 0 || m > totdev_max_m(n_data)) return false;
-  const std::size_t n = totdev_terms(n_data);
-  const auto ms = static_cast<std::ptrdiff_t>(m);
-  const std::ptrdiff_t b0 = 1 - ms;
-  const std::size_t seg = (8 * m > kSegment ? 8 * m : kSegment);
-  double inc[kBlock];
-  double d[kBlock + 1];
-  long double sq{0};
-  for (std::size_t s0 = 0; s0 < n; s0 += seg) {
-    long double exact{0};  // D = S*_{b+m} - S*_b, O(m)
-    const std::ptrdiff_t bs = b0 + static_cast<std::ptrdiff_t>(s0);
-    for (std::size_t k = 0; k < m; k += kBlock) {
-      const std::size_t len = m - k < kBlock ? m - k : kBlock;
-      const auto ks = static_cast<std::ptrdiff_t>(k);
-      const Scalar* lo = totdev_stretch(y, n_data, bs + ks, len, work);
-      const Scalar* hi = totdev_stretch(y, n_data, bs + ms + ks, len, work + kBlock);
-      for (std::size_t i = 0; i < len; ++i) {
-        exact += static_cast<long double>(hi[i]) - static_cast<long double>(lo[i]);
-      }
-    }
-    double dd = static_cast<double>(exact);
-    const std::size_t s1 = s0 + seg < n ? s0 + seg : n;
-    for (std::size_t b = s0; b < s1; b += kBlock) {
-      const std::size_t len = s1 - b < kBlock ? s1 - b : kBlock;
-      const std::size_t n_inc = b + len == n ? len - 1 : len;
-      const std::ptrdiff_t bb = b0 + static_cast<std::ptrdiff_t>(b);
-      const Scalar* p0 = totdev_stretch(y, n_data, bb, n_inc, work);
-      const Scalar* p1 = totdev_stretch(y, n_data, bb + ms, n_inc, work + kBlock);
-      const Scalar* p2 = totdev_stretch(y, n_data, bb + 2 * ms, n_inc, work + 2 * kBlock);
-      for (std::size_t i = 0; i < n_inc; ++i) {
-        inc[i] = (static_cast<double>(p2[i]) - static_cast<double>(p1[i])) -
-                 (static_cast<double>(p1[i]) - static_cast<double>(p0[i]));
-      }
-      prefix(inc, n_inc, dd, d);
-      sq += static_cast<long double>(sum_sq(d, len));
-      dd = d[n_inc];
-    }
-  }
-  OadevSums<long double> s;
-  s.sum_sq = sq;
-  s.terms = n;
-  return oadev_sigma2(s, m, sigma2) && (terms = n, true);
-}
-
-// Modified Allan variance of one factor m (1 <= m <= mdev_max_m): V_{j+1} = V_j + H_j,
-// H_{j+1} = H_j + inc_j, both as prefix sums in double, restarted exactly every segment.
-template <class Scalar>
-GYRODRIFT_DEV_INLINE bool mdev_blocked(const Scalar* y, std::size_t n_data, std::size_t m, double& sigma2,
-                         std::size_t& terms) noexcept {
-  using namespace blocked_detail;
-  if (m == 0 || m > mdev_max_m(n_data)) return false;
-  const std::size_t n = mdev_terms(n_data, m);
-  const std::size_t seg = (16 * m > kSegmentMod ? 16 * m : kSegmentMod);
-  double inc[kBlock];
-  double h[kBlock + 1];
-  double v[kBlock + 1];
-  long double sq{0};
-  std::size_t s0 = 0;
-  while (s0 < n) {
-    // A segment never starts at the last term: its exact H would read y[N].
-    std::size_t s1 = s0 + seg < n ? s0 + seg : n;
-    if (n - s1 < 2) s1 = n;
-    // Exact V_{s0} = sum_{i<m} D_{s0+i} and H_{s0} = D_{s0+m} - D_{s0} (long double, O(m)).
-    ModAllanSums<long double> ex;
-    mdev_rate_seed_diff(ex, y + s0, y + s0 + m, m);
-    mdev_rate_seed_inner(ex, y + s0, y + s0 + m, y + s0 + 2 * m, m);
-    double vd = static_cast<double>(ex.inner);
-    double hd = static_cast<double>(ex.third);
-    for (std::size_t b = s0; b < s1; b += kBlock) {
-      const std::size_t len = s1 - b < kBlock ? s1 - b : kBlock;
-      // inc_j (H_j -> H_{j+1}) reads y[j + 3m]: it exists for j <= n - 3.
-      const std::size_t n_inc = n - 2 > b ? (len < n - 2 - b ? len : n - 2 - b) : 0;
-      third_inc(y, b, m, n_inc, inc);
-      prefix(inc, n_inc, hd, h);  // h[0..n_inc] = H_b .. H_{b+n_inc}
-      const std::size_t n_v = len < n_inc + 1 ? len : n_inc + 1;
-      prefix(h, n_v, vd, v);  // v[0..n_v] = V_b .. V_{b+n_v}; n_v >= len - 1 always
-      sq += static_cast<long double>(sum_sq(v, len));
-      vd = v[n_v];
-      hd = h[n_inc];
-    }
-    s0 = s1;
-  }
-  ModAllanSums<long double> s;
-  s.sum_sq = sq;
-  s.terms = n;
-  return mdev_sigma2(s, m, sigma2) && (terms = n, true);
-}
-
-// Non-overlapping Hadamard variance for many factors in one pass (whole record in memory).
-// Per factor the block sums Z_k of m samples are needed (deviation_hadamard.hpp); when a
-// factor is a multiple of a smaller one (octave grids: every one), its block sums are sums
-// of r = m_j / m_i consecutive block sums of that smaller factor, so the levels form a
-// cascade: the record is read once in chunks of kChunk samples, the first level(s) sum
-// samples, every other level sums its parent's block sums emitted for the same chunk. Work:
-// ~2 N additions for an octave grid instead of N per factor. Block sums and the sums of H^2
-// are long double. m = 1 is the overlapping case (stride 1): ohdev_blocked.
-// Workspace: plan() gives workspace_len() long doubles (<= 2 kChunk + factors), caller-owned.
 template <std::size_t MaxTaus = 64>
 class HdevCascade {
  public:
@@ -262,9 +59,9 @@ class HdevCascade {
         }
       }
       ratio_[j] = parent_[j] == kRaw ? m[j] : m[j] / m_[parent_[j]];
-      // emitted block sums per chunk: at most kChunk / m + 1
+      // emitted block sums per chunk: at most kChunk / m + 1, after the two carried ones
       buf_[j] = offset;
-      offset += kChunk / m[j] + 2;
+      offset += kChunk / m[j] + 4;
     }
     n_data_ = n_data;
     workspace_ = offset;
@@ -275,31 +72,21 @@ class HdevCascade {
   std::size_t workspace_len() const noexcept { return workspace_; }
 
   template <class Scalar>
-  bool run(const Scalar* y, long double* work, std::size_t work_len, double* sigma2,
+  bool run(const Scalar* y, double* work, std::size_t work_len, double* sigma2,
            std::size_t* terms) noexcept {
     if (n_m_ == 0 || work_len < workspace_) return false;
-    for (std::size_t j = 0; j < n_m_; ++j) st_[j] = HdevBlocks<long double>{};
-    for (std::size_t c0 = 0; c0 < n_data_; c0 += kChunk) {
-      const std::size_t len = n_data_ - c0 < kChunk ? n_data_ - c0 : kChunk;
-      for (std::size_t j = 0; j < n_m_; ++j) {
-        if (m_[j] == 1) continue;
-        long double* out = work + buf_[j];
-        std::size_t n_out = 0;
-        if (parent_[j] == kRaw) {
-          feed(j, y + c0, len, out, n_out);
-        } else {
-          feed(j, work + buf_[parent_[j]], emitted_[parent_[j]], out, n_out);
-        }
-        emitted_[j] = n_out;
-      }
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+    if (fused_detail::wide_simd()) {
+      run_wide(y, work);
+    } else {
+      run_impl(y, work);
     }
+#else
+    run_impl(y, work);
+#endif
     for (std::size_t j = 0; j < n_m_; ++j) {
-      if (m_[j] == 1) {
-        if (!ohdev_blocked(y, n_data_, 1, sigma2[j], terms[j])) return false;
-        continue;
-      }
-      if (!hadamard_sigma2(st_[j].sum_sq, st_[j].terms, m_[j], sigma2[j])) return false;
-      terms[j] = st_[j].terms;
+      if (!hadamard_sigma2(sum_sq_[j], terms_[j], m_[j], sigma2[j])) return false;
+      terms[j] = terms_[j];
     }
     return true;
   }
@@ -307,77 +94,120 @@ class HdevCascade {
  private:
   static constexpr std::size_t kRaw = static_cast<std::size_t>(-1);
 
-  // Adds v[0..n) (samples or parent block sums) to level j; completed block sums go to
-  // out[n_out++] and into the level's H^2 sum.
-  template <class V>
-  void feed(std::size_t j, const V* v, std::size_t n, long double* out,
-            std::size_t& n_out) noexcept {
-    HdevBlocks<long double>& s = st_[j];
-    const std::size_t r = ratio_[j];
-    std::size_t i = 0;
-    // Whole blocks while the level is between blocks: a tight loop with the state in
-    // registers (the general loop below handles blocks cut by the chunk edges).
-    if (s.filled == 0 && s.blocks >= 2) {
-      long double z1 = s.z1;
-      long double z2 = s.z2;
-      long double sq_a{0};
-      std::size_t done = 0;
-      for (; i + r <= n; i += r) {
-        long double z{0};
-        if (r == 2) {
-          z = static_cast<long double>(v[i]) + static_cast<long double>(v[i + 1]);
+  template <class Scalar>
+  GYRODRIFT_FUSED_INLINE void run_impl(const Scalar* y, double* work) noexcept {
+    const double c = fused_detail::leading_level(y, n_data_);
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      sum_sq_[j] = 0;
+      terms_[j] = 0;
+      blocks_[j] = 0;
+      filled_[j] = 0;
+      partial_[j] = 0.0;
+      z1_[j] = 0.0;
+      z2_[j] = 0.0;
+      emitted_[j] = 0;
+    }
+    for (std::size_t c0 = 0; c0 < n_data_; c0 += kChunk) {
+      const std::size_t len = n_data_ - c0 < kChunk ? n_data_ - c0 : kChunk;
+      for (std::size_t j = 0; j < n_m_; ++j) {
+        if (m_[j] == 1) continue;
+        if (parent_[j] == kRaw) {
+          feed(j, y + c0, len, c, work);
         } else {
-          long double a0{0};
-          long double a1{0};
-          std::size_t k = 0;
-          for (; k + 2 <= r; k += 2) {
-            a0 += static_cast<long double>(v[i + k]);
-            a1 += static_cast<long double>(v[i + k + 1]);
-          }
-          if (k < r) a0 += static_cast<long double>(v[i + k]);
-          z = a0 + a1;
+          const std::size_t p = parent_[j];
+          feed(j, work + buf_[p] + 2, emitted_[p], 0.0, work);
         }
-        const long double h = (z - z1) - (z1 - z2);
-        sq_a += h * h;
-        z2 = z1;
-        z1 = z;
-        out[n_out++] = z;
-        ++done;
-      }
-      s.z1 = z1;
-      s.z2 = z2;
-      s.sum_sq += sq_a;
-      s.terms += done;
-      s.blocks += done;
-    }
-    while (i < n) {
-      const std::size_t take = (r - s.filled) < (n - i) ? (r - s.filled) : (n - i);
-      long double a0{0};
-      long double a1{0};
-      std::size_t k = 0;
-      for (; k + 2 <= take; k += 2) {
-        a0 += static_cast<long double>(v[i + k]);
-        a1 += static_cast<long double>(v[i + k + 1]);
-      }
-      if (k < take) a0 += static_cast<long double>(v[i + k]);
-      s.partial += a0 + a1;
-      s.filled += take;
-      i += take;
-      if (s.filled == r) {
-        const long double z = s.partial;
-        if (s.blocks >= 2) {
-          const long double h = (z - s.z1) - (s.z1 - s.z2);
-          s.sum_sq += h * h;
-          ++s.terms;
-        }
-        s.z2 = s.z1;
-        s.z1 = z;
-        ++s.blocks;
-        s.partial = 0;
-        s.filled = 0;
-        out[n_out++] = z;
       }
     }
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      if (m_[j] != 1 || n_data_ < 3) continue;
+      // m = 1: H_i = y_{i+2} - 2 y_{i+1} + y_i over the record (no level needed: the
+      // differences of neighbouring samples are formed first)
+      const double acc = hdev_detail::second_diff_sq(y, n_data_);
+      const std::size_t n = n_data_ - 2;
+      sum_sq_[j] = static_cast<long double>(acc);
+      terms_[j] = n;
+    }
+  }
+
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+  template <class Scalar>
+  __attribute__((target("avx2,fma"))) void run_wide(const Scalar* y, double* work) noexcept {
+    run_impl(y, work);
+  }
+#endif
+
+  // Adds v[0..n) - c (samples, or the parent's block sums with c = 0) to level j. Its
+  // buffer holds the last two complete block sums before this call at [0, 2) and the new
+  // ones from 2 on (emitted_[j] of them, which the child levels read), so H runs over the
+  // buffer in one vectorized pass.
+  template <class V>
+  GYRODRIFT_FUSED_INLINE void feed(std::size_t j, const V* v, std::size_t n, double c,
+                                   double* work) noexcept {
+    double* z = work + buf_[j];
+    const std::size_t r = ratio_[j];
+    z[0] = z2_[j];
+    z[1] = z1_[j];
+    std::size_t out = 2;
+    std::size_t i = 0;
+    if (filled_[j] > 0) {  // finish the block the previous call's edge cut
+      const std::size_t take = r - filled_[j] < n ? r - filled_[j] : n;
+      double a = partial_[j];
+      for (std::size_t k = 0; k < take; ++k) a += static_cast<double>(v[k]) - c;
+      i = take;
+      filled_[j] += take;
+      partial_[j] = a;
+      if (filled_[j] == r) {
+        z[out++] = a;
+        filled_[j] = 0;
+        partial_[j] = 0.0;
+      }
+    }
+    const std::size_t whole = (n - i) / r;
+    if (r == 2) {
+      for (std::size_t k = 0; k < whole; ++k) {
+        z[out + k] = (static_cast<double>(v[i + 2 * k]) - c) +
+                     (static_cast<double>(v[i + 2 * k + 1]) - c);
+      }
+    } else {
+      for (std::size_t k = 0; k < whole; ++k) {
+        const V* p = v + i + k * r;
+        double a0 = 0.0;
+        double a1 = 0.0;
+        double a2 = 0.0;
+        double a3 = 0.0;
+        std::size_t t = 0;
+        for (; t + 4 <= r; t += 4) {
+          a0 += static_cast<double>(p[t]) - c;
+          a1 += static_cast<double>(p[t + 1]) - c;
+          a2 += static_cast<double>(p[t + 2]) - c;
+          a3 += static_cast<double>(p[t + 3]) - c;
+        }
+        for (; t < r; ++t) a0 += static_cast<double>(p[t]) - c;
+        z[out + k] = (a0 + a1) + (a2 + a3);
+      }
+    }
+    out += whole;
+    i += whole * r;
+    if (i < n) {  // a block this call's edge cuts
+      double a = partial_[j];
+      for (std::size_t k = i; k < n; ++k) a += static_cast<double>(v[k]) - c;
+      partial_[j] = a;
+      filled_[j] += n - i;
+    }
+    const std::size_t fresh = out - 2;
+    // triples made only of complete blocks: skip the carried slots not yet filled
+    const std::size_t skip = blocks_[j] >= 2 ? 0 : 2 - blocks_[j];
+    if (out > skip + 2) {
+      sum_sq_[j] += static_cast<long double>(hdev_detail::second_diff_sq(z + skip, out - skip));
+      terms_[j] += out - skip - 2;
+    }
+    if (fresh > 0) {  // z[out - 2] is the carried z1 when only one block completed
+      z2_[j] = z[out - 2];
+      z1_[j] = z[out - 1];
+    }
+    emitted_[j] = fresh;
+    blocks_[j] += fresh;
   }
 
   std::size_t n_data_{0};
@@ -388,7 +218,13 @@ class HdevCascade {
   std::size_t ratio_[MaxTaus]{};
   std::size_t buf_[MaxTaus]{};
   std::size_t emitted_[MaxTaus]{};
-  HdevBlocks<long double> st_[MaxTaus]{};
+  std::size_t blocks_[MaxTaus]{};
+  std::size_t filled_[MaxTaus]{};
+  double partial_[MaxTaus]{};
+  double z1_[MaxTaus]{};  // last complete block sum before this chunk
+  double z2_[MaxTaus]{};  // the one before it
+  long double sum_sq_[MaxTaus]{};
+  std::size_t terms_[MaxTaus]{};
 };
 
 }  // namespace gyrodrift

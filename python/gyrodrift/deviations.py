@@ -10,7 +10,9 @@ input (deg/h in, deg/h out); tdev = tau mdev / sqrt(3) is in rate unit x s (deg/
 arcsec for deg/h input; for phase input in the phase unit, as SP 1065's time deviation).
 
 - Input: rate samples (kind="rate") or phase / cumulative angle samples (kind="phase",
-  differenced to rates first). Every kernel is O(N) per tau with long double sums.
+  differenced to rates first). In memory, one fused pass serves all taus (double prefix
+  sums over blocks, long double carries; within 1e-12 of the long double per-tau kernels
+  that the chunked path runs).
 - Records too large for memory: pass a numpy.memmap (np.load(path, mmap_mode="r")) or
   chunk_samples; the record is then streamed in chunks read from its file (four streams of
   at most chunk_samples float64 each plus the re-chunking carry: ~8 chunk_samples x 8 bytes,
@@ -217,8 +219,8 @@ def deviation(
             least 30 averages exist, the slope method beyond (gyrodrift.noise_type); "slope"
             the slope method everywhere; or integers (one, or one per tau).
         chunk_samples: chunk of the streamed path (default 2**20); forces it when given.
-        threads: worker threads for the in-memory kernels (whole taus each; None: all cores;
-            the result is the same for any count).
+        threads: worker threads for the in-memory kernels (each takes one half of the term
+            range of a group of taus; None: all cores; the result is the same for any count).
         progress: passed to gyrodrift.allan.oadev for name="oadev" (ignored otherwise).
 
     Raises:

@@ -1,0 +1,571 @@
+// Fused multi-tau kernels for the overlapping Hadamard, modified Allan and total variances
+// (the in-memory fast path; the per-tau streaming kernels of deviation_hadamard.hpp,
+// deviation_modified.hpp and deviation_total.hpp remain the chunked path and the oracle).
+//
+// Same scheme as OadevFused (allan.hpp): every factor of a group is served from one pass.
+// With X the phase (X_v = sum_{u<v} y_u; for the total variance y* is the evenly reflected
+// record of deviation_total.hpp), each estimator's running quantity at term t is a fixed
+// combination of phase values at four offsets:
+//   ohdev, mdev: H_t = X_{t+3m} - 3 X_{t+2m} + 3 X_{t+m} - X_t             (SP 1065 eq. 20)
+//   totdev:      D_t = X*_{t+1+m} - 2 X*_{t+1} + X*_{t+1-m}, t = 0..N-2     (eq. 25)
+// and the modified variance sums V_t^2 with V_{t+1} = V_t + H_t (eq. 14). The record is cut
+// into blocks of B terms; for block b the stretches of y every factor reads (its offsets;
+// nearby offsets share one segment) become local prefix sums Q of (y - level) in double, and
+//   H_{b+i} = H_b + sum_s c_s (Q_s[i] - Q_s[0])
+// costs four loads and a few flops per factor and term, with no dependency chain; the
+// modified variance then runs V through the block as eight independent chains (their
+// starting values from the chains' sums, a second pass), so its adds pipeline too.
+// Precision: H_b (and V_b) are carried from block to block in long double (block increments
+// are differences of doubles); Q spans one segment (a few B samples) of level-removed data,
+// so its rounding is ~B eps sigma however long the record or however far it drifts, and the
+// level (any constant) cancels because the coefficients sum to zero. V integrates H inside a
+// block only: its double rounding spans at most one block of 1024 terms before it is folded
+// into the long double carry. Squares are summed per block in double, then into long double.
+// The starting values (term 0) are range sums of (y - level) in double, eight lanes.
+// No allocation: fixed-capacity plan (MaxTaus factors) plus a caller-owned double workspace
+// of workspace_doubles() elements; no exceptions; false on bad input or non-finite sums.
+#pragma once
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "deviation_hadamard.hpp"
+#include "deviation_modified.hpp"
+#include "deviation_total.hpp"
+#include "fused_common.hpp"
+
+namespace gyrodrift {
+
+enum class FusedDeviation : std::uint8_t { ohdev, mdev, totdev };
+
+namespace fused_detail {
+
+// Adds sum_i (p[i step] - mean) and (First) sum_i (u0 + i) (p[i step] - mean), i < len, to
+// the eight lanes a0, a1 (step +1 or -1, a template argument so the +1 loop vectorizes).
+template <int Step, bool First, class Scalar>
+GYRODRIFT_FUSED_INLINE void moments_run(const Scalar* p, std::size_t len, double u0,
+                                        double mean, double* a0, double* a1) noexcept {
+  constexpr std::size_t kLanes = 8;
+  double w[kLanes];
+  for (std::size_t l = 0; l < kLanes; ++l) w[l] = u0 + static_cast<double>(l);
+  std::size_t i = 0;
+  for (; i + kLanes <= len; i += kLanes) {
+    for (std::size_t l = 0; l < kLanes; ++l) {
+      const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i + l) * Step]) - mean;
+      a0[l] += v;
+      if (First) {
+        a1[l] += w[l] * v;
+        w[l] += static_cast<double>(kLanes);  // exact: integers below 2^53
+      }
+    }
+  }
+  for (; i < len; ++i) {
+    const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i) * Step]) - mean;
+    a0[0] += v;
+    if (First) a1[0] += (u0 + static_cast<double>(i)) * v;
+  }
+}
+
+// sum_{u < len} (y*[start + u] - mean) and (First) sum u (y*[start + u] - mean) in double,
+// eight lanes; y* is y itself or (reflect) its even reflection, start may be negative then.
+template <bool First, class Scalar>
+GYRODRIFT_FUSED_INLINE void range_moments(const Scalar* y, std::size_t n, bool reflect,
+                                          std::ptrdiff_t start, std::size_t len, double mean,
+                                          double& s0, double& s1) noexcept {
+  constexpr std::size_t kLanes = 8;
+  double a0[kLanes] = {};
+  double a1[kLanes] = {};
+  const auto sn = static_cast<std::ptrdiff_t>(n);
+  std::size_t u = 0;
+  while (u < len) {
+    // One piece: a stretch read forwards (inside) or backwards (a mirrored end).
+    const std::ptrdiff_t k = start + static_cast<std::ptrdiff_t>(u);
+    std::size_t piece = len - u;
+    const auto ud = static_cast<double>(u);
+    if (!reflect || (k >= 0 && k < sn)) {
+      const auto room = static_cast<std::size_t>(sn - k);
+      if (reflect && room < piece) piece = room;
+      moments_run<1, First>(y + k, piece, ud, mean, a0, a1);
+    } else if (k < 0) {
+      const auto room = static_cast<std::size_t>(-k);
+      if (room < piece) piece = room;
+      moments_run<-1, First>(y + (-1 - k), piece, ud, mean, a0, a1);
+    } else {
+      moments_run<-1, First>(y + (2 * sn - 1 - k), piece, ud, mean, a0, a1);
+    }
+    u += piece;
+  }
+  for (std::size_t w = kLanes / 2; w > 0; w /= 2) {
+    for (std::size_t l = 0; l < w; ++l) {
+      a0[l] += a0[l + w];
+      a1[l] += a1[l + w];
+    }
+  }
+  s0 = a0[0];
+  s1 = a1[0];
+}
+
+// sum h[i], i < n, in eight independent lanes (a plain loop would be one add chain).
+GYRODRIFT_FUSED_INLINE double lane_sum(const double* h, std::size_t n) noexcept {
+  constexpr std::size_t kLanes = 8;
+  double acc[kLanes] = {};
+  std::size_t i = 0;
+  for (; i + kLanes <= n; i += kLanes) {
+    for (std::size_t k = 0; k < kLanes; ++k) acc[k] += h[i + k];
+  }
+  for (; i < n; ++i) acc[0] += h[i];
+  for (std::size_t w = kLanes / 2; w > 0; w /= 2) {
+    for (std::size_t k = 0; k < w; ++k) acc[k] += acc[k + w];
+  }
+  return acc[0];
+}
+
+// The modified variance inside a block: h[i] = k0 + ((p3 - p0) + 3 (p1 - p2))[i] for
+// i < n_h (H_{b+i}); terms V_{b+i}, i < len, V_{b+i+1} = V_{b+i} + h[i], V_b = v0.
+// Adds sum V^2 to sq and returns sum h (V_{b+n_h} - V_b). In pieces of kPiece terms:
+// h into a stack buffer (vectorized), the sums of h over eight stretches (so each
+// stretch's starting V is known), then the eight stretches as independent chains.
+GYRODRIFT_FUSED_INLINE long double integrate_sq(const double* p0, const double* p1,
+                                                const double* p2, const double* p3,
+                                                std::size_t len, std::size_t n_h, double k0,
+                                                long double v0, long double& sq) noexcept {
+  constexpr std::size_t kPiece = 1024;
+  constexpr std::size_t kChains = 8;
+  double h[kPiece];
+  long double v = v0;
+  for (std::size_t a = 0; a < len; a += kPiece) {
+    const std::size_t cnt = len - a < kPiece ? len - a : kPiece;
+    // the last term of the record has no successor: n_h may end inside the piece
+    const std::size_t nh = n_h > a ? (n_h - a < cnt ? n_h - a : cnt) : 0;
+    for (std::size_t i = 0; i < nh; ++i) {
+      h[i] = k0 + ((p3[a + i] - p0[a + i]) + 3.0 * (p1[a + i] - p2[a + i]));
+    }
+    for (std::size_t i = nh; i < cnt; ++i) h[i] = 0.0;
+    const std::size_t q = cnt / kChains;
+    // stretch c: terms [c q, (c + 1) q), the last one to cnt
+    double part[kChains];
+    for (std::size_t c = 0; c < kChains; ++c) {
+      const std::size_t hi = c + 1 == kChains ? cnt : (c + 1) * q;
+      part[c] = lane_sum(h + c * q, hi - c * q);
+    }
+    double start[kChains];
+    double acc[kChains] = {};
+    const double vd = static_cast<double>(v);
+    double run = 0.0;
+    for (std::size_t c = 0; c < kChains; ++c) {
+      start[c] = vd + run;
+      run += part[c];
+    }
+    for (std::size_t i = 0; i < q; ++i) {
+      for (std::size_t c = 0; c < kChains; ++c) {
+        acc[c] += start[c] * start[c];
+        start[c] += h[c * q + i];
+      }
+    }
+    double tail = start[kChains - 1];
+    double tail_acc = 0.0;
+    for (std::size_t i = kChains * q; i < cnt; ++i) {
+      tail_acc += tail * tail;
+      tail += h[i];
+    }
+    double s = tail_acc;
+    for (std::size_t c = 0; c < kChains; ++c) s += acc[c];
+    sq += static_cast<long double>(s);
+    // V after the piece, carried in long double from the stretches' sums (not from the
+    // chains' end values, which carry the double rounding of their start)
+    for (std::size_t c = 0; c < kChains; ++c) v += static_cast<long double>(part[c]);
+  }
+  return v;
+}
+
+}  // namespace fused_detail
+
+template <std::size_t MaxTaus = 64>
+class DeviationFused {
+ public:
+  static constexpr std::size_t kStreams = 4;
+  static constexpr std::size_t kMaxOffsets = kStreams * MaxTaus;
+  // Terms per tile inside a block: the streams of a tile (~2 per factor x 16 kB) stay in L2.
+  static constexpr std::size_t kTile = 2048;
+
+  // m: strictly increasing factors, each 1 <= m <= the estimator's max_m; block >= 16.
+  bool plan(std::size_t n_data, FusedDeviation dev, const std::size_t* m, std::size_t n_m,
+            std::size_t block) noexcept {
+    n_m_ = 0;
+    if (n_m == 0 || n_m > MaxTaus || block < 16) return false;
+    const std::size_t max_m = dev == FusedDeviation::ohdev  ? ohdev_max_m(n_data)
+                              : dev == FusedDeviation::mdev ? mdev_max_m(n_data)
+                                                            : totdev_max_m(n_data);
+    for (std::size_t j = 0; j < n_m; ++j) {
+      if (m[j] == 0 || m[j] > max_m || (j > 0 && m[j] <= m[j - 1])) return false;
+    }
+    dev_ = dev;
+    n_data_ = n_data;
+    block_ = block;
+    reflect_ = dev == FusedDeviation::totdev;
+    // Signed offsets (phase index relative to the term index), shifted by origin_ >= them.
+    origin_ = reflect_ ? 1 - static_cast<std::ptrdiff_t>(m[n_m - 1]) : 0;
+    std::size_t offsets[kMaxOffsets];
+    std::size_t n_off = 0;
+    for (std::size_t j = 0; j < n_m; ++j) {
+      m_[j] = m[j];
+      const auto ms = static_cast<std::ptrdiff_t>(m[j]);
+      std::ptrdiff_t off[kStreams];
+      if (reflect_) {
+        n_terms_[j] = totdev_terms(n_data);
+        off[0] = 1 - ms;
+        off[1] = 1;
+        off[2] = 1 + ms;
+        off[3] = 1 + ms;  // unused (coefficient 0)
+      } else {
+        n_terms_[j] = dev == FusedDeviation::ohdev ? ohdev_terms(n_data, m[j])
+                                                   : mdev_terms(n_data, m[j]);
+        for (std::size_t s = 0; s < kStreams; ++s) off[s] = static_cast<std::ptrdiff_t>(s) * ms;
+      }
+      for (std::size_t s = 0; s < kStreams; ++s) {
+        rel_[j][s] = static_cast<std::size_t>(off[s] - origin_);
+        offsets[n_off++] = rel_[j][s];
+      }
+    }
+    // sort (insertion; at most 4 * MaxTaus values) and drop duplicates
+    for (std::size_t i = 1; i < n_off; ++i) {
+      const std::size_t v = offsets[i];
+      std::size_t k = i;
+      while (k > 0 && offsets[k - 1] > v) {
+        offsets[k] = offsets[k - 1];
+        --k;
+      }
+      offsets[k] = v;
+    }
+    std::size_t n_u = 0;
+    for (std::size_t i = 0; i < n_off; ++i) {
+      if (n_u == 0 || offsets[i] != offsets[n_u - 1]) offsets[n_u++] = offsets[i];
+    }
+    n_seg_ = fused_detail::plan_segments(offsets, n_u, block, seg_start_, seg_len_, seg_q_,
+                                         workspace_);
+    max_terms_ = 0;
+    for (std::size_t j = 0; j < n_m; ++j) {
+      if (n_terms_[j] > max_terms_) max_terms_ = n_terms_[j];
+      anchor_every_[j] = 16 * m[j] > block ? (16 * m[j] + block - 1) / block : 1;
+      for (std::size_t s = 0; s < kStreams; ++s) {
+        stream_[j][s] = fused_detail::segment_position(seg_start_, seg_q_, n_seg_, rel_[j][s]);
+      }
+    }
+    n_m_ = n_m;
+    return true;
+  }
+
+  std::size_t workspace_doubles() const noexcept { return workspace_; }
+  std::size_t factors() const noexcept { return n_m_; }
+
+  // Runs the planned factors over y[0..n_data); writes sigma2[j] in (rate units)^2 (for
+  // mdev the modified Allan variance; tdev is formed by the caller) and terms[j] (may be
+  // null). False if not planned, the workspace is too small, or a sum is not finite
+  // (outputs untouched).
+  template <class Scalar, class Out>
+  bool run(const Scalar* y, double* workspace, std::size_t workspace_len, Out* sigma2,
+           std::size_t* terms) noexcept {
+    const DeviationFused* whole[1] = {this};
+    return accumulate(y, workspace, workspace_len, 0, max_terms_) &&
+           finish_parts(whole, 1, sigma2, terms);
+  }
+
+  // Term indices of part k of `parts` equal stretches (multiples of the block): workers
+  // can run the parts of one plan side by side (each its own object and workspace, planned
+  // alike) and finish_parts() adds their sums in part order, so the result does not depend
+  // on how many workers ran them. Parts after the first start from values recomputed
+  // from the samples (anchor), not carried.
+  std::size_t part_begin(std::size_t k, std::size_t parts) const noexcept {
+    if (k == 0 || parts == 0) return 0;
+    if (k >= parts) return max_terms_;
+    const std::size_t blocks = (max_terms_ + block_ - 1) / block_;
+    return (blocks * k / parts) * block_;
+  }
+
+  // The sums of terms [b_begin, b_end) of every factor (b_begin a multiple of the block).
+  template <class Scalar>
+  bool accumulate(const Scalar* y, double* workspace, std::size_t workspace_len,
+                  std::size_t b_begin, std::size_t b_end) noexcept {
+    if (n_m_ == 0 || workspace_len < workspace_ || b_begin % block_ != 0) return false;
+    const double c = fused_detail::leading_level(y + (b_begin < n_data_ ? b_begin : 0),
+                                                 n_data_ - (b_begin < n_data_ ? b_begin : 0));
+    for (std::size_t j = 0; j < n_m_; ++j) {
+      sum_sq_[j] = 0;
+      if (n_terms_[j] > b_begin) start_at(y, j, b_begin, c);
+    }
+    const std::size_t stop = b_end < max_terms_ ? b_end : max_terms_;
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+    if (fused_detail::wide_simd()) {
+      blocks_wide(y, workspace, b_begin, stop);
+    } else {
+      blocks(y, workspace, b_begin, stop);
+    }
+#else
+    blocks(y, workspace, b_begin, stop);
+#endif
+    return true;
+  }
+
+  // sigma2[j], terms[j] (may be null) from the sums of parts[0..n_parts) (same plan), added
+  // in that order. False if a variance is not finite (outputs untouched).
+  template <class Out>
+  static bool finish_parts(const DeviationFused* const* parts, std::size_t n_parts, Out* sigma2,
+                           std::size_t* terms) noexcept {
+    const DeviationFused& f = *parts[0];
+    long double value[MaxTaus];
+    for (std::size_t j = 0; j < f.n_m_; ++j) {
+      long double sum{0};
+      for (std::size_t k = 0; k < n_parts; ++k) sum += parts[k]->sum_sq_[j];
+      const long double mm = static_cast<long double>(f.m_[j]);
+      const long double n = static_cast<long double>(f.n_terms_[j]);
+      if (f.dev_ == FusedDeviation::ohdev) {
+        value[j] = sum / (6.0L * mm * mm * n);
+      } else if (f.dev_ == FusedDeviation::mdev) {
+        value[j] = sum / (2.0L * mm * mm * mm * mm * n);
+      } else {
+        value[j] = sum / (2.0L * mm * mm * n);
+      }
+      if (!std::isfinite(value[j])) return false;
+    }
+    for (std::size_t j = 0; j < f.n_m_; ++j) {
+      sigma2[j] = static_cast<Out>(value[j]);
+      if (terms != nullptr) terms[j] = f.n_terms_[j];
+    }
+    return true;
+  }
+
+ private:
+  // The running values of factor j at term b (< its term count) from the samples. For mdev
+  // the last term (b = n - 1) has V but no H (it would read X_{N+1}): V_b = V_{b-1} + H_{b-1}.
+  template <class Scalar>
+  void start_at(const Scalar* y, std::size_t j, std::size_t b, double c) noexcept {
+    if (!reflect_ && b + 3 * m_[j] > n_data_) {
+      anchor(y, j, b - 1, c);
+      inner_[j] += chain_[j];
+      return;
+    }
+    anchor(y, j, b, c);
+  }
+
+  // The running values of factor j at term b from the samples (O(m), double, eight lanes):
+  // H_b = R_2 - 2 R_1 + R_0 (R_k the sum of (y - c) over [b + k m, b + (k + 1) m)) and, for
+  // mdev, V_b = sum_{i<m} D_{b+i} = sum_v w(v) (y_v - c) with w = -(u + 1) on the first
+  // range, 2u - m + 2 on the second, m - 1 - u on the third (u the index inside the range;
+  // from V_b = P_{b+3m} - 3 P_{b+2m} + 3 P_{b+m} - P_b, P the prefix sum of the phase); for
+  // totdev D_b = (X*_{b+1+m} - X*_{b+1}) - (X*_{b+1} - X*_{b+1-m}). The level c cancels
+  // (the weights of each sum add up to zero). Needs b + 3m <= N (ohdev, mdev).
+  template <class Scalar>
+  GYRODRIFT_FUSED_INLINE void anchor(const Scalar* y, std::size_t j, std::size_t b,
+                                     double c) noexcept {
+    const std::size_t m = m_[j];
+    const auto ms = static_cast<std::ptrdiff_t>(m);
+    const auto bs = static_cast<std::ptrdiff_t>(b);
+    double r0 = 0.0;
+    double r1 = 0.0;
+    double r2 = 0.0;
+    double u0 = 0.0;
+    double u1 = 0.0;
+    double u2 = 0.0;
+    if (reflect_) {
+      fused_detail::range_moments<false>(y, n_data_, true, bs + 1 - ms, m, c, r0, u0);
+      fused_detail::range_moments<false>(y, n_data_, true, bs + 1, m, c, r1, u1);
+      chain_[j] = static_cast<long double>(r1) - static_cast<long double>(r0);
+      return;
+    }
+    const auto moments = [&](std::ptrdiff_t start, double& r, double& u) {
+      if (dev_ == FusedDeviation::mdev) {
+        fused_detail::range_moments<true>(y, n_data_, false, start, m, c, r, u);
+      } else {
+        fused_detail::range_moments<false>(y, n_data_, false, start, m, c, r, u);
+      }
+    };
+    moments(bs, r0, u0);
+    moments(bs + ms, r1, u1);
+    moments(bs + 2 * ms, r2, u2);
+    chain_[j] = (static_cast<long double>(r2) - 2.0L * static_cast<long double>(r1)) +
+                static_cast<long double>(r0);
+    if (dev_ == FusedDeviation::mdev) {
+      const long double mm = static_cast<long double>(m);
+      inner_[j] = (-static_cast<long double>(u0) - static_cast<long double>(r0)) +
+                  (2.0L * static_cast<long double>(u1) + (2.0L - mm) * r1) +
+                  ((mm - 1.0L) * static_cast<long double>(r2) - static_cast<long double>(u2));
+    }
+  }
+
+  template <bool Wide, class Scalar>
+  GYRODRIFT_FUSED_INLINE void blocks_impl(const Scalar* y, double* workspace,
+                                          std::size_t b_begin, std::size_t b_end) noexcept {
+    const std::size_t bsz = block_;
+    std::size_t n_active = n_m_;
+    const auto sn = static_cast<std::ptrdiff_t>(n_data_);
+    // virtual samples y*[k] exist for k < v_end (the reflected record ends at 2N - 2)
+    const std::ptrdiff_t v_end = reflect_ ? 2 * sn - 1 : sn;
+    for (std::size_t b = b_begin; b < b_end; b += bsz) {
+      // factors are sorted by m: for ohdev/mdev the largest m has the fewest terms
+      while (n_active > 0 && n_terms_[n_active - 1] <= b) --n_active;
+      // One level for all streams of this block (it cancels: the coefficients sum to 0).
+      const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(b) + origin_;
+      const std::size_t n_level = 64;
+      double level = 0.0;
+      for (std::size_t i = 0; i < n_level; ++i) {
+        std::ptrdiff_t k = base + static_cast<std::ptrdiff_t>(i) + 1;
+        if (k > v_end - 1) k = v_end - 1;
+        if (k < 1 - sn) k = 1 - sn;
+        level += static_cast<double>(totdev_reflected(y, n_data_, k));
+      }
+      const double mean = level / static_cast<double>(n_level);
+      std::size_t reach = 0;
+      for (std::size_t j = 0; j < n_active; ++j) {
+        if (rel_[j][kStreams - 1] > reach) reach = rel_[j][kStreams - 1];
+      }
+      for (std::size_t k = 0; k < n_seg_ && seg_start_[k] <= reach; ++k) {
+        const std::ptrdiff_t start = base + static_cast<std::ptrdiff_t>(seg_start_[k]);
+        const std::size_t avail = v_end > start ? static_cast<std::size_t>(v_end - start) : 0;
+        const std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
+        prefix_virtual<Wide>(y, start, len, mean, workspace + seg_q_[k]);
+      }
+      // Start values: k0[j] = (H_b or D_b) minus the combination of the Q at i = 0.
+      double k0[MaxTaus];
+      for (std::size_t j = 0; j < n_active; ++j) {
+        const Streams p = streams(workspace, j);
+        if (reflect_) {
+          k0[j] = static_cast<double>(chain_[j]) - ((p[2][0] - 2.0 * p[1][0]) + p[0][0]);
+          continue;
+        }
+        if (dev_ == FusedDeviation::mdev && b > b_begin && b + 3 * m_[j] <= n_data_ &&
+            (b / bsz) % anchor_every_[j] == 0) {
+          // Modified variance: V integrates H, so the rounding of the carried H and of the
+          // Q sums would random-walk into V over the whole record (~sqrt(N) eps); V and H
+          // are recomputed from the samples every max(B, 16 m) terms instead (O(m) each:
+          // at most 3/16 of a sample per term), so it never accumulates beyond that.
+          anchor(y, j, b, mean);
+        }
+        k0[j] = static_cast<double>(chain_[j]) -
+                ((p[3][0] - p[0][0]) + 3.0 * (p[1][0] - p[2][0]));
+      }
+      // The block's terms in tiles of kTile, every factor per tile, so the streams a tile
+      // reads stay in the core's cache (the whole workspace may not fit).
+      for (std::size_t t0 = 0; t0 < bsz; t0 += kTile) {
+        for (std::size_t j = 0; j < n_active; ++j) {
+          const std::size_t left = n_terms_[j] - b;
+          const std::size_t len = left < bsz ? left : bsz;
+          if (t0 >= len) continue;
+          const std::size_t cnt = len - t0 < kTile ? len - t0 : kTile;
+          const Streams p = streams(workspace, j);
+          if (reflect_) {
+            sum_sq_[j] += static_cast<long double>(
+                fused_detail::sum_sq_second(p[0] + t0, p[1] + t0, p[2] + t0, cnt, k0[j]));
+          } else if (dev_ == FusedDeviation::ohdev) {
+            sum_sq_[j] += static_cast<long double>(fused_detail::sum_sq_third(
+                p[0] + t0, p[1] + t0, p[2] + t0, p[3] + t0, cnt, k0[j]));
+          } else {
+            // H_{b+i} exists for b + i <= n - 2 (it reads X_N at most)
+            const std::size_t n_h = left - 1 < bsz ? left - 1 : bsz;
+            const std::size_t nh = n_h > t0 ? (n_h - t0 < cnt ? n_h - t0 : cnt) : 0;
+            inner_[j] = fused_detail::integrate_sq(p[0] + t0, p[1] + t0, p[2] + t0, p[3] + t0,
+                                                   cnt, nh, k0[j], inner_[j], sum_sq_[j]);
+          }
+        }
+      }
+      // Carry H (D) to the next block: exact differences of doubles, in long double.
+      for (std::size_t j = 0; j < n_active; ++j) {
+        const std::size_t left = n_terms_[j] - b;
+        const Streams p = streams(workspace, j);
+        const auto d = [&](std::size_t s) {
+          return static_cast<long double>(p[s][bsz]) - static_cast<long double>(p[s][0]);
+        };
+        if (reflect_) {
+          if (left > bsz) chain_[j] += (d(2) - 2.0L * d(1)) + d(0);
+        } else if (dev_ == FusedDeviation::ohdev ? left > bsz : left > bsz + 1) {
+          chain_[j] += (d(3) - d(0)) + 3.0L * (d(1) - d(2));
+        }
+      }
+    }
+  }
+
+  // The four stream pointers of factor j into the workspace (Q at its offsets).
+  struct Streams {
+    const double* p[kStreams];
+    const double* operator[](std::size_t s) const noexcept { return p[s]; }
+  };
+  Streams streams(const double* workspace, std::size_t j) const noexcept {
+    Streams out{};
+    for (std::size_t s = 0; s < kStreams; ++s) out.p[s] = workspace + stream_[j][s];
+    return out;
+  }
+
+  template <class Scalar>
+  void blocks(const Scalar* y, double* workspace, std::size_t b0, std::size_t b1) noexcept {
+    blocks_impl<false>(y, workspace, b0, b1);
+  }
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+  template <class Scalar>
+  __attribute__((target("avx2,fma"))) void blocks_wide(const Scalar* y, double* workspace,
+                                                       std::size_t b0,
+                                                       std::size_t b1) noexcept {
+    blocks_impl<true>(y, workspace, b0, b1);
+  }
+#endif
+
+  // q[0] = 0, q[t+1] = q[t] + (y*[start + t] - mean), t < len, in up to three pieces
+  // (left mirror read backwards, the record, right mirror read backwards).
+  template <bool Wide, class Scalar>
+  GYRODRIFT_FUSED_INLINE void prefix_virtual(const Scalar* y, std::ptrdiff_t start,
+                                             std::size_t len, double mean,
+                                             double* q) const noexcept {
+    q[0] = 0.0;
+    const auto sn = static_cast<std::ptrdiff_t>(n_data_);
+    std::size_t t = 0;
+    while (t < len) {
+      const std::ptrdiff_t k = start + static_cast<std::ptrdiff_t>(t);
+      std::size_t piece = len - t;
+      if (k >= 0 && k < sn) {
+        const auto room = static_cast<std::size_t>(sn - k);
+        if (room < piece) piece = room;
+        run<Wide>(y + k, 1, piece, mean, q + t);
+      } else if (k < 0) {
+        const auto room = static_cast<std::size_t>(-k);
+        if (room < piece) piece = room;
+        run<Wide>(y + (-1 - k), -1, piece, mean, q + t);
+      } else {
+        run<Wide>(y + (2 * sn - 1 - k), -1, piece, mean, q + t);
+      }
+      t += piece;
+    }
+  }
+
+  template <bool Wide, class Scalar>
+  static GYRODRIFT_FUSED_INLINE void run(const Scalar* y, std::ptrdiff_t step, std::size_t len,
+                                         double mean, double* q) noexcept {
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+    if constexpr (Wide) {
+      fused_detail::prefix_sum_avx2(y, step, len, mean, q);
+      return;
+    }
+#endif
+    fused_detail::prefix_sum(y, step, len, mean, q);
+  }
+
+  FusedDeviation dev_{FusedDeviation::ohdev};
+  bool reflect_{false};
+  std::ptrdiff_t origin_{0};
+  std::size_t n_data_{0};
+  std::size_t block_{0};
+  std::size_t n_m_{0};
+  std::size_t n_seg_{0};
+  std::size_t workspace_{0};
+  std::size_t max_terms_{0};
+  std::size_t m_[MaxTaus]{};
+  std::size_t n_terms_[MaxTaus]{};
+  std::size_t anchor_every_[MaxTaus]{};  // mdev: blocks between exact restarts of V and H
+  std::size_t rel_[MaxTaus][kStreams]{};
+  std::size_t stream_[MaxTaus][kStreams]{};
+  std::size_t seg_start_[kMaxOffsets]{};
+  std::size_t seg_len_[kMaxOffsets]{};
+  std::size_t seg_q_[kMaxOffsets]{};
+  long double chain_[MaxTaus]{};  // H_b (ohdev, mdev) or D_b (totdev) at the block start
+  long double inner_[MaxTaus]{};  // V_b (mdev)
+  long double sum_sq_[MaxTaus]{};
+};
+
+}  // namespace gyrodrift

@@ -1,0 +1,250 @@
+// Pieces shared by the fused multi-tau kernels (OadevFused in allan.hpp, DeviationFused in
+// deviation_fused.hpp): local prefix sums of level-removed samples, read forwards or
+// backwards (the reflected ends of the total variance), and the run-time test for the
+// AVX2+FMA builds of their hot loops. No allocation, no exceptions.
+#pragma once
+#include <cstddef>
+#include <type_traits>
+
+// Run-time choice of AVX2+FMA builds of the fused kernels' hot loops (GCC/Clang on x86;
+// define GYRODRIFT_ALLAN_NO_DISPATCH to compile the portable loops only).
+#if defined(__GNUC__) && (defined(__x86_64__) || defined(__i386__)) && \
+    !defined(GYRODRIFT_ALLAN_NO_DISPATCH)
+#define GYRODRIFT_ALLAN_X86_DISPATCH 1
+#else
+#define GYRODRIFT_ALLAN_X86_DISPATCH 0
+#endif
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+#include <immintrin.h>
+#endif
+
+// Helpers always inlined, so that a caller built for AVX2 (target attribute) compiles them
+// for AVX2 too.
+#if defined(__GNUC__)
+#define GYRODRIFT_FUSED_INLINE __attribute__((always_inline)) inline
+#else
+#define GYRODRIFT_FUSED_INLINE inline
+#endif
+
+namespace gyrodrift {
+namespace fused_detail {
+
+// q[t+1] = q[t] + (y[t * step] - mean) for t < len, q[0] given by the caller (the running
+// value carried in). Four independent chains over quarters, then the quarter offsets are
+// added, so the adds pipeline instead of waiting on each other. step is +1 or -1 (a
+// mirrored stretch read backwards).
+template <class Scalar>
+GYRODRIFT_FUSED_INLINE void prefix_sum(const Scalar* y, std::ptrdiff_t step, std::size_t len,
+                                       double mean, double* q) noexcept {
+  const std::size_t h = len / 4;
+  const auto at = [&](std::size_t t) {
+    return static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]) - mean;
+  };
+  double s0 = q[0];
+  double s1 = 0.0;
+  double s2 = 0.0;
+  double s3 = 0.0;
+  for (std::size_t t = 0; t < h; ++t) {
+    s0 += at(t);
+    s1 += at(h + t);
+    s2 += at(2 * h + t);
+    s3 += at(3 * h + t);
+    q[t + 1] = s0;
+    q[h + t + 1] = s1;
+    q[2 * h + t + 1] = s2;
+    q[3 * h + t + 1] = s3;
+  }
+  for (std::size_t t = 4 * h; t < len; ++t) {
+    s3 += at(t);
+    q[t + 1] = s3;
+  }
+  for (std::size_t part = 1; part < 4; ++part) {
+    const std::size_t lo = part * h + 1;
+    const std::size_t hi = part == 3 ? len + 1 : (part + 1) * h + 1;
+    const double base = q[part * h];
+    for (std::size_t t = lo; t < hi; ++t) q[t] += base;
+  }
+}
+
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+// The same prefix sums with AVX2 (for callers built with target("avx2,fma")): four samples
+// at a time are scanned inside the register (two shifted adds) and the running value added;
+// four quarters run interleaved so the carry's latency (add + broadcast) is hidden. About
+// 1.5x faster than the scalar chains; the additions are grouped differently, so the
+// rounding differs from prefix_sum() (both double, ~len eps |q|).
+// Four samples y[t*step .. (t+3)*step] minus mean (step +1 or -1).
+template <class Scalar>
+__attribute__((target("avx2,fma"), always_inline)) inline __m256d load4_avx2(
+    const Scalar* y, std::ptrdiff_t step, std::size_t t, __m256d mean) noexcept {
+  __m256d x;
+  const std::ptrdiff_t at =
+      step == 1 ? static_cast<std::ptrdiff_t>(t) : -static_cast<std::ptrdiff_t>(t) - 3;
+  if constexpr (std::is_same<Scalar, float>::value) {
+    x = _mm256_cvtps_pd(_mm_loadu_ps(y + at));
+  } else {
+    static_assert(std::is_same<Scalar, double>::value, "float or double samples");
+    x = _mm256_loadu_pd(y + at);
+  }
+  if (step != 1) x = _mm256_permute4x64_pd(x, 0x1B);  // read backwards
+  return _mm256_sub_pd(x, mean);
+}
+
+// Inclusive scan of four values plus the running value; the carry becomes the last one.
+__attribute__((target("avx2,fma"), always_inline)) inline __m256d scan4_avx2(
+    __m256d x, __m256d& carry) noexcept {
+  const __m256d zero = _mm256_setzero_pd();
+  x = _mm256_add_pd(x, _mm256_blend_pd(_mm256_permute4x64_pd(x, 0x90), zero, 1));
+  x = _mm256_add_pd(x, _mm256_permute2f128_pd(x, x, 0x08));
+  x = _mm256_add_pd(x, carry);
+  carry = _mm256_permute4x64_pd(x, 0xFF);
+  return x;
+}
+
+template <class Scalar>
+__attribute__((target("avx2,fma"))) inline void prefix_sum_avx2(const Scalar* y,
+                                                                std::ptrdiff_t step,
+                                                                std::size_t len, double mean,
+                                                                double* q) noexcept {
+  const std::size_t h = (len / 16) * 4;  // quarter length, a multiple of 4
+  const __m256d vmean = _mm256_set1_pd(mean);
+  const __m256d zero = _mm256_setzero_pd();
+  __m256d c0 = _mm256_set1_pd(q[0]);
+  __m256d c1 = zero;
+  __m256d c2 = zero;
+  __m256d c3 = zero;
+  for (std::size_t t = 0; t < h; t += 4) {
+    _mm256_storeu_pd(q + t + 1, scan4_avx2(load4_avx2(y, step, t, vmean), c0));
+    _mm256_storeu_pd(q + h + t + 1, scan4_avx2(load4_avx2(y, step, h + t, vmean), c1));
+    _mm256_storeu_pd(q + 2 * h + t + 1,
+                     scan4_avx2(load4_avx2(y, step, 2 * h + t, vmean), c2));
+    _mm256_storeu_pd(q + 3 * h + t + 1,
+                     scan4_avx2(load4_avx2(y, step, 3 * h + t, vmean), c3));
+  }
+  for (std::size_t part = 1; part < 4 && h > 0; ++part) {
+    const double base = q[part * h];
+    for (std::size_t t = part * h + 1; t <= (part + 1) * h; ++t) q[t] += base;
+  }
+  double s = q[4 * h];
+  for (std::size_t t = 4 * h; t < len; ++t) {
+    s += static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]) - mean;
+    q[t + 1] = s;
+  }
+}
+#endif
+
+// Greedy segments over sorted distinct offsets: an offset within `block` of the previous
+// segment's stretch joins it. Writes start, length (span + block + 1: Q[0..]) and workspace
+// position of each segment; returns the segment count, `total` the workspace doubles.
+inline std::size_t plan_segments(const std::size_t* offsets, std::size_t n_off,
+                                 std::size_t block, std::size_t* seg_start, std::size_t* seg_len,
+                                 std::size_t* seg_q, std::size_t& total) noexcept {
+  std::size_t n_seg = 0;
+  for (std::size_t k = 0; k < n_off; ++k) {
+    if (n_seg == 0 || offsets[k] > seg_start[n_seg - 1] + seg_len[n_seg - 1] - 1) {
+      seg_start[n_seg] = offsets[k];
+      seg_len[n_seg] = block + 1;  // Q[0..B]
+      ++n_seg;
+    } else {
+      seg_len[n_seg - 1] = offsets[k] - seg_start[n_seg - 1] + block + 1;
+    }
+  }
+  total = 0;
+  for (std::size_t k = 0; k < n_seg; ++k) {
+    seg_q[k] = total;
+    total += seg_len[k];
+  }
+  return n_seg;
+}
+
+// Workspace position of `offset` (inside one of the n_seg planned segments).
+inline std::size_t segment_position(const std::size_t* seg_start, const std::size_t* seg_q,
+                                    std::size_t n_seg, std::size_t offset) noexcept {
+  std::size_t k = n_seg - 1;
+  while (seg_start[k] > offset) --k;
+  return seg_q[k] + (offset - seg_start[k]);
+}
+
+// Mean of the first min(n, 64) samples in long double: the level removed before summing in
+// double (any constant works where it cancels; one near the data keeps the sums small).
+template <class Scalar>
+inline double leading_level(const Scalar* y, std::size_t n) noexcept {
+  const std::size_t n_level = n < 64 ? n : 64;
+  if (n_level == 0) return 0.0;
+  long double level{0};
+  for (std::size_t i = 0; i < n_level; ++i) level += static_cast<long double>(y[i]);
+  return static_cast<double>(level / static_cast<long double>(n_level));
+}
+
+// sum_{i < len} term(i)^2 in sixteen independent lanes (the add or FMA latency is hidden at
+// any vector width), combined pairwise. term is inlined into the caller's build (AVX2 too).
+template <class Term>
+GYRODRIFT_FUSED_INLINE double sum_sq16(std::size_t len, Term term) noexcept {
+  constexpr std::size_t kLanes = 16;
+  double acc[kLanes] = {};
+  std::size_t i = 0;
+  for (; i + kLanes <= len; i += kLanes) {
+    for (std::size_t k = 0; k < kLanes; ++k) {
+      const double v = term(i + k);
+      acc[k] += v * v;
+    }
+  }
+  for (; i < len; ++i) {
+    const double v = term(i);
+    acc[0] += v * v;
+  }
+  for (std::size_t w = kLanes / 2; w > 0; w /= 2) {
+    for (std::size_t k = 0; k < w; ++k) acc[k] += acc[k + w];
+  }
+  return acc[0];
+}
+
+// sum_i (k0 + ((p2 - 2 p1) + p0)[i])^2 (the Allan second difference).
+GYRODRIFT_FUSED_INLINE double sum_sq_second(const double* p0, const double* p1,
+                                            const double* p2, std::size_t len,
+                                            double k0) noexcept {
+  return sum_sq16(len, [&](std::size_t i) { return k0 + ((p2[i] - 2.0 * p1[i]) + p0[i]); });
+}
+
+// sum_i (k0 + ((p3 - p0) + 3 (p1 - p2))[i])^2 (the Hadamard third difference).
+GYRODRIFT_FUSED_INLINE double sum_sq_third(const double* p0, const double* p1, const double* p2,
+                                           const double* p3, std::size_t len,
+                                           double k0) noexcept {
+  return sum_sq16(len, [&](std::size_t i) {
+    return k0 + ((p3[i] - p0[i]) + 3.0 * (p1[i] - p2[i]));
+  });
+}
+
+// True when the AVX2+FMA builds can run on this CPU.
+inline bool wide_simd() noexcept {
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+  return false;
+#endif
+}
+
+}  // namespace fused_detail
+
+// Where to cut n_m factors into two groups [0, cut) and [cut, n_m) of about equal cost (so
+// that two workers can run one each); n_m when one group is cheapest. cost(lo, hi) is the
+// estimated cost of the group [lo, hi), negative when it cannot be planned. The cut must
+// depend only on the plan (never on the thread count), so results are the same for any
+// number of workers.
+template <class Cost>
+inline std::size_t fused_balanced_cut(std::size_t n_m, Cost cost) noexcept {
+  std::size_t best_cut = n_m;
+  double best = cost(std::size_t{0}, n_m);
+  for (std::size_t cut = 1; cut < n_m; ++cut) {
+    const double a = cost(std::size_t{0}, cut);
+    const double b = cost(cut, n_m);
+    const double c = a > b ? a : b;
+    if (a >= 0.0 && b >= 0.0 && c < best) {
+      best = c;
+      best_cut = cut;
+    }
+  }
+  return best_cut;
+}
+
+}  // namespace gyrodrift
