@@ -142,6 +142,23 @@ def test_identify_gmwm_gauss_markov_and_bootstrap() -> None:
     assert 0.5 < w_b / w_a < 2.0  # 20 percentile draws: widths scatter by ~25 %
 
 
+def test_fit_has_no_overflow_warnings() -> None:
+    """Regression: the trust-region trial steps of the fit took a log variance so high that
+    exp() overflowed (RuntimeWarning from theoretical_wv's caller, then inf in scipy's cost)
+    on this record and model; the log variances are now bounded (gmwm._fit_model). Warnings
+    are errors here, so any overflow, divide-by-zero or invalid value fails the test."""
+    import warnings
+
+    rec = gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05,
+                             gm=((20.0, 0.1), (10.0, 5.0)), seed=3000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for model in ("Q+K+R+GM", "K+R+GM"):
+            res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model=model)
+            assert np.all(np.isfinite(res.wv_fit)) and np.all(res.wv_fit > 0)
+            assert all(math.isfinite(p.ci_high) for p in res.params)
+
+
 def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
     rec = gyrodrift.simulate(n=1 << 13, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=400.0,
                              seed=21)
