@@ -28,8 +28,10 @@ from dataclasses import dataclass
 
 # Single-threaded BLAS before numpy loads: the fits solve 13 x 13 systems, where a threaded
 # BLAS only wakes its threads (20 ms of wall time per call on a loaded 2-core machine).
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# Only when run as a script (importing it, as the tests do, leaves the environment alone).
+if __name__ == "__main__":
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
 

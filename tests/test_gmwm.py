@@ -171,6 +171,21 @@ def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
     assert res.wic <= min(wics) + gmwm.WIC_MARGIN
 
 
+@pytest.mark.parametrize("seed", [1003, 1009])
+def test_auto_scores_each_candidate_with_its_own_weight(seed: int) -> None:
+    """Regression: white + random walk records (the Monte Carlo's case 1) on which the WIC
+    with one common weight, taken from the largest model's fit (whose Gauss-Markov term had
+    absorbed the random walk), gave the true model N+K a J of 120-160 on 13 scales and
+    selected N+R+GM. With each candidate's own efficient weight at its own estimate, J of
+    the true model is chi-squared with 11 dof: WIC = J + 4 < 40 fails with probability
+    ~2e-4 for the true model, and N+K is selected."""
+    rec = gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=400.0,
+                             seed=seed)
+    res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="auto", max_model="N+K+R+GM")
+    assert dict(res.candidates)["N+K"] < 40.0, res.candidates
+    assert res.model == "N+K", res.candidates[:4]
+
+
 def test_parse_model_and_bad_input() -> None:
     assert gmwm.parse_model("k+gm+N+GM") == ("N", "K", "GM", "GM")
     for bad in ("", "N+X", "N+N", "GM+GM+GM+GM", 3):
@@ -216,13 +231,16 @@ def test_simulate_gauss_markov_term() -> None:
 
 
 def test_monte_carlo_small_fixed_seed() -> None:
-    """The Monte Carlo of scripts/gmwm_monte_carlo.py on 3 replicates per case (its n =
-    2^14, selection among the sub-models of Q+N+K+GM+GM; fixed seeds). Thresholds are loose
-    for 3 draws but fail on a broken estimator, interval or selection: every parameter's
-    95 % interval covers the truth in >= 2 of 3, the true model is selected in >= 2 of 3
-    (white + random walk: a long-scale term is selected; a long Gauss-Markov term competes
-    with the random walk there, see the README's hit rates), and GMWM's RMSE of N is below
-    the IEEE 952 Allan fit's."""
+    """The Monte Carlo of scripts/gmwm_monte_carlo.py on 3 replicates per case, the WIC
+    selection on the first 2 (its n = 2^14, selection among the sub-models of Q+N+K+GM+GM;
+    fixed seeds). Thresholds are loose for so few draws but fail on a broken estimator,
+    interval or selection: every parameter's 95 % interval covers the truth in >= 2 of 3;
+    white + random walk: the selected model holds a long-scale term (K, or a long GM that
+    competes with it: README hit rates); white + quantization + GM + random walk: the true
+    model in >= 1 of 2; white + two GM: N and the short GM, plus a long-scale term (the
+    second GM, or K, which competes with it: README); GMWM's RMSE of N is below the IEEE 952
+    Allan fit's."""
+
     import importlib.util
     import sys
     from pathlib import Path
@@ -234,13 +252,15 @@ def test_monte_carlo_small_fixed_seed() -> None:
     sys.modules["gmwm_monte_carlo"] = mc  # dataclasses look their module up
     spec.loader.exec_module(mc)
     for case in mc.CASES:
-        s = mc.run_case(case, reps=3, max_model="Q+N+K+GM+GM")
+        s = mc.run_case(case, reps=3, max_model="Q+N+K+GM+GM", select_reps=2)
+        sel = list(s["selected"])
         if case.model == "N+K":
-            # a long Gauss-Markov term competes with the random walk here (README hit rate);
-            # the selected model must still hold a long-scale term and the white noise
-            assert all(("K" in m or "GM" in m) for m in s["selected"]), s["selected"]
+            assert all(("K" in m or "GM" in m) for m in sel), sel
+        elif case.model == "N+GM+GM":
+            assert all(m.startswith("N+") and "GM" in m and ("K" in m or m.count("GM") == 2)
+                       for m in sel), sel
         else:
-            assert s["hit_rate"] >= 0.6, (case.name, s["selected"])
+            assert s["hit_rate"] >= 0.5, (case.name, sel)
         for name, p in s["params"].items():
             assert p["coverage"] >= 0.6, (case.name, name, p)
         assert s["params"]["N"]["ratio"] < 1.0, (case.name, s["params"]["N"])
