@@ -159,6 +159,20 @@ def test_fit_has_no_overflow_warnings() -> None:
             assert all(math.isfinite(p.ci_high) for p in res.params)
 
 
+def test_fit_bounds_on_a_long_record() -> None:
+    """Regression: on 2^22 samples the GM term's upper T_c bound (tau_J / 8 = 2^18 samples)
+    makes its closed-form WV cancel to <= 0 at the shortest scales; the variance bounds
+    took the log of that (math domain error / divide by zero). Those scales are now left
+    out of the bounds; warnings are errors."""
+    import warnings
+
+    x = np.random.default_rng(5).standard_normal(1 << 22)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = gyrodrift.identify_gmwm(x, 100.0, model="N+GM")
+    assert res.param("N").ci_low < 0.1 / 60.0 < res.param("N").ci_high  # sqrt(dt) / 60
+
+
 def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
     rec = gyrodrift.simulate(n=1 << 13, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=400.0,
                              seed=21)
