@@ -663,11 +663,12 @@ def _jacobian(terms: tuple[str, ...], theta: np.ndarray, tau: np.ndarray) -> np.
     return np.column_stack(cols)
 
 
-def _two_step(terms: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
-              ) -> tuple[_Fit, np.ndarray]:
+def _weighted_lsq(terms: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
+                  ) -> tuple[_Fit, np.ndarray]:
     """Iterated GMWM (three steps). Returns the step-3 estimate with its objective
     re-evaluated as the J statistic at the model's own efficient weight at that estimate,
-    J = r' Omega(theta_3)^-1 r (r = nu_hat - nu(theta_3)), and Omega(theta_3).
+    J = r' Omega(theta_3)^-1 r (r = nu_hat - nu(theta_3)), and Omega(theta_3) (also the
+    covariance behind the parameter intervals).
 
     Step 1 uses model-free diagonal weights; its estimate can be far enough off that
     Omega(theta_1) misstates the long scales' variance (J of the true model 20-40 on 13
@@ -688,12 +689,6 @@ def _two_step(terms: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
     r = np.einsum("ij,j->i", _tri_inv(_chol(omega)),
                   nu2 - theoretical_wv(terms, np.exp(fit.theta), tau))
     return _Fit(terms, fit.theta, float(np.einsum("i,i->", r, r))), omega
-
-
-def _weighted_lsq(terms: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
-                  ) -> tuple[_Fit, np.ndarray]:
-    """Iterated GMWM; returns the fit and the covariance Omega(theta_hat) used for the SEs."""
-    return _two_step(terms, wv, tau)
 
 
 # --------------------------------------------------------------------------------------
