@@ -62,6 +62,22 @@ def test_theoretical_wv_equals_exact_quadratic_form(m: int) -> None:
         float(h @ x[::-1]) ** 2, rel=1e-12)
 
 
+@pytest.mark.parametrize("tc", [5e3, 2.0 ** 18, 1e7])
+def test_gauss_markov_wv_without_cancellation(tc: float) -> None:
+    """Regression: the closed-form AR(1) wavelet variance cancels when phi -> 1: relative
+    error 1e-4 at T_c = 5e3 samples, negative at 2^18 (the upper T_c bound of a 2^21-sample
+    record), and the old clamp at 1e7 returned 2e5 times the true value at tau = 2. Oracle:
+    h' Gamma h with Gamma - sigma^2 = sigma^2 expm1(-|d| / T_c) (h sums to zero, so the
+    constant drops out and nothing cancels)."""
+    for m in (1, 2, 8, 64, 1024):
+        t = np.arange(2 * m)
+        d = np.abs(t[:, None] - t[None, :]).astype(np.float64)
+        h = np.r_[np.full(m, 1.0 / (2 * m)), np.full(m, -1.0 / (2 * m))]
+        exact = 2.0 * float(h @ np.expm1(-d / tc) @ h)
+        got = gmwm.theoretical_wv(("GM",), np.array([2.0, tc]), np.array([2.0 * m]))[0]
+        assert got == pytest.approx(exact, rel=1e-9), (m, got, exact)
+
+
 @pytest.mark.parametrize("model, params", [
     (("N",), [1.0]),
     (("Q", "N"), [0.7, 1.0]),

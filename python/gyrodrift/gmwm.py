@@ -125,6 +125,10 @@ __all__ = [
 TERMS = ("Q", "N", "K", "R", "GM")
 MAX_GM = 3
 DEFAULT_MAX_MODEL = "Q+N+K+R+GM+GM"
+#: Above this correlation time (samples) the GM wavelet variance is computed by the
+#: cancellation-free route (see _component_wv); up to it the closed form is accurate to ~1e-7
+#: (1024 = the upper T_c bound of a 2^14-sample record: the Monte Carlo's numbers are unchanged).
+GM_CLOSED_FORM_MAX_TC = 1024.0
 #: Models within this WIC of the best compete on their number of parameters.
 WIC_MARGIN = 2.0
 DEG = math.pi / 180.0
@@ -297,9 +301,15 @@ def _component_wv(term: str, p: np.ndarray, tau: np.ndarray) -> np.ndarray:
         phi = math.exp(-1.0 / tc)
         if phi < 1e-12:  # shorter than a sample: white noise of variance sigma2
             return sigma2 / tau
-        if tc > 1e7:  # phi -> 1: the closed form cancels; expand to the random-walk-like limit
-            tc = 1e7
-            phi = math.exp(-1.0 / tc)
+        if tc > GM_CLOSED_FORM_MAX_TC:
+            # phi -> 1: the closed form cancels (relative error ~1e-16 T_c^3: 1e-4 at
+            # T_c = 1e4 samples, negative values from 2^18; it was clamped at 1e7, where
+            # it returned 2e5 times the true value at tau = 2). Var W from the generalised
+            # covariance K of `_gen_cov`, written without cancellation:
+            # nu^2 = (6 K(0) - 8 K(m) + 2 K(2m)) / (4 m^2), m = tau / 2, K(0) = 0.
+            m = tau / 2.0
+            comp = [("GM", np.array([sigma2, tc]))]
+            return (2.0 * _gen_cov(comp, 2.0 * m) - 8.0 * _gen_cov(comp, m)) / (4.0 * m * m)
         return _ar1_wv(tau, phi, sigma2 * (1.0 - phi * phi))
     raise GyrodriftValueError(f"unknown term {term!r}")
 
