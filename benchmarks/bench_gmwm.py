@@ -28,7 +28,7 @@ def bench_size(n: int, repeats: int) -> None:
                            gm=((5.0, 2.0),), seed=1).rate_deg_h
     rows = [("wavelet variance (all levels)", "-", lambda: haar_wv(x, 100.0))]
     for model in ("N+K", "N+K+GM"):
-        rows.append(("fit (WV + two-step GMM)", model,
+        rows.append(("fit (WV + three-step GMM)", model,
                      lambda m=model: identify_gmwm(x, 100.0, model=m)))
     for step, model, fn in rows:
         wall = median_seconds(fn, repeats)

@@ -44,10 +44,11 @@ def main(argv: list[str]) -> int:
         t0 = time.perf_counter()
         g = identify_gmwm(x, 100.0, model="auto", tau_range=(GMWM_TAU_MIN_S, np.inf))
         inside = (g.wv_fit >= g.wv_ci_low) & (g.wv_fit <= g.wv_ci_high)
+        other = next(c for c in g.candidates if c[0] != g.model)
         print(f"GMWM ({time.perf_counter() - t0:.0f} s), scales {g.tau_s[0]:g}..{g.tau_s[-1]:g}"
               f" s: model {g.model}, fitted total inside the 95 % WV interval at "
-              f"{int(inside.sum())}/{inside.size} scales; runner-up "
-              f"{g.candidates[1][0] if len(g.candidates) > 1 else '-'}")
+              f"{int(inside.sum())}/{inside.size} scales; WIC {g.wic:.2f}; best other "
+              f"candidate {other[0]} (WIC {other[1]:.2f})")
         for p in g.params:
             d = ("" if p.density is None else
                  f" = {p.density:.3g} [{p.density_ci_low:.3g}, {p.density_ci_high:.3g}] "
@@ -61,7 +62,7 @@ def main(argv: list[str]) -> int:
                           for t in f.terms)
               + f"; dropped {','.join(f.dropped)}; inside the 95 % interval at "
               f"{int(inside.sum())}/{inside.size} taus")
-        rd = gyrodrift.oadev(x, 100.0, taus="octave")
+        rd = gyrodrift.oadev(x, 100.0, taus="octave", alpha="slope")  # the old default
         old = noise_id.identify(rd.tau_s, rd.adev, rd.edf)
         model = noise_id.allan_model_deg_h(rd.tau_s, old.q_arcsec, old.n_deg_rt_h, old.b_deg_h,
                                            old.k_deg_h_rt_h, old.r_deg_h2)

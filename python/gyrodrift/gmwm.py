@@ -43,12 +43,14 @@ K [rad/s^2/sqrt(Hz)] = K [deg/h/sqrt(h)] (pi/180) / 3600 / 60.
 Estimator
 ---------
 theta_hat = argmin (nu_hat - nu(theta))' Omega^-1 (nu_hat - nu(theta)) over the log of each
-variance and of T_c (positivity without bounds). Two steps (Hansen 1982): step 1 with the
-diagonal weights 1 / var(nu_hat_j) of the chi-squared approximation with
+variance and of T_c (each bounded: T_c as below, a variance within 1e-12..1e6 of what
+that term alone needs to reach the measured WV, so that exp() of a trial step cannot
+overflow). Iterated GMM, three steps (Hansen 1982; Hansen, Heaton & Yaron 1996): step 1 with
+the diagonal weights 1 / var(nu_hat_j) of the chi-squared approximation with
 eta_j = max(M_j / 2^j, 1) degrees of freedom (Percival & Walden 2000 eq. 313c, model-free);
-step 2 with the efficient weight Omega(theta_1)^-1, where Omega is the covariance of the
-estimated wavelet variances under the fitted Gaussian model, computed exactly for the record
-length (not a bootstrap):
+steps 2 and 3 with the efficient weight Omega(theta_prev)^-1, where Omega is the covariance
+of the estimated wavelet variances under the fitted Gaussian model, computed exactly for the
+record length (not a bootstrap):
 
     Cov(nu_hat_i, nu_hat_j) = 2 / (M_i M_j) sum_k n_ij(k) c_ij(k)^2,
 
@@ -60,21 +62,25 @@ asymptotic intervals are symmetric on the log scale (theta_hat exp(+-z se_log)),
 with bootstrap=B > 0, percentile intervals of B parametric-bootstrap refits (records
 simulated from theta_hat, same weight matrix).
 
-Model selection (model="auto"): every sub-model of max_model is fitted with one common weight
-Omega_0^-1 (Omega_0 from the two-step fit of max_model, which holds under every sub-model)
-and scored by the wavelet variance information criterion (Guerrier, Stebler, Skaloud,
-Victoria-Feser, IEEE TIM 65 (2016) 973-983):
+Model selection (model="auto"): every sub-model of max_model (but the drift alone, which
+has no covariance) is fitted with its own iterated efficient weight and scored by the
+wavelet variance information criterion (Guerrier, Stebler, Skaloud, Victoria-Feser, IEEE TIM
+65 (2016) 973-983), with Omega = Omega(theta_hat) of that candidate:
 
-    WIC = (nu_hat - nu(theta_hat))' Omega_0^-1 (nu_hat - nu(theta_hat))
-          + 2 tr(Omega_0^-1 Cov(nu_hat, nu(theta_hat))),
+    WIC = (nu_hat - nu(theta_hat))' Omega^-1 (nu_hat - nu(theta_hat))
+          + 2 tr(Omega^-1 Cov(nu_hat, nu(theta_hat))),
 
-with Cov(nu_hat, nu(theta_hat)) = Omega_0 Omega_0^-1 D (D' Omega_0^-1 D)^+ D' by the delta
-method, so the penalty is 2 tr(P) with P = D (D' Omega_0^-1 D)^+ D' Omega_0^-1 (twice the
-nominal number of parameters p). Selected: among the models within WIC_MARGIN = 2 of the
-smallest WIC, the one with the fewest parameters (then the smallest WIC) -- a Gauss-Markov
-term with a long correlation time mimics a random walk, one with a short one white noise,
-and the plain minimum picks such near-equivalent larger models too often (measured in
-scripts/gmwm_monte_carlo.py). The selected model is then refitted with its own two steps.
+with Cov(nu_hat, nu(theta_hat)) = Omega Omega^-1 D (D' Omega^-1 D)^+ D' by the delta method,
+so the penalty is 2 tr(P) with P = D (D' Omega^-1 D)^+ D' Omega^-1 (twice the nominal number
+of parameters p). The first term is the J statistic with the candidate's weight taken at its
+own final estimate, so that it is chi-squared with (scales - p) degrees of freedom under that
+candidate. (A common weight from the largest model's fit, used before, misstated the
+variance of the long scales whenever that fit's Gauss-Markov terms had absorbed the random
+walk: the true model's J reached 100+ on 13 scales and selection missed it; see README.)
+Selected: among the models within WIC_MARGIN = 2 of the smallest WIC, the one with the
+fewest parameters (then the smallest WIC) -- a Gauss-Markov term with a long correlation
+time mimics a random walk, one with a short one white noise, and the plain minimum picks
+such near-equivalent larger models too often (measured in scripts/gmwm_monte_carlo.py).
 
 Example
 -------
@@ -119,6 +125,10 @@ __all__ = [
 TERMS = ("Q", "N", "K", "R", "GM")
 MAX_GM = 3
 DEFAULT_MAX_MODEL = "Q+N+K+R+GM+GM"
+#: Above this correlation time (samples) the GM wavelet variance is computed by the
+#: cancellation-free route (see _component_wv); up to it the closed form is accurate to ~1e-7
+#: (1024 = the upper T_c bound of a 2^14-sample record: the Monte Carlo's numbers are unchanged).
+GM_CLOSED_FORM_MAX_TC = 1024.0
 #: Models within this WIC of the best compete on their number of parameters.
 WIC_MARGIN = 2.0
 DEG = math.pi / 180.0
@@ -309,9 +319,15 @@ def _component_wv(term: str, p: np.ndarray, tau: np.ndarray) -> np.ndarray:
         phi = math.exp(-1.0 / tc)
         if phi < 1e-12:  # shorter than a sample: white noise of variance sigma2
             return sigma2 / tau
-        if tc > 1e7:  # phi -> 1: the closed form cancels; expand to the random-walk-like limit
-            tc = 1e7
-            phi = math.exp(-1.0 / tc)
+        if tc > GM_CLOSED_FORM_MAX_TC:
+            # phi -> 1: the closed form cancels (relative error ~1e-16 T_c^3: 1e-4 at
+            # T_c = 1e4 samples, negative values from 2^18; it was clamped at 1e7, where
+            # it returned 2e5 times the true value at tau = 2). Var W from the generalised
+            # covariance K of `_gen_cov`, written without cancellation:
+            # nu^2 = (6 K(0) - 8 K(m) + 2 K(2m)) / (4 m^2), m = tau / 2, K(0) = 0.
+            m = tau / 2.0
+            comp = [("GM", np.array([sigma2, tc]))]
+            return (2.0 * _gen_cov(comp, 2.0 * m) - 8.0 * _gen_cov(comp, m)) / (4.0 * m * m)
         return _ar1_wv(tau, phi, sigma2 * (1.0 - phi * phi))
     raise GyrodriftValueError(f"unknown term {term!r}")
 
@@ -483,7 +499,15 @@ def wv_covariance(model: str | tuple[str, ...], params: np.ndarray, levels: np.n
             offs = (ob[None, :] - oa[:, None]).ravel()  # o_q - o_p
             wts = np.outer(w3, w3).ravel()
             grid = lag[:, None] + offs[None, :]
-            c = np.einsum("ij,j->i", _gen_cov(smooth, grid), wts) / (4.0 * ma * mb)
+            if step <= ma:
+                # lags and offsets are multiples of step (powers of 2, offsets multiples of
+                # m_a): K is even, so evaluate it once on the lattice 0, step, .. max |h| and
+                # gather the 9 values per lag (the same numbers, ~5x fewer evaluations)
+                idx = np.abs(grid) // step
+                k_smooth = _gen_cov(smooth, step * np.arange(int(idx.max()) + 1))[idx]
+            else:
+                k_smooth = _gen_cov(smooth, grid)
+            c = np.einsum("ij,j->i", k_smooth, wts) / (4.0 * ma * mb)
             # quantization: K has a jump at 0, so c has isolated spikes at lags -(o_q - o_p)
             # (multiples of m_a, on the grid); they are summed exactly, not by the rule.
             cq = (np.einsum("ij,j->i", _gen_cov(spiky, grid), wts) / (4.0 * ma * mb)
@@ -501,7 +525,7 @@ def wv_covariance(model: str | tuple[str, ...], params: np.ndarray, levels: np.n
                 wsimp = np.full(lag.size, 2.0)
                 wsimp[1::2] = 4.0
                 wsimp[0] = wsimp[-1] = 1.0
-                total = step / 3.0 * float(np.dot(wsimp, terms_sum))
+                total = step / 3.0 * float(np.einsum("i,i->", wsimp, terms_sum))
             if cq is not None:
                 total += float(np.sum(cnt * cq * (2.0 * c + cq)))
             val = 2.0 * total / (float(m_coef[a]) * float(m_coef[b]))
@@ -524,6 +548,16 @@ def _chol(v: np.ndarray) -> np.ndarray:
         except np.linalg.LinAlgError:
             continue
     return np.diag(d)
+
+
+def _tri_inv(lc: np.ndarray) -> np.ndarray:
+    """Inverse of a lower-triangular matrix by LAPACK's unthreaded dtrtri: the BLAS trsm
+    behind scipy.linalg.solve_triangular woke its threads at every call and cost ~20 ms
+    per 13 x 13 solve on a loaded 2-core machine (0.002 ms here)."""
+    inv, info = scipy.linalg.lapack.dtrtri(lc, lower=1)
+    if info != 0:
+        return scipy.linalg.solve_triangular(lc, np.eye(lc.shape[0]), lower=True)
+    return np.tril(inv)
 
 
 @dataclass
@@ -564,7 +598,7 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
     tc_grid = np.geomspace(max(1.0, float(tau[0]) / 4.0), float(tau[-1]) / 8.0, 10)
     combos = list(itertools.combinations(tc_grid, n_gm)) if n_gm else [()]
     # Small matrix products by einsum: BLAS calls wake threads, ~2 ms each on a busy machine.
-    winv = scipy.linalg.solve_triangular(chol, np.eye(nu2.size), lower=True)
+    winv = _tri_inv(chol)
     b = np.einsum("ij,j->i", winv, nu2)
     scored = []
     for tcs in combos:
@@ -592,13 +626,27 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
     # [max(0.5, tau_1 / 8), tau_J / 8]
     # samples (peak at most at tau_J / 2) so that the terms stay distinct and model
     # selection is meaningful.
-    lower = np.full(_n_params(terms), -np.inf)
-    upper = np.full(_n_params(terms), np.inf)
+    # Each variance is kept within 1e6 (above) and 1e-12 (below) of the largest / smallest
+    # value that term alone could take to reach the measured WV at some scale: the model WV
+    # then stays finite (exp of an unbounded log variance overflowed in trust-region trial
+    # steps: test_fit_has_no_overflow_warnings), and a term at the lower bound is absent.
+    lower = np.empty(_n_params(terms))
+    upper = np.empty(_n_params(terms))
     k = 0
     for t in terms:
         if t == "GM":
-            lower[k + 1] = math.log(max(0.5, float(tau[0]) / 8.0))
-            upper[k + 1] = math.log(float(tau[-1]) / 8.0)
+            tc_lo, tc_hi = max(0.5, float(tau[0]) / 8.0), float(tau[-1]) / 8.0
+            unit = np.concatenate([_design((t,), tau, (tc,))[:, 0] for tc in (tc_lo, tc_hi)])
+            lower[k + 1] = math.log(tc_lo)
+            upper[k + 1] = math.log(tc_hi)
+        else:
+            unit = _design((t,), tau, ())[:, 0]
+        # (the GM closed form cancels to 0 at the shortest scales for T_c ~ 1e5 samples:
+        # those scales say nothing about the bound)
+        ok = np.isfinite(unit) & (unit > 0)
+        ratios = np.tile(nu2, unit.size // nu2.size)[ok] / unit[ok]
+        lower[k] = math.log(float(np.min(ratios))) - math.log(1e12)
+        upper[k] = math.log(float(np.max(ratios))) + math.log(1e6)
         k += 2 if t == "GM" else 1
     best: _Fit | None = None
     for s0 in starts:
@@ -608,7 +656,7 @@ def _fit_model(terms: tuple[str, ...], nu2: np.ndarray, tau: np.ndarray, chol: n
                                                bounds=(lower, upper), max_nfev=100 * len(s0))
         except (ValueError, FloatingPointError):
             continue
-        obj = float(np.dot(sol.fun, sol.fun))
+        obj = float(np.einsum("i,i->", sol.fun, sol.fun))
         if best is None or obj < best.objective:
             best = _Fit(terms, sol.x, obj)
     if best is None:
@@ -656,15 +704,30 @@ def _jacobian(terms: tuple[str, ...], theta: np.ndarray, tau: np.ndarray) -> np.
 
 def _weighted_lsq(terms: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
                   ) -> tuple[_Fit, np.ndarray]:
-    """Two-step GMWM; returns the fit and the covariance Omega(theta_hat) used for the SEs."""
+    """Iterated GMWM (three steps). Returns the step-3 estimate with its objective
+    re-evaluated as the J statistic at the model's own efficient weight at that estimate,
+    J = r' Omega(theta_3)^-1 r (r = nu_hat - nu(theta_3)), and Omega(theta_3) (also the
+    covariance behind the parameter intervals).
+
+    Step 1 uses model-free diagonal weights; its estimate can be far enough off that
+    Omega(theta_1) misstates the long scales' variance (J of the true model 20-40 on 13
+    scales in the Monte Carlo); one more update of the weight brings the estimate to the
+    iterated-GMM fixed point (Hansen, Heaton & Yaron 1996) within a few per cent. J is then
+    taken with Omega(theta_3), not with the weight the step used: a weight from another
+    parameter point (e.g. a Gauss-Markov term that stood in for a random walk in step 2 and
+    moved in step 3) would state a variance the fitted model does not have, and make J
+    small for the wrong reason."""
     nu2 = wv.nu2
     # step 1: model-free diagonal weights, chi-squared with eta dof: var = 2 nu^4 / eta
     chol1 = np.diag(np.sqrt(2.0 / wv.eta) * nu2)
-    fit1 = _fit_model(terms, nu2, tau, chol1)
-    omega = wv_covariance(terms, np.exp(fit1.theta), wv.level, wv.n_samples)
-    fit2 = _fit_model(terms, nu2, tau, _chol(omega), start=fit1.theta)
-    omega2 = wv_covariance(terms, np.exp(fit2.theta), wv.level, wv.n_samples)
-    return fit2, omega2
+    fit = _fit_model(terms, nu2, tau, chol1)
+    for _ in range(2):  # steps 2 and 3
+        omega = wv_covariance(terms, np.exp(fit.theta), wv.level, wv.n_samples)
+        fit = _fit_model(terms, nu2, tau, _chol(omega), start=fit.theta)
+    omega = wv_covariance(terms, np.exp(fit.theta), wv.level, wv.n_samples)
+    r = np.einsum("ij,j->i", _tri_inv(_chol(omega)),
+                  nu2 - theoretical_wv(terms, np.exp(fit.theta), tau))
+    return _Fit(terms, fit.theta, float(np.einsum("i,i->", r, r))), omega
 
 
 # --------------------------------------------------------------------------------------
@@ -712,7 +775,7 @@ class GmwmResult:
         wv_ci_low, wv_ci_high: its chi-squared interval (probability ci, eta dof);
         wv_fit: the fitted total; wv_components: each term's WV ("GM1", ...).
         objective: the GMM J statistic at the estimate (efficient weight).
-        wic: WIC of the model with the common weight (model="auto"), else None.
+        wic: WIC of the selected model with its own efficient weight (model="auto"), else None.
         candidates: (model, WIC) of every sub-model tried, best first (model="auto").
         ci, ci_method: interval probability and "asymptotic" or "bootstrap".
         param_cov: covariance of the log parameters (internal, model order).
@@ -827,14 +890,14 @@ def _param_cov(terms: tuple[str, ...], theta: np.ndarray, tau: np.ndarray,
                omega: np.ndarray) -> np.ndarray:
     d = _jacobian(terms, theta, tau)
     lc = _chol(omega)
-    a = scipy.linalg.solve_triangular(lc, d, lower=True)
+    a = np.einsum("ij,jk->ik", _tri_inv(lc), d)
     return np.linalg.pinv(a.T @ a)
 
 
 def _wic(fit: _Fit) -> float:
-    """WIC with the common weight (module docstring): J + 2 tr(P), tr(P) = number of
-    parameters (P is the projection onto the model's tangent space; its trace is the
-    nominal count even where a term is at the edge of identifiability)."""
+    """WIC with the candidate's own efficient weight (module docstring): J + 2 tr(P),
+    tr(P) = number of parameters (P is the projection onto the model's tangent space; its
+    trace is the nominal count even where a term is at the edge of identifiability)."""
     return fit.objective + 2.0 * _n_params(fit.terms)
 
 
@@ -917,18 +980,14 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         subs = _sub_models(top)
         if wv.nu2.size < _n_params(top) + 1:
             raise GyrodriftValueError(f"{wv.nu2.size} scales cannot identify {max_model}")
-        fit_top, omega0 = _weighted_lsq(top, wv, tau)
-        chol0 = _chol(omega0)
         scores = []
+        fits: dict[tuple[str, ...], tuple[_Fit, np.ndarray]] = {}
         for cand in subs:
-            if _n_params(cand) >= wv.nu2.size:
+            # the drift alone is deterministic: no covariance, no efficient weight, no WIC
+            if _n_params(cand) >= wv.nu2.size or cand == ("R",):
                 continue
-            f = fit_top if cand == top else _fit_model(cand, wv.nu2, tau, chol0)
-            if cand == top:
-                f = _Fit(top, fit_top.theta, float(np.sum(scipy.linalg.solve_triangular(
-                    chol0, wv.nu2 - theoretical_wv(top, np.exp(fit_top.theta), tau),
-                    lower=True) ** 2)))
-            scores.append((_wic(f), cand))
+            fits[cand] = _weighted_lsq(cand, wv, tau)
+            scores.append((_wic(fits[cand][0]), cand))
         scores.sort(key=lambda s: s[0])
         candidates = tuple((_model_str(c), float(w)) for w, c in scores)
         # Parsimony among the near-best (Burnham & Anderson's "within 2" rule): of the models
@@ -939,12 +998,13 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         near = [(s[1], s[0]) for s in scores if s[0] <= best_wic + WIC_MARGIN]
         terms, wic_sel = min(near, key=lambda c: (_n_params(c[0]), c[1]))
         wic = float(wic_sel)
+        fit, omega = fits[terms]
     else:
         terms = parse_model(model)
         if _n_params(terms) >= wv.nu2.size:
             raise GyrodriftValueError(f"{wv.nu2.size} scales cannot identify {_model_str(terms)} "
                              f"({_n_params(terms)} parameters): record too short")
-    fit, omega = _weighted_lsq(terms, wv, tau)
+        fit, omega = _weighted_lsq(terms, wv, tau)
     cov = _param_cov(terms, fit.theta, tau, omega)
     boot = None
     if bootstrap:
