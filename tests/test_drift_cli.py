@@ -68,6 +68,23 @@ def test_fit_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert "suffix" in capsys.readouterr().err
 
 
+def test_fit_filter_failure_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Regression: a filter that cannot be built (a steady-state recursion that does not
+    converge) ended `gyrodrift fit` in a traceback; it is a one-line error, exit 2."""
+    from gyrodrift.drift_model import DriftModelFit
+
+    def no_filter(self: DriftModelFit) -> None:
+        raise ValueError("Ar2SteadyStateKalman: not converged")
+
+    monkeypatch.setattr(DriftModelFit, "response", no_filter)
+    rec = tmp_path / "white.npy"
+    np.save(rec, np.random.default_rng(2).normal(size=2000))
+    assert main(["fit", str(rec), "--rate-hz", "100"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not converged" in err
+
+
 def test_demo_yardstick_rows(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["demo", "--duration-s", "300", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)["yardstick"]["rows"]

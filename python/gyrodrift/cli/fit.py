@@ -143,7 +143,10 @@ def run(args: argparse.Namespace) -> int:
     except (Ar2FitError, ValueError) as exc:
         raise CliError(str(exc)) from exc
     best = cmp_.best
-    resp = best.response()
+    try:
+        resp = best.response()
+    except ValueError as exc:  # e.g. the steady-state Riccati recursion did not converge
+        raise CliError(f"the {best.model} filter of this record: {exc}") from exc
     payload = {"record": rec.summary(), "units": {"rate": "deg/h", "q": "(deg/h)^2",
                                                    "r": "(deg/h)^2", "mean": "deg/h"},
                **cmp_.as_dict(), "filter": resp.as_dict()}
