@@ -119,6 +119,20 @@ def write_json(result: ReplayResult, path: str | Path) -> Path:
     return path
 
 
+def _hist(ax: Any, values: np.ndarray, bins: int, **kw: Any) -> None:
+    """ax.hist that also draws values of (nearly) one value: numpy refuses `bins` finite-sized
+    bins when the span is below the resolution of the values (outputs at an exactly constant
+    spacing, a latency that never changes), so such data get one bin of width 1 around it."""
+    v = values[np.isfinite(values)]
+    if v.size == 0:
+        return
+    lo, hi = float(v.min()), float(v.max())
+    if hi - lo <= 1e-9 * max(1.0, abs(lo), abs(hi)):
+        ax.hist(v, bins=1, range=(lo - 0.5, hi + 0.5), **kw)
+    else:
+        ax.hist(v, bins=bins, **kw)
+
+
 def write_png(result: ReplayResult, path: str | Path) -> Path:
     """Latency of every output over the run, its distribution, and the output inter-arrival
     jitter seen by the harness with the loop's own period-jitter percentiles.
@@ -147,13 +161,13 @@ def write_png(result: ReplayResult, path: str | Path) -> Path:
     fig, ax = plt.subplots(1, 3, figsize=(14, 4))
     if lat.size:
         ax[0].plot(t, lat, ".", ms=2)
-        ax[1].hist(lat, bins=min(100, max(10, lat.size // 20)), log=True)
+        _hist(ax[1], lat, min(100, max(10, lat.size // 20)), log=True)
     ax[0].set(xlabel="time since first write (s)", ylabel="latency (us)",
               title="input written -> output read")
     ax[1].set(xlabel="latency (us)", ylabel="outputs", title="latency distribution")
     arr = result.output_arrival_s
     if arr.size > 2:
-        ax[2].hist(np.diff(arr) * 1e6, bins=100, log=True, label="output inter-arrival")
+        _hist(ax[2], np.diff(arr) * 1e6, 100, log=True, label="output inter-arrival")
     loop = result.loop_stats
     if loop:
         for key, style in (("p50", ":"), ("p99", "--"), ("max", "-")):
