@@ -56,13 +56,16 @@ const T* require_vec(const CArray<T>& a, const char* what) {
 }
 
 constexpr std::size_t kGroup = 64;
-// Term indices per block of the fused kernels: 131072 measured ~10 % faster than 65536 for
-// ohdev at 1e6 samples (octave taus: fewer far segments per term, the prefix sums are a
-// third of the time); a group whose workspace would exceed kMaxWorkspace doubles (8 MiB:
-// longer records, many widely spaced factors) halves its block, down to kMinBlock, so the
-// memory stays bounded whatever the grid (one workspace per thread). The block depends
-// only on (n_data, m): same result for any thread count.
-constexpr std::size_t kFusedBlock = 1 << 17;
+// Term indices per block of the fused kernels: the largest multiple of kMinBlock up to
+// kMaxBlock whose workspace stays within kMaxWorkspace doubles (8 MiB: one workspace per
+// thread, whatever the record length or grid), and no more than half the terms (so the
+// two parts of a group can run on two threads). Larger blocks need fewer prefix sums per
+// term (the union of the stretches [offset, offset + block] over the factors' offsets,
+// per block): ohdev at 1e6 samples, octave taus, 4 per term at block 258048 instead of 6
+// at 131072 (the previous fixed block), ~8 % less CPU (mdev, totdev: see plan_block). The
+// block depends only on (n_data, m): same result for any thread count.
+constexpr std::size_t kMaxBlock = 1 << 19;
+constexpr std::size_t kMaxBlockOther = 1 << 17;
 constexpr std::size_t kMinBlock = 1 << 12;
 constexpr std::size_t kMaxWorkspace = 1 << 20;
 
@@ -71,15 +74,36 @@ FusedDeviation fused_kind(Dev d) {
                         : d == Dev::ohdev ? FusedDeviation::ohdev : FusedDeviation::totdev;
 }
 
-// Plans `fused` with the largest block (kFusedBlock halved down to kMinBlock) whose
-// workspace stays within kMaxWorkspace doubles; returns it, or 0 if the plan fails.
+// Plans `fused` with the block chosen as above (binary search: the workspace grows with
+// the block); returns it, or 0 if the plan fails.
 std::size_t plan_block(DeviationFused<kGroup>& fused, FusedDeviation kind, std::size_t n_data,
                        const std::size_t* m, std::size_t n_m) {
-  for (std::size_t block = kFusedBlock; block >= kMinBlock; block /= 2) {
-    if (!fused.plan(n_data, kind, m, n_m, block)) return 0;
-    if (fused.workspace_doubles() <= kMaxWorkspace || block == kMinBlock) return block;
+  if (!fused.plan(n_data, kind, m, n_m, kMinBlock)) return 0;
+  std::size_t terms = 0;  // the group's largest term count (its first factor's, or N - 1)
+  for (std::size_t j = 0; j < n_m; ++j) {
+    const std::size_t t = kind == FusedDeviation::ohdev  ? ohdev_terms(n_data, m[j])
+                          : kind == FusedDeviation::mdev ? mdev_terms(n_data, m[j])
+                                                         : totdev_terms(n_data);
+    terms = std::max(terms, t);
   }
-  return 0;
+  // mdev: V integrates H in double inside a block, so its rounding grows with the block
+  // (3.1e-13 from the long double kernels at 258048 against 2.4e-13 at 131072 on the
+  // drifting bench record); totdev: no faster at the blocks that fit. Both keep 131072.
+  const std::size_t top = kind == FusedDeviation::ohdev ? kMaxBlock : kMaxBlockOther;
+  std::size_t hi = std::min(top, (terms / 2 + kMinBlock - 1) / kMinBlock * kMinBlock);
+  hi = std::max(hi, kMinBlock) / kMinBlock;  // in units of kMinBlock
+  std::size_t lo = 1;  // kMinBlock always (even when over the cap: the smallest there is)
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi + 1) / 2;
+    if (!fused.plan(n_data, kind, m, n_m, mid * kMinBlock)) return 0;
+    if (fused.workspace_doubles() <= kMaxWorkspace) {
+      lo = mid;
+    } else {
+      hi = mid - 1;
+    }
+  }
+  if (!fused.plan(n_data, kind, m, n_m, lo * kMinBlock)) return 0;
+  return lo * kMinBlock;
 }
 
 template <class T>
@@ -103,7 +127,13 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
     m[j] = static_cast<std::size_t>(m_raw[j]);
     if (j > 0 && m[j] <= m[j - 1]) throw py::value_error("m must be strictly increasing");
   }
-  require_finite(x, n_data, "data");
+  // NaN/Inf: every sample enters the fused kernels' running sums (ohdev, mdev, totdev: the
+  // terms' windows cover the record) and the hdev cascade's m = 1 pass, so a non-finite
+  // sample makes the sums non-finite and the kernel fail; the 8-byte-per-sample scan that
+  // names the culprit then runs only on failure (it cost ~0.2 ms at 1e6 samples, a tenth
+  // of an hdev call). hdev without m = 1 leaves a tail unread: checked first.
+  const bool covered = d != Dev::hdev || m.empty() || m[0] == 1;
+  if (!covered) require_finite(x, n_data, "data");
   py::array_t<double> sigma2(static_cast<py::ssize_t>(n_m));
   py::array_t<std::int64_t> terms_out(static_cast<py::ssize_t>(n_m));
   std::vector<std::size_t> terms(n_m, 0);
@@ -165,6 +195,7 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
     }
   }
   if (!all_ok) {
+    if (covered) require_finite(x, n_data, "data");
     throw py::value_error("data: the " + name + " sums are not finite (values too large?)");
   }
   std::int64_t* t = terms_out.mutable_data();

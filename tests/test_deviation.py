@@ -119,6 +119,41 @@ def test_memmap_and_chunked_paths_equal_in_memory(rng: np.random.Generator, tmp_
     np.testing.assert_allclose(phase.adev, whole.adev, rtol=1e-9)
 
 
+def test_large_blocks_equal_the_long_double_kernels_on_a_drifting_record() -> None:
+    # 1e6 + 3 samples (odd; the last block partial), offset 15, random walk and a linear
+    # drift: ohdev's fused kernel runs blocks of 258048 terms (the largest within the 8 MiB
+    # workspace), mdev blocks of 131072; both against the per-tau long double kernels of
+    # the chunked path. 3e-13: the precision promised for the fused kernels (double prefix
+    # sums over one segment of level-removed data, long double carries); measured 9.4e-14
+    # (ohdev) and 2.0e-13 (mdev).
+    rng = np.random.default_rng(3)
+    n = 1_000_003
+    y = (15.0 + rng.normal(0.0, 0.05, n) + np.cumsum(rng.normal(0.0, 2e-4, n))
+         + 1e-6 * np.arange(n))
+    for name in ("ohdev", "mdev"):
+        fused = deviation(y, 100.0, name, alpha=0, threads=1)
+        chunked = deviation(y, 100.0, name, alpha=0, chunk_samples=1 << 20)
+        np.testing.assert_array_equal(fused.terms, chunked.terms)
+        np.testing.assert_allclose(fused.adev**2, chunked.adev**2, rtol=3e-13, atol=0)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_any_single_nan_or_inf_is_refused(rng: np.random.Generator, name: str) -> None:
+    # The in-memory kernels scan for NaN/Inf only when their sums fail (every sample enters
+    # them; hdev without m = 1 leaves a tail unread and is scanned first): one bad sample
+    # anywhere, including the first and the last, for the octave grid and for taus without
+    # m = 1 (hdev: 1000 samples, m = 7 reads 994 of them, m = 11 reads 990).
+    y = gyro_like(rng, 1001)[:1000]
+    for pos in (0, 1, 499, 997, 998, 999):
+        for value in (np.nan, np.inf, -np.inf):
+            bad = y.copy()
+            bad[pos] = value
+            for taus in ("octave", [0.07, 0.11]):
+                for threads in (1, 2):
+                    with pytest.raises(ValueError, match="1 NaN/Inf"):
+                        deviation(bad, 100.0, name, taus=taus, threads=threads, alpha=0)
+
+
 def test_threads_do_not_change_the_result(rng: np.random.Generator) -> None:
     y = gyro_like(rng, 30_000)
     for name in NAMES:
@@ -178,6 +213,24 @@ def test_totdev_edf_and_interval_equal_allantools() -> None:
     lo, hi = chi2_interval(np.array([2.0]), np.array([17.3]), 0.9)
     ref = allantools.confidence_interval(2.0, 17.3, ci=0.9)
     np.testing.assert_allclose([lo[0], hi[0]], ref, rtol=1e-12)
+
+
+def test_chi2_interval_equals_scipy_chi2_ppf_bit_for_bit() -> None:
+    # chi2_interval calls scipy.special.gammaincinv directly (scipy's chi2._ppf) to skip
+    # chi2.ppf's argument handling: the same numbers, bit for bit, over edf from 1 to 1e7
+    # and several interval probabilities; edf <= 0 or NaN gives NaN as chi2.ppf does.
+    import scipy.stats
+
+    e = np.concatenate([np.geomspace(1.0, 1e7, 300), [2.5, 17.3, 0.0, -1.0, np.nan]])
+    dev = np.full(e.shape, 2.0)
+    for ci in (0.5, 0.683, 0.9, 0.95, 0.999):
+        lo, hi = chi2_interval(dev, e, ci)
+        p = (1.0 - ci) / 2.0
+        ref_lo = np.sqrt(4.0 * e / scipy.stats.chi2.ppf(1.0 - p, e))
+        ref_hi = np.sqrt(4.0 * e / scipy.stats.chi2.ppf(p, e))
+        assert np.array_equal(lo, ref_lo, equal_nan=True)
+        assert np.array_equal(hi, ref_hi, equal_nan=True)
+    assert np.isnan(lo[-3:]).all()
 
 
 def test_memmap_path_memory_is_bounded(tmp_path: Path, rng: np.random.Generator) -> None:

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.special
 import scipy.stats
 from tqdm import tqdm
 
@@ -285,8 +286,13 @@ def chi2_interval(dev: np.ndarray, edf: np.ndarray, ci: float = ONE_SIGMA_CI
     dev = np.asarray(dev, dtype=np.float64)
     edf = np.asarray(edf, dtype=np.float64)
     p_low = (1.0 - ci) / 2.0
-    chi2_low = scipy.stats.chi2.ppf(p_low, edf)
-    chi2_high = scipy.stats.chi2.ppf(1.0 - p_low, edf)
+    # scipy.stats.chi2.ppf(p, edf) is 2 gammaincinv(edf / 2, p) for edf > 0 (scipy's own
+    # _ppf); called directly it skips ~0.2 ms of argument handling per call (a tenth of a
+    # 1e6-sample hdev). Not a positive edf: NaN, as chi2.ppf gives.
+    ok = edf > 0.0
+    half = np.where(ok, edf, 1.0) / 2.0
+    chi2_low = np.where(ok, 2.0 * scipy.special.gammaincinv(half, p_low), np.nan)
+    chi2_high = np.where(ok, 2.0 * scipy.special.gammaincinv(half, 1.0 - p_low), np.nan)
     var = dev * dev
     return np.sqrt(var * edf / chi2_high), np.sqrt(var * edf / chi2_low)
 
