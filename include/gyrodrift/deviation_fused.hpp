@@ -120,18 +120,77 @@ GYRODRIFT_FUSED_INLINE double lane_sum(const double* h, std::size_t n) noexcept 
   return acc[0];
 }
 
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+// c[k] = (row[k], row[q + k], row[2 q + k], row[3 q + k]) for k < 4 (row = h + i).
+__attribute__((target("avx2,fma"), always_inline)) inline void columns4_avx2(
+    const double* row, std::size_t q, __m256d* c) noexcept {
+  const __m256d r0 = _mm256_loadu_pd(row);
+  const __m256d r1 = _mm256_loadu_pd(row + q);
+  const __m256d r2 = _mm256_loadu_pd(row + 2 * q);
+  const __m256d r3 = _mm256_loadu_pd(row + 3 * q);
+  const __m256d t0 = _mm256_unpacklo_pd(r0, r1);
+  const __m256d t1 = _mm256_unpackhi_pd(r0, r1);
+  const __m256d t2 = _mm256_unpacklo_pd(r2, r3);
+  const __m256d t3 = _mm256_unpackhi_pd(r2, r3);
+  c[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+  c[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+  c[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+  c[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+
+// The chains of integrate_sq() with AVX2: G groups of four chains, one register each,
+// four terms of each chain per step (a 4x4 transpose of h[c q + i .. + 3]); per chain the
+// same operations in the same order as the scalar loop (acc += V^2, then V += h), the
+// squares of even and odd steps in two accumulators. Steps i < q4 (a multiple of 4); start
+// and acc updated in place. The scalar chains are latency-bound (one dependent add per
+// chain and term); here the adds of G registers overlap.
+template <std::size_t G>
+__attribute__((target("avx2,fma"))) inline void chains_avx2(const double* h, std::size_t q,
+                                                            std::size_t q4, double* start,
+                                                            double* acc) noexcept {
+  __m256d s[G];
+  __m256d a0[G];
+  __m256d a1[G];
+  for (std::size_t g = 0; g < G; ++g) {
+    s[g] = _mm256_loadu_pd(start + 4 * g);
+    a0[g] = _mm256_setzero_pd();
+    a1[g] = _mm256_setzero_pd();
+  }
+  for (std::size_t i = 0; i < q4; i += 4) {
+    __m256d c[G][4];
+    for (std::size_t g = 0; g < G; ++g) columns4_avx2(h + 4 * g * q + i, q, c[g]);
+    for (std::size_t k = 0; k < 4; k += 2) {
+      for (std::size_t g = 0; g < G; ++g) {
+        a0[g] = _mm256_fmadd_pd(s[g], s[g], a0[g]);
+        s[g] = _mm256_add_pd(s[g], c[g][k]);
+      }
+      for (std::size_t g = 0; g < G; ++g) {
+        a1[g] = _mm256_fmadd_pd(s[g], s[g], a1[g]);
+        s[g] = _mm256_add_pd(s[g], c[g][k + 1]);
+      }
+    }
+  }
+  for (std::size_t g = 0; g < G; ++g) {
+    _mm256_storeu_pd(start + 4 * g, s[g]);
+    _mm256_storeu_pd(acc + 4 * g,
+                     _mm256_add_pd(_mm256_loadu_pd(acc + 4 * g), _mm256_add_pd(a0[g], a1[g])));
+  }
+}
+#endif
+
 // The modified variance inside a block: h[i] = k0 + ((p3 - p0) + 3 (p1 - p2))[i] for
 // i < n_h (H_{b+i}); terms V_{b+i}, i < len, V_{b+i+1} = V_{b+i} + h[i], V_b = v0.
 // Adds sum V^2 to sq and returns sum h (V_{b+n_h} - V_b). In pieces of kPiece terms:
 // h into a stack buffer (vectorized), the sums of h over eight stretches (so each
 // stretch's starting V is known), then the eight stretches as independent chains.
+template <bool Wide>
 GYRODRIFT_FUSED_INLINE long double integrate_sq(const double* p0, const double* p1,
                                                 const double* p2, const double* p3,
                                                 std::size_t len, std::size_t n_h, double k0,
                                                 long double v0, long double& sq) noexcept {
   constexpr std::size_t kPiece = 1024;
   constexpr std::size_t kChains = 8;
-  double h[kPiece];
+  alignas(32) double h[kPiece];
   long double v = v0;
   for (std::size_t a = 0; a < len; a += kPiece) {
     const std::size_t cnt = len - a < kPiece ? len - a : kPiece;
@@ -156,7 +215,15 @@ GYRODRIFT_FUSED_INLINE long double integrate_sq(const double* p0, const double* 
       start[c] = vd + run;
       run += part[c];
     }
-    for (std::size_t i = 0; i < q; ++i) {
+    std::size_t i0 = 0;
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+    if constexpr (Wide) {
+      static_assert(kChains % 4 == 0, "chains_avx2 runs groups of four chains");
+      i0 = q & ~std::size_t{3};
+      chains_avx2<kChains / 4>(h, q, i0, start, acc);
+    }
+#endif
+    for (std::size_t i = i0; i < q; ++i) {
       for (std::size_t c = 0; c < kChains; ++c) {
         acc[c] += start[c] * start[c];
         start[c] += h[c * q + i];
@@ -462,8 +529,9 @@ class DeviationFused {
             // H_{b+i} exists for b + i <= n - 2 (it reads X_N at most)
             const std::size_t n_h = left - 1 < bsz ? left - 1 : bsz;
             const std::size_t nh = n_h > t0 ? (n_h - t0 < cnt ? n_h - t0 : cnt) : 0;
-            inner_[j] = fused_detail::integrate_sq(p[0] + t0, p[1] + t0, p[2] + t0, p[3] + t0,
-                                                   cnt, nh, k0[j], inner_[j], sum_sq_[j]);
+            inner_[j] = fused_detail::integrate_sq<Wide>(p[0] + t0, p[1] + t0, p[2] + t0,
+                                                         p[3] + t0, cnt, nh, k0[j], inner_[j],
+                                                         sum_sq_[j]);
           }
         }
       }
