@@ -236,6 +236,27 @@ TEST_CASE("fused kernels: same bits at any workspace alignment; odd sizes equal 
   }
 }
 
+TEST_CASE("hdev cascade over several chunks equals per tau") {
+  // 3 chunks of 2**14 and 5 samples: the levels cascade across chunk edges (the one-chunk
+  // test above never crosses one).
+  const auto y = record(3 * (std::size_t{1} << 14) + 5, 15.0, 17);
+  const std::size_t ms[] = {1, 2, 3, 4, 8, 12, 100, 4096, 12288};
+  constexpr std::size_t n_m = sizeof(ms) / sizeof(ms[0]);
+  double cascade[n_m];
+  std::size_t ct[n_m];
+  gyrodrift::HdevCascade<16> hc;
+  REQUIRE(hc.plan(y.size(), ms, n_m));
+  std::vector<double> wk(hc.workspace_len());
+  REQUIRE(hc.run(y.data(), wk.data(), wk.size(), cascade, ct));
+  for (std::size_t j = 0; j < n_m; ++j) {
+    double per = 0.0;
+    std::size_t t = 0;
+    REQUIRE(gyrodrift::hdev<double, double>(y.data(), y.size(), &ms[j], 1, &per, &t));
+    CHECK(rel(cascade[j], per) < 1e-13);  // as the one-chunk test above
+    CHECK(ct[j] == t);
+  }
+}
+
 TEST_CASE("fused term-range parts add up to the whole run, for any number of parts") {
   // Parts after the first start from values recomputed from the samples; for mdev a part
   // may start at the last term (V without H: m = 995 on 3000 samples, 17 terms, block 16).
