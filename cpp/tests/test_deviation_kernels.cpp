@@ -199,7 +199,7 @@ TEST_CASE("fused kernels: same bits at any workspace alignment; odd sizes equal 
   using gyrodrift::FusedDeviation;
   std::vector<double> y = record(3 * 4096 + 5, 15.0, 13);
   for (std::size_t i = 0; i < y.size(); ++i) y[i] += 2e-5 * static_cast<double>(i);
-  const std::size_t ms[] = {1, 2, 3, 5, 7, 12, 100, 1000, 3001, 4097};
+  const std::size_t ms[] = {1, 2, 3, 5, 7, 12, 24, 100, 200, 1000, 3001, 4097};
   constexpr std::size_t n_m = sizeof(ms) / sizeof(ms[0]);
   double wk[3 * 512];
   for (auto dev : {FusedDeviation::ohdev, FusedDeviation::mdev, FusedDeviation::totdev}) {
@@ -231,6 +231,15 @@ TEST_CASE("fused kernels: same bits at any workspace alignment; odd sizes equal 
             CHECK(out[j] == first[j]);
           }
         }
+      }
+      if (dev == FusedDeviation::ohdev) {
+        // taus m, 2 m (1-2, 12-24, 100-200) summed as pairs (default) or each alone: the
+        // same terms in another order
+        f.use_pairs(false);
+        double alone[n_m];
+        std::size_t t_alone[n_m];
+        REQUIRE(f.run(y.data(), store.data(), f.workspace_doubles(), alone, t_alone));
+        for (std::size_t j = 0; j < n_m; ++j) CHECK(rel(alone[j], first[j]) < 1e-14);
       }
     }
   }
