@@ -268,3 +268,53 @@ def test_chunked_reader_fortran_order_one_column_and_truncation(tmp_path: Path) 
     (tmp_path / "t.npy").write_bytes(data[:-100])
     with pytest.raises(ValueError):
         load_imu(tmp_path / "t.npy", rate_hz=RATE, spool_dir=tmp_path / "s3")
+
+
+@pytest.mark.parametrize("layout", ["c", "fortran", "one-column", "named-units"])
+def test_npy_channels_one_at_a_time_equal_the_spool(tmp_path: Path, layout: str) -> None:
+    """The fleet's in-memory reader (NpyChannels.channel: one channel per pass, chunks of 7
+    rows) gives the spool's values bit for bit (the same float64 conversion and unit factor),
+    for C and Fortran order, a 1-D record, and named columns in deg/s with a skipped one."""
+    from gyrodrift.imu_io import NpyChannels
+
+    _, vals = _data(n=101)
+    kw: dict = {"rate_hz": RATE, "chunk_rows": 7}
+    arr: np.ndarray = vals.astype(np.float32)
+    if layout == "fortran":
+        arr = np.asfortranarray(vals)
+    elif layout == "one-column":
+        arr = vals[:, 2].astype(np.float32)
+    elif layout == "named-units":
+        arr = np.column_stack([vals[:, 3], np.degrees(vals[:, 0]), vals[:, 1]])
+        kw.update(columns=["accel_x", "gyro_x", "-"], gyro_units="deg/s")
+    np.save(tmp_path / "r.npy", arr)
+    spool = NpyChannels(tmp_path / "r.npy", **kw).spool(tmp_path / "spool")
+    reader = NpyChannels(tmp_path / "r.npy", **kw)
+    assert reader.names == spool.names and reader.n == spool.n
+    assert reader.summary() == spool.summary()
+    for name in reader.names:
+        x = reader.channel(name)
+        assert x.dtype == np.float64 and x.flags.c_contiguous
+        np.testing.assert_array_equal(x, np.asarray(spool.channels[name]))
+
+
+def test_npy_channels_refuse_nan_anywhere_before_the_first_channel(tmp_path: Path) -> None:
+    """A NaN in the last column is refused by the first channel read (the pass counts every
+    used column), with the spool's message and count; a skipped column's NaN is not counted."""
+    from gyrodrift.imu_io import NpyChannels
+
+    _, vals = _data(n=50)
+    vals[[3, 40], 5] = np.nan
+    vals[7, 4] = np.inf
+    np.save(tmp_path / "nan.npy", vals)
+    with pytest.raises(ValueError, match=r"nan\.npy: 3 NaN/Inf values; the chunked reader"):
+        NpyChannels(tmp_path / "nan.npy", rate_hz=RATE, chunk_rows=8).channel("gyro_x")
+    with pytest.raises(ValueError, match=r"3 NaN/Inf values"):
+        NpyChannels(tmp_path / "nan.npy", rate_hz=RATE).spool(tmp_path / "s")
+    r = NpyChannels(tmp_path / "nan.npy", rate_hz=RATE,
+                    columns=["gyro_x", "gyro_y", "gyro_z", "accel_x", "-", "-"])
+    np.testing.assert_array_equal(r.channel("accel_x"), vals[:, 3])
+    with pytest.raises(ValueError, match="unknown gyro units"):
+        NpyChannels(tmp_path / "nan.npy", rate_hz=RATE, gyro_units="furlong")
+    with pytest.raises(FileNotFoundError, match="no such file"):
+        NpyChannels(tmp_path / "none.npy", rate_hz=RATE)

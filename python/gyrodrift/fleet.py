@@ -1,12 +1,13 @@
 """Characterize a fleet of IMU logs on Dask (`gyrodrift fleet`).
 
 One task per log, run by `characterize_log` inside a worker: the worker reads its own log
-(large .npy records in chunks of rows, spooled to one file per channel that the Allan code
-reads in chunks: bounded memory), characterizes it and writes `<out>/units/<name>/result.json`
-and its plots itself; only the small per-unit summary goes back through the scheduler.
-`result.json` is written last (atomic rename), so a unit with it is done: a resumed run skips
-it unless `force`. A failed log's one-line reason is written to `failed.json` beside it and
-listed in the summary, never dropped.
+(a .npy record in chunks of rows: one channel at a time into memory when a channel fits
+`FleetOptions.memory_budget_mib`, else spooled to one float64 file per channel that the Allan
+code reads in chunks; bounded memory either way), characterizes it and writes
+`<out>/units/<name>/result.json` and its plots itself; only the small per-unit summary goes
+back through the scheduler. `result.json` is written last (atomic rename), so a unit with it
+is done: a resumed run skips it unless `force`. A failed log's one-line reason is written to
+`failed.json` beside it and listed in the summary, never dropped.
 
 The fleet summary (`summary.json`, `summary.html`, `boxplot.png`) gives per parameter and axis
 the distribution over units (count, min, quartiles, max) and flags units outside a spec file:
@@ -37,14 +38,20 @@ import numpy as np
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.json_text import json_text
 
-__all__ = ["FleetOptions", "characterize_log", "load_spec", "run_fleet", "unit_name",
-           "write_summary"]
+__all__ = ["DEFAULT_MEMORY_BUDGET_MIB", "FleetOptions", "characterize_log", "load_spec",
+           "run_fleet", "unit_name", "write_summary"]
 
 PARAMS: tuple[tuple[str, str, str], ...] = (
     ("gyro", "N", "gyroscope_noise_density"), ("gyro", "K", "gyroscope_random_walk"),
     ("gyro", "B", "gyro_bias_instability"), ("accel", "N", "accelerometer_noise_density"),
     ("accel", "K", "accelerometer_random_walk"), ("accel", "B", "accel_bias_instability"),
 )
+
+
+#: A .npy log's channel (float64, 8 bytes per sample) is read into memory when it fits this
+#: many MiB (a task then holds one channel at a time: 76 MiB at 1e7 samples), and spooled to
+#: a float64 file per channel beyond it (3.4e7 samples: 9.3 h at 1 kHz). 0: always spool.
+DEFAULT_MEMORY_BUDGET_MIB = 256.0
 
 
 @dataclass(frozen=True)
@@ -54,8 +61,8 @@ class FleetOptions:
     Examples
     --------
     >>> opts = FleetOptions(rate_hz=400.0, terms=("N", "K"))
-    >>> opts.method, opts.taus, opts.terms
-    ('allan-nnls', 'octave', ('N', 'K'))
+    >>> opts.method, opts.taus, opts.terms, opts.memory_budget_mib
+    ('allan-nnls', 'octave', ('N', 'K'), 256.0)
     """
 
     rate_hz: float | None = None
@@ -70,6 +77,12 @@ class FleetOptions:
     method: str = "allan-nnls"
     chunk_rows: int = 1 << 18
     plots: bool = True
+    memory_budget_mib: float = DEFAULT_MEMORY_BUDGET_MIB
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.memory_budget_mib) and self.memory_budget_mib >= 0):
+            raise GyrodriftValueError(
+                f"memory_budget_mib must be >= 0 and finite, got {self.memory_budget_mib!r}")
 
 
 def unit_name(path: str | Path, root: str | Path | None = None) -> str:
@@ -152,7 +165,6 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     """
     from gyrodrift import characterize as ch
     from gyrodrift.cli.characterize import write_outputs
-    from gyrodrift.imu_io import load_imu
 
     d = Path(unit_dir)
     d.mkdir(parents=True, exist_ok=True)
@@ -160,15 +172,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     rss_scope = _start_peak_window()
     rss_start = _status_mib("VmRSS")
     try:
-        with tempfile.TemporaryDirectory(dir=d, prefix="spool.") as spool:
-            is_npy = Path(path).suffix.lower() == ".npy"
-            rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
-                           time_column=opts.time_column, topic=opts.topic,
-                           gyro_units=opts.gyro_units, accel_units=opts.accel_units,
-                           spool_dir=spool if is_npy else None, chunk_rows=opts.chunk_rows)
-            res = ch.characterize(rec, ci=opts.ci, taus=opts.taus, terms=opts.terms,
-                                  method=opts.method, threads=1)
-            del rec
+        res, reader = _characterize_record(path, d, opts)
         if opts.plots:
             write_outputs(res, kalibr=None, kalibr_path=None, html_path=None, out_dir=str(d))
         kal = ch.kalibr_yaml(res)
@@ -176,7 +180,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
         summary = {"unit": d.name, "path": str(path), "status": "done",
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
-                   "peak_rss_scope": rss_scope}
+                   "peak_rss_scope": rss_scope, "reader": reader}
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary
@@ -186,6 +190,34 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
                 "traceback": traceback.format_exc(limit=4)}
         _atomic_write(d / "failed.json", json_text(info, indent=1))
         return {k: info[k] for k in ("unit", "path", "status", "reason")}
+
+
+def _characterize_record(path: str, d: Path, opts: FleetOptions) -> tuple[Any, str]:
+    """The analysis of one log and how it was read: "memory" (a .npy log whose channel fits
+    opts.memory_budget_mib: one channel at a time in memory), "spool" (a larger .npy log:
+    float64 files per channel in a temporary directory under d, read in chunks), or "whole"
+    (text, logs, bags: parsed into memory). "memory" and "spool" give the same numbers."""
+    from gyrodrift import characterize as ch
+    from gyrodrift.imu_io import NpyChannels, load_imu
+
+    kw: dict[str, Any] = {"ci": opts.ci, "taus": opts.taus, "terms": opts.terms,
+                          "method": opts.method, "threads": 1}
+    if Path(path).suffix.lower() == ".npy":
+        reader = NpyChannels(path, rate_hz=opts.rate_hz, columns=opts.columns,
+                             gyro_units=opts.gyro_units, accel_units=opts.accel_units,
+                             chunk_rows=opts.chunk_rows)
+        if reader.n * 8 <= opts.memory_budget_mib * 2.0**20:
+            return ch.characterize_channels(reader.names, reader.channel, reader.rate_hz,
+                                            reader.summary(), **kw), "memory"
+        with tempfile.TemporaryDirectory(dir=d, prefix="spool.") as spool:
+            rec = reader.spool(spool)
+            res = ch.characterize(rec, **kw)
+            del rec
+        return res, "spool"
+    rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
+                   time_column=opts.time_column, topic=opts.topic, gyro_units=opts.gyro_units,
+                   accel_units=opts.accel_units)
+    return ch.characterize(rec, **kw), "whole"
 
 
 def _params(res: Any) -> dict[str, dict[str, dict[str, float]]]:
