@@ -145,6 +145,26 @@ def _peak_rss_mib(scope: str) -> float:
         resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
 
 
+def _thread_cpu() -> tuple[float, float] | None:
+    """(user, system) CPU seconds of this thread (the task's: a Dask worker runs it in one
+    executor thread, beside its own event-loop threads); None where RUSAGE_THREAD is missing."""
+    import resource
+
+    who = getattr(resource, "RUSAGE_THREAD", None)
+    if who is None:
+        return None
+    r = resource.getrusage(who)
+    return r.ru_utime, r.ru_stime
+
+
+def _cpu_since(start: tuple[float, float] | None) -> dict[str, float]:
+    """The task's CPU time split, for the benchmark (no result depends on it)."""
+    end = _thread_cpu()
+    if start is None or end is None:
+        return {}
+    return {"cpu_user_s": end[0] - start[0], "cpu_sys_s": end[1] - start[1]}
+
+
 def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, Any]:
     """The task: characterize one log, write its outputs into unit_dir; return the summary
     (unit, status, kalibr-style parameters per channel). Never raises for a bad log: the
@@ -171,6 +191,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     (d / "failed.json").unlink(missing_ok=True)
     rss_scope = _start_peak_window()
     rss_start = _status_mib("VmRSS")
+    cpu_start = _thread_cpu()
     try:
         res, reader = _characterize_record(path, d, opts)
         if opts.plots:
@@ -180,7 +201,8 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
         summary = {"unit": d.name, "path": str(path), "status": "done",
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
-                   "peak_rss_scope": rss_scope, "reader": reader}
+                   "peak_rss_scope": rss_scope, "reader": reader,
+                   **_cpu_since(cpu_start)}
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary

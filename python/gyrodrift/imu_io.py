@@ -391,25 +391,33 @@ class NpyChannels:
                                           "accel_units_in": accel_units, "chunked": True}
 
     def _blocks(self) -> Iterator[tuple[int, np.ndarray]]:
-        """(first row, rows as stored: an (m, k) block of the file's dtype), in order.
-        Plain file reads, never touching a mapping: mapped pages of a 1e7-sample record
-        would count in the worker's resident memory (and stay there until evicted)."""
+        """(first row, rows as stored: an (m, k) block of the file's dtype), in order. The
+        block is one buffer, refilled for the next rows: use it before asking for the next.
+        Plain file reads into that buffer, never touching a mapping: mapped pages of a
+        1e7-sample record would count in the worker's resident memory (and stay there until
+        evicted); and no new buffer per chunk: a Dask worker's allocator (the nanny sets
+        MALLOC_TRIM_THRESHOLD_) maps and page-faults every large allocation afresh."""
         arr, n, k = self._arr, self.n, int(self._arr.shape[1])
-        with open(self.path, "rb") as src:
+        if not self._c_order:  # Fortran order or a 1-D record: slices of the mapping
             for lo in range(0, n, self.chunk_rows):
-                m = min(self.chunk_rows, n - lo)
-                if self._c_order:
-                    src.seek(self._base.offset + lo * k * arr.dtype.itemsize)
-                    raw = np.fromfile(src, dtype=arr.dtype, count=m * k)
-                    if raw.size != m * k:
-                        raise GyrodriftValueError(
-                            f"{self.path}: file shorter than its header says")
-                    yield lo, raw.reshape(m, k)
-                else:  # Fortran order or a 1-D record: slices of the mapping
-                    yield lo, np.asarray(arr[lo:lo + m])
+                yield lo, np.asarray(arr[lo:lo + self.chunk_rows])
+            return
+        buf = np.empty((min(self.chunk_rows, n), k), dtype=arr.dtype)
+        with open(self.path, "rb") as src:
+            src.seek(self._base.offset)
+            for lo in range(0, n, self.chunk_rows):
+                block = buf[:min(self.chunk_rows, n - lo)]
+                want = block.nbytes
+                got = src.readinto(block.reshape(-1).view(np.uint8).data)
+                if got != want:
+                    raise GyrodriftValueError(
+                        f"{self.path}: file shorter than its header says")
+                yield lo, block
 
-    def _column(self, block: np.ndarray, name: str) -> np.ndarray:
-        return block[:, self._idx[name]].astype(np.float64) * self._factor[name]
+    def _scaled(self, block: np.ndarray, name: str, out: np.ndarray) -> np.ndarray:
+        """out = the column as float64 times its unit factor (the product in float64)."""
+        return np.multiply(block[:, self._idx[name]], self._factor[name], out=out,
+                           dtype=np.float64)
 
     def _refuse(self, n_bad: int) -> None:
         self._checked = True
@@ -424,14 +432,18 @@ class NpyChannels:
         if name not in self._idx:
             raise KeyError(name)
         out = np.empty(self.n)
+        check = not self._checked
+        rows = min(self.chunk_rows, self.n)
+        scratch, finite = np.empty(rows), np.empty(rows, dtype=bool)
         n_bad = 0
         for lo, block in self._blocks():
-            col = self._column(block, name)
-            out[lo:lo + col.size] = col
-            if not self._checked:
-                n_bad += sum(int(np.count_nonzero(~np.isfinite(self._column(block, c))))
-                             for c in self._idx)
-        if not self._checked:
+            m = block.shape[0]
+            self._scaled(block, name, out[lo:lo + m])
+            if check:
+                for c in self._idx:
+                    col = out[lo:lo + m] if c == name else self._scaled(block, c, scratch[:m])
+                    n_bad += m - int(np.count_nonzero(np.isfinite(col, out=finite[:m])))
+        if check:
             self._refuse(n_bad)
         return out
 
@@ -446,17 +458,19 @@ class NpyChannels:
                                            shape=(self.n,))
             header_len[name] = int(mm.offset)
             del mm
+        rows = min(self.chunk_rows, self.n)
+        scratch, finite = np.empty(rows), np.empty(rows, dtype=bool)
         n_bad = 0
         outs = {name: open(spool / f"{name}.npy", "r+b") for name in self._idx}
         try:
-            for lo, raw in self._blocks():
-                block = raw.astype(np.float64)
-                for name, j in self._idx.items():
-                    col = block[:, j] * self._factor[name]
-                    n_bad += int(np.count_nonzero(~np.isfinite(col)))
-                    fh = outs[name]
-                    fh.seek(header_len[name] + lo * 8)
-                    fh.write(np.ascontiguousarray(col).tobytes())
+            for name, fh in outs.items():
+                fh.seek(header_len[name])
+            for _, block in self._blocks():
+                m = block.shape[0]
+                for name, fh in outs.items():
+                    col = self._scaled(block, name, scratch[:m])
+                    n_bad += m - int(np.count_nonzero(np.isfinite(col, out=finite[:m])))
+                    fh.write(col.data)
         finally:
             for fh in outs.values():
                 fh.close()
