@@ -359,10 +359,40 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     return summary
 
 
+#: Environment variables the fleet's own LocalCluster does not set in its workers, although
+#: dask.distributed's nanny does by default (config distributed.nanny.pre-spawn-environ).
+#: MALLOC_TRIM_THRESHOLD_ turns off glibc's adaptive mmap threshold: every allocation above
+#: 128 KiB becomes a fresh mapping whose pages fault in again, and the chunked Allan reads of
+#: a spooled log then cost 1.2 million minor faults and 4 s of system time per 1e7 samples
+#: (2 s of user time), the two workers contending in the kernel's page allocator.
+UNSET_WORKER_ENV = ("MALLOC_TRIM_THRESHOLD_",)
+
+
+def _local_cluster(workers: int) -> Any:
+    """A LocalCluster of `workers` processes (one thread each) on 127.0.0.1, no dashboard (no
+    port opened beyond the scheduler's), workers spawned without UNSET_WORKER_ENV.
+
+    The nanny writes its variables into this process's os.environ before spawning (so any
+    earlier default LocalCluster in the process has left MALLOC_TRIM_THRESHOLD_ there) and
+    prefers os.environ over its configuration: the variables are taken out of both while the
+    workers are spawned, and os.environ is restored afterwards."""
+    import dask
+    from distributed import LocalCluster
+
+    unset = {f"distributed.nanny.pre-spawn-environ.{k}": None for k in UNSET_WORKER_ENV}
+    saved = {k: os.environ.pop(k) for k in UNSET_WORKER_ENV if k in os.environ}
+    try:
+        with dask.config.set(unset):
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                host="127.0.0.1", dashboard_address=None)
+    finally:
+        os.environ.update(saved)
+
+
 def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, workers: int,
               scheduler: str | None, progress: bool, client: Any,
               record: Callable[[dict[str, Any]], None]) -> None:
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, as_completed
     from tqdm import tqdm
 
     cluster = None
@@ -371,9 +401,7 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
         if scheduler is None:
             if workers < 1:
                 raise GyrodriftValueError(f"workers must be >= 1, got {workers}")
-            # Loopback only, no dashboard (no port opened beyond the scheduler's).
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   host="127.0.0.1", dashboard_address=None)
+            cluster = _local_cluster(workers)
             client = Client(cluster)
         else:
             client = Client(scheduler)
