@@ -86,9 +86,12 @@ def main() -> None:
         added: list[float] = []
         cpu: list[tuple[float, float]] = []
         readers: set[str] = set()
+        spans: list[tuple[float, float]] = []
 
         def keep(r: dict, peaks: list[float] = peaks, added: list[float] = added,
-                 cpu: list[tuple[float, float]] = cpu, readers: set[str] = readers) -> None:
+                 cpu: list[tuple[float, float]] = cpu, readers: set[str] = readers,
+                 spans: list[tuple[float, float]] = spans) -> None:
+            spans.append((float(r["t_start"]), float(r["t_end"])))
             peaks.append(float(r.get("peak_rss_mib", math.nan)))
             added.append(peaks[-1] - float(r.get("rss_start_mib") or math.nan))
             cpu.append((float(r.get("cpu_user_s", math.nan)),
@@ -109,19 +112,24 @@ def main() -> None:
         parent = (ru1[0].ru_utime - ru0[0].ru_utime, ru1[0].ru_stime - ru0[0].ru_stime)
         children = (ru1[1].ru_utime - ru0[1].ru_utime, ru1[1].ru_stime - ru0[1].ru_stime)
         task = (sum(c[0] for c in cpu) / len(cpu), sum(c[1] for c in cpu) / len(cpu))
+        # The tasks' phase: from the first task's start to the last one's end (no cluster
+        # start and close, no fleet summary).
+        tasks_wall = max(e for _, e in spans) - min(b for b, _ in spans)
         rows.append((w, wall, max(peaks), max(added), task, parent, children,
-                     ",".join(sorted(readers))))
-    base = rows[0][1]
+                     ",".join(sorted(readers)), tasks_wall))
+    base, base_tasks = rows[0][1], rows[0][8]
     print(f"{'workers':>7} {'wall_s':>8} {'logs/s':>8} {'samples/s':>11} {'ratio':>6} "
-          f"{'peak_rss_MiB/worker':>20} {'task_added_MiB':>15} {'task_cpu_u/s':>13} "
-          f"{'parent_cpu_u/s':>15} {'workers_cpu_u/s':>16} reader")
-    for w, wall, peak, add, task, parent, children, reader in rows:
+          f"{'tasks_s':>8} {'ratio':>6} {'peak_rss_MiB/worker':>20} {'task_added_MiB':>15} "
+          f"{'task_cpu_u/s':>13} {'parent_cpu_u/s':>15} {'workers_cpu_u/s':>16} reader")
+    for w, wall, peak, add, task, parent, children, reader, tasks_wall in rows:
         print(f"{w:7d} {wall:8.1f} {args.logs / wall:8.3f} {args.logs * n * 6 / wall:11.3g} "
-              f"{base / wall:6.2f} {peak:20.0f} {add:15.0f} {task[0]:6.2f}/{task[1]:<6.2f} "
+              f"{base / wall:6.2f} {tasks_wall:8.1f} {base_tasks / tasks_wall:6.2f} "
+              f"{peak:20.0f} {add:15.0f} {task[0]:6.2f}/{task[1]:<6.2f} "
               f"{parent[0]:7.1f}/{parent[1]:<7.1f} {children[0]:8.1f}/{children[1]:<7.1f} "
               f"{reader}")
-    print("# task_cpu: mean CPU seconds (user/system) of one task, its own thread; "
-          "parent: this process; workers: the cluster's processes, whole run")
+    print("# wall: the whole run_fleet (cluster start and close, summary); tasks: first task "
+          "start to last task end; task_cpu: mean CPU seconds (user/system) of one task, its "
+          "own thread; parent: this process; workers: the cluster's processes, whole run")
     print(f"# record size {n * 6 * 4 / 2**20:.0f} MiB per log; one float64 channel "
           f"{n * 8 / 2**20:.0f} MiB (memory budget {args.memory_budget_mib:g} MiB: "
           f"{'in memory' if n * 8 <= args.memory_budget_mib * 2**20 else 'spooled'}); the "
