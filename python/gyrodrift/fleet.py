@@ -376,8 +376,9 @@ UNSET_WORKER_ENV = ("MALLOC_TRIM_THRESHOLD_",)
 
 
 def _local_cluster(workers: int) -> Any:
-    """A LocalCluster of `workers` processes (one thread each) on 127.0.0.1, no dashboard (no
-    port opened beyond the scheduler's), workers spawned without UNSET_WORKER_ENV.
+    """A LocalCluster of `workers` processes (one thread each) on 127.0.0.1, no dashboard (the
+    scheduler's HTTP endpoint for health and metrics still listens on 127.0.0.1, port 8787 or
+    a free one), workers spawned without UNSET_WORKER_ENV.
 
     The nanny writes its variables into this process's os.environ before spawning (so any
     earlier default LocalCluster in the process has left MALLOC_TRIM_THRESHOLD_ there) and
