@@ -10,12 +10,14 @@ spawned worker inherits from this process) and the most a task added to the RSS 
 from.
 
     python benchmarks/bench_fleet.py [--logs 8] [--samples 1e7] [--dir /tmp/gyrodrift-fleet]
+        [--workers 1,2] [--memory-budget-mib 256]
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import resource
 import shutil
 import sys
 import time
@@ -25,7 +27,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_util import machine
-from gyrodrift.fleet import FleetOptions, run_fleet
+from gyrodrift.fleet import DEFAULT_MEMORY_BUDGET_MIB, FleetOptions, run_fleet
 
 
 def make_logs(d: Path, n_logs: int, n: int, rate_hz: float) -> list[Path]:
@@ -63,6 +65,9 @@ def main() -> None:
     ap.add_argument("--rate-hz", type=float, default=200.0)
     ap.add_argument("--dir", default="/tmp/gyrodrift-fleet-bench")
     ap.add_argument("--workers", default="1,2")
+    ap.add_argument("--memory-budget-mib", type=float, default=DEFAULT_MEMORY_BUDGET_MIB,
+                    help="FleetOptions.memory_budget_mib (0: spool every log, the reader "
+                         "before issue 14's fix)")
     args = ap.parse_args()
     n = int(args.samples)
     d = Path(args.dir)
@@ -71,32 +76,64 @@ def main() -> None:
     print(f"# logs ready in {time.perf_counter() - t0:.1f} s: {args.logs} x {n} samples x 6 "
           f"channels float32 ({paths[0].stat().st_size / 2**20:.0f} MiB each)")
     print(f"# {machine()}")
-    opts = FleetOptions(rate_hz=args.rate_hz, plots=True)
+    opts = FleetOptions(rate_hz=args.rate_hz, plots=True,
+                        memory_budget_mib=args.memory_budget_mib)
     rows = []
     for w in (int(v) for v in args.workers.split(",")):
         out = d / f"out-w{w}"
         shutil.rmtree(out, ignore_errors=True)
         peaks: list[float] = []
         added: list[float] = []
+        cpu: list[tuple[float, float]] = []
+        readers: set[str] = set()
+        spans: list[tuple[float, float]] = []
 
-        def keep(r: dict, peaks: list[float] = peaks, added: list[float] = added) -> None:
+        def keep(r: dict, peaks: list[float] = peaks, added: list[float] = added,
+                 cpu: list[tuple[float, float]] = cpu, readers: set[str] = readers,
+                 spans: list[tuple[float, float]] = spans) -> None:
+            spans.append((float(r["t_start"]), float(r["t_end"])))
             peaks.append(float(r.get("peak_rss_mib", math.nan)))
             added.append(peaks[-1] - float(r.get("rss_start_mib") or math.nan))
+            cpu.append((float(r.get("cpu_user_s", math.nan)),
+                        float(r.get("cpu_sys_s", math.nan))))
+            readers.add(str(r.get("reader")))
 
         t = time.perf_counter()
+        ru0 = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(
+            resource.RUSAGE_CHILDREN)
         s = run_fleet(paths, out, opts=opts, workers=w, root=d / "logs", on_result=keep)
         wall = time.perf_counter() - t
+        ru1 = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(
+            resource.RUSAGE_CHILDREN)
         if s["n_failed"]:
             raise SystemExit(f"failed logs: {s['failed']}")
-        rows.append((w, wall, max(peaks), max(added)))
-    base = rows[0][1]
+        # This process (client, progress, results) and its reaped children (the cluster's
+        # worker processes, counted when they exit at the cluster's close).
+        parent = (ru1[0].ru_utime - ru0[0].ru_utime, ru1[0].ru_stime - ru0[0].ru_stime)
+        children = (ru1[1].ru_utime - ru0[1].ru_utime, ru1[1].ru_stime - ru0[1].ru_stime)
+        task = (sum(c[0] for c in cpu) / len(cpu), sum(c[1] for c in cpu) / len(cpu))
+        # The tasks' phase: from the first task's start to the last one's end (no cluster
+        # start and close, no fleet summary).
+        tasks_wall = max(e for _, e in spans) - min(b for b, _ in spans)
+        rows.append((w, wall, max(peaks), max(added), task, parent, children,
+                     ",".join(sorted(readers)), tasks_wall))
+    base, base_tasks = rows[0][1], rows[0][8]
     print(f"{'workers':>7} {'wall_s':>8} {'logs/s':>8} {'samples/s':>11} {'ratio':>6} "
-          f"{'peak_rss_MiB/worker':>20} {'task_added_MiB':>15}")
-    for w, wall, peak, add in rows:
+          f"{'tasks_s':>8} {'ratio':>6} {'peak_rss_MiB/worker':>20} {'task_added_MiB':>15} "
+          f"{'task_cpu_u/s':>13} {'parent_cpu_u/s':>15} {'workers_cpu_u/s':>16} reader")
+    for w, wall, peak, add, task, parent, children, reader, tasks_wall in rows:
         print(f"{w:7d} {wall:8.1f} {args.logs / wall:8.3f} {args.logs * n * 6 / wall:11.3g} "
-              f"{base / wall:6.2f} {peak:20.0f} {add:15.0f}")
-    print(f"# record size {n * 6 * 4 / 2**20:.0f} MiB per log; the chunked reader holds "
-          f"{(1 << 18) * 6 * 8 / 2**20:.0f} MiB of rows at a time")
+              f"{base / wall:6.2f} {tasks_wall:8.1f} {base_tasks / tasks_wall:6.2f} "
+              f"{peak:20.0f} {add:15.0f} {task[0]:6.2f}/{task[1]:<6.2f} "
+              f"{parent[0]:7.1f}/{parent[1]:<7.1f} {children[0]:8.1f}/{children[1]:<7.1f} "
+              f"{reader}")
+    print("# wall: the whole run_fleet (cluster start and close, summary); tasks: first task "
+          "start to last task end; task_cpu: mean CPU seconds (user/system) of one task, its "
+          "own thread; parent: this process; workers: the cluster's processes, whole run")
+    print(f"# record size {n * 6 * 4 / 2**20:.0f} MiB per log; one float64 channel "
+          f"{n * 8 / 2**20:.0f} MiB (memory budget {args.memory_budget_mib:g} MiB: "
+          f"{'in memory' if n * 8 <= args.memory_budget_mib * 2**20 else 'spooled'}); the "
+          f"chunked reader holds {(1 << 18) * 6 * 8 / 2**20:.0f} MiB of rows at a time")
 
 
 if __name__ == "__main__":

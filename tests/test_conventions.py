@@ -44,7 +44,8 @@ OWN_FLAGS: dict[str, set[str]] = {
                      "--method", "--terms", "--taus", "--kalibr", "--kalibr-axis", "--html",
                      "--self-check"},
     "fleet": {"--columns", "--time-column", "--topic", "--gyro-units", "--accel-units",
-              "--method", "--terms", "--taus", "--workers", "--scheduler", "--force", "--spec"},
+              "--method", "--terms", "--taus", "--workers", "--scheduler", "--force", "--spec",
+              "--memory-budget-mib"},
     "align": {"--scenario", "--runs", "--coarse-s", "--states", "--kf-noise", "--gyro-lsb-arcsec",
               "--dither-arcsec", "--mechanism", "--real", "--segment-s", "--no-plots"},
 }

@@ -121,10 +121,93 @@ def test_cli_on_an_existing_scheduler(client, logs: list[Path], tmp_path: Path,
 
 
 
+@pytest.mark.parametrize("taus", ["octave", "decade"])
+def test_in_memory_reader_equals_the_spool(logs: list[Path], tmp_path: Path, taus: str) -> None:
+    """A log whose channel fits the memory budget (one channel at a time in memory, the
+    in-memory Allan kernel) gives exactly the numbers of the spooled path (budget 0: float64
+    files read back in chunks), which was the only path before: every result, every number.
+    The corrupt log fails with the same reason either way."""
+    from gyrodrift.fleet import characterize_log
+
+    for log in logs:
+        got = {}
+        for budget in (0.0, 64.0):
+            opts = FleetOptions(rate_hz=100.0, plots=False, taus=taus, memory_budget_mib=budget)
+            unit = tmp_path / f"b{budget:g}" / log.stem
+            s = characterize_log(str(log), str(unit), opts)
+            if s["status"] == "done":
+                assert s["reader"] == ("spool" if budget == 0 else "memory")
+                got[budget] = json.loads((unit / "result.json").read_text())["result"]
+            else:
+                got[budget] = s["reason"]
+            assert not list(unit.glob("spool.*"))  # the spool directory is removed
+        assert got[0.0] == got[64.0], log.name
+    assert isinstance(got[0.0], str) and "unit5" in logs[-1].name
+
+
+def test_in_memory_reader_equals_the_spool_beyond_one_allan_chunk(tmp_path: Path) -> None:
+    """Longer than the Allan code's file chunk (2^20 samples), where the spooled path sums
+    each tau's averages across chunk boundaries: still the same numbers, octave and decade
+    taus (three float32 gyro channels of 1.2e6 samples, white noise plus a random walk)."""
+    from gyrodrift.fleet import characterize_log
+
+    rng = np.random.default_rng(21)
+    n = 1_200_000
+    x = (rng.standard_normal((n, 3)) * 2e-3 + np.cumsum(rng.standard_normal((n, 3)) * 1e-6,
+                                                         axis=0)).astype(np.float32)
+    np.save(tmp_path / "long.npy", x)
+    for taus in ("octave", "decade"):
+        got = []
+        for budget in (0.0, 64.0):
+            opts = FleetOptions(rate_hz=200.0, plots=False, taus=taus, memory_budget_mib=budget)
+            unit = tmp_path / f"{taus}{budget:g}"
+            assert characterize_log(str(tmp_path / "long.npy"), str(unit), opts)["status"] == \
+                "done"
+            got.append(json.loads((unit / "result.json").read_text())["result"])
+        assert got[0] == got[1], taus
+
+
+def test_memory_budget_is_checked() -> None:
+    with pytest.raises(ValueError, match="memory_budget_mib"):
+        FleetOptions(rate_hz=100.0, memory_budget_mib=-1.0)
+    with pytest.raises(ValueError, match="memory_budget_mib"):
+        FleetOptions(rate_hz=100.0, memory_budget_mib=float("nan"))
+
+
+def test_own_cluster_spawns_workers_without_malloc_trim_threshold(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """dask.distributed's nanny sets MALLOC_TRIM_THRESHOLD_=65536 in its workers, which
+    turns off glibc's adaptive mmap threshold: the spooled path's chunk reads then fault in
+    1.2 million pages per 1e7-sample log (4 s of system time against 2 s of user time, and
+    the two workers contend in the kernel). The fleet's own LocalCluster leaves it unset,
+    also when an earlier default cluster has written it into this process's environment
+    (the nanny does that, and then prefers it to its configuration); the environment is
+    given back afterwards."""
+    import os
+
+    from distributed import Client
+    from gyrodrift.fleet import UNSET_WORKER_ENV, _local_cluster
+
+    assert "MALLOC_TRIM_THRESHOLD_" in UNSET_WORKER_ENV
+    monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")  # as an earlier cluster leaves it
+    cluster = _local_cluster(1)
+    try:
+        with Client(cluster) as c:
+            # The environment the worker process started with (what glibc read), not
+            # os.environ, which the nanny updates again inside the worker after the start.
+            seen = c.run(lambda: [v for v in open("/proc/self/environ", "rb").read().split(
+                b"\0") if v.startswith(b"MALLOC_TRIM_THRESHOLD_=")])
+    finally:
+        cluster.close()
+    assert list(seen.values()) == [[]]
+    assert os.environ["MALLOC_TRIM_THRESHOLD_"] == "65536"
+
+
 _MEMORY_SCRIPT = r"""
 import json, sys, tracemalloc
 import numpy as np
 import gyrodrift.allan as allan
+import gyrodrift.imu_io as imu_io
 from gyrodrift.fleet import FleetOptions, characterize_log
 
 def rss_mib():
@@ -135,8 +218,16 @@ def rss_mib():
 # their memory does not depend on the record length (two more taus per factor 4), and
 # matplotlib's caches move the RSS by several MiB from one figure to the next.
 allan.DEFAULT_CHUNK_SAMPLES = 1 << 15
-opts = FleetOptions(rate_hz=200.0, chunk_rows=1 << 13, plots=False)
-warm, logs, out = sys.argv[1], sys.argv[2:-1], sys.argv[-1]
+budget, copy, warm, logs, out = (float(sys.argv[1]), sys.argv[2] == "copy", sys.argv[3],
+                                 sys.argv[4:-1], sys.argv[-1])
+opts = FleetOptions(rate_hz=200.0, chunk_rows=1 << 13, plots=False, memory_budget_mib=budget)
+held = []
+if copy:  # the defect the measure must catch: a reader holding the whole record
+    for meth in ("channel", "spool"):
+        def whole(self, *a, _orig=getattr(imu_io.NpyChannels, meth)):
+            held.append(np.load(self.path))
+            return _orig(self, *a)
+        setattr(imu_io.NpyChannels, meth, whole)
 # Imports, first-use caches and the allocator's pools at these chunk sizes.
 characterize_log(warm, out + "/warm", opts)
 # History the task must not be charged with: 256 MiB touched and freed (as a parent's
@@ -145,6 +236,7 @@ big = np.ones(256 << 17)
 del big
 rows = []
 for i, log in enumerate(logs):
+    held.clear()
     rss_before = rss_mib()
     tracemalloc.start()
     r = characterize_log(log, f"{out}/u{i}", opts)
@@ -152,42 +244,115 @@ for i, log in enumerate(logs):
     tracemalloc.stop()
     rows.append({"status": r["status"], "reason": r.get("reason"), "rss_before": rss_before,
                  "peak": r.get("peak_rss_mib"), "scope": r.get("peak_rss_scope"),
-                 "traced": traced})
+                 "traced": traced, "reader": r.get("reader")})
 print(json.dumps(rows))
 """
 
 
-def test_worker_memory_is_bounded_by_the_chunked_reader(tmp_path: Path) -> None:
-    """A fleet task's peak memory does not grow with the log: the same task (in a fresh
-    process) on 2^18 and 2^20 samples x 6 channels, chunks of 2^15 samples, peaks within
-    4 MiB of each other in RSS and 1 MiB in Python allocations (tracemalloc); one float64
-    channel of the longer log held in memory, or read through a mapping, would add 6 MiB
-    over the shorter one (measured: 0.1-0.4 MiB and 0.04 MiB apart). And the reported peak
-    (peak_rss_mib) is the task's own: before, it was ru_maxrss, which Linux keeps across
-    exec and which never falls, so a worker reported its parent's high-water mark (502 MiB
-    in the benchmark, whose parent had just written the logs) or an earlier task's; here
-    256 MiB touched before the tasks must not show in their peaks."""
+@pytest.fixture(scope="module")
+def float32_logs(tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
+    """.npy logs of 2^17, 2^18 and 2^20 samples x 6 channels (float32: 1, 2 and 8 MiB per
+    channel as float64)."""
+    d = tmp_path_factory.mktemp("f32")
+    rng = np.random.default_rng(5)
+    paths = {}
+    for n in (1 << 17, 1 << 18, 1 << 20):
+        x = rng.standard_normal((n, 6), dtype=np.float32)
+        x *= np.array([1.9e-3, 1.9e-3, 1.9e-3, 2.5e-2, 2.5e-2, 2.5e-2], dtype=np.float32)
+        paths[n] = d / f"log{n}.npy"
+        np.save(paths[n], x)
+        del x
+    return paths
+
+
+def _memory_rows(budget_mib: float, logs: list[Path], out: Path, copy: bool = False
+                 ) -> list[dict]:
+    """Each log characterized by one fresh process (after a warm-up task on the first):
+    its status, reader, peak RSS (the task's VmHWM) and tracemalloc peak."""
     import subprocess
     import sys
 
-    rng = np.random.default_rng(5)
-    paths = []
-    for i, n in enumerate((1 << 18, 1 << 20)):
-        x = rng.standard_normal((n, 6), dtype=np.float32)
-        x *= np.array([1.9e-3, 1.9e-3, 1.9e-3, 2.5e-2, 2.5e-2, 2.5e-2], dtype=np.float32)
-        paths.append(tmp_path / f"log{i}.npy")
-        np.save(paths[-1], x)
-        del x
-    proc = subprocess.run([sys.executable, "-c", _MEMORY_SCRIPT, str(paths[0]),
-                           *map(str, paths), str(tmp_path / "out")],
+    proc = subprocess.run([sys.executable, "-c", _MEMORY_SCRIPT, str(budget_mib),
+                           "copy" if copy else "-", str(logs[0]), *map(str, logs), str(out)],
                           capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr[-2000:]
-    small, large = json.loads(proc.stdout.strip().splitlines()[-1])
-    for r in (small, large):
+    rows = json.loads(proc.stdout.strip().splitlines()[-1])
+    for r in rows:
         assert r["status"] == "done", r["reason"]
         assert r["scope"] == "task"  # Linux (/proc): the task's own high-water mark
+    return rows
+
+
+def _bounded(small: dict, large: dict) -> bool:
+    """The chunked reader's bound: a task's peak does not grow with the record (RSS within
+    4 MiB, Python allocations within 1 MiB; measured 0.1-0.4 and 0.04 MiB apart)."""
+    return large["peak"] - small["peak"] < 4.0 and large["traced"] - small["traced"] < 1.0
+
+
+def test_worker_memory_is_bounded_by_the_chunked_reader(float32_logs: dict[int, Path],
+                                                        tmp_path: Path) -> None:
+    """Above the memory budget (here 0: every log spooled), a fleet task's peak memory does
+    not grow with the log: the same task (in a fresh process) on 2^18 and 2^20 samples x 6
+    channels, chunks of 2^15 samples, peaks within 4 MiB of each other in RSS and 1 MiB in
+    Python allocations (tracemalloc); one float64 channel of the longer log held in memory,
+    or read through a mapping, would add 6 MiB over the shorter one (measured: 0.1-0.4 MiB
+    and 0.04 MiB apart). And the reported peak (peak_rss_mib) is the task's own: before, it
+    was ru_maxrss, which Linux keeps across exec and which never falls, so a worker reported
+    its parent's high-water mark (502 MiB in the benchmark, whose parent had just written
+    the logs) or an earlier task's; here 256 MiB touched before the tasks must not show in
+    their peaks."""
+    small, large = _memory_rows(0.0, [float32_logs[1 << 18], float32_logs[1 << 20]], tmp_path)
+    for r in (small, large):
+        assert r["reader"] == "spool"
         # Above the RSS the task started from: chunk buffers (~1.2 MiB here), the Allan
         # results and allocator slack, not the 256 MiB of history (measured +0.04..0.4 MiB).
         assert r["peak"] - r["rss_before"] < 32.0, r
     assert large["peak"] - small["peak"] < 4.0, (small, large)
     assert large["traced"] - small["traced"] < 1.0, (small, large)
+
+
+def test_memory_budget_one_channel_in_memory_below_spooled_above(
+        float32_logs: dict[int, Path], tmp_path: Path) -> None:
+    """Both sides of FleetOptions.memory_budget_mib. Budget 1 MiB: the 2^17-sample log (one
+    float64 channel = 1 MiB, the limit included) is read into memory one channel at a time;
+    the 2^18 and 2^20 logs (2 and 8 MiB per channel) are spooled and their peaks stay
+    bounded as in the test above. Budget 64 MiB: both in memory, and the longer log's peak
+    exceeds the shorter's by one channel (8 - 2 = 6 MiB), not by the record (6 channels:
+    36 MiB as float64, 18 MiB as stored)."""
+    rows = _memory_rows(1.0, [float32_logs[n] for n in (1 << 17, 1 << 18, 1 << 20)],
+                        tmp_path / "b1")
+    assert [r["reader"] for r in rows] == ["memory", "spool", "spool"]
+    assert _bounded(rows[1], rows[2]), rows
+    small, large = _memory_rows(64.0, [float32_logs[1 << 18], float32_logs[1 << 20]],
+                                tmp_path / "b64")
+    assert small["reader"] == large["reader"] == "memory"
+    # One channel: 6 MiB more Python allocations (the channel array; measured 6.0x), and
+    # less than two channels' 12 MiB in the RSS as well.
+    assert 5.5 < large["traced"] - small["traced"] < 9.0, (small, large)
+    assert large["peak"] - small["peak"] < 12.0, (small, large)
+
+
+def test_the_memory_measure_catches_a_whole_record_copy(float32_logs: dict[int, Path],
+                                                        tmp_path: Path) -> None:
+    """The tests above can fail: with the reader patched to hold the whole record during the
+    task (np.load of the log), the spooled logs' peaks are no longer bounded, and the in-memory
+    ones grow by more than one channel."""
+    logs = [float32_logs[1 << 18], float32_logs[1 << 20]]
+    small, large = _memory_rows(0.0, logs, tmp_path / "spool", copy=True)
+    assert not _bounded(small, large), (small, large)
+    small, large = _memory_rows(64.0, logs, tmp_path / "mem", copy=True)
+    assert large["traced"] - small["traced"] > 9.0, (small, large)
+
+
+def test_cli_memory_budget(logs: list[Path], tmp_path: Path,
+                           capsys: pytest.CaptureFixture[str]) -> None:
+    from gyrodrift.cli import main
+
+    base = ["fleet", str(logs[0]), "--rate-hz", "100", "--workers", "0", "--progress", "never"]
+    for budget, reader in (("0", "spool"), ("1", "memory")):  # a channel: 6000 x 8 bytes
+        out = tmp_path / f"b{budget}"
+        assert main([*base, "--out-dir", str(out), "--memory-budget-mib", budget]) == 0
+        done = json.loads((out / "units" / "unit0" / "result.json").read_text())
+        assert done["summary"]["reader"] == reader
+    assert main([*base, "--out-dir", str(tmp_path / "bad"), "--memory-budget-mib", "-1"]) == 2
+    assert "memory_budget_mib must be >= 0" in capsys.readouterr().err

@@ -64,6 +64,7 @@ __all__ = [
     "SelfCheck",
     "TermEstimate",
     "characterize",
+    "characterize_channels",
     "kalibr_values",
     "kalibr_yaml",
     "plot_sensor",
@@ -397,6 +398,30 @@ def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave"
     TermEstimate(name='N', value=9.93...e-06, ci_low=9.27...e-06, ci_high=1.02...e-05,
                  unit='rad/s/sqrt(Hz)')
     """
+    return characterize_channels(rec.names, rec.channels.__getitem__, rec.rate_hz,
+                                 rec.summary(), ci=ci, taus=taus, terms=terms, method=method,
+                                 threads=threads, progress=progress)
+
+
+def characterize_channels(names: Sequence[str], load: Callable[[str], np.ndarray],
+                          rate_hz: float, record: dict[str, object], *,
+                          ci: float = ONE_SIGMA_CI, taus: str = "octave",
+                          terms: Sequence[str] = TERMS, method: str = "allan-nnls",
+                          threads: int | None = None,
+                          progress: Callable[[str], None] | None = None
+                          ) -> CharacterizeResult:
+    """`characterize` over channels that `load(name)` returns one at a time (each is let go
+    before the next is loaded: a fleet task holds one channel in memory, not the record);
+    `record` is the record's summary (`ImuData.summary`). Same arguments and result.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> cols = {"gyro_x": rng.normal(0, 1e-4, 4096)}
+    >>> res = characterize_channels(["gyro_x"], cols.__getitem__, 100.0, {"source": "sim"})
+    >>> res.record, res.channels[0].channel
+    ({'source': 'sim'}, 'gyro_x')
+    """
     bad = [t for t in terms if t not in TERMS]
     if bad or not terms:
         raise GyrodriftValueError(
@@ -404,12 +429,14 @@ def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave"
     if not 0.0 < ci < 1.0:
         raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     out = []
-    for name in rec.names:
+    for name in names:
         if progress is not None:
             progress(name)
-        out.append(characterize_channel(rec.channels[name], rec.rate_hz, name, ci=ci, taus=taus,
-                                        terms=terms, method=method, threads=threads))
-    return CharacterizeResult(rec.summary(), tuple(out), float(ci), method, version())
+        x = load(name)
+        out.append(characterize_channel(x, rate_hz, name, ci=ci, taus=taus, terms=terms,
+                                        method=method, threads=threads))
+        del x  # before the next channel is loaded
+    return CharacterizeResult(record, tuple(out), float(ci), method, version())
 
 
 # ------------------------------------------------------------------------------------ Kalibr

@@ -1,12 +1,13 @@
 """Characterize a fleet of IMU logs on Dask (`gyrodrift fleet`).
 
 One task per log, run by `characterize_log` inside a worker: the worker reads its own log
-(large .npy records in chunks of rows, spooled to one file per channel that the Allan code
-reads in chunks: bounded memory), characterizes it and writes `<out>/units/<name>/result.json`
-and its plots itself; only the small per-unit summary goes back through the scheduler.
-`result.json` is written last (atomic rename), so a unit with it is done: a resumed run skips
-it unless `force`. A failed log's one-line reason is written to `failed.json` beside it and
-listed in the summary, never dropped.
+(a .npy record in chunks of rows: one channel at a time into memory when a channel fits
+`FleetOptions.memory_budget_mib`, else spooled to one float64 file per channel that the Allan
+code reads in chunks; bounded memory either way), characterizes it and writes
+`<out>/units/<name>/result.json` and its plots itself; only the small per-unit summary goes
+back through the scheduler. `result.json` is written last (atomic rename), so a unit with it
+is done: a resumed run skips it unless `force`. A failed log's one-line reason is written to
+`failed.json` beside it and listed in the summary, never dropped.
 
 The fleet summary (`summary.json`, `summary.html`, `boxplot.png`) gives per parameter and axis
 the distribution over units (count, min, quartiles, max) and flags units outside a spec file:
@@ -26,6 +27,7 @@ import math
 import os
 import re
 import tempfile
+import time
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -37,14 +39,20 @@ import numpy as np
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.json_text import json_text
 
-__all__ = ["FleetOptions", "characterize_log", "load_spec", "run_fleet", "unit_name",
-           "write_summary"]
+__all__ = ["DEFAULT_MEMORY_BUDGET_MIB", "FleetOptions", "characterize_log", "load_spec",
+           "run_fleet", "unit_name", "write_summary"]
 
 PARAMS: tuple[tuple[str, str, str], ...] = (
     ("gyro", "N", "gyroscope_noise_density"), ("gyro", "K", "gyroscope_random_walk"),
     ("gyro", "B", "gyro_bias_instability"), ("accel", "N", "accelerometer_noise_density"),
     ("accel", "K", "accelerometer_random_walk"), ("accel", "B", "accel_bias_instability"),
 )
+
+
+#: A .npy log's channel (float64, 8 bytes per sample) is read into memory when it fits this
+#: many MiB (a task then holds one channel at a time: 76 MiB at 1e7 samples), and spooled to
+#: a float64 file per channel beyond it (3.4e7 samples: 9.3 h at 1 kHz). 0: always spool.
+DEFAULT_MEMORY_BUDGET_MIB = 256.0
 
 
 @dataclass(frozen=True)
@@ -54,8 +62,8 @@ class FleetOptions:
     Examples
     --------
     >>> opts = FleetOptions(rate_hz=400.0, terms=("N", "K"))
-    >>> opts.method, opts.taus, opts.terms
-    ('allan-nnls', 'octave', ('N', 'K'))
+    >>> opts.method, opts.taus, opts.terms, opts.memory_budget_mib
+    ('allan-nnls', 'octave', ('N', 'K'), 256.0)
     """
 
     rate_hz: float | None = None
@@ -70,6 +78,12 @@ class FleetOptions:
     method: str = "allan-nnls"
     chunk_rows: int = 1 << 18
     plots: bool = True
+    memory_budget_mib: float = DEFAULT_MEMORY_BUDGET_MIB
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.memory_budget_mib) and self.memory_budget_mib >= 0):
+            raise GyrodriftValueError(
+                f"memory_budget_mib must be >= 0 and finite, got {self.memory_budget_mib!r}")
 
 
 def unit_name(path: str | Path, root: str | Path | None = None) -> str:
@@ -132,6 +146,26 @@ def _peak_rss_mib(scope: str) -> float:
         resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0)
 
 
+def _thread_cpu() -> tuple[float, float] | None:
+    """(user, system) CPU seconds of this thread (the task's: a Dask worker runs it in one
+    executor thread, beside its own event-loop threads); None where RUSAGE_THREAD is missing."""
+    import resource
+
+    who = getattr(resource, "RUSAGE_THREAD", None)
+    if who is None:
+        return None
+    r = resource.getrusage(who)
+    return r.ru_utime, r.ru_stime
+
+
+def _cpu_since(start: tuple[float, float] | None) -> dict[str, float]:
+    """The task's CPU time split, for the benchmark (no result depends on it)."""
+    end = _thread_cpu()
+    if start is None or end is None:
+        return {}
+    return {"cpu_user_s": end[0] - start[0], "cpu_sys_s": end[1] - start[1]}
+
+
 def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, Any]:
     """The task: characterize one log, write its outputs into unit_dir; return the summary
     (unit, status, kalibr-style parameters per channel). Never raises for a bad log: the
@@ -150,25 +184,18 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     ('done', ['imu.yaml', 'result.json'])
     >>> tmp.cleanup()
     """
+    t_start = time.time()  # before the first task's imports: all of the task's time
     from gyrodrift import characterize as ch
     from gyrodrift.cli.characterize import write_outputs
-    from gyrodrift.imu_io import load_imu
 
     d = Path(unit_dir)
     d.mkdir(parents=True, exist_ok=True)
     (d / "failed.json").unlink(missing_ok=True)
     rss_scope = _start_peak_window()
     rss_start = _status_mib("VmRSS")
+    cpu_start = _thread_cpu()
     try:
-        with tempfile.TemporaryDirectory(dir=d, prefix="spool.") as spool:
-            is_npy = Path(path).suffix.lower() == ".npy"
-            rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
-                           time_column=opts.time_column, topic=opts.topic,
-                           gyro_units=opts.gyro_units, accel_units=opts.accel_units,
-                           spool_dir=spool if is_npy else None, chunk_rows=opts.chunk_rows)
-            res = ch.characterize(rec, ci=opts.ci, taus=opts.taus, terms=opts.terms,
-                                  method=opts.method, threads=1)
-            del rec
+        res, reader = _characterize_record(path, d, opts)
         if opts.plots:
             write_outputs(res, kalibr=None, kalibr_path=None, html_path=None, out_dir=str(d))
         kal = ch.kalibr_yaml(res)
@@ -176,7 +203,8 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
         summary = {"unit": d.name, "path": str(path), "status": "done",
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
-                   "peak_rss_scope": rss_scope}
+                   "peak_rss_scope": rss_scope, "reader": reader,
+                   **_cpu_since(cpu_start), "t_start": t_start, "t_end": time.time()}
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary
@@ -186,6 +214,34 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
                 "traceback": traceback.format_exc(limit=4)}
         _atomic_write(d / "failed.json", json_text(info, indent=1))
         return {k: info[k] for k in ("unit", "path", "status", "reason")}
+
+
+def _characterize_record(path: str, d: Path, opts: FleetOptions) -> tuple[Any, str]:
+    """The analysis of one log and how it was read: "memory" (a .npy log whose channel fits
+    opts.memory_budget_mib: one channel at a time in memory), "spool" (a larger .npy log:
+    float64 files per channel in a temporary directory under d, read in chunks), or "whole"
+    (text, logs, bags: parsed into memory). "memory" and "spool" give the same numbers."""
+    from gyrodrift import characterize as ch
+    from gyrodrift.imu_io import NpyChannels, load_imu
+
+    kw: dict[str, Any] = {"ci": opts.ci, "taus": opts.taus, "terms": opts.terms,
+                          "method": opts.method, "threads": 1}
+    if Path(path).suffix.lower() == ".npy":
+        reader = NpyChannels(path, rate_hz=opts.rate_hz, columns=opts.columns,
+                             gyro_units=opts.gyro_units, accel_units=opts.accel_units,
+                             chunk_rows=opts.chunk_rows)
+        if reader.n * 8 <= opts.memory_budget_mib * 2.0**20:
+            return ch.characterize_channels(reader.names, reader.channel, reader.rate_hz,
+                                            reader.summary(), **kw), "memory"
+        with tempfile.TemporaryDirectory(dir=d, prefix="spool.") as spool:
+            rec = reader.spool(spool)
+            res = ch.characterize(rec, **kw)
+            del rec
+        return res, "spool"
+    rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
+                   time_column=opts.time_column, topic=opts.topic, gyro_units=opts.gyro_units,
+                   accel_units=opts.accel_units)
+    return ch.characterize(rec, **kw), "whole"
 
 
 def _params(res: Any) -> dict[str, dict[str, dict[str, float]]]:
@@ -297,6 +353,11 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
         for p, n in tqdm(todo, disable=not progress, desc="fleet", unit="log"):
             record(characterize_log(p, str(out / "units" / n), opts))
     elif todo:
+        # The summary's libraries load here while the workers run, not after the last task
+        # (about 1 s of the parent's time that would otherwise end every run serially).
+        import threading
+
+        threading.Thread(target=_import_summary_libraries, daemon=True).start()
         _run_dask(todo, out, opts, workers, scheduler, progress, client, record)
     ordered = [results[n] for n in names]
     summary = write_summary(ordered, out, spec)
@@ -305,10 +366,50 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     return summary
 
 
+#: Environment variables the fleet's own LocalCluster does not set in its workers, although
+#: dask.distributed's nanny does by default (config distributed.nanny.pre-spawn-environ).
+#: MALLOC_TRIM_THRESHOLD_ turns off glibc's adaptive mmap threshold: every allocation above
+#: 128 KiB becomes a fresh mapping whose pages fault in again, and the chunked Allan reads of
+#: a spooled log then cost 1.2 million minor faults and 4 s of system time per 1e7 samples
+#: (2 s of user time), the two workers contending in the kernel's page allocator.
+UNSET_WORKER_ENV = ("MALLOC_TRIM_THRESHOLD_",)
+
+
+def _local_cluster(workers: int) -> Any:
+    """A LocalCluster of `workers` processes (one thread each) on 127.0.0.1, no dashboard (the
+    scheduler's HTTP endpoint for health and metrics still listens on 127.0.0.1, port 8787 or
+    a free one), workers spawned without UNSET_WORKER_ENV.
+
+    The nanny writes its variables into this process's os.environ before spawning (so any
+    earlier default LocalCluster in the process has left MALLOC_TRIM_THRESHOLD_ there) and
+    prefers os.environ over its configuration: the variables are taken out of both while the
+    workers are spawned, and os.environ is restored afterwards."""
+    import dask
+    from distributed import LocalCluster
+
+    unset = {f"distributed.nanny.pre-spawn-environ.{k}": None for k in UNSET_WORKER_ENV}
+    saved = {k: os.environ.pop(k) for k in UNSET_WORKER_ENV if k in os.environ}
+    try:
+        with dask.config.set(unset):
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                host="127.0.0.1", dashboard_address=None)
+    finally:
+        os.environ.update(saved)
+
+
+def _import_summary_libraries() -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot
+
+    import gyrodrift.report_html  # noqa: F401
+
+
 def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, workers: int,
               scheduler: str | None, progress: bool, client: Any,
               record: Callable[[dict[str, Any]], None]) -> None:
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, as_completed
     from tqdm import tqdm
 
     cluster = None
@@ -317,9 +418,7 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
         if scheduler is None:
             if workers < 1:
                 raise GyrodriftValueError(f"workers must be >= 1, got {workers}")
-            # Loopback only, no dashboard (no port opened beyond the scheduler's).
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   host="127.0.0.1", dashboard_address=None)
+            cluster = _local_cluster(workers)
             client = Client(cluster)
         else:
             client = Client(scheduler)

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,6 +53,7 @@ __all__ = [
     "CHANNELS",
     "GYRO_UNITS",
     "ImuData",
+    "NpyChannels",
     "bag_imu_topics",
     "input_kind",
     "load_imu",
@@ -124,10 +125,16 @@ class ImuData:
         return self.n / self.rate_hz
 
     def summary(self) -> dict[str, object]:
-        return {"source": self.source, "format": self.fmt, "rate_hz": self.rate_hz,
-                "n_total": self.n_total, "n_used": self.n, "duration_s": self.duration_s,
-                "n_dropped_nonfinite": self.n_dropped, "channels": list(self.names),
-                **self.detail}
+        return _record_summary(self.source, self.fmt, self.rate_hz, self.n_total, self.n,
+                               self.n_dropped, self.names, self.detail)
+
+
+def _record_summary(source: str, fmt: str, rate_hz: float, n_total: int, n: int,
+                    n_dropped: int, names: Sequence[str], detail: dict[str, object]
+                    ) -> dict[str, object]:
+    return {"source": source, "format": fmt, "rate_hz": rate_hz, "n_total": n_total,
+            "n_used": n, "duration_s": n / rate_hz, "n_dropped_nonfinite": n_dropped,
+            "channels": list(names), **detail}
 
 
 def input_kind(path: str | Path) -> str:
@@ -209,19 +216,7 @@ def load_imu(
     (('gyro_x', 'gyro_y', 'gyro_z'), 100.0, 'text', array([0.3, 0.3, 0.3]))
     """
     p = Path(path)
-    if not p.exists():
-        raise FileNotFoundError(f"no such file: {p}")
-    if nan_policy not in ("refuse", "drop"):
-        raise GyrodriftValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
-    if gyro_units not in GYRO_UNITS:
-        raise GyrodriftValueError(
-            f"unknown gyro units {gyro_units!r}; choose one of {list(GYRO_UNITS)}")
-    if accel_units not in ACCEL_UNITS:
-        raise GyrodriftValueError(f"unknown accel units {accel_units!r}; choose one of "
-                         f"{list(ACCEL_UNITS)}")
-    if rate_hz is not None and not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz)
-                                    and rate_hz > 0):
-        raise GyrodriftValueError(f"rate must be positive and finite, got {rate_hz!r}")
+    _check_args(p, nan_policy, gyro_units, accel_units, rate_hz)
     kind = input_kind(p)
     if kind == "npy":
         if spool_dir is not None:
@@ -238,6 +233,23 @@ def load_imu(
 
 
 # ---------------------------------------------------------------------------------- helpers
+
+def _check_args(p: Path, nan_policy: str, gyro_units: str, accel_units: str,
+                rate_hz: float | None) -> None:
+    if not p.exists():
+        raise FileNotFoundError(f"no such file: {p}")
+    if nan_policy not in ("refuse", "drop"):
+        raise GyrodriftValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
+    if gyro_units not in GYRO_UNITS:
+        raise GyrodriftValueError(
+            f"unknown gyro units {gyro_units!r}; choose one of {list(GYRO_UNITS)}")
+    if accel_units not in ACCEL_UNITS:
+        raise GyrodriftValueError(f"unknown accel units {accel_units!r}; choose one of "
+                         f"{list(ACCEL_UNITS)}")
+    if rate_hz is not None and not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz)
+                                    and rate_hz > 0):
+        raise GyrodriftValueError(f"rate must be positive and finite, got {rate_hz!r}")
+
 
 def _default_names(k: int, source: str) -> list[str]:
     if k == 6:
@@ -318,70 +330,166 @@ def _load_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gyr
                    {"columns": names, "gyro_units_in": gyro_units, "accel_units_in": accel_units})
 
 
+class NpyChannels:
+    """An (n, k) .npy IMU record read in chunks of rows from plain file reads (a fleet task's
+    reader): one channel at a time into memory (`channel`), or all channels spooled to one
+    float64 file each (`spool`). Either way at most `chunk_rows` rows of the file are held
+    besides what is returned, and the values are the same bits: the file's column converted
+    to float64 and multiplied by its unit factor, sample by sample.
+
+    NaN/Inf are refused before any channel is returned: the first `channel` call (or `spool`)
+    counts them over every used column in its pass and raises with their count.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> np.save(d / "imu.npy", np.arange(12, dtype=np.float32).reshape(4, 3))
+    >>> r = NpyChannels(d / "imu.npy", rate_hz=100.0, gyro_units="deg/s", chunk_rows=3)
+    >>> r.names, r.n, r.channel("gyro_y") * 180.0 / math.pi
+    (('gyro_x', 'gyro_y', 'gyro_z'), 4, array([ 1.,  4.,  7., 10.]))
+    """
+
+    def __init__(self, path: str | Path, *, rate_hz: float | None,
+                 columns: Sequence[str] | None = None, gyro_units: str = "rad/s",
+                 accel_units: str = "m/s^2", chunk_rows: int = 1 << 18) -> None:
+        p = Path(path)
+        _check_args(p, "refuse", gyro_units, accel_units, rate_hz)
+        if input_kind(p) != "npy":
+            raise GyrodriftValueError(f"{p}: not a .npy record")
+        base = np.load(p, mmap_mode="r", allow_pickle=False)
+        arr = base[:, None] if base.ndim == 1 else base
+        if arr.ndim != 2:
+            raise GyrodriftValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
+        if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+            raise GyrodriftValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
+        if rate_hz is None:
+            raise GyrodriftValueError(
+                f"{p}: a .npy record carries no sample rate; give --rate-hz")
+        if chunk_rows < 1:
+            raise GyrodriftValueError(f"chunk_rows must be >= 1, got {chunk_rows}")
+        n = int(arr.shape[0])
+        if n < 3:
+            raise GyrodriftValueError(f"{p}: {n} samples; too short for analysis")
+        names = (_check_names(columns, arr.shape[1], str(p)) if columns
+                 else _default_names(arr.shape[1], str(p)))
+        self.path = p
+        self.rate_hz = float(rate_hz)
+        self.n = n
+        self.chunk_rows = int(chunk_rows)
+        self._base = base
+        self._arr = arr
+        # The file holds rows one after the other (C order; a 1-D record too) from base.offset.
+        self._c_order = isinstance(base, np.memmap) and bool(base.flags.c_contiguous)
+        self._idx = {name: j for j, name in enumerate(names) if name != "-"}
+        self._factor = {name: _factor(name, gyro_units, accel_units, self.rate_hz)
+                        for name in self._idx}
+        self._checked = False
+        #: used channels in canonical order
+        self.names: tuple[str, ...] = tuple(c for c in CHANNELS if c in self._idx)
+        self.detail: dict[str, object] = {"columns": names, "gyro_units_in": gyro_units,
+                                          "accel_units_in": accel_units, "chunked": True}
+
+    def _blocks(self) -> Iterator[tuple[int, np.ndarray]]:
+        """(first row, rows as stored: an (m, k) block of the file's dtype), in order. The
+        block is one buffer, refilled for the next rows: use it before asking for the next.
+        Plain file reads into that buffer, never touching a mapping: mapped pages of a
+        1e7-sample record would count in the worker's resident memory (and stay there until
+        evicted); and no new buffer per chunk: a Dask worker's allocator (the nanny sets
+        MALLOC_TRIM_THRESHOLD_) maps and page-faults every large allocation afresh."""
+        arr, n, k = self._arr, self.n, int(self._arr.shape[1])
+        if not self._c_order:  # Fortran order or a 1-D record: slices of the mapping
+            for lo in range(0, n, self.chunk_rows):
+                yield lo, np.asarray(arr[lo:lo + self.chunk_rows])
+            return
+        buf = np.empty((min(self.chunk_rows, n), k), dtype=arr.dtype)
+        with open(self.path, "rb") as src:
+            src.seek(self._base.offset)
+            for lo in range(0, n, self.chunk_rows):
+                block = buf[:min(self.chunk_rows, n - lo)]
+                want = block.nbytes
+                got = src.readinto(block.reshape(-1).view(np.uint8).data)
+                if got != want:
+                    raise GyrodriftValueError(
+                        f"{self.path}: file shorter than its header says")
+                yield lo, block
+
+    def _scaled(self, block: np.ndarray, name: str, out: np.ndarray) -> np.ndarray:
+        """out = the column as float64 times its unit factor (the product in float64)."""
+        return np.multiply(block[:, self._idx[name]], self._factor[name], out=out,
+                           dtype=np.float64)
+
+    def _refuse(self, n_bad: int) -> None:
+        self._checked = True
+        if n_bad:
+            raise GyrodriftValueError(
+                f"{self.path}: {n_bad} NaN/Inf values; the chunked reader refuses them "
+                "(repair the record, or characterize it alone with --drop-nan)")
+
+    def channel(self, name: str) -> np.ndarray:
+        """One channel as a contiguous float64 array in SI units (one pass over the file;
+        memory: the channel plus one chunk of rows)."""
+        if name not in self._idx:
+            raise KeyError(name)
+        out = np.empty(self.n)
+        check = not self._checked
+        rows = min(self.chunk_rows, self.n)
+        scratch, finite = np.empty(rows), np.empty(rows, dtype=bool)
+        n_bad = 0
+        for lo, block in self._blocks():
+            m = block.shape[0]
+            self._scaled(block, name, out[lo:lo + m])
+            if check:
+                for c in self._idx:
+                    col = out[lo:lo + m] if c == name else self._scaled(block, c, scratch[:m])
+                    n_bad += m - int(np.count_nonzero(np.isfinite(col, out=finite[:m])))
+        if check:
+            self._refuse(n_bad)
+        return out
+
+    def spool(self, spool_dir: str | Path) -> ImuData:
+        """Every channel copied to `spool_dir/<name>.npy` (float64), returned as read-only
+        memory maps (which the Allan code reads in chunks: bounded memory)."""
+        spool = Path(spool_dir)
+        spool.mkdir(parents=True, exist_ok=True)
+        header_len = {}
+        for name in self._idx:
+            mm = np.lib.format.open_memmap(spool / f"{name}.npy", mode="w+", dtype=np.float64,
+                                           shape=(self.n,))
+            header_len[name] = int(mm.offset)
+            del mm
+        rows = min(self.chunk_rows, self.n)
+        scratch, finite = np.empty(rows), np.empty(rows, dtype=bool)
+        n_bad = 0
+        outs = {name: open(spool / f"{name}.npy", "r+b") for name in self._idx}
+        try:
+            for name, fh in outs.items():
+                fh.seek(header_len[name])
+            for _, block in self._blocks():
+                m = block.shape[0]
+                for name, fh in outs.items():
+                    col = self._scaled(block, name, scratch[:m])
+                    n_bad += m - int(np.count_nonzero(np.isfinite(col, out=finite[:m])))
+                    fh.write(col.data)
+        finally:
+            for fh in outs.values():
+                fh.close()
+        self._refuse(n_bad)
+        cols = {name: np.load(spool / f"{name}.npy", mmap_mode="r") for name in self.names}
+        return ImuData(cols, self.rate_hz, str(self.path), "npy", self.n, 0, dict(self.detail))
+
+    def summary(self) -> dict[str, object]:
+        """What `ImuData.summary` gives for this record (the same dict as `spool`'s)."""
+        return _record_summary(str(self.path), "npy", self.rate_hz, self.n, self.n, 0,
+                               self.names, self.detail)
+
+
 def _spool_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gyro_units: str,
                accel_units: str, spool: Path, chunk_rows: int) -> ImuData:
     """Chunked copy of an (n, k) .npy to one float64 .npy per channel; memory ~ chunk_rows x k.
     NaN/Inf are refused (counted over all chunks first, nothing is half-written silently)."""
-    base = np.load(p, mmap_mode="r", allow_pickle=False)
-    arr = base[:, None] if base.ndim == 1 else base
-    if arr.ndim != 2:
-        raise GyrodriftValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
-    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
-        raise GyrodriftValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
-    if rate_hz is None:
-        raise GyrodriftValueError(f"{p}: a .npy record carries no sample rate; give --rate-hz")
-    if chunk_rows < 1:
-        raise GyrodriftValueError(f"chunk_rows must be >= 1, got {chunk_rows}")
-    n = int(arr.shape[0])
-    if n < 3:
-        raise GyrodriftValueError(f"{p}: {n} samples; too short for analysis")
-    names = (_check_names(columns, arr.shape[1], str(p)) if columns
-             else _default_names(arr.shape[1], str(p)))
-    spool.mkdir(parents=True, exist_ok=True)
-    idx = {name: j for j, name in enumerate(names) if name != "-"}
-    # Plain file reads and writes, never touching a mapping: mapped pages of a 1e7-sample
-    # record would count in the worker's resident memory (and stay there until evicted).
-    header_len = {}
-    for name in idx:
-        mm = np.lib.format.open_memmap(spool / f"{name}.npy", mode="w+", dtype=np.float64,
-                                       shape=(n,))
-        header_len[name] = int(mm.offset)
-        del mm
-    k = int(arr.shape[1])
-    # The file holds rows one after the other (C order; a 1-D record too) from base.offset.
-    c_order = isinstance(base, np.memmap) and bool(base.flags.c_contiguous)
-    n_bad = 0
-    outs = {name: open(spool / f"{name}.npy", "r+b") for name in idx}
-    try:
-        with open(p, "rb") as src:
-            for lo in range(0, n, chunk_rows):
-                m = min(chunk_rows, n - lo)
-                if c_order:
-                    src.seek(base.offset + lo * k * arr.dtype.itemsize)
-                    raw = np.fromfile(src, dtype=arr.dtype, count=m * k)
-                    if raw.size != m * k:
-                        raise GyrodriftValueError(f"{p}: file shorter than its header says")
-                    block = raw.reshape(m, k).astype(np.float64)
-                else:  # Fortran order or a 1-D record: slices of the mapping
-                    block = np.asarray(arr[lo:lo + m], dtype=np.float64)
-                for name, j in idx.items():
-                    col = block[:, j] * _factor(name, gyro_units, accel_units, rate_hz)
-                    n_bad += int(np.count_nonzero(~np.isfinite(col)))
-                    fh = outs[name]
-                    fh.seek(header_len[name] + lo * 8)
-                    fh.write(np.ascontiguousarray(col).tobytes())
-    finally:
-        for fh in outs.values():
-            fh.close()
-    if n_bad:
-        raise GyrodriftValueError(
-            f"{p}: {n_bad} NaN/Inf values; the chunked reader refuses them "
-            "(repair the record, or characterize it alone with --drop-nan)")
-    cols = {name: np.load(spool / f"{name}.npy", mmap_mode="r") for name in CHANNELS
-            if name in idx}
-    return ImuData(cols, float(rate_hz), str(p), "npy", n, 0,
-                   {"columns": names, "gyro_units_in": gyro_units, "accel_units_in": accel_units,
-                    "chunked": True})
+    return NpyChannels(p, rate_hz=rate_hz, columns=columns, gyro_units=gyro_units,
+                       accel_units=accel_units, chunk_rows=chunk_rows).spool(spool)
 
 
 def _split(line: str, delim: str | None) -> list[str]:

@@ -14,6 +14,7 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.characterize import add_analysis_args, add_imu_input_args
 from gyrodrift.cli.common import add_json_arg, add_progress_arg, emit_json, progress_enabled
 from gyrodrift.errors import GyrodriftError
+from gyrodrift.fleet import DEFAULT_MEMORY_BUDGET_MIB
 
 __all__ = ["register", "run"]
 
@@ -39,6 +40,12 @@ def register(subparsers: Any) -> None:
                    help="use an existing dask.distributed scheduler (e.g. tcp://127.0.0.1:8786)")
     p.add_argument("--force", action="store_true", help="redo logs that are already done")
     p.add_argument("--spec", help="JSON limits per parameter; units outside are flagged")
+    p.add_argument("--memory-budget-mib", type=float, default=DEFAULT_MEMORY_BUDGET_MIB,
+                   metavar="MIB",
+                   help="a .npy log's channel (8 bytes per sample) is read into memory when "
+                        "it fits this (one channel at a time per worker), else spooled to "
+                        f"a float64 file per channel; 0: always spool (default "
+                        f"{DEFAULT_MEMORY_BUDGET_MIB:g})")
     add_imu_input_args(p)
     add_analysis_args(p)
     add_json_arg(p)
@@ -78,12 +85,16 @@ def run(args: argparse.Namespace) -> int:
         spec = load_spec(args.spec) if args.spec else None
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
-    opts = FleetOptions(
-        rate_hz=args.rate_hz, columns=tuple(args.columns.split(",")) if args.columns else None,
-        time_column=args.time_column, topic=args.topic, gyro_units=args.gyro_units,
-        accel_units=args.accel_units, ci=args.ci, taus=args.taus,
-        terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),
-        method=args.method)
+    try:
+        opts = FleetOptions(
+            rate_hz=args.rate_hz,
+            columns=tuple(args.columns.split(",")) if args.columns else None,
+            time_column=args.time_column, topic=args.topic, gyro_units=args.gyro_units,
+            accel_units=args.accel_units, ci=args.ci, taus=args.taus,
+            terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),
+            method=args.method, memory_budget_mib=args.memory_budget_mib)
+    except GyrodriftError as exc:
+        raise CliError(str(exc)) from exc
     show = progress_enabled(args)
     root = os.path.commonpath([os.path.abspath(p) for p in paths]) if len(paths) > 1 else None
     try:
