@@ -16,9 +16,11 @@
 // modified variance then runs V through the block as eight independent chains (their
 // starting values from the chains' sums, a second pass), so its adds pipeline too.
 // Precision: H_b (and V_b) are carried from block to block in long double (block increments
-// are differences of doubles); Q spans one segment (a few B samples) of level-removed data,
-// so its rounding is ~B eps sigma however long the record or however far it drifts, and the
-// level (any constant) cancels because the coefficients sum to zero. V integrates H inside a
+// are differences of doubles); Q spans one segment (a few B samples) of data minus the
+// block's level, so its rounding is ~B eps (sigma + the level's excursion over the block's
+// streams) however long the record, and the level (any constant) cancels because the
+// coefficients sum to zero. A steep rate ramp moves the far streams (offsets up to 3m) off
+// that level: README, Limits of the deviations, has the measured cost. V integrates H inside a
 // block only: its double rounding spans at most one block of 1024 terms before it is folded
 // into the long double carry. Squares are summed per block in double, then into long double.
 // The starting values (term 0) are range sums of (y - level) in double, eight lanes.
