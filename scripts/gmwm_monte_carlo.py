@@ -5,6 +5,7 @@ gyrodrift.simulate (100 Hz, deg/h).
 
     PYTHONPATH=python:build/dev-NAME/py python scripts/gmwm_monte_carlo.py [--reps 200]
         [--select-reps K] [--n 16384] [--workers 1] [--max-model Q+N+K+R+GM+GM] [--case C]
+        [--lengths 14,15,16,17]
 
 Per replicate (seed = case seed + replicate): the true model is fitted by GMWM (model=<true>,
 asymptotic 95 % intervals), model="auto" selects among the sub-models of --max-model by WIC
@@ -14,6 +15,11 @@ and the Allan deviation (octave taus, gyrodrift.oadev) is fitted by the IEEE 952
 coverage of the nominal 95 % interval, GMWM's and the Allan fit's RMSE and their ratio (the
 Allan fit has no Gauss-Markov term: n/a there), and the selection hit rate.
 tests/test_gmwm.py runs a smaller fixed-seed version through `run_case`.
+
+With --lengths L1,L2,..: only the model selection, on records of 2^L samples for each L (the
+same seeds, the first --reps replicates), printed as one hit-rate row per case and length with
+the record length in correlation times of the case's slowest Gauss-Markov term; the coverage
+and RMSE tables are not run (they are evaluated at --n only).
 """
 
 from __future__ import annotations
@@ -102,6 +108,40 @@ def one_replicate(case: Case, rep: int, n: int, max_model: str, select: bool = T
     return out
 
 
+def select_one(case: Case, rep: int, n: int, max_model: str) -> str:
+    """The model identify_gmwm(model="auto") selects on replicate rep of length n."""
+    import gyrodrift
+    from gyrodrift.gmwm import identify_gmwm
+
+    rec = gyrodrift.simulate(n=n, rate_hz=RATE_HZ, seed=case.seed + rep, **case.sim)  # type: ignore[arg-type]
+    return identify_gmwm(rec.rate_deg_h, RATE_HZ, model="auto", max_model=max_model).model
+
+
+def slowest_tc_s(case: Case) -> float:
+    """Correlation time of the case's slowest Gauss-Markov term, s (nan without one)."""
+    gms = case.sim.get("gm", ())
+    return max((float(t) for _, t in gms), default=math.nan)  # type: ignore[union-attr]
+
+
+def hit_rates_by_length(case: Case, reps: int, log2_lengths: list[int], max_model: str,
+                        workers: int = 1) -> list[dict[str, object]]:
+    """Selection hit rate of `case` on records of 2^L samples, L in log2_lengths (seeds case
+    seed + 0 .. reps - 1 at every length)."""
+    out = []
+    for lg in log2_lengths:
+        n = 1 << lg
+        if workers > 1:
+            with ProcessPoolExecutor(workers) as ex:
+                sel = list(ex.map(select_one, [case] * reps, range(reps), [n] * reps,
+                                  [max_model] * reps))
+        else:
+            sel = [select_one(case, r, n, max_model) for r in range(reps)]
+        out.append({"log2_n": lg, "n": n, "record_s": n / RATE_HZ,
+                    "hit_rate": float(np.mean([m == case.model for m in sel])),
+                    "selected": {m: sel.count(m) for m in sorted(set(sel))}})
+    return out
+
+
 def run_case(case: Case, reps: int, n: int = 1 << 14, max_model: str = "Q+N+K+R+GM+GM",
              workers: int = 1, select_reps: int | None = None) -> dict[str, object]:
     """Run `reps` replicates (seeds case.seed + 0 .. reps - 1), the WIC selection on the
@@ -148,7 +188,32 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--max-model", default="Q+N+K+R+GM+GM")
     ap.add_argument("--case", type=int, action="append",
                     help="run only these cases (1-based; repeatable; default all)")
+    ap.add_argument("--lengths", default=None,
+                    help="log2 record lengths, e.g. 14,15,16,17: selection hit rate only")
     args = ap.parse_args(argv)
+    if args.lengths:
+        lgs = [int(v) for v in args.lengths.split(",")]
+        print(f"# GMWM model selection hit rate vs record length: {args.reps} replicates per "
+              f"case and length (seeds case seed + 0 .. {args.reps - 1}), {RATE_HZ:g} Hz, "
+              f"among the sub-models of {args.max_model}")
+        print("| case | true model | n | record s | slowest T_c spans | hit rate | "
+              "selected | CPU s |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        for k, case in enumerate(CASES, 1):
+            if args.case and k not in args.case:
+                continue
+            for lg in lgs:
+                c0 = time.process_time()
+                row = hit_rates_by_length(case, args.reps, [lg], args.max_model,
+                                          args.workers)[0]
+                tc = slowest_tc_s(case)
+                span = "n/a" if math.isnan(tc) else f"{row['record_s'] / tc:.0f} T_c"
+                print(f"| {k} | {case.model} | 2^{lg} | {row['record_s']:g} | {span} | "
+                      f"{100 * row['hit_rate']:.0f} % | "  # type: ignore[operator]
+                      + ", ".join(f"{m} x{c}" for m, c in row["selected"].items())  # type: ignore[attr-defined]
+                      + f" | {time.process_time() - c0:.0f} |")
+                sys.stdout.flush()
+        return 0
     print(f"# GMWM Monte Carlo: {args.reps} replicates per case, n = {args.n} samples at "
           f"{RATE_HZ:g} Hz, model selection among the sub-models of {args.max_model}, "
           f"nominal 95 % asymptotic intervals")

@@ -20,7 +20,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 import gmwm_real_record as real
 
 #: the models GMWM's WIC selects on each axis (scripts/gmwm_real_record.py, README)
-GMWM_MODEL = {"x": "N+GM", "y": "Q+N", "z": "Q+N"}
+GMWM_MODEL = {"x": "N+GM", "y": "Q+N", "z": "Q+GM"}
 
 
 @pytest.fixture(scope="module")

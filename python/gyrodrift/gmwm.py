@@ -77,10 +77,16 @@ own final estimate, so that it is chi-squared with (scales - p) degrees of freed
 candidate. (A common weight from the largest model's fit, used before, misstated the
 variance of the long scales whenever that fit's Gauss-Markov terms had absorbed the random
 walk: the true model's J reached 100+ on 13 scales and selection missed it; see README.)
-Selected: among the models within WIC_MARGIN = 2 of the smallest WIC, the one with the
-fewest parameters (then the smallest WIC) -- a Gauss-Markov term with a long correlation
-time mimics a random walk, one with a short one white noise, and the plain minimum picks
-such near-equivalent larger models too often (measured in scripts/gmwm_monte_carlo.py).
+Selected (`select_nested`): start at the candidate of smallest WIC; while a sub-model with
+one term fewer has a WIC within WIC_MARGIN = 2 of the current model's, move to the best such
+sub-model. WIC(sub) - WIC(model) = J_sub - J_model - 2 dp, so a term of dp parameters is kept
+only if it lowers J by more than 2 dp + 2: a nested GMM distance test at about 5 % (chi-squared
+with dp dof: P(chi2_1 > 4) = 0.046, P(chi2_2 > 6) = 0.050), not a preference for small
+models in general. Models that are not nested in one another (white + random walk + GM
+against white + two GM, where a slow GM and a random walk are nearly the same curve over
+the longest scales) are compared by WIC alone. (The earlier rule took the model with the
+fewest parameters among all within 2 of the minimum, nested or not; on the Monte Carlo's
+tuning seeds it chose N+K+GM over a lower-WIC N+GM+GM; scripts/gmwm_monte_carlo.py, README.)
 
 Example
 -------
@@ -129,7 +135,8 @@ DEFAULT_MAX_MODEL = "Q+N+K+R+GM+GM"
 #: cancellation-free route (see _component_wv); up to it the closed form is accurate to ~1e-7
 #: (1024 = the upper T_c bound of a 2^14-sample record: the Monte Carlo's numbers are unchanged).
 GM_CLOSED_FORM_MAX_TC = 1024.0
-#: Models within this WIC of the best compete on their number of parameters.
+#: A term is dropped from the selected model while that raises its WIC by at most this
+#: (select_nested: a nested test at about 5 %).
 WIC_MARGIN = 2.0
 DEG = math.pi / 180.0
 
@@ -901,6 +908,43 @@ def _wic(fit: _Fit) -> float:
     return fit.objective + 2.0 * _n_params(fit.terms)
 
 
+def _drop_one(terms: tuple[str, ...]) -> list[tuple[str, ...]]:
+    """The sub-models of terms without one of its terms (one GM of several), non-empty."""
+    out = []
+    for t in dict.fromkeys(terms):
+        sub = list(terms)
+        sub.remove(t)
+        if sub:
+            out.append(tuple(sub))
+    return out
+
+
+def select_nested(wics: dict[tuple[str, ...], float], margin: float | None = None
+                  ) -> tuple[str, ...]:
+    """Model selection by WIC with parsimony along nested chains (module docstring).
+
+    Start at the candidate of smallest WIC; while one of its one-term-smaller sub-models
+    (scored in wics) has a WIC within margin (default WIC_MARGIN) of the current model's,
+    move to the one of those with the smallest WIC. With the margin 2 a term of dp
+    parameters stays only if it lowers the J statistic by more than 2 dp + 2 (4 for one
+    parameter, 6 for a Gauss-Markov term's two): the nested GMM distance test at about 5 %
+    (P(chi2_1 > 4) = 0.046, P(chi2_2 > 6) = 0.050). Candidates that are not nested in the
+    current model are compared by WIC alone.
+
+    Examples
+    --------
+    >>> select_nested({("N", "K"): 10.0, ("N",): 11.5, ("K",): 30.0, ("Q", "K"): 10.5})
+    ('N',)
+    """
+    m = float(WIC_MARGIN if margin is None else margin)
+    cur = min(wics, key=lambda c: (wics[c], _n_params(c)))
+    while True:
+        near = [s for s in _drop_one(cur) if s in wics and wics[s] <= wics[cur] + m]
+        if not near:
+            return cur
+        cur = min(near, key=lambda c: (wics[c], _n_params(c)))
+
+
 def _simulate_model(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.random.Generator
                     ) -> np.ndarray:
     """A record of the model (per-sample parameters) for the parametric bootstrap."""
@@ -990,14 +1034,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             scores.append((_wic(fits[cand][0]), cand))
         scores.sort(key=lambda s: s[0])
         candidates = tuple((_model_str(c), float(w)) for w, c in scores)
-        # Parsimony among the near-best (Burnham & Anderson's "within 2" rule): of the models
-        # whose WIC is within WIC_MARGIN of the minimum, the one with the fewest parameters
-        # (then the lowest WIC). A spurious term must then lower the J statistic by more than
-        # 2 (p + 1) to be selected instead of the true model.
-        best_wic = float(scores[0][0])
-        near = [(s[1], s[0]) for s in scores if s[0] <= best_wic + WIC_MARGIN]
-        terms, wic_sel = min(near, key=lambda c: (_n_params(c[0]), c[1]))
-        wic = float(wic_sel)
+        terms = select_nested(dict((c, w) for w, c in scores))
+        wic = float(dict((c, w) for w, c in scores)[terms])
         fit, omega = fits[terms]
     else:
         terms = parse_model(model)
