@@ -87,11 +87,13 @@ def main() -> None:
         cpu: list[tuple[float, float]] = []
         readers: set[str] = set()
         spans: list[tuple[float, float]] = []
+        pids: list[int] = []
 
         def keep(r: dict, peaks: list[float] = peaks, added: list[float] = added,
                  cpu: list[tuple[float, float]] = cpu, readers: set[str] = readers,
-                 spans: list[tuple[float, float]] = spans) -> None:
+                 spans: list[tuple[float, float]] = spans, pids: list[int] = pids) -> None:
             spans.append((float(r["t_start"]), float(r["t_end"])))
+            pids.append(int(r.get("pid", -1)))
             peaks.append(float(r.get("peak_rss_mib", math.nan)))
             added.append(peaks[-1] - float(r.get("rss_start_mib") or math.nan))
             cpu.append((float(r.get("cpu_user_s", math.nan)),
@@ -115,18 +117,22 @@ def main() -> None:
         # The tasks' phase: from the first task's start to the last one's end (no cluster
         # start and close, no fleet summary).
         tasks_wall = max(e for _, e in spans) - min(b for b, _ in spans)
+        # tasks per worker process ("4+4"): a run where one worker took every task is a
+        # scheduling anomaly, not the workers' speed
+        per = sorted((pids.count(p) for p in set(pids)), reverse=True)
         rows.append((w, wall, max(peaks), max(added), task, parent, children,
-                     ",".join(sorted(readers)), tasks_wall))
+                     ",".join(sorted(readers)), tasks_wall, "+".join(map(str, per))))
     base, base_tasks = rows[0][1], rows[0][8]
     print(f"{'workers':>7} {'wall_s':>8} {'logs/s':>8} {'samples/s':>11} {'ratio':>6} "
           f"{'tasks_s':>8} {'ratio':>6} {'peak_rss_MiB/worker':>20} {'task_added_MiB':>15} "
-          f"{'task_cpu_u/s':>13} {'parent_cpu_u/s':>15} {'workers_cpu_u/s':>16} reader")
-    for w, wall, peak, add, task, parent, children, reader, tasks_wall in rows:
+          f"{'task_cpu_u/s':>13} {'parent_cpu_u/s':>15} {'workers_cpu_u/s':>16} "
+          f"{'tasks/worker':>12} reader")
+    for w, wall, peak, add, task, parent, children, reader, tasks_wall, per_w in rows:
         print(f"{w:7d} {wall:8.1f} {args.logs / wall:8.3f} {args.logs * n * 6 / wall:11.3g} "
               f"{base / wall:6.2f} {tasks_wall:8.1f} {base_tasks / tasks_wall:6.2f} "
               f"{peak:20.0f} {add:15.0f} {task[0]:6.2f}/{task[1]:<6.2f} "
               f"{parent[0]:7.1f}/{parent[1]:<7.1f} {children[0]:8.1f}/{children[1]:<7.1f} "
-              f"{reader}")
+              f"{per_w:>12} {reader}")
     print("# wall: the whole run_fleet (cluster start and close, summary); tasks: first task "
           "start to last task end; task_cpu: mean CPU seconds (user/system) of one task, its "
           "own thread; parent: this process; workers: the cluster's processes, whole run")

@@ -204,7 +204,8 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
                    "peak_rss_scope": rss_scope, "reader": reader,
-                   **_cpu_since(cpu_start), "t_start": t_start, "t_end": time.time()}
+                   **_cpu_since(cpu_start), "t_start": t_start, "t_end": time.time(),
+                   "pid": os.getpid()}
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary
