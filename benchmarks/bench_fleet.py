@@ -78,6 +78,12 @@ def main() -> None:
     print(f"# {machine()}")
     opts = FleetOptions(rate_hz=args.rate_hz, plots=True,
                         memory_budget_mib=args.memory_budget_mib)
+    # The parent's one-time imports (dask.distributed, the summary's matplotlib) happen here,
+    # before any timing: otherwise the first configuration (1 worker) pays ~1.2-1.8 s that
+    # the second does not, which flattered the ratio.
+    import distributed  # noqa: F401
+    import gyrodrift.fleet as fleet_module
+    fleet_module._import_summary_libraries()
     rows = []
     for w in (int(v) for v in args.workers.split(",")):
         out = d / f"out-w{w}"
