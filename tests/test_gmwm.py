@@ -201,10 +201,11 @@ def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
     assert res.wic == dict(res.candidates)["N+K"]
 
 
-@pytest.mark.parametrize("seed", [13021, 13024])
+@pytest.mark.parametrize("seed", [13022, 13024])
 def test_auto_keeps_lower_wic_model_over_smaller_non_nested_one(seed: int) -> None:
     """Regression: white + two Gauss-Markov records (the Monte Carlo's case 3, tuning seeds
-    case seed + 10000 + 21 and + 24) on which the true model N+GM+GM had the smallest WIC
+    case seed + 10000 + 22 and + 24; + 21 until the weight iteration ran to convergence,
+    which lowered N+K+GM's WIC there to 0.006 below N+GM+GM's) on which the true model N+GM+GM had the smallest WIC
     and N+K+GM, one parameter smaller but not nested in it, was within the 2-unit margin:
     the old rule (fewest parameters among all models within 2 of the minimum) selected
     N+K+GM. Parsimony now acts only along nested chains (select_nested)."""
