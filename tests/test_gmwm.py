@@ -205,10 +205,10 @@ def test_identify_gmwm_auto_selects_and_lists_candidates() -> None:
 def test_auto_keeps_lower_wic_model_over_smaller_non_nested_one(seed: int) -> None:
     """Regression: white + two Gauss-Markov records (the Monte Carlo's case 3, tuning seeds
     case seed + 10000 + 22 and + 24; + 21 until the weight iteration ran to convergence,
-    which lowered N+K+GM's WIC there to 0.006 below N+GM+GM's) on which the true model N+GM+GM had the smallest WIC
-    and N+K+GM, one parameter smaller but not nested in it, was within the 2-unit margin:
-    the old rule (fewest parameters among all models within 2 of the minimum) selected
-    N+K+GM. Parsimony now acts only along nested chains (select_nested)."""
+    which lowered N+K+GM's WIC there to 0.006 below N+GM+GM's) on which the true model
+    N+GM+GM had the smallest WIC and N+K+GM, one parameter smaller but not nested in it,
+    was within the 2-unit margin: the old rule (fewest parameters among all models within 2
+    of the minimum) selected N+K+GM. Parsimony now acts only along nested chains (select_nested)."""
     rec = gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05,
                              gm=((20.0, 0.1), (10.0, 5.0)), seed=seed)
     res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="auto",

@@ -734,11 +734,12 @@ def _weighted_lsq(terms: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
     configurations about equally (white + two Gauss-Markov, 164 s: the slow GM at its T_c
     bound, or at 2-3 s, or both GMs sharing the fast one), the weight of one makes the other
     the best fit and the weight of that one the first again: a 2-cycle, theta_2 ~ theta_4,
-    theta_3 ~ theta_5, with J 8-12 at one point and 20-33 at the other (3 of 40 tuning
+    theta_3 ~ theta_5, with J 8-12 at one point and 20-36 at the other (4 of 40 tuning
     records of the Monte Carlo's case 3; the fixed three steps returned the bad point on all
-    three). Elsewhere it creeps (the real record's z axis, Q+GM: J 60.8, 58.3, 56.1, 55.5,
-    55.3). J(theta) is the continuously-updated GMM criterion (Hansen, Heaton & Yaron 1996),
-    which the iterated estimator approximates at its fixed point: the steps go on while it
+    four). Misfitting candidates creep (white + random walk + GM on case-3 records: J 30-46 at
+    step 3, 14-18 at step 7), as does the real record's z axis (Q+GM: J 60.8, 58.3, 56.1,
+    55.5, 55.3). J(theta) is the continuously-updated GMM criterion (Hansen, Heaton & Yaron
+    1996), which the iterated estimator approximates at its fixed point: the steps go on while it
     falls by more than J_REL_TOL, and the iterate with the smallest criterion is kept. A
     converged iteration stops after step 3, as before (no extra cost), with the estimate of
     step 2 or 3, whichever has the smaller J (they differ by < 1 % in J); each extra step
