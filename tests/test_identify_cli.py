@@ -51,6 +51,23 @@ def test_identify_gmwm_table_json_png(record: Path, tmp_path: Path, capsys) -> N
     assert n["ci_low"] < 0.05 < n["ci_high"]
 
 
+def test_identify_gmwm_fit_range_selects_the_scales(record: Path, capsys) -> None:
+    # Regression: --fit-range was silently ignored by --method gmwm (the README's real-record
+    # GMWM fits scales >= 2.56 s, which the command line could not reproduce).
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--model", "N+K",
+                          "--fit-range", "0.1:", "--json"], capsys)
+    assert code == 0, err
+    got = json.loads(out)["gmwm"]
+    x = np.load(record)
+    lib = gyrodrift.identify_gmwm(x, 100.0, model="N+K", tau_range=(0.1, math.inf))
+    whole = gyrodrift.identify_gmwm(x, 100.0, model="N+K")
+    assert got["params"][1]["value"] == pytest.approx(lib.value("K"), rel=1e-12)
+    assert lib.value("K") != pytest.approx(whole.value("K"), rel=1e-6)
+    code, _, err = run(["identify", record, "--rate-hz", 100, "--method", "slope",
+                        "--fit-range", "0.1:"], capsys)
+    assert code == 2 and "--fit-range applies to --method gmwm and allan-nnls" in err
+
+
 def test_identify_allan_nnls_and_slope(record: Path, capsys) -> None:
     code, out, err = run(["identify", record, "--rate-hz", 100, "--method", "allan-nnls",
                           "--json"], capsys)

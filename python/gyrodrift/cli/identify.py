@@ -76,7 +76,9 @@ def register(subparsers: Any) -> None:
     p.add_argument("--bootstrap", type=int, default=0,
                    help="gmwm: parametric-bootstrap replicates for the intervals (0: asymptotic)")
     p.add_argument("--seed", type=int, default=0, help="bootstrap seed")
-    p.add_argument("--fit-range", help="allan-nnls: TMIN:TMAX in s (either side may be empty)")
+    p.add_argument("--fit-range",
+                   help="allan-nnls: the taus fitted; gmwm: the scales tau_j = 2^j dt fitted; "
+                        "TMIN:TMAX in s (either side may be empty)")
     p.add_argument("--terms", default="Q,N,B,K,R", help="allan-nnls: terms to fit")
     p.add_argument("--no-select", action="store_true",
                    help="allan-nnls: keep every term the NNLS gives a non-zero value")
@@ -113,12 +115,18 @@ def run(args: argparse.Namespace) -> int:
     x = np.asarray(rec.rate_deg_h, dtype=np.float64)
     head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"
             + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
+    if args.fit_range is not None and args.method == "slope":
+        # the slope method reads its lines off the whole curve: a range would be ignored
+        raise CliError("--fit-range applies to --method gmwm and allan-nnls, not slope")
     if args.method == "gmwm":
+        from gyrodrift.allan_fit import parse_fit_range
         from gyrodrift.gmwm import identify_gmwm
 
         try:
+            tau_range = None if args.fit_range is None else parse_fit_range(args.fit_range)
             res = identify_gmwm(x, rec.rate_hz, model=args.model, max_model=args.max_model,
-                                ci=args.ci, bootstrap=args.bootstrap, seed=args.seed)
+                                ci=args.ci, bootstrap=args.bootstrap, seed=args.seed,
+                                tau_range=tau_range)
         except ValueError as exc:
             raise CliError(str(exc)) from exc
         if args.png:
