@@ -109,3 +109,29 @@ def test_allan_fit_options_json_taus(record: Path, tmp_path: Path, capsys) -> No
                 ["--fit-range", "1000:"]):
         code, _, err = run(["allan", record, "--rate-hz", 100, *bad], capsys)
         assert code == 2 and err.count("\n") == 1, (bad, err)
+
+
+@pytest.mark.parametrize(("method", "option"), [
+    ("gmwm", ["--terms", "N,K"]), ("slope", ["--terms", "N,K"]),
+    ("gmwm", ["--no-select"]), ("slope", ["--no-select"]),
+    ("allan-nnls", ["--model", "N+K"]), ("slope", ["--model", "N+K"]),
+    ("allan-nnls", ["--max-model", "N+K+GM"]), ("allan-nnls", ["--bootstrap", "20"]),
+    ("slope", ["--seed", "3"]),
+])
+def test_identify_refuses_options_of_another_method(record: Path, capsys, method: str,
+                                                    option: list[str]) -> None:
+    # Regression: --terms (and the other method-specific options) were silently ignored by
+    # the methods that do not use them, so `--method gmwm --terms N,K` printed a fit of
+    # other terms than asked for without a word.
+    code, _, err = run(["identify", record, "--rate-hz", 100, "--method", method, *option],
+                       capsys)
+    assert code == 2
+    assert f"{option[0]} applies to --method" in err and method in err
+
+
+def test_identify_terms_still_select_the_allan_nnls_terms(record: Path, capsys) -> None:
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--method", "allan-nnls",
+                          "--terms", "N,B", "--json"], capsys)
+    assert code == 0, err
+    fit = json.loads(out)["fit"]
+    assert {t["name"] for t in fit["terms"]} | set(fit["dropped"]) == {"N", "B"}

@@ -60,7 +60,7 @@ def register(subparsers: Any) -> None:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> args = p.parse_args(["identify", "gyro.csv", "--method", "allan-nnls"])
     >>> args.method, args.model, args.bootstrap
-    ('allan-nnls', 'auto', 0)
+    ('allan-nnls', None, None)
     """
     p = subparsers.add_parser("identify", help="noise model with intervals (GMWM, Allan fit)",
                               description=__doc__)
@@ -68,19 +68,23 @@ def register(subparsers: Any) -> None:
     p.add_argument("--method", choices=("gmwm", "allan-nnls", "slope"), default="gmwm",
                    help="gmwm (default), allan-nnls (IEEE 952 fit of the Allan variance with "
                         "term selection) or slope (IEEE 952 slope read-offs)")
-    p.add_argument("--model", default="auto",
-                   help="gmwm: 'auto' (WIC selection) or terms joined by '+' from Q, N, K, R, "
-                        "GM (GM up to 3 times), e.g. Q+N+GM+K")
-    p.add_argument("--max-model", default="Q+N+K+R+GM+GM",
-                   help="gmwm --model auto: the largest model considered")
-    p.add_argument("--bootstrap", type=int, default=0,
-                   help="gmwm: parametric-bootstrap replicates for the intervals (0: asymptotic)")
-    p.add_argument("--seed", type=int, default=0, help="bootstrap seed")
+    # Method-specific options default to None so that run() can refuse one given to a method
+    # that would ignore it; their working defaults are in _METHOD_OPTIONS.
+    p.add_argument("--model",
+                   help="gmwm: 'auto' (WIC selection, the default) or terms joined by '+' from "
+                        "Q, N, K, R, GM (GM up to 3 times), e.g. Q+N+GM+K")
+    p.add_argument("--max-model",
+                   help="gmwm --model auto: the largest model considered (default "
+                        "Q+N+K+R+GM+GM)")
+    p.add_argument("--bootstrap", type=int,
+                   help="gmwm: parametric-bootstrap replicates for the intervals (default 0: "
+                        "asymptotic)")
+    p.add_argument("--seed", type=int, help="gmwm: bootstrap seed (default 0)")
     p.add_argument("--fit-range",
                    help="allan-nnls: the taus fitted; gmwm: the scales tau_j = 2^j dt fitted; "
                         "TMIN:TMAX in s (either side may be empty)")
-    p.add_argument("--terms", default="Q,N,B,K,R", help="allan-nnls: terms to fit")
-    p.add_argument("--no-select", action="store_true",
+    p.add_argument("--terms", help="allan-nnls: terms to fit (default Q,N,B,K,R)")
+    p.add_argument("--no-select", action="store_true", default=None,
                    help="allan-nnls: keep every term the NNLS gives a non-zero value")
     add_ci_arg(p)
     p.set_defaults(ci=0.95)
@@ -88,6 +92,29 @@ def register(subparsers: Any) -> None:
     add_json_arg(p)
     add_progress_arg(p)
     p.set_defaults(func=run)
+
+
+# option -> (the methods that use it, its value when not given)
+_METHOD_OPTIONS: dict[str, tuple[tuple[str, ...], object]] = {
+    "model": (("gmwm",), "auto"),
+    "max_model": (("gmwm",), "Q+N+K+R+GM+GM"),
+    "bootstrap": (("gmwm",), 0),
+    "seed": (("gmwm",), 0),
+    "terms": (("allan-nnls",), "Q,N,B,K,R"),
+    "no_select": (("allan-nnls",), False),
+    "fit_range": (("gmwm", "allan-nnls"), None),
+}
+
+
+def _check_method_options(args: argparse.Namespace) -> None:
+    """Refuse an option the chosen method would ignore (a fit of other terms or models than
+    asked for, printed without a word), then fill in the defaults of the unset ones."""
+    for name, (methods, default) in _METHOD_OPTIONS.items():
+        if getattr(args, name) is None:
+            setattr(args, name, default)
+        elif args.method not in methods:
+            raise CliError(f"--{name.replace('_', '-')} applies to --method "
+                           f"{' and '.join(methods)}, not {args.method}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -115,9 +142,8 @@ def run(args: argparse.Namespace) -> int:
     x = np.asarray(rec.rate_deg_h, dtype=np.float64)
     head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"
             + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
-    if args.fit_range is not None and args.method == "slope":
-        # the slope method reads its lines off the whole curve: a range would be ignored
-        raise CliError("--fit-range applies to --method gmwm and allan-nnls, not slope")
+    # the slope method reads its lines off the whole curve: a range would be ignored
+    _check_method_options(args)
     if args.method == "gmwm":
         from gyrodrift.allan_fit import parse_fit_range
         from gyrodrift.gmwm import identify_gmwm
