@@ -79,7 +79,8 @@ def test_identify_allan_nnls_and_slope(record: Path, capsys) -> None:
     assert n["ci_low"] < n["value"] < n["ci_high"] and n["value"] == pytest.approx(0.05,
                                                                                   rel=0.05)
     code, out, err = run(["identify", record, "--rate-hz", 100, "--method", "slope"], capsys)
-    assert code == 0, err and "slope method" in out
+    assert code == 0, err
+    assert "slope method" in out
     assert "deg/sqrt(h)" in out and "n/a" in out  # no -1 stretch: Q is n/a
 
 
@@ -135,3 +136,30 @@ def test_identify_terms_still_select_the_allan_nnls_terms(record: Path, capsys) 
     assert code == 0, err
     fit = json.loads(out)["fit"]
     assert {t["name"] for t in fit["terms"]} | set(fit["dropped"]) == {"N", "B"}
+
+
+def test_identify_notes_a_gauss_markov_term_below_the_fitted_scales(tmp_path: Path,
+                                                                     capsys) -> None:
+    # White noise fitted with a Gauss-Markov term on scales from 0.64 s: the GM must stand in
+    # for N with its T_c below the range (the fit allows down to 0.64 / 8 s), and the output
+    # says so; the same record on all scales with N+K (record fixture) has no note.
+    path = tmp_path / "w.npy"
+    np.save(path, gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05,
+                                     seed=5).rate_deg_h)
+    code, out, err = run(["identify", path, "--rate-hz", 100, "--model", "GM",
+                          "--fit-range", "0.64:", "--json"], capsys)
+    assert code == 0, err
+    d = json.loads(out)
+    tc = next(p["value"] for p in d["gmwm"]["params"] if p["name"] == "GM1_tau")
+    assert tc < 0.64
+    assert len(d["notes"]) == 1 and "below the smallest fitted scale 0.64 s" in d["notes"][0]
+    code, out, err = run(["identify", path, "--rate-hz", 100, "--model", "GM",
+                          "--fit-range", "0.64:"], capsys)
+    assert "# note: GM1: T_c" in out and "not separately resolved" in out
+
+
+def test_identify_no_note_when_every_term_is_resolved(record: Path, capsys) -> None:
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--model", "N+K", "--json"],
+                         capsys)
+    assert code == 0, err
+    assert json.loads(out)["notes"] == []

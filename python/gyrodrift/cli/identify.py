@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
@@ -19,7 +19,10 @@ from gyrodrift.cli.common import (
     record_from_args,
 )
 
-__all__ = ["format_terms", "register", "run"]
+if TYPE_CHECKING:
+    from gyrodrift.gmwm import GmwmResult
+
+__all__ = ["format_terms", "gm_resolution_notes", "register", "run"]
 
 #: One row of the printed table: name, value, unit, low, high, density, its unit, low, high.
 Row = tuple[str, float, str, float | None, float | None, float | None, str | None,
@@ -117,6 +120,30 @@ def _check_method_options(args: argparse.Namespace) -> None:
                            f"{' and '.join(methods)}, not {args.method}")
 
 
+def gm_resolution_notes(res: GmwmResult) -> list[str]:
+    """Notes for each Gauss-Markov term whose correlation time lies below the smallest fitted
+    scale (the fit allows T_c down to an eighth of it).
+
+    At scales above T_c a Gauss-Markov process looks like white noise (its Haar wavelet
+    variance tends to 2 sigma^2 T_c / tau), so sigma and T_c are not separately resolved there
+    and the same data are about as well described with N in the GM's place.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gyrodrift.gmwm import identify_gmwm
+    >>> x = np.random.default_rng(1).normal(0.0, 10.0, 1 << 13)
+    >>> gm_resolution_notes(identify_gmwm(x, 100.0, model="N"))
+    []
+    """
+    lo = float(min(res.tau_s))
+    names = {p.name for p in res.params}
+    return [f"GM{k}: T_c {res.value(f'GM{k}_tau'):.4g} s lies below the smallest fitted scale "
+            f"{lo:.4g} s: over the fitted scales it acts much like white noise, sigma and T_c "
+            f"are not separately resolved; compare the model with N in its place"
+            for k in (1, 2, 3) if f"GM{k}_tau" in names and res.value(f"GM{k}_tau") < lo]
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift identify``; returns the exit code.
 
@@ -159,9 +186,10 @@ def run(args: argparse.Namespace) -> int:
             from gyrodrift.plots import plot_gmwm
 
             plot_gmwm(res, args.png, label=rec.source)
+        notes = gm_resolution_notes(res)
         if args.json:
             emit_json({"record": rec.summary(), "method": "gmwm", "gmwm": res.as_dict(),
-                       "files": {"png": args.png}})
+                       "notes": notes, "files": {"png": args.png}})
             return 0
         print(head)
         print(f"GMWM model {res.model} ({res.ci_method} intervals; J = {res.objective:.4g}"
@@ -173,6 +201,7 @@ def run(args: argparse.Namespace) -> int:
         if res.candidates:
             print("candidates (WIC): " + ", ".join(f"{m} {w:.4g}" for m, w in
                                                     res.candidates[:6]))
+        print("".join(f"# note: {n}\n" for n in notes), end="")
         return 0
     from gyrodrift.allan import oadev
 
