@@ -166,6 +166,13 @@ def _cpu_since(start: tuple[float, float] | None) -> dict[str, float]:
     return {"cpu_user_s": end[0] - start[0], "cpu_sys_s": end[1] - start[1]}
 
 
+def _process_cpu() -> dict[str, float]:
+    """CPU seconds (user, system) of this whole process so far: a worker's start-up, imports,
+    event loop and tasks (for the benchmark's accounting; no result depends on it)."""
+    t = os.times()
+    return {"process_cpu_user_s": t.user, "process_cpu_sys_s": t.system}
+
+
 def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, Any]:
     """The task: characterize one log, write its outputs into unit_dir; return the summary
     (unit, status, kalibr-style parameters per channel). Never raises for a bad log: the
@@ -191,6 +198,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     d = Path(unit_dir)
     d.mkdir(parents=True, exist_ok=True)
     (d / "failed.json").unlink(missing_ok=True)
+    t_ready = time.time()  # the imports done
     rss_scope = _start_peak_window()
     rss_start = _status_mib("VmRSS")
     cpu_start = _thread_cpu()
@@ -204,8 +212,8 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
                    "peak_rss_scope": rss_scope, "reader": reader,
-                   **_cpu_since(cpu_start), "t_start": t_start, "t_end": time.time(),
-                   "pid": os.getpid()}
+                   **_cpu_since(cpu_start), "t_start": t_start, "t_ready": t_ready,
+                   "t_end": time.time(), "pid": os.getpid(), **_process_cpu()}
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary
@@ -300,14 +308,18 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
               workers: int = 2, scheduler: str | None = None, force: bool = False,
               spec: dict[str, dict[str, float]] | None = None, root: str | Path | None = None,
               progress: bool = False, client: Any = None,
-              on_result: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+              on_result: Callable[[dict[str, Any]], None] | None = None,
+              phases: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
     """Characterize every log on Dask and write the fleet summary (module docstring).
 
     workers = 0 runs serially in this process (no Dask; the reference the Dask run equals).
     scheduler: address of an existing dask.distributed scheduler; else a LocalCluster of
     `workers` processes (one thread each) on 127.0.0.1 is started and closed. `client`: an
     existing distributed.Client to use instead (tests share one).
-    Returns the summary dict (also written to out_dir/summary.json).
+    Returns the summary dict (also written to out_dir/summary.json). `phases`, if given, is
+    filled with this process's cost per phase (plan, cluster_start, submit, tasks, close,
+    summary): {"wall_s", "cpu_s" (all its threads: client, and a LocalCluster's scheduler
+    and nannies), "main_cpu_s" (the calling thread)}; no result depends on it.
 
     Examples
     --------
@@ -323,6 +335,7 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     (2, 0, ['boxplot.png', 'summary.html', 'summary.json', 'units'])
     >>> shutil.rmtree(d)
     """
+    lap = _Laps(phases)
     out = Path(out_dir)
     (out / "units").mkdir(parents=True, exist_ok=True)
     path_strs = [str(p) for p in paths]
@@ -348,20 +361,23 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
         if on_result is not None:
             on_result(r)
 
+    lap("plan")
     if todo and workers == 0 and scheduler is None and client is None:
         from tqdm import tqdm
 
         for p, n in tqdm(todo, disable=not progress, desc="fleet", unit="log"):
             record(characterize_log(p, str(out / "units" / n), opts))
+        lap("tasks")
     elif todo:
         # The summary's libraries load here while the workers run, not after the last task
         # (about 1 s of the parent's time that would otherwise end every run serially).
         import threading
 
         threading.Thread(target=_import_summary_libraries, daemon=True).start()
-        _run_dask(todo, out, opts, workers, scheduler, progress, client, record)
+        _run_dask(todo, out, opts, workers, scheduler, progress, client, record, lap)
     ordered = [results[n] for n in names]
     summary = write_summary(ordered, out, spec)
+    lap("summary")
     summary["n_skipped"] = sum(1 for r in ordered if r.get("skipped"))
     summary["n_run"] = len(todo)
     return summary
@@ -407,9 +423,29 @@ def _import_summary_libraries() -> None:
     import gyrodrift.report_html  # noqa: F401
 
 
+class _Laps:
+    """Wall and CPU time of this process per phase of a run, into `phases` (or nothing)."""
+
+    def __init__(self, phases: dict[str, dict[str, float]] | None) -> None:
+        self.phases = phases
+        self.last = self._now()
+
+    @staticmethod
+    def _now() -> tuple[float, float, float]:
+        return time.perf_counter(), time.process_time(), time.thread_time()
+
+    def __call__(self, name: str) -> None:
+        if self.phases is None:
+            return
+        now = self._now()
+        self.phases[name] = {"wall_s": now[0] - self.last[0], "cpu_s": now[1] - self.last[1],
+                             "main_cpu_s": now[2] - self.last[2]}
+        self.last = now
+
+
 def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, workers: int,
               scheduler: str | None, progress: bool, client: Any,
-              record: Callable[[dict[str, Any]], None]) -> None:
+              record: Callable[[dict[str, Any]], None], lap: _Laps) -> None:
     from distributed import Client, as_completed
     from tqdm import tqdm
 
@@ -423,9 +459,11 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
             client = Client(cluster)
         else:
             client = Client(scheduler)
+    lap("cluster_start")
     try:
         futures = {client.submit(characterize_log, p, str(out / "units" / n), opts, pure=False,
                                  key=f"characterize-{n}"): (p, n) for p, n in todo}
+        lap("submit")
         with tqdm(total=len(futures), disable=not progress, desc="fleet", unit="log") as bar:
             for fut in as_completed(futures):
                 p, n = futures[fut]
@@ -439,11 +477,13 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
                     _atomic_write(d / "failed.json", json_text(r, indent=1))
                 record(r)
                 bar.update(1)
+        lap("tasks")
     finally:
         if own_client:
             client.close()
             if cluster is not None:
                 cluster.close()
+        lap("close")
 
 
 def _quantiles(v: np.ndarray) -> dict[str, float]:
