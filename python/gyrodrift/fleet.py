@@ -317,9 +317,10 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     `workers` processes (one thread each) on 127.0.0.1 is started and closed. `client`: an
     existing distributed.Client to use instead (tests share one).
     Returns the summary dict (also written to out_dir/summary.json). `phases`, if given, is
-    filled with this process's cost per phase (plan, cluster_start, submit, tasks, close,
-    summary): {"wall_s", "cpu_s" (all its threads: client, and a LocalCluster's scheduler
-    and nannies), "main_cpu_s" (the calling thread)}; no result depends on it.
+    filled with this process's cost per phase (plan, cluster_start, submit, tasks, summary,
+    close: what remains of the close after the summary, which it overlaps): {"wall_s",
+    "cpu_s" (all its threads: client, and a LocalCluster's scheduler and nannies),
+    "main_cpu_s" (the calling thread)}; no result depends on it.
 
     Examples
     --------
@@ -362,6 +363,7 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
             on_result(r)
 
     lap("plan")
+    close: Callable[[], None] | None = None
     if todo and workers == 0 and scheduler is None and client is None:
         from tqdm import tqdm
 
@@ -374,10 +376,17 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
         import threading
 
         threading.Thread(target=_import_summary_libraries, daemon=True).start()
-        _run_dask(todo, out, opts, workers, scheduler, progress, client, record, lap)
+        close = _run_dask(todo, out, opts, workers, scheduler, progress, client, record, lap)
     ordered = [results[n] for n in names]
-    summary = write_summary(ordered, out, spec)
-    lap("summary")
+    # Every result is written: the cluster (if this run started one) closes while the summary
+    # is written, and is closed before this returns.
+    closing = _InThread(close)
+    try:
+        summary = write_summary(ordered, out, spec)
+        lap("summary")
+    finally:
+        closing.join()
+        lap("close")
     summary["n_skipped"] = sum(1 for r in ordered if r.get("skipped"))
     summary["n_run"] = len(todo)
     return summary
@@ -445,7 +454,10 @@ class _Laps:
 
 def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, workers: int,
               scheduler: str | None, progress: bool, client: Any,
-              record: Callable[[dict[str, Any]], None], lap: _Laps) -> None:
+              record: Callable[[dict[str, Any]], None],
+              lap: _Laps) -> Callable[[], None] | None:
+    """Run the tasks; returns how to close the client and cluster this call opened (None
+    when the caller's client is used), or closes them itself on an error."""
     from distributed import Client, as_completed
     from tqdm import tqdm
 
@@ -478,12 +490,42 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
                 record(r)
                 bar.update(1)
         lap("tasks")
-    finally:
+    except BaseException:
         if own_client:
-            client.close()
-            if cluster is not None:
-                cluster.close()
-        lap("close")
+            _close(client, cluster)
+        raise
+    return (lambda: _close(client, cluster)) if own_client else None
+
+
+def _close(client: Any, cluster: Any) -> None:
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+class _InThread:
+    """Run `fn` (if any) in a thread now; join() waits for it and raises what it raised."""
+
+    def __init__(self, fn: Callable[[], None] | None) -> None:
+        import threading
+
+        self.error: BaseException | None = None
+        self.thread = None
+        if fn is not None:
+            def run() -> None:
+                try:
+                    fn()
+                except BaseException as exc:  # handed to join()
+                    self.error = exc
+
+            self.thread = threading.Thread(target=run, name="gyrodrift-fleet-close")
+            self.thread.start()
+
+    def join(self) -> None:
+        if self.thread is not None:
+            self.thread.join()
+        if self.error is not None:
+            raise self.error
 
 
 def _quantiles(v: np.ndarray) -> dict[str, float]:
