@@ -121,6 +121,30 @@ def test_cli_on_an_existing_scheduler(client, logs: list[Path], tmp_path: Path,
 
 
 
+def test_existing_scheduler_workers_with_malloc_trim_threshold_are_reported(
+        client, logs: list[Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Workers the fleet does not start (`--scheduler`; here the module's default
+    LocalCluster, whose nanny sets MALLOC_TRIM_THRESHOLD_=65536 as `dask worker` does) make a
+    spooled log cost ~4 s of system time per 1e7 samples: the run says so (stderr and
+    summary.json's warnings), naming the units; logs read into memory are not affected and
+    give no warning."""
+    from gyrodrift.cli import main
+
+    seen = client.run(lambda: b"MALLOC_TRIM_THRESHOLD_=65536" in open(
+        "/proc/self/environ", "rb").read().split(b"\0"))
+    assert all(seen.values())  # the premise: dask's default nanny environment
+    base = ["fleet", str(logs[0].parent / "unit[01].npy"), "--rate-hz", "100", "--scheduler",
+            client.scheduler.address, "--progress", "never"]
+    assert main([*base, "--out-dir", str(tmp_path / "spool"), "--memory-budget-mib", "0"]) == 0
+    err = capsys.readouterr().err
+    assert "warning: 2 spooled log(s) (unit0, unit1) ran in workers started with " \
+        "MALLOC_TRIM_THRESHOLD_" in err
+    summary = json.loads((tmp_path / "spool" / "summary.json").read_text())
+    assert len(summary["warnings"]) == 1 and "unit0, unit1" in summary["warnings"][0]
+    assert main([*base, "--out-dir", str(tmp_path / "mem")]) == 0
+    assert "warning" not in capsys.readouterr().err
+    assert json.loads((tmp_path / "mem" / "summary.json").read_text())["warnings"] == []
+
 @pytest.mark.parametrize("taus", ["octave", "decade"])
 def test_in_memory_reader_equals_the_spool(logs: list[Path], tmp_path: Path, taus: str) -> None:
     """A log whose channel fits the memory budget (one channel at a time in memory, the

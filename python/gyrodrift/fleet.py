@@ -166,6 +166,20 @@ def _cpu_since(start: tuple[float, float] | None) -> dict[str, float]:
     return {"cpu_user_s": end[0] - start[0], "cpu_sys_s": end[1] - start[1]}
 
 
+def _start_environ(name: str) -> str | None:
+    """A variable of the environment this process started with (/proc/self/environ: what
+    glibc's malloc read at start-up; os.environ elsewhere)."""
+    try:
+        with open("/proc/self/environ", "rb") as fh:
+            for item in fh.read().split(b"\0"):
+                key, _, value = item.partition(b"=")
+                if key == name.encode():
+                    return value.decode(errors="replace")
+        return None
+    except OSError:
+        return os.environ.get(name)
+
+
 def _process_cpu() -> dict[str, float]:
     """CPU seconds (user, system) of this whole process so far: a worker's start-up, imports,
     event loop and tasks (for the benchmark's accounting; no result depends on it)."""
@@ -213,7 +227,8 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
                    "peak_rss_scope": rss_scope, "reader": reader,
                    **_cpu_since(cpu_start), "t_start": t_start, "t_ready": t_ready,
-                   "t_end": time.time(), "pid": os.getpid(), **_process_cpu()}
+                   "t_end": time.time(), "pid": os.getpid(), **_process_cpu(),
+                   "malloc_trim_threshold": _start_environ("MALLOC_TRIM_THRESHOLD_")}
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary
@@ -636,6 +651,7 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
                                         "value": v, "limit": f"min {lim['min']:g}"})
     summary = {"version": version(), "n_units": len(units), "n_done": len(done),
                "n_failed": len(failed), "failed": failed, "flagged": flagged,
+               "warnings": _warnings(done),
                "distribution": dist,
                "units": [{"unit": u["unit"], "path": u["path"], "status": u["status"]}
                          for u in units]}
@@ -665,6 +681,21 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
                 f"units/{u['unit']}/failed.json"} for u in units])
     _atomic_write(out / "summary.html", page)
     return summary
+
+
+def _warnings(done: Sequence[dict[str, Any]]) -> list[str]:
+    """What the user should know about how the units ran (not about their results): spooled
+    logs characterized by workers started with MALLOC_TRIM_THRESHOLD_ (dask's nanny sets it
+    in workers that the fleet does not start itself, `--scheduler`)."""
+    slow = sorted(u["unit"] for u in done
+                  if u.get("reader") == "spool" and u.get("malloc_trim_threshold"))
+    if not slow:
+        return []
+    return [f"{len(slow)} spooled log(s) ({', '.join(slow[:3])}{', ...' if len(slow) > 3 else ''})"
+            " ran in workers started with MALLOC_TRIM_THRESHOLD_ (dask's nanny default): each "
+            "costs about 4 s of system time per 1e7 samples in page faults; start the workers "
+            "with distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_ set to null, or "
+            "raise --memory-budget-mib (README, fleet limits)"]
 
 
 def _boxplot(series: dict[tuple[str, str], list[float]]) -> bytes:
