@@ -238,7 +238,8 @@ def test_own_cluster_workers_start_with_the_task_libraries_loaded(tmp_path: Path
     gyrodrift, scipy and matplotlib once (gyrodrift._fleet_worker): a worker has them loaded
     before its first task (a spawned worker imported them itself, each worker again: 1.3-2 s
     of CPU per worker), runs without the statistical profiler, and the cluster is closed, its
-    worker processes gone, when run_fleet returns (the close overlaps the summary)."""
+    worker processes gone, when run_fleet returns (the close overlaps the summary); its
+    results equal the serial run's."""
     from distributed import Client
     from gyrodrift.fleet import _local_cluster
 
@@ -262,6 +263,9 @@ def test_own_cluster_workers_start_with_the_task_libraries_loaded(tmp_path: Path
     s = run_fleet([log], tmp_path / "out", opts=NO_PLOTS, workers=1, on_result=seen.append)
     assert s["n_done"] == 1 and seen[0]["status"] == "done"
     assert not Path(f"/proc/{seen[0]['pid']}").exists()  # the worker has exited
+    # A forked worker gives the serial run's numbers exactly (as the spawned ones do above).
+    run_fleet([log], tmp_path / "serial", opts=NO_PLOTS, workers=0)
+    assert _results(tmp_path / "out") == _results(tmp_path / "serial")
 
 
 def test_close_error_is_raised_after_the_summary() -> None:
