@@ -416,9 +416,11 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
 UNSET_WORKER_ENV = ("MALLOC_TRIM_THRESHOLD_",)
 
 
-#: What the forkserver of the fleet's own LocalCluster imports once before forking the workers
-#: ("__main__": the parent's main script, which a spawned worker would run again itself).
-WORKER_PRELOAD = ("__main__", "distributed", "gyrodrift._fleet_worker")
+#: What the forkserver of the fleet's own LocalCluster imports once before forking the workers.
+#: Not "__main__": a forked worker runs the parent's main script again (as a spawned one
+#: does; cheap when its imports are these), and a forkserver that imported it itself would
+#: run an unguarded one, such as `python -m gyrodrift`'s, in the server.
+WORKER_PRELOAD = ("distributed", "gyrodrift._fleet_worker")
 
 
 def _worker_environment() -> dict[str, str]:
