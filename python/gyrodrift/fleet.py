@@ -166,6 +166,27 @@ def _cpu_since(start: tuple[float, float] | None) -> dict[str, float]:
     return {"cpu_user_s": end[0] - start[0], "cpu_sys_s": end[1] - start[1]}
 
 
+def _start_environ(name: str) -> str | None:
+    """A variable of the environment this process started with (/proc/self/environ: what
+    glibc's malloc read at start-up; os.environ elsewhere)."""
+    try:
+        with open("/proc/self/environ", "rb") as fh:
+            for item in fh.read().split(b"\0"):
+                key, _, value = item.partition(b"=")
+                if key == name.encode():
+                    return value.decode(errors="replace")
+        return None
+    except OSError:
+        return os.environ.get(name)
+
+
+def _process_cpu() -> dict[str, float]:
+    """CPU seconds (user, system) of this whole process so far: a worker's start-up, imports,
+    event loop and tasks (for the benchmark's accounting; no result depends on it)."""
+    t = os.times()
+    return {"process_cpu_user_s": t.user, "process_cpu_sys_s": t.system}
+
+
 def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, Any]:
     """The task: characterize one log, write its outputs into unit_dir; return the summary
     (unit, status, kalibr-style parameters per channel). Never raises for a bad log: the
@@ -191,6 +212,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     d = Path(unit_dir)
     d.mkdir(parents=True, exist_ok=True)
     (d / "failed.json").unlink(missing_ok=True)
+    t_ready = time.time()  # the imports done
     rss_scope = _start_peak_window()
     rss_start = _status_mib("VmRSS")
     cpu_start = _thread_cpu()
@@ -204,8 +226,9 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
                    "peak_rss_scope": rss_scope, "reader": reader,
-                   **_cpu_since(cpu_start), "t_start": t_start, "t_end": time.time(),
-                   "pid": os.getpid()}
+                   **_cpu_since(cpu_start), "t_start": t_start, "t_ready": t_ready,
+                   "t_end": time.time(), "pid": os.getpid(), **_process_cpu(),
+                   "malloc_trim_threshold": _start_environ("MALLOC_TRIM_THRESHOLD_")}
         payload = {"summary": summary, "result": res.as_dict()}
         _atomic_write(d / "result.json", json_text(payload, indent=1))
         return summary
@@ -300,14 +323,19 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
               workers: int = 2, scheduler: str | None = None, force: bool = False,
               spec: dict[str, dict[str, float]] | None = None, root: str | Path | None = None,
               progress: bool = False, client: Any = None,
-              on_result: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+              on_result: Callable[[dict[str, Any]], None] | None = None,
+              phases: dict[str, dict[str, float]] | None = None) -> dict[str, Any]:
     """Characterize every log on Dask and write the fleet summary (module docstring).
 
     workers = 0 runs serially in this process (no Dask; the reference the Dask run equals).
     scheduler: address of an existing dask.distributed scheduler; else a LocalCluster of
     `workers` processes (one thread each) on 127.0.0.1 is started and closed. `client`: an
     existing distributed.Client to use instead (tests share one).
-    Returns the summary dict (also written to out_dir/summary.json).
+    Returns the summary dict (also written to out_dir/summary.json). `phases`, if given, is
+    filled with this process's cost per phase (plan, cluster_start, submit, tasks, summary,
+    close: what remains of the close after the summary, which it overlaps): {"wall_s",
+    "cpu_s" (all its threads: client, and a LocalCluster's scheduler and nannies),
+    "main_cpu_s" (the calling thread)}; no result depends on it.
 
     Examples
     --------
@@ -323,6 +351,7 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     (2, 0, ['boxplot.png', 'summary.html', 'summary.json', 'units'])
     >>> shutil.rmtree(d)
     """
+    lap = _Laps(phases)
     out = Path(out_dir)
     (out / "units").mkdir(parents=True, exist_ok=True)
     path_strs = [str(p) for p in paths]
@@ -348,20 +377,31 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
         if on_result is not None:
             on_result(r)
 
+    lap("plan")
+    close: Callable[[], None] | None = None
     if todo and workers == 0 and scheduler is None and client is None:
         from tqdm import tqdm
 
         for p, n in tqdm(todo, disable=not progress, desc="fleet", unit="log"):
             record(characterize_log(p, str(out / "units" / n), opts))
+        lap("tasks")
     elif todo:
         # The summary's libraries load here while the workers run, not after the last task
         # (about 1 s of the parent's time that would otherwise end every run serially).
         import threading
 
         threading.Thread(target=_import_summary_libraries, daemon=True).start()
-        _run_dask(todo, out, opts, workers, scheduler, progress, client, record)
+        close = _run_dask(todo, out, opts, workers, scheduler, progress, client, record, lap)
     ordered = [results[n] for n in names]
-    summary = write_summary(ordered, out, spec)
+    # Every result is written: the cluster (if this run started one) closes while the summary
+    # is written, and is closed before this returns.
+    closing = _InThread(close)
+    try:
+        summary = write_summary(ordered, out, spec)
+        lap("summary")
+    finally:
+        closing.join()
+        lap("close")
     summary["n_skipped"] = sum(1 for r in ordered if r.get("skipped"))
     summary["n_run"] = len(todo)
     return summary
@@ -376,22 +416,78 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
 UNSET_WORKER_ENV = ("MALLOC_TRIM_THRESHOLD_",)
 
 
+#: What the forkserver of the fleet's own LocalCluster imports once before forking the workers.
+#: Not "__main__": a forked worker runs the parent's main script again (as a spawned one
+#: does; cheap when its imports are these), and a forkserver that imported it itself would
+#: run an unguarded one, such as `python -m gyrodrift`'s, in the server.
+WORKER_PRELOAD = ("distributed", "gyrodrift._fleet_worker")
+
+
+def _worker_environment() -> dict[str, str]:
+    """The variables a spawned worker would get from its nanny before it starts
+    (distributed.nanny.pre-spawn-environ, this process's values first, PYTHONHASHSEED 6640 as
+    the nanny sets it), without UNSET_WORKER_ENV."""
+    import dask
+
+    cfg = dask.config.get("distributed.nanny.pre-spawn-environ")
+    env = {k: os.environ.get(k, str(v)) for k, v in cfg.items()
+           if v is not None and k not in UNSET_WORKER_ENV}
+    if env.get("PYTHONHASHSEED") in (None, "0"):
+        env["PYTHONHASHSEED"] = "6640"
+    return env
+
+
+def _start_forkserver() -> None:
+    """Start (if not yet running) the forkserver that the fleet's own workers are forked from,
+    importing WORKER_PRELOAD once, with _worker_environment() and without UNSET_WORKER_ENV in
+    its environment (which forked workers inherit: the nanny's pre-spawn variables do not
+    reach a forked process). It returns at once: the server imports in its own process while
+    this one goes on (scheduler, nannies); the nannies' fork requests wait for it. It serves
+    this process until it exits; a forkserver that is already running (an earlier fleet run
+    in this process) is reused as it is."""
+    import multiprocessing
+    from multiprocessing import forkserver
+
+    multiprocessing.get_context("forkserver").set_forkserver_preload(list(WORKER_PRELOAD))
+    env = _worker_environment()
+    saved = {k: os.environ.get(k) for k in (*env, *UNSET_WORKER_ENV)}
+    for k in UNSET_WORKER_ENV:
+        os.environ.pop(k, None)
+    os.environ.update(env)
+    try:
+        forkserver.ensure_running()
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
 def _local_cluster(workers: int) -> Any:
     """A LocalCluster of `workers` processes (one thread each) on 127.0.0.1, no dashboard (the
     scheduler's HTTP endpoint for health and metrics still listens on 127.0.0.1, port 8787 or
-    a free one), workers spawned without UNSET_WORKER_ENV.
+    a free one), workers forked from the fleet's forkserver (_start_forkserver: imports done
+    once, not per worker; a forked worker also exits without the interpreter's teardown of
+    those modules, which took a spawned one 1 s at the cluster's close) and without
+    UNSET_WORKER_ENV, and without the workers' statistical profiler (a stack sample every
+    10 ms for a dashboard that this cluster does not have).
 
-    The nanny writes its variables into this process's os.environ before spawning (so any
-    earlier default LocalCluster in the process has left MALLOC_TRIM_THRESHOLD_ there) and
-    prefers os.environ over its configuration: the variables are taken out of both while the
-    workers are spawned, and os.environ is restored afterwards."""
+    The nanny writes its variables into this process's os.environ before starting a worker
+    (so any earlier default LocalCluster in the process has left MALLOC_TRIM_THRESHOLD_ there)
+    and prefers os.environ over its configuration: the variables are taken out of both while
+    the workers are started, and os.environ is restored afterwards."""
     import dask
     from distributed import LocalCluster
 
-    unset = {f"distributed.nanny.pre-spawn-environ.{k}": None for k in UNSET_WORKER_ENV}
+    cfg: dict[str, Any] = {f"distributed.nanny.pre-spawn-environ.{k}": None
+                           for k in UNSET_WORKER_ENV}
+    cfg["distributed.worker.multiprocessing-method"] = "forkserver"
+    cfg["distributed.worker.profile.enabled"] = False
+    _start_forkserver()
     saved = {k: os.environ.pop(k) for k in UNSET_WORKER_ENV if k in os.environ}
     try:
-        with dask.config.set(unset):
+        with dask.config.set(cfg):
             return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                 host="127.0.0.1", dashboard_address=None)
     finally:
@@ -399,6 +495,7 @@ def _local_cluster(workers: int) -> Any:
 
 
 def _import_summary_libraries() -> None:
+    import jinja2  # noqa: F401  (fleet_html imports it at its first call: 0.05-0.07 s)
     import matplotlib
 
     matplotlib.use("Agg")
@@ -407,9 +504,32 @@ def _import_summary_libraries() -> None:
     import gyrodrift.report_html  # noqa: F401
 
 
+class _Laps:
+    """Wall and CPU time of this process per phase of a run, into `phases` (or nothing)."""
+
+    def __init__(self, phases: dict[str, dict[str, float]] | None) -> None:
+        self.phases = phases
+        self.last = self._now()
+
+    @staticmethod
+    def _now() -> tuple[float, float, float]:
+        return time.perf_counter(), time.process_time(), time.thread_time()
+
+    def __call__(self, name: str) -> None:
+        if self.phases is None:
+            return
+        now = self._now()
+        self.phases[name] = {"wall_s": now[0] - self.last[0], "cpu_s": now[1] - self.last[1],
+                             "main_cpu_s": now[2] - self.last[2]}
+        self.last = now
+
+
 def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, workers: int,
               scheduler: str | None, progress: bool, client: Any,
-              record: Callable[[dict[str, Any]], None]) -> None:
+              record: Callable[[dict[str, Any]], None],
+              lap: _Laps) -> Callable[[], None] | None:
+    """Run the tasks; returns how to close the client and cluster this call opened (None
+    when the caller's client is used), or closes them itself on an error."""
     from distributed import Client, as_completed
     from tqdm import tqdm
 
@@ -423,9 +543,11 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
             client = Client(cluster)
         else:
             client = Client(scheduler)
+    lap("cluster_start")
     try:
         futures = {client.submit(characterize_log, p, str(out / "units" / n), opts, pure=False,
                                  key=f"characterize-{n}"): (p, n) for p, n in todo}
+        lap("submit")
         with tqdm(total=len(futures), disable=not progress, desc="fleet", unit="log") as bar:
             for fut in as_completed(futures):
                 p, n = futures[fut]
@@ -439,11 +561,43 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
                     _atomic_write(d / "failed.json", json_text(r, indent=1))
                 record(r)
                 bar.update(1)
-    finally:
+        lap("tasks")
+    except BaseException:
         if own_client:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+            _close(client, cluster)
+        raise
+    return (lambda: _close(client, cluster)) if own_client else None
+
+
+def _close(client: Any, cluster: Any) -> None:
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+class _InThread:
+    """Run `fn` (if any) in a thread now; join() waits for it and raises what it raised."""
+
+    def __init__(self, fn: Callable[[], None] | None) -> None:
+        import threading
+
+        self.error: BaseException | None = None
+        self.thread = None
+        if fn is not None:
+            def run() -> None:
+                try:
+                    fn()
+                except BaseException as exc:  # handed to join()
+                    self.error = exc
+
+            self.thread = threading.Thread(target=run, name="gyrodrift-fleet-close")
+            self.thread.start()
+
+    def join(self) -> None:
+        if self.thread is not None:
+            self.thread.join()
+        if self.error is not None:
+            raise self.error
 
 
 def _quantiles(v: np.ndarray) -> dict[str, float]:
@@ -500,6 +654,7 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
                                         "value": v, "limit": f"min {lim['min']:g}"})
     summary = {"version": version(), "n_units": len(units), "n_done": len(done),
                "n_failed": len(failed), "failed": failed, "flagged": flagged,
+               "warnings": _warnings(done),
                "distribution": dist,
                "units": [{"unit": u["unit"], "path": u["path"], "status": u["status"]}
                          for u in units]}
@@ -529,6 +684,21 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
                 f"units/{u['unit']}/failed.json"} for u in units])
     _atomic_write(out / "summary.html", page)
     return summary
+
+
+def _warnings(done: Sequence[dict[str, Any]]) -> list[str]:
+    """What the user should know about how the units ran (not about their results): spooled
+    logs characterized by workers started with MALLOC_TRIM_THRESHOLD_ (dask's nanny sets it
+    in workers that the fleet does not start itself, `--scheduler`)."""
+    slow = sorted(u["unit"] for u in done
+                  if u.get("reader") == "spool" and u.get("malloc_trim_threshold"))
+    if not slow:
+        return []
+    return [f"{len(slow)} spooled log(s) ({', '.join(slow[:3])}{', ...' if len(slow) > 3 else ''})"
+            " ran in workers started with MALLOC_TRIM_THRESHOLD_ (dask's nanny default): each "
+            "costs about 4 s of system time per 1e7 samples in page faults; start the workers "
+            "with distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_ set to null, or "
+            "raise --memory-budget-mib (README, fleet limits)"]
 
 
 def _boxplot(series: dict[tuple[str, str], list[float]]) -> bytes:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import glob
 import os
+import sys
 from typing import Any
 
 from gyrodrift.cli import CliError
@@ -114,4 +115,6 @@ def run(args: argparse.Namespace) -> int:
         for f in summary["flagged"]:
             print(f"outside spec: {f['unit']} {f['parameter']} {f['channel']} = "
                   f"{f['value']:.4g} ({f['limit']})")
+    for w in summary["warnings"]:
+        print(f"gyrodrift fleet: warning: {w}", file=sys.stderr)
     return 1 if summary["n_failed"] else 0
