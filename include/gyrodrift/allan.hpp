@@ -319,8 +319,15 @@ class OadevFused {
         const std::size_t avail = n_data_ > start ? n_data_ - start : 0;
         const std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
         workspace[seg_q_[k]] = 0.0;  // Q[0] = 0, Q[t+1] = Q[t] + (y[t] - line)
-        fused_detail::prefix_sum(seg_base[k] + rel, 1, len,
-                                 mean + line_.slope * static_cast<double>(start), line_.slope,
+        const double a = mean + line_.slope * static_cast<double>(start);
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+        if (wide) {
+          fused_detail::prefix_sum_avx2(seg_base[k] + rel, 1, len, a, line_.slope,
+                                        workspace + seg_q_[k]);
+          continue;
+        }
+#endif
+        fused_detail::prefix_sum(seg_base[k] + rel, 1, len, a, line_.slope,
                                  workspace + seg_q_[k]);
       }
       for (std::size_t j = 0; j < n_active; ++j) {

@@ -8,12 +8,14 @@
 // the levels form a cascade: the record is read once in chunks of kChunk samples, the first
 // level(s) sum samples, every other level sums its parent's block sums emitted for the same
 // chunk. Work: ~2 N additions for an octave grid instead of N per factor.
-// Precision: the sums are in double over (y - c), c the level of the first 64 samples (it
-// cancels from H exactly in real arithmetic: the weights 1, -2, 1 of three equal blocks add
-// up to zero), so a large constant rate costs nothing; the first level's block sums also
-// lose the record's rate line (RampLine: exact, and a line in the block index cancels from
-// H too), so a steep ramp costs nothing either (1e4 sigma over 1e6 samples: 6e-13 relative
-// against the long double kernel, 3e-11 before); an octave cascade is a pairwise
+// Precision: the sums are in double over (y - (c + slope k)), the record's rate line
+// (fused_common.hpp RampLine: c the level of the first 64 samples, slope the ramp, k the
+// sample index; exact values). A line cancels from H exactly in real arithmetic (block sums
+// of a line are a line in the block index; the weights 1, -2, 1 annihilate it), so a large
+// constant rate or a steep ramp costs nothing (1e4 sigma over 1e6 samples: 6e-13 relative
+// against the long double kernel on octave taus, 3e-11 before; 3e-9 before on a decade
+// grid, whose factors without a divisor in the grid sum up to m samples); an octave
+// cascade is a pairwise
 // summation, whose rounding grows like log2(m) eps |Z|. Each level's H^2 are summed in
 // sixteen lanes per chunk, then into long double. m = 1 (H_i = y_{i+2} - 2 y_{i+1} + y_i,
 // the overlapping and non-overlapping cases coincide) is one vectorized pass over y.
@@ -129,7 +131,7 @@ class HdevCascade {
       for (std::size_t j = 0; j < n_m_; ++j) {
         if (m_[j] == 1) continue;
         if (parent_[j] == kRaw) {
-          feed(j, y + c0, len, c, line_.slope, work);
+          feed(j, y + c0, len, c + line_.slope * static_cast<double>(c0), line_.slope, work);
         } else {
           const std::size_t p = parent_[j];
           feed(j, work + buf_[p] + 2, emitted_[p], 0.0, 0.0, work);
@@ -154,17 +156,19 @@ class HdevCascade {
   }
 #endif
 
-  // Adds v[0..n) - c (samples, or the parent's block sums with c = 0) to level j; for
-  // samples (slope != 0) the new block sums then lose the rate line's part, slope times the
-  // sum of their sample indices (exact on the RampLine grid), so the levels above sum
-  // small values however steep the ramp. Its
+  // Adds v[k] - (c + slope k), k < n (samples, the line on the RampLine grid so every
+  // value is exact; or the parent's block sums with c = slope = 0) to level j, so the
+  // levels above sum small values however steep the ramp. Its
   // buffer holds the last two complete block sums before this call at [0, 2) and the new
   // ones from 2 on (emitted_[j] of them, which the child levels read), so H runs over the
   // buffer in one vectorized pass.
   template <class V>
   GYRODRIFT_FUSED_INLINE void feed(std::size_t j, const V* v, std::size_t n, double c,
                                    double slope, double* work) noexcept {
-    const auto at = [&](std::size_t k) { return static_cast<double>(v[k]) - c; };
+    // one sample minus the line (edges of blocks only: a 64-bit index converts slowly)
+    const auto at = [&](std::size_t k) {
+      return static_cast<double>(v[k]) - (c + slope * static_cast<double>(k));
+    };
     double* z = work + buf_[j];
     const std::size_t r = ratio_[j];
     z[0] = z2_[j];
@@ -186,22 +190,40 @@ class HdevCascade {
     }
     const std::size_t whole = (n - i) / r;
     if (r == 2) {
-      for (std::size_t k = 0; k < whole; ++k) {
-        z[out + k] = at(i + 2 * k) + at(i + 2 * k + 1);
+      // (v - c) in pairs, then the line's part of the pair at 2 u + i: slope (4 u + 2 i + 1);
+      // an int32 counter (whole <= kChunk / 2) converts to double in the vector units
+      const double first = slope * (2.0 * static_cast<double>(i) + 1.0);
+      const double step = 4.0 * slope;
+      const auto nw = static_cast<std::int32_t>(whole);
+      for (std::int32_t k = 0; k < nw; ++k) {
+        const auto u = static_cast<std::size_t>(k);
+        z[out + u] = ((static_cast<double>(v[i + 2 * u]) - c) +
+                      (static_cast<double>(v[i + 2 * u + 1]) - c)) -
+                     (first + step * static_cast<double>(k));
       }
     } else {
+      const double step = 4.0 * slope;
       for (std::size_t k = 0; k < whole; ++k) {
         const std::size_t p = i + k * r;
+        // the line at p .. p + 3 in four lanes, advanced by 4 slope (exact on the grid)
+        double l0 = c + slope * static_cast<double>(p);
+        double l1 = l0 + slope;
+        double l2 = l0 + 2.0 * slope;
+        double l3 = l0 + 3.0 * slope;
         double a0 = 0.0;
         double a1 = 0.0;
         double a2 = 0.0;
         double a3 = 0.0;
         std::size_t t = 0;
         for (; t + 4 <= r; t += 4) {
-          a0 += at(p + t);
-          a1 += at(p + t + 1);
-          a2 += at(p + t + 2);
-          a3 += at(p + t + 3);
+          a0 += static_cast<double>(v[p + t]) - l0;
+          a1 += static_cast<double>(v[p + t + 1]) - l1;
+          a2 += static_cast<double>(v[p + t + 2]) - l2;
+          a3 += static_cast<double>(v[p + t + 3]) - l3;
+          l0 += step;
+          l1 += step;
+          l2 += step;
+          l3 += step;
         }
         for (; t < r; ++t) a0 += at(p + t);
         z[out + k] = (a0 + a1) + (a2 + a3);
@@ -216,17 +238,6 @@ class HdevCascade {
       filled_[j] += n - i;
     }
     const std::size_t fresh = out - 2;
-    if (slope != 0.0 && fresh > 0) {
-      // block q covers samples [q r, q r + r): index sum r^2 q + r (r - 1) / 2
-      const double rd = static_cast<double>(r);
-      const double first =
-          slope * (rd * rd * static_cast<double>(blocks_[j]) + rd * (rd - 1.0) / 2.0);
-      const double step = slope * rd * rd;
-      const auto nf = static_cast<std::int32_t>(fresh);  // <= kChunk / r + 1
-      for (std::int32_t k = 0; k < nf; ++k) {
-        z[2 + k] -= first + step * static_cast<double>(k);
-      }
-    }
     // triples made only of complete blocks: skip the carried slots not yet filled
     const std::size_t skip = blocks_[j] >= 2 ? 0 : 2 - blocks_[j];
     if (out > skip + 2) {

@@ -40,25 +40,36 @@ GYRODRIFT_FUSED_INLINE void prefix_sum(const Scalar* y, std::ptrdiff_t step, std
                                        double a, double slope, double* q) noexcept {
   const std::size_t h = len / 4;
   const auto at = [&](std::size_t t) {
-    return static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]) -
-           (a + slope * static_cast<double>(t));
+    return static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]);
   };
+  // the line's value at each chain's position, advanced by slope per sample (exact on the
+  // RampLine grid; no integer-to-double conversion per sample)
+  double l0 = a;
+  double l1 = a + slope * static_cast<double>(h);
+  double l2 = a + slope * static_cast<double>(2 * h);
+  double l3 = a + slope * static_cast<double>(3 * h);
   double s0 = q[0];
   double s1 = 0.0;
   double s2 = 0.0;
   double s3 = 0.0;
   for (std::size_t t = 0; t < h; ++t) {
-    s0 += at(t);
-    s1 += at(h + t);
-    s2 += at(2 * h + t);
-    s3 += at(3 * h + t);
+    s0 += at(t) - l0;
+    s1 += at(h + t) - l1;
+    s2 += at(2 * h + t) - l2;
+    s3 += at(3 * h + t) - l3;
+    l0 += slope;
+    l1 += slope;
+    l2 += slope;
+    l3 += slope;
     q[t + 1] = s0;
     q[h + t + 1] = s1;
     q[2 * h + t + 1] = s2;
     q[3 * h + t + 1] = s3;
   }
+  double l4 = a + slope * static_cast<double>(4 * h);
   for (std::size_t t = 4 * h; t < len; ++t) {
-    s3 += at(t);
+    s3 += at(t) - l4;
+    l4 += slope;
     q[t + 1] = s3;
   }
   for (std::size_t part = 1; part < 4; ++part) {
@@ -343,7 +354,9 @@ __attribute__((target("avx2,fma"))) inline void sum_sq_third_pair_avx2(
 // sum_i (k0 + ((p2 - 2 p1) + p0)[i] - slope (l_i^2 + r_i^2))^2, l_i = max(lo - i, 0),
 // r_i = max(hi + i, 0) (AVX2): the total variance's terms that read a mirrored end of the
 // reflected record, where the removed rate line leaves a quadratic (DeviationFused).
-__attribute__((target("avx2,fma"))) inline double sum_sq_second_edge_avx2(
+// Side: 1 only l (r_i = 0 for every i < len), 2 only r, 3 both.
+template <int Side>
+__attribute__((target("avx2,fma"))) inline double sum_sq_second_edge_side_avx2(
     const double* p0, const double* p1, const double* p2, std::size_t len, double k0,
     double lo, double hi, double slope) noexcept {
   const __m256d zero = _mm256_setzero_pd();
@@ -351,40 +364,58 @@ __attribute__((target("avx2,fma"))) inline double sum_sq_second_edge_avx2(
   const __m256d vs = _mm256_set1_pd(slope);
   const __m256d two = _mm256_set1_pd(2.0);
   const __m256d four = _mm256_set1_pd(4.0);
-  __m256d u = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
-  const __m256d vlo = _mm256_set1_pd(lo);
-  const __m256d vhi = _mm256_set1_pd(hi);
+  const __m256d iota = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
+  __m256d l = _mm256_sub_pd(_mm256_set1_pd(lo), iota);  // lo - i, i = 0..3
+  __m256d r = _mm256_add_pd(_mm256_set1_pd(hi), iota);  // hi + i
   __m256d a0 = zero;
   __m256d a1 = zero;
   std::size_t i = 0;
   for (; i + 8 <= len; i += 8) {
     for (std::size_t h = 0; h < 8; h += 4) {
-      const __m256d l = _mm256_max_pd(_mm256_sub_pd(vlo, u), zero);
-      const __m256d r = _mm256_max_pd(_mm256_add_pd(vhi, u), zero);
-      const __m256d e = _mm256_mul_pd(vs, _mm256_fmadd_pd(l, l, _mm256_mul_pd(r, r)));
       const __m256d x = _mm256_add_pd(
-          _mm256_sub_pd(_mm256_loadu_pd(p2 + i + h), _mm256_mul_pd(two, _mm256_loadu_pd(p1 + i + h))),
-          _mm256_loadu_pd(p0 + i + h));
-      const __m256d d = _mm256_sub_pd(_mm256_add_pd(vk, x), e);
+          vk, _mm256_add_pd(_mm256_fnmadd_pd(two, _mm256_loadu_pd(p1 + i + h),
+                                             _mm256_loadu_pd(p2 + i + h)),
+                            _mm256_loadu_pd(p0 + i + h)));
+      __m256d d = x;
+      if (Side & 1) {
+        const __m256d lp = _mm256_max_pd(l, zero);
+        d = _mm256_fnmadd_pd(_mm256_mul_pd(vs, lp), lp, d);
+        l = _mm256_sub_pd(l, four);
+      }
+      if (Side & 2) {
+        const __m256d rp = _mm256_max_pd(r, zero);
+        d = _mm256_fnmadd_pd(_mm256_mul_pd(vs, rp), rp, d);
+        r = _mm256_add_pd(r, four);
+      }
       if (h == 0) {
         a0 = _mm256_fmadd_pd(d, d, a0);
       } else {
         a1 = _mm256_fmadd_pd(d, d, a1);
       }
-      u = _mm256_add_pd(u, four);
     }
   }
   double tail = 0.0;
   for (; i < len; ++i) {
     const double ui = static_cast<double>(i);
-    const double l = lo - ui > 0.0 ? lo - ui : 0.0;
-    const double r = hi + ui > 0.0 ? hi + ui : 0.0;
-    const double d = (k0 + ((p2[i] - 2.0 * p1[i]) + p0[i])) - slope * (l * l + r * r);
+    const double lp = lo - ui > 0.0 ? lo - ui : 0.0;
+    const double rp = hi + ui > 0.0 ? hi + ui : 0.0;
+    const double d = (k0 + ((p2[i] - 2.0 * p1[i]) + p0[i])) - slope * (lp * lp + rp * rp);
     tail += d * d;
   }
   alignas(32) double la[4];
   _mm256_store_pd(la, _mm256_add_pd(a0, a1));
   return ((la[0] + la[1]) + (la[2] + la[3])) + tail;
+}
+
+__attribute__((target("avx2,fma"))) inline double sum_sq_second_edge_avx2(
+    const double* p0, const double* p1, const double* p2, std::size_t len, double k0,
+    double lo, double hi, double slope) noexcept {
+  const double last = static_cast<double>(len) - 1.0;
+  if (hi + last <= 0.0) {
+    return sum_sq_second_edge_side_avx2<1>(p0, p1, p2, len, k0, lo, hi, slope);
+  }
+  if (lo <= 0.0) return sum_sq_second_edge_side_avx2<2>(p0, p1, p2, len, k0, lo, hi, slope);
+  return sum_sq_second_edge_side_avx2<3>(p0, p1, p2, len, k0, lo, hi, slope);
 }
 #endif
 
