@@ -395,7 +395,8 @@ class DeviationFused {
     }
     for (std::size_t j = 0; j < n_m_; ++j) {
       sum_sq_[j] = 0;
-      if (n_terms_[j] > b_begin) start_at(y, j, b_begin, c);
+      // ohdev factors read from one segment take H_b from the first block's Q (blocks_impl)
+      if (n_terms_[j] > b_begin && !h_from_q(j)) start_at(y, j, b_begin, c);
     }
     const std::size_t stop = b_end < max_terms_ ? b_end : max_terms_;
 #if GYRODRIFT_ALLAN_X86_DISPATCH
@@ -544,6 +545,14 @@ class DeviationFused {
       double k0[MaxTaus];
       for (std::size_t j = 0; j < n_active; ++j) {
         const Streams p = streams(workspace, j);
+        if (b == b_begin && h_from_q(j)) {
+          // H_b = R_2 - 2 R_1 + R_0 with R_k the sum of (y - line) over [b + k m, b + (k+1) m)
+          // = Q[(k+1) m] - Q[k m]: the combination of this block's Q at i = 0 when the four
+          // streams lie in one segment (the line cancels). Same data and rounding class as
+          // the terms themselves; saves the O(3 m) start sums per factor.
+          const auto q = [&](std::size_t s) { return static_cast<long double>(p[s][0]); };
+          chain_[j] = (q(3) - q(0)) + 3.0L * (q(1) - q(2));
+        }
         if (reflect_) {
           k0[j] = static_cast<double>(chain_[j] - ramp_edge(j, b)) -
                   ((p[2][0] - 2.0 * p[1][0]) + p[0][0]);
@@ -628,6 +637,14 @@ class DeviationFused {
         }
       }
     }
+  }
+
+  // ohdev factor j whose four streams lie in one segment: its start value H_b is the
+  // combination of the block's Q at i = 0 (no separate sums over the samples).
+  bool h_from_q(std::size_t j) const noexcept {
+    const std::size_t m = m_[j];
+    return dev_ == FusedDeviation::ohdev && stream_[j][1] == stream_[j][0] + m &&
+           stream_[j][2] == stream_[j][0] + 2 * m && stream_[j][3] == stream_[j][0] + 3 * m;
   }
 
   // The four stream pointers of factor j into the workspace (Q at its offsets).
