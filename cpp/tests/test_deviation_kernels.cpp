@@ -223,6 +223,28 @@ TEST_CASE("fused kernels on a steep rate ramp equal the per-tau long double kern
   for (std::size_t j = 0; j < 8; ++j) CHECK(rel(out[j], per[j]) < 1e-11);
 }
 
+TEST_CASE("ohdev start values: streams in segments that sit back to back") {
+  // Block 4095 and m = 4096: each of the four streams gets its own segment of 4096 Q values,
+  // laid out back to back in the workspace exactly as the data are, so the stream positions
+  // look like one run; the start value H_0 must still come from the samples (each segment's
+  // Q restarts at 0). With m = 5 added the first segment is shared (H_0 from Q).
+  using gyrodrift::FusedDeviation;
+  const std::vector<double> y = record(40000, 15.0, 13);
+  const std::size_t ms[] = {5, 4096};
+  double out[2];
+  double per[2];
+  std::size_t t_out[2];
+  std::size_t t_per[2];
+  REQUIRE(gyrodrift::ohdev<double, double>(y.data(), y.size(), ms, 2, per, t_per));
+  for (const std::size_t block : {std::size_t{4095}, std::size_t{4096}, std::size_t{1000}}) {
+    REQUIRE(fused(y, FusedDeviation::ohdev, ms + 1, 1, block, out, t_out));
+    CHECK(rel(out[0], per[1]) < 1e-12);
+    REQUIRE(fused(y, FusedDeviation::ohdev, ms, 2, block, out, t_out));
+    CHECK(rel(out[0], per[0]) < 1e-12);
+    CHECK(rel(out[1], per[1]) < 1e-12);
+  }
+}
+
 TEST_CASE("fused kernels: same bits at any workspace alignment; odd sizes equal per tau") {
   // The workspace's segments start at multiples of 8 doubles (64-byte aligned streams read
   // faster); the arithmetic must not depend on where the workspace sits: runs from every

@@ -338,6 +338,11 @@ class DeviationFused {
       for (std::size_t s = 0; s < kStreams; ++s) {
         stream_[j][s] = fused_detail::segment_position(seg_start_, seg_q_, n_seg_, rel_[j][s]);
       }
+      // the four streams in one segment (one run of Q): positions alone cannot tell, two
+      // segments may sit back to back in the workspace as in the data
+      std::size_t k = n_seg_ - 1;
+      while (seg_start_[k] > rel_[j][0]) --k;
+      one_segment_[j] = rel_[j][kStreams - 1] < seg_start_[k] + seg_len_[k];
     }
     n_m_ = n_m;
     return true;
@@ -642,9 +647,7 @@ class DeviationFused {
   // ohdev factor j whose four streams lie in one segment: its start value H_b is the
   // combination of the block's Q at i = 0 (no separate sums over the samples).
   bool h_from_q(std::size_t j) const noexcept {
-    const std::size_t m = m_[j];
-    return dev_ == FusedDeviation::ohdev && stream_[j][1] == stream_[j][0] + m &&
-           stream_[j][2] == stream_[j][0] + 2 * m && stream_[j][3] == stream_[j][0] + 3 * m;
+    return dev_ == FusedDeviation::ohdev && one_segment_[j];
   }
 
   // The four stream pointers of factor j into the workspace (Q at its offsets).
@@ -771,7 +774,8 @@ class DeviationFused {
   std::size_t max_terms_{0};
   std::size_t m_[MaxTaus]{};
   std::size_t n_terms_[MaxTaus]{};
-  std::size_t anchor_every_[MaxTaus]{};  // mdev: blocks between exact restarts of V and H
+  std::size_t anchor_every_[MaxTaus]{};
+  bool one_segment_[MaxTaus]{};  // factor j's streams all in one segment  // mdev: blocks between exact restarts of V and H
   std::size_t rel_[MaxTaus][kStreams]{};
   std::size_t stream_[MaxTaus][kStreams]{};
   std::size_t seg_start_[kMaxOffsets]{};
