@@ -400,7 +400,8 @@ class DeviationFused {
     }
     for (std::size_t j = 0; j < n_m_; ++j) {
       sum_sq_[j] = 0;
-      // ohdev factors read from one segment take H_b from the first block's Q (blocks_impl)
+      // ohdev / totdev factors read from one segment take H_b (D_b) from the first block's Q
+      // (blocks_impl)
       if (n_terms_[j] > b_begin && !h_from_q(j)) start_at(y, j, b_begin, c);
     }
     const std::size_t stop = b_end < max_terms_ ? b_end : max_terms_;
@@ -552,11 +553,18 @@ class DeviationFused {
         const Streams p = streams(workspace, j);
         if (b == b_begin && h_from_q(j)) {
           // H_b = R_2 - 2 R_1 + R_0 with R_k the sum of (y - line) over [b + k m, b + (k+1) m)
-          // = Q[(k+1) m] - Q[k m]: the combination of this block's Q at i = 0 when the four
-          // streams lie in one segment (the line cancels). Same data and rounding class as
-          // the terms themselves; saves the O(3 m) start sums per factor.
+          // = Q[(k+1) m] - Q[k m]: the combination of this block's Q at i = 0 when the
+          // streams lie in one segment (the line cancels; totdev: D_b = R_1 - R_0 on the
+          // reflected record, plus what the line gives D). Same data and rounding class as
+          // the terms themselves; saves the O(2-3 m) start sums per factor.
           const auto q = [&](std::size_t s) { return static_cast<long double>(p[s][0]); };
-          chain_[j] = (q(3) - q(0)) + 3.0L * (q(1) - q(2));
+          if (reflect_) {
+            const long double mm = static_cast<long double>(m_[j]);
+            chain_[j] = ((q(2) - 2.0L * q(1)) + q(0)) +
+                        (static_cast<long double>(line_.slope) * mm * mm + ramp_edge(j, b));
+          } else {
+            chain_[j] = (q(3) - q(0)) + 3.0L * (q(1) - q(2));
+          }
         }
         if (reflect_) {
           k0[j] = static_cast<double>(chain_[j] - ramp_edge(j, b)) -
@@ -644,10 +652,11 @@ class DeviationFused {
     }
   }
 
-  // ohdev factor j whose four streams lie in one segment: its start value H_b is the
-  // combination of the block's Q at i = 0 (no separate sums over the samples).
+  // ohdev or totdev factor j whose streams lie in one segment: its start value (H_b, D_b)
+  // is the combination of the block's Q at i = 0 (no separate sums over the samples; mdev
+  // needs V_b as well).
   bool h_from_q(std::size_t j) const noexcept {
-    return dev_ == FusedDeviation::ohdev && one_segment_[j];
+    return dev_ != FusedDeviation::mdev && one_segment_[j];
   }
 
   // The four stream pointers of factor j into the workspace (Q at its offsets).
