@@ -272,6 +272,19 @@ class OadevFusedStream {
     return out;
   }
 
+  // The record's rate line, as the in-memory run() removes it (then the sums are
+  // bit-identical): head = its first kRampEnd (64) samples, tail its last ones.
+  void set_ramp(const CArray<double>& head, const CArray<double>& tail) {
+    require_1d(head, "head");
+    require_1d(tail, "tail");
+    constexpr auto k = static_cast<py::ssize_t>(gyrodrift::fused_detail::kRampEnd);
+    if (head.shape(0) != k || tail.shape(0) != k) {
+      throw py::value_error("set_ramp(): head and tail need 64 samples each");
+    }
+    // non-finite ends give no line (ramp_line); the samples are checked where they are read
+    fused_->set_ramp(head.data(), tail.data(), n_data_);
+  }
+
   void seed(std::size_t j, const CArray<double>& lo, const CArray<double>& hi) {
     require_1d(lo, "lo");
     require_1d(hi, "hi");
@@ -455,6 +468,9 @@ void bind_allan(pybind11::module_& m) {
            py::arg("n_data"), py::arg("m").noconvert(), py::arg("block") = 4096)
       .def("segments", &OadevFusedStream::segments,
            "[(start, span)]: segment k of block b reads y[b + start : b + start + span]")
+      .def("set_ramp", &OadevFusedStream::set_ramp, py::arg("head").noconvert(),
+           py::arg("tail").noconvert(),
+           "the record's first and last 64 samples: remove its rate line as in memory")
       .def("seed", &OadevFusedStream::seed, py::arg("j"), py::arg("lo").noconvert(),
            py::arg("hi").noconvert())
       .def("process", &OadevFusedStream::process, py::arg("b_begin"), py::arg("b_end"),

@@ -137,19 +137,61 @@ def test_large_blocks_equal_the_long_double_kernels_on_a_drifting_record() -> No
         np.testing.assert_allclose(fused.adev**2, chunked.adev**2, rtol=3e-13, atol=0)
 
 
-def test_fused_kernels_on_a_ramping_record() -> None:
-    # A rate ramp of 100 sigma over 1e6 samples (a warm-up drift): the fused kernels remove
-    # one level per block, so the ramp costs them precision (README, Limits of the
-    # deviations: measured ohdev 1.9e-10, totdev 8.3e-11, hdev and oadev 1.5e-12, mdev
-    # 2.6e-13). Bound: 1e-9 relative, the oracle contract; the chunked long double kernels
-    # are the reference (they agree with a numpy long double evaluation to 1e-13).
+def _ramping_record(slope: float) -> np.ndarray:
     rng = np.random.default_rng(7)
     n = 1_000_000
-    y = 15.0 + 1e-4 * np.arange(n) + rng.standard_normal(n)
+    return 15.0 + slope * np.arange(n) + rng.standard_normal(n)
+
+
+@pytest.mark.parametrize("slope", [1e-4, 1e-2, -1e-1])
+def test_fused_kernels_on_a_ramping_record(slope: float) -> None:
+    # Unit white noise plus a rate ramp of 100, 1e4 and 1e5 sigma over 1e6 samples (a
+    # warm-up drift). The fused kernels remove the record's rate line inside their double
+    # prefix sums (a line cancels exactly from the third differences of ohdev, hdev and
+    # mdev's increments, from the increments of oadev's and totdev's second differences;
+    # totdev's mirrored ends and the start values add it back in closed form), so a ramp
+    # costs them nothing. Before, with one level per block, the 1e4-sigma ramp gave ohdev
+    # 3.9e-9, totdev 2.6e-8, oadev 3.3e-10 relative. Reference: the chunked long double
+    # kernels (they agree with a numpy long double evaluation to 1e-13); measured <= 8.3e-13
+    # (hdev; 6.5e-12 at 1e5 sigma), the others <= 4e-13. Bound 1e-10: 15x over the worst
+    # measured, 4x under the old kernels' best failure.
+    y = _ramping_record(slope)
     for name in ("oadev", *NAMES):
         fused = deviation(y, 100.0, name, alpha=0, threads=1)
         chunked = deviation(y, 100.0, name, alpha=0, chunk_samples=1 << 16)
-        np.testing.assert_allclose(fused.adev, chunked.adev, rtol=1e-9, atol=0, err_msg=name)
+        np.testing.assert_array_equal(fused.terms, chunked.terms)
+        np.testing.assert_allclose(fused.adev, chunked.adev, rtol=1e-10, atol=0, err_msg=name)
+
+
+def test_fused_kernels_on_a_ramp_with_decade_taus() -> None:
+    # The same on a decade grid (factors without a divisor in the grid: hdev's cascade sums
+    # up to m raw samples per block; uneven offsets for the others) and a list of taus:
+    # 3e5 samples, a 1e4-sigma ramp. Before the line removal hdev lost 1.9e-9 here (m =
+    # 25119 .. 63096); measured now <= 5e-13 (hdev), 8e-13 (totdev). Bound 1e-10.
+    rng = np.random.default_rng(1)
+    n = 300_001
+    y = 15.0 + 3e-2 * np.arange(n) + rng.standard_normal(n)
+    for name in ("oadev", *NAMES):
+        for taus in ("decade", [0.03, 0.07, 1.1, 13.0]):
+            fused = deviation(y, 100.0, name, alpha=0, taus=taus, threads=2)
+            chunked = deviation(y, 100.0, name, alpha=0, taus=taus, chunk_samples=1 << 15)
+            np.testing.assert_allclose(fused.adev, chunked.adev, rtol=1e-10, atol=0,
+                                       err_msg=f"{name} {taus}")
+
+
+@pytest.mark.parametrize("name", ["oadev", "totdev"])
+def test_fused_kernels_on_a_steep_ramp_equal_allantools(name: str) -> None:
+    # The 1e4-sigma ramp against allantools where allantools itself stays accurate (its
+    # float64 phase cumsum: oadev and totdev within 1e-10 of the long double kernels here;
+    # its mdev, hdev, ohdev lose 1e-8..1e-5 to that cumsum, so they are checked against the
+    # long double kernels above). The oracle contract, 1e-9 relative; the old totdev kernel
+    # was 2.6e-8 off.
+    y = _ramping_record(1e-2)
+    res = deviation(y, 100.0, name, alpha=0, threads=2)
+    _, dev, _, ns = getattr(allantools, name)(y, rate=100.0, data_type="freq",
+                                              taus=res.tau_s)
+    np.testing.assert_array_equal(res.terms, ns)
+    np.testing.assert_allclose(res.adev, dev, rtol=ORACLE_RTOL, atol=0)
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -332,6 +332,8 @@ TEST_CASE("fused streaming API in term ranges equals run(), bit for bit") {
   auto parts = std::make_unique<gyrodrift::OadevFused<64>>();
   REQUIRE(parts->plan(y.size(), m, n_m, 256));
   parts->reset_sums();
+  parts->set_ramp(y.data(), y.data() + (y.size() - gyrodrift::fused_detail::kRampEnd),
+                  y.size());
   for (std::size_t j = 0; j < n_m; ++j) {  // seeds in pieces of 100
     for (std::size_t k = 0; k < m[j]; k += 100) {
       parts->seed_add(j, y.data() + k, y.data() + m[j] + k, std::min<std::size_t>(100, m[j] - k));

@@ -189,6 +189,62 @@ TEST_CASE("fused groups equal the per-tau long double kernels on a drifting reco
   }
 }
 
+TEST_CASE("fused kernels on a steep rate ramp equal the per-tau long double kernels") {
+  // 2e5 samples of uniform noise (sigma 0.58) plus a ramp of 3e-2 per sample (1e4 sigma over
+  // the record): the fused kernels remove the record's rate line in their prefix sums and
+  // start values (totdev adds the mirrored ends back in closed form). With one level per
+  // block they lost 1e-9..1e-8 here; measured now <= 1e-13. Bound 1e-11.
+  using gyrodrift::FusedDeviation;
+  std::vector<double> y = record(200000, 15.0, 9);
+  for (std::size_t i = 0; i < y.size(); ++i) y[i] += 3e-2 * static_cast<double>(i);
+  const std::size_t ms[] = {1, 2, 3, 8, 64, 100, 1024, 4096, 16384, 65536};
+  constexpr std::size_t n_m = sizeof(ms) / sizeof(ms[0]);
+  double out[n_m];
+  double per[n_m];
+  std::size_t t_out[n_m];
+  std::size_t t_per[n_m];
+  REQUIRE(fused(y, FusedDeviation::ohdev, ms, n_m, 4096, out, t_out));
+  REQUIRE(gyrodrift::ohdev<double, double>(y.data(), y.size(), ms, n_m, per, t_per));
+  for (std::size_t j = 0; j < n_m; ++j) CHECK(rel(out[j], per[j]) < 1e-11);
+  REQUIRE(fused(y, FusedDeviation::mdev, ms, n_m, 4096, out, t_out));
+  REQUIRE(gyrodrift::mdev<double, double>(y.data(), y.size(), ms, n_m, per, t_per));
+  for (std::size_t j = 0; j < n_m; ++j) CHECK(rel(out[j], per[j]) < 1e-11);
+  const std::size_t mt[] = {1, 2, 5, 64, 1000, 65536, 150000, 200000};  // up to m = N
+  double wk[3 * 512];
+  REQUIRE(fused(y, FusedDeviation::totdev, mt, 8, 4096, out, t_out));
+  REQUIRE(gyrodrift::totdev<double, double>(y.data(), y.size(), mt, 8, wk, 512, per, t_per));
+  for (std::size_t j = 0; j < 8; ++j) CHECK(rel(out[j], per[j]) < 1e-11);
+  const std::size_t mh[] = {1, 2, 4, 8, 64, 1024, 16384, 32768};
+  gyrodrift::HdevCascade<64> cascade;
+  REQUIRE(cascade.plan(y.size(), mh, 8));
+  std::vector<double> work(cascade.workspace_len());
+  REQUIRE(cascade.run(y.data(), work.data(), work.size(), out, t_out));
+  REQUIRE(gyrodrift::hdev<double, double>(y.data(), y.size(), mh, 8, per, t_per));
+  for (std::size_t j = 0; j < 8; ++j) CHECK(rel(out[j], per[j]) < 1e-11);
+}
+
+TEST_CASE("ohdev start values: streams in segments that sit back to back") {
+  // Block 4095 and m = 4096: each of the four streams gets its own segment of 4096 Q values,
+  // laid out back to back in the workspace exactly as the data are, so the stream positions
+  // look like one run; the start value H_0 must still come from the samples (each segment's
+  // Q restarts at 0). With m = 5 added the first segment is shared (H_0 from Q).
+  using gyrodrift::FusedDeviation;
+  const std::vector<double> y = record(40000, 15.0, 13);
+  const std::size_t ms[] = {5, 4096};
+  double out[2];
+  double per[2];
+  std::size_t t_out[2];
+  std::size_t t_per[2];
+  REQUIRE(gyrodrift::ohdev<double, double>(y.data(), y.size(), ms, 2, per, t_per));
+  for (const std::size_t block : {std::size_t{4095}, std::size_t{4096}, std::size_t{1000}}) {
+    REQUIRE(fused(y, FusedDeviation::ohdev, ms + 1, 1, block, out, t_out));
+    CHECK(rel(out[0], per[1]) < 1e-12);
+    REQUIRE(fused(y, FusedDeviation::ohdev, ms, 2, block, out, t_out));
+    CHECK(rel(out[0], per[0]) < 1e-12);
+    CHECK(rel(out[1], per[1]) < 1e-12);
+  }
+}
+
 TEST_CASE("fused kernels: same bits at any workspace alignment; odd sizes equal per tau") {
   // The workspace's segments start at multiples of 8 doubles (64-byte aligned streams read
   // faster); the arithmetic must not depend on where the workspace sits: runs from every

@@ -8,9 +8,14 @@
 // the levels form a cascade: the record is read once in chunks of kChunk samples, the first
 // level(s) sum samples, every other level sums its parent's block sums emitted for the same
 // chunk. Work: ~2 N additions for an octave grid instead of N per factor.
-// Precision: the sums are in double over (y - c), c the mean of the first 64 samples (it
-// cancels from H exactly in real arithmetic: the weights 1, -2, 1 of three equal blocks add
-// up to zero), so a large constant rate costs nothing; an octave cascade is a pairwise
+// Precision: the sums are in double over (y - (c + slope k)), the record's rate line
+// (fused_common.hpp RampLine: c the level of the first 64 samples, slope the ramp, k the
+// sample index; exact values). A line cancels from H exactly in real arithmetic (block sums
+// of a line are a line in the block index; the weights 1, -2, 1 annihilate it), so a large
+// constant rate or a steep ramp costs nothing (1e4 sigma over 1e6 samples: 6e-13 relative
+// against the long double kernel on octave taus, 3e-11 before; 3e-9 before on a decade
+// grid, whose factors without a divisor in the grid sum up to m samples); an octave
+// cascade is a pairwise
 // summation, whose rounding grows like log2(m) eps |Z|. Each level's H^2 are summed in
 // sixteen lanes per chunk, then into long double. m = 1 (H_i = y_{i+2} - 2 y_{i+1} + y_i,
 // the overlapping and non-overlapping cases coincide) is one vectorized pass over y.
@@ -19,6 +24,7 @@
 #pragma once
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 
 #include "deviation_hadamard.hpp"
 #include "fused_common.hpp"
@@ -96,7 +102,20 @@ class HdevCascade {
 
   template <class Scalar>
   GYRODRIFT_FUSED_INLINE void run_impl(const Scalar* y, double* work) noexcept {
-    const double c = fused_detail::leading_level(y, n_data_);
+    // The rate line c + slope k (k the sample index) removed from the samples: a line
+    // cancels from H exactly (block sums of a line are a line in the block index; their
+    // second difference is 0), and a strong ramp keeps the block sums small.
+    line_ = fused_detail::ramp_line(y, n_data_);
+    double c = 0.0;
+    {
+      const std::size_t n_level = n_data_ < 64 ? n_data_ : 64;
+      long double level{0};
+      for (std::size_t i = 0; i < n_level; ++i) {
+        level += static_cast<long double>(y[i]) -
+                 static_cast<long double>(line_.slope) * static_cast<long double>(i);
+      }
+      if (n_level > 0) c = line_.snap(static_cast<double>(level / n_level));
+    }
     for (std::size_t j = 0; j < n_m_; ++j) {
       sum_sq_[j] = 0;
       terms_[j] = 0;
@@ -112,10 +131,10 @@ class HdevCascade {
       for (std::size_t j = 0; j < n_m_; ++j) {
         if (m_[j] == 1) continue;
         if (parent_[j] == kRaw) {
-          feed(j, y + c0, len, c, work);
+          feed(j, y + c0, len, c + line_.slope * static_cast<double>(c0), line_.slope, work);
         } else {
           const std::size_t p = parent_[j];
-          feed(j, work + buf_[p] + 2, emitted_[p], 0.0, work);
+          feed(j, work + buf_[p] + 2, emitted_[p], 0.0, 0.0, work);
         }
       }
     }
@@ -137,13 +156,19 @@ class HdevCascade {
   }
 #endif
 
-  // Adds v[0..n) - c (samples, or the parent's block sums with c = 0) to level j. Its
+  // Adds v[k] - (c + slope k), k < n (samples, the line on the RampLine grid so every
+  // value is exact; or the parent's block sums with c = slope = 0) to level j, so the
+  // levels above sum small values however steep the ramp. Its
   // buffer holds the last two complete block sums before this call at [0, 2) and the new
   // ones from 2 on (emitted_[j] of them, which the child levels read), so H runs over the
   // buffer in one vectorized pass.
   template <class V>
   GYRODRIFT_FUSED_INLINE void feed(std::size_t j, const V* v, std::size_t n, double c,
-                                   double* work) noexcept {
+                                   double slope, double* work) noexcept {
+    // one sample minus the line (edges of blocks only: a 64-bit index converts slowly)
+    const auto at = [&](std::size_t k) {
+      return static_cast<double>(v[k]) - (c + slope * static_cast<double>(k));
+    };
     double* z = work + buf_[j];
     const std::size_t r = ratio_[j];
     z[0] = z2_[j];
@@ -153,7 +178,7 @@ class HdevCascade {
     if (filled_[j] > 0) {  // finish the block the previous call's edge cut
       const std::size_t take = r - filled_[j] < n ? r - filled_[j] : n;
       double a = partial_[j];
-      for (std::size_t k = 0; k < take; ++k) a += static_cast<double>(v[k]) - c;
+      for (std::size_t k = 0; k < take; ++k) a += at(k);
       i = take;
       filled_[j] += take;
       partial_[j] = a;
@@ -165,25 +190,42 @@ class HdevCascade {
     }
     const std::size_t whole = (n - i) / r;
     if (r == 2) {
-      for (std::size_t k = 0; k < whole; ++k) {
-        z[out + k] = (static_cast<double>(v[i + 2 * k]) - c) +
-                     (static_cast<double>(v[i + 2 * k + 1]) - c);
+      // (v - c) in pairs, then the line's part of the pair at 2 u + i: slope (4 u + 2 i + 1);
+      // an int32 counter (whole <= kChunk / 2) converts to double in the vector units
+      const double first = slope * (2.0 * static_cast<double>(i) + 1.0);
+      const double step = 4.0 * slope;
+      const auto nw = static_cast<std::int32_t>(whole);
+      for (std::int32_t k = 0; k < nw; ++k) {
+        const auto u = static_cast<std::size_t>(k);
+        z[out + u] = ((static_cast<double>(v[i + 2 * u]) - c) +
+                      (static_cast<double>(v[i + 2 * u + 1]) - c)) -
+                     (first + step * static_cast<double>(k));
       }
     } else {
+      const double step = 4.0 * slope;
       for (std::size_t k = 0; k < whole; ++k) {
-        const V* p = v + i + k * r;
+        const std::size_t p = i + k * r;
+        // the line at p .. p + 3 in four lanes, advanced by 4 slope (exact on the grid)
+        double l0 = c + slope * static_cast<double>(p);
+        double l1 = l0 + slope;
+        double l2 = l0 + 2.0 * slope;
+        double l3 = l0 + 3.0 * slope;
         double a0 = 0.0;
         double a1 = 0.0;
         double a2 = 0.0;
         double a3 = 0.0;
         std::size_t t = 0;
         for (; t + 4 <= r; t += 4) {
-          a0 += static_cast<double>(p[t]) - c;
-          a1 += static_cast<double>(p[t + 1]) - c;
-          a2 += static_cast<double>(p[t + 2]) - c;
-          a3 += static_cast<double>(p[t + 3]) - c;
+          a0 += static_cast<double>(v[p + t]) - l0;
+          a1 += static_cast<double>(v[p + t + 1]) - l1;
+          a2 += static_cast<double>(v[p + t + 2]) - l2;
+          a3 += static_cast<double>(v[p + t + 3]) - l3;
+          l0 += step;
+          l1 += step;
+          l2 += step;
+          l3 += step;
         }
-        for (; t < r; ++t) a0 += static_cast<double>(p[t]) - c;
+        for (; t < r; ++t) a0 += at(p + t);
         z[out + k] = (a0 + a1) + (a2 + a3);
       }
     }
@@ -191,7 +233,7 @@ class HdevCascade {
     i += whole * r;
     if (i < n) {  // a block this call's edge cuts
       double a = partial_[j];
-      for (std::size_t k = i; k < n; ++k) a += static_cast<double>(v[k]) - c;
+      for (std::size_t k = i; k < n; ++k) a += at(k);
       partial_[j] = a;
       filled_[j] += n - i;
     }
@@ -220,6 +262,7 @@ class HdevCascade {
   std::size_t emitted_[MaxTaus]{};
   std::size_t blocks_[MaxTaus]{};
   std::size_t filled_[MaxTaus]{};
+  fused_detail::RampLine line_{};
   double partial_[MaxTaus]{};
   double z1_[MaxTaus]{};  // last complete block sum before this chunk
   double z2_[MaxTaus]{};  // the one before it

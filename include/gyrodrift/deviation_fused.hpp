@@ -16,11 +16,17 @@
 // modified variance then runs V through the block as eight independent chains (their
 // starting values from the chains' sums, a second pass), so its adds pipeline too.
 // Precision: H_b (and V_b) are carried from block to block in long double (block increments
-// are differences of doubles); Q spans one segment (a few B samples) of data minus the
-// block's level, so its rounding is ~B eps (sigma + the level's excursion over the block's
-// streams) however long the record, and the level (any constant) cancels because the
-// coefficients sum to zero. A steep rate ramp moves the far streams (offsets up to 3m) off
-// that level: README, Limits of the deviations, has the measured cost. V integrates H inside a
+// are differences of doubles); Q spans one segment (a few B samples) of data minus a line
+// (the block's level plus the record's rate ramp times the sample index, fused_common.hpp
+// RampLine), so its rounding is ~B eps (sigma + the data's excursion from that line over the
+// block's streams) however long the record and however steep its ramp. The line cancels
+// exactly: a constant because the coefficients sum to zero, the slope because they also
+// annihilate a linear phase-rate term (third differences; the increments of totdev's second
+// differences), except where totdev's windows reach its mirrored ends, where the reflected
+// line leaves slope E(t) (ramp_edge), added back in closed form; the start values remove
+// the same line and add back what it contributes to V and D. Measured on 1e6 samples of
+// unit noise plus a 1e4-sigma ramp: <= 4e-13 relative to the long double kernels (it was
+// up to 2.6e-8 with one level per block). V integrates H inside a
 // block only: its double rounding spans at most one block of 1024 terms before it is folded
 // into the long double carry. Squares are summed per block in double, then into long double.
 // The starting values (term 0) are range sums of (y - level) in double, eight lanes.
@@ -42,18 +48,25 @@ enum class FusedDeviation : std::uint8_t { ohdev, mdev, totdev };
 
 namespace fused_detail {
 
-// Adds sum_i (p[i step] - mean) and (First) sum_i (u0 + i) (p[i step] - mean), i < len, to
+// Adds sum_i v_i and (First) sum_i (u0 + i) v_i, v_i = p[i step] - (a + slope i), i < len, to
 // the eight lanes a0, a1 (step +1 or -1, a template argument so the +1 loop vectorizes).
 template <int Step, bool First, class Scalar>
 GYRODRIFT_FUSED_INLINE void moments_run(const Scalar* p, std::size_t len, double u0,
-                                        double mean, double* a0, double* a1) noexcept {
+                                        double a, double slope, double* a0,
+                                        double* a1) noexcept {
   constexpr std::size_t kLanes = 8;
   double w[kLanes];
-  for (std::size_t l = 0; l < kLanes; ++l) w[l] = u0 + static_cast<double>(l);
+  double line[kLanes];  // a + slope (i + l), advanced by 8 slope: exact on the RampLine grid
+  for (std::size_t l = 0; l < kLanes; ++l) {
+    w[l] = u0 + static_cast<double>(l);
+    line[l] = a + slope * static_cast<double>(l);
+  }
+  const double step = slope * static_cast<double>(kLanes);
   std::size_t i = 0;
   for (; i + kLanes <= len; i += kLanes) {
     for (std::size_t l = 0; l < kLanes; ++l) {
-      const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i + l) * Step]) - mean;
+      const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i + l) * Step]) - line[l];
+      line[l] += step;
       a0[l] += v;
       if (First) {
         a1[l] += w[l] * v;
@@ -62,18 +75,20 @@ GYRODRIFT_FUSED_INLINE void moments_run(const Scalar* p, std::size_t len, double
     }
   }
   for (; i < len; ++i) {
-    const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i) * Step]) - mean;
+    const double v = static_cast<double>(p[static_cast<std::ptrdiff_t>(i) * Step]) -
+                     (a + slope * static_cast<double>(i));
     a0[0] += v;
     if (First) a1[0] += (u0 + static_cast<double>(i)) * v;
   }
 }
 
-// sum_{u < len} (y*[start + u] - mean) and (First) sum u (y*[start + u] - mean) in double,
-// eight lanes; y* is y itself or (reflect) its even reflection, start may be negative then.
+// sum_{u < len} v_u and (First) sum u v_u in double, eight lanes, v_u = y*[start + u] -
+// (level + slope k_u), k_u the sample index y*[start + u] comes from; y* is y itself or
+// (reflect) its even reflection, start may be negative then.
 template <bool First, class Scalar>
 GYRODRIFT_FUSED_INLINE void range_moments(const Scalar* y, std::size_t n, bool reflect,
-                                          std::ptrdiff_t start, std::size_t len, double mean,
-                                          double& s0, double& s1) noexcept {
+                                          std::ptrdiff_t start, std::size_t len, double level,
+                                          double slope, double& s0, double& s1) noexcept {
   constexpr std::size_t kLanes = 8;
   double a0[kLanes] = {};
   double a1[kLanes] = {};
@@ -87,13 +102,17 @@ GYRODRIFT_FUSED_INLINE void range_moments(const Scalar* y, std::size_t n, bool r
     if (!reflect || (k >= 0 && k < sn)) {
       const auto room = static_cast<std::size_t>(sn - k);
       if (reflect && room < piece) piece = room;
-      moments_run<1, First>(y + k, piece, ud, mean, a0, a1);
+      moments_run<1, First>(y + k, piece, ud, level + slope * static_cast<double>(k), slope,
+                            a0, a1);
     } else if (k < 0) {
       const auto room = static_cast<std::size_t>(-k);
       if (room < piece) piece = room;
-      moments_run<-1, First>(y + (-1 - k), piece, ud, mean, a0, a1);
+      moments_run<-1, First>(y + (-1 - k), piece, ud,
+                             level + slope * static_cast<double>(-1 - k), -slope, a0, a1);
     } else {
-      moments_run<-1, First>(y + (2 * sn - 1 - k), piece, ud, mean, a0, a1);
+      moments_run<-1, First>(y + (2 * sn - 1 - k), piece, ud,
+                             level + slope * static_cast<double>(2 * sn - 1 - k), -slope, a0,
+                             a1);
     }
     u += piece;
   }
@@ -319,6 +338,11 @@ class DeviationFused {
       for (std::size_t s = 0; s < kStreams; ++s) {
         stream_[j][s] = fused_detail::segment_position(seg_start_, seg_q_, n_seg_, rel_[j][s]);
       }
+      // the four streams in one segment (one run of Q): positions alone cannot tell, two
+      // segments may sit back to back in the workspace as in the data
+      std::size_t k = n_seg_ - 1;
+      while (seg_start_[k] > rel_[j][0]) --k;
+      one_segment_[j] = rel_[j][kStreams - 1] < seg_start_[k] + seg_len_[k];
     }
     n_m_ = n_m;
     return true;
@@ -360,11 +384,25 @@ class DeviationFused {
   bool accumulate(const Scalar* y, double* workspace, std::size_t workspace_len,
                   std::size_t b_begin, std::size_t b_end) noexcept {
     if (n_m_ == 0 || workspace_len < workspace_ || b_begin % block_ != 0) return false;
-    const double c = fused_detail::leading_level(y + (b_begin < n_data_ ? b_begin : 0),
-                                                 n_data_ - (b_begin < n_data_ ? b_begin : 0));
+    // from the whole record, so every part (and thread count) removes the same line
+    line_ = fused_detail::ramp_line(y, n_data_);
+    // the level of (y - slope k) at b_begin: the line the start values remove
+    double c = 0.0;
+    {
+      const std::size_t k0 = b_begin < n_data_ ? b_begin : 0;
+      const std::size_t n_level = n_data_ - k0 < 64 ? n_data_ - k0 : 64;
+      long double level{0};
+      for (std::size_t i = 0; i < n_level; ++i) {
+        level += static_cast<long double>(y[k0 + i]) -
+                 static_cast<long double>(line_.slope) * static_cast<long double>(k0 + i);
+      }
+      if (n_level > 0) c = line_.snap(static_cast<double>(level / n_level));
+    }
     for (std::size_t j = 0; j < n_m_; ++j) {
       sum_sq_[j] = 0;
-      if (n_terms_[j] > b_begin) start_at(y, j, b_begin, c);
+      // ohdev / totdev factors read from one segment take H_b (D_b) from the first block's Q
+      // (blocks_impl)
+      if (n_terms_[j] > b_begin && !h_from_q(j)) start_at(y, j, b_begin, c);
     }
     const std::size_t stop = b_end < max_terms_ ? b_end : max_terms_;
 #if GYRODRIFT_ALLAN_X86_DISPATCH
@@ -425,8 +463,11 @@ class DeviationFused {
   // mdev, V_b = sum_{i<m} D_{b+i} = sum_v w(v) (y_v - c) with w = -(u + 1) on the first
   // range, 2u - m + 2 on the second, m - 1 - u on the third (u the index inside the range;
   // from V_b = P_{b+3m} - 3 P_{b+2m} + 3 P_{b+m} - P_b, P the prefix sum of the phase); for
-  // totdev D_b = (X*_{b+1+m} - X*_{b+1}) - (X*_{b+1} - X*_{b+1-m}). The level c cancels
-  // (the weights of each sum add up to zero). Needs b + 3m <= N (ohdev, mdev).
+  // totdev D_b = (X*_{b+1+m} - X*_{b+1}) - (X*_{b+1} - X*_{b+1-m}). The sums are of
+  // y - (c + slope k) (the RampLine); the line cancels from H (a third difference), adds
+  // slope m^3 to V (m second differences) and slope (m^2 + E(b)) to D (ramp_edge): added
+  // back. Needs b + 3m <= N (ohdev,
+  // mdev).
   template <class Scalar>
   GYRODRIFT_FUSED_INLINE void anchor(const Scalar* y, std::size_t j, std::size_t b,
                                      double c) noexcept {
@@ -439,17 +480,20 @@ class DeviationFused {
     double u0 = 0.0;
     double u1 = 0.0;
     double u2 = 0.0;
+    const double slope = line_.slope;
     if (reflect_) {
-      fused_detail::range_moments<false>(y, n_data_, true, bs + 1 - ms, m, c, r0, u0);
-      fused_detail::range_moments<false>(y, n_data_, true, bs + 1, m, c, r1, u1);
-      chain_[j] = static_cast<long double>(r1) - static_cast<long double>(r0);
+      fused_detail::range_moments<false>(y, n_data_, true, bs + 1 - ms, m, c, slope, r0, u0);
+      fused_detail::range_moments<false>(y, n_data_, true, bs + 1, m, c, slope, r1, u1);
+      const long double mm = static_cast<long double>(m);
+      chain_[j] = (static_cast<long double>(r1) - static_cast<long double>(r0)) +
+                  (static_cast<long double>(slope) * mm * mm + ramp_edge(j, b));
       return;
     }
     const auto moments = [&](std::ptrdiff_t start, double& r, double& u) {
       if (dev_ == FusedDeviation::mdev) {
-        fused_detail::range_moments<true>(y, n_data_, false, start, m, c, r, u);
+        fused_detail::range_moments<true>(y, n_data_, false, start, m, c, slope, r, u);
       } else {
-        fused_detail::range_moments<false>(y, n_data_, false, start, m, c, r, u);
+        fused_detail::range_moments<false>(y, n_data_, false, start, m, c, slope, r, u);
       }
     };
     moments(bs, r0, u0);
@@ -459,9 +503,11 @@ class DeviationFused {
                 static_cast<long double>(r0);
     if (dev_ == FusedDeviation::mdev) {
       const long double mm = static_cast<long double>(m);
-      inner_[j] = (-static_cast<long double>(u0) - static_cast<long double>(r0)) +
-                  (2.0L * static_cast<long double>(u1) + (2.0L - mm) * r1) +
-                  ((mm - 1.0L) * static_cast<long double>(r2) - static_cast<long double>(u2));
+      // V sums m second differences: the line adds slope m^3
+      inner_[j] = ((-static_cast<long double>(u0) - static_cast<long double>(r0)) +
+                   (2.0L * static_cast<long double>(u1) + (2.0L - mm) * r1) +
+                   ((mm - 1.0L) * static_cast<long double>(r2) - static_cast<long double>(u2))) +
+                  static_cast<long double>(slope) * mm * mm * mm;
     }
   }
 
@@ -476,7 +522,10 @@ class DeviationFused {
     for (std::size_t b = b_begin; b < b_end; b += bsz) {
       // factors are sorted by m: for ohdev/mdev the largest m has the fewest terms
       while (n_active > 0 && n_terms_[n_active - 1] <= b) --n_active;
-      // One level for all streams of this block (it cancels: the coefficients sum to 0).
+      // One line level + slope k (k the sample index; for totdev the source index of the
+      // reflected record) removed from all streams of this block: it cancels exactly, the
+      // coefficients annihilating a constant and a line (totdev: up to ramp_edge(), which
+      // the terms and the carry add back).
       const std::ptrdiff_t base = static_cast<std::ptrdiff_t>(b) + origin_;
       const std::size_t n_level = 64;
       double level = 0.0;
@@ -484,9 +533,10 @@ class DeviationFused {
         std::ptrdiff_t k = base + static_cast<std::ptrdiff_t>(i) + 1;
         if (k > v_end - 1) k = v_end - 1;
         if (k < 1 - sn) k = 1 - sn;
-        level += static_cast<double>(totdev_reflected(y, n_data_, k));
+        level += static_cast<double>(totdev_reflected(y, n_data_, k)) -
+                 line_.slope * static_cast<double>(source_index(k));
       }
-      const double mean = level / static_cast<double>(n_level);
+      const double mean = line_.snap(level / static_cast<double>(n_level));
       std::size_t reach = 0;
       for (std::size_t j = 0; j < n_active; ++j) {
         if (rel_[j][kStreams - 1] > reach) reach = rel_[j][kStreams - 1];
@@ -501,8 +551,24 @@ class DeviationFused {
       double k0[MaxTaus];
       for (std::size_t j = 0; j < n_active; ++j) {
         const Streams p = streams(workspace, j);
+        if (b == b_begin && h_from_q(j)) {
+          // H_b = R_2 - 2 R_1 + R_0 with R_k the sum of (y - line) over [b + k m, b + (k+1) m)
+          // = Q[(k+1) m] - Q[k m]: the combination of this block's Q at i = 0 when the
+          // streams lie in one segment (the line cancels; totdev: D_b = R_1 - R_0 on the
+          // reflected record, plus what the line gives D). Same data and rounding class as
+          // the terms themselves; saves the O(2-3 m) start sums per factor.
+          const auto q = [&](std::size_t s) { return static_cast<long double>(p[s][0]); };
+          if (reflect_) {
+            const long double mm = static_cast<long double>(m_[j]);
+            chain_[j] = ((q(2) - 2.0L * q(1)) + q(0)) +
+                        (static_cast<long double>(line_.slope) * mm * mm + ramp_edge(j, b));
+          } else {
+            chain_[j] = (q(3) - q(0)) + 3.0L * (q(1) - q(2));
+          }
+        }
         if (reflect_) {
-          k0[j] = static_cast<double>(chain_[j]) - ((p[2][0] - 2.0 * p[1][0]) + p[0][0]);
+          k0[j] = static_cast<double>(chain_[j] - ramp_edge(j, b)) -
+                  ((p[2][0] - 2.0 * p[1][0]) + p[0][0]);
           continue;
         }
         if (dev_ == FusedDeviation::mdev && b > b_begin && b + 3 * m_[j] <= n_data_ &&
@@ -546,8 +612,15 @@ class DeviationFused {
           }
 #endif
           if (reflect_) {
-            sum_sq_[j] += static_cast<long double>(
-                fused_detail::sum_sq_second(p[0] + t0, p[1] + t0, p[2] + t0, cnt, k0[j]));
+            const std::size_t t_first = b + t0;
+            if (t_first + 1 >= m_[j] && t_first + cnt + m_[j] <= n_data_) {
+              sum_sq_[j] += static_cast<long double>(
+                  fused_detail::sum_sq_second(p[0] + t0, p[1] + t0, p[2] + t0, cnt, k0[j]));
+            } else {
+              sum_sq_[j] += static_cast<long double>(
+                  sum_sq_second_edge<Wide>(p[0] + t0, p[1] + t0, p[2] + t0, cnt, k0[j], t_first,
+                                           j));
+            }
           } else if (dev_ == FusedDeviation::ohdev) {
             sum_sq_[j] += static_cast<long double>(fused_detail::sum_sq_third(
                 p[0] + t0, p[1] + t0, p[2] + t0, p[3] + t0, cnt, k0[j]));
@@ -569,12 +642,21 @@ class DeviationFused {
           return static_cast<long double>(p[s][bsz]) - static_cast<long double>(p[s][0]);
         };
         if (reflect_) {
-          if (left > bsz) chain_[j] += (d(2) - 2.0L * d(1)) + d(0);
+          if (left > bsz) {
+            chain_[j] += ((d(2) - 2.0L * d(1)) + d(0)) + (ramp_edge(j, b + bsz) - ramp_edge(j, b));
+          }
         } else if (dev_ == FusedDeviation::ohdev ? left > bsz : left > bsz + 1) {
           chain_[j] += (d(3) - d(0)) + 3.0L * (d(1) - d(2));
         }
       }
     }
+  }
+
+  // ohdev or totdev factor j whose streams lie in one segment: its start value (H_b, D_b)
+  // is the combination of the block's Q at i = 0 (no separate sums over the samples; mdev
+  // needs V_b as well).
+  bool h_from_q(std::size_t j) const noexcept {
+    return dev_ != FusedDeviation::mdev && one_segment_[j];
   }
 
   // The four stream pointers of factor j into the workspace (Q at its offsets).
@@ -603,26 +685,76 @@ class DeviationFused {
 
   // q[0] = 0, q[t+1] = q[t] + (y*[start + t] - mean), t < len, in up to three pieces
   // (left mirror read backwards, the record, right mirror read backwards).
+  // Sample index of the virtual sample y*[k] (itself inside the record; mirrored ends).
+  std::ptrdiff_t source_index(std::ptrdiff_t k) const noexcept {
+    const auto sn = static_cast<std::ptrdiff_t>(n_data_);
+    return k < 0 ? -1 - k : (k >= sn ? 2 * sn - 1 - k : k);
+  }
+
+  // totdev: the removed line contributes slope (m^2 + E(t)) to D_t, E(t) = -(m-1-t)_+^2 -
+  // (t+1+m-N)_+^2 (the mirrored ends of the reflected line; a window [a, a+m) reaching k
+  // samples into a mirror holds k^2 more than the line there, sums of odd numbers). The
+  // constant slope m^2 stays in the carried D; this is slope E(t), in long double (exact
+  // integers times slope).
+  long double ramp_edge(std::size_t j, std::size_t t) const noexcept {
+    const long double m = static_cast<long double>(m_[j]);
+    const long double tt = static_cast<long double>(t);
+    const long double l = m - 1.0L - tt;
+    const long double r = tt + 1.0L + m - static_cast<long double>(n_data_);
+    const long double e = (l > 0.0L ? l * l : 0.0L) + (r > 0.0L ? r * r : 0.0L);
+    return -static_cast<long double>(line_.slope) * e;
+  }
+
+  // sum_i (k0 + ((p2 - 2 p1) + p0)[i] + slope E(t_first + i))^2: totdev terms that read a
+  // mirrored end (at most the first and the last m terms of factor j).
+  template <bool Wide>
+  GYRODRIFT_FUSED_INLINE double sum_sq_second_edge(const double* p0, const double* p1,
+                                                   const double* p2, std::size_t len,
+                                                   double k0, std::size_t t_first,
+                                                   std::size_t j) const noexcept {
+    const double m = static_cast<double>(m_[j]);
+    const double lo = m - 1.0 - static_cast<double>(t_first);
+    const double hi = static_cast<double>(t_first) + 1.0 + m - static_cast<double>(n_data_);
+    const double slope = line_.slope;
+#if GYRODRIFT_ALLAN_X86_DISPATCH
+    if constexpr (Wide) {
+      return fused_detail::sum_sq_second_edge_avx2(p0, p1, p2, len, k0, lo, hi, slope);
+    }
+#endif
+    return fused_detail::sum_sq16(len, [&](std::size_t i) {
+      const double u = static_cast<double>(i);
+      const double l = lo - u > 0.0 ? lo - u : 0.0;
+      const double r = hi + u > 0.0 ? hi + u : 0.0;
+      return (k0 + ((p2[i] - 2.0 * p1[i]) + p0[i])) - slope * (l * l + r * r);
+    });
+  }
+
+  // q[0] = 0, q[t+1] = q[t] + (y*[start + t] - (level + slope k)), k the source index of
+  // y*[start + t], t < len, in up to three pieces (left mirror read backwards, the record,
+  // right mirror read backwards).
   template <bool Wide, class Scalar>
   GYRODRIFT_FUSED_INLINE void prefix_virtual(const Scalar* y, std::ptrdiff_t start,
-                                             std::size_t len, double mean,
+                                             std::size_t len, double level,
                                              double* q) const noexcept {
     q[0] = 0.0;
     const auto sn = static_cast<std::ptrdiff_t>(n_data_);
+    const double slope = line_.slope;
     std::size_t t = 0;
     while (t < len) {
       const std::ptrdiff_t k = start + static_cast<std::ptrdiff_t>(t);
       std::size_t piece = len - t;
+      const std::ptrdiff_t src = source_index(k);
+      const double a = level + slope * static_cast<double>(src);
       if (k >= 0 && k < sn) {
         const auto room = static_cast<std::size_t>(sn - k);
         if (room < piece) piece = room;
-        run<Wide>(y + k, 1, piece, mean, q + t);
-      } else if (k < 0) {
-        const auto room = static_cast<std::size_t>(-k);
-        if (room < piece) piece = room;
-        run<Wide>(y + (-1 - k), -1, piece, mean, q + t);
+        run<Wide>(y + src, 1, piece, a, slope, q + t);
       } else {
-        run<Wide>(y + (2 * sn - 1 - k), -1, piece, mean, q + t);
+        if (k < 0) {
+          const auto room = static_cast<std::size_t>(-k);
+          if (room < piece) piece = room;
+        }
+        run<Wide>(y + src, -1, piece, a, -slope, q + t);
       }
       t += piece;
     }
@@ -630,14 +762,14 @@ class DeviationFused {
 
   template <bool Wide, class Scalar>
   static GYRODRIFT_FUSED_INLINE void run(const Scalar* y, std::ptrdiff_t step, std::size_t len,
-                                         double mean, double* q) noexcept {
+                                         double a, double slope, double* q) noexcept {
 #if GYRODRIFT_ALLAN_X86_DISPATCH
     if constexpr (Wide) {
-      fused_detail::prefix_sum_avx2(y, step, len, mean, q);
+      fused_detail::prefix_sum_avx2(y, step, len, a, slope, q);
       return;
     }
 #endif
-    fused_detail::prefix_sum(y, step, len, mean, q);
+    fused_detail::prefix_sum(y, step, len, a, slope, q);
   }
 
   FusedDeviation dev_{FusedDeviation::ohdev};
@@ -651,13 +783,15 @@ class DeviationFused {
   std::size_t max_terms_{0};
   std::size_t m_[MaxTaus]{};
   std::size_t n_terms_[MaxTaus]{};
-  std::size_t anchor_every_[MaxTaus]{};  // mdev: blocks between exact restarts of V and H
+  std::size_t anchor_every_[MaxTaus]{};
+  bool one_segment_[MaxTaus]{};  // factor j's streams all in one segment  // mdev: blocks between exact restarts of V and H
   std::size_t rel_[MaxTaus][kStreams]{};
   std::size_t stream_[MaxTaus][kStreams]{};
   std::size_t seg_start_[kMaxOffsets]{};
   std::size_t seg_len_[kMaxOffsets]{};
   std::size_t seg_q_[kMaxOffsets]{};
   bool pairs_{true};
+  fused_detail::RampLine line_{};  // the rate line removed in the prefix sums (accumulate)
   long double chain_[MaxTaus]{};  // H_b (ohdev, mdev) or D_b (totdev) at the block start
   long double inner_[MaxTaus]{};  // V_b (mdev)
   long double sum_sq_[MaxTaus]{};

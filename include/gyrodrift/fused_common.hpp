@@ -3,6 +3,7 @@
 // backwards (the reflected ends of the total variance), and the run-time test for the
 // AVX2+FMA builds of their hot loops. No allocation, no exceptions.
 #pragma once
+#include <cmath>
 #include <cstddef>
 #include <type_traits>
 
@@ -29,33 +30,46 @@
 namespace gyrodrift {
 namespace fused_detail {
 
-// q[t+1] = q[t] + (y[t * step] - mean) for t < len, q[0] given by the caller (the running
-// value carried in). Four independent chains over quarters, then the quarter offsets are
-// added, so the adds pipeline instead of waiting on each other. step is +1 or -1 (a
-// mirrored stretch read backwards).
+// q[t+1] = q[t] + (y[t * step] - (a + slope t)) for t < len, q[0] given by the caller (the
+// running value carried in); a + slope t is the line removed (a level when slope = 0; with
+// a and slope multiples of a RampLine unit every a + slope t is exact). Four independent
+// chains over quarters, then the quarter offsets are added, so the adds pipeline instead of
+// waiting on each other. step is +1 or -1 (a mirrored stretch read backwards).
 template <class Scalar>
 GYRODRIFT_FUSED_INLINE void prefix_sum(const Scalar* y, std::ptrdiff_t step, std::size_t len,
-                                       double mean, double* q) noexcept {
+                                       double a, double slope, double* q) noexcept {
   const std::size_t h = len / 4;
   const auto at = [&](std::size_t t) {
-    return static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]) - mean;
+    return static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]);
   };
+  // the line's value at each chain's position, advanced by slope per sample (exact on the
+  // RampLine grid; no integer-to-double conversion per sample)
+  double l0 = a;
+  double l1 = a + slope * static_cast<double>(h);
+  double l2 = a + slope * static_cast<double>(2 * h);
+  double l3 = a + slope * static_cast<double>(3 * h);
   double s0 = q[0];
   double s1 = 0.0;
   double s2 = 0.0;
   double s3 = 0.0;
   for (std::size_t t = 0; t < h; ++t) {
-    s0 += at(t);
-    s1 += at(h + t);
-    s2 += at(2 * h + t);
-    s3 += at(3 * h + t);
+    s0 += at(t) - l0;
+    s1 += at(h + t) - l1;
+    s2 += at(2 * h + t) - l2;
+    s3 += at(3 * h + t) - l3;
+    l0 += slope;
+    l1 += slope;
+    l2 += slope;
+    l3 += slope;
     q[t + 1] = s0;
     q[h + t + 1] = s1;
     q[2 * h + t + 1] = s2;
     q[3 * h + t + 1] = s3;
   }
+  double l4 = a + slope * static_cast<double>(4 * h);
   for (std::size_t t = 4 * h; t < len; ++t) {
-    s3 += at(t);
+    s3 += at(t) - l4;
+    l4 += slope;
     q[t + 1] = s3;
   }
   for (std::size_t part = 1; part < 4; ++part) {
@@ -72,10 +86,10 @@ GYRODRIFT_FUSED_INLINE void prefix_sum(const Scalar* y, std::ptrdiff_t step, std
 // four quarters run interleaved so the carry's latency (add + broadcast) is hidden. About
 // 1.5x faster than the scalar chains; the additions are grouped differently, so the
 // rounding differs from prefix_sum() (both double, ~len eps |q|).
-// Four samples y[t*step .. (t+3)*step] minus mean (step +1 or -1).
+// Four samples y[t*step .. (t+3)*step] minus line (the four values removed; step +1 or -1).
 template <class Scalar>
 __attribute__((target("avx2,fma"), always_inline)) inline __m256d load4_avx2(
-    const Scalar* y, std::ptrdiff_t step, std::size_t t, __m256d mean) noexcept {
+    const Scalar* y, std::ptrdiff_t step, std::size_t t, __m256d line) noexcept {
   __m256d x;
   const std::ptrdiff_t at =
       step == 1 ? static_cast<std::ptrdiff_t>(t) : -static_cast<std::ptrdiff_t>(t) - 3;
@@ -86,7 +100,7 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d load4_avx2(
     x = _mm256_loadu_pd(y + at);
   }
   if (step != 1) x = _mm256_permute4x64_pd(x, 0x1B);  // read backwards
-  return _mm256_sub_pd(x, mean);
+  return _mm256_sub_pd(x, line);
 }
 
 // Inclusive scan of four values plus the running value; the carry becomes the last one.
@@ -103,22 +117,32 @@ __attribute__((target("avx2,fma"), always_inline)) inline __m256d scan4_avx2(
 template <class Scalar>
 __attribute__((target("avx2,fma"))) inline void prefix_sum_avx2(const Scalar* y,
                                                                 std::ptrdiff_t step,
-                                                                std::size_t len, double mean,
+                                                                std::size_t len, double a,
+                                                                double slope,
                                                                 double* q) noexcept {
   const std::size_t h = (len / 16) * 4;  // quarter length, a multiple of 4
-  const __m256d vmean = _mm256_set1_pd(mean);
   const __m256d zero = _mm256_setzero_pd();
   __m256d c0 = _mm256_set1_pd(q[0]);
   __m256d c1 = zero;
   __m256d c2 = zero;
   __m256d c3 = zero;
+  // the line's values at t .. t + 3 of each quarter, advanced by 4 slope per step (exact
+  // when a and slope are multiples of a RampLine unit; a level when slope = 0)
+  const __m256d ramp4 = _mm256_set_pd(3.0 * slope, 2.0 * slope, slope, 0.0);
+  __m256d l0 = _mm256_add_pd(_mm256_set1_pd(a), ramp4);
+  __m256d l1 = _mm256_add_pd(_mm256_set1_pd(a + slope * static_cast<double>(h)), ramp4);
+  __m256d l2 = _mm256_add_pd(_mm256_set1_pd(a + slope * static_cast<double>(2 * h)), ramp4);
+  __m256d l3 = _mm256_add_pd(_mm256_set1_pd(a + slope * static_cast<double>(3 * h)), ramp4);
+  const __m256d step4 = _mm256_set1_pd(4.0 * slope);
   for (std::size_t t = 0; t < h; t += 4) {
-    _mm256_storeu_pd(q + t + 1, scan4_avx2(load4_avx2(y, step, t, vmean), c0));
-    _mm256_storeu_pd(q + h + t + 1, scan4_avx2(load4_avx2(y, step, h + t, vmean), c1));
-    _mm256_storeu_pd(q + 2 * h + t + 1,
-                     scan4_avx2(load4_avx2(y, step, 2 * h + t, vmean), c2));
-    _mm256_storeu_pd(q + 3 * h + t + 1,
-                     scan4_avx2(load4_avx2(y, step, 3 * h + t, vmean), c3));
+    _mm256_storeu_pd(q + t + 1, scan4_avx2(load4_avx2(y, step, t, l0), c0));
+    _mm256_storeu_pd(q + h + t + 1, scan4_avx2(load4_avx2(y, step, h + t, l1), c1));
+    _mm256_storeu_pd(q + 2 * h + t + 1, scan4_avx2(load4_avx2(y, step, 2 * h + t, l2), c2));
+    _mm256_storeu_pd(q + 3 * h + t + 1, scan4_avx2(load4_avx2(y, step, 3 * h + t, l3), c3));
+    l0 = _mm256_add_pd(l0, step4);
+    l1 = _mm256_add_pd(l1, step4);
+    l2 = _mm256_add_pd(l2, step4);
+    l3 = _mm256_add_pd(l3, step4);
   }
   for (std::size_t part = 1; part < 4 && h > 0; ++part) {
     const double base = q[part * h];
@@ -126,7 +150,8 @@ __attribute__((target("avx2,fma"))) inline void prefix_sum_avx2(const Scalar* y,
   }
   double s = q[4 * h];
   for (std::size_t t = 4 * h; t < len; ++t) {
-    s += static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]) - mean;
+    s += static_cast<double>(y[static_cast<std::ptrdiff_t>(t) * step]) -
+         (a + slope * static_cast<double>(t));
     q[t + 1] = s;
   }
 }
@@ -182,6 +207,55 @@ inline double leading_level(const Scalar* y, std::size_t n) noexcept {
   long double level{0};
   for (std::size_t i = 0; i < n_level; ++i) level += static_cast<long double>(y[i]);
   return static_cast<double>(level / static_cast<long double>(n_level));
+}
+
+// The rate line removed inside the fused kernels' prefix sums, so that a strong ramp leaves
+// them small: per block the kernels subtract level + slope k (k the sample index) instead
+// of a level. slope is the record's mean ramp (the means of its first and last 64 samples);
+// slope and every level are rounded to multiples of unit, a power of two chosen so that
+// every value of the line up to 4x the record's end levels (and any sum of such values
+// along a stretch read by the AVX2 prefix sums) is an exact double: the removed line is
+// then exactly a line, and a line drops out exactly where the estimator's coefficients
+// annihilate it (third differences: ohdev, hdev, mdev; increments of second differences:
+// oadev, totdev inside the record). unit = 0: no line (slope 0, levels as computed).
+struct RampLine {
+  double slope{0.0};
+  double unit{0.0};
+  double snap(double v) const noexcept {
+    return unit > 0.0 ? std::nearbyint(v / unit) * unit : v;
+  }
+};
+
+// From the record's first and last kRampEnd samples (head = &y[0], tail = &y[n - kRampEnd];
+// a streaming reader passes copies); none for n < 4 kRampEnd.
+constexpr std::size_t kRampEnd = 64;
+template <class Scalar>
+inline RampLine ramp_line(const Scalar* head, const Scalar* tail, std::size_t n) noexcept {
+  RampLine line;
+  constexpr std::size_t kEnd = kRampEnd;
+  if (n < 4 * kEnd) return line;
+  long double first{0};
+  long double last{0};
+  for (std::size_t i = 0; i < kEnd; ++i) {
+    first += static_cast<long double>(head[i]);
+    last += static_cast<long double>(tail[i]);
+  }
+  first /= static_cast<long double>(kEnd);
+  last /= static_cast<long double>(kEnd);
+  const long double big = 4.0L * (std::fabs(first) > std::fabs(last) ? std::fabs(first)
+                                                                       : std::fabs(last));
+  if (!std::isfinite(big) || big == 0.0L) return line;
+  int e = 0;
+  std::frexp(static_cast<double>(big), &e);  // big < 2^e
+  line.unit = std::ldexp(1.0, e - 52);        // values below 2^e: multiples of 2^(e-52) exact
+  line.slope = line.snap(static_cast<double>((last - first) /
+                                             static_cast<long double>(n - kEnd)));
+  return line;
+}
+
+template <class Scalar>
+inline RampLine ramp_line(const Scalar* y, std::size_t n) noexcept {
+  return n < 4 * kRampEnd ? RampLine{} : ramp_line(y, y + (n - kRampEnd), n);
 }
 
 // sum_{i < len} term(i)^2 in sixteen independent lanes (the add or FMA latency is hidden at
@@ -275,6 +349,73 @@ __attribute__((target("avx2,fma"))) inline void sum_sq_third_pair_avx2(
   _mm256_store_pd(lb, _mm256_add_pd(b0, b1));
   out[0] = ((la[0] + la[1]) + (la[2] + la[3])) + ta;
   out[1] = ((lb[0] + lb[1]) + (lb[2] + lb[3])) + tb;
+}
+
+// sum_i (k0 + ((p2 - 2 p1) + p0)[i] - slope (l_i^2 + r_i^2))^2, l_i = max(lo - i, 0),
+// r_i = max(hi + i, 0) (AVX2): the total variance's terms that read a mirrored end of the
+// reflected record, where the removed rate line leaves a quadratic (DeviationFused).
+// Side: 1 only l (r_i = 0 for every i < len), 2 only r, 3 both.
+template <int Side>
+__attribute__((target("avx2,fma"))) inline double sum_sq_second_edge_side_avx2(
+    const double* p0, const double* p1, const double* p2, std::size_t len, double k0,
+    double lo, double hi, double slope) noexcept {
+  const __m256d zero = _mm256_setzero_pd();
+  const __m256d vk = _mm256_set1_pd(k0);
+  const __m256d vs = _mm256_set1_pd(slope);
+  const __m256d two = _mm256_set1_pd(2.0);
+  const __m256d four = _mm256_set1_pd(4.0);
+  const __m256d iota = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
+  __m256d l = _mm256_sub_pd(_mm256_set1_pd(lo), iota);  // lo - i, i = 0..3
+  __m256d r = _mm256_add_pd(_mm256_set1_pd(hi), iota);  // hi + i
+  __m256d a0 = zero;
+  __m256d a1 = zero;
+  std::size_t i = 0;
+  for (; i + 8 <= len; i += 8) {
+    for (std::size_t h = 0; h < 8; h += 4) {
+      const __m256d x = _mm256_add_pd(
+          vk, _mm256_add_pd(_mm256_fnmadd_pd(two, _mm256_loadu_pd(p1 + i + h),
+                                             _mm256_loadu_pd(p2 + i + h)),
+                            _mm256_loadu_pd(p0 + i + h)));
+      __m256d d = x;
+      if (Side & 1) {
+        const __m256d lp = _mm256_max_pd(l, zero);
+        d = _mm256_fnmadd_pd(_mm256_mul_pd(vs, lp), lp, d);
+        l = _mm256_sub_pd(l, four);
+      }
+      if (Side & 2) {
+        const __m256d rp = _mm256_max_pd(r, zero);
+        d = _mm256_fnmadd_pd(_mm256_mul_pd(vs, rp), rp, d);
+        r = _mm256_add_pd(r, four);
+      }
+      if (h == 0) {
+        a0 = _mm256_fmadd_pd(d, d, a0);
+      } else {
+        a1 = _mm256_fmadd_pd(d, d, a1);
+      }
+    }
+  }
+  double tail = 0.0;
+  for (; i < len; ++i) {
+    const double ui = static_cast<double>(i);
+    const double lp = lo - ui > 0.0 ? lo - ui : 0.0;
+    const double rp = hi + ui > 0.0 ? hi + ui : 0.0;
+    const double d = (k0 + ((p2[i] - 2.0 * p1[i]) + p0[i])) - slope * (lp * lp + rp * rp);
+    tail += d * d;
+  }
+  alignas(32) double la[4];
+  _mm256_store_pd(la, _mm256_add_pd(a0, a1));
+  return ((la[0] + la[1]) + (la[2] + la[3])) + tail;
+}
+
+__attribute__((target("avx2,fma"))) inline double sum_sq_second_edge_avx2(
+    const double* p0, const double* p1, const double* p2, std::size_t len, double k0,
+    double lo, double hi, double slope) noexcept {
+  const double last = static_cast<double>(len) - 1.0;
+  if (hi + last <= 0.0) {
+    return sum_sq_second_edge_side_avx2<1>(p0, p1, p2, len, k0, lo, hi, slope);
+  }
+  if (lo <= 0.0) return sum_sq_second_edge_side_avx2<2>(p0, p1, p2, len, k0, lo, hi, slope);
+  return sum_sq_second_edge_side_avx2<3>(p0, p1, p2, len, k0, lo, hi, slope);
 }
 #endif
 

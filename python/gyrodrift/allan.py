@@ -404,6 +404,8 @@ def _chunked_fused_rate(mm: np.memmap, m_all: np.ndarray, chunk: int, bar: tqdm
         for lo, hi in _lib().oadev_fused_groups(n_data, np.ascontiguousarray(m_all), block):
             group = np.ascontiguousarray(m_all[lo:hi])
             st = _lib().OadevFusedStream(n_data, group, block)
+            if n_data >= 4 * 64:  # the rate line the in-memory kernel removes
+                st.set_ramp(_read_range(fh, mm, 0, 64), _read_range(fh, mm, n_data - 64, n_data))
             segs = st.segments()
             for j, m in enumerate(int(v) for v in group):
                 for a, b in zip(_file_chunks(mm, 0, m, chunk), _file_chunks(mm, m, 2 * m, chunk),

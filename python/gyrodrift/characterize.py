@@ -497,7 +497,7 @@ def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | No
     >>> print("\\n".join([line for line in text.splitlines() if not line.startswith("#")][:3]))
     rostopic: /imu0
     update_rate: 100.0
-    gyroscope_noise_density: 9.933907577761493e-06  # rad/s/sqrt(Hz), from gyro_x
+    gyroscope_noise_density: 9.933907577761487e-06  # rad/s/sqrt(Hz), from gyro_x
     """
     vals = kalibr_values(res, axis)
     if not vals:
