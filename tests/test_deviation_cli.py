@@ -65,3 +65,30 @@ def test_allan_default_table_shows_the_noise_id(tmp_path: Path,
     with pytest.raises(SystemExit) as exc:
         run(["allan", path, "--rate-hz", 10, "--deviation", "bogus"], capsys)
     assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("name", "words"), [("mdev", "Modified Allan"), ("tdev", "Time"),
+                                             ("hdev", "Hadamard"),
+                                             ("ohdev", "Overlapping Hadamard"),
+                                             ("totdev", "Total")])
+def test_allan_png_names_the_deviation(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                       monkeypatch: pytest.MonkeyPatch, name: str,
+                                       words: str) -> None:
+    # Regression: `gyrodrift allan --deviation ohdev --png` titled its plot "Overlapping
+    # Allan deviation" and labelled the axis sigma(tau), whatever the deviation.
+    import matplotlib.axes
+
+    titles: list[str] = []
+    labels: list[str] = []
+    monkeypatch.setattr(matplotlib.axes.Axes, "set_title",
+                        lambda self, t, *a, **k: titles.append(t))
+    real_ylabel = matplotlib.axes.Axes.set_ylabel
+    monkeypatch.setattr(matplotlib.axes.Axes, "set_ylabel",
+                        lambda self, t, *a, **k: (labels.append(t), real_ylabel(self, t))[1])
+    path = tmp_path / "r.npy"
+    np.save(path, np.random.default_rng(3).normal(0.0, 1.0, 4096))
+    code, _, err = run(["allan", path, "--rate-hz", 50, "--deviation", name, "--png",
+                        tmp_path / "d.png"], capsys)
+    assert code == 0, err
+    assert titles == [f"{words} deviation"]
+    assert labels and name in labels[-1]

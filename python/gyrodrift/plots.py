@@ -27,9 +27,10 @@ __all__ = ["plot_allan", "plot_allan_fit", "plot_gmwm", "plot_psd"]
 
 def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
                fit: NoiseFit | None = None, title: str = "Overlapping Allan deviation",
-               unit: str = "deg/h") -> Path:
-    """Log-log Allan deviation with confidence-interval error bars, one curve per result;
-    with `fit`, the identified model and its separate terms as lines.
+               unit: str = "deg/h", symbol: str = "sigma") -> Path:
+    """Log-log Allan deviation (or another deviation of the family: pass its `title` and
+    `symbol`, the y axis reads "symbol(tau)") with confidence-interval error bars, one curve
+    per result; with `fit`, the identified model and its separate terms as lines.
 
     Examples
     --------
@@ -64,7 +65,7 @@ def plot_allan(results: Sequence[tuple[str, AllanResult]], path: str | Path, *,
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("tau (s)")
-    ax.set_ylabel(f"sigma(tau) ({unit})")
+    ax.set_ylabel(f"{symbol}(tau) ({unit})")
     return _save(fig, ax, path, title, legend_fontsize=7)
 
 

@@ -24,6 +24,10 @@ from gyrodrift.cli.common import (
 )
 from gyrodrift.deviations import DEVIATIONS
 
+#: Plot titles of the deviations (NIST SP 1065 names).
+DEVIATION_TITLES = {"oadev": "Overlapping Allan", "mdev": "Modified Allan", "tdev": "Time",
+                    "hdev": "Hadamard", "ohdev": "Overlapping Hadamard", "totdev": "Total"}
+
 __all__ = ["ALLAN_MIN_SAMPLES", "register", "run"]
 
 #: fewest samples the command analyses: three octave taus (m = 1, 2, 4 need 2m + 1 <= n)
@@ -144,7 +148,9 @@ def run(args: argparse.Namespace) -> int:
             if afit is not None:
                 plot_allan_fit(res, afit, tmp, label=rec.source)
             else:
-                plot_allan([(rec.source, res)], tmp)
+                plot_allan([(rec.source, res)], tmp,
+                           title=f"{DEVIATION_TITLES[dev_name]} deviation",
+                           symbol="sigma" if dev_name == "oadev" else dev_name)
     if args.csv_out:
         write_csv(args.csv_out,
                   ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],
