@@ -32,6 +32,27 @@ def test_import_gyrodrift_does_not_import_replay_dependencies() -> None:
     assert out == ["[]", "[]", "['can', 'cantools', 'serial']"]
 
 
+def test_import_gyrodrift_does_not_import_the_heavy_scipy_modules() -> None:
+    # scipy.stats, scipy.signal (which loads scipy.stats) and the drift models' and GMWM's
+    # modules cost ~0.7 s of import; every command line call and each fleet worker paid them
+    # (1.15 s for `import gyrodrift` before). They load on first use of a name that needs them.
+    code = ("import sys, gyrodrift\n"
+            "heavy = {'scipy.stats', 'scipy.signal', 'gyrodrift.drift_model', 'gyrodrift.gmwm'}\n"
+            "print(sorted(heavy & set(sys.modules)))\n"
+            "import gyrodrift._fleet_worker\n"
+            "print(sorted(heavy & set(sys.modules)))\n"
+            "print(gyrodrift.identify_gmwm.__module__, gyrodrift.fit_drift_model.__module__,"
+            " gyrodrift.GmwmResult.__name__)\n"
+            "print(sorted(heavy & set(sys.modules)))\n"
+            "rec = gyrodrift.simulate(n=64, rate_hz=10.0, n_deg_rt_h=0.01, seed=1)\n"
+            "print(rec.rate_deg_h.size)\n"
+            "print(float(gyrodrift.welch_psd([0.0, 1.0] * 32, 10.0).psd[1]) > 0)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=os.environ.copy(), check=True).stdout.splitlines()
+    assert out == ["[]", "[]", "gyrodrift.gmwm gyrodrift.drift_model GmwmResult",
+                   "['gyrodrift.drift_model', 'gyrodrift.gmwm', 'scipy.stats']", "64", "True"]
+
+
 def test_help_lists_the_api() -> None:
     text = pydoc.render_doc(gyrodrift, renderer=pydoc.plaintext)
     for name in ("fit_ar2", "kalman_filter", "simulate", "RealtimeWavelet", "forced_fir_taps",

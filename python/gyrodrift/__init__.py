@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import importlib as _importlib
 import pkgutil as _pkgutil
+from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any as _Any
 
 # Lets a development build of the extension (`scripts/dev-build`, PYTHONPATH=python:build/<dir>/py)
@@ -54,9 +55,6 @@ from gyrodrift.ar2 import KalmanFilter as KalmanFilter
 from gyrodrift.ar2 import ar_filter as ar_filter
 from gyrodrift.ar2 import fit_ar2 as fit_ar2
 from gyrodrift.ar2 import kalman_filter as kalman_filter
-from gyrodrift.drift_model import DriftModelFit as DriftModelFit
-from gyrodrift.drift_model import compare_drift_models as compare_drift_models
-from gyrodrift.drift_model import fit_drift_model as fit_drift_model
 from gyrodrift.simulate import GyroRecord as GyroRecord
 from gyrodrift.simulate import ImuRecord as ImuRecord
 from gyrodrift.simulate import NoiseTerms as NoiseTerms
@@ -98,18 +96,31 @@ from gyrodrift.imu import ImuProcessor as ImuProcessor
 from gyrodrift.align import AlignConfig as AlignConfig
 from gyrodrift.align import run_alignment as run_alignment
 
-# --- GMWM noise identification (issue 11) ---
-# isort: split
-from gyrodrift.gmwm import GmwmResult as GmwmResult
-from gyrodrift.gmwm import identify_gmwm as identify_gmwm
-
-# --- replay (issue 5): imported on first use (python-can, cantools, pyserial) ---
+# --- imported on first use: replay (issue 5: python-can, cantools, pyserial), the drift
+# models' maximum likelihood (issue 10) and GMWM (issue 11) (scipy.optimize, scipy.stats:
+# ~0.6 s, which every `gyrodrift` command and each fleet worker would otherwise pay) ---
 _LAZY = {
     "ReplayOptions": "gyrodrift.replay",
     "read_imu_log": "gyrodrift.replay",
     "run_replay": "gyrodrift.replay",
     "write_imu_log": "gyrodrift.replay",
+    "DriftModelFit": "gyrodrift.drift_model",
+    "compare_drift_models": "gyrodrift.drift_model",
+    "fit_drift_model": "gyrodrift.drift_model",
+    "GmwmResult": "gyrodrift.gmwm",
+    "identify_gmwm": "gyrodrift.gmwm",
 }
+
+if _TYPE_CHECKING:  # the static view of the names above
+    from gyrodrift.drift_model import DriftModelFit as DriftModelFit
+    from gyrodrift.drift_model import compare_drift_models as compare_drift_models
+    from gyrodrift.drift_model import fit_drift_model as fit_drift_model
+    from gyrodrift.gmwm import GmwmResult as GmwmResult
+    from gyrodrift.gmwm import identify_gmwm as identify_gmwm
+    from gyrodrift.replay import ReplayOptions as ReplayOptions
+    from gyrodrift.replay import read_imu_log as read_imu_log
+    from gyrodrift.replay import run_replay as run_replay
+    from gyrodrift.replay import write_imu_log as write_imu_log
 
 __all__ = [
     "AlignConfig",
@@ -160,7 +171,7 @@ __all__ = [
 
 
 def __getattr__(name: str) -> _Any:
-    """Import the replay names on first use (PEP 562)."""
+    """Import the _LAZY names on first use (PEP 562)."""
     if name in _LAZY:
         value = getattr(_importlib.import_module(_LAZY[name]), name)
         globals()[name] = value

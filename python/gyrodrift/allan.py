@@ -32,7 +32,6 @@ from typing import Any
 
 import numpy as np
 import scipy.special
-import scipy.stats
 from tqdm import tqdm
 
 from gyrodrift import _native

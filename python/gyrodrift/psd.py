@@ -12,7 +12,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.signal
 
 from gyrodrift.errors import GyrodriftValueError
 
@@ -62,6 +61,8 @@ def welch_psd(x: np.ndarray, rate_hz: float, nperseg: int | None = None,
         nperseg = int(min(2 ** 16, 2 ** int(np.floor(np.log2(max(x.size // 8, 8))))))
     if not 8 <= nperseg <= x.size:
         raise GyrodriftValueError(f"nperseg must be in [8, {x.size}], got {nperseg}")
+    import scipy.signal  # here: `import gyrodrift` stays light (scipy.signal loads scipy.stats)
+
     f, p = scipy.signal.welch(x, fs=rate_hz, window=window, nperseg=nperseg,
                               detrend="constant", scaling="density", return_onesided=True)
     return Psd(f, p, int(nperseg), float(rate_hz))

@@ -51,8 +51,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.fft
-import scipy.signal
 
 from gyrodrift import earth
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
@@ -340,6 +338,8 @@ def _flicker(
     sqrt(S(f) / dt) gives PSD S(f). Length L = 2 n (rounded up to a fast FFT size) so that the
     first n samples are not circularly wrapped; the DC bin is zeroed (flicker has no finite mean).
     """
+    import scipy.fft  # here, not at module level: `import gyrodrift` stays light (0.15 s)
+
     length = scipy.fft.next_fast_len(2 * n, real=True)
     f_hz = np.fft.rfftfreq(length, d=dt_s)
     gain = np.zeros_like(f_hz)
@@ -355,6 +355,8 @@ def _generate(
     terms: NoiseTerms, n: int, rate_hz: float, axes: int, seed: int, keep_components: bool
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Sum of the terms as an (axes, n) array in deg/h, plus optional components."""
+    import scipy.signal  # here: `import gyrodrift` stays light (scipy.signal loads scipy.stats)
+
     dt_s = 1.0 / rate_hz
     dt_h = dt_s / 3600.0
     streams = dict(
