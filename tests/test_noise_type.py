@@ -77,3 +77,47 @@ def test_composite_record_where_the_slope_is_misled() -> None:
     assert np.mean(r.alpha[long_acf] == 0) >= 0.5
     # and the edf there differs by the factor the issue reports (random-walk vs white FM)
     assert np.max(r.edf[long_acf] / s.edf[long_acf]) > 5
+
+
+@pytest.mark.parametrize("m_grid", ["octave", "decade"])
+def test_coarsening_equals_the_direct_averages_and_reads_the_record_about_twice(
+        m_grid: str) -> None:
+    # A record long enough that factors from n // MAX_ACF_POINTS up cover it whole: those
+    # come from the averages of a smaller factor, not from another pass over the samples.
+    n = 3 * noise_type.MAX_ACF_POINTS * 8 + 5  # odd length: the last block is partial
+    y = 3.0 + np.random.default_rng(11).normal(0.0, 1e-3, n).cumsum() * 1e-2
+    if m_grid == "octave":
+        m = 2 ** np.arange(0, int(np.log2(n // noise_type.MIN_ACF_POINTS)) + 1)
+    else:
+        m = np.array([k * 10 ** d for d in range(5) for k in (1, 2, 4)
+                      if k * 10 ** d <= n // noise_type.MIN_ACF_POINTS])
+    read = []
+
+    def direct(mj: int, n_avg: int) -> np.ndarray:
+        read.append(mj * n_avg)
+        return noise_type.averages_in_memory(y)(mj, n_avg)
+
+    avg = noise_type.coarsening(direct, n)
+    for mj in (int(v) for v in m):
+        n_avg = min(n // mj, noise_type.MAX_ACF_POINTS)
+        got = avg(mj, n_avg)
+        want = y[: n_avg * mj].reshape(n_avg, mj).mean(axis=1)
+        # a mean of means of equal blocks against one mean: rounding only (values ~3, so
+        # 1e-13 relative is ~450 ulp of slack for sums of up to 2^17 terms)
+        np.testing.assert_allclose(got, want, rtol=1e-13, atol=0)
+    direct_reads = sum(min(n // int(v), noise_type.MAX_ACF_POINTS) * int(v) for v in m)
+    assert sum(read) < 0.45 * direct_reads, (sum(read) / n, direct_reads / n)
+
+
+def test_alpha_per_tau_unchanged_by_the_coarsening_on_power_law_noise() -> None:
+    # The five power-law noises: the ACF decision per tau is the same as from the direct
+    # averages (the coarsening changes only rounding).
+    for alpha in (2, 1, 0, -1, -2):
+        y = power_law_rate(alpha, 1 << 17, seed=40 + alpha)
+        m = 2 ** np.arange(0, 12)
+        slope = np.zeros(m.size, dtype=np.int64)
+        got = noise_type.alpha_per_tau(noise_type.averages_in_memory(y), m, y.size, slope)
+        want = [noise_type.lag1_alpha(y[: min(y.size // k, noise_type.MAX_ACF_POINTS) * k]
+                                      .reshape(-1, k).mean(axis=1))
+                for k in (int(v) for v in m) if y.size // k >= noise_type.MIN_ACF_POINTS]
+        assert list(got[0][: len(want)]) == [min(max(a, -2), 2) for a in want], alpha

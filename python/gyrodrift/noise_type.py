@@ -106,6 +106,7 @@ def alpha_per_tau(averages: Callable[[int, int], np.ndarray], m: np.ndarray, n_r
     alpha = np.empty(m.size, dtype=np.int64)
     method = np.empty(m.size, dtype=object)
     last: int | None = None
+    averages = coarsening(averages, n_rate)
     for j, mj in enumerate(int(v) for v in m):
         n_avg = min(n_rate // mj, MAX_ACF_POINTS)
         if n_avg >= MIN_ACF_POINTS:
@@ -117,6 +118,42 @@ def alpha_per_tau(averages: Callable[[int, int], np.ndarray], m: np.ndarray, n_r
             method[j] = "slope"
         alpha[j] = min(max(a, -2), 2)
     return alpha, method.astype(str)
+
+
+def coarsening(averages: Callable[[int, int], np.ndarray], n_rate: int
+               ) -> Callable[[int, int], np.ndarray]:
+    """averages(m, n_avg) that reads the record once for all the factors whose averages
+    cover it: once a factor k's averages span the whole record (n_avg = n_rate // k; every
+    factor from n_rate // MAX_ACF_POINTS up), a multiple m of k takes the means of m // k
+    consecutive averages of k (<= 2^14 values) instead of another pass over the n_rate
+    samples. Octave factors on 1e7 samples then read 0.21 GB per channel instead of 0.85 GB
+    (5.1 GB per 6-channel fleet log before, on the memory bus that two workers share). The result
+    equals the direct averages to rounding (a mean of means of equal-size blocks; tested to
+    1e-13); what is kept, <= 2 x 2^14 values, is dropped with the returned function.
+
+    Examples
+    --------
+    >>> y = np.arange(16.0)
+    >>> avg = coarsening(averages_in_memory(y), y.size)
+    >>> avg(2, 8)  # the whole record: kept
+    array([ 0.5,  2.5,  4.5,  6.5,  8.5, 10.5, 12.5, 14.5])
+    >>> avg(4, 4)  # from the 8 averages of 2, not from y
+    array([ 1.5,  5.5,  9.5, 13.5])
+    """
+    full: dict[int, np.ndarray] = {}  # factor -> its averages over the whole record
+
+    def reusing(m: int, n_avg: int) -> np.ndarray:
+        base = max((k for k, z in full.items() if m % k == 0 and n_avg * (m // k) <= z.size),
+                    default=None)
+        if base is None:
+            z = averages(m, n_avg)
+        else:
+            r = m // base
+            z = full[base][: n_avg * r].reshape(n_avg, r).mean(axis=1)
+        if n_avg == n_rate // m:
+            full[m] = z
+        return z
+    return reusing
 
 
 def averages_in_memory(y: np.ndarray) -> Callable[[int, int], np.ndarray]:
