@@ -434,3 +434,32 @@ def test_cli_memory_budget(logs: list[Path], tmp_path: Path,
         assert done["summary"]["reader"] == reader
     assert main([*base, "--out-dir", str(tmp_path / "bad"), "--memory-budget-mib", "-1"]) == 2
     assert "memory_budget_mib must be >= 0" in capsys.readouterr().err
+
+
+def test_own_cluster_takes_a_free_port_for_its_http_endpoint() -> None:
+    """Regression: the fleet's own scheduler bound its HTTP endpoint (health, metrics) to dask's
+    default port 8787; beside any other cluster (the tests' shared one, a second fleet in the
+    process, a user's dashboard) dask warned "Port 8787 is already in use" on every run."""
+    import socket
+    import warnings
+
+    from gyrodrift.fleet import _local_cluster
+
+    held = socket.socket()
+    try:
+        held.bind(("127.0.0.1", 8787))  # 8787 in use, by this socket or by another cluster
+        held.listen(1)
+    except OSError:
+        pass
+    try:
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            cluster = _local_cluster(1)
+            try:
+                port = cluster.scheduler.http_server.port
+            finally:
+                cluster.close()
+    finally:
+        held.close()
+    assert not [w for w in seen if "already in use" in str(w.message)]
+    assert port not in (8787, 0)

@@ -466,9 +466,9 @@ def _start_forkserver() -> None:
 
 def _local_cluster(workers: int) -> Any:
     """A LocalCluster of `workers` processes (one thread each) on 127.0.0.1, no dashboard (the
-    scheduler's HTTP endpoint for health and metrics still listens on 127.0.0.1, port 8787 or
-    a free one), workers forked from the fleet's forkserver (_start_forkserver: imports done
-    once, not per worker; a forked worker also exits without the interpreter's teardown of
+    scheduler's HTTP endpoint for health and metrics listens on a free 127.0.0.1 port),
+    workers forked from the fleet's forkserver (_start_forkserver: imports done once, not per
+    worker; a forked worker also exits without the interpreter's teardown of
     those modules, which took a spawned one 1 s at the cluster's close) and without
     UNSET_WORKER_ENV, and without the workers' statistical profiler (a stack sample every
     10 ms for a dashboard that this cluster does not have).
@@ -488,8 +488,12 @@ def _local_cluster(workers: int) -> Any:
     saved = {k: os.environ.pop(k) for k in UNSET_WORKER_ENV if k in os.environ}
     try:
         with dask.config.set(cfg):
+            # The scheduler's HTTP endpoint (health, metrics; no dashboard) on a free loopback
+            # port: its default 8787 is taken by any other cluster on the machine, and dask
+            # then warns and takes a free port anyway.
             return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                host="127.0.0.1", dashboard_address=None)
+                                host="127.0.0.1", dashboard_address=None,
+                                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
     finally:
         os.environ.update(saved)
 
