@@ -463,3 +463,20 @@ def test_own_cluster_takes_a_free_port_for_its_http_endpoint() -> None:
         held.close()
     assert not [w for w in seen if "already in use" in str(w.message)]
     assert port not in (8787, 0)
+
+
+def test_cli_with_its_own_cluster_in_a_fresh_process(logs: list[Path], tmp_path: Path) -> None:
+    """`gyrodrift fleet` as a user runs it: a fresh interpreter that has imported nothing of
+    dask (this test process has; the other tests here would not see, e.g., a dask setting read
+    before dask.distributed is imported), its own LocalCluster forked from the forkserver."""
+    import os
+    import subprocess
+    import sys
+
+    out = tmp_path / "out"
+    run = subprocess.run([sys.executable, "-m", "gyrodrift", "fleet", str(logs[0]), "--out-dir",
+                          str(out), "--rate-hz", "100", "--workers", "1", "--progress", "never"],
+                         capture_output=True, text=True, env=os.environ.copy(), timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "1 done" in run.stdout
+    assert json.loads((out / "summary.json").read_text())["n_done"] == 1
