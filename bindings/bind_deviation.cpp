@@ -86,10 +86,12 @@ std::size_t plan_block(DeviationFused<kGroup>& fused, FusedDeviation kind, std::
                                                          : totdev_terms(n_data);
     terms = std::max(terms, t);
   }
-  // mdev: V integrates H in double inside a block, so its rounding grows with the block
-  // (3.1e-13 from the long double kernels at 258048 against 2.4e-13 at 131072 on the
-  // drifting bench record); totdev: no faster at the blocks that fit. Both keep 131072.
-  const std::size_t top = kind == FusedDeviation::ohdev ? kMaxBlock : kMaxBlockOther;
+  // ohdev and mdev: the largest block whose workspace fits (mdev: V integrates H in double
+  // inside a block only within pieces of 1024 terms and is anchored every max(B, 16 m)
+  // terms; 3.1e-13 from the long double kernels at 258048 against 2.4e-13 at 131072 on the
+  // drifting bench record, well inside 1e-12). totdev: no faster at the blocks that fit,
+  // keeps 131072.
+  const std::size_t top = kind == FusedDeviation::totdev ? kMaxBlockOther : kMaxBlock;
   std::size_t hi = std::min(top, (terms / 2 + kMinBlock - 1) / kMinBlock * kMinBlock);
   hi = std::max(hi, kMinBlock) / kMinBlock;  // in units of kMinBlock
   std::size_t lo = 1;  // kMinBlock always (even when over the cap: the smallest there is)
