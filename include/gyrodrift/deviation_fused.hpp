@@ -343,6 +343,21 @@ class DeviationFused {
       std::size_t k = n_seg_ - 1;
       while (seg_start_[k] > rel_[j][0]) --k;
       one_segment_[j] = rel_[j][kStreams - 1] < seg_start_[k] + seg_len_[k];
+      for (std::size_t s = 0; s < kStreams; ++s) {
+        std::size_t ks = n_seg_ - 1;
+        while (seg_start_[ks] > rel_[j][s]) --ks;
+        seg_of_[j][s] = ks;
+      }
+    }
+    // ohdev, m = 1 and 2 first: their seven streams q + 0..6 of one run of Q, which holds
+    // at least B + 9 values (sum_sq_third_pair12_avx2 reads up to q[B + 7])
+    pair12_ = false;
+    if (dev == FusedDeviation::ohdev && n_m >= 2 && m[0] == 1 && m[1] == 2 &&
+        stream_[0][0] == seg_q_[0] && seg_start_[0] == 0 && seg_len_[0] >= block + 9) {
+      pair12_ = true;
+      for (std::size_t s = 0; s < kStreams; ++s) {
+        pair12_ = pair12_ && stream_[0][s] == seg_q_[0] + s && stream_[1][s] == seg_q_[0] + 2 * s;
+      }
     }
     n_m_ = n_m;
     return true;
@@ -541,11 +556,30 @@ class DeviationFused {
       for (std::size_t j = 0; j < n_active; ++j) {
         if (rel_[j][kStreams - 1] > reach) reach = rel_[j][kStreams - 1];
       }
+      // Each segment's prefix sums only as far as this block's active streams read them:
+      // Q[0 .. off + L], L = B where the factor carries its values on to the next block
+      // (Q[B]), else its last term's index (the last block of a factor, and factors whose
+      // terms end inside it). A full segment holds span + B values; the record's last block
+      // and the largest factors need much less.
+      std::size_t need[kMaxOffsets];
+      for (std::size_t k = 0; k < n_seg_; ++k) need[k] = 0;
+      for (std::size_t j = 0; j < n_active; ++j) {
+        const std::size_t left = n_terms_[j] - b;
+        const std::size_t last = left > bsz ? bsz : left - 1;
+        for (std::size_t s = 0; s < kStreams; ++s) {
+          const std::size_t k = seg_of_[j][s];
+          const std::size_t upto = rel_[j][s] - seg_start_[k] + last;
+          if (upto > need[k]) need[k] = upto;
+        }
+      }
+      std::size_t done[kMaxOffsets];
       for (std::size_t k = 0; k < n_seg_ && seg_start_[k] <= reach; ++k) {
         const std::ptrdiff_t start = base + static_cast<std::ptrdiff_t>(seg_start_[k]);
         const std::size_t avail = v_end > start ? static_cast<std::size_t>(v_end - start) : 0;
-        const std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
+        std::size_t len = seg_len_[k] - 1 < avail ? seg_len_[k] - 1 : avail;
+        if (need[k] < len) len = need[k];
         prefix_virtual<Wide>(y, start, len, mean, workspace + seg_q_[k]);
+        done[k] = len;
       }
       // Start values: k0[j] = (H_b or D_b) minus the combination of the Q at i = 0.
       double k0[MaxTaus];
@@ -562,8 +596,34 @@ class DeviationFused {
             const long double mm = static_cast<long double>(m_[j]);
             chain_[j] = ((q(2) - 2.0L * q(1)) + q(0)) +
                         (static_cast<long double>(line_.slope) * mm * mm + ramp_edge(j, b));
-          } else {
+          } else if (one_segment_[j]) {
             chain_[j] = (q(3) - q(0)) + 3.0L * (q(1) - q(2));
+          } else {
+            // ohdev, streams in several segments (the largest factors): the phase at each
+            // stream relative to the first segment's start, chained through each segment's
+            // last computed Q and the sum over the gap to the next segment's start (a few
+            // thousand samples at 1e6) instead of the 3 m-sample start sums.
+            long double x[kStreams];
+            long double acc = 0.0L;
+            std::size_t k = seg_of_[j][0];
+            for (std::size_t s = 0; s < kStreams; ++s) {
+              while (k < seg_of_[j][s]) {
+                acc += static_cast<long double>(workspace[seg_q_[k] + done[k]]);
+                const std::size_t g0 = seg_start_[k] + done[k];
+                if (seg_start_[k + 1] > g0) {
+                  double r = 0.0;
+                  double u = 0.0;
+                  fused_detail::range_moments<false>(
+                      y, n_data_, false, base + static_cast<std::ptrdiff_t>(g0),
+                      seg_start_[k + 1] - g0, mean,
+                      line_.slope, r, u);
+                  acc += static_cast<long double>(r);
+                }
+                ++k;
+              }
+              x[s] = acc + static_cast<long double>(p[s][0]);
+            }
+            chain_[j] = (x[3] - x[0]) + 3.0L * (x[1] - x[2]);
           }
         }
         if (reflect_) {
@@ -600,9 +660,14 @@ class DeviationFused {
               if (t0 < len2 && (len2 - t0 < kTile ? len2 - t0 : kTile) == cnt) {
                 const Streams p2 = streams(workspace, j + 1);
                 double out2[2];
-                fused_detail::sum_sq_third_pair_avx2(p[0] + t0, p[1] + t0, p[2] + t0,
-                                                     p[3] + t0, p2[2] + t0, p2[3] + t0, cnt,
-                                                     k0 + j, out2);
+                if (j == 0 && pair12_ &&
+                    reinterpret_cast<std::uintptr_t>(p[0] + t0) % 32 == 0) {
+                  fused_detail::sum_sq_third_pair12_avx2(p[0] + t0, cnt, k0, out2);
+                } else {
+                  fused_detail::sum_sq_third_pair_avx2(p[0] + t0, p[1] + t0, p[2] + t0,
+                                                       p[3] + t0, p2[2] + t0, p2[3] + t0, cnt,
+                                                       k0 + j, out2);
+                }
                 sum_sq_[j] += static_cast<long double>(out2[0]);
                 sum_sq_[j + 1] += static_cast<long double>(out2[1]);
                 ++j;
@@ -656,7 +721,7 @@ class DeviationFused {
   // is the combination of the block's Q at i = 0 (no separate sums over the samples; mdev
   // needs V_b as well).
   bool h_from_q(std::size_t j) const noexcept {
-    return dev_ != FusedDeviation::mdev && one_segment_[j];
+    return dev_ == FusedDeviation::ohdev || (dev_ == FusedDeviation::totdev && one_segment_[j]);
   }
 
   // The four stream pointers of factor j into the workspace (Q at its offsets).
@@ -787,10 +852,12 @@ class DeviationFused {
   bool one_segment_[MaxTaus]{};  // factor j's streams all in one segment  // mdev: blocks between exact restarts of V and H
   std::size_t rel_[MaxTaus][kStreams]{};
   std::size_t stream_[MaxTaus][kStreams]{};
+  std::size_t seg_of_[MaxTaus][kStreams]{};  // the segment each stream lies in
   std::size_t seg_start_[kMaxOffsets]{};
   std::size_t seg_len_[kMaxOffsets]{};
   std::size_t seg_q_[kMaxOffsets]{};
   bool pairs_{true};
+  bool pair12_{false};  // ohdev: factors 0, 1 are m = 1, 2 on one run of Q (aligned pair)
   fused_detail::RampLine line_{};  // the rate line removed in the prefix sums (accumulate)
   long double chain_[MaxTaus]{};  // H_b (ohdev, mdev) or D_b (totdev) at the block start
   long double inner_[MaxTaus]{};  // V_b (mdev)

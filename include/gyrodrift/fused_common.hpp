@@ -351,6 +351,66 @@ __attribute__((target("avx2,fma"))) inline void sum_sq_third_pair_avx2(
   out[1] = ((lb[0] + lb[1]) + (lb[2] + lb[3])) + tb;
 }
 
+// The pair of taus m = 1, 2 (streams q + 0, 1, 2, 3 and q + 0, 2, 4, 6 of one run of Q),
+// q 32-byte aligned: one aligned load per four terms, the streams at odd offsets and at 2, 6
+// formed in registers (two lane-crossing permutes and two in-lane shuffles) instead of four
+// loads that straddle 32-byte boundaries. The same operations, lanes and accumulators as
+// sum_sq_third_pair_avx2, so the same result to the bit. Reads q[0 .. len + 7] (the pair's
+// streams need q[0 .. len + 5]; a Q run for offsets 0..6 holds block + 7 values, padded to
+// a multiple of kAlignDoubles, so the two extra values are inside the workspace and unused).
+__attribute__((target("avx2,fma"))) inline void sum_sq_third_pair12_avx2(
+    const double* q, std::size_t len, const double* k0, double* out) noexcept {
+  __m256d a0 = _mm256_setzero_pd();
+  __m256d a1 = a0;
+  __m256d b0 = a0;
+  __m256d b1 = a0;
+  const __m256d ka = _mm256_set1_pd(k0[0]);
+  const __m256d kb = _mm256_set1_pd(k0[1]);
+  const __m256d three = _mm256_set1_pd(3.0);
+  std::size_t i = 0;
+  if (len >= 8) {
+    __m256d va = _mm256_load_pd(q);      // q[i .. i + 3]
+    __m256d vb = _mm256_load_pd(q + 4);  // q[i + 4 .. i + 7]
+    for (; i + 8 <= len; i += 8) {
+      for (std::size_t u = 0; u < 8; u += 4) {
+        const __m256d vc = _mm256_load_pd(q + i + u + 8);
+        const __m256d x2 = _mm256_permute2f128_pd(va, vb, 0x21);  // q[i + 2 .. i + 5]
+        const __m256d x1 = _mm256_shuffle_pd(va, x2, 0x5);        // q[i + 1 .. i + 4]
+        const __m256d x3 = _mm256_shuffle_pd(x2, vb, 0x5);        // q[i + 3 .. i + 6]
+        const __m256d y2 = vb;                                    // q[i + 4 .. i + 7]
+        const __m256d y3 = _mm256_permute2f128_pd(vb, vc, 0x21);  // q[i + 6 .. i + 9]
+        const __m256d ha = _mm256_add_pd(
+            ka, _mm256_fmadd_pd(three, _mm256_sub_pd(x1, x2), _mm256_sub_pd(x3, va)));
+        const __m256d hb = _mm256_add_pd(
+            kb, _mm256_fmadd_pd(three, _mm256_sub_pd(x2, y2), _mm256_sub_pd(y3, va)));
+        if (u == 0) {
+          a0 = _mm256_fmadd_pd(ha, ha, a0);
+          b0 = _mm256_fmadd_pd(hb, hb, b0);
+        } else {
+          a1 = _mm256_fmadd_pd(ha, ha, a1);
+          b1 = _mm256_fmadd_pd(hb, hb, b1);
+        }
+        va = vb;
+        vb = vc;
+      }
+    }
+  }
+  double ta = 0.0;
+  double tb = 0.0;
+  for (; i < len; ++i) {
+    const double ha = k0[0] + ((q[i + 3] - q[i]) + 3.0 * (q[i + 1] - q[i + 2]));
+    const double hb = k0[1] + ((q[i + 6] - q[i]) + 3.0 * (q[i + 2] - q[i + 4]));
+    ta += ha * ha;
+    tb += hb * hb;
+  }
+  alignas(32) double la[4];
+  alignas(32) double lb[4];
+  _mm256_store_pd(la, _mm256_add_pd(a0, a1));
+  _mm256_store_pd(lb, _mm256_add_pd(b0, b1));
+  out[0] = ((la[0] + la[1]) + (la[2] + la[3])) + ta;
+  out[1] = ((lb[0] + lb[1]) + (lb[2] + lb[3])) + tb;
+}
+
 // sum_i (k0 + ((p2 - 2 p1) + p0)[i] - slope (l_i^2 + r_i^2))^2, l_i = max(lo - i, 0),
 // r_i = max(hi + i, 0) (AVX2): the total variance's terms that read a mirrored end of the
 // reflected record, where the removed rate line leaves a quadratic (DeviationFused).
