@@ -252,11 +252,17 @@ def test_own_cluster_workers_start_with_the_task_libraries_loaded(tmp_path: Path
                        if m in __import__("sys").modules),
                 __import__("dask").config.get("distributed.worker.profile.enabled"),
                 __import__("os").getppid() != __import__("os").getpid())).values())
+            worker_tick = list(c.run(
+                lambda dask_worker: dask_worker.periodic_callbacks["tick"].callback_time).values())
+            scheduler_tick = c.run_on_scheduler(
+                lambda dask_scheduler: dask_scheduler.periodic_callbacks["tick"].callback_time)
     finally:
         cluster.close()
     assert state[0][0] == ["gyrodrift._fleet_worker", "gyrodrift.characterize",
                            "matplotlib.pyplot", "scipy.optimize"]
     assert state[0][1] is False
+    # the servers' event-loop tick every 1 s, not dask's 20 ms (idle CPU, _local_cluster)
+    assert worker_tick == [1000.0] and scheduler_tick == 1000.0
     log = tmp_path / "u.npy"
     np.save(log, np.random.default_rng(3).standard_normal((4000, 3)) * 1e-3)
     seen: list[dict] = []

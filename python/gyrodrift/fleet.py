@@ -470,8 +470,9 @@ def _local_cluster(workers: int) -> Any:
     workers forked from the fleet's forkserver (_start_forkserver: imports done once, not per
     worker; a forked worker also exits without the interpreter's teardown of
     those modules, which took a spawned one 1 s at the cluster's close) and without
-    UNSET_WORKER_ENV, and without the workers' statistical profiler (a stack sample every
-    10 ms for a dashboard that this cluster does not have).
+    UNSET_WORKER_ENV, without the workers' statistical profiler (a stack sample every
+    10 ms for a dashboard that this cluster does not have), and with its servers' event-loop
+    tick every 1 s instead of 20 ms.
 
     The nanny writes its variables into this process's os.environ before starting a worker
     (so any earlier default LocalCluster in the process has left MALLOC_TRIM_THRESHOLD_ there)
@@ -484,6 +485,11 @@ def _local_cluster(workers: int) -> Any:
                            for k in UNSET_WORKER_ENV}
     cfg["distributed.worker.multiprocessing-method"] = "forkserver"
     cfg["distributed.worker.profile.enabled"] = False
+    # Every server (scheduler, nannies, workers) times its event loop every tick (20 ms by
+    # default) to warn when it was blocked for seconds (tick.limit, 3 s): 1 s detects the same.
+    # Measured idle, 2 workers, 8 s: this process 0.28 -> 0.15 s CPU, each worker 0.17 ->
+    # 0.05 s; CPU the tasks get back on a machine with as many cores as workers.
+    cfg["distributed.admin.tick.interval"] = "1s"
     _start_forkserver()
     saved = {k: os.environ.pop(k) for k in UNSET_WORKER_ENV if k in os.environ}
     try:
