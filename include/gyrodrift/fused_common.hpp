@@ -307,6 +307,19 @@ __attribute__((target("avx2,fma"), always_inline)) inline void pin_register(__m2
   asm("" : "+x"(v));
 }
 
+// One step of both pair kernels: four terms of tau m (streams z, x1, x2, x3) and of tau 2 m
+// (z, x2, y2, y3), their squares added to the accumulators a and b.
+__attribute__((target("avx2,fma"), always_inline)) inline void sum_sq_third_pair_step(
+    __m256d z, __m256d x1, __m256d x2, __m256d x3, __m256d y2, __m256d y3, __m256d ka,
+    __m256d kb, __m256d three, __m256d& a, __m256d& b) noexcept {
+  const __m256d ha =
+      _mm256_add_pd(ka, _mm256_fmadd_pd(three, _mm256_sub_pd(x1, x2), _mm256_sub_pd(x3, z)));
+  const __m256d hb =
+      _mm256_add_pd(kb, _mm256_fmadd_pd(three, _mm256_sub_pd(x2, y2), _mm256_sub_pd(y3, z)));
+  a = _mm256_fmadd_pd(ha, ha, a);
+  b = _mm256_fmadd_pd(hb, hb, b);
+}
+
 // The end of both pair kernels: the scalar terms i in [i, len) of the pair (streams p0, p1,
 // p2a, p3a for tau m; p0, p2a, p2b, p3b for tau 2 m), then the four lanes of each pair of
 // accumulators added pairwise.
@@ -356,16 +369,10 @@ __attribute__((target("avx2,fma"))) inline void sum_sq_third_pair_avx2(
       const __m256d y3 = _mm256_loadu_pd(p3b + i + u);
       pin_register(z);  // both taus read z and x2
       pin_register(x2);
-      const __m256d ha = _mm256_add_pd(
-          ka, _mm256_fmadd_pd(three, _mm256_sub_pd(x1, x2), _mm256_sub_pd(x3, z)));
-      const __m256d hb = _mm256_add_pd(
-          kb, _mm256_fmadd_pd(three, _mm256_sub_pd(x2, y2), _mm256_sub_pd(y3, z)));
       if (u == 0) {
-        a0 = _mm256_fmadd_pd(ha, ha, a0);
-        b0 = _mm256_fmadd_pd(hb, hb, b0);
+        sum_sq_third_pair_step(z, x1, x2, x3, y2, y3, ka, kb, three, a0, b0);
       } else {
-        a1 = _mm256_fmadd_pd(ha, ha, a1);
-        b1 = _mm256_fmadd_pd(hb, hb, b1);
+        sum_sq_third_pair_step(z, x1, x2, x3, y2, y3, ka, kb, three, a1, b1);
       }
     }
   }
@@ -400,16 +407,10 @@ __attribute__((target("avx2,fma"))) inline void sum_sq_third_pair12_avx2(
         const __m256d x3 = _mm256_shuffle_pd(x2, vb, 0x5);        // q[i + 3 .. i + 6]
         const __m256d y2 = vb;                                    // q[i + 4 .. i + 7]
         const __m256d y3 = _mm256_permute2f128_pd(vb, vc, 0x21);  // q[i + 6 .. i + 9]
-        const __m256d ha = _mm256_add_pd(
-            ka, _mm256_fmadd_pd(three, _mm256_sub_pd(x1, x2), _mm256_sub_pd(x3, va)));
-        const __m256d hb = _mm256_add_pd(
-            kb, _mm256_fmadd_pd(three, _mm256_sub_pd(x2, y2), _mm256_sub_pd(y3, va)));
         if (u == 0) {
-          a0 = _mm256_fmadd_pd(ha, ha, a0);
-          b0 = _mm256_fmadd_pd(hb, hb, b0);
+          sum_sq_third_pair_step(va, x1, x2, x3, y2, y3, ka, kb, three, a0, b0);
         } else {
-          a1 = _mm256_fmadd_pd(ha, ha, a1);
-          b1 = _mm256_fmadd_pd(hb, hb, b1);
+          sum_sq_third_pair_step(va, x1, x2, x3, y2, y3, ka, kb, three, a1, b1);
         }
         va = vb;
         vb = vc;
