@@ -16,7 +16,8 @@ import time
 import numpy as np
 from _bench_util import machine, median_seconds
 from filterpy.kalman import KalmanFilter as FilterPyKF
-from gyrodrift.align import (
+from gyrodrift.filters.fir import forced_fir_taps
+from gyrodrift.nav import (
     AlignConfig,
     imu_increments,
     run_alignment,
@@ -24,10 +25,9 @@ from gyrodrift.align import (
     strapdown_run,
     truth_at,
 )
-from gyrodrift.align.attitude import dcm2q
-from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors
-from gyrodrift.align.study import StudyConfig, run_study
-from gyrodrift.fir import forced_fir_taps
+from gyrodrift.nav.attitude import dcm2q
+from gyrodrift.papers.alignment_study import StudyConfig, run_study
+from gyrodrift.papers.imu_errors import ImuErrors, add_imu_errors
 from gyrodrift.reference.align import FineAlignKF, run_alignment_reference
 
 

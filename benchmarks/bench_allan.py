@@ -18,7 +18,7 @@ import allantools
 import numpy as np
 from _bench_util import machine
 from _bench_util import measure_wall_cpu_peak as measure
-from gyrodrift import allan
+from gyrodrift.stability import allan
 
 
 def main() -> None:

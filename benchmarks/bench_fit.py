@@ -18,7 +18,7 @@ import warnings
 
 import numpy as np
 from _bench_util import machine, median_seconds
-from gyrodrift.drift_model import fit_drift_model
+from gyrodrift.filters.drift_model import fit_drift_model
 from scipy.signal import lfilter
 
 

@@ -39,7 +39,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _bench_util import machine
-from gyrodrift.fleet import DEFAULT_MEMORY_BUDGET_MIB, FleetOptions, run_fleet
+from gyrodrift.workflows.fleet import DEFAULT_MEMORY_BUDGET_MIB, FleetOptions, run_fleet
 
 
 def make_logs(d: Path, n_logs: int, n: int, rate_hz: float) -> list[Path]:
@@ -96,7 +96,7 @@ def run_one(w: int, paths: list[Path], out: Path, opts: FleetOptions,
     # before any timing: otherwise the first configuration (1 worker) pays ~1.2-1.8 s that
     # the second does not, which flattered the ratio.
     import distributed  # noqa: F401
-    import gyrodrift.fleet as fleet_module
+    import gyrodrift.workflows.fleet as fleet_module
     fleet_module._import_summary_libraries()
     shutil.rmtree(out, ignore_errors=True)
     rs: list[dict[str, Any]] = []

@@ -21,8 +21,8 @@ from _bench_util import machine, median_seconds
 
 def bench_size(n: int, repeats: int) -> None:
     import gyrodrift
-    from gyrodrift.gmwm import haar_wv, identify_gmwm
     from gyrodrift.reference.gmwm import haar_wv as haar_wv_ref
+    from gyrodrift.stability.gmwm import haar_wv, identify_gmwm
 
     x = gyrodrift.simulate(n=n, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=50.0,
                            gm=((5.0, 2.0),), seed=1).rate_deg_h

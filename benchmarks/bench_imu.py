@@ -18,7 +18,7 @@ import numpy as np
 from _bench_util import machine, median_seconds
 from gyrodrift import _core
 from gyrodrift.codecs import FrameParser, SampleAssembler, encode_frames, encode_sample, load_dbc
-from gyrodrift.imu import ImuChannelConfig, ImuConfig, ImuProcessor
+from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig, ImuProcessor
 from gyrodrift.reference.imu import process_imu
 
 

@@ -44,11 +44,11 @@ from pathlib import Path
 import numpy as np
 from _bench_util import machine, median_seconds
 from gyrodrift.codecs import FrameParser
+from gyrodrift.codecs.wire import Samples, encode_frames, make_samples
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.harness import ReplayOptions, ReplayResult, find_loop_binary, run_replay
 from gyrodrift.replay.processor import ProcessorSettings
-from gyrodrift.replay.wire import Samples, encode_frames, make_samples
-from gyrodrift.simulate import NoiseTerms, simulate_imu
+from gyrodrift.simulation.records import NoiseTerms, simulate_imu
 
 
 def record(n: int, rate_hz: float) -> Samples:

@@ -1,4 +1,4 @@
-"""Benchmark: gyrodrift.simulate generation speed vs allantools.noise in the same process.
+"""Benchmark: gyrodrift.simulation.records generation speed vs allantools.noise in the same process.
 
 Prints a markdown table (ns/sample, Msamples/s, ratio vs the allantools generator of the same
 noise colour, median of repeats) and the machine. Not a test: the machine is shared and noisy.

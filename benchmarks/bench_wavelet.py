@@ -18,8 +18,8 @@ import numpy as np
 import pywt
 from _bench_util import machine, median_seconds
 from gyrodrift import RealtimeWavelet
+from gyrodrift.filters.wavelet import wavedec
 from gyrodrift.reference.wavelet import realtime_window
-from gyrodrift.wavelet import wavedec
 
 
 def median_cpu_seconds(fn: Callable[[], object], repeats: int) -> float:

@@ -15,7 +15,7 @@ import math
 
 import gyrodrift
 import numpy as np
-from gyrodrift.align.psins import read_psins_imu
+from gyrodrift.io.psins import read_psins_imu
 
 RAD_S_TO_DEG_H = 180.0 / math.pi * 3600.0
 

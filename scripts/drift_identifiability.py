@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 import scipy.optimize
-from gyrodrift.drift_model import drift_fisher_information
+from gyrodrift.filters.drift_model import drift_fisher_information
 
 PAPER_PAIRS = [(-0.0340, 0.0252), (0.6868, -0.0213), (0.2297, 0.1638), (-0.0069, 0.0113)]
 RATIOS = (0.3, 1.0, 3.0)

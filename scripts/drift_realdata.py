@@ -17,8 +17,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from gyrodrift.align.psins import read_psins_imu
-from gyrodrift.drift_model import compare_drift_models
+from gyrodrift.filters.drift_model import compare_drift_models
+from gyrodrift.io.psins import read_psins_imu
 
 RAD_TO_DEG_H = 180.0 / np.pi * 3600.0
 

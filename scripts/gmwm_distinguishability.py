@@ -46,7 +46,7 @@ if __name__ == "__main__":
     os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np
-from gyrodrift import gmwm
+from gyrodrift.stability import gmwm
 
 RATE_HZ = 100.0
 DT = 1.0 / RATE_HZ

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Monte Carlo evidence for GMWM (issue 11): interval coverage, RMSE against the IEEE Std 952
 NNLS Allan fit, and model-selection hit rate, on composite models simulated by
-gyrodrift.simulate (100 Hz, deg/h).
+gyrodrift.simulation.records (100 Hz, deg/h).
 
     PYTHONPATH=python:build/dev-NAME/py python scripts/gmwm_monte_carlo.py [--reps 200]
         [--select-reps K] [--n 16384] [--workers 1] [--max-model Q+N+K+R+GM+GM] [--case C]
@@ -15,7 +15,7 @@ Per replicate (seed = case seed + replicate): the true model is fitted by GMWM (
 asymptotic 95 % intervals), model="auto" selects among the sub-models of --max-model by WIC
 (on the first --select-reps replicates: it costs ~50 true-model fits),
 and the Allan deviation (octave taus, gyrodrift.oadev) is fitted by the IEEE 952 NNLS
-(noise_id.identify, all five terms). Printed per case and parameter: the true value, the
+(ieee952.identify, all five terms). Printed per case and parameter: the true value, the
 coverage of the nominal 95 % interval, GMWM's and the Allan fit's RMSE and their ratio (the
 Allan fit has no Gauss-Markov term: n/a there), and the selection hit rate.
 tests/test_gmwm.py runs a smaller fixed-seed version through `run_case`.
@@ -52,7 +52,7 @@ RATE_HZ = 100.0
 class Case:
     name: str
     model: str
-    sim: dict[str, object]  # gyrodrift.simulate keyword arguments
+    sim: dict[str, object]  # gyrodrift.simulation.records keyword arguments
     truth: dict[str, float]  # GMWM parameter name -> true value (IEEE units)
     seed: int
 
@@ -71,7 +71,7 @@ CASES = (
          3000),
 )
 
-#: GMWM parameter -> attribute of noise_id.NoiseFit (the Allan fit's estimate of it).
+#: GMWM parameter -> attribute of ieee952.NoiseFit (the Allan fit's estimate of it).
 ALLAN_NAMES = {"Q": "q_arcsec", "N": "n_deg_rt_h", "K": "k_deg_h_rt_h"}
 
 
@@ -92,8 +92,8 @@ def one_replicate(case: Case, rep: int, n: int, max_model: str, select: bool = T
     """One record: GMWM of the true model and the Allan fit; with select, also the WIC
     selection (model="auto", ~50x the cost of the true model's fit)."""
     import gyrodrift
-    from gyrodrift import noise_id
-    from gyrodrift.gmwm import identify_gmwm
+    from gyrodrift.stability import ieee952
+    from gyrodrift.stability.gmwm import identify_gmwm
 
     rec = gyrodrift.simulate(n=n, rate_hz=RATE_HZ, seed=case.seed + rep, **case.sim)  # type: ignore[arg-type]
     x = rec.rate_deg_h
@@ -104,7 +104,7 @@ def one_replicate(case: Case, rep: int, n: int, max_model: str, select: bool = T
         out.update(selected=auto.model, hit=auto.model == true_fit.model)
     res = gyrodrift.oadev(x, RATE_HZ, taus="octave")
     pos = res.adev > 0
-    allan = noise_id.identify(res.tau_s[pos], res.adev[pos], res.edf[pos])
+    allan = ieee952.identify(res.tau_s[pos], res.adev[pos], res.edf[pos])
     for name in case.truth:
         p = true_fit.param(name)
         out[name] = (p.value, p.ci_low, p.ci_high,
@@ -115,7 +115,7 @@ def one_replicate(case: Case, rep: int, n: int, max_model: str, select: bool = T
 def select_one(case: Case, rep: int, n: int, max_model: str) -> str:
     """The model identify_gmwm(model="auto") selects on replicate rep of length n."""
     import gyrodrift
-    from gyrodrift.gmwm import identify_gmwm
+    from gyrodrift.stability.gmwm import identify_gmwm
 
     rec = gyrodrift.simulate(n=n, rate_hz=RATE_HZ, seed=case.seed + rep, **case.sim)  # type: ignore[arg-type]
     return identify_gmwm(rec.rate_deg_h, RATE_HZ, model="auto", max_model=max_model).model

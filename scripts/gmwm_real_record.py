@@ -25,7 +25,7 @@ ALLAN_FIT_MIN_S = {"x": 5.0, "y": 20.0, "z": 5.0}
 
 def load_axes(path: str | Path) -> dict[str, np.ndarray]:
     """Gyro rates in deg/h per axis (PSINS counts x 0.1 arcsec per 10 ms sample)."""
-    from gyrodrift.align.psins import read_psins_imu
+    from gyrodrift.io.psins import read_psins_imu
 
     rec = read_psins_imu(path)
     rate = rec.dtheta / rec.dt_s * (180.0 / np.pi) * 3600.0
@@ -34,9 +34,9 @@ def load_axes(path: str | Path) -> dict[str, np.ndarray]:
 
 def main(argv: list[str]) -> int:
     import gyrodrift
-    from gyrodrift import noise_id
-    from gyrodrift.allan_fit import fit_allan
-    from gyrodrift.gmwm import identify_gmwm
+    from gyrodrift.stability import ieee952
+    from gyrodrift.stability.allan_fit import fit_allan
+    from gyrodrift.stability.gmwm import identify_gmwm
 
     path = argv[0] if argv else "/work/shared/data/lasergyro.imu"
     for ax, x in load_axes(path).items():
@@ -63,8 +63,8 @@ def main(argv: list[str]) -> int:
               + f"; dropped {','.join(f.dropped)}; inside the 95 % interval at "
               f"{int(inside.sum())}/{inside.size} taus")
         rd = gyrodrift.oadev(x, 100.0, taus="octave", alpha="slope")  # the old default
-        old = noise_id.identify(rd.tau_s, rd.adev, rd.edf)
-        model = noise_id.allan_model_deg_h(rd.tau_s, old.q_arcsec, old.n_deg_rt_h, old.b_deg_h,
+        old = ieee952.identify(rd.tau_s, rd.adev, rd.edf)
+        model = ieee952.allan_model_deg_h(rd.tau_s, old.q_arcsec, old.n_deg_rt_h, old.b_deg_h,
                                            old.k_deg_h_rt_h, old.r_deg_h2)
         ratio = model / rd.adev
         print(f"old all-terms NNLS fit (whole curve, slope noise types): Q = {old.q_arcsec:.3g} "

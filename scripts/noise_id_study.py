@@ -1,4 +1,4 @@
-"""Monte Carlo of the per-tau noise identification (gyrodrift.noise_type) on the five
+"""Monte Carlo of the per-tau noise identification (gyrodrift.stability.noise_type) on the five
 power-law noises of allantools' Kasdin generator: the fraction of taus (with >= 128
 averages) where the default (lag-1 ACF, slope fallback) and the slope-only method find the
 true alpha, and the largest error. Prints a markdown table (README, issue 11).

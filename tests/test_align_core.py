@@ -13,7 +13,8 @@ import dataclasses
 
 import numpy as np
 import pytest
-from gyrodrift.align import (
+from gyrodrift.filters.fir import forced_fir_taps
+from gyrodrift.nav import (
     SCENARIOS,
     AlignConfig,
     coarse_align,
@@ -25,13 +26,13 @@ from gyrodrift.align import (
     strapdown_run,
     truth_at,
 )
-from gyrodrift.align.attitude import dcm2q, q2dcm
-from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors
-from gyrodrift.align.trajectory import Sinusoid
-from gyrodrift.earth import ARCSEC, DPH, DPSH, EARTH_RATE_RAD_S, UG, gravity_m_s2
-from gyrodrift.fir import forced_fir_taps
+from gyrodrift.nav.attitude import dcm2q, q2dcm
+from gyrodrift.nav.earth import EARTH_RATE_RAD_S, gravity_m_s2
+from gyrodrift.nav.trajectory import Sinusoid
+from gyrodrift.papers.imu_errors import ImuErrors, add_imu_errors
 from gyrodrift.reference.align import InertialCoarseAlign, Strapdown, run_alignment_reference
 from gyrodrift.reference.align.coarse import gravity_integral_i0
+from gyrodrift.units import ARCSEC, DPH, DPSH, UG
 
 
 def _phi_history(att: np.ndarray, cnb_true: np.ndarray) -> np.ndarray:

@@ -7,14 +7,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gyrodrift.align import imu_increments, scenario
-from gyrodrift.align.imu_errors import ImuErrors, add_imu_errors, kf_noise_from_samples
-from gyrodrift.align.psins import read_psins_imu
-from gyrodrift.align.study import StudyConfig, convergence_time_s, run_study
 from gyrodrift.cli import main
-from gyrodrift.earth import ARCMIN, ARCSEC, DPSH
-from gyrodrift.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
+from gyrodrift.filters.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
+from gyrodrift.io.psins import read_psins_imu
+from gyrodrift.nav import imu_increments, scenario
+from gyrodrift.papers.alignment_study import StudyConfig, convergence_time_s, run_study
+from gyrodrift.papers.imu_errors import ImuErrors, add_imu_errors, kf_noise_from_samples
 from gyrodrift.reference.wavelet import forced_fir_taps as forced_fir_taps_pywt
+from gyrodrift.units import ARCMIN, ARCSEC, DPSH
 
 # ---------------------------------------------------------------- prefilter
 
@@ -106,7 +106,7 @@ def test_white_noise_plus_bias_gains_nothing_from_the_prefilter() -> None:
     (samples 247 .. n-8). Final attitudes then agree within 1 arcsec run by run, while the
     heading itself scatters by hundreds of arcsec between runs (ARW limit ~600 arcsec for
     N = 0.01 deg/sqrt(h) after 5 min): a DC-gain-1 prefilter cannot reduce angle random walk."""
-    from gyrodrift.align import AlignConfig, run_alignment
+    from gyrodrift.nav import AlignConfig, run_alignment
 
     sc = scenario("static")
     dt = 0.01
@@ -177,7 +177,7 @@ def test_real_laser_gyro_heading_consistency(lasergyro_path: Path) -> None:
     approximate initial heading (yaw0 = -90.6 deg, i.e. heading 90.6 deg clockwise) within
     0.1 deg, and the headings agree across segments within 5 arcmin (observed ~1 arcmin
     1-sigma, 3-5 arcmin range)."""
-    from gyrodrift.align.realdata import align_segments, consistency_rows
+    from gyrodrift.papers.alignment_realdata import align_segments, consistency_rows
 
     rec = read_psins_imu(lasergyro_path)
     segs = align_segments(rec, 300.0)
@@ -215,8 +215,8 @@ def test_cli_user_errors_exit_2(argv: list[str], tmp_path: Path, capsys) -> None
 
 
 def test_vectorised_misalignment_equals_scalar_definition(rng: np.random.Generator) -> None:
-    from gyrodrift.align import euler2dcm, misalignment
-    from gyrodrift.align.study import misalignment_batch
+    from gyrodrift.nav import euler2dcm, misalignment
+    from gyrodrift.papers.alignment_study import misalignment_batch
 
     att = rng.uniform(-0.5, 0.5, (20, 3))
     c_true = np.array([euler2dcm(a + rng.normal(0, 1e-3, 3)) for a in att])

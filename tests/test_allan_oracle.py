@@ -1,4 +1,5 @@
-"""Overlapping Allan deviation (C++ kernel via gyrodrift.allan) against allantools, the numpy
+"""Overlapping Allan deviation (C++ kernel via gyrodrift.stability.allan) against allantools, the
+numpy
 reference from the definition, and the chunked (memory-mapped) path; EDF and chi-squared
 intervals against allantools.edf_simple / confidence_interval."""
 
@@ -7,8 +8,8 @@ from __future__ import annotations
 import allantools
 import numpy as np
 import pytest
-from gyrodrift import allan
 from gyrodrift.reference import oadev_phase, oadev_rate
+from gyrodrift.stability import allan, edf, noise_type
 
 # allantools forms the phase with a float64 cumulative sum (mean removed first), whose
 # rounding is ~ N * eps relative on the phase; for 2e4..1e5 samples that stays far below
@@ -123,7 +124,7 @@ def test_edf_simple_equals_allantools(alpha: int) -> None:
     for m in (1, 2, 7, 100, 1000, 4999):
         if alpha == -1 and m == 1:
             continue  # allantools drops the square of SP 1065 Table 5 here (next test)
-        assert allan.edf_simple(n_phase, m, alpha)[()] == pytest.approx(
+        assert edf.edf_simple(n_phase, m, alpha)[()] == pytest.approx(
             allantools.edf_simple(n_phase, m, alpha), rel=1e-13)
 
 
@@ -132,10 +133,10 @@ def test_edf_simple_flicker_fm_at_m1_is_of_order_n() -> None:
     (as in allantools), so a 1.8e5-sample record got a 1-sigma interval [0.7, 5] x adev
     once the lag-1 ACF (the new default) read flicker FM at the first tau. SP 1065 Table 5
     has 2 (N-2)^2 / (2.3 N - 4.9); Greenhall's exact algorithm gives 0.895 N."""
-    from gyrodrift.edf import edf_greenhall
+    from gyrodrift.stability.edf import edf_greenhall
 
     for n_phase in (1001, 184_719):
-        simple = float(allan.edf_simple(n_phase, 1, -1))
+        simple = float(edf.edf_simple(n_phase, 1, -1))
         exact = edf_greenhall(-1, 2, 1, n_phase, overlapping=True, modified=False)
         assert simple == pytest.approx(2 * (n_phase - 2) ** 2 / (2.3 * n_phase - 4.9))
         assert simple == pytest.approx(exact, rel=0.05)
@@ -144,8 +145,8 @@ def test_edf_simple_flicker_fm_at_m1_is_of_order_n() -> None:
 def test_confidence_interval_equals_allantools(rng: np.random.Generator) -> None:
     y = rng.normal(0.0, 1.0, 20_000)
     res = allan.oadev(y, 1.0, alpha=0, ci=0.9)
-    for dev, edf, lo, hi in zip(res.adev, res.edf, res.ci_low, res.ci_high, strict=True):
-        lo_ref, hi_ref = allantools.confidence_interval(dev, edf, ci=0.9)
+    for dev, dof, lo, hi in zip(res.adev, res.edf, res.ci_low, res.ci_high, strict=True):
+        lo_ref, hi_ref = allantools.confidence_interval(dev, dof, ci=0.9)
         assert lo == pytest.approx(lo_ref, rel=1e-12)
         assert hi == pytest.approx(hi_ref, rel=1e-12)
         assert lo < dev < hi
@@ -167,10 +168,10 @@ def test_ci_coverage_on_white_noise() -> None:
 
 def test_noise_alpha_from_slope_on_pure_terms() -> None:
     tau = np.logspace(0, 3, 13)
-    assert set(allan.noise_alpha_from_slope(tau, 1.0 / tau)) == {2}
-    assert set(allan.noise_alpha_from_slope(tau, tau**-0.5)) == {0}
-    assert set(allan.noise_alpha_from_slope(tau, np.ones_like(tau))) == {-1}
-    assert set(allan.noise_alpha_from_slope(tau, tau**0.5)) == {-2}
+    assert set(noise_type.noise_alpha_from_slope(tau, 1.0 / tau)) == {2}
+    assert set(noise_type.noise_alpha_from_slope(tau, tau**-0.5)) == {0}
+    assert set(noise_type.noise_alpha_from_slope(tau, np.ones_like(tau))) == {-1}
+    assert set(noise_type.noise_alpha_from_slope(tau, tau**0.5)) == {-2}
 
 
 def test_bad_input_errors(rng: np.random.Generator) -> None:
@@ -234,7 +235,7 @@ def test_fused_kernel_equals_per_tau_kernel_on_drifting_record(rng) -> None:
 def test_in_memory_path_allocates_little(rng) -> None:
     import tracemalloc
 
-    from gyrodrift import noise_type
+    from gyrodrift.stability import noise_type
 
     y = rng.normal(size=2_000_000)
     for alpha, extra in (("slope", 0), (None, 6 * 8 * noise_type.MAX_ACF_POINTS)):
@@ -269,11 +270,11 @@ def test_memmap_path_memory_is_bounded(tmp_path, rng) -> None:
 
 def test_real_laser_gyro_record_equals_allantools(tmp_path) -> None:
     """The shared ring-laser record (integer pulse counts, 0.1 arcsec each, 100 Hz): loaded
-    as per-sample angle increments through gyrodrift.io, Allan deviation equals allantools,
+    as per-sample angle increments through gyrodrift.io.records, Allan deviation equals allantools,
     and the vertical gyro sees the Earth rate (15.041 deg/h * sin(34.246 deg) = 8.46 deg/h;
     the vehicle stood with its engine running, so 0.3 deg/h covers bias and disturbance)."""
     from conftest import SHARED_DATA, skip_unless_ci
-    from gyrodrift import io
+    from gyrodrift.io import records
 
     path = SHARED_DATA / "lasergyro.imu"
     if not path.exists():
@@ -284,7 +285,7 @@ def test_real_laser_gyro_record_equals_allantools(tmp_path) -> None:
     # header line as data)
     assert counts.shape == (184_718, 6)
     np.save(tmp_path / "gz.npy", counts[:, 2] * 0.1)  # arcsec per 10 ms sample
-    rec = io.load_record(tmp_path / "gz.npy", rate_hz=100.0, units="arcsec")
+    rec = records.load_record(tmp_path / "gz.npy", rate_hz=100.0, units="arcsec")
     z_deg_h = np.asarray(rec.rate_deg_h)
     assert np.mean(z_deg_h) == pytest.approx(15.041 * np.sin(np.radians(34.246048)), abs=0.3)
     res = allan.oadev(z_deg_h, 100.0, taus="decade", per_decade=8)

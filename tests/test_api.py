@@ -23,7 +23,7 @@ def test_import_gyrodrift_does_not_import_replay_dependencies() -> None:
     code = ("import sys, gyrodrift\n"
             "heavy = {'can', 'cantools', 'serial', 'dask', 'rosbags', 'matplotlib'}\n"
             "print(sorted(heavy & set(sys.modules)))\n"
-            "gyrodrift.fit_ar2, gyrodrift.simulate, gyrodrift.oadev\n"
+            "gyrodrift.fit_ar2, gyrodrift.simulation.records, gyrodrift.oadev\n"
             "print(sorted(heavy & set(sys.modules)))\n"
             "gyrodrift.ReplayOptions\n"
             "print(sorted({'can', 'cantools', 'serial'} & set(sys.modules)))\n")
@@ -37,9 +37,10 @@ def test_import_gyrodrift_does_not_import_the_heavy_scipy_modules() -> None:
     # modules cost ~0.7 s of import; every command line call and each fleet worker paid them
     # (1.15 s for `import gyrodrift` before). They load on first use of a name that needs them.
     code = ("import sys, gyrodrift\n"
-            "heavy = {'scipy.stats', 'scipy.signal', 'gyrodrift.drift_model', 'gyrodrift.gmwm'}\n"
+            "heavy = {'scipy.stats', 'scipy.signal', 'gyrodrift.filters.drift_model',"
+            " 'gyrodrift.stability.gmwm'}\n"
             "print(sorted(heavy & set(sys.modules)))\n"
-            "import gyrodrift._fleet_worker\n"
+            "import gyrodrift.workflows._fleet_worker\n"
             "print(sorted(heavy & set(sys.modules)))\n"
             "print(gyrodrift.identify_gmwm.__module__, gyrodrift.fit_drift_model.__module__,"
             " gyrodrift.GmwmResult.__name__)\n"
@@ -49,8 +50,9 @@ def test_import_gyrodrift_does_not_import_the_heavy_scipy_modules() -> None:
             "print(float(gyrodrift.welch_psd([0.0, 1.0] * 32, 10.0).psd[1]) > 0)\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=os.environ.copy(), check=True).stdout.splitlines()
-    assert out == ["[]", "[]", "gyrodrift.gmwm gyrodrift.drift_model GmwmResult",
-                   "['gyrodrift.drift_model', 'gyrodrift.gmwm', 'scipy.stats']", "64", "True"]
+    assert out == ["[]", "[]", "gyrodrift.stability.gmwm gyrodrift.filters.drift_model GmwmResult",
+                   "['gyrodrift.filters.drift_model', 'gyrodrift.stability.gmwm', 'scipy.stats']",
+                   "64", "True"]
 
 
 def test_help_lists_the_api() -> None:
@@ -157,9 +159,9 @@ def test_one_core_loader_with_one_message(monkeypatch: pytest.MonkeyPatch) -> No
     extension or binding area is one clear ImportError."""
     from gyrodrift import _native
 
-    assert _native.core("ar2", "ar2_fit").__name__ == "gyrodrift._core"
+    assert _native.core("ar2").__name__ == "gyrodrift._core"
     with pytest.raises(ImportError, match="built without the 'nope' binding area"):
-        _native.core("nope", "no_such_function")
+        _native.core("nope")
     monkeypatch.setitem(sys.modules, "gyrodrift._core", None)  # import now fails
     monkeypatch.delattr(gyrodrift, "_core", raising=False)
     with pytest.raises(ImportError, match="C\\+\\+ extension\\) is not available"):

@@ -6,7 +6,7 @@ import gyrodrift
 import numpy as np
 import pytest
 from gyrodrift import Ar2Model, KalmanFilter, _core
-from gyrodrift.ar2 import kalman_filter_result
+from gyrodrift.filters.ar2 import kalman_filter_result
 
 MODEL = Ar2Model(a1=0.45, a2=0.12, sigma2=0.8, mean=3.0, r=1.1)
 S = _core.Ar2KalmanSettings
@@ -150,7 +150,7 @@ def test_out_partly_overlapping_x_gives_the_result_of_a_copy(
 ) -> None:
     """out= a view that partly overlaps x (not x itself) must not change the result: it
     did (error 0.54 in the issue), because samples were overwritten before being read."""
-    from gyrodrift.ar2 import ar_filter, kalman_filter
+    from gyrodrift.filters.ar2 import ar_filter, kalman_filter
 
     model = Ar2Model(a1=0.6, a2=0.25, sigma2=1e-2, mean=0.05, r=2e-3)
     n = 500

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from filterpy.kalman import KalmanFilter as FilterPyKF
 from gyrodrift import Ar2Model, KalmanFilter
-from gyrodrift.ar2 import kalman_filter_result
+from gyrodrift.filters.ar2 import kalman_filter_result
 
 N = 100_000  # the comparison length
 

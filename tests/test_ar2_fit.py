@@ -232,7 +232,7 @@ def test_root_modulus_flags_trending_records() -> None:
 
 
 def test_python_constants_match_cpp() -> None:
-    from gyrodrift.ar2 import MIN_SAMPLES
+    from gyrodrift.filters.ar2 import MIN_SAMPLES
 
     assert _core.AR2_MIN_SAMPLES == MIN_SAMPLES
 

@@ -11,7 +11,7 @@ import gyrodrift.reference as ref
 import numpy as np
 import pytest
 from gyrodrift import Ar2Model, KalmanFilter
-from gyrodrift.ar2 import kalman_filter_result
+from gyrodrift.filters.ar2 import kalman_filter_result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

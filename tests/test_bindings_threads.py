@@ -24,7 +24,7 @@ from collections.abc import Callable
 
 import numpy as np
 from gyrodrift import _core
-from gyrodrift.imu import ImuChannelConfig, ImuConfig, ImuProcessor
+from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig, ImuProcessor
 
 THREADS = 4
 CALLS = 6

@@ -30,8 +30,8 @@ from gyrodrift.codecs.can_signals import (
     decode_table_text,
     load_signal_map,
 )
+from gyrodrift.io.imu_log import CAN_FORMATS, read_imu_log
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
-from gyrodrift.replay.logs import CAN_FORMATS, read_imu_log
 from gyrodrift.replay.processor import ProcessorSettings
 
 DATA = Path(__file__).parent / "data"
@@ -231,7 +231,7 @@ def test_signal_map_errors(tmp_path: Path) -> None:
 
 
 def test_signals_refused_for_frame_logs(tmp_path: Path) -> None:
-    from gyrodrift.replay.logs import write_imu_log
+    from gyrodrift.io.imu_log import write_imu_log
 
     p = write_imu_log(tmp_path / "a.bin", np.arange(3) / 400, np.zeros((3, 3)), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="CAN logs"):

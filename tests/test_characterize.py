@@ -11,13 +11,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gyrodrift.characterize import (
+from gyrodrift.io.imu_data import CHANNELS, ImuData
+from gyrodrift.workflows.characterize import (
     characterize,
     kalibr_values,
     kalibr_yaml,
     self_check,
 )
-from gyrodrift.imu_io import CHANNELS, ImuData
 
 # allan_variance_ros's published simulator settings (its README / imu simulator config).
 GYRO_N = 1.888339e-4  # rad/s/sqrt(Hz)
@@ -161,7 +161,7 @@ def test_html_report_renders_in_headless_chromium(tmp_path: Path) -> None:
     cols = {name: rng.standard_normal(n) * (1e-3 if name.startswith("gyro") else 1e-2)
             for name in CHANNELS}
     res = characterize(ImuData(cols, 100.0, "browser", "simulated", n))
-    from gyrodrift.cli.characterize import write_outputs
+    from gyrodrift.workflows.characterize import write_outputs
 
     html = tmp_path / "report.html"
     write_outputs(res, kalibr=kalibr_yaml(res), kalibr_path=None, html_path=str(html),
@@ -192,7 +192,7 @@ def test_real_lasergyro_record(lasergyro_path: Path) -> None:
     file; the IEEE 952 term model cannot describe the vibration hump and tau^-1 slope of the
     gyros, which the result must say (band_scale > 1) rather than hide behind narrow
     intervals."""
-    from gyrodrift.imu_io import load_imu
+    from gyrodrift.io.imu_data import load_imu
 
     rec = load_imu(lasergyro_path)
     assert rec.names == CHANNELS and rec.rate_hz == pytest.approx(100.0)
@@ -213,7 +213,7 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
     IEEE units of the deg/h record unit). A stand-in returning known values checks the channel
     scaling and the conversions back to SI; without the function the error is clear."""
     import gyrodrift
-    from gyrodrift.characterize import characterize_channel
+    from gyrodrift.workflows.characterize import characterize_channel
 
     x = np.random.default_rng(0).standard_normal(4000) * 1e-3
     if not hasattr(gyrodrift, "identify_gmwm"):
@@ -231,7 +231,7 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
         seen["x"] = xd
         return type("R", (), {"model": "N+K", "params": (P("N", 0.3), P("K", 12.0))})()
 
-    monkeypatch.setattr(gyrodrift, "identify_gmwm", fake, raising=False)
+    monkeypatch.setattr(gyrodrift.stability.gmwm, "identify_gmwm", fake)
     c = characterize_channel(x, 100.0, "gyro_x", method="gmwm")
     # The gyro channel goes in as deg/h.
     np.testing.assert_allclose(seen["x"], x * 180.0 / math.pi * 3600.0, rtol=1e-15)
@@ -249,7 +249,7 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
 def test_gmwm_method_with_the_real_identify_gmwm() -> None:
     """--method gmwm end to end with issue 11's GMWM (not a stand-in): white gyro noise of a
     known density is identified as model N, and the density's 95 % interval holds the truth."""
-    from gyrodrift.characterize import characterize_channel
+    from gyrodrift.workflows.characterize import characterize_channel
 
     rate_hz, n_true = 100.0, 1e-4  # rad/s/sqrt(Hz)
     x = np.random.default_rng(3).standard_normal(2**14) * n_true * math.sqrt(rate_hz)

@@ -11,7 +11,7 @@ import gyrodrift
 import gyrodrift.cli as cli
 import numpy as np
 import pytest
-from gyrodrift import allan
+from gyrodrift.stability import allan
 
 MINE = ["simulate", "filter", "allan", "psd", "compare"]
 
@@ -223,7 +223,7 @@ def test_filter_float_core_close_to_double(tmp_path: Path, capsys) -> None:
 
 @pytest.mark.parametrize("suffix", [".bin", ".log", ".asc", ".blf"])
 def test_simulate_imu_logs_read_back(tmp_path: Path, capsys, suffix: str) -> None:
-    from gyrodrift.replay.logs import read_imu_log
+    from gyrodrift.io.imu_log import read_imu_log
 
     path = tmp_path / f"imu{suffix}"
     info = run_json(["simulate", "-o", path, "--n", 300, "--rate-hz", 100, "--arw-deg-rt-h", 0.01,

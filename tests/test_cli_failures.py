@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gyrodrift.cli import main
-from gyrodrift.cli.common import atomic_output
+from gyrodrift.io.atomic import atomic_output
 
 RATE_HZ = 100.0
 
@@ -296,7 +296,7 @@ def test_compare_failure_midway_leaves_no_file(tmp_path: Path, rec: Path, capsys
     file (a full disk) must leave none of them, partial or complete, and no directory it
     made. Before, compare.md and compare.csv stayed, and the failing PNG stayed half
     written (issue 13)."""
-    from gyrodrift import plots
+    from gyrodrift.report import plots
 
     def fail_midway(series: object, path: str | Path, **kw: object) -> None:
         Path(path).write_bytes(b"\x89PNG partial")

@@ -286,7 +286,7 @@ def test_property_cpp_and_python_parsers_agree(parts: list[bytes], chunk: int) -
 
 def _frames_seen(data: bytes, chunk: int = 4096) -> tuple[list[int], list[int], list[int]]:
     """seq of every frame found by the C++ parser, the Python twin and replay.wire."""
-    from gyrodrift.replay.wire import decode_stream
+    from gyrodrift.codecs.wire import decode_stream
 
     cpp, _, py, _ = parse_both(data, chunk)
     wire = decode_stream(data)
@@ -365,7 +365,7 @@ def test_property_valid_frame_after_any_bytes_is_decoded(
     assert {k: cs[k] for k in ps} == ps
     check_accounting(cs)
     assert cpp and cpp[-1] == want
-    from gyrodrift.replay.wire import decode_stream
+    from gyrodrift.codecs.wire import decode_stream
 
     wire = decode_stream(data)
     assert wire.samples.seq.size and int(wire.samples.seq[-1]) == f.seq

@@ -7,7 +7,8 @@ import math
 import gyrodrift
 import numpy as np
 import pytest
-from gyrodrift import allan, compare, noise_id
+from gyrodrift.papers import table1 as compare
+from gyrodrift.stability import allan, ieee952
 
 
 def test_default_rate_solves_the_variance_budget() -> None:
@@ -31,7 +32,7 @@ def test_default_record_matches_published_raw_row() -> None:
     assert model.a1 == pytest.approx(compare.PAPER_AR2[0], abs=0.012)
     assert model.a2 == pytest.approx(compare.PAPER_AR2[1], abs=0.012)
     r = allan.oadev(x, fs)
-    fit = noise_id.paper_fit(r.tau_s, r.adev)
+    fit = ieee952.paper_fit(r.tau_s, r.adev)
     # N from the -1/2 branch over 16 octaves: 10 %. Q is a small term at tau0 (quantization
     # variance is 0.8 % of the total): only its order of magnitude is identifiable, x3.
     assert fit.n_deg_rt_h == pytest.approx(0.0012, rel=0.10)

@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gyrodrift.config import (
+from gyrodrift.codecs.wire import decode_stream, encode_frames, make_samples
+from gyrodrift.imu.config import (
     Ar2KalmanStage,
     BiasRemoval,
     ChannelConfig,
@@ -33,9 +34,9 @@ from gyrodrift.config import (
     parse_config,
     write_config,
 )
-from gyrodrift.imu import FLAG_REJECTED, ImuConfig, ImuProcessor
+from gyrodrift.imu.contract import FLAG_REJECTED
+from gyrodrift.imu.processor import ImuConfig, ImuProcessor
 from gyrodrift.reference.imu import process_imu
-from gyrodrift.replay.wire import decode_stream, encode_frames, make_samples
 from test_loop_program import Loop, loop_bin  # noqa: F401 (fixture)
 
 MODEL = {"a1": 0.6868, "a2": -0.0213, "q": 1e-6, "r": 4e-6}  # paper 002 model, rad/s units
@@ -220,7 +221,7 @@ def test_cli_config_commands(tmp_path: Path) -> None:
 def test_emitted_taps_are_the_forced_fir_of_the_reference() -> None:
     """The flash taps (oldest first, as FirPrefilter takes them) equal the reference forced FIR
     (PyWavelets, per unit window; newest first) reversed, in float32."""
-    from gyrodrift.config_cpp import emit_cpp
+    from gyrodrift.imu.firmware_header import emit_cpp
     from gyrodrift.reference.wavelet import forced_fir_taps
 
     text = emit_cpp(default_config())
@@ -236,7 +237,7 @@ def test_emitted_taps_are_the_forced_fir_of_the_reference() -> None:
 def test_committed_cortex_m_header_is_generated(tmp_path: Path) -> None:
     """cpp/cortex_m/generated/gyrodrift_budget_config.hpp is what emit-cpp writes from
     cpp/cortex_m/budget_config.toml (regenerate it after changing the file or the generator)."""
-    from gyrodrift.config_cpp import emit_cpp
+    from gyrodrift.imu.firmware_header import emit_cpp
 
     root = Path(__file__).resolve().parents[1] / "cpp" / "cortex_m"
     cfg = load_config(root / "budget_config.toml")

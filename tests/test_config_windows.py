@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gyrodrift import _core
-from gyrodrift.config import (
+from gyrodrift.codecs.wire import make_samples
+from gyrodrift.imu.config import (
     Ar2KalmanStage,
     BiasRemoval,
     ChannelConfig,
@@ -33,9 +34,9 @@ from gyrodrift.config import (
     parse_config,
     write_config,
 )
-from gyrodrift.imu import FLAG_REJECTED, ImuChannelConfig, ImuConfig, ImuProcessor, WaveletSettings
+from gyrodrift.imu.contract import FLAG_REJECTED
+from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig, ImuProcessor, WaveletSettings
 from gyrodrift.reference.imu import process_imu
-from gyrodrift.replay.wire import make_samples
 from test_config_file import MODEL, run_loop
 from test_loop_program import loop_bin  # noqa: F401 (fixture)
 

@@ -97,7 +97,7 @@ def test_every_subcommand_has_json(name: str) -> None:
 
 
 def test_ci_default_is_one_sigma() -> None:
-    from gyrodrift.allan import ONE_SIGMA_CI
+    from gyrodrift.stability.allan import ONE_SIGMA_CI
 
     action = next(a for a in _subparsers()["allan"]._actions if "--ci" in a.option_strings)
     assert action.default == ONE_SIGMA_CI
@@ -117,15 +117,19 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 # (constants and the Earth model, errors, attitude algebra, configuration records, the record
 # types a reference consumes).
 REFERENCE_MAY_IMPORT = {
-    "gyrodrift.earth", "gyrodrift.errors", "gyrodrift.align.attitude", "gyrodrift.align.config",
-    "gyrodrift.imu",  # the processor contract: flag bits, channel names, configuration types
-    "gyrodrift.config",  # the processor configuration file (records and reader, no algorithm)
+    "gyrodrift.nav.earth", "gyrodrift.errors", "gyrodrift.nav.attitude",
+    "gyrodrift.nav.align_config",
+    "gyrodrift.imu.processor",  # configuration types the reference processor consumes
+    "gyrodrift.imu.contract",  # the processor contract: flag bits, health counter names
+    "gyrodrift.units",  # unit constants
+    "gyrodrift.imu.config",  # the processor configuration file (records and reader, no algorithm)
 }
 # Single names the references may take from a production module: the model record, its error
 # and input checks; not the fits and filters under test.
 REFERENCE_MAY_IMPORT_NAMES = {
-    "gyrodrift.ar2.MIN_SAMPLES", "gyrodrift.ar2.Ar2FitError", "gyrodrift.ar2.Ar2Model",
-    "gyrodrift.ar2.is_stationary", "gyrodrift.ar2.normalise_method",
+    "gyrodrift.filters.ar2.MIN_SAMPLES", "gyrodrift.filters.ar2.Ar2FitError",
+    "gyrodrift.filters.ar2.Ar2Model",
+    "gyrodrift.filters.ar2.is_stationary", "gyrodrift.filters.ar2.normalise_method",
 }
 
 
@@ -185,7 +189,7 @@ def test_reference_imports_only_neutral_production_helpers() -> None:
 
 
 def test_alignment_references_live_under_reference() -> None:
-    import gyrodrift.align as align
+    import gyrodrift.nav as align
     import gyrodrift.reference as ref
 
     for name in ("Strapdown", "InertialCoarseAlign", "FineAlignKF", "run_alignment_reference"):
@@ -253,7 +257,7 @@ def test_replay_codecs_imu_raise_gyrodrift_errors() -> None:
     import numpy as np
     from gyrodrift.codecs import FrameError, encode_frames
     from gyrodrift.errors import GyrodriftError, GyrodriftTypeError, GyrodriftValueError
-    from gyrodrift.imu import ImuConfig, ImuProcessor
+    from gyrodrift.imu.processor import ImuConfig, ImuProcessor
     from gyrodrift.replay import FaultSpec, ReplayError, log_format
 
     with pytest.raises(GyrodriftValueError, match="within"):

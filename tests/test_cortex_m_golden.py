@@ -27,8 +27,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gyrodrift.config import load_config
-from gyrodrift.imu import ImuConfig
+from gyrodrift.imu.config import load_config
+from gyrodrift.imu.processor import ImuConfig
 from test_cortex_m_gate import CM_DIR, EIGEN_DIR, INCLUDE_DIR, build_unit, toolchain
 
 FLASH_BUDGET = 16 * 1024
@@ -114,7 +114,7 @@ def test_fused_multiply_add_build_within_bound(runs: dict[str, np.ndarray]) -> N
 
 
 def test_outputs_match_the_double_reference(runs: dict[str, np.ndarray]) -> None:
-    from gyrodrift.ar2 import Ar2Model
+    from gyrodrift.filters.ar2 import Ar2Model
     from gyrodrift.reference.ar2 import kalman_filter
     from gyrodrift.reference.imu import process_imu
     from gyrodrift.reference.wavelet import realtime_wavelet

@@ -13,8 +13,9 @@ from pathlib import Path
 import allantools
 import numpy as np
 import pytest
-from gyrodrift import deviation, edf, reference
-from gyrodrift.allan import chi2_interval
+from gyrodrift import deviation, reference
+from gyrodrift.stability import edf
+from gyrodrift.stability.allan import chi2_interval
 
 # allantools forms the phase with a float64 cumulative sum; on 1e5 samples with a 15 deg/h
 # offset its rounding stays ~1e-13 relative on the deviation: 1e-9 is the brief's bar.

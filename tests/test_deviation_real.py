@@ -11,7 +11,7 @@ import allantools
 import gyrodrift
 import numpy as np
 import pytest
-from gyrodrift.align.psins import read_psins_imu
+from gyrodrift.io.psins import read_psins_imu
 
 
 @pytest.fixture(scope="module")

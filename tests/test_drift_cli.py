@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import tomllib
 from gyrodrift.cli import main
-from gyrodrift.drift_model import compare_drift_models
+from gyrodrift.filters.drift_model import compare_drift_models
 from scipy.signal import lfilter
 
 
@@ -72,7 +72,7 @@ def test_fit_filter_failure_is_one_line(tmp_path: Path, capsys: pytest.CaptureFi
                                         monkeypatch: pytest.MonkeyPatch) -> None:
     """Regression: a filter that cannot be built (a steady-state recursion that does not
     converge) ended `gyrodrift fit` in a traceback; it is a one-line error, exit 2."""
-    from gyrodrift.drift_model import DriftModelFit
+    from gyrodrift.filters.drift_model import DriftModelFit
 
     def no_filter(self: DriftModelFit) -> None:
         raise ValueError("Ar2SteadyStateKalman: not converged")
@@ -103,7 +103,7 @@ def test_config_uses_the_minimax_tuning_when_not_identified() -> None:
     # A near-white record (-0.0340/0.0252, r/q = 1): the fit cannot split drift from white
     # noise, so the written stage is the q = r tuning (filter_params), not the raw ML q, r.
     from gyrodrift.cli.fit import config_toml
-    from gyrodrift.drift_model import fit_drift_model
+    from gyrodrift.filters.drift_model import fit_drift_model
 
     rng = np.random.default_rng(200)
     x = lfilter([1.0], [1.0, 0.0340, -0.0252], rng.normal(0.0, 1.0, 22000))[2000:]

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 import scipy.linalg
 from gyrodrift._native import core
-from gyrodrift.drift_model import drift_fisher_information
+from gyrodrift.filters.drift_model import drift_fisher_information
 from scipy.signal import lfilter
 
 N_EXACT = 800

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 import statsmodels.api as sm  # test oracle
 from gyrodrift._native import core
-from gyrodrift.drift_model import compare_drift_models, fit_drift_model, ljung_box
+from gyrodrift.filters.drift_model import compare_drift_models, fit_drift_model, ljung_box
 from gyrodrift.reference.drift import drift_loglike as ref_loglike
 from scipy.signal import lfilter
 
@@ -278,7 +278,7 @@ def test_long_record_fit_reaches_the_higher_mode(seed: int) -> None:
     # 1.3 (seed 6) and 0.3 (seed 10) log-likelihood units: the fit stopped in a local mode and
     # its filter's MSE was 26 % above the optimum. Oracle: L-BFGS-B on the full record started
     # at the simulation's true parameters (independent of the fit's multi-start).
-    from gyrodrift.drift_model import _optimise, _Profile, _u_of
+    from gyrodrift.filters.drift_model import _optimise, _Profile, _u_of
 
     rng = np.random.default_rng(seed)
     n = 60000

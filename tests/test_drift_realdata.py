@@ -6,8 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from gyrodrift.align.psins import read_psins_imu
-from gyrodrift.drift_model import compare_drift_models
+from gyrodrift.filters.drift_model import compare_drift_models
+from gyrodrift.io.psins import read_psins_imu
 
 
 def _quiet_segment(path: Path) -> tuple[np.ndarray, float]:

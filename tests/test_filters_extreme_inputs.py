@@ -15,9 +15,9 @@ import warnings
 import numpy as np
 import pytest
 from gyrodrift import _core
-from gyrodrift.ar2 import Ar2Model, kalman_filter_result
-from gyrodrift.imu import ImuChannelConfig, ImuConfig, ImuProcessor, WaveletSettings
-from gyrodrift.wavelet import RealtimeWavelet
+from gyrodrift.filters.ar2 import Ar2Model, kalman_filter_result
+from gyrodrift.filters.wavelet import RealtimeWavelet
+from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig, ImuProcessor, WaveletSettings
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

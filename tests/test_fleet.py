@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gyrodrift.fleet import FleetOptions, load_spec, run_fleet
+from gyrodrift.workflows.fleet import FleetOptions, load_spec, run_fleet
 
 
 @pytest.fixture(scope="module")
@@ -151,7 +151,7 @@ def test_in_memory_reader_equals_the_spool(logs: list[Path], tmp_path: Path, tau
     in-memory Allan kernel) gives exactly the numbers of the spooled path (budget 0: float64
     files read back in chunks), which was the only path before: every result, every number.
     The corrupt log fails with the same reason either way."""
-    from gyrodrift.fleet import characterize_log
+    from gyrodrift.workflows.fleet import characterize_log
 
     for log in logs:
         got = {}
@@ -173,7 +173,7 @@ def test_in_memory_reader_equals_the_spool_beyond_one_allan_chunk(tmp_path: Path
     """Longer than the Allan code's file chunk (2^20 samples), where the spooled path sums
     each tau's averages across chunk boundaries: still the same numbers, octave and decade
     taus (three float32 gyro channels of 1.2e6 samples, white noise plus a random walk)."""
-    from gyrodrift.fleet import characterize_log
+    from gyrodrift.workflows.fleet import characterize_log
 
     rng = np.random.default_rng(21)
     n = 1_200_000
@@ -210,7 +210,7 @@ def test_own_cluster_spawns_workers_without_malloc_trim_threshold(
     import os
 
     from distributed import Client
-    from gyrodrift.fleet import UNSET_WORKER_ENV, _local_cluster
+    from gyrodrift.workflows.fleet import UNSET_WORKER_ENV, _local_cluster
 
     assert "MALLOC_TRIM_THRESHOLD_" in UNSET_WORKER_ENV
     monkeypatch.setenv("MALLOC_TRIM_THRESHOLD_", "65536")  # as an earlier cluster leaves it
@@ -235,19 +235,21 @@ def test_own_cluster_spawns_workers_without_malloc_trim_threshold(
 
 def test_own_cluster_workers_start_with_the_task_libraries_loaded(tmp_path: Path) -> None:
     """The fleet's own workers are forked from a forkserver that imported dask.distributed,
-    gyrodrift, scipy and matplotlib once (gyrodrift._fleet_worker): a worker has them loaded
+    gyrodrift, scipy and matplotlib once (gyrodrift.workflows._fleet_worker): a worker has them
+    loaded
     before its first task (a spawned worker imported them itself, each worker again: 1.3-2 s
     of CPU per worker), runs without the statistical profiler, and the cluster is closed, its
     worker processes gone, when run_fleet returns (the close overlaps the summary); its
     results equal the serial run's."""
     from distributed import Client
-    from gyrodrift.fleet import _local_cluster
+    from gyrodrift.workflows.fleet import _local_cluster
 
     cluster = _local_cluster(1)
     try:
         with Client(cluster) as c:
             state = list(c.run(lambda: (
-                sorted(m for m in ("gyrodrift._fleet_worker", "gyrodrift.characterize",
+                sorted(m for m in ("gyrodrift.workflows._fleet_worker",
+                "gyrodrift.workflows.characterize",
                                    "matplotlib.pyplot", "scipy.optimize")
                        if m in __import__("sys").modules),
                 __import__("dask").config.get("distributed.worker.profile.enabled"),
@@ -258,7 +260,7 @@ def test_own_cluster_workers_start_with_the_task_libraries_loaded(tmp_path: Path
                 lambda dask_scheduler: dask_scheduler.periodic_callbacks["tick"].callback_time)
     finally:
         cluster.close()
-    assert state[0][0] == ["gyrodrift._fleet_worker", "gyrodrift.characterize",
+    assert state[0][0] == ["gyrodrift.workflows._fleet_worker", "gyrodrift.workflows.characterize",
                            "matplotlib.pyplot", "scipy.optimize"]
     assert state[0][1] is False
     # the servers' event-loop tick every 1 s, not dask's 20 ms (idle CPU, _local_cluster)
@@ -276,7 +278,7 @@ def test_own_cluster_workers_start_with_the_task_libraries_loaded(tmp_path: Path
 
 def test_close_error_is_raised_after_the_summary() -> None:
     """The cluster's close runs in a thread beside the summary; an error in it is not lost."""
-    from gyrodrift.fleet import _InThread
+    from gyrodrift.workflows.fleet import _InThread
 
     def fail() -> None:
         raise RuntimeError("close failed")
@@ -290,9 +292,9 @@ def test_close_error_is_raised_after_the_summary() -> None:
 _MEMORY_SCRIPT = r"""
 import json, sys, tracemalloc
 import numpy as np
-import gyrodrift.allan as allan
-import gyrodrift.imu_io as imu_io
-from gyrodrift.fleet import FleetOptions, characterize_log
+import gyrodrift.stability.allan as allan
+import gyrodrift.io.imu_data as imu_io
+from gyrodrift.workflows.fleet import FleetOptions, characterize_log
 
 def rss_mib():
     with open("/proc/self/status") as fh:
@@ -449,7 +451,7 @@ def test_own_cluster_takes_a_free_port_for_its_http_endpoint() -> None:
     import socket
     import warnings
 
-    from gyrodrift.fleet import _local_cluster
+    from gyrodrift.workflows.fleet import _local_cluster
 
     held = socket.socket()
     try:

@@ -9,8 +9,8 @@ import math
 import gyrodrift
 import numpy as np
 import pytest
-from gyrodrift import gmwm
 from gyrodrift.reference import gmwm as ref
+from gyrodrift.stability import gmwm
 
 DEG = math.pi / 180.0
 

@@ -13,8 +13,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from gyrodrift.config import load_config
-from gyrodrift.imu import ImuConfig, ImuProcessor, describe_flags
+from gyrodrift.imu.config import load_config
+from gyrodrift.imu.contract import describe_flags
+from gyrodrift.imu.processor import ImuConfig, ImuProcessor
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 CHANNELS = ("gx", "gy", "gz", "ax", "ay", "az")

@@ -12,9 +12,9 @@ from pathlib import Path
 import gyrodrift
 import numpy as np
 import pytest
-from gyrodrift import noise_id
-from gyrodrift.allan_fit import fit_allan
-from gyrodrift.gmwm import identify_gmwm
+from gyrodrift.stability import ieee952
+from gyrodrift.stability.allan_fit import fit_allan
+from gyrodrift.stability.gmwm import identify_gmwm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 import gmwm_real_record as real
@@ -51,10 +51,10 @@ def test_allan_fit_inside_deviation_interval(axes, ax: str) -> None:
     assert "N" in fit.names and {"B", "K", "R"} <= set(fit.dropped)
 
 
-def _all_terms_fit(x: np.ndarray, alpha: str | None) -> tuple[noise_id.NoiseFit, np.ndarray]:
+def _all_terms_fit(x: np.ndarray, alpha: str | None) -> tuple[ieee952.NoiseFit, np.ndarray]:
     r = gyrodrift.oadev(x, 100.0, taus="octave", alpha=alpha)
-    fit = noise_id.identify(r.tau_s, r.adev, r.edf)
-    model = noise_id.allan_model_deg_h(r.tau_s, fit.q_arcsec, fit.n_deg_rt_h, fit.b_deg_h,
+    fit = ieee952.identify(r.tau_s, r.adev, r.edf)
+    model = ieee952.allan_model_deg_h(r.tau_s, fit.q_arcsec, fit.n_deg_rt_h, fit.b_deg_h,
                                        fit.k_deg_h_rt_h, fit.r_deg_h2)
     return fit, model / r.adev
 

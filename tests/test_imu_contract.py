@@ -1,7 +1,8 @@
 """One source of truth for the processor contract (issue 12): flag bits, health counter names,
 rejection names and defaults are defined once in include/gyrodrift/imu_processor.hpp and
 exported by gyrodrift._core. This test fails if any other copy differs: the C++ constants
-themselves (a flag added without a table entry), gyrodrift.imu, the loop's JSON, the README
+themselves (a flag added without a table entry), gyrodrift.imu.processor, the loop's JSON, the
+README
 table. (The replay harness's rejection names are checked at run time against the loop's JSON
 by its own `loop_processor_rejections` check.)"""
 
@@ -11,15 +12,16 @@ import re
 import subprocess
 from pathlib import Path
 
-import gyrodrift.imu as imu
+import gyrodrift.imu.processor as imu
 from gyrodrift._native import core
+from gyrodrift.imu import contract
 from test_loop_program import PASS, Loop, _frames, loop_bin  # noqa: F401 (fixture)
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
 def _core_contract() -> tuple[dict[str, int], tuple[str, ...], tuple[str, ...]]:
-    c = core("imu", "IMU_FLAGS")
+    c = core("imu")
     return dict(c.IMU_FLAGS), tuple(c.IMU_HEALTH_KEYS), tuple(c.IMU_REJECTION_KEYS)
 
 
@@ -41,11 +43,11 @@ def test_header_constants_equal_the_exported_table() -> None:
 def test_python_takes_the_contract_from_core() -> None:
     flags, health, _ = _core_contract()
     for name, bit in flags.items():
-        assert getattr(imu, f"FLAG_{name.upper()}") == bit
-    assert imu.FLAG_NAMES == {b: n for n, b in flags.items()}
-    assert imu.HEALTH_KEYS == health
-    c = core("imu", "IMU_FLAGS")
-    assert imu.RESYNC_AFTER == c.IMU_RESYNC_AFTER == 8
+        assert getattr(contract, f"FLAG_{name.upper()}") == bit
+    assert contract.FLAG_NAMES == {b: n for n, b in flags.items()}
+    assert contract.HEALTH_KEYS == health
+    c = core("imu")
+    assert contract.RESYNC_AFTER == c.IMU_RESYNC_AFTER == 8
     assert imu.ImuConfig().period_us == c.IMU_DEFAULT_PERIOD_US
     assert imu.ImuConfig().time_tolerance_us == c.IMU_DEFAULT_TIME_TOLERANCE_US
     assert tuple(imu.ImuProcessor(imu.ImuConfig(
@@ -84,7 +86,7 @@ def test_loop_demo_model_has_one_source(loop_bin: Path) -> None:  # noqa: F811
     ProcessorSettings all carry the exported values (before: three hand-typed copies)."""
     from gyrodrift.replay.processor import ProcessorSettings
 
-    demo = dict(core("imu", "IMU_DEMO_AR2").IMU_DEMO_AR2)
+    demo = dict(core("imu").IMU_DEMO_AR2)
     s = ProcessorSettings()
     assert {k: getattr(s, k) for k in demo} == demo
     processing = (ROOT / "cpp" / "programs" / "gyrodrift-loop" / "processing.hpp").read_text()

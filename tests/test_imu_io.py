@@ -1,4 +1,4 @@
-"""Multi-channel IMU inputs (gyrodrift.imu_io): .npy, text tables, PSINS .imu, replay logs and
+"""Multi-channel IMU inputs (gyrodrift.io.imu_data): .npy, text tables, PSINS .imu, replay logs and
 ROS bags written by rosbags' own writers (rosbag1, rosbag2 with sqlite3 and MCAP storage)."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from gyrodrift.imu_io import CHANNELS, load_imu
+from gyrodrift.io.imu_data import CHANNELS, load_imu
 
 RATE = 100.0
 
@@ -117,7 +117,7 @@ def test_psins_imu(tmp_path: Path) -> None:
                                counts[:, 5] * 125e-6 * 9.80665 * 100.0, rtol=1e-14)
     assert rec.rate_hz == pytest.approx(100.0)
     # The one-channel reader (allan, psd, filter) takes it too, in deg/h.
-    from gyrodrift.io import load_record
+    from gyrodrift.io.records import load_record
 
     one = load_record(path, column="x")
     np.testing.assert_allclose(one.rate_deg_h, counts[:, 0] * 0.1 * 100.0, rtol=1e-12)
@@ -146,7 +146,7 @@ def test_one_channel_commands_accept_psins(tmp_path: Path, command: str,
 
 
 def test_replay_log(tmp_path: Path) -> None:
-    from gyrodrift.replay.logs import write_imu_log
+    from gyrodrift.io.imu_log import write_imu_log
 
     t, vals = _data()
     path = write_imu_log(tmp_path / "imu.bin", t, vals[:, :3], vals[:, 3:])
@@ -275,7 +275,7 @@ def test_npy_channels_one_at_a_time_equal_the_spool(tmp_path: Path, layout: str)
     """The fleet's in-memory reader (NpyChannels.channel: one channel per pass, chunks of 7
     rows) gives the spool's values bit for bit (the same float64 conversion and unit factor),
     for C and Fortran order, a 1-D record, and named columns in deg/s with a skipped one."""
-    from gyrodrift.imu_io import NpyChannels
+    from gyrodrift.io.imu_data import NpyChannels
 
     _, vals = _data(n=101)
     kw: dict = {"rate_hz": RATE, "chunk_rows": 7}
@@ -301,7 +301,7 @@ def test_npy_channels_one_at_a_time_equal_the_spool(tmp_path: Path, layout: str)
 def test_npy_channels_refuse_nan_anywhere_before_the_first_channel(tmp_path: Path) -> None:
     """A NaN in the last column is refused by the first channel read (the pass counts every
     used column), with the spool's message and count; a skipped column's NaN is not counted."""
-    from gyrodrift.imu_io import NpyChannels
+    from gyrodrift.io.imu_data import NpyChannels
 
     _, vals = _data(n=50)
     vals[[3, 40], 5] = np.nan
@@ -322,7 +322,7 @@ def test_npy_channels_refuse_nan_anywhere_before_the_first_channel(tmp_path: Pat
 
 _FAULTS_SCRIPT = r"""
 import resource, sys
-from gyrodrift.imu_io import NpyChannels
+from gyrodrift.io.imu_data import NpyChannels
 
 def faults():
     return resource.getrusage(resource.RUSAGE_SELF).ru_minflt

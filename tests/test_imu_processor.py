@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from conftest import SHARED_DATA, skip_unless_ci
 from gyrodrift import _core, fit_ar2, simulate_imu
-from gyrodrift.imu import (
+from gyrodrift.imu.contract import (
     FLAG_CONFIG_ERROR,
     FLAG_DUPLICATE,
     FLAG_FILTER_FAULT,
@@ -21,14 +21,11 @@ from gyrodrift.imu import (
     FLAG_SEQ_GAP,
     FLAG_STUCK,
     FLAG_TIME_JUMP,
-    ImuChannelConfig,
-    ImuConfig,
-    ImuProcessor,
-    WaveletSettings,
     describe_flags,
 )
+from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig, ImuProcessor, WaveletSettings
 from gyrodrift.reference.imu import process_imu
-from gyrodrift.simulate import NoiseTerms
+from gyrodrift.simulation.records import NoiseTerms
 
 N = 3000
 PERIOD_US = 2500

@@ -9,7 +9,7 @@ import json
 
 import numpy as np
 from gyrodrift.cli.common import emit_json
-from gyrodrift.json_text import json_text
+from gyrodrift.io.json_text import json_text
 
 
 def _strict_loads(text: str) -> object:
@@ -35,7 +35,7 @@ def test_fleet_result_and_summary_files_are_strict(tmp_path, monkeypatch) -> Non
     result has no fitted Allan curve (fit_adev NaN at every tau) and an interval may be
     unbounded (inf); a stand-in identify_gmwm gives both, run serially in this process."""
     import gyrodrift
-    from gyrodrift.fleet import FleetOptions, run_fleet, write_summary
+    from gyrodrift.workflows.fleet import FleetOptions, run_fleet, write_summary
 
     class P:
         def __init__(self, name: str, value: float, hi: float) -> None:
@@ -71,7 +71,7 @@ def test_replay_report_file_is_strict(tmp_path) -> None:
     """replay's report.json (had its own cleaner: NaN as null but Inf as the strings "inf" /
     "-inf", a number turned into text) goes through json_text like every JSON output."""
     from gyrodrift.replay.harness import ReplayResult
-    from gyrodrift.replay.report import write_json
+    from gyrodrift.report.replay import write_json
 
     report = {"ok": False, "comparison": {"max_abs_error": [float("inf"), 1e-6, -np.inf]},
               "latency_us": {"p50": float("nan"), "n": np.int64(0)}}

@@ -20,8 +20,8 @@ import numpy as np
 import pytest
 from conftest import skip_unless_ci
 from gyrodrift.codecs import TYPE_OUTPUT
+from gyrodrift.codecs.wire import decode_stream, encode_frames, make_samples
 from gyrodrift.replay.harness import LOOP_RELATIVE
-from gyrodrift.replay.wire import decode_stream, encode_frames, make_samples
 
 # The default processor needs a gyro model; pass-through on every channel makes the expected
 # outputs equal the inputs (bit-exact float32), which is what these transport tests want.

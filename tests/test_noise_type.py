@@ -1,4 +1,5 @@
-"""Per-tau noise identification (gyrodrift.noise_type; default of oadev and deviation): the
+"""Per-tau noise identification (gyrodrift.stability.noise_type; default of oadev and deviation):
+the
 lag-1 ACF method where >= 30 averages exist, the slope method beyond, on the five power-law
 noises of allantools' Kasdin generator (fixed seeds), on a composite record where the slope
 method is misled, and the per-tau method field. The large version is
@@ -10,7 +11,7 @@ import gyrodrift
 import numpy as np
 import pytest
 from allantools.noise_kasdin import Noise
-from gyrodrift import noise_type
+from gyrodrift.stability import noise_type
 
 
 def power_law_rate(alpha: int, n: int, seed: int) -> np.ndarray:

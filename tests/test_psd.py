@@ -6,7 +6,7 @@ import gyrodrift
 import numpy as np
 import pytest
 import scipy.signal
-from gyrodrift import psd
+from gyrodrift.stability import psd
 
 
 def test_white_level_gives_arw() -> None:

@@ -14,8 +14,8 @@ import can
 import numpy as np
 import pytest
 from gyrodrift.codecs import INPUT_BASE_ID, encode_sample
+from gyrodrift.io.imu_log import CAN_FORMATS, read_imu_log
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
-from gyrodrift.replay.logs import CAN_FORMATS, read_imu_log
 from gyrodrift.replay.processor import ProcessorSettings
 
 SUFFIX = {"candump": ".log", "asc": ".asc", "blf": ".blf"}

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from gyrodrift.cli import CliError
 from gyrodrift.cli import replay as replay_cli
+from gyrodrift.io.imu_log import write_imu_log
 from gyrodrift.replay.harness import LOOP_RELATIVE
-from gyrodrift.replay.logs import write_imu_log
 
 
 def _run(argv: list[str]) -> int:

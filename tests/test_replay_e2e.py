@@ -17,11 +17,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gyrodrift.codecs.wire import Samples, make_samples
 from gyrodrift.replay.faults import FAULT_KINDS, FaultSpec, plan_transmission
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, ReplayResult, run_replay
 from gyrodrift.replay.processor import ProcessorSettings
-from gyrodrift.replay.wire import Samples, make_samples
-from gyrodrift.simulate import NoiseTerms, simulate_imu
+from gyrodrift.simulation.records import NoiseTerms, simulate_imu
 
 
 @pytest.fixture(scope="module")

@@ -6,13 +6,13 @@ import binascii
 
 import numpy as np
 import pytest
+from gyrodrift.codecs.wire import encode_frames, make_samples
 from gyrodrift.replay.faults import (
     FaultSpec,
     corrupt_serial_frame,
     corrupt_slcan_line,
     plan_transmission,
 )
-from gyrodrift.replay.wire import encode_frames, make_samples
 
 T_S = np.arange(10000) / 400.0
 

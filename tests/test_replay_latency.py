@@ -10,10 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gyrodrift.codecs.wire import make_samples
 from gyrodrift.replay import transport
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
 from gyrodrift.replay.processor import ProcessorSettings
-from gyrodrift.replay.wire import make_samples
 
 PREEMPT_S = 0.004  # longer than the loop's period (1 ms) plus its reply time
 

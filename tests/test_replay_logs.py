@@ -9,12 +9,12 @@ import can
 import numpy as np
 import pytest
 from gyrodrift.codecs import FrameParser, crc16_ccitt_false
-from gyrodrift.replay.logs import FORMATS, read_imu_log, write_imu_log
-from gyrodrift.replay.wire import (
+from gyrodrift.codecs.wire import (
     decode_stream,
     encode_frames,
     make_samples,
 )
+from gyrodrift.io.imu_log import FORMATS, read_imu_log, write_imu_log
 
 SUFFIX = {"bin": ".bin", "csv": ".csv", "candump": ".log", "asc": ".asc", "blf": ".blf"}
 

@@ -10,9 +10,9 @@ from pathlib import Path
 import gyrodrift
 import numpy as np
 from conftest import SHARED_DATA, skip_unless_ci
+from gyrodrift.codecs.wire import make_samples
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
 from gyrodrift.replay.processor import ProcessorSettings
-from gyrodrift.replay.wire import make_samples
 
 ARCSEC_RAD = np.pi / 180 / 3600
 DT_S = 0.01  # sampling interval 10 ms (data README)

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gyrodrift.replay import ReplayResult
-from gyrodrift.replay.report import write_png
+from gyrodrift.report.replay import write_png
 
 
 @pytest.mark.parametrize("latency_us", [np.full(50, 300.0), np.linspace(250.0, 400.0, 50)])

@@ -17,7 +17,7 @@ import pytest
 import pywt
 from conftest import REPO_ROOT
 from gyrodrift import _core
-from gyrodrift.wavelet import wavedec, waverec
+from gyrodrift.filters.wavelet import wavedec, waverec
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

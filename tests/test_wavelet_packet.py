@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 import pywt
 from gyrodrift import best_basis, wavelet_packet_denoise
+from gyrodrift.filters.wavelet_packet import wavelet_packet_denoise_result
 from gyrodrift.reference.wavelet import best_basis_bruteforce
-from gyrodrift.wavelet_packet import wavelet_packet_denoise_result
 
 LEAVES3 = ["aaa", "aad", "ada", "add", "daa", "dad", "dda", "ddd"]
 

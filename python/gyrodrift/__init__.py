@@ -17,7 +17,7 @@ tested. Conventions (unit suffixes, results, errors): CONTRIBUTING.md.
   python-can, cantools and pyserial on first use only).
 - Alignment: `AlignConfig`, `run_alignment`.
 - GMWM noise-model identification with intervals and selection: `identify_gmwm`,
-  `GmwmResult` (issue 11; the Allan fit with selection is `gyrodrift.allan_fit`).
+  `GmwmResult` (issue 11; the Allan fit with selection is `gyrodrift.stability.allan_fit`).
 - Errors: `GyrodriftError`, `GyrodriftValueError`, `GyrodriftTypeError`.
 
 Examples
@@ -49,52 +49,52 @@ from gyrodrift.errors import GyrodriftValueError as GyrodriftValueError
 
 # isort: split
 # --- foundation (issue 2): simulator, AR(2) identification, AR and AR(2)-Kalman filters ---
-from gyrodrift.ar2 import Ar2FitError as Ar2FitError
-from gyrodrift.ar2 import Ar2Model as Ar2Model
-from gyrodrift.ar2 import KalmanFilter as KalmanFilter
-from gyrodrift.ar2 import ar_filter as ar_filter
-from gyrodrift.ar2 import fit_ar2 as fit_ar2
-from gyrodrift.ar2 import kalman_filter as kalman_filter
-from gyrodrift.simulate import GyroRecord as GyroRecord
-from gyrodrift.simulate import ImuRecord as ImuRecord
-from gyrodrift.simulate import NoiseTerms as NoiseTerms
-from gyrodrift.simulate import simulate as simulate
-from gyrodrift.simulate import simulate_imu as simulate_imu
+from gyrodrift.filters.ar2 import Ar2FitError as Ar2FitError
+from gyrodrift.filters.ar2 import Ar2Model as Ar2Model
+from gyrodrift.filters.ar2 import KalmanFilter as KalmanFilter
+from gyrodrift.filters.ar2 import ar_filter as ar_filter
+from gyrodrift.filters.ar2 import fit_ar2 as fit_ar2
+from gyrodrift.filters.ar2 import kalman_filter as kalman_filter
+from gyrodrift.simulation.records import GyroRecord as GyroRecord
+from gyrodrift.simulation.records import ImuRecord as ImuRecord
+from gyrodrift.simulation.records import NoiseTerms as NoiseTerms
+from gyrodrift.simulation.records import simulate as simulate
+from gyrodrift.simulation.records import simulate_imu as simulate_imu
 
 # isort: split
 # --- wavelets (issue 3) ---
-from gyrodrift.fir import forced_fir_taps as forced_fir_taps
-from gyrodrift.wavelet import RealtimeWavelet as RealtimeWavelet
-from gyrodrift.wavelet import wavelet_denoise as wavelet_denoise
-from gyrodrift.wavelet_packet import best_basis as best_basis
-from gyrodrift.wavelet_packet import wavelet_packet_denoise as wavelet_packet_denoise
+from gyrodrift.filters.fir import forced_fir_taps as forced_fir_taps
+from gyrodrift.filters.wavelet import RealtimeWavelet as RealtimeWavelet
+from gyrodrift.filters.wavelet import wavelet_denoise as wavelet_denoise
+from gyrodrift.filters.wavelet_packet import best_basis as best_basis
+from gyrodrift.filters.wavelet_packet import wavelet_packet_denoise as wavelet_packet_denoise
 
 # --- Allan / PSD / analysis (issue 4) ---
 # isort: split
-from gyrodrift.allan import AllanResult as AllanResult
-from gyrodrift.allan import oadev as oadev
-from gyrodrift.deviations import deviation as deviation
-from gyrodrift.deviations import hdev as hdev
-from gyrodrift.deviations import mdev as mdev
-from gyrodrift.deviations import ohdev as ohdev
-from gyrodrift.deviations import tdev as tdev
-from gyrodrift.deviations import totdev as totdev
-from gyrodrift.io import load_record as load_record
-from gyrodrift.noise_id import identify_noise as identify_noise
-from gyrodrift.noise_id import paper_fit as paper_fit
-from gyrodrift.noise_id import slope_method as slope_method
-from gyrodrift.psd import welch_psd as welch_psd
+from gyrodrift.io.records import load_record as load_record
+from gyrodrift.stability.allan import AllanResult as AllanResult
+from gyrodrift.stability.allan import oadev as oadev
+from gyrodrift.stability.deviations import deviation as deviation
+from gyrodrift.stability.deviations import hdev as hdev
+from gyrodrift.stability.deviations import mdev as mdev
+from gyrodrift.stability.deviations import ohdev as ohdev
+from gyrodrift.stability.deviations import tdev as tdev
+from gyrodrift.stability.deviations import totdev as totdev
+from gyrodrift.stability.ieee952 import identify_noise as identify_noise
+from gyrodrift.stability.ieee952 import paper_fit as paper_fit
+from gyrodrift.stability.ieee952 import slope_method as slope_method
+from gyrodrift.stability.psd import welch_psd as welch_psd
 
 # --- IMU processor (issue 5) ---
 # isort: split
-from gyrodrift.imu import ImuChannelConfig as ImuChannelConfig
-from gyrodrift.imu import ImuConfig as ImuConfig
-from gyrodrift.imu import ImuProcessor as ImuProcessor
+from gyrodrift.imu.processor import ImuChannelConfig as ImuChannelConfig
+from gyrodrift.imu.processor import ImuConfig as ImuConfig
+from gyrodrift.imu.processor import ImuProcessor as ImuProcessor
 
 # --- alignment (issue 6) ---
 # isort: split
-from gyrodrift.align import AlignConfig as AlignConfig
-from gyrodrift.align import run_alignment as run_alignment
+from gyrodrift.nav import AlignConfig as AlignConfig
+from gyrodrift.nav import run_alignment as run_alignment
 
 # --- imported on first use: replay (issue 5: python-can, cantools, pyserial), the drift
 # models' maximum likelihood (issue 10) and GMWM (issue 11) (scipy.optimize, scipy.stats:
@@ -104,23 +104,23 @@ _LAZY = {
     "read_imu_log": "gyrodrift.replay",
     "run_replay": "gyrodrift.replay",
     "write_imu_log": "gyrodrift.replay",
-    "DriftModelFit": "gyrodrift.drift_model",
-    "compare_drift_models": "gyrodrift.drift_model",
-    "fit_drift_model": "gyrodrift.drift_model",
-    "GmwmResult": "gyrodrift.gmwm",
-    "identify_gmwm": "gyrodrift.gmwm",
+    "DriftModelFit": "gyrodrift.filters.drift_model",
+    "compare_drift_models": "gyrodrift.filters.drift_model",
+    "fit_drift_model": "gyrodrift.filters.drift_model",
+    "GmwmResult": "gyrodrift.stability.gmwm",
+    "identify_gmwm": "gyrodrift.stability.gmwm",
 }
 
 if _TYPE_CHECKING:  # the static view of the names above
-    from gyrodrift.drift_model import DriftModelFit as DriftModelFit
-    from gyrodrift.drift_model import compare_drift_models as compare_drift_models
-    from gyrodrift.drift_model import fit_drift_model as fit_drift_model
-    from gyrodrift.gmwm import GmwmResult as GmwmResult
-    from gyrodrift.gmwm import identify_gmwm as identify_gmwm
+    from gyrodrift.filters.drift_model import DriftModelFit as DriftModelFit
+    from gyrodrift.filters.drift_model import compare_drift_models as compare_drift_models
+    from gyrodrift.filters.drift_model import fit_drift_model as fit_drift_model
     from gyrodrift.replay import ReplayOptions as ReplayOptions
     from gyrodrift.replay import read_imu_log as read_imu_log
     from gyrodrift.replay import run_replay as run_replay
     from gyrodrift.replay import write_imu_log as write_imu_log
+    from gyrodrift.stability.gmwm import GmwmResult as GmwmResult
+    from gyrodrift.stability.gmwm import identify_gmwm as identify_gmwm
 
 __all__ = [
     "AlignConfig",

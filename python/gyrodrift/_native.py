@@ -13,9 +13,10 @@ True
 
 from __future__ import annotations
 
+import importlib
 from types import ModuleType
 
-__all__ = ["core"]
+__all__ = ["AREA_PROBES", "core"]
 
 _MISSING = (
     "gyrodrift._core (the C++ extension) is not available: install the package "
@@ -24,16 +25,26 @@ _MISSING = (
 )
 
 
-def core(area: str | None = None, attr: str | None = None) -> ModuleType:
+#: One name each binding area defines: its presence tells that the extension was built with
+#: the area (a development build may select a subset, GYRODRIFT_BINDINGS in CMake).
+AREA_PROBES = {
+    "ar2": "ar2_kalman_batch",
+    "wavelet": "realtime_wavelet_max_level",
+    "allan": "deviation_sigma2",
+    "imu": "ImuProcessor",
+    "align": "align_run",
+    "drift": "drift_loglike",
+}
+
+
+def core(area: str | None = None) -> ModuleType:
     """Return ``gyrodrift._core``, importing it on first use.
 
     Parameters
     ----------
     area : str, optional
-        Binding area the caller needs (ar2, wavelet, allan, imu, align); named in the message
-        when ``attr`` is missing.
-    attr : str, optional
-        A name the area defines; checked so that a build without the area fails clearly.
+        Binding area the caller needs (a key of ``AREA_PROBES``); a build without it fails
+        with a message naming the area.
 
     Returns
     -------
@@ -47,16 +58,16 @@ def core(area: str | None = None, attr: str | None = None) -> ModuleType:
 
     Examples
     --------
-    >>> core("ar2", "ar2_fit").__name__
+    >>> core("ar2").__name__
     'gyrodrift._core'
     """
     try:
-        from gyrodrift import _core
+        _core = importlib.import_module("gyrodrift._core")
     except ImportError as exc:
         raise ImportError(_MISSING) from exc
-    if attr is not None and not hasattr(_core, attr):
+    if area is not None and not hasattr(_core, AREA_PROBES.get(area, f"<no area {area}>")):
         raise ImportError(
-            f"gyrodrift._core was built without the {area or attr!r} binding area "
+            f"gyrodrift._core was built without the {area!r} binding area "
             "(BINDINGS in scripts/dev-build / GYRODRIFT_BINDINGS in CMake)"
         )
     return _core

@@ -22,11 +22,11 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_json_arg,
     add_progress_arg,
-    atomic_output,
     check_out_dir,
     emit_json,
     progress_enabled,
 )
+from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["register", "run"]
 
@@ -76,7 +76,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _write(rows: list[dict[str, object]], out: Path, stem: str, title: str) -> str:
-    from gyrodrift.align.study import markdown_table
+    from gyrodrift.papers.alignment_study import markdown_table
 
     md = f"### {title}\n\n" + markdown_table(rows) + "\n"
     with atomic_output(out / f"{stem}.md") as tmp:
@@ -94,7 +94,7 @@ def _plots(out: Path, name: str, results: dict, th: dict[str, float]) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from gyrodrift.earth import ARCSEC
+    from gyrodrift.units import ARCSEC
 
     fig, ax = plt.subplots(figsize=(8, 4.5))
     for pre, color in ((False, "tab:red"), (True, "tab:blue")):
@@ -171,8 +171,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace, out: Path) -> int:
-    from gyrodrift.align.imu_errors import ImuErrors
-    from gyrodrift.align.study import (
+    from gyrodrift.nav.trajectory import SCENARIOS
+    from gyrodrift.papers.alignment_study import (
         MECHANISMS,
         PUBLISHED_RAW_ROW,
         PUBLISHED_ROW,
@@ -180,7 +180,7 @@ def _run(args: argparse.Namespace, out: Path) -> int:
         run_study,
         summary_rows,
     )
-    from gyrodrift.align.trajectory import SCENARIOS
+    from gyrodrift.papers.imu_errors import ImuErrors
 
     if args.real:
         return _run_real(args, out)
@@ -231,8 +231,8 @@ def _run(args: argparse.Namespace, out: Path) -> int:
 
 
 def _run_real(args: argparse.Namespace, out: Path) -> int:
-    from gyrodrift.align.psins import read_psins_imu
-    from gyrodrift.align.realdata import align_segments, consistency_rows
+    from gyrodrift.io.psins import read_psins_imu
+    from gyrodrift.papers.alignment_realdata import align_segments, consistency_rows
 
     try:
         rec = read_psins_imu(args.real)

@@ -15,14 +15,14 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
-    atomic_output,
     check_output,
     emit_json,
     progress_enabled,
     record_from_args,
     write_csv,
 )
-from gyrodrift.deviations import DEVIATIONS
+from gyrodrift.io.atomic import atomic_output
+from gyrodrift.stability.deviations import DEVIATIONS
 
 #: Plot titles of the deviations (NIST SP 1065 names).
 DEVIATION_TITLES = {"oadev": "Overlapping Allan", "mdev": "Modified Allan", "tdev": "Time",
@@ -100,8 +100,8 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift import noise_id
-    from gyrodrift.deviations import deviation
+    from gyrodrift.stability import ieee952
+    from gyrodrift.stability.deviations import deviation
 
     check_output(args.png, "--png")
     check_output(args.csv_out, "--csv", (".csv",))
@@ -125,10 +125,10 @@ def run(args: argparse.Namespace) -> int:
     pos = res.adev > 0
     tau, dev, edf = res.tau_s[pos], res.adev[pos], res.edf[pos]
     allan_fits = dev_name == "oadev"  # the IEEE 952 model is that of the Allan variance
-    fit = noise_id.identify(tau, dev, edf) if allan_fits and tau.size >= 5 else None
+    fit = ieee952.identify(tau, dev, edf) if allan_fits and tau.size >= 5 else None
     afit = None
     if allan_fits:
-        from gyrodrift.allan_fit import fit_allan
+        from gyrodrift.stability.allan_fit import fit_allan
 
         try:
             afit = fit_allan(res.tau_s, res.adev, res.edf, terms=args.terms,
@@ -139,10 +139,10 @@ def run(args: argparse.Namespace) -> int:
             afit = None  # too few taus for the default fit: the table is still printed
     elif args.fit_range or args.terms != "Q,N,B,K,R":
         raise CliError("--fit-range and --terms apply to the Allan fit (--deviation oadev)")
-    paper = noise_id.paper_fit(tau, dev) if allan_fits and tau.size >= 3 else None
-    slope = noise_id.slope_method(tau, dev) if allan_fits and tau.size >= 3 else None
+    paper = ieee952.paper_fit(tau, dev) if allan_fits and tau.size >= 3 else None
+    slope = ieee952.slope_method(tau, dev) if allan_fits and tau.size >= 3 else None
     if args.png:
-        from gyrodrift.plots import plot_allan, plot_allan_fit
+        from gyrodrift.report.plots import plot_allan, plot_allan_fit
 
         with atomic_output(args.png) as tmp:
             if afit is not None:

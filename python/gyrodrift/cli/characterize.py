@@ -19,14 +19,13 @@ from gyrodrift.cli.common import (
     progress_enabled,
 )
 from gyrodrift.errors import GyrodriftError
-from gyrodrift.imu_io import ACCEL_UNITS, GYRO_UNITS, ImuData, bag_imu_topics, load_imu
-from gyrodrift.json_text import json_text
+from gyrodrift.io.imu_data import ACCEL_UNITS, GYRO_UNITS, ImuData, bag_imu_topics, load_imu
 
 __all__ = ["add_imu_input_args", "imu_from_args", "register", "run"]
 
 
 def add_imu_input_args(p: argparse.ArgumentParser) -> None:
-    """Input options of the multi-channel readers (gyrodrift.imu_io).
+    """Input options of the multi-channel readers (gyrodrift.io.imu_data).
 
     Examples
     --------
@@ -142,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift import characterize as ch
+    from gyrodrift.workflows import characterize as ch
 
     if args.input and Path(args.input).suffix.lower() in (".bag", ".db3", ".mcap") \
             and args.topic is None:
@@ -169,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
               if args.self_check else None)
     except (ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
-    files = write_outputs(res, kalibr=kalibr, kalibr_path=args.kalibr, html_path=args.html,
+    files = ch.write_outputs(res, kalibr=kalibr, kalibr_path=args.kalibr, html_path=args.html,
                           out_dir=args.out_dir, self_check=sc)
     if args.json:
         payload = res.as_dict()
@@ -205,35 +204,3 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {k}: {v}")
     return 0
 
-
-def write_outputs(res: Any, *, kalibr: str | None, kalibr_path: str | None,
-                  html_path: str | None, out_dir: str | None, self_check: Any = None,
-                  json_path: str | None = None) -> dict[str, Any]:
-    """Plots, Kalibr yaml, HTML report and JSON of one characterization; returns the paths."""
-    from gyrodrift import characterize as ch
-    from gyrodrift.report_html import characterize_html
-
-    files: dict[str, Any] = {"kalibr": None, "html": None, "plots": []}
-    pngs = {s: ch.plot_sensor(res, s) for s in ch.sensors_present(res)}
-    if out_dir:
-        d = Path(out_dir)
-        d.mkdir(parents=True, exist_ok=True)
-        for s, data in pngs.items():
-            (d / f"{s}.png").write_bytes(data)
-            files["plots"].append(str(d / f"{s}.png"))
-    if kalibr_path and kalibr is not None:
-        Path(kalibr_path).write_text(kalibr)
-        files["kalibr"] = kalibr_path
-    if html_path:
-        text = characterize_html(
-            name=Path(str(res.record["source"])).name, version=res.version, method=res.method,
-            ci=res.ci, record=res.record, rows=ch.table_rows(res),
-            images=[(f"{'Gyroscopes' if s == 'gyro' else 'Accelerometers'}",
-                     ch.png_data_uri(data)) for s, data in pngs.items()],
-            kalibr=kalibr, self_check=None if self_check is None else self_check.as_dict())
-        Path(html_path).write_text(text)
-        files["html"] = html_path
-    if json_path:
-        Path(json_path).write_text(json_text(res.as_dict(), indent=1))
-        files["json"] = json_path
-    return files

@@ -26,12 +26,10 @@ False
 from __future__ import annotations
 
 import argparse
-import contextlib
 import math
 import os
 import sys
-import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import IO, Any
 
@@ -39,8 +37,9 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
-from gyrodrift.io import UNITS, Record, load_record
-from gyrodrift.json_text import json_default, json_text
+from gyrodrift.io.atomic import atomic_output
+from gyrodrift.io.json_text import json_default, json_text
+from gyrodrift.io.records import UNITS, Record, load_record
 
 __all__ = [
     "PROGRESS_CHOICES",
@@ -48,7 +47,6 @@ __all__ = [
     "add_input_args",
     "add_json_arg",
     "add_progress_arg",
-    "atomic_output",
     "check_out_dir",
     "check_output",
     "check_rate_hz",
@@ -171,7 +169,7 @@ def add_ci_arg(p: argparse.ArgumentParser) -> None:
     >>> round(p.parse_args([]).ci, 4)
     0.6827
     """
-    from gyrodrift.allan import ONE_SIGMA_CI
+    from gyrodrift.stability.allan import ONE_SIGMA_CI
 
     p.add_argument("--ci", type=float, default=ONE_SIGMA_CI,
                    help="confidence-interval probability (default 0.6827, one sigma)")
@@ -252,14 +250,14 @@ def write_csv(path: str | Path, header: Sequence[str], columns: Sequence[Any]) -
 
 def check_rate_hz(rate_hz: float, flag: str = "--rate-hz") -> float:
     """A sample rate given on the command line: finite and within the range the analyses
-    handle (gyrodrift.io.RATE_MIN_HZ..RATE_MAX_HZ), else a :class:`CliError`.
+    handle (gyrodrift.io.records.RATE_MIN_HZ..RATE_MAX_HZ), else a :class:`CliError`.
 
     Examples
     --------
     >>> check_rate_hz(400.0)
     400.0
     """
-    from gyrodrift.io import RATE_MAX_HZ, RATE_MIN_HZ
+    from gyrodrift.io.records import RATE_MAX_HZ, RATE_MIN_HZ
 
     if not (math.isfinite(rate_hz) and RATE_MIN_HZ <= rate_hz <= RATE_MAX_HZ):
         raise CliError(f"{flag} {rate_hz:g}: a sample rate must be within {RATE_MIN_HZ:g}.."
@@ -337,35 +335,3 @@ def check_out_dir(path: str | Path | None, flag: str = "--out-dir") -> Path | No
     if not base.is_dir() or not os.access(base, os.W_OK | os.X_OK):
         raise CliError(f"{flag} {p}: cannot be created ({base} is not a writable directory)")
     return p
-
-
-@contextlib.contextmanager
-def atomic_output(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path next to ``path`` (same suffix, so writers that infer the format
-    from it work); on success it is renamed over ``path`` (atomic on one file system), on
-    any exception or Ctrl-C it is removed and ``path`` is left as it was.
-
-    Examples
-    --------
-    >>> import tempfile, os
-    >>> f = os.path.join(tempfile.mkdtemp(), "a.npy")
-    >>> with atomic_output(f) as tmp:
-    ...     np.save(tmp, np.zeros(3))
-    >>> np.load(f).shape
-    (3,)
-    """
-    p = Path(path)
-    parent = p.parent if str(p.parent) else Path(".")
-    fd, name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=f".part{p.suffix}", dir=parent)
-    os.close(fd)
-    tmp = Path(name)
-    umask = os.umask(0o022)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it 0600; the result gets the usual mode
-    try:
-        yield tmp
-        os.replace(tmp, p)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise

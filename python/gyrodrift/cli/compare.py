@@ -66,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift import compare
+    from gyrodrift.papers import table1 as compare
 
     if args.out_dir is not None:
         check_out_dir(args.out_dir)

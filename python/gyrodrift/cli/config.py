@@ -65,13 +65,8 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift.config import (
-        ConfigError,
-        atomic_write_text,
-        default_config,
-        dumps_config,
-        load_config,
-    )
+    from gyrodrift.imu.config import ConfigError, default_config, dumps_config, load_config
+    from gyrodrift.io.atomic import atomic_write_text
 
     action = args.action
     if args.emit_cpp:
@@ -103,7 +98,7 @@ def run(args: argparse.Namespace) -> int:
             else:
                 sys.stdout.write(dumps_config(cfg))
         else:  # emit-cpp
-            from gyrodrift.config_cpp import emit_cpp
+            from gyrodrift.imu.firmware_header import emit_cpp
 
             if not args.output:
                 raise CliError("emit-cpp needs -o FILE.hpp")

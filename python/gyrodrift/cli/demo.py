@@ -97,8 +97,9 @@ def compute(args: argparse.Namespace) -> dict[str, Any]:
     >>> r["record"]["samples"], sorted(r["table"])
     (6000, ['AR filter', 'AR(2)-Kalman', 'raw'])
     """
-    from gyrodrift import Ar2Model, ar_filter, fit_ar2, kalman_filter, simulate
+    from gyrodrift import Ar2Model, ar_filter, fit_ar2, kalman_filter
     from gyrodrift.cli import CliError
+    from gyrodrift.simulation.records import simulate
 
     if not (args.duration_s > 0 and args.rate_hz > 0):
         raise CliError("--duration-s and --rate-hz must be positive")

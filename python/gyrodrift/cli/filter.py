@@ -18,12 +18,12 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
-    atomic_output,
     check_output,
     emit_json,
     record_from_args,
     write_csv,
 )
+from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["METHODS", "register", "run"]
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_input_args, add_json_arg, emit_json, record_from_args
-from gyrodrift.json_text import json_text
+from gyrodrift.io.json_text import json_text
 
 __all__ = ["config_toml", "register", "run"]
 
@@ -63,7 +63,7 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
     Examples
     --------
     >>> import numpy as np
-    >>> from gyrodrift.drift_model import compare_drift_models
+    >>> from gyrodrift.filters.drift_model import compare_drift_models
     >>> from scipy.signal import lfilter
     >>> rng = np.random.default_rng(1)  # AR(2) drift (a1 0.6, a2 0.2) under white noise, deg/h
     >>> x = lfilter([1.0], [1.0, -0.6, -0.2], rng.normal(0, 1, 4000)) + rng.normal(0, 0.5, 4000)
@@ -71,7 +71,7 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
     >>> text = config_toml(best, 100.0, "gz", "gyro.csv")
     >>> text.splitlines()[:3]
     ['# gyrodrift processor configuration', 'schema = "gyrodrift.processor"', 'version = 1']
-    >>> from gyrodrift.config import parse_config
+    >>> from gyrodrift.imu.config import parse_config
     >>> parse_config(text).channels[2].stages[0].steady_state
     True
     """
@@ -133,8 +133,8 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift.ar2 import Ar2FitError
-    from gyrodrift.drift_model import compare_drift_models
+    from gyrodrift.filters.ar2 import Ar2FitError
+    from gyrodrift.filters.drift_model import compare_drift_models
 
     rec = record_from_args(args, mmap=False)
     x = np.asarray(rec.rate_deg_h, dtype=np.float64)

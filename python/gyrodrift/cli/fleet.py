@@ -15,7 +15,7 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.characterize import add_analysis_args, add_imu_input_args
 from gyrodrift.cli.common import add_json_arg, add_progress_arg, emit_json, progress_enabled
 from gyrodrift.errors import GyrodriftError
-from gyrodrift.fleet import DEFAULT_MEMORY_BUDGET_MIB
+from gyrodrift.workflows.fleet import DEFAULT_MEMORY_BUDGET_MIB
 
 __all__ = ["register", "run"]
 
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift.fleet import FleetOptions, load_spec, run_fleet
+    from gyrodrift.workflows.fleet import FleetOptions, load_spec, run_fleet
 
     paths: list[str] = []
     for pat in args.input:

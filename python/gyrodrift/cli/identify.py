@@ -20,7 +20,7 @@ from gyrodrift.cli.common import (
 )
 
 if TYPE_CHECKING:
-    from gyrodrift.gmwm import GmwmResult
+    from gyrodrift.stability.gmwm import GmwmResult
 
 __all__ = ["format_terms", "gm_resolution_notes", "register", "run"]
 
@@ -131,7 +131,7 @@ def gm_resolution_notes(res: GmwmResult) -> list[str]:
     Examples
     --------
     >>> import numpy as np
-    >>> from gyrodrift.gmwm import identify_gmwm
+    >>> from gyrodrift.stability.gmwm import identify_gmwm
     >>> x = np.random.default_rng(1).normal(0.0, 10.0, 1 << 13)
     >>> gm_resolution_notes(identify_gmwm(x, 100.0, model="N"))
     []
@@ -172,8 +172,8 @@ def run(args: argparse.Namespace) -> int:
     # the slope method reads its lines off the whole curve: a range would be ignored
     _check_method_options(args)
     if args.method == "gmwm":
-        from gyrodrift.allan_fit import parse_fit_range
-        from gyrodrift.gmwm import identify_gmwm
+        from gyrodrift.stability.allan_fit import parse_fit_range
+        from gyrodrift.stability.gmwm import identify_gmwm
 
         try:
             tau_range = None if args.fit_range is None else parse_fit_range(args.fit_range)
@@ -183,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise CliError(str(exc)) from exc
         if args.png:
-            from gyrodrift.plots import plot_gmwm
+            from gyrodrift.report.plots import plot_gmwm
 
             plot_gmwm(res, args.png, label=rec.source)
         notes = gm_resolution_notes(res)
@@ -203,14 +203,14 @@ def run(args: argparse.Namespace) -> int:
                                                     res.candidates[:6]))
         print("".join(f"# note: {n}\n" for n in notes), end="")
         return 0
-    from gyrodrift.allan import oadev
+    from gyrodrift.stability.allan import oadev
 
     try:
         allan = oadev(x, rec.rate_hz, taus="octave", ci=args.ci)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     if args.method == "allan-nnls":
-        from gyrodrift.allan_fit import fit_allan
+        from gyrodrift.stability.allan_fit import fit_allan
 
         try:
             fit = fit_allan(allan.tau_s, allan.adev, allan.edf, terms=args.terms,
@@ -218,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as exc:
             raise CliError(str(exc)) from exc
         if args.png:
-            from gyrodrift.plots import plot_allan_fit
+            from gyrodrift.report.plots import plot_allan_fit
 
             plot_allan_fit(allan, fit, args.png, label=rec.source)
         if args.json:
@@ -233,11 +233,11 @@ def run(args: argparse.Namespace) -> int:
         print("\n".join(format_terms(rows, fit.ci)))
         return 0
     # slope method: read-offs with the interval of the Allan deviation at the read tau
-    from gyrodrift.allan_fit import slope_readouts
+    from gyrodrift.stability.allan_fit import slope_readouts
 
     rows = slope_readouts(allan)
     if args.png:
-        from gyrodrift.plots import plot_allan
+        from gyrodrift.report.plots import plot_allan
 
         plot_allan([(rec.source, allan)], args.png)
     if args.json:

@@ -11,12 +11,12 @@ from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
-    atomic_output,
     check_output,
     emit_json,
     record_from_args,
     write_csv,
 )
+from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["register", "run"]
 
@@ -60,8 +60,8 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift.plots import plot_psd
-    from gyrodrift.psd import arw_from_white_level, log_binned, welch_psd
+    from gyrodrift.report.plots import plot_psd
+    from gyrodrift.stability.psd import arw_from_white_level, log_binned, welch_psd
 
     check_output(args.png, "--png")
     check_output(args.csv_out, "--csv", (".csv",))

@@ -11,8 +11,9 @@ import math
 from pathlib import Path
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_json_arg, add_progress_arg, atomic_output, check_out_dir
+from gyrodrift.cli.common import add_json_arg, add_progress_arg, check_out_dir
 from gyrodrift.cli.simulate import parse_ar2
+from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["register", "run"]
 
@@ -137,18 +138,18 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from gyrodrift.cli.common import emit_json, progress_enabled
+    from gyrodrift.codecs.wire import make_samples
+    from gyrodrift.io.imu_log import read_imu_log
     from gyrodrift.replay.faults import FaultSpec
     from gyrodrift.replay.harness import ReplayError, ReplayOptions, run_replay
-    from gyrodrift.replay.logs import read_imu_log
     from gyrodrift.replay.processor import ProcessorSettings
-    from gyrodrift.replay.report import format_table, write_json, write_png
-    from gyrodrift.replay.wire import make_samples
+    from gyrodrift.report.replay import format_table, write_json, write_png
 
     if args.can_signals and not args.input:
         raise CliError("--can-signals applies to an input CAN log")
     proc_cfg = None
     if args.config:
-        from gyrodrift.config import ConfigError, load_config
+        from gyrodrift.imu.config import ConfigError, load_config
 
         try:
             proc_cfg = load_config(args.config)
@@ -164,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
         rate = args.rate_hz or (1.0 / float(np.median(dt)) if dt.size and
                                        np.median(dt) > 0 else 400.0)
     else:
-        from gyrodrift.simulate import NoiseTerms, simulate_imu
+        from gyrodrift.simulation.records import NoiseTerms, simulate_imu
 
         if not (args.duration_s > 0 and math.isfinite(args.duration_s)):
             raise CliError("--duration-s must be > 0")

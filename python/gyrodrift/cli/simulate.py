@@ -12,14 +12,8 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import (
-    add_json_arg,
-    atomic_output,
-    check_output,
-    check_rate_hz,
-    emit_json,
-    write_csv,
-)
+from gyrodrift.cli.common import add_json_arg, check_output, check_rate_hz, emit_json, write_csv
+from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["LOG_FORMATS", "LOG_SUFFIXES", "register", "run"]
 
@@ -131,7 +125,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(out, "-o")
     try:
         if is_log:
-            from gyrodrift.replay.logs import write_imu_log
+            from gyrodrift.io.imu_log import write_imu_log
 
             if ar2 is not None:
                 raise CliError("--ar2 is not available for IMU logs (static IMU simulator)")

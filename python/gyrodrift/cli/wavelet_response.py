@@ -9,13 +9,8 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import (
-    add_json_arg,
-    atomic_output,
-    check_output,
-    check_rate_hz,
-    emit_json,
-)
+from gyrodrift.cli.common import add_json_arg, check_output, check_rate_hz, emit_json
+from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["cutoff_hz", "register", "run"]
 
@@ -77,8 +72,8 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift.fir import fir_group_delay
-    from gyrodrift.wavelet import RealtimeWavelet
+    from gyrodrift.filters.fir import fir_group_delay
+    from gyrodrift.filters.wavelet import RealtimeWavelet
 
     check_rate_hz(args.rate_hz)
     check_output(args.png, "--png")

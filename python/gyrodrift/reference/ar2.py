@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 import scipy.linalg
 
-from gyrodrift.ar2 import (
+from gyrodrift.filters.ar2 import (
     MIN_SAMPLES,
     Ar2FitError,
     Ar2Model,

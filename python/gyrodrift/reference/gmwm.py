@@ -9,7 +9,7 @@
 - `wv_covariance_fft`: the covariance of the estimated wavelet variances under a Gaussian
   model by the spectral route: c_ab(k) = inverse DFT of conj(H_a) H_b S (plus the random
   walk through the cumulative-sum filter G = cumsum(h)), Cov = 2/(M_a M_b) sum_k n_ab(k)
-  c_ab(k)^2 (Isserlis). Independent of gyrodrift.gmwm's closed-form lag route.
+  c_ab(k)^2 (Isserlis). Independent of gyrodrift.stability.gmwm's closed-form lag route.
 """
 
 from __future__ import annotations

@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from gyrodrift.ar2 import Ar2Model
-from gyrodrift.imu import (
+from gyrodrift.filters.ar2 import Ar2Model
+from gyrodrift.imu.contract import (
     CHANNELS,
     FLAG_DUPLICATE,
     FLAG_FILTER_FAULT,
@@ -34,14 +34,11 @@ from gyrodrift.imu import (
     FLAG_TIME_JUMP,
     HEALTH_KEYS,
     RESYNC_AFTER,
-    ImuChannelConfig,
-    ImuConfig,
-    ImuResult,
-    WaveletSettings,
 )
+from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig, ImuResult, WaveletSettings
 
 if TYPE_CHECKING:
-    from gyrodrift.config import ProcessorConfig
+    from gyrodrift.imu.config import ProcessorConfig
 
 __all__ = ["WaveletSettings", "process_imu"]
 
@@ -97,11 +94,11 @@ def process_imu(
 ) -> ImuResult:
     """Reference processor over a whole record (float64). Rows that are rejected
     (duplicate / out-of-order seq) get NaN values and FLAG_REJECTED, as in the binding.
-    `config` may be a configuration file (or gyrodrift.config.ProcessorConfig).
+    `config` may be a configuration file (or gyrodrift.imu.config.ProcessorConfig).
 
     Examples
     --------
-    >>> from gyrodrift.imu import ImuChannelConfig, ImuConfig
+    >>> from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig
     >>> cfg = ImuConfig(channels=[ImuChannelConfig() for _ in range(6)])  # pass-through
     >>> out = process_imu(np.array([0, 1, 1]), np.array([0, 2500, 2500]), np.ones((3, 6)), cfg)
     >>> out.values[:, 0], out.health["samples_in"]  # the repeated sample is rejected (NaN)

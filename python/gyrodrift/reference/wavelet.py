@@ -8,7 +8,7 @@ Written straight from the equations, deliberately plain:
 * real-time sliding window (paper 004, sec. 2.2): per sample, the full recompute of the
   symmetric-extended window ``ext = [w, w[::-1]]``, output ``waverec(...)[N - 1]``;
 * wavelet packets (paper 000, sec. 2.4): the best basis by brute force over every admissible
-  basis (the oracle for the Coifman-Wickerhauser search in gyrodrift.wavelet_packet).
+  basis (the oracle for the Coifman-Wickerhauser search in gyrodrift.filters.wavelet_packet).
 """
 
 from __future__ import annotations
@@ -141,7 +141,8 @@ def realtime_wavelet(
 
 
 def forced_fir_taps(wavelet: str, window: int, level: int) -> np.ndarray:
-    """Forced-mode taps, newest first (the package's one order, gyrodrift.fir), by linearity:
+    """Forced-mode taps, newest first (the package's one order, gyrodrift.filters.fir), by
+    linearity:
     b[i] is the output for a window holding 1 at age i (i samples before the newest).
 
     Examples

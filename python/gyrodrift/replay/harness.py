@@ -35,8 +35,14 @@ from gyrodrift.codecs.can_signals import (
     encode_sample_frames,
     load_signal_map,
 )
+from gyrodrift.codecs.wire import Samples, decode_stream
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
-from gyrodrift.imu import FLAG_CONFIG_ERROR, FLAG_DUPLICATE, FLAG_OUT_OF_ORDER, FLAG_REJECTED
+from gyrodrift.imu.contract import (
+    FLAG_CONFIG_ERROR,
+    FLAG_DUPLICATE,
+    FLAG_OUT_OF_ORDER,
+    FLAG_REJECTED,
+)
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.faults import (
     FaultSpec,
@@ -56,7 +62,6 @@ from gyrodrift.replay.transport import (
     set_thread_realtime,
     sleep_until_ns,
 )
-from gyrodrift.replay.wire import Samples, decode_stream
 
 __all__ = [
     "LOOP_RELATIVE",
@@ -212,7 +217,7 @@ class ReplayResult:
 
     Examples
     --------
-    >>> from gyrodrift.replay.wire import make_samples
+    >>> from gyrodrift.codecs.wire import make_samples
     >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
     >>> res = run_replay(s, ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False))
     >>> res.ok, res.latency_us.shape, res.as_dict()["accounting"]["outputs_received"]
@@ -365,7 +370,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
 
     Examples
     --------
-    >>> from gyrodrift.replay.wire import make_samples
+    >>> from gyrodrift.codecs.wire import make_samples
     >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
     >>> opt = ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False,
     ...                     faults=FaultSpec(corrupt=0.1, seed=1))

@@ -15,10 +15,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.imu import ImuChannelConfig, ImuConfig
+from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig
 
 if TYPE_CHECKING:
-    from gyrodrift.config import ProcessorConfig
+    from gyrodrift.imu.config import ProcessorConfig
 
 __all__ = [
     "LOOP_FILTERS",
@@ -30,9 +30,9 @@ LOOP_FILTERS = ("ar2_kalman", "bias_removal", "pass_through")
 
 def _demo_ar2(key: str) -> float:
     """One number of the loop's demonstration AR(2) model (C++ ImuDemoAr2, via _core)."""
-    from gyrodrift import _native
+    from gyrodrift._native import core
 
-    return float(_native.core("imu", "IMU_DEMO_AR2").IMU_DEMO_AR2[key])
+    return float(core("imu").IMU_DEMO_AR2[key])
 
 
 @dataclass(frozen=True)
@@ -74,7 +74,7 @@ class ProcessorSettings:
     @classmethod
     def from_config(cls, config: ProcessorConfig | str | Path) -> ProcessorSettings:
         """Settings that run the processor of a configuration file (or ProcessorConfig)."""
-        from gyrodrift.config import ProcessorConfig, load_config
+        from gyrodrift.imu.config import ProcessorConfig, load_config
 
         cfg = config if isinstance(config, ProcessorConfig) else load_config(config)
         return cls(sample_rate_hz=cfg.timing.sample_rate_hz,
@@ -125,7 +125,7 @@ class ProcessorSettings:
     def _config_file(self) -> Path:
         """The configuration's canonical text in a content-named temporary file (the loop's
         reader takes the canonical TOML subset, whatever layout the user's file has)."""
-        from gyrodrift.config import dumps_config, write_config
+        from gyrodrift.imu.config import dumps_config, write_config
 
         assert self.config is not None
         text = dumps_config(self.config)

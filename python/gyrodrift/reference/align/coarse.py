@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyrodrift.align.attitude import q2dcm, qmul, qnormalize, rv2q
-from gyrodrift.earth import EARTH_RATE_RAD_S, gravity_m_s2
+from gyrodrift.nav.attitude import q2dcm, qmul, qnormalize, rv2q
+from gyrodrift.nav.earth import EARTH_RATE_RAD_S, gravity_m_s2
 
 __all__ = [
     "InertialCoarseAlign",
@@ -116,8 +116,8 @@ class InertialCoarseAlign:
 
     Examples
     --------
-    >>> from gyrodrift.align import imu_increments, scenario
-    >>> from gyrodrift.align.attitude import dcm2euler
+    >>> from gyrodrift.nav import imu_increments, scenario
+    >>> from gyrodrift.nav.attitude import dcm2euler
     >>> sc = scenario("static")
     >>> dth, dv = imu_increments(sc, 3000, 0.01)  # 30 s at rest, no sensor errors
     >>> ca = InertialCoarseAlign(3000, 0.01, sc.lat_rad, sc.h_m)

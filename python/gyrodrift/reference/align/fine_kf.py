@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyrodrift.align.attitude import skew
-from gyrodrift.earth import EARTH_RATE_RAD_S, GRAVITY_DH_PER_S2, EarthParams
+from gyrodrift.nav.attitude import skew
+from gyrodrift.nav.earth import EARTH_RATE_RAD_S, GRAVITY_DH_PER_S2, EarthParams
 
 __all__ = [
     "FineAlignKF",

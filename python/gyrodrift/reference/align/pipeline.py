@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyrodrift.align.attitude import dcm2euler, dcm2q, q2dcm, qmul, qnormalize, rv2q
-from gyrodrift.align.config import AlignConfig, AlignResult
-from gyrodrift.earth import earth_params
+from gyrodrift.nav.align_config import AlignConfig, AlignResult
+from gyrodrift.nav.attitude import dcm2euler, dcm2q, q2dcm, qmul, qnormalize, rv2q
+from gyrodrift.nav.earth import earth_params
 
 from .coarse import InertialCoarseAlign
 from .fine_kf import FineAlignKF
@@ -27,7 +27,7 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
 
     Examples
     --------
-    >>> from gyrodrift.align import AlignConfig, imu_increments, scenario
+    >>> from gyrodrift.nav import AlignConfig, imu_increments, scenario
     >>> sc = scenario("static")
     >>> dth, dv = imu_increments(sc, 100 * 50, 0.01)  # 50 s at rest, 100 Hz
     >>> cfg = AlignConfig(dt_s=0.01, lat_rad=sc.lat_rad, h_m=sc.h_m, coarse_s=30.0)
@@ -68,7 +68,7 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
             continue
         g = dtheta[k_in]
         if taps is not None and k_in >= nt - 1:
-            # y_k = sum_i b_i x_{k-i}, taps newest first (gyrodrift.fir)
+            # y_k = sum_i b_i x_{k-i}, taps newest first (gyrodrift.filters.fir)
             g = taps @ dtheta[k_in - nt + 1:k_in + 1][::-1]
         a = dv[k_in - d] if k_in >= d else dv[k_in]
         if k < n_coarse:

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyrodrift.align.attitude import q2dcm, qmul, qnormalize, rv2q
-from gyrodrift.earth import earth_params
+from gyrodrift.nav.attitude import q2dcm, qmul, qnormalize, rv2q
+from gyrodrift.nav.earth import earth_params
 
 __all__ = [
     "Strapdown",

@@ -1,0 +1,507 @@
+"""AR(2) drift model identification, AR filter and AR(2)-Kalman filters (C++ core).
+
+Model (paper 000 eq. 1, paper 002 eq. 1), on the demeaned rate x = y - mean:
+
+    x_k = a1 x_{k-1} + a2 x_{k-2} + r_k,   r_k ~ (0, sigma2)
+
+AR(2)-Kalman (papers 000 sec. 2.2 / 002 sec. 3): X_k = [x_k, x_{k-1}]^T, A = [[a1, a2], [1, 0]],
+B = diag(1, 0), C = [1, 0], process variance q, measurement variance r, P0 = p0 I, X0 = 0,
+gain K = P C^T (C P C^T + r)^-1 (the papers print (C P + R)^-1: erratum), Joseph update.
+
+Defaults, as the papers choose them: q = model.sigma2 (the AR(2) driving-noise variance) and
+r = model.r, "the variance of the AR(2) estimation error", taken as the mean squared one-step
+prediction error of the fitted model on the fitting record. Both are in (units of y)^2.
+With q = r the steady-state gain on white-like drift is about 0.5 (half the STD); raise r (or
+lower q) for more smoothing at the cost of lag and of attenuating true rate changes (dc_gain).
+
+All heavy lifting is in gyrodrift._core (include/gyrodrift/ar2_*.hpp); the numpy oracles are in
+gyrodrift.reference.ar2.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from gyrodrift._native import core
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
+
+__all__ = [
+    "MIN_SAMPLES",
+    "Ar2FitError",
+    "Ar2Model",
+    "FilterResult",
+    "KalmanFilter",
+    "ar_filter",
+    "fit_ar2",
+    "is_stationary",
+    "kalman_filter",
+    "kalman_filter_result",
+]
+
+#: Fewest samples a fit accepts (include/gyrodrift/ar2_model.hpp kAr2MinSamples).
+MIN_SAMPLES = 8
+
+_METHODS = {
+    "yule-walker": "yule-walker",
+    "yule_walker": "yule-walker",
+    "yw": "yule-walker",
+    "burg": "burg",
+    "ls": "ls",
+    "least-squares": "ls",
+    "least_squares": "ls",
+    "fb": "ls",
+}
+
+_STATIONARITY_MARGIN = 64 * float(np.finfo(np.float64).eps)
+
+class Ar2FitError(GyrodriftValueError):
+    """An AR(2) fit was rejected.
+
+    ``cause`` is the C++ ``Ar2Status`` name returned by the binding: too_short, constant,
+    non_finite or non_stationary.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> try:
+    ...     fit_ar2(np.ones(100))
+    ... except Ar2FitError as exc:
+    ...     print(exc.cause)
+    constant
+    """
+
+    def __init__(self, cause: str, detail: str) -> None:
+        self.cause = cause
+        super().__init__(f"AR(2) fit rejected ({cause.replace('_', '-')}): {detail}")
+
+
+def normalise_method(method: str) -> str:
+    key = str(method).lower()
+    if key not in _METHODS:
+        raise GyrodriftValueError(
+            f"unknown AR(2) method {method!r}; use 'yule-walker', 'burg' or 'ls'")
+    return _METHODS[key]
+
+
+def is_stationary(a1: float, a2: float) -> bool:
+    """Both roots of z^2 - a1 z - a2 strictly inside the unit circle (stationarity triangle),
+    with the C++ core's margin of 64 eps for "on the circle".
+
+    Examples
+    --------
+    >>> is_stationary(0.5, 0.1), is_stationary(1.5, 0.0)
+    (True, False)
+    """
+    one = 1.0 - _STATIONARITY_MARGIN
+    return (
+        math.isfinite(a1)
+        and math.isfinite(a2)
+        and -one < a2 < one
+        and a1 + a2 < one
+        and a2 - a1 < one
+    )
+
+
+@dataclass(frozen=True)
+class Ar2Model:
+    """An identified AR(2) drift model.
+
+    Attributes:
+        a1, a2: AR coefficients (dimensionless).
+        sigma2: driving-noise variance of the method (Yule-Walker c0 - a.c, Burg final
+            prediction-error power, FB-LS residual SS / (2 (n - 2))), (units of y)^2.
+        mean: removed mean (constant drift), units of y.
+        method: "yule-walker", "burg" or "ls".
+        n: number of samples fitted (0 if the model was given by hand).
+        r: variance of the AR(2) estimation (one-step prediction) error on the fitting record,
+            (units of y)^2; the Kalman filter's default measurement variance. NaN if unknown
+            (then kalman_filter uses sigma2).
+
+    Examples
+    --------
+    >>> m = Ar2Model(a1=0.5, a2=0.1, sigma2=1.0)
+    >>> m.stationary, m.measurement_variance
+    (True, 1.0)
+    """
+
+    a1: float
+    a2: float
+    sigma2: float
+    mean: float = 0.0
+    method: str = "given"
+    n: int = 0
+    r: float = math.nan
+
+    def __post_init__(self) -> None:
+        for name in ("a1", "a2", "sigma2", "mean"):
+            if not math.isfinite(float(getattr(self, name))):
+                raise GyrodriftValueError(
+                    f"Ar2Model.{name} must be finite, got {getattr(self, name)!r}")
+        if self.sigma2 < 0:
+            raise GyrodriftValueError(f"Ar2Model.sigma2 must be >= 0, got {self.sigma2!r}")
+
+    @property
+    def stationary(self) -> bool:
+        return is_stationary(self.a1, self.a2)
+
+    @property
+    def root_modulus(self) -> float:
+        """Largest modulus of the roots of z^2 - a1 z - a2 (< 1 for a stationary model). Yule-Walker
+        and Burg always return a stationary model; a trending (ramp, random-walk) record shows
+        up as a modulus close to 1, where the drift model and the filter's dc_gain degrade."""
+        return float(np.max(np.abs(np.roots([1.0, -self.a1, -self.a2]))))
+
+    @property
+    def measurement_variance(self) -> float:
+        """Default r of the Kalman filter: self.r, or sigma2 when r is unknown."""
+        return self.r if math.isfinite(self.r) and self.r > 0 else self.sigma2
+
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
+    """A C-contiguous float32/float64 array (no copy when it already is one)."""
+    if dtype is not None:
+        dt = np.dtype(dtype)  # type: ignore[call-overload]
+        if dt not in (np.float32, np.float64):
+            raise GyrodriftTypeError(f"dtype must be float32 or float64, got {dt}")
+    a = np.asarray(x)
+    if a.dtype.kind not in "fiu" or a.dtype == np.float16:
+        raise GyrodriftTypeError(
+            f"{name} must be a real numeric array (float32/float64 or integers), "
+            f"got dtype {a.dtype}"
+        )
+    if a.ndim == 0:  # np.ascontiguousarray would silently make it 1-D
+        raise GyrodriftValueError(f"{name} must be an array of samples, got a scalar (shape ())")
+    if a.dtype.kind == "f" and a.dtype.itemsize > 8:
+        raise GyrodriftTypeError(
+            f"{name}: dtype {a.dtype} is not supported; use float32 or float64")
+    if dtype is None:
+        dt = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    return np.ascontiguousarray(a, dtype=dt)
+
+
+def _check_shape(a: np.ndarray, name: str) -> None:
+    if a.ndim == 1 or (a.ndim == 2 and a.shape[1] == 3):
+        if a.shape[0] == 0:
+            raise GyrodriftValueError(f"{name} is empty")
+        return
+    raise GyrodriftValueError(f"{name} must have shape (n,) or (n, 3), got {a.shape}")
+
+
+def _models_for(model: Ar2Model | Sequence[Ar2Model], axes: int) -> list[Ar2Model]:
+    if isinstance(model, Ar2Model):
+        return [model]
+    models = list(model)
+    if len(models) != axes or not all(isinstance(m, Ar2Model) for m in models):
+        raise GyrodriftTypeError(
+            f"model must be an Ar2Model or a sequence of {axes} Ar2Model (one per axis)"
+        )
+    return models
+
+
+def _variance(value: float | None, default: float, name: str, positive: bool) -> float:
+    v = default if value is None else float(value)
+    if not math.isfinite(v) or v < 0 or (positive and v == 0):
+        bound = "> 0" if positive else ">= 0"
+        raise GyrodriftValueError(f"{name} must be finite and {bound}, got {v!r}")
+    return v
+
+
+def _params(m: Ar2Model, q: float | None, r: float | None) -> tuple[float, ...]:
+    if not m.stationary:
+        raise GyrodriftValueError(f"non-stationary AR(2) model a1={m.a1}, a2={m.a2}")
+    qv = _variance(q, m.sigma2, "q", positive=False)
+    rv = _variance(r, m.measurement_variance, "r", positive=True)
+    return (m.a1, m.a2, m.sigma2, m.mean, qv, rv)
+
+
+def _settings(m: Ar2Model, q: float | None, r: float | None) -> Any:
+    """The bound C++ configuration of one channel (gyrodrift._core.Ar2KalmanSettings)."""
+    a1, a2, sigma2, mean, qv, rv = _params(m, q, r)
+    return core("ar2").Ar2KalmanSettings(a1=a1, a2=a2, sigma2=sigma2, mean=mean, q=qv, r=rv)
+
+
+def _report_faults(faults: np.ndarray, what: str) -> None:
+    total = int(np.sum(faults))
+    if total:
+        warnings.warn(
+            f"{what}: {total} non-finite or out-of-range sample(s) (per axis {faults.tolist()}) "
+            "were replaced "
+            "by the filter's prediction",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def fit_ar2(
+    x: object, method: str = "yule-walker", dtype: object = np.float64
+) -> Ar2Model | tuple[Ar2Model, ...]:
+    """Identify an AR(2) model (C++ core) from a record of shape (n,) or (n, 3).
+
+    dtype: computation dtype, float64 (default, whatever the input dtype) or float32 (the
+    on-target firmware arithmetic; ~1e-4 relative accuracy on 1e4-1e5 samples).
+
+    method: "yule-walker" (biased autocovariances, = statsmodels yule_walker(method="mle")),
+    "burg", or "ls" (forward-backward least squares, MATLAB `ar` default). The mean is removed
+    first and kept. For (n, 3) input, returns one model per axis.
+
+    Raises:
+        Ar2FitError (a ValueError): too short (< 8 samples), constant, NaN/Inf, or a
+            non-stationary result; the message names the cause.
+        TypeError: non-numeric input.
+
+    Examples
+    --------
+    >>> import scipy.signal
+    >>> e = np.random.default_rng(0).standard_normal(20_000)
+    >>> x = scipy.signal.lfilter([1.0], [1.0, -0.6, 0.1], e)  # AR(2): 0.6, -0.1
+    >>> m = fit_ar2(x, "burg")
+    >>> round(m.a1, 1), round(m.a2, 1)
+    (0.6, -0.1)
+    """
+    name = normalise_method(method)
+    a = _float_array(x, "x", dtype)
+    if a.ndim == 2 and a.shape[1] == 3:
+        return tuple(fit_ar2(a[:, i], name, dtype) for i in range(3))  # type: ignore[misc]
+    if a.ndim != 1:
+        raise GyrodriftValueError(f"x must have shape (n,) or (n, 3), got {a.shape}")
+    lib = core("ar2")
+    cpp_method = {
+        "yule-walker": lib.Ar2Method.yule_walker,
+        "burg": lib.Ar2Method.burg,
+        "ls": lib.Ar2Method.least_squares,
+    }[name]
+    status, a1, a2, sigma2, mean, r = lib.ar2_fit(a, cpp_method)
+    if status != lib.Ar2Status.ok:
+        cause = status.name
+        detail = {
+            "too_short": f"{a.size} samples, at least {MIN_SAMPLES} needed",
+            "constant": "all samples are equal",
+            "non_finite": "the record contains NaN or Inf (or values whose sum overflows)",
+            "non_stationary": "the fitted model has a root on or outside the unit circle "
+            "(or its normal equations are singular)",
+        }.get(cause, f"status {cause}")
+        raise Ar2FitError(cause, detail)
+    return Ar2Model(a1=a1, a2=a2, sigma2=sigma2, mean=mean, method=name, n=int(a.size), r=r)
+
+
+def ar_filter(
+    x: object,
+    model: Ar2Model | Sequence[Ar2Model],
+    dtype: object = None,
+    out: np.ndarray | None = None,
+) -> np.ndarray:
+    """AR filter, paper 000 sec. 2.1: y_k minus its one-step residual, i.e. the one-step AR(2)
+    prediction plus the mean. x: (n,) or (n, 3), float32/float64 kept (integers -> float64).
+    out: optional C-contiguous array of x's shape and the computation dtype (may be x).
+
+    Examples
+    --------
+    >>> m = Ar2Model(a1=0.5, a2=0.0, sigma2=1.0)
+    >>> ar_filter(np.array([1.0, 2.0, 3.0, 4.0]), m).shape
+    (4,)
+    """
+    a = _float_array(x, "x", dtype)
+    _check_shape(a, "x")
+    axes = 1 if a.ndim == 1 else 3
+    params = [_settings(m, None, None) for m in _models_for(model, axes)]
+    out, faults = core("ar2").ar_filter_batch(a, params, out)
+    _report_faults(faults, "ar_filter")
+    return out
+
+
+@dataclass(frozen=True)
+class FilterResult:
+    """A filtered record and the non-finite samples the filter skipped, per axis.
+
+    Examples
+    --------
+    >>> m = Ar2Model(0.5, 0.1, 1.0)
+    >>> r = kalman_filter_result(np.array([1.0, np.nan, 2.0, 0.5] * 4), m)
+    >>> r.faults.tolist()
+    [4]
+    """
+
+    y: np.ndarray
+    faults: np.ndarray
+
+    def as_dict(self) -> dict[str, object]:
+        """JSON-ready values."""
+        return {"y": self.y.tolist(), "faults": self.faults.tolist()}
+
+
+def kalman_filter_result(
+    x: object,
+    model: Ar2Model | Sequence[Ar2Model],
+    q: float | None = None,
+    r: float | None = None,
+    steady_state: bool = False,
+    dtype: object = None,
+    p0: float = 1.0,
+    out: np.ndarray | None = None,
+) -> FilterResult:
+    """AR(2)-Kalman filter (C++ core) of a record of shape (n,) or (n, 3), with the count of
+    skipped non-finite samples per axis (`kalman_filter` warns instead).
+
+    Parameters
+    ----------
+    x : array (n,) or (n, 3)
+    model : Ar2Model, or one per axis
+    q, r : float, optional
+        Process / measurement variances, (units of x)^2; default model.sigma2 and model.r.
+    steady_state : bool
+        Constant gain from the discrete algebraic Riccati equation (solved once).
+    dtype : float32 or float64, optional
+        Computation dtype; default: x's float dtype, float64 for integers. A float32/float64
+        C-contiguous input of that dtype is read without a copy.
+    p0 : float
+        Initial covariance P0 = p0 I.
+    out : array, optional
+        C-contiguous array of x's shape and the computation dtype to write into (no
+        allocation; may be x itself for in-place filtering); TypeError/ValueError otherwise.
+
+    Returns
+    -------
+    FilterResult
+        ``y`` (the filtered record) and ``faults`` (NaN/Inf samples, which are predict-only
+        steps, per axis).
+
+    Examples
+    --------
+    >>> m = Ar2Model(0.5, 0.1, 1.0, r=1.0)
+    >>> kalman_filter_result(np.zeros(10), m).y.shape
+    (10,)
+    """
+    a = _float_array(x, "x", dtype)
+    _check_shape(a, "x")
+    axes = 1 if a.ndim == 1 else 3
+    params = [_settings(m, q, r) for m in _models_for(model, axes)]
+    p0 = _variance(p0, 1.0, "p0", positive=False)
+    y, faults = core("ar2").ar2_kalman_batch(a, params, p0, bool(steady_state), out)
+    return FilterResult(y, np.asarray(faults))
+
+
+def kalman_filter(x: object, model: Ar2Model | Sequence[Ar2Model], q: float | None = None,
+                  r: float | None = None, steady_state: bool = False, dtype: object = None,
+                  p0: float = 1.0, out: np.ndarray | None = None) -> np.ndarray:
+    """AR(2)-Kalman filter (C++ core) of a record of shape (n,) or (n, 3).
+
+    Parameters as `kalman_filter_result`; NaN/Inf samples are predict-only steps, reported
+    with a RuntimeWarning (`kalman_filter_result` returns their count instead).
+
+    Examples
+    --------
+    >>> import gyrodrift
+    >>> rec = gyrodrift.simulate(n=2000, rate_hz=100.0, n_deg_rt_h=0.01,
+    ...                          ar2=(0.6868, -0.0213, 0.5), seed=1)
+    >>> model = gyrodrift.fit_ar2(rec.rate_deg_h)
+    >>> y = kalman_filter(rec.rate_deg_h, model)
+    >>> bool(np.std(y) < np.std(rec.rate_deg_h))
+    True
+    """
+    res = kalman_filter_result(x, model, q, r, steady_state, dtype, p0, out)
+    _report_faults(res.faults, "kalman_filter")
+    return res.y
+
+
+class KalmanFilter:
+    """Stateful per-sample AR(2)-Kalman filter (C++ Ar2Kalman / Ar2SteadyStateKalman).
+
+    Examples
+    --------
+    >>> model = Ar2Model(a1=0.5, a2=0.1, sigma2=1.0, r=1.0)
+    >>> kf = KalmanFilter(model)            # q = model.sigma2, r = model.r
+    >>> y_hat = kf.step(0.3)                # one sample
+    >>> block = kf.process(np.zeros(10))    # continues from the current state
+    >>> block.shape
+    (10,)
+    """
+
+    def __init__(
+        self,
+        model: Ar2Model,
+        q: float | None = None,
+        r: float | None = None,
+        steady_state: bool = False,
+        dtype: object = np.float64,
+        p0: float = 1.0,
+    ) -> None:
+        if not isinstance(model, Ar2Model):
+            raise GyrodriftTypeError(f"model must be an Ar2Model, got {type(model).__name__}")
+        dt = np.dtype(dtype)  # type: ignore[call-overload]
+        if dt not in (np.float32, np.float64):
+            raise GyrodriftTypeError(f"dtype must be float32 or float64, got {dt}")
+        self.model = model
+        self.dtype = dt
+        self.steady_state = bool(steady_state)
+        settings = _settings(model, q, r)
+        self.q, self.r = float(settings.q), float(settings.r)
+        lib = core("ar2")
+        f32 = dt == np.float32
+        if self.steady_state:
+            cls = lib.Ar2SteadyStateKalmanF32 if f32 else lib.Ar2SteadyStateKalman
+            self._f = cls(settings)
+        else:
+            cls = lib.Ar2KalmanF32 if f32 else lib.Ar2Kalman
+            self._f = cls(settings, _variance(p0, 1.0, "p0", positive=False))
+
+    def step(self, y: float) -> float:
+        """Filter one sample; NaN/Inf -> predict-only (fault_count increments)."""
+        return float(self._f.step(float(y)))
+
+    def process(self, x: object) -> np.ndarray:
+        """Filter a 1-D block, continuing from the current state."""
+        a = _float_array(x, "x", self.dtype)
+        if a.ndim != 1:
+            raise GyrodriftValueError(f"x must be 1-D, got shape {a.shape}")
+        return self._f.process(a)
+
+    def reset(self) -> None:
+        """Back to X0 = 0, P0 = p0 I, zero faults."""
+        self._f.reset()
+
+    @property
+    def fault_count(self) -> int:
+        return int(self._f.fault_count)
+
+    @property
+    def state(self) -> tuple[float, float]:
+        """Demeaned state estimate (x_k, x_{k-1}) (full filter only; zeros before any step)."""
+        if self.steady_state:
+            raise AttributeError("state is exposed by the full filter only")
+        return tuple(self._f.state)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Current 2x2 state covariance P (full filter only)."""
+        if self.steady_state:
+            raise AttributeError("covariance is exposed by the full filter only")
+        return np.asarray(self._f.covariance)
+
+    @property
+    def dc_gain(self) -> float:
+        """Steady-state response to a sustained rate offset d from model.mean: the output
+        settles at mean + G d with G = u / ((1 - a1 - a2)(1 - k0) + u), u = k0 + a2 k1, from
+        the fixed point of X = A X + K (d - C A X) with the DARE gain K = (k0, k1). G < 1:
+        true rate changes are attenuated, so the filter suits drift (static) records only."""
+        m = self.model
+        k0, k1 = core("ar2").Ar2SteadyStateKalman(_settings(m, self.q, self.r)).gain
+        u = k0 + m.a2 * k1
+        return float(u / ((1.0 - m.a1 - m.a2) * (1.0 - k0) + u))
+
+    @property
+    def gain(self) -> tuple[float, float] | None:
+        """Constant gain of the steady-state variant (None for the full filter)."""
+        return tuple(self._f.gain) if self.steady_state else None

@@ -1,0 +1,719 @@
+"""Multi-channel IMU records for `gyrodrift characterize` and `gyrodrift fleet`.
+
+`load_imu(path)` reads up to six channels (gyro x, y, z in rad/s; accelerometer x, y, z in
+m/s^2) from:
+
+- ``.npy``: a (n, k) array (k = 3: gyro only; k = 6: gyro then accelerometer; or named with
+  ``columns=``), with ``rate_hz`` given. With ``spool_dir=`` the array is memory-mapped and
+  copied in chunks of rows to one float64 file per channel, which the Allan code then reads
+  in chunks (bounded memory whatever the record length: what a fleet worker does).
+- CSV and whitespace- or semicolon-separated text (``.csv``, ``.txt``, ``.dat``, ``.tsv``),
+  with or without a header line; a time column is detected (header ``t``, ``t_s``, ``time``,
+  ``timestamp``, ``stamp``; without a header, a strictly increasing first column when there are
+  4 or 7 columns) or given (``time_column=``); its steps are checked for gaps and reordering
+  exactly as the one-channel reader does (`gyrodrift.io.records`).
+- the PSINS ``.imu`` text log (angle and velocity increments per sample;
+  `gyrodrift.io.psins`), converted to rates by dividing by the sample interval.
+- the replay harness's IMU logs (``.bin``/``.gdf``, candump ``.log``, ``.asc``, ``.blf`` and
+  its CSV; `gyrodrift.io.imu_log`), with their sequence numbers checked for lost samples.
+- ROS bags (``.bag`` rosbag1; a rosbag2 directory or its ``.db3``/``.mcap`` file), read with
+  the pure-Python ``rosbags`` package: one ``sensor_msgs/msg/Imu`` topic (``topic=``; the
+  error lists the Imu topics when it is missing or ambiguous), timestamps from the message
+  headers (the bag's receive time where a header stamp is zero), checked like a time column.
+
+NaN/Inf samples follow `nan_policy` as in `gyrodrift.io.records`: "refuse" (default) raises with
+their
+count, "drop" removes the rows (all channels) and reports the count.
+
+Example
+-------
+>>> import numpy as np, tempfile, pathlib
+>>> d = pathlib.Path(tempfile.mkdtemp())
+>>> np.save(d / "imu.npy", np.zeros((100, 6)) + np.arange(6))
+>>> rec = load_imu(d / "imu.npy", rate_hz=100.0)
+>>> rec.names
+('gyro_x', 'gyro_y', 'gyro_z', 'accel_x', 'accel_y', 'accel_z')
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gyrodrift import units
+from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.io.records import LOG_SUFFIXES, rate_from_time
+from gyrodrift.units import ACCEL_INCREMENT_UNITS, INCREMENT_UNITS, RATE_UNITS
+
+__all__ = [
+    "ACCEL_UNITS",
+    "CHANNELS",
+    "GYRO_UNITS",
+    "ImuData",
+    "NpyChannels",
+    "bag_imu_topics",
+    "input_kind",
+    "load_imu",
+]
+
+#: Channel names in their canonical order (SI units inside: rad/s and m/s^2).
+CHANNELS: tuple[str, ...] = ("gyro_x", "gyro_y", "gyro_z", "accel_x", "accel_y", "accel_z")
+#: gyro input unit -> factor to rad/s (increments "rad", "deg", "arcsec": to rad, divided by dt)
+GYRO_UNITS: dict[str, float] = {u: f.to_rad_s for u, f in (*RATE_UNITS.items(),
+                                                          *INCREMENT_UNITS.items())}
+#: accelerometer input unit -> factor to m/s^2 (increments "m/s" are divided by dt).
+ACCEL_UNITS: dict[str, float] = {**units.ACCEL_UNITS, **ACCEL_INCREMENT_UNITS}
+_INCREMENT_UNITS = (*INCREMENT_UNITS, *ACCEL_INCREMENT_UNITS)
+TEXT_SUFFIXES = (".csv", ".txt", ".dat", ".tsv")
+BAG_SUFFIXES = (".bag", ".db3", ".mcap")
+IMU_MSGTYPES = ("sensor_msgs/msg/Imu", "sensor_msgs/Imu")
+
+_TIME_RE = re.compile(r"^(%?time|t|t_s|time_s|timestamp|stamp|sec|secs|seconds)([ _(\[].*)?$")
+_GYRO_RE = re.compile(r"^(gyro|gyr|gyroscope|omega|w|g|angular_velocity|ang_vel)[ _.\-]?([xyz])"
+                      r"(\b|_|$|[ (\[])")
+_ACCEL_RE = re.compile(r"^(accel|acc|accelerometer|a|f|linear_acceleration|lin_acc)[ _.\-]?"
+                       r"([xyz])(\b|_|$|[ (\[])")
+
+
+@dataclass(frozen=True)
+class ImuData:
+    """Up to six IMU channels on one uniform time base.
+
+    Attributes:
+        channels: name ("gyro_x" .. "accel_z") -> 1-D float64 samples in rad/s (gyro) or m/s^2
+            (accelerometer); a read-only numpy.memmap for spooled records.
+        rate_hz: sample rate, Hz.
+        source: the file (or bag) read.
+        fmt: input kind ("npy", "text", "psins", "replay-log", "rosbag1", "rosbag2").
+        n_total: samples in the file before any were dropped.
+        n_dropped: rows removed by nan_policy="drop".
+        detail: what the reader decided (columns, units, topic, time column), for reports.
+
+    Examples
+    --------
+    >>> rec = ImuData({"gyro_z": np.zeros(4)}, rate_hz=100.0, source="x", fmt="npy", n_total=4)
+    >>> rec.names, rec.n, rec.duration_s
+    (('gyro_z',), 4, 0.04)
+    """
+
+    channels: dict[str, np.ndarray]
+    rate_hz: float
+    source: str
+    fmt: str
+    n_total: int
+    n_dropped: int = 0
+    detail: dict[str, object] = field(default_factory=dict)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(self.channels)
+
+    @property
+    def n(self) -> int:
+        return int(next(iter(self.channels.values())).shape[0])
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+    @property
+    def duration_s(self) -> float:
+        return self.n / self.rate_hz
+
+    def summary(self) -> dict[str, object]:
+        return _record_summary(self.source, self.fmt, self.rate_hz, self.n_total, self.n,
+                               self.n_dropped, self.names, self.detail)
+
+
+def _record_summary(source: str, fmt: str, rate_hz: float, n_total: int, n: int,
+                    n_dropped: int, names: Sequence[str], detail: dict[str, object]
+                    ) -> dict[str, object]:
+    return {"source": source, "format": fmt, "rate_hz": rate_hz, "n_total": n_total,
+            "n_used": n, "duration_s": n / rate_hz, "n_dropped_nonfinite": n_dropped,
+            "channels": list(names), **detail}
+
+
+def input_kind(path: str | Path) -> str:
+    """The reader `load_imu` uses for a path (no file content read except a CSV header).
+
+    Examples
+    --------
+    >>> [input_kind(p) for p in ("a.npy", "a.csv", "a.bag", "a.imu", "a.bin")]
+    ['npy', 'text', 'rosbag1', 'psins', 'replay-log']
+    """
+    p = Path(path)
+    suffix = p.suffix.lower()
+    if p.is_dir():
+        if (p / "metadata.yaml").is_file():
+            return "rosbag2"
+        raise GyrodriftValueError(f"{p}: a directory that is not a rosbag2 bag (no metadata.yaml)")
+    if suffix == ".bag":
+        return "rosbag1"
+    if suffix in (".db3", ".mcap"):
+        return "rosbag2"
+    if suffix == ".npy":
+        return "npy"
+    if suffix == ".imu":
+        return "psins"
+    if suffix in LOG_SUFFIXES:
+        return "replay-log"
+    if suffix in TEXT_SUFFIXES:
+        if suffix == ".csv" and p.is_file():
+            with p.open() as fh:
+                first = fh.readline()
+            if "gyro_z_rad_s" in first and "seq" in first:
+                return "replay-log"
+        return "text"
+    raise GyrodriftValueError(
+        f"{p}: unsupported input {suffix!r}: use .npy, .csv/.txt/.dat/.tsv text, "
+        f"PSINS .imu, an IMU log ({', '.join(LOG_SUFFIXES)}), or a ROS bag "
+        "(.bag, a rosbag2 directory, .db3, .mcap)")
+
+
+def load_imu(
+    path: str | Path,
+    *,
+    rate_hz: float | None = None,
+    columns: Sequence[str] | None = None,
+    time_column: str | int | None = None,
+    topic: str | None = None,
+    gyro_units: str = "rad/s",
+    accel_units: str = "m/s^2",
+    nan_policy: str = "refuse",
+    spool_dir: str | Path | None = None,
+    chunk_rows: int = 1 << 18,
+) -> ImuData:
+    """Read an IMU record (module docstring).
+
+    Parameters
+    ----------
+    rate_hz : required for .npy and for text without a time column; otherwise checked
+        against nothing and used instead of the time column's rate when given.
+    columns : channel name per data column (time column excluded), "-" to skip one; default
+        from the header, or gyro x, y, z (3 columns) / gyro then accel (6 columns).
+    time_column : text only: header name or index, "none" for no time column; default:
+        detected.
+    topic : ROS bags: the sensor_msgs/msg/Imu topic (needed when the bag has several).
+    gyro_units, accel_units : units of text/.npy columns (GYRO_UNITS, ACCEL_UNITS); logs,
+        bags and PSINS files carry their own.
+    nan_policy : "refuse" or "drop" (rows with any NaN/Inf channel).
+    spool_dir : .npy only: write one float64 file per channel there, in chunks of
+        `chunk_rows` rows, and return memory maps of them (bounded memory).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = Path(d) / "imu.csv"  # time column and three gyro columns, rad/s
+    ...     _ = path.write_text("t,gx,gy,gz\\n0.00,0.1,0.2,0.3\\n0.01,0.1,0.2,0.3\\n"
+    ...                         "0.02,0.1,0.2,0.3\\n")
+    ...     rec = load_imu(path)
+    >>> rec.names, rec.rate_hz, rec.fmt, rec.channels["gyro_z"]
+    (('gyro_x', 'gyro_y', 'gyro_z'), 100.0, 'text', array([0.3, 0.3, 0.3]))
+    """
+    p = Path(path)
+    _check_args(p, nan_policy, gyro_units, accel_units, rate_hz)
+    kind = input_kind(p)
+    if kind == "npy":
+        if spool_dir is not None:
+            return _spool_npy(p, rate_hz, columns, gyro_units, accel_units, Path(spool_dir),
+                              chunk_rows)
+        return _load_npy(p, rate_hz, columns, gyro_units, accel_units, nan_policy)
+    if kind == "text":
+        return _load_text(p, rate_hz, columns, time_column, gyro_units, accel_units, nan_policy)
+    if kind == "psins":
+        return _load_psins(p, nan_policy)
+    if kind == "replay-log":
+        return _load_replay_log(p, rate_hz, nan_policy)
+    return _load_bag(p, kind, topic, rate_hz, nan_policy)
+
+
+# ---------------------------------------------------------------------------------- helpers
+
+def _check_args(p: Path, nan_policy: str, gyro_units: str, accel_units: str,
+                rate_hz: float | None) -> None:
+    if not p.exists():
+        raise FileNotFoundError(f"no such file: {p}")
+    if nan_policy not in ("refuse", "drop"):
+        raise GyrodriftValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
+    if gyro_units not in GYRO_UNITS:
+        raise GyrodriftValueError(
+            f"unknown gyro units {gyro_units!r}; choose one of {list(GYRO_UNITS)}")
+    if accel_units not in ACCEL_UNITS:
+        raise GyrodriftValueError(f"unknown accel units {accel_units!r}; choose one of "
+                         f"{list(ACCEL_UNITS)}")
+    if rate_hz is not None and not (isinstance(rate_hz, int | float) and math.isfinite(rate_hz)
+                                    and rate_hz > 0):
+        raise GyrodriftValueError(f"rate must be positive and finite, got {rate_hz!r}")
+
+
+def _default_names(k: int, source: str) -> list[str]:
+    if k == 6:
+        return list(CHANNELS)
+    if k == 3:
+        return list(CHANNELS[:3])
+    if k == 1:
+        return ["gyro_z"]
+    raise GyrodriftValueError(
+        f"{source}: {k} data columns; name them with columns= (CLI --columns, "
+        f"e.g. gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z; '-' skips one)")
+
+
+def _check_names(names: Sequence[str], k: int, source: str) -> list[str]:
+    names = [n.strip() for n in names]
+    if len(names) != k:
+        raise GyrodriftValueError(
+            f"{source}: {k} data columns but {len(names)} channel names {names}")
+    used = [n for n in names if n != "-"]
+    bad = [n for n in used if n not in CHANNELS]
+    if bad:
+        raise GyrodriftValueError(
+            f"{source}: unknown channel names {bad}; use {', '.join(CHANNELS)} "
+            "or '-'")
+    if len(set(used)) != len(used):
+        raise GyrodriftValueError(f"{source}: a channel is named twice in {names}")
+    if not used:
+        raise GyrodriftValueError(f"{source}: no channel selected")
+    return names
+
+
+def _factor(name: str, gyro_units: str, accel_units: str, rate_hz: float) -> float:
+    """Multiplier from the file's unit to rad/s or m/s^2 (increments x rate)."""
+    unit = gyro_units if name.startswith("gyro") else accel_units
+    f = GYRO_UNITS[unit] if name.startswith("gyro") else ACCEL_UNITS[unit]
+    return f * rate_hz if unit in _INCREMENT_UNITS else f
+
+
+def _finish(cols: dict[str, np.ndarray], rate_hz: float, source: str, fmt: str,
+            nan_policy: str, detail: dict[str, object]) -> ImuData:
+    ordered = {name: cols[name] for name in CHANNELS if name in cols}
+    n_total = int(next(iter(ordered.values())).shape[0])
+    if n_total < 3:
+        raise GyrodriftValueError(f"{source}: {n_total} samples; too short for analysis")
+    bad = np.zeros(n_total, dtype=bool)
+    for v in ordered.values():
+        bad |= ~np.isfinite(v)
+    n_bad = int(np.count_nonzero(bad))
+    if n_bad:
+        if nan_policy != "drop":
+            raise GyrodriftValueError(
+                f"{source}: {n_bad} of {n_total} samples have NaN/Inf channels; "
+                "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
+        ordered = {k: v[~bad] for k, v in ordered.items()}
+    ordered = {k: np.ascontiguousarray(v, dtype=np.float64) for k, v in ordered.items()}
+    return ImuData(ordered, float(rate_hz), source, fmt, n_total, n_bad, detail)
+
+
+# ---------------------------------------------------------------------------------- readers
+
+def _load_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gyro_units: str,
+              accel_units: str, nan_policy: str) -> ImuData:
+    arr = np.load(p, mmap_mode="r", allow_pickle=False)
+    if arr.ndim == 1:
+        arr = arr[:, None]
+    if arr.ndim != 2:
+        raise GyrodriftValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
+    if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+        raise GyrodriftValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
+    if rate_hz is None:
+        raise GyrodriftValueError(f"{p}: a .npy record carries no sample rate; give --rate-hz")
+    names = (_check_names(columns, arr.shape[1], str(p)) if columns
+             else _default_names(arr.shape[1], str(p)))
+    cols = {n: np.asarray(arr[:, j], dtype=np.float64) * _factor(n, gyro_units, accel_units,
+                                                                   rate_hz)
+            for j, n in enumerate(names) if n != "-"}
+    return _finish(cols, rate_hz, str(p), "npy", nan_policy,
+                   {"columns": names, "gyro_units_in": gyro_units, "accel_units_in": accel_units})
+
+
+class NpyChannels:
+    """An (n, k) .npy IMU record read in chunks of rows from plain file reads (a fleet task's
+    reader): one channel at a time into memory (`channel`), or all channels spooled to one
+    float64 file each (`spool`). Either way at most `chunk_rows` rows of the file are held
+    besides what is returned, and the values are the same bits: the file's column converted
+    to float64 and multiplied by its unit factor, sample by sample.
+
+    NaN/Inf are refused before any channel is returned: the first `channel` call (or `spool`)
+    counts them over every used column in its pass and raises with their count.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> d = Path(tempfile.mkdtemp())
+    >>> np.save(d / "imu.npy", np.arange(12, dtype=np.float32).reshape(4, 3))
+    >>> r = NpyChannels(d / "imu.npy", rate_hz=100.0, gyro_units="deg/s", chunk_rows=3)
+    >>> r.names, r.n, r.channel("gyro_y") * 180.0 / math.pi
+    (('gyro_x', 'gyro_y', 'gyro_z'), 4, array([ 1.,  4.,  7., 10.]))
+    """
+
+    def __init__(self, path: str | Path, *, rate_hz: float | None,
+                 columns: Sequence[str] | None = None, gyro_units: str = "rad/s",
+                 accel_units: str = "m/s^2", chunk_rows: int = 1 << 18) -> None:
+        p = Path(path)
+        _check_args(p, "refuse", gyro_units, accel_units, rate_hz)
+        if input_kind(p) != "npy":
+            raise GyrodriftValueError(f"{p}: not a .npy record")
+        base = np.load(p, mmap_mode="r", allow_pickle=False)
+        arr = base[:, None] if base.ndim == 1 else base
+        if arr.ndim != 2:
+            raise GyrodriftValueError(f"{p}: expected an (n, k) array, got shape {arr.shape}")
+        if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
+            raise GyrodriftValueError(f"{p}: expected numbers, got dtype {arr.dtype}")
+        if rate_hz is None:
+            raise GyrodriftValueError(
+                f"{p}: a .npy record carries no sample rate; give --rate-hz")
+        if chunk_rows < 1:
+            raise GyrodriftValueError(f"chunk_rows must be >= 1, got {chunk_rows}")
+        n = int(arr.shape[0])
+        if n < 3:
+            raise GyrodriftValueError(f"{p}: {n} samples; too short for analysis")
+        names = (_check_names(columns, arr.shape[1], str(p)) if columns
+                 else _default_names(arr.shape[1], str(p)))
+        self.path = p
+        self.rate_hz = float(rate_hz)
+        self.n = n
+        self.chunk_rows = int(chunk_rows)
+        self._base = base
+        self._arr = arr
+        # The file holds rows one after the other (C order; a 1-D record too) from base.offset.
+        self._c_order = isinstance(base, np.memmap) and bool(base.flags.c_contiguous)
+        self._idx = {name: j for j, name in enumerate(names) if name != "-"}
+        self._factor = {name: _factor(name, gyro_units, accel_units, self.rate_hz)
+                        for name in self._idx}
+        self._checked = False
+        #: used channels in canonical order
+        self.names: tuple[str, ...] = tuple(c for c in CHANNELS if c in self._idx)
+        self.detail: dict[str, object] = {"columns": names, "gyro_units_in": gyro_units,
+                                          "accel_units_in": accel_units, "chunked": True}
+
+    def _blocks(self) -> Iterator[tuple[int, np.ndarray]]:
+        """(first row, rows as stored: an (m, k) block of the file's dtype), in order. The
+        block is one buffer, refilled for the next rows: use it before asking for the next.
+        Plain file reads into that buffer, never touching a mapping: mapped pages of a
+        1e7-sample record would count in the worker's resident memory (and stay there until
+        evicted); and no new buffer per chunk: a Dask worker's allocator (the nanny sets
+        MALLOC_TRIM_THRESHOLD_) maps and page-faults every large allocation afresh."""
+        arr, n, k = self._arr, self.n, int(self._arr.shape[1])
+        if not self._c_order:  # Fortran order or a 1-D record: slices of the mapping
+            for lo in range(0, n, self.chunk_rows):
+                yield lo, np.asarray(arr[lo:lo + self.chunk_rows])
+            return
+        buf = np.empty((min(self.chunk_rows, n), k), dtype=arr.dtype)
+        with open(self.path, "rb") as src:
+            src.seek(self._base.offset)
+            for lo in range(0, n, self.chunk_rows):
+                block = buf[:min(self.chunk_rows, n - lo)]
+                want = block.nbytes
+                got = src.readinto(block.reshape(-1).view(np.uint8).data)
+                if got != want:
+                    raise GyrodriftValueError(
+                        f"{self.path}: file shorter than its header says")
+                yield lo, block
+
+    def _scaled(self, block: np.ndarray, name: str, out: np.ndarray) -> np.ndarray:
+        """out = the column as float64 times its unit factor (the product in float64)."""
+        return np.multiply(block[:, self._idx[name]], self._factor[name], out=out,
+                           dtype=np.float64)
+
+    def _refuse(self, n_bad: int) -> None:
+        self._checked = True
+        if n_bad:
+            raise GyrodriftValueError(
+                f"{self.path}: {n_bad} NaN/Inf values; the chunked reader refuses them "
+                "(repair the record, or characterize it alone with --drop-nan)")
+
+    def channel(self, name: str) -> np.ndarray:
+        """One channel as a contiguous float64 array in SI units (one pass over the file;
+        memory: the channel plus one chunk of rows)."""
+        if name not in self._idx:
+            raise KeyError(name)
+        out = np.empty(self.n)
+        check = not self._checked
+        rows = min(self.chunk_rows, self.n)
+        scratch, finite = np.empty(rows), np.empty(rows, dtype=bool)
+        n_bad = 0
+        for lo, block in self._blocks():
+            m = block.shape[0]
+            self._scaled(block, name, out[lo:lo + m])
+            if check:
+                for c in self._idx:
+                    col = out[lo:lo + m] if c == name else self._scaled(block, c, scratch[:m])
+                    n_bad += m - int(np.count_nonzero(np.isfinite(col, out=finite[:m])))
+        if check:
+            self._refuse(n_bad)
+        return out
+
+    def spool(self, spool_dir: str | Path) -> ImuData:
+        """Every channel copied to `spool_dir/<name>.npy` (float64), returned as read-only
+        memory maps (which the Allan code reads in chunks: bounded memory)."""
+        spool = Path(spool_dir)
+        spool.mkdir(parents=True, exist_ok=True)
+        header_len = {}
+        for name in self._idx:
+            mm = np.lib.format.open_memmap(spool / f"{name}.npy", mode="w+", dtype=np.float64,
+                                           shape=(self.n,))
+            header_len[name] = int(mm.offset)
+            del mm
+        rows = min(self.chunk_rows, self.n)
+        scratch, finite = np.empty(rows), np.empty(rows, dtype=bool)
+        n_bad = 0
+        outs = {name: open(spool / f"{name}.npy", "r+b") for name in self._idx}
+        try:
+            for name, fh in outs.items():
+                fh.seek(header_len[name])
+            for _, block in self._blocks():
+                m = block.shape[0]
+                for name, fh in outs.items():
+                    col = self._scaled(block, name, scratch[:m])
+                    n_bad += m - int(np.count_nonzero(np.isfinite(col, out=finite[:m])))
+                    fh.write(col.data)
+        finally:
+            for fh in outs.values():
+                fh.close()
+        self._refuse(n_bad)
+        cols = {name: np.load(spool / f"{name}.npy", mmap_mode="r") for name in self.names}
+        return ImuData(cols, self.rate_hz, str(self.path), "npy", self.n, 0, dict(self.detail))
+
+    def summary(self) -> dict[str, object]:
+        """What `ImuData.summary` gives for this record (the same dict as `spool`'s)."""
+        return _record_summary(str(self.path), "npy", self.rate_hz, self.n, self.n, 0,
+                               self.names, self.detail)
+
+
+def _spool_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gyro_units: str,
+               accel_units: str, spool: Path, chunk_rows: int) -> ImuData:
+    """Chunked copy of an (n, k) .npy to one float64 .npy per channel; memory ~ chunk_rows x k.
+    NaN/Inf are refused (counted over all chunks first, nothing is half-written silently)."""
+    return NpyChannels(p, rate_hz=rate_hz, columns=columns, gyro_units=gyro_units,
+                       accel_units=accel_units, chunk_rows=chunk_rows).spool(spool)
+
+
+def _split(line: str, delim: str | None) -> list[str]:
+    return [c.strip() for c in (line.split(delim) if delim else line.split())]
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _header_channel(name: str) -> str | None:
+    low = name.strip().lower()
+    for prefix, rx in (("gyro", _GYRO_RE), ("accel", _ACCEL_RE)):
+        m = rx.match(low)
+        if m:
+            return f"{prefix}_{m.group(2)}"
+    return None
+
+
+def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
+               time_column: str | int | None, gyro_units: str, accel_units: str,
+               nan_policy: str) -> ImuData:
+    source = str(p)
+    first = None
+    skip = 0
+    with p.open() as fh:
+        for line in fh:
+            skip += 1
+            if line.strip() and not line.lstrip().startswith(("#", "%")):
+                first = line.strip()
+                break
+    if first is None:
+        raise GyrodriftValueError(f"{source}: empty file")
+    delim = "," if "," in first else (";" if ";" in first else None)
+    cells = _split(first, delim)
+    has_header = not all(_is_number(c) for c in cells)
+    try:
+        # Rows with a wrong number of fields are an error (never dropped silently);
+        # unparseable cells become NaN and go through the NaN policy.
+        table = np.genfromtxt(p, delimiter=delim, skip_header=skip if has_header else skip - 1,
+                              comments="#", dtype=np.float64, invalid_raise=True, ndmin=2)
+    except ValueError as exc:
+        detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+        raise GyrodriftValueError(f"{source}: malformed text table: {detail}") from exc
+    if table.size == 0:
+        raise GyrodriftValueError(f"{source}: no data rows")
+    k = table.shape[1]
+    if k != len(cells):
+        raise GyrodriftValueError(
+            f"{source}: rows have {k} fields, the first line has {len(cells)}")
+    header = cells if has_header else [str(i) for i in range(k)]
+    # Time column.
+    t_idx: int | None
+    if time_column is None:
+        t_idx = next((i for i, n in enumerate(header) if _TIME_RE.match(n.lower())), None) \
+            if has_header else None
+        if t_idx is None and not has_header and k in (4, 7) and columns is None:
+            t = table[:, 0]
+            if t.size > 1 and np.all(np.diff(t) > 0):
+                t_idx = 0
+    elif str(time_column).lower() == "none":
+        t_idx = None
+    elif isinstance(time_column, int) or str(time_column).isdigit():
+        t_idx = int(time_column)
+        if not 0 <= t_idx < k:
+            raise GyrodriftValueError(f"{source}: time column {t_idx} out of range (0..{k - 1})")
+    else:
+        if time_column not in header:
+            raise GyrodriftValueError(
+                f"{source}: no time column {time_column!r}; columns are {header}")
+        t_idx = header.index(str(time_column))
+    data_idx = [i for i in range(k) if i != t_idx]
+    if columns:
+        names = _check_names(columns, len(data_idx), source)
+    elif has_header:
+        mapped = [_header_channel(header[i]) for i in data_idx]
+        if any(m is not None for m in mapped):
+            names = [m if m is not None else "-" for m in mapped]
+            _check_names(names, len(data_idx), source)
+        else:
+            names = _default_names(len(data_idx), source)
+    else:
+        names = _default_names(len(data_idx), source)
+    if t_idx is not None:
+        t_rate = rate_from_time(table[:, t_idx], source)
+        rate_hz = t_rate if rate_hz is None else rate_hz
+    if rate_hz is None:
+        raise GyrodriftValueError(f"{source}: no time column to infer the rate; give --rate-hz")
+    cols = {n: table[:, i] * _factor(n, gyro_units, accel_units, rate_hz)
+            for i, n in zip(data_idx, names, strict=True) if n != "-"}
+    return _finish(cols, rate_hz, source, "text", nan_policy,
+                   {"columns": names, "time_column": None if t_idx is None else header[t_idx],
+                    "header": has_header, "delimiter": delim or "whitespace",
+                    "gyro_units_in": gyro_units, "accel_units_in": accel_units})
+
+
+def _load_psins(p: Path, nan_policy: str) -> ImuData:
+    from gyrodrift.io.psins import read_psins_imu
+
+    rec = read_psins_imu(p)
+    rate = 1.0 / rec.dt_s
+    cols = {CHANNELS[j]: rec.dtheta[:, j] * rate for j in range(3)}
+    cols.update({CHANNELS[3 + j]: rec.dv[:, j] * rate for j in range(3)})
+    return _finish(cols, rate, str(p), "psins", nan_policy,
+                   {"units_in": "angle increments (arcsec counts) and velocity increments "
+                                "(ug*s counts) per sample, divided by dt"})
+
+
+def _load_replay_log(p: Path, rate_hz: float | None, nan_policy: str) -> ImuData:
+    from gyrodrift.io.imu_log import read_imu_log
+
+    samples = read_imu_log(p, "csv" if p.suffix.lower() == ".csv" else None)
+    if len(samples) < 3:
+        raise GyrodriftValueError(f"{p}: {len(samples)} samples; too short for analysis")
+    seq = np.asarray(samples.seq, dtype=np.int64)
+    steps = np.diff(seq) % 65536
+    lost = int(np.count_nonzero(steps != 1))
+    if lost:
+        raise GyrodriftValueError(f"{p}: {lost} breaks in the sequence numbers (lost, repeated or "
+                         "reordered samples); Allan/PSD analysis needs uniform sampling")
+    t_rate = rate_from_time(np.asarray(samples.t_s, dtype=np.float64), str(p))
+    rate = t_rate if rate_hz is None else rate_hz
+    ch = np.asarray(samples.channels, dtype=np.float64)
+    cols = {CHANNELS[j]: ch[:, j] for j in range(6)}
+    return _finish(cols, rate, str(p), "replay-log", nan_policy, {"units_in": "rad/s, m/s^2"})
+
+
+def _bag_paths(p: Path, kind: str) -> Path:
+    # AnyReader opens a rosbag2 by its directory (metadata.yaml); a bare .db3/.mcap file inside
+    # such a directory is accepted by its parent.
+    if kind == "rosbag2" and p.is_file():
+        if (p.parent / "metadata.yaml").is_file():
+            return p.parent
+        return p
+    return p
+
+
+def bag_imu_topics(path: str | Path) -> dict[str, int]:
+    """sensor_msgs/msg/Imu topics of a ROS bag -> message count.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from rosbags.rosbag1 import Writer
+    >>> from rosbags.typesys import Stores, get_typestore
+    >>> ts = get_typestore(Stores.ROS1_NOETIC)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     path = Path(d) / "run.bag"
+    ...     with Writer(path) as w:
+    ...         _ = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
+    ...         _ = w.add_connection("/note", "std_msgs/msg/String", typestore=ts)
+    ...     print(bag_imu_topics(path))  # the Imu topics only, with their message counts
+    {'/imu': 0}
+    """
+    from rosbags.highlevel import AnyReader
+
+    p = Path(path)
+    kind = input_kind(p)
+    with AnyReader([_bag_paths(p, kind)], default_typestore=_typestore()) as reader:
+        out: dict[str, int] = {}
+        for c in reader.connections:
+            if c.msgtype in IMU_MSGTYPES:
+                out[c.topic] = out.get(c.topic, 0) + int(c.msgcount)
+        return out
+
+
+def _typestore() -> Any:
+    from rosbags.typesys import Stores, get_typestore
+
+    return get_typestore(Stores.ROS2_HUMBLE)
+
+
+def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
+              nan_policy: str) -> ImuData:
+    from rosbags.highlevel import AnyReader
+
+    source = str(p)
+    with AnyReader([_bag_paths(p, kind)], default_typestore=_typestore()) as reader:
+        imu: dict[str, list[Any]] = {}
+        for c in reader.connections:
+            if c.msgtype in IMU_MSGTYPES:
+                imu.setdefault(c.topic, []).append(c)
+        listing = ", ".join(f"{t} ({sum(int(c.msgcount) for c in cs)} messages)"
+                            for t, cs in sorted(imu.items())) or "none"
+        if topic is None:
+            if len(imu) != 1:
+                raise GyrodriftValueError(
+                    f"{source}: choose a sensor_msgs/msg/Imu topic with --topic; "
+                    f"the bag has: {listing}")
+            topic = next(iter(imu))
+        if topic not in imu:
+            raise GyrodriftValueError(
+                f"{source}: no sensor_msgs/msg/Imu topic {topic!r}; the bag has: "
+                f"{listing}")
+        conns = imu[topic]
+        n = sum(int(c.msgcount) for c in conns)
+        vals = np.empty((n, 6))
+        t_ns = np.empty(n, dtype=np.int64)
+        i = 0
+        for conn, bag_t_ns, raw in reader.messages(connections=conns):
+            msg: Any = reader.deserialize(raw, conn.msgtype)
+            st = msg.header.stamp
+            stamp = int(st.sec) * 1_000_000_000 + int(st.nanosec)
+            if i >= n:
+                raise GyrodriftValueError(
+                    f"{source}: more {topic} messages than the bag index says")
+            t_ns[i] = stamp if stamp > 0 else int(bag_t_ns)
+            w, a = msg.angular_velocity, msg.linear_acceleration
+            vals[i] = (w.x, w.y, w.z, a.x, a.y, a.z)
+            i += 1
+    if i != n:
+        raise GyrodriftValueError(f"{source}: {topic}: read {i} messages, the bag index says {n}")
+    if n < 3:
+        raise GyrodriftValueError(f"{source}: {topic}: {n} messages; too short for analysis")
+    # Gaps and reordering are checked on the header stamps in bag order (the same check as a
+    # CSV time column); relative times keep the nanoseconds exact in float64.
+    t_rate = rate_from_time((t_ns - t_ns[0]).astype(np.float64) * 1e-9, f"{source} {topic}")
+    rate = t_rate if rate_hz is None else rate_hz
+    cols = {CHANNELS[j]: vals[:, j] for j in range(6)}
+    return _finish(cols, rate, source, kind, nan_policy,
+                   {"topic": topic, "units_in": "rad/s, m/s^2 (sensor_msgs/Imu)"})

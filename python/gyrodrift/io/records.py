@@ -1,0 +1,415 @@
+"""Loading gyro records for analysis: .npy (memory-mapped when possible), .csv with a column
+choice, and the replay harness's IMU logs (.bin/.gdf, .log candump, .asc, .blf; the IMU csv
+with the replay columns is recognised by its header), and the PSINS `.imu` text log (gyro
+angle increments, `gyrodrift.io.psins`). Every record becomes a rate in deg/h. Six-channel
+records (gyro and accelerometer) are read by `gyrodrift.io.imu_data.load_imu`.
+
+Units (`units=`): rates "deg/h", "deg/s", "rad/s"; angle increments per sample "arcsec",
+"deg", "rad" (divided by dt). NaN/Inf rows are never dropped silently: nan_policy="refuse"
+(default) raises with their count, "drop" removes them and reports the count in
+`Record.n_dropped` (dropping samples joins the neighbours in time; the caller decides whether
+that is acceptable).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.units import INCREMENT_UNITS, RATE_UNITS
+
+__all__ = ["UNITS", "Record", "load_record", "rate_from_time", "to_deg_h"]
+
+#: The input units a gyro record may be in (gyrodrift.units: rates, then angle increments).
+UNITS: tuple[str, ...] = (*RATE_UNITS, *INCREMENT_UNITS)
+LOG_SUFFIXES = (".bin", ".gdf", ".log", ".asc", ".blf")
+GYRO_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+@dataclass(frozen=True)
+class Record:
+    """A rate record in deg/h.
+
+    rate_deg_h may be a read-only numpy.memmap (large .npy in deg/h without NaN), which the
+    Allan code reads in chunks; use np.asarray(rate_deg_h) to load it.
+
+    Examples
+    --------
+    >>> r = Record(np.zeros(10), 100.0, "x.npy", "0", "deg/h", 10, 0)
+    >>> r.n, r.dt_s
+    (10, 0.01)
+    """
+
+    rate_deg_h: np.ndarray
+    rate_hz: float
+    source: str
+    column: str
+    units_in: str
+    n_total: int
+    n_dropped: int
+    # CAN logs: one line on where every frame of the capture went (CanLogReport.summary).
+    log_summary: str = ""
+
+    @property
+    def n(self) -> int:
+        return int(self.rate_deg_h.shape[0])
+
+    @property
+    def dt_s(self) -> float:
+        return 1.0 / self.rate_hz
+
+    def summary(self) -> dict[str, object]:
+        return {"source": self.source, "column": self.column, "units_in": self.units_in,
+                "rate_hz": self.rate_hz, "n_total": self.n_total, "n_used": self.n,
+                "n_dropped_nonfinite": self.n_dropped,
+                **({"log": self.log_summary} if self.log_summary else {})}
+
+
+def to_deg_h(values: np.ndarray, units: str, rate_hz: float) -> np.ndarray:
+    """Convert a rate or per-sample angle increment to deg/h (new float64 array).
+
+    Examples
+    --------
+    >>> to_deg_h(np.array([1.0]), "deg/s", 100.0).tolist()
+    [3600.0]
+    >>> to_deg_h(np.array([1.0]), "arcsec", 100.0).tolist()  # 1 arcsec per sample at 100 Hz
+    [100.0]
+    """
+    v = np.asarray(values, dtype=np.float64)
+    if units in RATE_UNITS:
+        return v * RATE_UNITS[units].to_deg_h
+    if units in INCREMENT_UNITS:
+        # increment [unit] per dt [s] -> deg/s -> deg/h
+        return v * (INCREMENT_UNITS[units].to_deg_h * rate_hz * 3600.0)
+    raise GyrodriftValueError(f"unknown units {units!r}; choose one of {', '.join(UNITS)}")
+
+
+def _apply_nan_policy(x: np.ndarray, nan_policy: str, source: str) -> tuple[np.ndarray, int]:
+    bad = ~np.isfinite(x)
+    n_bad = int(np.count_nonzero(bad))
+    if n_bad == 0:
+        return x, 0
+    if nan_policy == "drop":
+        return x[~bad], n_bad
+    raise GyrodriftValueError(
+        f"{source}: {n_bad} of {x.size} samples are NaN/Inf; pass nan_policy='drop' "
+        "(CLI: --drop-nan) to remove them explicitly"
+    )
+
+
+def _pick_column(names: list[str], column: str | int | None, source: str) -> int:
+    if column is None:
+        candidates = [i for i, n in enumerate(names) if n.lower() not in ("t", "t_s", "time")]
+        if len(candidates) != 1:
+            raise GyrodriftValueError(f"{source}: {len(names)} columns {names}; choose one with "
+                             "--column")
+        return candidates[0]
+    if isinstance(column, int) or (isinstance(column, str) and column.isdigit()):
+        idx = int(column)
+        if not 0 <= idx < len(names):
+            raise GyrodriftValueError(f"{source}: column {idx} out of range (0..{len(names) - 1})")
+        return idx
+    if column not in names:
+        raise GyrodriftValueError(f"{source}: no column {column!r}; columns are {names}")
+    return names.index(column)
+
+
+def rate_from_time(t: np.ndarray, source: str) -> float:
+    """Sample rate from a time column; gaps (missing samples) or steps back are an error,
+    because Allan/PSD analysis assumes uniform sampling and would silently mis-time them.
+
+    Examples
+    --------
+    >>> rate_from_time(np.arange(5) * 0.01, "log.csv")  # seconds in, Hz out
+    100.0
+    """
+    t = t[np.isfinite(t)]
+    if t.size < 2:
+        raise GyrodriftValueError(f"{source}: cannot infer the sample rate from the time column")
+    dt = np.diff(t)
+    dt_med = float(np.median(dt))
+    if not dt_med > 0:
+        raise GyrodriftValueError(f"{source}: time column is not increasing")
+    # 25 % slack covers timestamp rounding (e.g. 6-decimal CSV times, CAN log clocks).
+    gaps = int(np.count_nonzero(dt > 1.25 * dt_med))
+    backs = int(np.count_nonzero(dt < 0.75 * dt_med))
+    if gaps or backs:
+        raise GyrodriftValueError(
+            f"{source}: non-uniform time column: {gaps} gaps (missing samples) "
+            f"and {backs} short or backward steps against the median step "
+            f"{dt_med:.6g} s; Allan/PSD analysis needs uniform sampling")
+    return 1.0 / dt_med
+
+
+def load_record(
+    path: str | Path,
+    *,
+    column: str | int | None = None,
+    rate_hz: float | None = None,
+    units: str = "deg/h",
+    nan_policy: str = "refuse",
+    mmap: bool = True,
+    can_signals: str | Path | None = None,
+    force_rate: bool = False,
+) -> Record:
+    """Load one gyro channel as a rate in deg/h (module docstring).
+
+    column: .csv column name or index; .npy column index of a 2-D array; for IMU logs the
+    gyro axis "x", "y", "z" (default "z"). rate_hz: required for .npy; for .csv it is taken
+    from a t_s/time column when not given; for logs from the timestamps. can_signals: a CAN
+    log in a user's own DBC, read through this signal map (gyrodrift.codecs.can_signals).
+    A rate_hz that contradicts the file's own time column (by more than 1 %) is refused
+    unless force_rate. Only regular files are read (a FIFO or device would block or never end).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "rate.npy")
+    >>> np.save(path, np.full(100, 3.0))
+    >>> rec = load_record(path, rate_hz=10.0, units="deg/s")
+    >>> rec.n, float(rec.rate_deg_h[0])  # deg/s -> deg/h
+    (100, 10800.0)
+    """
+    p = Path(path)
+    source = str(p)
+    if not p.exists():
+        raise FileNotFoundError(f"no such file: {p}")
+    if not p.is_file():
+        raise GyrodriftValueError(f"{source}: not a regular file (a directory, FIFO or device); "
+                         "give a record file")
+    if nan_policy not in ("refuse", "drop"):
+        raise GyrodriftValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
+    if units not in UNITS:
+        raise GyrodriftValueError(f"unknown units {units!r}; choose one of {', '.join(UNITS)}")
+    if rate_hz is not None and not (math.isfinite(rate_hz)
+                                    and RATE_MIN_HZ <= rate_hz <= RATE_MAX_HZ):
+        raise GyrodriftValueError(
+            f"sample rate must be within {RATE_MIN_HZ:g}..{RATE_MAX_HZ:g} Hz, "
+            f"got {rate_hz!r}")
+    suffix = p.suffix.lower()
+    header_names: list[str] | None = None
+    delimiter = ","
+    if suffix == ".csv":
+        try:
+            with p.open(newline="", encoding="utf-8") as fh:
+                first_line = fh.readline()
+        except UnicodeDecodeError as exc:
+            raise GyrodriftValueError(
+                f"{source}: not a text CSV file (byte {exc.start} is not UTF-8; "
+                "a binary file named .csv?)") from None
+        if not first_line.strip():
+            raise GyrodriftValueError(f"{source}: empty file (no header or data line first)")
+        if "," not in first_line and ";" in first_line:
+            delimiter = ";"  # the spreadsheet export of locales with a decimal comma
+        header_names = [c.strip() for c in next(csv.reader([first_line], delimiter=delimiter))]
+    is_replay_csv = header_names is not None and "gyro_z_rad_s" in header_names
+    if can_signals is not None and suffix not in (".log", ".asc", ".blf"):
+        raise GyrodriftValueError(f"{source}: a DBC signal map applies to CAN logs "
+                                  "(.log, .asc, .blf)")
+    if suffix in LOG_SUFFIXES or is_replay_csv:
+        return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate)
+    if suffix == ".imu":
+        return _load_psins(p, column, rate_hz, units, nan_policy)
+    if suffix == ".npy":
+        arr = _load_npy(p, mmap)
+        if arr.ndim == 2:
+            idx = 0 if column is None and arr.shape[1] == 1 else None
+            if idx is None:
+                if column is None:
+                    raise GyrodriftValueError(
+                        f"{source}: array of shape {arr.shape}; choose a column")
+                idx = _pick_column([str(i) for i in range(arr.shape[1])], column, source)
+            col_name = str(idx)
+            values = np.asarray(arr[:, idx])
+        elif arr.ndim == 1:
+            if column not in (None, 0, "0"):
+                raise GyrodriftValueError(f"{source}: 1-D array has no column {column!r}")
+            col_name = "0"
+            values = arr
+        else:
+            raise GyrodriftValueError(
+                f"{source}: expected a 1-D or 2-D array, got shape {arr.shape}")
+        if not np.issubdtype(values.dtype, np.floating) and not np.issubdtype(
+                values.dtype, np.integer):
+            raise GyrodriftValueError(f"{source}: expected numbers, got dtype {values.dtype}")
+        if rate_hz is None:
+            raise GyrodriftValueError(f"{source}: a .npy record carries no sample rate; "
+                             "give --rate-hz (rate_hz=)")
+        n_total = int(values.shape[0])
+        keep_mapped = (isinstance(values, np.memmap) and units == "deg/h"
+                       and values.dtype == np.float64)
+        if keep_mapped:
+            n_bad = _count_nonfinite_chunked(values)
+            if n_bad == 0:
+                return Record(values, float(rate_hz), source, col_name, units, n_total, 0)
+        x = to_deg_h(np.asarray(values), units, rate_hz)
+        x, dropped = _apply_nan_policy(x, nan_policy, source)
+        return Record(x, float(rate_hz), source, col_name, units, n_total, dropped)
+    if suffix == ".csv":
+        assert header_names is not None
+        has_header = not all(_is_number(c) for c in header_names)
+        names = header_names if has_header else [str(i) for i in range(len(header_names))]
+        idx = _pick_column(names, column, source)
+        try:
+            # Rows with a wrong number of fields are an error (never dropped silently);
+            # unparseable cells are found below and named.
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")  # "Empty input file": reported below
+                table = np.genfromtxt(p, delimiter=delimiter,
+                                      skip_header=1 if has_header else 0, dtype=np.float64,
+                                      invalid_raise=True, ndmin=2, encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise GyrodriftValueError(
+                f"{source}: not a text CSV file (byte {exc.start} of a line is "
+                "not UTF-8; a binary file named .csv?)") from None
+        except ValueError as exc:
+            detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+            raise GyrodriftValueError(f"{source}: malformed CSV: {detail}") from exc
+        if table.size == 0:
+            raise GyrodriftValueError(f"{source}: no data rows (header only?)")
+        if table.shape[1] != len(names):
+            raise GyrodriftValueError(f"{source}: rows have {table.shape[1]} fields, header has "
+                             f"{len(names)}")
+        values = table[:, idx]
+        t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")),
+                     None)
+        _check_text_cells(p, table, [i for i in (idx, t_idx) if i is not None], names,
+                          delimiter, 1 if has_header else 0)
+        if t_idx is None:
+            if rate_hz is None:
+                raise GyrodriftValueError(f"{source}: no t_s/time column to infer the rate; "
+                                 "give --rate-hz (rate_hz=)")
+        else:
+            rate_hz = _resolve_rate(rate_hz, table[:, t_idx], source, force_rate)
+        x = to_deg_h(values, units, rate_hz)
+        x, dropped = _apply_nan_policy(x, nan_policy, source)
+        return Record(x, float(rate_hz), source, names[idx], units, int(values.size), dropped)
+    raise GyrodriftValueError(
+        f"{source}: unsupported file type {suffix!r} (use .npy, .csv, PSINS .imu, "
+        f"or an IMU log {', '.join(LOG_SUFFIXES)})")
+
+
+#: sample rates accepted from the user (outside them the analyses' fits overflow)
+RATE_MIN_HZ = 1e-6
+RATE_MAX_HZ = 1e9
+
+
+def _resolve_rate(given: float | None, t: np.ndarray, source: str, force: bool) -> float:
+    """The rate to use: the time column's, or the user's if it agrees within 1 % (or force;
+    or when the time column gives no rate at all, e.g. it has gaps)."""
+    if given is not None and force:
+        return float(given)
+    try:
+        from_time = rate_from_time(t, source)
+    except ValueError:
+        if given is not None:
+            return float(given)
+        raise
+    if given is None:
+        return from_time
+    if abs(given - from_time) <= 0.01 * from_time:
+        return float(given)
+    raise GyrodriftValueError(f"{source}: --rate-hz {given:g} contradicts the file's time column "
+                     f"({from_time:.6g} Hz); drop --rate-hz, or add --force-rate (force_rate=True) "
+                     "to use it anyway")
+
+
+def _load_npy(p: Path, mmap: bool) -> np.ndarray:
+    """np.load with one clear message for a file that is not a .npy array."""
+    try:
+        return np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
+    except (EOFError, ValueError, OSError) as exc:
+        size = p.stat().st_size
+        if size == 0:
+            raise GyrodriftValueError(f"{p}: empty file (0 bytes), not a .npy array") from None
+        with p.open("rb") as fh:
+            magic = fh.read(6)
+        if magic != b"\x93NUMPY":
+            raise GyrodriftValueError(
+                f"{p}: not a NumPy .npy file (no .npy header; a text or other "
+                "file named .npy?)") from None
+        raise GyrodriftValueError(f"{p}: unreadable .npy file: {exc}") from None
+
+
+def _check_text_cells(p: Path, table: np.ndarray, cols: list[int], names: list[str],
+                      delimiter: str, skip: int) -> None:
+    """Cells genfromtxt turned into NaN although they are not empty or 'nan': name the first
+    one (text in a numeric column is an error, not a missing value)."""
+    nan_rows = np.flatnonzero(np.isnan(table[:, cols]).any(axis=1))
+    if nan_rows.size == 0:
+        return
+    want = set(nan_rows.tolist())
+    with p.open(newline="", encoding="utf-8") as fh:
+        for k, row in enumerate(csv.reader(fh, delimiter=delimiter)):
+            r = k - skip
+            if r < 0 or r not in want:
+                continue
+            for c in cols:
+                cell = row[c].strip() if c < len(row) else ""
+                if cell and not _is_number(cell):
+                    raise GyrodriftValueError(
+                        f"{p}: line {k + 1}, column {names[c]!r}: {cell!r} is "
+                        "not a number")
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _count_nonfinite_chunked(values: np.ndarray, chunk: int = 1 << 22) -> int:
+    n_bad = 0
+    for lo in range(0, values.shape[0], chunk):
+        n_bad += int(np.count_nonzero(~np.isfinite(values[lo:lo + chunk])))
+    return n_bad
+
+
+def _load_log(p: Path, column: str | int | None, rate_hz: float | None, units: str,
+              nan_policy: str, can_signals: str | Path | None = None,
+              force_rate: bool = False) -> Record:
+    from gyrodrift.io.imu_log import read_imu_log  # the "replay" area's reader
+
+    axis_name = "z" if column is None else str(column).lower()
+    if axis_name not in GYRO_AXES:
+        raise GyrodriftValueError(f"{p}: IMU logs hold gyro axes x, y, z; got column {column!r}")
+    samples = read_imu_log(p, signals=can_signals)
+    gyro_rad_s = samples.channels[:, GYRO_AXES[axis_name]].astype(np.float64)
+    rate_hz = _resolve_rate(rate_hz, samples.t_s, str(p), force_rate)
+    log_units = "rad/s" if units == "deg/h" else units  # logs carry rad/s unless told
+    x = to_deg_h(gyro_rad_s, log_units, rate_hz)
+    x, dropped = _apply_nan_policy(x, nan_policy, str(p))
+    return Record(x, float(rate_hz), str(p), f"gyro_{axis_name}", log_units,
+                  int(gyro_rad_s.size), dropped,
+                  samples.log_report.summary() if samples.log_report is not None else "")
+
+
+def _load_psins(p: Path, column: str | int | None, rate_hz: float | None, units: str,
+                nan_policy: str) -> Record:
+    """One gyro axis of a PSINS .imu log (angle increments in rad per sample, divided by dt)."""
+    from gyrodrift.io.psins import read_psins_imu  # the "align" area's reader
+
+    axis_name = "z" if column is None else str(column).lower()
+    if axis_name not in GYRO_AXES:
+        raise GyrodriftValueError(
+            f"{p}: PSINS .imu logs hold gyro axes x, y, z; got column {column!r}")
+    if units not in ("deg/h", "rad"):
+        raise GyrodriftValueError(f"{p}: PSINS .imu logs carry their own units (angle increments); "
+                         f"--units {units} does not apply")
+    rec = read_psins_imu(p)
+    file_rate = 1.0 / rec.dt_s
+    if rate_hz is not None and not math.isclose(rate_hz, file_rate, rel_tol=1e-9):
+        raise GyrodriftValueError(
+            f"{p}: the file says {file_rate:g} Hz, --rate-hz says {rate_hz:g}")
+    x = to_deg_h(rec.dtheta[:, GYRO_AXES[axis_name]], "rad", file_rate)
+    x, dropped = _apply_nan_policy(x, nan_policy, str(p))
+    return Record(x, float(file_rate), str(p), f"gyro_{axis_name}", "rad (increments)",
+                  int(rec.dtheta.shape[0]), dropped)

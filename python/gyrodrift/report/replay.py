@@ -1,0 +1,183 @@
+"""The replay report: a terminal table, the JSON file, and a PNG of latency and jitter."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gyrodrift.io.json_text import json_text
+from gyrodrift.replay.harness import ReplayResult
+
+__all__ = [
+    "format_table",
+    "write_json",
+    "write_png",
+]
+
+
+def _fmt(x: Any, digits: int = 1) -> str:
+    if x is None:
+        return "-"
+    if isinstance(x, float):
+        if math.isnan(x):
+            return "-"
+        return f"{x:.{digits}f}" if abs(x) >= 1e-3 or x == 0 else f"{x:.2e}"
+    return str(x)
+
+
+def format_table(result: ReplayResult) -> str:
+    """The report as aligned text (what `gyrodrift replay` prints).
+
+    Examples
+    --------
+    >>> from gyrodrift.replay import ReplayOptions, run_replay
+    >>> from gyrodrift.codecs.wire import make_samples
+    >>> s = make_samples(np.arange(40) / 400.0, np.zeros((40, 3)), np.tile([0, 0, 9.8], (40, 1)))
+    >>> res = run_replay(s, ReplayOptions(speed=0.0, loop_realtime=False, harness_realtime=False))
+    >>> print("\\n".join(format_table(res).splitlines()[:1] + format_table(res).splitlines()[8:10]))
+    result                             PASS
+    outputs expected / received        40 / 40
+    unaccounted                        0
+    """
+    r = result.report
+    a = r["accounting"]
+    rows: list[tuple[str, str]] = [
+        ("result", "PASS" if r["ok"] else "FAIL"),
+        ("transport", f"{r['transport']} on {r['device']}, {r['speed']}, baud {r['baud']}"
+         + (f", CAN {r['can_bitrate']} bit/s" if r["can_bitrate"] else "")),
+        ("loop rate", f"{r['loop_rate_hz']:g} Hz"),
+        ("samples in record", str(a["samples_in_record"])),
+    ]
+    if r.get("input_log"):
+        from gyrodrift.io.imu_log import CanLogReport
+
+        rows.append(("input log", CanLogReport(**r["input_log"]).summary()))
+    rows += [
+        ("injected faults", ", ".join(f"{k} {v}" for k, v in a["injected"].items() if v)
+         or "none"),
+        ("sent", str(a["sent"])),
+        ("rejected on link", ", ".join(f"{k} {v}" for k, v in a["rejected_on_link"].items())),
+        ("rejected by processor",
+         ", ".join(f"{k} {v}" for k, v in a["rejected_by_processor"].items())),
+        ("outputs expected / received", f"{a['outputs_expected']} / {a['outputs_received']}"),
+        ("unaccounted", str(a["unaccounted"])),
+    ]
+    c = r["comparison"]
+    rows.append(("max |loop - reference|",
+                 " ".join(_fmt(e, 2) for e in c["max_abs_error"])
+                 + f" (tol {c['tolerance']:.0e})"))
+    lat = r["latency_us"]
+    rows.append(("latency us min/p50/p90/p99/max",
+                 "/".join(_fmt(lat.get(k)) for k in ("min", "p50", "p90", "p99", "max"))))
+    jit = r.get("output_jitter_us")
+    if jit and jit["n"]:
+        rows.append(("output jitter us p50/p99/max",
+                     "/".join(_fmt(jit[k]) for k in ("p50", "p99", "max"))))
+    th = r["throughput"]
+    rows.append(("frames/s sent, end to end",
+                 f"{_fmt(th['frames_per_s_sent'], 0)}, {_fmt(th['frames_per_s_end_to_end'], 0)}"))
+    hrt = r.get("harness_realtime")
+    if isinstance(hrt, dict):
+        rows.append(("harness realtime", f"sender {hrt['sender']}, receiver {hrt['receiver']}"))
+    loop = r.get("loop")
+    if loop:
+        rt = loop["realtime"]
+        rows.append(("loop realtime", f"SCHED_FIFO {'yes' if rt['sched_fifo'] else 'no'}"
+                     f", mlockall {'yes' if rt['mlockall'] else 'no'}"))
+        for key in ("period_jitter_us", "wake_latency_us", "compute_us", "sample_us"):
+            h = loop[key]
+            rows.append((f"loop {key.replace('_us', '')} us p50/p99/max",
+                         "/".join(_fmt(h[k], 3 if key == "sample_us" else 1)
+                                  for k in ("p50", "p99", "max"))))
+        rows.append(("loop cycles / overruns", f"{loop['cycles']} / {loop['overruns']}"))
+        nz = {k: v for k, v in loop["rejected"].items() if v}
+        rows.append(("loop rejected", ", ".join(f"{k} {v}" for k, v in nz.items()) or "none"))
+    failed = [k for k, v in r["checks"].items() if not v]
+    rows.append(("failed checks", ", ".join(failed) or "none"))
+    w = max(len(k) for k, _ in rows)
+    return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+
+
+def write_json(result: ReplayResult, path: str | Path) -> Path:
+    """Write the replay's report as JSON to `path` (what `gyrodrift replay` saves as report.json).
+
+    Examples
+    --------
+    >>> import json, tempfile
+    >>> from pathlib import Path
+    >>> from gyrodrift.replay import ReplayResult
+    >>> res = ReplayResult({"ok": True, "transport": "serial"}, np.zeros(0), np.zeros(0), None)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     print(json.loads(write_json(res, Path(d) / "report.json").read_text())["ok"])
+    True
+    """
+    path = Path(path)
+    path.write_text(json_text(result.report) + "\n")
+    return path
+
+
+def _hist(ax: Any, values: np.ndarray, bins: int, **kw: Any) -> None:
+    """ax.hist that also draws values of (nearly) one value: numpy refuses `bins` finite-sized
+    bins when the span is below the resolution of the values (outputs at an exactly constant
+    spacing, a latency that never changes), so such data get one bin of width 1 around it."""
+    v = values[np.isfinite(values)]
+    if v.size == 0:
+        return
+    lo, hi = float(v.min()), float(v.max())
+    if hi - lo <= 1e-9 * max(1.0, abs(lo), abs(hi)):
+        ax.hist(v, bins=1, range=(lo - 0.5, hi + 0.5), **kw)
+    else:
+        ax.hist(v, bins=bins, **kw)
+
+
+def write_png(result: ReplayResult, path: str | Path) -> Path:
+    """Latency of every output over the run, its distribution, and the output inter-arrival
+    jitter seen by the harness with the loop's own period-jitter percentiles.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from gyrodrift.replay import ReplayResult
+    >>> rng = np.random.default_rng(0)  # 50 outputs, 2.5 ms apart with some jitter
+    >>> res = ReplayResult({"ok": True, "transport": "serial", "speed": "1x"},
+    ...                    rng.normal(300.0, 20.0, 50),
+    ...                    np.arange(50) * 0.0025 + rng.normal(0.0, 1e-5, 50), None)
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     print(write_png(res, Path(d) / "report.png").stat().st_size > 10_000)
+    True
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    lat = result.latency_us
+    t = result.output_arrival_s[: lat.size]
+    fig, ax = plt.subplots(1, 3, figsize=(14, 4))
+    if lat.size:
+        ax[0].plot(t, lat, ".", ms=2)
+        _hist(ax[1], lat, min(100, max(10, lat.size // 20)), log=True)
+    ax[0].set(xlabel="time since first write (s)", ylabel="latency (us)",
+              title="input written -> output read")
+    ax[1].set(xlabel="latency (us)", ylabel="outputs", title="latency distribution")
+    arr = result.output_arrival_s
+    if arr.size > 2:
+        _hist(ax[2], np.diff(arr) * 1e6, 100, log=True, label="output inter-arrival")
+    loop = result.loop_stats
+    if loop:
+        for key, style in (("p50", ":"), ("p99", "--"), ("max", "-")):
+            ax[2].axvline(loop["period_jitter_us"][key], color="k", ls=style,
+                          label=f"loop period jitter {key}")
+    ax[2].set(xlabel="us", ylabel="count", title="jitter")
+    ax[2].legend(fontsize=7)
+    fig.suptitle(f"gyrodrift replay: {result.report['transport']}, {result.report['speed']}, "
+                 f"{'PASS' if result.ok else 'FAIL'}")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
