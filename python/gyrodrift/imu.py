@@ -1,5 +1,5 @@
 """Six-channel IMU processor (gyro x y z rad/s, accel x y z m/s^2): configuration, health flags
-and the C++ processor (include/gyrodrift/imu_processor.hpp) over whole records.
+and the C++ processor (include/gyrodrift/imu/imu_processor.hpp) over whole records.
 
 `gyrodrift.reference.imu.process_imu` is the numpy reference of the same processor.
 """
@@ -52,7 +52,7 @@ CHANNELS = 6
 FILTERS = ("pass_through", "bias_removal", "ar2_kalman", "wavelet")
 
 # The processor contract (flag bits, health counter names, defaults) is defined once, in
-# include/gyrodrift/imu_processor.hpp, and read from the compiled module on first use (module
+# include/gyrodrift/imu/imu_processor.hpp, and read from the compiled module on first use (module
 # __getattr__, so `import gyrodrift` works without the extension); tests/test_imu_contract.py
 # checks every other copy (the loop's JSON, the harness, the docs) against it.
 _FLAG_CONSTANTS = {
@@ -95,7 +95,7 @@ def contract() -> dict[str, Any]:
     Examples
     --------
     >>> from gyrodrift import imu
-    >>> c = contract()  # read from the C++ processor (imu_processor.hpp) through the binding
+    >>> c = contract()  # read from the C++ processor (imu/imu_processor.hpp) through the binding
     >>> c["flags"]["duplicate"] == imu.FLAG_DUPLICATE, c["default_period_us"]
     (True, 2500)
     """
@@ -177,7 +177,7 @@ def _check_wavelet(key: str, ws: WaveletSettings) -> None:
 @dataclass
 class ImuChannelConfig:
     """One channel's chain: `filter` then `filter2` (pass_through: no second stage); a chain
-    without a bias_removal stage subtracts `bias` after its last stage (imu_processor.hpp).
+    without a bias_removal stage subtracts `bias` after its last stage (imu/imu_processor.hpp).
 
     ar2_kalman needs a1, a2, sigma2, mean (the AR(2) model, units of the channel), q and r
     (units^2) and p0 (P_0 = p0 I). saturation: |x| >= saturation marks the value bad.
