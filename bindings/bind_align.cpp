@@ -4,9 +4,9 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
-#include <gyrodrift/nav_align_pipeline.hpp>
-#include <gyrodrift/nav_coarse_align.hpp>
-#include <gyrodrift/nav_strapdown.hpp>
+#include <gyrodrift/nav/align_pipeline.hpp>
+#include <gyrodrift/nav/coarse_align.hpp>
+#include <gyrodrift/nav/strapdown.hpp>
 
 #include <algorithm>
 #include <cmath>

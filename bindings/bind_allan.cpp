@@ -1,4 +1,4 @@
-// Allan-variance kernels (include/gyrodrift/allan.hpp) for gyrodrift.allan.
+// Allan-variance kernels (include/gyrodrift/stability/allan.hpp) for gyrodrift.allan.
 //   OadevOptions(kind=, method=, block=, threads=)  the options of oadev_sigma2, one bound
 //                                         configuration struct (keyword-only, checked)
 //   oadev_sigma2(data, m, options)        whole array, all factors, GIL released
@@ -6,7 +6,7 @@
 //   OadevStream(m, kind)                  streaming sums for chunked (memory-mapped) records
 //   OadevFusedStream(n_data, m, block)    fused streaming sums for a group of factors
 //   tau_grid(grid, max_m, per_decade)     averaging-factor grids
-#include <gyrodrift/allan.hpp>
+#include <gyrodrift/stability/allan.hpp>
 
 #include <algorithm>
 #include <atomic>

@@ -17,10 +17,10 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <gyrodrift/ar2_kalman.hpp>
-#include <gyrodrift/ar2_model.hpp>
-#include <gyrodrift/ar2_steady_state.hpp>
-#include <gyrodrift/ar_filter.hpp>
+#include <gyrodrift/filters/ar2_kalman.hpp>
+#include <gyrodrift/filters/ar2_model.hpp>
+#include <gyrodrift/filters/ar2_steady_state.hpp>
+#include <gyrodrift/filters/ar_filter.hpp>
 #include <string>
 #include <type_traits>
 #include <vector>

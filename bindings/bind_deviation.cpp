@@ -1,14 +1,14 @@
-// Deviation-family kernels (include/gyrodrift/deviation_*.hpp) for gyrodrift.deviation.
+// Deviation-family kernels (include/gyrodrift/stability/deviation_*.hpp) for gyrodrift.deviation.
 // Part of the "allan" binding area (registered from bind_allan).
 //   deviation_sigma2(data, m, name, threads)   whole array, all factors in fused passes
 //                                              (DeviationFused, HdevCascade), GIL released
 //   ModAllanStream / OhdevStream / HdevStream   streaming state for chunked records
 //   (the total variance streams through OadevStream on the reflected record)
-#include <gyrodrift/deviation_blocked.hpp>
-#include <gyrodrift/deviation_fused.hpp>
-#include <gyrodrift/deviation_hadamard.hpp>
-#include <gyrodrift/deviation_modified.hpp>
-#include <gyrodrift/deviation_total.hpp>
+#include <gyrodrift/stability/deviation_blocked.hpp>
+#include <gyrodrift/stability/deviation_fused.hpp>
+#include <gyrodrift/stability/deviation_hadamard.hpp>
+#include <gyrodrift/stability/deviation_modified.hpp>
+#include <gyrodrift/stability/deviation_total.hpp>
 
 #include <algorithm>
 #include <atomic>
@@ -175,7 +175,7 @@ py::tuple deviation_sigma2(const CArray<T>& data, const CArray<std::int64_t>& m_
     // the heap then reuses the same pages from call to call (per-thread or repeated
     // multi-MB allocations are returned to the system and fault in again, ~1 ms per 4 MB).
     // Each worker's workspace starts on a 64-byte boundary (the kernels' segments are
-    // 64-byte multiples: aligned streams read faster, see fused_common.hpp).
+    // 64-byte multiples: aligned streams read faster, see stability/fused_common.hpp).
     constexpr std::size_t kAlign = fused_detail::kAlignDoubles;
     largest = (largest + kAlign - 1) / kAlign * kAlign;
     const std::unique_ptr<double[]> work(new double[n_threads * largest + kAlign]);

@@ -1,5 +1,5 @@
 // gyrodrift._core: exact Gaussian log-likelihood of the drift model (AR(2)/AR(1) drift + white
-// noise) through the Kalman filter, include/gyrodrift/drift_likelihood.hpp.
+// noise) through the Kalman filter, include/gyrodrift/filters/drift_likelihood.hpp.
 //
 //   drift_loglike(x, a1, a2, q, r, mean, innovations=None)
 //       -> (loglike, sum_log_f, sum_ee, sum_eg, sum_gg)
@@ -10,7 +10,7 @@
 #include <pybind11/pybind11.h>
 
 #include <cstddef>
-#include <gyrodrift/drift_likelihood.hpp>
+#include <gyrodrift/filters/drift_likelihood.hpp>
 #include <string>
 
 #include "array_checks.hpp"

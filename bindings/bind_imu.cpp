@@ -13,7 +13,7 @@
 //       power of two in 16..4096, chosen per channel at construction: RealtimeWaveletAnyWindow)
 //   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS, IMU_REJECTION_KEYS (tuples), IMU_RESYNC_AFTER, IMU_DEFAULT_PERIOD_US,
 //   IMU_DEFAULT_TIME_TOLERANCE_US, IMU_DEMO_AR2 {a1 a2 sigma2 mean q r}: the processor contract
-//   from imu_processor.hpp
+//   from imu/imu_processor.hpp
 //   crc16_ccitt_false(bytes) -> int
 //   serial_encode_frame(frame_type, seq, flags, t_us, values[6]) -> bytes
 //   serial_parse(data, chunk, finish) -> (frames list, stats dict)   (C++ parser, 256-B buffer)
@@ -21,7 +21,7 @@
 //   can_assemble(frames [(id, data[, extended, remote])], base_id, finish) -> (samples, stats)
 //   slcan_encode(id, data, extended, remote) -> bytes
 //   can_signal_table(text) -> [entry dict]            (a user-DBC decode table, parsed in C++)
-//   can_signal_decode(text, frames) -> [{role: value}] per frame (can_signal_decode.hpp)
+//   can_signal_decode(text, frames) -> [{role: value}] per frame (codecs/can_signal_decode.hpp)
 //   can_signal_assemble(text, frames, finish) -> ([(seq, t_us | None, values)], stats)
 //   slcan_parse(data) -> (events, stats)   events: ("frame", id, data, ext, rtr, reply) |
 //                                          ("command", letter, arg bytes, reply) | ("error", reply)
@@ -33,14 +33,14 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
-#include <gyrodrift/can_frames.hpp>
-#include <gyrodrift/can_signal_decode.hpp>
-#include <gyrodrift/crc16.hpp>
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
-#include <gyrodrift/realtime_wavelet_windows.hpp>
-#include <gyrodrift/serial_frame.hpp>
-#include <gyrodrift/slcan.hpp>
+#include <gyrodrift/codecs/can_frames.hpp>
+#include <gyrodrift/codecs/can_signal_decode.hpp>
+#include <gyrodrift/codecs/crc16.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
+#include <gyrodrift/codecs/slcan.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
+#include <gyrodrift/filters/realtime_wavelet_windows.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 #include <limits>
 #include <memory>
 #include <optional>
@@ -392,7 +392,7 @@ py::dict signal_stats_dict(const can::SignalRxStats& s) {
 }  // namespace
 
 void bind_imu(py::module_& m) {
-  // The processor contract (imu_processor.hpp), the one source for Python, loop and harness.
+  // The processor contract (imu/imu_processor.hpp), the one source for Python, loop and harness.
   py::dict flag_bits;
   for (const ImuFlagName& f : kImuFlagNames) flag_bits[f.name] = f.bit;
   m.attr("IMU_FLAGS") = flag_bits;

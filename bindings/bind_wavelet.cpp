@@ -3,8 +3,8 @@
 //   RealtimeWaveletConfig(wavelet=, window=, level=, mode=, channels=)   one bound
 //       configuration struct (keyword-only, checked) for
 //   RealtimeWaveletBankF64 / RealtimeWaveletBankF32(config)   per-channel real-time filters
-#include <gyrodrift/lifting_transform.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/filters/lifting_transform.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -227,7 +227,7 @@ template <class T>
 void bind_bank(py::module_& m, const char* name) {
   py::class_<RealtimeBank<T>>(m, name,
                               "Per-channel real-time sliding-window wavelet filters (C++ core); "
-                              "see include/gyrodrift/realtime_wavelet.hpp")
+                              "see include/gyrodrift/filters/realtime_wavelet.hpp")
       .def(py::init<const RealtimeWaveletConfig&>(), py::arg("config"))
       .def("filter", &RealtimeBank<T>::filter, py::arg("x").noconvert(), py::arg("recompute") = false,
            "Filter (n,) or (n, 3) samples, continuing the stream; recompute=True takes every "

@@ -350,7 +350,7 @@ def main() -> int:
                 f"  {kind} "
                 + "  ".join(f"z^{p}:{mp.nstr(v, 17)}" for p, v in sorted(s.poly.items()))
             )
-        path = REPO / "include" / "gyrodrift" / f"lifting_coefficients_db{n_vm}.hpp"
+        path = REPO / "include" / "gyrodrift" / "filters" / f"lifting_coefficients_db{n_vm}.hpp"
         if args.check:
             if not path.exists() or path.read_text() != text:
                 print(f"MISMATCH: {path} differs from the derivation", file=sys.stderr)

@@ -4,7 +4,7 @@ timestamp on page 1, diagnostic pages and another ECU's message) and its signal 
 (tests/data/vendor_imu_map.toml).
 
 cantools is the oracle: the generated decode table must describe cantools' parse of the DBC,
-the C++ decoder (include/gyrodrift/can_signal_decode.hpp, through the binding) must give
+the C++ decoder (include/gyrodrift/codecs/can_signal_decode.hpp, through the binding) must give
 exactly cantools' value for every mapped signal of every frame of a test log (including
 frames with random payloads), the C++ and Python assemblers must agree sample for sample
 and counter for counter, and logs written with python-can in every CAN format must read

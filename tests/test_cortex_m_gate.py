@@ -552,11 +552,12 @@ def test_forbidden_symbol_patterns() -> None:
 def test_headers_compile_on_host_without_exceptions_and_rtti(tmp_path: Path) -> None:
     cxx = shutil.which("g++")
     assert cxx is not None, "host g++ not found"
-    headers = sorted((INCLUDE_DIR / "gyrodrift").glob("*.hpp"))
+    headers = sorted((INCLUDE_DIR / "gyrodrift").rglob("*.hpp"))
     assert headers
     for header in headers:
-        tu = tmp_path / f"{header.stem}.cpp"
-        tu.write_text(f"#include <gyrodrift/{header.name}>\n")  # also proves self-containment
+        rel = header.relative_to(INCLUDE_DIR).as_posix()
+        tu = tmp_path / f"{rel.replace('/', '_').removesuffix('.hpp')}.cpp"
+        tu.write_text(f"#include <{rel}>\n")  # also proves self-containment
         proc = _run(
             [
                 cxx,
@@ -580,4 +581,4 @@ def test_headers_compile_on_host_without_exceptions_and_rtti(tmp_path: Path) -> 
             ],
             tmp_path,
         )
-        assert proc.returncode == 0, f"{header.name}:\n{proc.stderr[-3000:]}"
+        assert proc.returncode == 0, f"{rel}:\n{proc.stderr[-3000:]}"

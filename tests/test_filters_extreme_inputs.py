@@ -4,7 +4,7 @@
 Before the fix one sample of 3e38 (float32) or 1.7e308 (float64) gave the soft-mode real-time
 wavelet up to 271 NaN outputs with fault_counts 0, and ar_filter returned Inf near the type's
 maximum. The filters now treat a value beyond gyrodrift's filter input limit (max / 2^24,
-include/gyrodrift/input_range.hpp) like NaN: skipped, counted, state untouched. So a record
+include/gyrodrift/filters/input_range.hpp) like NaN: skipped, counted, state untouched. So a record
 with extreme values must filter exactly like the same record with NaN in their place.
 """
 

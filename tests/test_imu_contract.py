@@ -1,5 +1,5 @@
 """One source of truth for the processor contract (issue 12): flag bits, health counter names,
-rejection names and defaults are defined once in include/gyrodrift/imu_processor.hpp and
+rejection names and defaults are defined once in include/gyrodrift/imu/imu_processor.hpp and
 exported by gyrodrift._core. This test fails if any other copy differs: the C++ constants
 themselves (a flag added without a table entry), gyrodrift.imu.processor, the loop's JSON, the
 README
@@ -27,7 +27,7 @@ def _core_contract() -> tuple[dict[str, int], tuple[str, ...], tuple[str, ...]]:
 
 def test_header_constants_equal_the_exported_table() -> None:
     flags, health, _ = _core_contract()
-    text = (ROOT / "include" / "gyrodrift" / "imu_processor.hpp").read_text()
+    text = (ROOT / "include" / "gyrodrift" / "imu" / "imu_processor.hpp").read_text()
     consts = {m[1]: 1 << int(m[2]) for m in
               re.finditer(r"kFlag(\w+) = 1U << (\d+);", text)}
     # every kFlag constant is in the exported table, with its bit, and nothing else is
@@ -82,7 +82,7 @@ def test_gyrodrift_loop_help_mentions_config(loop_bin: Path) -> None:  # noqa: F
 
 def test_loop_demo_model_has_one_source(loop_bin: Path) -> None:  # noqa: F811
     """The loop's demonstration AR(2) model (no identified model given) is ImuDemoAr2 in
-    imu_processor.hpp; the loop's defaults, its --help text and the replay harness's
+    imu/imu_processor.hpp; the loop's defaults, its --help text and the replay harness's
     ProcessorSettings all carry the exported values (before: three hand-typed copies)."""
     from gyrodrift.replay.processor import ProcessorSettings
 

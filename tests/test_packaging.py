@@ -31,7 +31,7 @@ else:  # pytest depends on tomli before 3.11
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SOURCE_PKG = REPO_ROOT / "python" / "gyrodrift"
-PUBLIC_HEADERS = sorted((REPO_ROOT / "include" / "gyrodrift").glob("*.hpp"))
+PUBLIC_HEADERS = sorted((REPO_ROOT / "include" / "gyrodrift").rglob("*.hpp"))
 
 
 def _run(cmd: list[str], cwd: Path | None = None, timeout: float = 600) -> str:
@@ -196,7 +196,9 @@ int main() {{
 def _consumer_project(root: Path, cmake_body: str) -> Path:
     src = root / "consumer"
     src.mkdir(parents=True)
-    includes = "\n".join(f"#include <gyrodrift/{h.name}>" for h in PUBLIC_HEADERS)
+    includes = "\n".join(
+        f"#include <{h.relative_to(REPO_ROOT / 'include').as_posix()}>" for h in PUBLIC_HEADERS
+    )
     (src / "main.cpp").write_text(CONSUMER_MAIN.format(includes=includes))
     (src / "CMakeLists.txt").write_text(
         "cmake_minimum_required(VERSION 3.18)\nproject(consumer LANGUAGES CXX)\n"
@@ -243,7 +245,8 @@ def test_cmake_consumer_find_package_after_install(tmp_path: Path) -> None:
     )
     _run([cmake, "--install", str(lib_build), "--prefix", str(prefix)])
     for header in PUBLIC_HEADERS:
-        assert (prefix / "include" / "gyrodrift" / header.name).is_file(), header.name
+        rel = header.relative_to(REPO_ROOT / "include")
+        assert (prefix / "include" / rel).is_file(), rel
     configs = list(prefix.rglob("gyrodriftConfig.cmake"))
     assert len(configs) == 1
     src = _consumer_project(tmp_path, "find_package(gyrodrift 0.1 CONFIG REQUIRED)\n")

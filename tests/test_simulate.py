@@ -443,7 +443,7 @@ def test_imu_truth_earth_rate_and_gravity() -> None:
 
 
 def test_gravity_m_s2_against_published_somigliana() -> None:
-    # gyrodrift.nav.earth (the one Earth model, shared with nav_earth.hpp) uses the PSINS series
+    # gyrodrift.nav.earth (the one Earth model, shared with nav/earth.hpp) uses the PSINS series
     # g_eq (1 + b1 sin^2 L + b2 sin^4 L). Against WGS-84 normal gravity (NIMA TR8350.2,
     # Somigliana's a/b form with the published equator and pole values) it is within
     # 8e-5 m/s^2 (8e-6 g; largest at the pole), far below any accelerometer bias simulated

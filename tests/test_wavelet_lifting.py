@@ -113,7 +113,8 @@ def test_float32_perfect_reconstruction(rng) -> None:
 
 
 def header_constants(name: str) -> tuple[list[float], float, float]:
-    text = (REPO_ROOT / "include" / "gyrodrift" / f"lifting_coefficients_{name}.hpp").read_text()
+    header = REPO_ROOT / "include" / "gyrodrift" / "filters" / f"lifting_coefficients_{name}.hpp"
+    text = header.read_text()
     steps = text[text.index("kStep[kSteps]") :]
     coefs = [float(v) for v in re.findall(r"Scalar\(([-0-9.e]+)\)", steps)]
     k_a = float(re.search(r"kA = Scalar\(([-0-9.e]+)\)", text).group(1))

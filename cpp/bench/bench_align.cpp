@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
-#include <gyrodrift/nav_align_pipeline.hpp>
+#include <gyrodrift/nav/align_pipeline.hpp>
 #include <memory>
 #include <vector>
 

@@ -9,7 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
-#include <gyrodrift/allan.hpp>
+#include <gyrodrift/stability/allan.hpp>
 #include <memory>
 #include <thread>
 #include <vector>

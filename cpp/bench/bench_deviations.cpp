@@ -9,8 +9,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
-#include <gyrodrift/deviation_blocked.hpp>
-#include <gyrodrift/deviation_fused.hpp>
+#include <gyrodrift/stability/deviation_blocked.hpp>
+#include <gyrodrift/stability/deviation_fused.hpp>
 #include <memory>
 #include <vector>
 

@@ -13,13 +13,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <gyrodrift/can_frames.hpp>
-#include <gyrodrift/crc16.hpp>
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
-#include <gyrodrift/realtime_wavelet_windows.hpp>
-#include <gyrodrift/serial_frame.hpp>
-#include <gyrodrift/slcan.hpp>
+#include <gyrodrift/codecs/can_frames.hpp>
+#include <gyrodrift/codecs/crc16.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
+#include <gyrodrift/codecs/slcan.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
+#include <gyrodrift/filters/realtime_wavelet_windows.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 #include <memory>
 #include <vector>
 

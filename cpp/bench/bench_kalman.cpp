@@ -9,11 +9,11 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <gyrodrift/ar2_kalman.hpp>
-#include <gyrodrift/ar2_model.hpp>
-#include <gyrodrift/ar2_steady_state.hpp>
-#include <gyrodrift/ar_filter.hpp>
-#include <gyrodrift/axis_bank.hpp>
+#include <gyrodrift/filters/ar2_kalman.hpp>
+#include <gyrodrift/filters/ar2_model.hpp>
+#include <gyrodrift/filters/ar2_steady_state.hpp>
+#include <gyrodrift/filters/ar_filter.hpp>
+#include <gyrodrift/filters/axis_bank.hpp>
 #include <string>
 #include <vector>
 

@@ -13,8 +13,8 @@
 #include <random>
 #include <vector>
 
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/serial_frame.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 
 namespace {
 std::uint64_t now_ns() {

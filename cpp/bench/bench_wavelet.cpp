@@ -2,8 +2,8 @@
 // sample per axis, median of repeats, measured in thread CPU time (CLOCK_THREAD_CPUTIME_ID)
 // because the machine is shared: time spent preempted does not count. Prints a markdown table.
 //   bench_wavelet [samples=200000] [repeats=5]
-#include <gyrodrift/lifting_transform.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/filters/lifting_transform.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
 
 #include <algorithm>
 #include <ctime>

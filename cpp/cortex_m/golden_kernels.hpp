@@ -14,10 +14,10 @@
 #include <cstring>
 #include <limits>
 
-#include <gyrodrift/ar2_kalman.hpp>
-#include <gyrodrift/ar2_steady_state.hpp>
-#include <gyrodrift/fir_prefilter.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/filters/ar2_kalman.hpp>
+#include <gyrodrift/filters/ar2_steady_state.hpp>
+#include <gyrodrift/filters/fir_prefilter.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
 
 #include "generated/gyrodrift_budget_config.hpp"
 

@@ -2,11 +2,11 @@
 // on-target re-identification (streaming Yule-Walker + Burg over a static block), then a
 // 3-axis bank of full AR(2)-Kalman filters, a steady-state bank and the AR filter, stepped on
 // volatile input. No heap, no exceptions, no double arithmetic.
-#include <gyrodrift/ar2_kalman.hpp>
-#include <gyrodrift/ar2_model.hpp>
-#include <gyrodrift/ar2_steady_state.hpp>
-#include <gyrodrift/ar_filter.hpp>
-#include <gyrodrift/axis_bank.hpp>
+#include <gyrodrift/filters/ar2_kalman.hpp>
+#include <gyrodrift/filters/ar2_model.hpp>
+#include <gyrodrift/filters/ar2_steady_state.hpp>
+#include <gyrodrift/filters/ar_filter.hpp>
+#include <gyrodrift/filters/axis_bank.hpp>
 
 #include "support.hpp"
 

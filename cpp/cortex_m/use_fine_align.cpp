@@ -1,7 +1,7 @@
 // Cortex-M4F gate unit: the FLOAT alignment pipeline (coarse alignment, strapdown with
 // coning/sculling, 15-state fine-alignment KF with Joseph update and feedback, 256-tap gyro
 // prefilter with the matching 8-sample accelerometer delay) stepped on volatile input.
-#include <gyrodrift/nav_align_pipeline.hpp>
+#include <gyrodrift/nav/align_pipeline.hpp>
 
 #include "support.hpp"
 

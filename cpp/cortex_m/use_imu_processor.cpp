@@ -4,11 +4,11 @@
 // real-time db4 wavelet accelerometers, 64-sample window), and each output is encoded back
 // into a frame. Also the CAN encoder/assembler and the SLCAN encoder/parser. No heap, no
 // exceptions, no double arithmetic.
-#include <gyrodrift/can_frames.hpp>
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
-#include <gyrodrift/serial_frame.hpp>
-#include <gyrodrift/slcan.hpp>
+#include <gyrodrift/codecs/can_frames.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
+#include <gyrodrift/codecs/slcan.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 
 #include "support.hpp"
 

@@ -2,7 +2,7 @@
 // level 5, window 256, forced, as the alignment prefilter of paper 004 sec. 2.2 runs them
 // (the forced-only variant: 5 KiB of state per axis), plus one full filter in soft-threshold
 // mode so the threshold path (streams, incremental median, log, sqrt in float) is linked too.
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
 
 #include "support.hpp"
 

@@ -8,9 +8,9 @@
 #include <doctest/doctest.h>
 
 #include <cstdint>
-#include <gyrodrift/can_frames.hpp>
-#include <gyrodrift/serial_frame.hpp>
-#include <gyrodrift/slcan.hpp>
+#include <gyrodrift/codecs/can_frames.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
+#include <gyrodrift/codecs/slcan.hpp>
 #include <memory>
 #include <random>
 #include <vector>

@@ -7,7 +7,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <gyrodrift/nav_align_pipeline.hpp>
+#include <gyrodrift/nav/align_pipeline.hpp>
 #include <limits>
 #include <memory>
 

@@ -7,8 +7,8 @@
 #include <limits>
 #include <vector>
 
-#include <gyrodrift/lifting_transform.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/filters/lifting_transform.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
 
 using namespace gyrodrift;
 

@@ -1,6 +1,6 @@
-// Overlapping Allan kernel (include/gyrodrift/allan.hpp) against the definition (overlapping
-// cluster averages, summed in long double), streaming splits, phase input, precision with a
-// large constant rate, tau grids, bad input, and no allocation.
+// Overlapping Allan kernel (include/gyrodrift/stability/allan.hpp) against the definition
+// (overlapping cluster averages, summed in long double), streaming splits, phase input,
+// precision with a large constant rate, tau grids, bad input, and no allocation.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
@@ -8,7 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <gyrodrift/allan.hpp>
+#include <gyrodrift/stability/allan.hpp>
 #include <limits>
 #include <memory>
 #include <vector>

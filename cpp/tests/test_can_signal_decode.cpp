@@ -6,7 +6,7 @@
 
 #include <array>
 #include <cstdint>
-#include <gyrodrift/can_signal_decode.hpp>
+#include <gyrodrift/codecs/can_signal_decode.hpp>
 #include <string>
 
 using namespace gyrodrift::can;

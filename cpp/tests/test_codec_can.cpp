@@ -4,7 +4,7 @@
 
 #include <array>
 #include <cstdint>
-#include <gyrodrift/can_frames.hpp>
+#include <gyrodrift/codecs/can_frames.hpp>
 #include <vector>
 
 using namespace gyrodrift::can;

@@ -5,8 +5,8 @@
 
 #include <array>
 #include <cstdint>
-#include <gyrodrift/crc16.hpp>
-#include <gyrodrift/serial_frame.hpp>
+#include <gyrodrift/codecs/crc16.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
 #include <vector>
 
 using namespace gyrodrift;

@@ -3,7 +3,7 @@
 #include <doctest/doctest.h>
 
 #include <cstring>
-#include <gyrodrift/slcan.hpp>
+#include <gyrodrift/codecs/slcan.hpp>
 #include <string>
 #include <vector>
 

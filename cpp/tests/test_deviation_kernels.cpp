@@ -1,4 +1,4 @@
-// Deviation-family kernels (include/gyrodrift/deviation_*.hpp) against their definitions
+// Deviation-family kernels (include/gyrodrift/stability/deviation_*.hpp) against their definitions
 // (explicit window sums in long double, NIST SP 1065 eqs. 14, 18, 20, 25 on the rate),
 // the fused in-memory kernels (DeviationFused, HdevCascade) against the streaming ones,
 // chunk splits, a large constant rate, a drifting record, float input, bad factors, and no
@@ -9,11 +9,11 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <gyrodrift/deviation_blocked.hpp>
-#include <gyrodrift/deviation_fused.hpp>
-#include <gyrodrift/deviation_hadamard.hpp>
-#include <gyrodrift/deviation_modified.hpp>
-#include <gyrodrift/deviation_total.hpp>
+#include <gyrodrift/stability/deviation_blocked.hpp>
+#include <gyrodrift/stability/deviation_fused.hpp>
+#include <gyrodrift/stability/deviation_hadamard.hpp>
+#include <gyrodrift/stability/deviation_modified.hpp>
+#include <gyrodrift/stability/deviation_total.hpp>
 #include <vector>
 
 #include "alloc_counter.hpp"

@@ -1,5 +1,5 @@
-// Drift-model log-likelihood (drift_likelihood.hpp): checks against closed forms that do not use
-// the Kalman filter (white noise: iid Gaussian; pure AR(1)/AR(2), r = 0: the exact conditional
+// Drift-model log-likelihood (filters/drift_likelihood.hpp): checks against closed forms that do not
+// use the Kalman filter (white noise: iid Gaussian; pure AR(1)/AR(2), r = 0: the exact conditional
 // decomposition with the stationary start), the Lyapunov equation of the initial covariance,
 // the mean/stride/innovation outputs, the status codes, and that nothing is allocated.
 #define EIGEN_RUNTIME_NO_MALLOC
@@ -10,7 +10,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <gyrodrift/drift_likelihood.hpp>
+#include <gyrodrift/filters/drift_likelihood.hpp>
 #include <limits>
 #include <vector>
 

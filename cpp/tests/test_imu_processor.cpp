@@ -11,10 +11,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <gyrodrift/ar2_steady_state.hpp>
-#include <gyrodrift/fir_prefilter.hpp>
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/filters/ar2_steady_state.hpp>
+#include <gyrodrift/filters/fir_prefilter.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 #include <limits>
 #include <random>
 #include <vector>

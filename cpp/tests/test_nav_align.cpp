@@ -8,12 +8,12 @@
 #include <doctest/doctest.h>
 
 #include <cmath>
-#include <gyrodrift/nav_align_pipeline.hpp>
-#include <gyrodrift/nav_attitude.hpp>
-#include <gyrodrift/nav_coarse_align.hpp>
-#include <gyrodrift/nav_earth.hpp>
-#include <gyrodrift/nav_fine_align_kf.hpp>
-#include <gyrodrift/nav_strapdown.hpp>
+#include <gyrodrift/nav/align_pipeline.hpp>
+#include <gyrodrift/nav/attitude.hpp>
+#include <gyrodrift/nav/coarse_align.hpp>
+#include <gyrodrift/nav/earth.hpp>
+#include <gyrodrift/nav/fine_align_kf.hpp>
+#include <gyrodrift/nav/strapdown.hpp>
 #include <limits>
 
 #include "alloc_counter.hpp"

@@ -2,8 +2,8 @@
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
-#include <gyrodrift/lifting_transform.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
+#include <gyrodrift/filters/lifting_transform.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
 
 #include "alloc_counter.hpp"
 

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <vector>
 
-#include <gyrodrift/lifting_transform.hpp>
+#include <gyrodrift/filters/lifting_transform.hpp>
 
 #include "wavelet_test_support.hpp"
 

@@ -9,8 +9,8 @@
 #include <limits>
 #include <vector>
 
-#include <gyrodrift/realtime_wavelet.hpp>
-#include <gyrodrift/realtime_wavelet_noise.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
+#include <gyrodrift/filters/realtime_wavelet_noise.hpp>
 
 #include "wavelet_test_support.hpp"
 

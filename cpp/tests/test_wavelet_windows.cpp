@@ -8,9 +8,9 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
-#include <gyrodrift/realtime_wavelet_windows.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
+#include <gyrodrift/filters/realtime_wavelet_windows.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 #include <memory>
 
 #include "alloc_counter.hpp"

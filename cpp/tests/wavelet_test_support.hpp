@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include <gyrodrift/lifting_transform.hpp>
+#include <gyrodrift/filters/lifting_transform.hpp>
 
 namespace wavelet_test {
 

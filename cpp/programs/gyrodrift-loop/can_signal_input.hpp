@@ -1,13 +1,13 @@
 // gyrodrift-loop --can-signals FILE: input CAN frames decoded through a user's DBC, by the
 // table python/gyrodrift/codecs/can_signals.py generates from it (decode_table_text) and
-// include/gyrodrift/can_signal_decode.hpp reads. Self-contained so the loop's main needs only
-// a load at start-up, one branch where a CAN frame arrives, and its counters in the JSON.
+// include/gyrodrift/codecs/can_signal_decode.hpp reads. Self-contained so the loop's main needs
+// only a load at start-up, one branch where a CAN frame arrives, and its counters in the JSON.
 // The file is read once before the loop starts (stdio, no allocation after that).
 #pragma once
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
-#include <gyrodrift/can_signal_decode.hpp>
+#include <gyrodrift/codecs/can_signal_decode.hpp>
 #include <string>
 
 namespace gyrodrift::loop {

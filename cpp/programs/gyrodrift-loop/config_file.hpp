@@ -17,9 +17,9 @@
 #include <sstream>
 #include <string>
 
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet.hpp>
-#include <gyrodrift/realtime_wavelet_windows.hpp>
+#include <gyrodrift/filters/realtime_wavelet.hpp>
+#include <gyrodrift/filters/realtime_wavelet_windows.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 
 namespace gyrodrift::loop {
 

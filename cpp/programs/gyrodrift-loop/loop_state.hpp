@@ -5,9 +5,9 @@
 #include <cstddef>
 #include <cstdint>
 
-#include <gyrodrift/can_frames.hpp>
-#include <gyrodrift/serial_frame.hpp>
-#include <gyrodrift/slcan.hpp>
+#include <gyrodrift/codecs/can_frames.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
+#include <gyrodrift/codecs/slcan.hpp>
 
 #include "can_signal_input.hpp"  // --can-signals FILE (issue 13)
 #include "latency_histogram.hpp"

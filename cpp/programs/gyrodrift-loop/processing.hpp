@@ -1,6 +1,6 @@
 // The loop's processing stage: ImuProcessor<float> (with the real-time wavelet stage, any
 // window of the format) configured from a configuration file (--config, config_file.hpp) or
-// from the command line, and its JSON counters (names from imu_processor.hpp, the one list).
+// from the command line, and its JSON counters (names from imu/imu_processor.hpp, the one list).
 #pragma once
 #include <cmath>
 #include <cstdint>
@@ -9,8 +9,8 @@
 #include <optional>
 #include <string>
 
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/realtime_wavelet_windows.hpp>
+#include <gyrodrift/filters/realtime_wavelet_windows.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 
 #include "config_file.hpp"
 

@@ -14,10 +14,10 @@
 #include <cstring>
 #include <ctime>
 
-#include <gyrodrift/can_frames.hpp>
-#include <gyrodrift/imu_processor.hpp>
-#include <gyrodrift/serial_frame.hpp>
-#include <gyrodrift/slcan.hpp>
+#include <gyrodrift/codecs/can_frames.hpp>
+#include <gyrodrift/codecs/serial_frame.hpp>
+#include <gyrodrift/codecs/slcan.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
 
 #include "loop_state.hpp"
 #include "options.hpp"

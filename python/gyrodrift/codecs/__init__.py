@@ -1,7 +1,8 @@
 """Wire codecs of the IMU loop: serial frames and CAN frames (DBC + cantools).
 
-Python twins of include/gyrodrift/serial_frame.hpp and can_frames.hpp. SLCAN needs no twin
-here: python-can's `slcan` interface is the Python peer of include/gyrodrift/slcan.hpp.
+Python twins of include/gyrodrift/codecs/serial_frame.hpp and codecs/can_frames.hpp. SLCAN
+needs no twin here: python-can's `slcan` interface is the Python peer of
+include/gyrodrift/codecs/slcan.hpp.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """CAN encoding of IMU samples through cantools and the project DBC (python-can messages).
 
-Twin of include/gyrodrift/can_frames.hpp. One sample = 4 classic CAN frames (base+0 GyroXY,
+Twin of include/gyrodrift/codecs/can_frames.hpp. One sample = 4 classic CAN frames (base+0 GyroXY,
 base+1 GyroZ+Seq+Flags, base+2 AccelXY, base+3 AccelZ+Seq+Flags); base 0x100 input,
 0x180 filtered output. An XY frame binds to the next Z frame of its pair; halves are joined
 by Seq. Accounting invariant: frames_in == foreign_frames + frames_used + frames_dropped

@@ -1,6 +1,6 @@
 """A user's own DBC: which of its signals are the IMU's six channels (and, when present, its
 sequence counter and timestamp), decoding through cantools, and the decode table the C++
-loop reads (include/gyrodrift/can_signal_decode.hpp).
+loop reads (include/gyrodrift/codecs/can_signal_decode.hpp).
 
 A signal map is a small TOML file next to the vendor's DBC::
 
@@ -292,7 +292,7 @@ def decode_table(smap: SignalMap) -> list[dict[str, Any]]:
 
 def decode_table_text(smap: SignalMap) -> str:
     """The decode table as the text file `gyrodrift-loop --can-signals FILE` reads (and
-    can_signal_decode.hpp's parse_signal_line parses): one entry per line,
+    codecs/can_signal_decode.hpp's parse_signal_line parses): one entry per line,
 
         ROLE ID EXT DLC START LENGTH ORDER TYPE SCALE OFFSET FACTOR MUX
 
@@ -409,7 +409,7 @@ def _to_raw(sig: Any, phys: float) -> float | int:
     return int(min(max(round(scaled), lo), hi))
 
 
-# --- assembly (the Python twin of SignalSampleAssembler in can_signal_decode.hpp) ----------
+# --- assembly (the Python twin of SignalSampleAssembler in codecs/can_signal_decode.hpp) ----------
 
 
 @dataclass

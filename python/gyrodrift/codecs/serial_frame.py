@@ -1,6 +1,6 @@
 """Serial IMU frame (42 bytes, little-endian): encoder and resynchronising stream parser.
 
-Twin of include/gyrodrift/serial_frame.hpp (same layout, same resync rules, same counters).
+Twin of include/gyrodrift/codecs/serial_frame.hpp (same layout, same resync rules, same counters).
 Layout (offset size field): 0 1 sync0=0xA5 | 1 1 sync1=0x5A | 2 1 type (0x01 input,
 0x81 output) | 3 1 len=36 | 4 2 seq u16 | 6 2 flags u16 | 8 8 t_us u64 | 16 24 6 x float32
 (gyro x y z rad/s, accel x y z m/s^2) | 40 2 CRC-16/CCITT-FALSE over bytes 2..39.

@@ -14,8 +14,8 @@ prediction error of the fitted model on the fitting record. Both are in (units o
 With q = r the steady-state gain on white-like drift is about 0.5 (half the STD); raise r (or
 lower q) for more smoothing at the cost of lag and of attenuating true rate changes (dc_gain).
 
-All heavy lifting is in gyrodrift._core (include/gyrodrift/ar2_*.hpp); the numpy oracles are in
-gyrodrift.reference.ar2.
+All heavy lifting is in gyrodrift._core (include/gyrodrift/filters/ar2_*.hpp); the numpy oracles
+are in gyrodrift.reference.ar2.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ __all__ = [
     "kalman_filter_result",
 ]
 
-#: Fewest samples a fit accepts (include/gyrodrift/ar2_model.hpp kAr2MinSamples).
+#: Fewest samples a fit accepts (include/gyrodrift/filters/ar2_model.hpp kAr2MinSamples).
 MIN_SAMPLES = 8
 
 _METHODS = {

@@ -10,7 +10,7 @@ a1 = a2 = q = 0. The papers' recipe (AR(2) fitted by Burg/Yule-Walker on the noi
 a1, a2 because it ignores v; fitting the model above by maximum likelihood does not.
 
 The exact Gaussian log-likelihood (Kalman filter, stationary start) runs in the C++ core
-(include/gyrodrift/drift_likelihood.hpp). One pass gives the likelihood at any mean and any
+(include/gyrodrift/filters/drift_likelihood.hpp). One pass gives the likelihood at any mean and any
 common scale of (q, r), so the optimiser (scipy L-BFGS-B) works on the profile likelihood of
 only the dynamic parameters, transformed so that every trial is valid:
 a2 = tanh(u2), a1 = tanh(u1) (1 - a2) (partial autocorrelations: stationary for every u), and
@@ -496,7 +496,7 @@ def _observed_stderr(prof: _Profile, model: str, a1: float, a2: float, w: float,
 
     The likelihood is computed in phi = (theta, s, mean), theta the model's free subset of
     (a1, a2, w), q = s w, r = s (1 - w): one core pass at theta gives the sums from which log L
-    and its derivatives in the scale s and the mean are exact (see drift_likelihood.hpp),
+    and its derivatives in the scale s and the mean are exact (see filters/drift_likelihood.hpp),
     log L = -1/2 (n log 2 pi + S_logF + n log s + (S_ee - 2 d S_eg + d^2 S_gg) / s).
     Only theta is differenced (central differences, 1 + 2k + k(k-1)/2 passes: 13 for ar2+white
     instead of 33 when all four variances are differenced); the cross terms in s and the mean

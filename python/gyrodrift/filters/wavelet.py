@@ -8,7 +8,7 @@
   half-sample symmetric reflection (x[n-1], x[n-2], ...) to the next multiple, denoised,
   and truncated back to n; n in the threshold is the original length.
 * :class:`RealtimeWavelet`: the sliding-window prefilter of paper 004 sec. 2.2 (see
-  include/gyrodrift/realtime_wavelet.hpp for the exact definition), per axis.
+  include/gyrodrift/filters/realtime_wavelet.hpp for the exact definition), per axis.
 
 References (pywt-based oracles) are in :mod:`gyrodrift.reference.wavelet`.
 """

@@ -84,7 +84,7 @@ def contract() -> dict[str, Any]:
     Examples
     --------
     >>> from gyrodrift.imu import contract as imu
-    >>> c = contract()  # read from the C++ processor (imu_processor.hpp) through the binding
+    >>> c = contract()  # read from the C++ processor (imu/imu_processor.hpp) through the binding
     >>> c["flags"]["duplicate"] == imu.FLAG_DUPLICATE, c["default_period_us"]
     (True, 2500)
     """

@@ -70,7 +70,7 @@ def _check_wavelet(key: str, ws: WaveletSettings) -> None:
 @dataclass
 class ImuChannelConfig:
     """One channel's chain: `filter` then `filter2` (pass_through: no second stage); a chain
-    without a bias_removal stage subtracts `bias` after its last stage (imu_processor.hpp).
+    without a bias_removal stage subtracts `bias` after its last stage (imu/imu_processor.hpp).
 
     ar2_kalman needs a1, a2, sigma2, mean (the AR(2) model, units of the channel), q and r
     (units^2) and p0 (P_0 = p0 I). saturation: |x| >= saturation marks the value bad.

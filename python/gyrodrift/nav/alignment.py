@@ -1,4 +1,4 @@
-"""C++ fast path (gyrodrift._core, header nav_align_pipeline.hpp) behind the same interface as
+"""C++ fast path (gyrodrift._core, header nav/align_pipeline.hpp) behind the same interface as
 the plain-loop references in this package."""
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 q_nb rotates body vectors into the navigation frame (v_n = q v_b q*). Euler angles follow the
 PSINS convention att = [pitch, roll, yaw] with C_b^n = Rz(yaw) Rx(pitch) Ry(roll) and yaw
 positive counter-clockwise from North; `heading_rad` (clockwise from North) is -yaw.
-Reference for include/gyrodrift/nav_attitude.hpp.
+Reference for include/gyrodrift/nav/attitude.hpp.
 """
 
 from __future__ import annotations

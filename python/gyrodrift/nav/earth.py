@@ -1,7 +1,7 @@
 """The one Earth model of the package: WGS-84 ellipsoid, normal gravity and Earth rate in the
 East-North-Up navigation frame, radians in.
 
-It is the Python twin of ``include/gyrodrift/nav_earth.hpp`` (same constants, same gravity
+It is the Python twin of ``include/gyrodrift/nav/earth.hpp`` (same constants, same gravity
 series), used by the simulators, the alignment study and the alignment references.
 
 Frames: n = local level East-North-Up, b = body (X right, Y forward, Z up), i0/ib0 = the n and
@@ -42,7 +42,7 @@ WGS84_F = 1.0 / 298.257223563  # flattening
 WGS84_E2 = WGS84_F * (2.0 - WGS84_F)  # first eccentricity squared
 EARTH_RATE_RAD_S = 7.2921151467e-5  # Omega (WGS-84), rad/s
 # Normal gravity at the equator and the series in sin^2 L, sin^4 L plus the free-air
-# gradient (the PSINS/Yan Gongmin form of the WGS-84 normal gravity, as nav_earth.hpp; within
+# gradient (the PSINS/Yan Gongmin form of the WGS-84 normal gravity, as nav/earth.hpp; within
 # 8e-5 m/s^2 = 8e-6 g of the Somigliana closed form, largest at the poles, see
 # tests/test_simulate.py).
 GRAVITY_EQ_M_S2 = 9.7803267714

@@ -1,7 +1,7 @@
 """numpy references for AR(2) identification, the AR filter and the AR(2)-Kalman filters.
 
-Written straight from the equations (papers 000 and 002; see include/gyrodrift/ar2_*.hpp) with
-plain loops where the equations recurse. They are the test oracles of the C++ core, not the
+Written straight from the equations (papers 000 and 002; see include/gyrodrift/filters/ar2_*.hpp)
+with plain loops where the equations recurse. They are the test oracles of the C++ core, not the
 fast path. All arithmetic is float64.
 """
 

@@ -1,4 +1,5 @@
-"""numpy reference of the drift-model log-likelihood (include/gyrodrift/drift_likelihood.hpp).
+"""numpy reference of the drift-model log-likelihood
+(include/gyrodrift/filters/drift_likelihood.hpp).
 
 Model: x_k = a1 x_{k-1} + a2 x_{k-2} + w_k (var q), y_k = mean + x_k + v_k (var r).
 Written straight from the state-space equations with 2x2 matrices and a plain loop: the

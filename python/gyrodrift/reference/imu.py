@@ -1,4 +1,4 @@
-"""numpy reference of the six-channel IMU processor (include/gyrodrift/imu_processor.hpp).
+"""numpy reference of the six-channel IMU processor (include/gyrodrift/imu/imu_processor.hpp).
 
 Written from the processor's definition, in two plain passes: (1) a per-sample loop over
 sequence numbers, timestamps and values that decides which frames are accepted and which

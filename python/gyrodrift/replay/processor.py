@@ -55,7 +55,7 @@ class ProcessorSettings:
 
     gyro_filter: str = "ar2_kalman"
     accel_filter: str = "pass_through"
-    # The demonstration model's numbers live once, in imu_processor.hpp (ImuDemoAr2).
+    # The demonstration model's numbers live once, in imu/imu_processor.hpp (ImuDemoAr2).
     a1: float = field(default_factory=lambda: _demo_ar2("a1"))
     a2: float = field(default_factory=lambda: _demo_ar2("a2"))
     sigma2: float = field(default_factory=lambda: _demo_ar2("sigma2"))

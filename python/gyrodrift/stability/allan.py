@@ -1,5 +1,5 @@
 """Overlapping Allan deviation with confidence intervals (IEEE Std 952-1997 Annex C,
-NIST SP 1065 sec. 5.2.4 and 5.3), on the C++ kernel include/gyrodrift/allan.hpp.
+NIST SP 1065 sec. 5.2.4 and 5.3), on the C++ kernel include/gyrodrift/stability/allan.hpp.
 
 - `oadev(x, rate_hz, ...)`: rate samples (deg/h, or any unit: the deviation has the same
   unit) or phase samples (cumulative angle, kind="phase"), tau grid "octave", "decade" (M per

@@ -1,6 +1,6 @@
 """The deviation family with confidence intervals: overlapping Allan (oadev), modified
 Allan (mdev), time (tdev), Hadamard (hdev), overlapping Hadamard (ohdev) and total (totdev)
-deviation (NIST SP 1065 sec. 5.2), on the C++ kernels include/gyrodrift/deviation_*.hpp.
+deviation (NIST SP 1065 sec. 5.2), on the C++ kernels include/gyrodrift/stability/deviation_*.hpp.
 
 API: one function per deviation with allantools' names (`mdev`, `tdev`, `hdev`, `ohdev`,
 `totdev`; `oadev` is gyrodrift.stability.allan.oadev) and the dispatcher

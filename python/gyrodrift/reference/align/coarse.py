@@ -1,5 +1,5 @@
 """Coarse alignment on a rocking base by the inertial-frame gravity method
-(reference for nav_coarse_align.hpp).
+(reference for nav/coarse_align.hpp).
 
 C_b^n(t) = C_i0^n(t) C_ib0^i0 C_b^ib0(t): C_b^ib0 is integrated from the gyro increments
 (coning-corrected, starting at I), C_i0^n(t) is the Earth rotation of the ENU frame about the

@@ -1,5 +1,5 @@
 """Fine-alignment Kalman filter with zero-velocity measurements (reference for
-nav_fine_align_kf.hpp).
+nav/fine_align_kf.hpp).
 
 States (psi-angle ENU error model, Savage / Yan Gongmin PSINS "Ft" form), 15 states:
   x = [phi (3, rad), dv^n (3, m/s), dp (3, ENU metres), eps^b (3, gyro drift rad/s),

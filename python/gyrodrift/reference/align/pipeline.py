@@ -1,6 +1,6 @@
 """Whole alignment over arrays of increments: optional gyro prefilter (+ matching accelerometer
 delay), inertial-frame coarse alignment, then strapdown + fine-alignment KF with feedback.
-Reference for nav_align_pipeline.hpp (same order of operations, same results within 1e-9).
+Reference for nav/align_pipeline.hpp (same order of operations, same results within 1e-9).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ def run_alignment_reference(dtheta: np.ndarray, dv: np.ndarray,
     """Plain-loop reference. Returns the per-KF-update histories as an `AlignResult`
     (bad_samples 0, failed False: the reference has no fault handling).
     Alignment starts after the warm-up max(n_taps - 1, delay) samples that fill the prefilter
-    window and the delay line (see nav_align_pipeline.hpp for why).
+    window and the delay line (see nav/align_pipeline.hpp for why).
 
     Examples
     --------

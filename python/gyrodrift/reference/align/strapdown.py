@@ -1,4 +1,4 @@
-"""ENU strapdown mechanization from increments (reference for nav_strapdown.hpp).
+"""ENU strapdown mechanization from increments (reference for nav/strapdown.hpp).
 
 Per sample k (interval dt, increments dtheta_k, dv_k):
 - coning: phi_k = dtheta_k + (1/12) dtheta_{k-1} x dtheta_k (one-plus-previous-sample
@@ -26,7 +26,7 @@ __all__ = [
 
 class Strapdown:
     """Strapdown attitude, velocity and position update (two-sample coning and sculling), the
-    reference of nav_strapdown.hpp.
+    reference of nav/strapdown.hpp.
 
     Examples
     --------

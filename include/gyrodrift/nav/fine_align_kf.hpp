@@ -17,8 +17,8 @@
 #include <Eigen/Core>
 #include <cmath>
 
-#include "nav_attitude.hpp"
-#include "nav_earth.hpp"
+#include "attitude.hpp"
+#include "earth.hpp"
 
 namespace gyrodrift {
 

@@ -16,8 +16,8 @@
 #include <Eigen/Geometry>
 #include <cmath>
 
-#include "nav_attitude.hpp"
-#include "nav_earth.hpp"
+#include "attitude.hpp"
+#include "earth.hpp"
 
 namespace gyrodrift {
 

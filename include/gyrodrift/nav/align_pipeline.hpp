@@ -25,11 +25,11 @@
 #include <cmath>
 #include <cstddef>
 
-#include "nav_attitude.hpp"
-#include "nav_coarse_align.hpp"
-#include "nav_earth.hpp"
-#include "nav_fine_align_kf.hpp"
-#include "nav_strapdown.hpp"
+#include "attitude.hpp"
+#include "coarse_align.hpp"
+#include "earth.hpp"
+#include "fine_align_kf.hpp"
+#include "strapdown.hpp"
 
 namespace gyrodrift {
 

@@ -6,7 +6,7 @@
 //   bias_removal:  y = x - bias
 //   ar2_kalman:    y = Ar2Kalman(x)   (paper 000 sec. 2.2 / paper 002 sec. 3; model and q, r
 //                  identified offline, e.g. with fit_ar2; the model mean is kept in the output;
-//                  steady_state selects the constant-gain filter of ar2_steady_state.hpp)
+//                  steady_state selects the constant-gain filter of filters/ar2_steady_state.hpp)
 //   wavelet:       y = Wavelet(x)     (real-time sliding-window prefilter, paper 004 sec. 2.2;
 //                  any type with step(Scalar), reset(), status() plugs in, see below)
 // e.g. the 2014 paper's chain: filter = wavelet, filter2 = ar2_kalman. A chain without a
@@ -34,7 +34,7 @@
 //     chain: the second stage is told "missing", not given the first stage's held output.
 //     Filter state never sees the bad value.
 //   * filter_faults: a good value a stage refused (a Kalman update with a non-finite result,
-//     or a value beyond the filters' input range, input_range.hpp), or a stage output that
+//     or a value beyond the filters' input range, filters/input_range.hpp), or a stage output that
 //     would not be finite (e.g. x - bias overflowing); the stage then holds its last output.
 //     Every output value is finite or this counter moved.
 // A processor whose configuration is invalid (status() != ok) rejects every sample with
@@ -49,9 +49,9 @@
 #include <type_traits>
 #include <utility>
 
-#include "ar2_kalman.hpp"
-#include "ar2_model.hpp"
-#include "ar2_steady_state.hpp"
+#include "../filters/ar2_kalman.hpp"
+#include "../filters/ar2_model.hpp"
+#include "../filters/ar2_steady_state.hpp"
 
 namespace gyrodrift {
 

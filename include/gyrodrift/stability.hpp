@@ -1,0 +1,9 @@
+// Frequency stability: Allan, modified Allan, Hadamard and total variances (host code).
+#pragma once
+
+#include "stability/allan.hpp"
+#include "stability/deviation_blocked.hpp"
+#include "stability/deviation_fused.hpp"
+#include "stability/deviation_hadamard.hpp"
+#include "stability/deviation_modified.hpp"
+#include "stability/deviation_total.hpp"
