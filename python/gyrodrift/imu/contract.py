@@ -1,5 +1,5 @@
 """The processor contract: flag bits, health counter names, the resync count and the timing
-defaults, defined once in include/gyrodrift/imu_processor.hpp and read from the compiled
+defaults, defined once in include/gyrodrift/imu/imu_processor.hpp and read from the compiled
 module on first use (module ``__getattr__``, so importing this module needs no extension).
 
 Examples
@@ -41,7 +41,7 @@ __all__ = [
 CHANNELS = 6
 
 # The processor contract (flag bits, health counter names, defaults) is defined once, in
-# include/gyrodrift/imu_processor.hpp, and read from the compiled module on first use (module
+# include/gyrodrift/imu/imu_processor.hpp, and read from the compiled module on first use (module
 # __getattr__, so `import gyrodrift` works without the extension); tests/test_imu_contract.py
 # checks every other copy (the loop's JSON, the harness, the docs) against it.
 _FLAG_CONSTANTS = {

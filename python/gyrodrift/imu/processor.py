@@ -1,5 +1,5 @@
 """Six-channel IMU processor (gyro x y z rad/s, accel x y z m/s^2): configuration, health flags
-and the C++ processor (include/gyrodrift/imu_processor.hpp) over whole records.
+and the C++ processor (include/gyrodrift/imu/imu_processor.hpp) over whole records.
 
 `gyrodrift.reference.imu.process_imu` is the numpy reference of the same processor.
 """
