@@ -29,6 +29,28 @@ from pathlib import Path
 from typing import Any, Union
 
 from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.imu.schema import (
+    CHANNEL_NAMES,
+    DEFAULT_ACCEL_SATURATION_M_S2,
+    DEFAULT_GYRO_SATURATION_RAD_S,
+    DEFAULT_GYRO_STUCK_SAMPLES,
+    DEFAULT_SAMPLE_RATE_HZ,
+    DEMO_AR2,
+    FIELDS,
+    MAX_STAGES,
+    PAPER_WAVELET,
+    REQUIRED,
+    SCHEMA,
+    STAGE_TYPES,
+    VERSION,
+    Field,
+    channel_unit,
+    channel_unit_suffix,
+    default_period_us,
+    default_time_tolerance_us,
+    field_spec,
+    max_wavelet_level,
+)
 from gyrodrift.io.atomic import atomic_write_text
 
 if sys.version_info >= (3, 11):
@@ -58,16 +80,7 @@ __all__ = [
     "write_config",
 ]
 
-SCHEMA = "gyrodrift.processor"
-VERSION = 1
-CHANNEL_NAMES = ("gx", "gy", "gz", "ax", "ay", "az")
-WAVELETS = {"db4": 8, "db8": 16}  # name -> filter length
-THRESHOLDS = ("forced", "soft", "hard")
-MAX_STAGES = 2
-
-# Unit suffix of each channel kind, and suffixes that name a unit the processor refuses.
-_GYRO_SUFFIX = "_rad_s"
-_ACCEL_SUFFIX = "_m_s2"
+# Suffixes that name a unit the processor refuses (a key with one gets a wrong-units error).
 _OTHER_SUFFIXES = (
     "_deg_s", "_deg_h", "_rad_h", "_mrad_s", "_g", "_mg", "_ug", "_ft_s2", "_rad_s", "_m_s2",
 )
@@ -89,14 +102,6 @@ class ConfigError(GyrodriftValueError):
     def __init__(self, key: str, message: str) -> None:
         self.key = key
         super().__init__(f"{key}: {message}" if key else message)
-
-
-def _unit_suffix(channel: str) -> str:
-    return _GYRO_SUFFIX if channel.startswith("g") else _ACCEL_SUFFIX
-
-
-def _units(channel: str) -> str:
-    return "rad/s" if channel.startswith("g") else "m/s^2"
 
 
 @dataclass(frozen=True)
@@ -122,7 +127,7 @@ class BiasRemoval:
     0.002
     """
 
-    bias: float = 0.0
+    bias: float = 0.0  # required in a file; 0.0 here: a stage built in code subtracts nothing
     type: str = field(default="bias_removal", init=False)
 
 
@@ -136,10 +141,10 @@ class WaveletStage:
     WaveletStage(wavelet='db8', window=256, level=4, threshold='forced', type='wavelet')
     """
 
-    wavelet: str = "db4"
-    window: int = 256
-    level: int = 5
-    threshold: str = "forced"
+    wavelet: str = PAPER_WAVELET["wavelet"]
+    window: int = PAPER_WAVELET["window"]
+    level: int = PAPER_WAVELET["level"]
+    threshold: str = field_spec("wavelet", "threshold").default
     type: str = field(default="wavelet", init=False)
 
 
@@ -159,9 +164,9 @@ class Ar2KalmanStage:
     mean: float
     q: float
     r: float
-    sigma2: float | None = None  # None: = q
-    p0: float = 1.0
-    steady_state: bool = False
+    sigma2: float | None = field_spec("ar2_kalman", "sigma2").default  # None: = q
+    p0: float = field_spec("ar2_kalman", "p0").default
+    steady_state: bool = field_spec("ar2_kalman", "steady_state").default
     type: str = field(default="ar2_kalman", init=False)
 
     @property
@@ -185,12 +190,12 @@ class ChannelConfig:
 
     name: str
     stages: tuple[Stage, ...]
-    saturation: float = math.inf
-    stuck_samples: int = 0
+    saturation: float = field_spec("channel", "saturation").default
+    stuck_samples: int = field_spec("channel", "stuck_samples").default
 
     @property
     def units(self) -> str:
-        return _units(self.name)
+        return channel_unit(self.name)
 
     @property
     def is_gyro(self) -> bool:
@@ -209,19 +214,19 @@ class Timing:
     (2500, 1250, 400.0)
     """
 
-    sample_rate_hz: float = 400.0
-    time_tolerance_us: int | None = None
-    loop_rate_hz: float | None = None
+    sample_rate_hz: float = DEFAULT_SAMPLE_RATE_HZ
+    time_tolerance_us: int | None = field_spec("timing", "time_tolerance_us").default
+    loop_rate_hz: float | None = field_spec("timing", "loop_rate_hz").default
 
     @property
     def period_us(self) -> int:
-        return math.floor(1e6 / self.sample_rate_hz + 0.5)
+        return default_period_us(self.sample_rate_hz)
 
     @property
     def tolerance_us(self) -> int:
         if self.time_tolerance_us is not None:
             return self.time_tolerance_us
-        return math.floor(1e6 / self.sample_rate_hz / 2.0 + 0.5)  # C++ lround
+        return default_time_tolerance_us(self.sample_rate_hz)
 
     @property
     def loop_hz(self) -> float:
@@ -270,78 +275,61 @@ class ProcessorConfig:
 # ----------------------------------------------------------------------------- validation
 
 
-def max_wavelet_level(window: int, wavelet: str) -> int:
-    """pywt.dwt_max_level(2N, filter length): the deepest level of the extended window.
+def ar2_is_stationary(a1: float, a2: float) -> bool:
+    """Both roots of z^2 - a1 z - a2 inside the unit circle (the stationarity triangle).
 
     Examples
     --------
-    >>> max_wavelet_level(256, "db4"), max_wavelet_level(256, "db8")
-    (6, 5)
+    >>> ar2_is_stationary(1.0, -0.25), ar2_is_stationary(1.3, -0.25)
+    (True, False)
     """
-    flen = WAVELETS[wavelet] - 1
-    level = 0
-    while level < 8 and (flen << (level + 1)) <= 2 * window:
-        level += 1
-    return level
-
-
-def ar2_is_stationary(a1: float, a2: float) -> bool:
-    """Both roots of z^2 - a1 z - a2 inside the unit circle (the stationarity triangle)."""
     return abs(a2) < 1.0 and a1 + a2 < 1.0 and a2 - a1 < 1.0
 
 
-def _finite(key: str, v: float) -> None:
-    if not math.isfinite(v):
-        raise ConfigError(key, f"must be finite, got {v!r}")
+def _check_field(key: str, spec: Field, value: Any) -> None:
+    """The field's own bounds (gyrodrift.imu.schema), in the words both readers use."""
+    if value is None and spec.default is None:
+        return
+    if not spec.accepts(value):
+        raise ConfigError(key, f"expected {spec.bounds_text()}, got {value!r}")
+
+
+def _stage_values(s: Stage) -> dict[str, Any]:
+    """The stage's fields by schema name (sigma2 as given: None when it follows q)."""
+    return {f.name: getattr(s, f.name) for f in FIELDS if f.section == s.type}
 
 
 def _check_stage(key: str, ch: str, s: Stage) -> None:
-    u = _unit_suffix(ch)
-    if isinstance(s, BiasRemoval):
-        _finite(f"{key}.bias{u}", s.bias)
-    elif isinstance(s, WaveletStage):
-        if s.wavelet not in WAVELETS:
-            raise ConfigError(
-                f"{key}.wavelet", f"expected one of {sorted(WAVELETS)}, got {s.wavelet!r}"
-            )
-        n = s.window
-        if not (16 <= n <= 4096 and n & (n - 1) == 0):
-            raise ConfigError(f"{key}.window", f"expected a power of two in 16..4096, got {n}")
-        jmax = max_wavelet_level(n, s.wavelet)
-        if not 1 <= s.level <= jmax:
-            raise ConfigError(
-                f"{key}.level", f"expected 1..{jmax} for {s.wavelet} with window {n}, got {s.level}"
-            )
-        if s.threshold not in THRESHOLDS:
-            raise ConfigError(
-                f"{key}.threshold", f"expected one of {THRESHOLDS}, got {s.threshold!r}"
-            )
-    elif isinstance(s, Ar2KalmanStage):
-        for name in ("a1", "a2", "q", "r", "p0"):
-            _finite(f"{key}.{name}", getattr(s, name))
-        _finite(f"{key}.mean{u}", s.mean)
-        if s.sigma2 is not None:
-            _finite(f"{key}.sigma2", s.sigma2)
-            if s.sigma2 < 0:
-                raise ConfigError(f"{key}.sigma2", f"a variance must be >= 0, got {s.sigma2!r}")
-        if not ar2_is_stationary(s.a1, s.a2):
-            raise ConfigError(
-                f"{key}.a1",
-                f"AR(2) model is not stationary (a1={s.a1!r}, a2={s.a2!r}; needs |a2| < 1, "
-                "a1 + a2 < 1, a2 - a1 < 1)",
-            )
-        if s.q < 0:
-            raise ConfigError(f"{key}.q", f"a variance must be >= 0, got {s.q!r}")
-        if not s.r > 0:
-            raise ConfigError(f"{key}.r", f"must be > 0, got {s.r!r}")
-        if s.p0 < 0:
-            raise ConfigError(f"{key}.p0", f"must be >= 0, got {s.p0!r}")
-    elif not isinstance(s, PassThrough):
+    if not isinstance(s, (PassThrough, BiasRemoval, WaveletStage, Ar2KalmanStage)):
         raise ConfigError(f"{key}.type", f"unknown stage {s!r}")
+    for f in FIELDS:
+        if f.section != s.type:
+            continue
+        if isinstance(s, WaveletStage) and f.name == "level":
+            # the deepest level depends on the wavelet and the window (checked before it)
+            jmax = max_wavelet_level(s.window, s.wavelet)
+            if not (isinstance(s.level, int) and 1 <= s.level <= jmax):
+                raise ConfigError(
+                    f"{key}.level", f"expected 1..{jmax} for {s.wavelet} with window "
+                    f"{s.window}, got {s.level}"
+                )
+            continue
+        _check_field(f"{key}.{f.key(ch)}", f, getattr(s, f.name))
+    if isinstance(s, Ar2KalmanStage) and not ar2_is_stationary(s.a1, s.a2):
+        raise ConfigError(
+            f"{key}.a1",
+            f"AR(2) model is not stationary (a1={s.a1!r}, a2={s.a2!r}; needs |a2| < 1, "
+            "a1 + a2 < 1, a2 - a1 < 1)",
+        )
 
 
 def validate(cfg: ProcessorConfig) -> None:
-    """Raise ConfigError (key named) if `cfg` is not a valid configuration."""
+    """Raise ConfigError (key named) if `cfg` is not a valid configuration.
+
+    Examples
+    --------
+    >>> validate(default_config())  # valid: returns None
+    """
     if len(cfg.channels) != len(CHANNEL_NAMES):
         raise ConfigError("channels", f"expected the six channels {CHANNEL_NAMES}")
     for ch, cc in zip(CHANNEL_NAMES, cfg.channels, strict=True):
@@ -359,24 +347,12 @@ def validate(cfg: ProcessorConfig) -> None:
             raise ConfigError(f"{key}.stages", f"at most one stage of each type, got {types}")
         for i, s in enumerate(cc.stages):
             _check_stage(f"{key}.stages[{i}]", ch, s)
-        sat_key = f"{key}.saturation{_unit_suffix(ch)}"
-        if math.isnan(cc.saturation) or not cc.saturation > 0:
-            raise ConfigError(sat_key, f"must be > 0 (or inf: off), got {cc.saturation!r}")
-        if not 0 <= cc.stuck_samples < 2**32:
-            raise ConfigError(f"{key}.stuck_samples", f"expected 0..2^32-1, got {cc.stuck_samples}")
-    t = cfg.timing
-    if not (math.isfinite(t.sample_rate_hz) and 1.0 <= t.sample_rate_hz <= 1e5):
-        raise ConfigError(
-            "timing.sample_rate_hz", f"expected 1..100000 Hz, got {t.sample_rate_hz!r}"
-        )
-    if t.time_tolerance_us is not None and not 0 <= t.time_tolerance_us < 2**32:
-        raise ConfigError(
-            "timing.time_tolerance_us", f"expected 0..2^32-1, got {t.time_tolerance_us}"
-        )
-    if t.loop_rate_hz is not None and not (
-        math.isfinite(t.loop_rate_hz) and 1.0 <= t.loop_rate_hz <= 2000.0
-    ):
-        raise ConfigError("timing.loop_rate_hz", f"expected 1..2000 Hz, got {t.loop_rate_hz!r}")
+        for f in FIELDS:
+            if f.section == "channel":
+                _check_field(f"{key}.{f.key(ch)}", f, getattr(cc, f.name))
+    for f in FIELDS:
+        if f.section == "timing":
+            _check_field(f"timing.{f.key('')}", f, getattr(cfg.timing, f.name))
 
 
 # ----------------------------------------------------------------------------- reading
@@ -430,53 +406,44 @@ class _Table:
                 continue
             key = self._k(name)
             if channel is not None:
-                want = _unit_suffix(channel)
+                want = channel_unit_suffix(channel)
                 for suf in _OTHER_SUFFIXES:
                     if name.endswith(suf) and suf != want:
                         base = name[: -len(suf)]
                         kind = "gyro" if channel.startswith("g") else "n accelerometer"
                         raise ConfigError(
                             key,
-                            f"wrong units for a {kind} channel ({_units(channel)}): "
+                            f"wrong units for a {kind} channel ({channel_unit(channel)}): "
                             f"use {base}{want}",
                         )
             raise ConfigError(key, "unknown key")
 
 
+def _read_fields(t: _Table, section: str, ch: str = "") -> dict[str, Any]:
+    """The values of one section's fields (gyrodrift.imu.schema) from table `t`, by field name:
+    a missing required field is an error, a missing optional one takes its default."""
+    out = {}
+    for f in FIELDS:
+        if f.section != section:
+            continue
+        if f.unit == "channel":
+            _wrong_unit_key(t, f.name, ch)
+        out[f.name] = t.get(f.key(ch), f.kind, ... if f.default is REQUIRED else f.default)
+    return out
+
+
+_STAGE_CLASSES: dict[str, type[Stage]] = {
+    "pass_through": PassThrough, "bias_removal": BiasRemoval, "wavelet": WaveletStage,
+    "ar2_kalman": Ar2KalmanStage,
+}
+
+
 def _read_stage(key: str, ch: str, data: Any) -> Stage:
     t = _Table(key, data)
     kind = t.get("type", "str")
-    u = _unit_suffix(ch)
-    stage: Stage
-    if kind == "pass_through":
-        stage = PassThrough()
-    elif kind == "bias_removal":
-        _wrong_unit_key(t, "bias", ch)
-        stage = BiasRemoval(bias=t.get(f"bias{u}", "float"))
-    elif kind == "wavelet":
-        stage = WaveletStage(
-            wavelet=t.get("wavelet", "str"),
-            window=t.get("window", "int"),
-            level=t.get("level", "int"),
-            threshold=t.get("threshold", "str", "forced"),
-        )
-    elif kind == "ar2_kalman":
-        sigma2 = t.get("sigma2", "float", None)
-        stage = Ar2KalmanStage(
-            a1=t.get("a1", "float"),
-            a2=t.get("a2", "float"),
-            mean=t.get(f"mean{u}", "float", ...) if not _wrong_unit_key(t, "mean", ch) else 0.0,
-            q=t.get("q", "float"),
-            r=t.get("r", "float"),
-            sigma2=sigma2,
-            p0=t.get("p0", "float", 1.0),
-            steady_state=t.get("steady_state", "bool", False),
-        )
-    else:
-        raise ConfigError(
-            f"{key}.type",
-            f"expected one of pass_through, bias_removal, wavelet, ar2_kalman, got {kind!r}",
-        )
+    if kind not in _STAGE_CLASSES:
+        raise ConfigError(f"{key}.type", f"expected one of {', '.join(STAGE_TYPES)}, got {kind!r}")
+    stage = _STAGE_CLASSES[kind](**_read_fields(t, kind, ch))
     t.finish(ch)
     return stage
 
@@ -484,7 +451,7 @@ def _read_stage(key: str, ch: str, data: Any) -> Stage:
 def _wrong_unit_key(t: _Table, base: str, ch: str) -> bool:
     """If `base` is given with another unit's suffix (and not with this channel's), raise the
     wrong-units error for that key (rather than 'missing value'). Returns False otherwise."""
-    want = _unit_suffix(ch)
+    want = channel_unit_suffix(ch)
     if f"{base}{want}" in t.data:
         return False
     for suf in _OTHER_SUFFIXES:
@@ -492,7 +459,7 @@ def _wrong_unit_key(t: _Table, base: str, ch: str) -> bool:
             kind = "gyro" if ch.startswith("g") else "n accelerometer"
             raise ConfigError(
                 t._k(f"{base}{suf}"),
-                f"wrong units for a {kind} channel ({_units(ch)}): use {base}{want}",
+                f"wrong units for a {kind} channel ({channel_unit(ch)}): use {base}{want}",
             )
     return False
 
@@ -526,27 +493,20 @@ def config_from_dict(data: Mapping[str, Any]) -> ProcessorConfig:
                 raise ConfigError(f"meta.{k}", "expected a string, number or boolean")
         meta_items = tuple(meta.items())
     tt = _Table("timing", top.get("timing", "any"))
-    timing = Timing(
-        sample_rate_hz=tt.get("sample_rate_hz", "float"),
-        time_tolerance_us=tt.get("time_tolerance_us", "int", None),
-        loop_rate_hz=tt.get("loop_rate_hz", "float", None),
-    )
+    timing = Timing(**_read_fields(tt, "timing"))
     tt.finish()
     ct = _Table("channels", top.get("channels", "any"))
     channels = []
     for ch in CHANNEL_NAMES:
         key = f"channels.{ch}"
         c = _Table(key, ct.get(ch, "any"))
-        u = _unit_suffix(ch)
-        _wrong_unit_key(c, "saturation", ch)
-        sat = c.get(f"saturation{u}", "float", math.inf)
-        stuck = c.get("stuck_samples", "int", 0)
+        values = _read_fields(c, "channel", ch)
         raw = c.get("stages", "any")
         if not isinstance(raw, list):
             raise ConfigError(f"{key}.stages", "expected an array of tables ([[...stages]])")
         stages = tuple(_read_stage(f"{key}.stages[{i}]", ch, s) for i, s in enumerate(raw))
         c.finish(ch)
-        channels.append(ChannelConfig(name=ch, stages=stages, saturation=sat, stuck_samples=stuck))
+        channels.append(ChannelConfig(name=ch, stages=stages, **values))
     ct.finish()
     top.finish()
     return ProcessorConfig(channels=tuple(channels), timing=timing, meta=meta_items)
@@ -618,21 +578,19 @@ def _value(v: Any) -> str:
     return _str(str(v))
 
 
-def _stage_items(ch: str, s: Stage) -> list[tuple[str, Any]]:
-    u = _unit_suffix(ch)
-    items: list[tuple[str, Any]] = [("type", s.type)]
-    if isinstance(s, BiasRemoval):
-        items.append((f"bias{u}", float(s.bias)))
-    elif isinstance(s, WaveletStage):
-        items += [("wavelet", s.wavelet), ("window", int(s.window)), ("level", int(s.level)),
-                  ("threshold", s.threshold)]
-    elif isinstance(s, Ar2KalmanStage):
-        items += [("a1", float(s.a1)), ("a2", float(s.a2)), (f"mean{u}", float(s.mean))]
-        if s.sigma2 is not None:  # absent: = q (so a written file reads back identical)
-            items.append(("sigma2", float(s.sigma2)))
-        items += [("q", float(s.q)), ("r", float(s.r)), ("p0", float(s.p0)),
-                  ("steady_state", bool(s.steady_state))]
-    return items
+def _field_lines(section: str, obj: Any, ch: str = "") -> list[str]:
+    """`key = value` lines of one section's fields, in the schema's order; an optional field
+    left at None is not written (absent: derived, so the file reads back identical)."""
+    lines = []
+    for f in FIELDS:
+        if f.section != section:
+            continue
+        v = getattr(obj, f.name)
+        if v is None:
+            continue
+        v = {"float": float, "int": int, "bool": bool, "str": str}[f.kind](v)
+        lines.append(f"{f.key(ch)} = {_value(v)}")
+    return lines
 
 
 def dumps_config(cfg: ProcessorConfig) -> str:
@@ -660,20 +618,13 @@ def dumps_config(cfg: ProcessorConfig) -> str:
         lines.append("[meta]")
         lines += [f"{k} = {_value(v)}" for k, v in cfg.meta]
         lines.append("")
-    t = cfg.timing
-    lines += ["[timing]", f"sample_rate_hz = {_num(t.sample_rate_hz)}"]
-    if t.time_tolerance_us is not None:
-        lines.append(f"time_tolerance_us = {int(t.time_tolerance_us)}")
-    if t.loop_rate_hz is not None:
-        lines.append(f"loop_rate_hz = {_num(t.loop_rate_hz)}")
-    lines.append("")
+    lines += ["[timing]", *_field_lines("timing", cfg.timing), ""]
     for cc in cfg.channels:
         ch = cc.name
-        lines += [f"[channels.{ch}]", f"saturation{_unit_suffix(ch)} = {_num(cc.saturation)}",
-                  f"stuck_samples = {int(cc.stuck_samples)}", ""]
+        lines += [f"[channels.{ch}]", *_field_lines("channel", cc, ch), ""]
         for s in cc.stages:
             lines.append(f"[[channels.{ch}.stages]]")
-            lines += [f"{k} = {_value(v)}" for k, v in _stage_items(ch, s)]
+            lines += [f"type = {_value(s.type)}", *_field_lines(s.type, s, ch)]
             lines.append("")
     return "\n".join(lines)
 
@@ -697,11 +648,14 @@ def write_config(cfg: ProcessorConfig, path: str | os.PathLike[str]) -> Path:
 
 
 def default_config(
-    gyro_model: tuple[float, float, float, float, float] = (1.0, -0.25, 0.0, 1e-10, 1e-8),
+    gyro_model: tuple[float, float, float, float, float] | None = None,
+    sample_rate_hz: float = DEFAULT_SAMPLE_RATE_HZ,
 ) -> ProcessorConfig:
     """The shipped default: gyros wavelet db4 N=256 J=5 forced -> steady-state AR(2)-Kalman
-    (a demonstration model (a1, a2, mean_rad_s, q, r): identify yours with ``gyrodrift fit``),
-    accelerometers bias removal (bias 0), 400 Hz.
+    (``gyro_model`` = (a1, a2, mean_rad_s, q, r), by default the demonstration model
+    gyrodrift.imu.schema.DEMO_AR2: identify yours with ``gyrodrift fit``), accelerometers bias
+    removal (bias 0), saturation and stuck detection, at ``sample_rate_hz`` (the timestamp
+    tolerance half a period, the loop at the sample rate).
 
     Examples
     --------
@@ -711,17 +665,20 @@ def default_config(
     >>> default_config((0.6, 0.2, 0.0, 1e-9, 1e-7)).channel("gy").stages[1].a1
     0.6
     """
-    a1, a2, mean, q, r = gyro_model
+    d = DEMO_AR2
+    a1, a2, mean, q, r = gyro_model or (d["a1"], d["a2"], d["mean"], d["q"], d["r"])
     gyro = (
-        WaveletStage("db4", 256, 5, "forced"),
+        WaveletStage(),
         Ar2KalmanStage(a1=a1, a2=a2, mean=mean, q=q, r=r, sigma2=q, steady_state=True),
     )
-    chans = [ChannelConfig(name=ch, stages=gyro, saturation=8.0, stuck_samples=50)
+    chans = [ChannelConfig(name=ch, stages=gyro, saturation=DEFAULT_GYRO_SATURATION_RAD_S,
+                           stuck_samples=DEFAULT_GYRO_STUCK_SAMPLES)
              for ch in CHANNEL_NAMES[:3]]
-    chans += [ChannelConfig(name=ch, stages=(BiasRemoval(0.0),), saturation=160.0)
+    chans += [ChannelConfig(name=ch, stages=(BiasRemoval(),),
+                            saturation=DEFAULT_ACCEL_SATURATION_M_S2)
               for ch in CHANNEL_NAMES[3:]]
-    return ProcessorConfig(
-        channels=tuple(chans),
-        timing=Timing(sample_rate_hz=400.0, time_tolerance_us=1250, loop_rate_hz=400.0),
-        meta=(("written_by", "gyrodrift config write-default"),),
-    )
+    timing = Timing(sample_rate_hz=sample_rate_hz,
+                    time_tolerance_us=default_time_tolerance_us(sample_rate_hz),
+                    loop_rate_hz=sample_rate_hz)
+    return ProcessorConfig(channels=tuple(chans), timing=timing,
+                           meta=(("written_by", "gyrodrift config write-default"),))

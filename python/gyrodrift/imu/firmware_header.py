@@ -30,8 +30,19 @@ from gyrodrift.imu.config import (
     ProcessorConfig,
     WaveletStage,
 )
+from gyrodrift.imu.schema import (
+    DEFAULT_SAMPLE_RATE_HZ,
+    DEMO_AR2,
+    FIELDS,
+    MAX_STAGES,
+    SCHEMA,
+    VERSION,
+    Field,
+    default_period_us,
+    default_time_tolerance_us,
+)
 
-__all__ = ["emit_cpp", "float_literal"]
+__all__ = ["emit_cpp", "emit_schema_header", "float_literal"]
 
 _FILTER_ENUM = {
     "pass_through": "pass_through",
@@ -203,4 +214,135 @@ def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: 
     out += ["", f"}}  // namespace {ns}", ""]
     names = ", ".join(CHANNEL_NAMES)
     assert len(cfg.channels) == 6, names
+    return "\n".join(out)
+
+
+def _cpp_name(f: Field) -> str:
+    words = f"{f.section}_{f.name}".split("_")
+    return "k" + "".join(w[:1].upper() + w[1:] for w in words)
+
+
+def _cpp_double(x: float | None, missing: float) -> str:
+    v = missing if x is None else float(x)
+    if math.isinf(v):
+        return "kInf" if v > 0 else "-kInf"
+    return repr(v)
+
+
+def _cpp_string(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def emit_schema_header() -> str:
+    """The C++ header ``include/gyrodrift/imu/config_schema.hpp``: the configuration's fields
+    (gyrodrift.imu.schema) with their defaults and bounds, the defaults derived from them, and
+    the shipped default configuration's canonical text. Written by ``scripts/gen-config-schema``;
+    a test regenerates it and fails on any difference.
+
+    Examples
+    --------
+    >>> text = emit_schema_header()
+    >>> text.splitlines()[0].startswith("// Generated from python/gyrodrift/imu/schema.py")
+    True
+    >>> "inline constexpr FieldSpec kChannelStuckSamples{" in text
+    True
+    """
+    from gyrodrift.imu.config import default_config, dumps_config
+
+    fields = []
+    for f in FIELDS:
+        kind = {"float": "number", "int": "integer", "bool": "boolean", "str": "string"}[f.kind]
+        has_default = not f.required and f.default is not None
+        dflt = f.default if has_default and f.kind in ("float", "int", "bool") else 0.0
+        text_default = f.default if has_default and f.kind == "str" else ""
+        fields.append(
+            f"inline constexpr FieldSpec {_cpp_name(f)}{{\n"
+            f"    {_cpp_string(f.section)}, {_cpp_string(f.name)}, "
+            f"{'true' if f.unit == 'channel' else 'false'}, FieldKind::{kind},\n"
+            f"    {'true' if f.required else 'false'}, {'true' if has_default else 'false'}, "
+            f"{_cpp_double(float(dflt), 0.0)}, {_cpp_string(text_default)},\n"
+            f"    {_cpp_double(f.lo, -math.inf)}, {'true' if f.lo_open else 'false'}, "
+            f"{_cpp_double(f.hi, math.inf)}, {'true' if f.hi_open else 'false'}, "
+            f"{'true' if f.finite else 'false'}, {'true' if f.power_of_two else 'false'},\n"
+            f"    {_cpp_string('|'.join(f.choices))}, {_cpp_string(f.bounds_text())}, "
+            f"{_cpp_string(f.unit)},\n    {_cpp_string(f.help)}}};")
+    rate = DEFAULT_SAMPLE_RATE_HZ
+    demo = ", ".join(f"{k} = {v!r}" for k, v in DEMO_AR2.items())
+    toml = dumps_config(default_config())
+    assert ")gyrodrift\"" not in toml
+    out = [
+        "// Generated from python/gyrodrift/imu/schema.py by scripts/gen-config-schema: "
+        "do not edit.",
+        "// The processor configuration's fields (keys, units, defaults, bounds) are written once,",
+        "// in that Python table; the C++ defaults (imu_processor.hpp), the loop's configuration",
+        "// reader and its built-in default configuration follow from this header.",
+        "#pragma once",
+        "#include <cstddef>",
+        "#include <cstdint>",
+        "#include <limits>",
+        "",
+        "namespace gyrodrift::config_schema {",
+        "",
+        "enum class FieldKind : std::uint8_t { number, integer, boolean, string };",
+        "",
+        "// One field of the file: its table (\"timing\", \"channel\" or a stage type), its name",
+        "// (the key, plus _rad_s / _m_s2 where channel_unit), its kind, whether it is required,",
+        "// its default (number or text) when it has one (absent and no default: derived, see",
+        "// help), its bounds (open or closed; +-kInf: none), finite-only, power of two, the",
+        "// accepted strings ('|'-separated), the bounds in words (both readers' error text), its",
+        "// unit and its help text.",
+        "struct FieldSpec {",
+        "  const char* section;",
+        "  const char* name;",
+        "  bool channel_unit;",
+        "  FieldKind kind;",
+        "  bool required;",
+        "  bool has_default;",
+        "  double default_value;",
+        "  const char* default_text;",
+        "  double lo;",
+        "  bool lo_open;",
+        "  double hi;",
+        "  bool hi_open;",
+        "  bool finite;",
+        "  bool power_of_two;",
+        "  const char* choices;",
+        "  const char* bounds_text;",
+        "  const char* unit;",
+        "  const char* help;",
+        "};",
+        "",
+        "inline constexpr double kInf = std::numeric_limits<double>::infinity();",
+        "",
+        *fields,
+        "",
+        "inline constexpr const FieldSpec* kFields[] = {",
+        *[f"    &{_cpp_name(f)}," for f in FIELDS],
+        "};",
+        f"inline constexpr std::size_t kFieldCount = {len(FIELDS)};",
+        "",
+        f"inline constexpr const char* kSchema = {_cpp_string(SCHEMA)};",
+        f"inline constexpr int kVersion = {VERSION};",
+        "inline constexpr const char* kChannelNames[] = {"
+        + ", ".join(_cpp_string(c) for c in CHANNEL_NAMES) + "};",
+        f"inline constexpr int kMaxStages = {MAX_STAGES};",
+        "",
+        "// The shipped default configuration's sample rate and the timing derived from it.",
+        f"inline constexpr double kDefaultSampleRateHz = {rate!r};",
+        f"inline constexpr std::uint32_t kDefaultPeriodUs = {default_period_us(rate)}U;",
+        "inline constexpr std::uint32_t kDefaultTimeToleranceUs = "
+        f"{default_time_tolerance_us(rate)}U;",
+        "",
+        "// The demonstration AR(2)-Kalman model of the default configuration (sigma2 = q).",
+        "struct DemoAr2 {",
+        f"  static constexpr double {demo}, sigma2 = {DEMO_AR2['q']!r};",
+        "};",
+        "",
+        "// The shipped default configuration (`gyrodrift config write-default`), canonical text.",
+        'inline constexpr const char kDefaultConfigToml[] = R"gyrodrift(' + toml
+        + ')gyrodrift";',
+        "",
+        "}  // namespace gyrodrift::config_schema",
+        "",
+    ]
     return "\n".join(out)

@@ -1,0 +1,293 @@
+// Generated from python/gyrodrift/imu/schema.py by scripts/gen-config-schema: do not edit.
+// The processor configuration's fields (keys, units, defaults, bounds) are written once,
+// in that Python table; the C++ defaults (imu_processor.hpp), the loop's configuration
+// reader and its built-in default configuration follow from this header.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+
+namespace gyrodrift::config_schema {
+
+enum class FieldKind : std::uint8_t { number, integer, boolean, string };
+
+// One field of the file: its table ("timing", "channel" or a stage type), its name
+// (the key, plus _rad_s / _m_s2 where channel_unit), its kind, whether it is required,
+// its default (number or text) when it has one (absent and no default: derived, see
+// help), its bounds (open or closed; +-kInf: none), finite-only, power of two, the
+// accepted strings ('|'-separated), the bounds in words (both readers' error text), its
+// unit and its help text.
+struct FieldSpec {
+  const char* section;
+  const char* name;
+  bool channel_unit;
+  FieldKind kind;
+  bool required;
+  bool has_default;
+  double default_value;
+  const char* default_text;
+  double lo;
+  bool lo_open;
+  double hi;
+  bool hi_open;
+  bool finite;
+  bool power_of_two;
+  const char* choices;
+  const char* bounds_text;
+  const char* unit;
+  const char* help;
+};
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+
+inline constexpr FieldSpec kTimingSampleRateHz{
+    "timing", "sample_rate_hz", false, FieldKind::number,
+    true, false, 0.0, "",
+    1.0, false, 100000.0, false, true, false,
+    "", "1..100000 Hz", "Hz",
+    "IMU sample rate: the nominal period of the timestamps is 1e6 / rate us"};
+inline constexpr FieldSpec kTimingTimeToleranceUs{
+    "timing", "time_tolerance_us", false, FieldKind::integer,
+    false, false, 0.0, "",
+    0.0, false, 4294967295.0, false, true, false,
+    "", "0..4294967295 us", "us",
+    "timestamp check: |dt - k period| above it is a time jump (absent: half a sample period; 0: check off)"};
+inline constexpr FieldSpec kTimingLoopRateHz{
+    "timing", "loop_rate_hz", false, FieldKind::number,
+    false, false, 0.0, "",
+    1.0, false, 2000.0, false, true, false,
+    "", "1..2000 Hz", "Hz",
+    "rate of the loop program's cycle (absent: the sample rate)"};
+inline constexpr FieldSpec kChannelSaturation{
+    "channel", "saturation", true, FieldKind::number,
+    false, true, kInf, "",
+    0.0, true, kInf, false, false, false,
+    "", "> 0 (or inf: off)", "channel",
+    "|x| >= saturation marks a value saturated (inf: off)"};
+inline constexpr FieldSpec kChannelStuckSamples{
+    "channel", "stuck_samples", false, FieldKind::integer,
+    false, true, 0.0, "",
+    0.0, false, 4294967295.0, false, true, false,
+    "", "0..4294967295", "samples",
+    "the N-th identical value in a row marks the channel stuck (0: off)"};
+inline constexpr FieldSpec kBiasRemovalBias{
+    "bias_removal", "bias", true, FieldKind::number,
+    true, false, 0.0, "",
+    -kInf, false, kInf, false, true, false,
+    "", "finite", "channel",
+    "subtracted from every sample"};
+inline constexpr FieldSpec kWaveletWavelet{
+    "wavelet", "wavelet", false, FieldKind::string,
+    true, false, 0.0, "",
+    -kInf, false, kInf, false, true, false,
+    "db4|db8", "one of db4, db8", "",
+    "wavelet of the real-time sliding-window prefilter"};
+inline constexpr FieldSpec kWaveletWindow{
+    "wavelet", "window", false, FieldKind::integer,
+    true, false, 0.0, "",
+    16.0, false, 4096.0, false, true, true,
+    "", "a power of two in 16..4096", "samples",
+    "sliding window length N"};
+inline constexpr FieldSpec kWaveletLevel{
+    "wavelet", "level", false, FieldKind::integer,
+    true, false, 0.0, "",
+    1.0, false, 8.0, false, true, false,
+    "", "1..8", "",
+    "decomposition level J (at most the deepest level of the extended window 2N)"};
+inline constexpr FieldSpec kWaveletThreshold{
+    "wavelet", "threshold", false, FieldKind::string,
+    false, true, 0.0, "forced",
+    -kInf, false, kInf, false, true, false,
+    "forced|soft|hard", "one of forced, soft, hard", "",
+    "detail handling: forced (all details zeroed), soft or hard"};
+inline constexpr FieldSpec kAr2KalmanA1{
+    "ar2_kalman", "a1", false, FieldKind::number,
+    true, false, 0.0, "",
+    -kInf, false, kInf, false, true, false,
+    "", "finite", "",
+    "AR(2) coefficient of x[k-1] (the model must be stationary)"};
+inline constexpr FieldSpec kAr2KalmanA2{
+    "ar2_kalman", "a2", false, FieldKind::number,
+    true, false, 0.0, "",
+    -kInf, false, kInf, false, true, false,
+    "", "finite", "",
+    "AR(2) coefficient of x[k-2]"};
+inline constexpr FieldSpec kAr2KalmanMean{
+    "ar2_kalman", "mean", true, FieldKind::number,
+    true, false, 0.0, "",
+    -kInf, false, kInf, false, true, false,
+    "", "finite", "channel",
+    "model mean (constant drift)"};
+inline constexpr FieldSpec kAr2KalmanSigma2{
+    "ar2_kalman", "sigma2", false, FieldKind::number,
+    false, false, 0.0, "",
+    0.0, false, kInf, false, true, false,
+    "", ">= 0", "channel^2",
+    "AR(2) driving-noise variance (absent: q)"};
+inline constexpr FieldSpec kAr2KalmanQ{
+    "ar2_kalman", "q", false, FieldKind::number,
+    true, false, 0.0, "",
+    0.0, false, kInf, false, true, false,
+    "", ">= 0", "channel^2",
+    "Kalman process-noise variance"};
+inline constexpr FieldSpec kAr2KalmanR{
+    "ar2_kalman", "r", false, FieldKind::number,
+    true, false, 0.0, "",
+    0.0, true, kInf, false, true, false,
+    "", "> 0", "channel^2",
+    "Kalman measurement-noise variance"};
+inline constexpr FieldSpec kAr2KalmanP0{
+    "ar2_kalman", "p0", false, FieldKind::number,
+    false, true, 1.0, "",
+    0.0, false, kInf, false, true, false,
+    "", ">= 0", "channel^2",
+    "initial state covariance P_0 = p0 I"};
+inline constexpr FieldSpec kAr2KalmanSteadyState{
+    "ar2_kalman", "steady_state", false, FieldKind::boolean,
+    false, true, 0.0, "",
+    -kInf, false, kInf, false, true, false,
+    "", "finite", "",
+    "constant (DARE steady-state) Kalman gain instead of the time-varying one"};
+
+inline constexpr const FieldSpec* kFields[] = {
+    &kTimingSampleRateHz,
+    &kTimingTimeToleranceUs,
+    &kTimingLoopRateHz,
+    &kChannelSaturation,
+    &kChannelStuckSamples,
+    &kBiasRemovalBias,
+    &kWaveletWavelet,
+    &kWaveletWindow,
+    &kWaveletLevel,
+    &kWaveletThreshold,
+    &kAr2KalmanA1,
+    &kAr2KalmanA2,
+    &kAr2KalmanMean,
+    &kAr2KalmanSigma2,
+    &kAr2KalmanQ,
+    &kAr2KalmanR,
+    &kAr2KalmanP0,
+    &kAr2KalmanSteadyState,
+};
+inline constexpr std::size_t kFieldCount = 18;
+
+inline constexpr const char* kSchema = "gyrodrift.processor";
+inline constexpr int kVersion = 1;
+inline constexpr const char* kChannelNames[] = {"gx", "gy", "gz", "ax", "ay", "az"};
+inline constexpr int kMaxStages = 2;
+
+// The shipped default configuration's sample rate and the timing derived from it.
+inline constexpr double kDefaultSampleRateHz = 400.0;
+inline constexpr std::uint32_t kDefaultPeriodUs = 2500U;
+inline constexpr std::uint32_t kDefaultTimeToleranceUs = 1250U;
+
+// The demonstration AR(2)-Kalman model of the default configuration (sigma2 = q).
+struct DemoAr2 {
+  static constexpr double a1 = 1.0, a2 = -0.25, mean = 0.0, q = 1e-10, r = 1e-08, sigma2 = 1e-10;
+};
+
+// The shipped default configuration (`gyrodrift config write-default`), canonical text.
+inline constexpr const char kDefaultConfigToml[] = R"gyrodrift(# gyrodrift processor configuration (README: Processor configuration file)
+schema = "gyrodrift.processor"
+version = 1
+
+[meta]
+written_by = "gyrodrift config write-default"
+
+[timing]
+sample_rate_hz = 400.0
+time_tolerance_us = 1250
+loop_rate_hz = 400.0
+
+[channels.gx]
+saturation_rad_s = 8.0
+stuck_samples = 50
+
+[[channels.gx.stages]]
+type = "wavelet"
+wavelet = "db4"
+window = 256
+level = 5
+threshold = "forced"
+
+[[channels.gx.stages]]
+type = "ar2_kalman"
+a1 = 1.0
+a2 = -0.25
+mean_rad_s = 0.0
+sigma2 = 1e-10
+q = 1e-10
+r = 1e-08
+p0 = 1.0
+steady_state = true
+
+[channels.gy]
+saturation_rad_s = 8.0
+stuck_samples = 50
+
+[[channels.gy.stages]]
+type = "wavelet"
+wavelet = "db4"
+window = 256
+level = 5
+threshold = "forced"
+
+[[channels.gy.stages]]
+type = "ar2_kalman"
+a1 = 1.0
+a2 = -0.25
+mean_rad_s = 0.0
+sigma2 = 1e-10
+q = 1e-10
+r = 1e-08
+p0 = 1.0
+steady_state = true
+
+[channels.gz]
+saturation_rad_s = 8.0
+stuck_samples = 50
+
+[[channels.gz.stages]]
+type = "wavelet"
+wavelet = "db4"
+window = 256
+level = 5
+threshold = "forced"
+
+[[channels.gz.stages]]
+type = "ar2_kalman"
+a1 = 1.0
+a2 = -0.25
+mean_rad_s = 0.0
+sigma2 = 1e-10
+q = 1e-10
+r = 1e-08
+p0 = 1.0
+steady_state = true
+
+[channels.ax]
+saturation_m_s2 = 160.0
+stuck_samples = 0
+
+[[channels.ax.stages]]
+type = "bias_removal"
+bias_m_s2 = 0.0
+
+[channels.ay]
+saturation_m_s2 = 160.0
+stuck_samples = 0
+
+[[channels.ay.stages]]
+type = "bias_removal"
+bias_m_s2 = 0.0
+
+[channels.az]
+saturation_m_s2 = 160.0
+stuck_samples = 0
+
+[[channels.az.stages]]
+type = "bias_removal"
+bias_m_s2 = 0.0
+)gyrodrift";
+
+}  // namespace gyrodrift::config_schema

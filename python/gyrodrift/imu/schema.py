@@ -1,0 +1,323 @@
+"""The processor configuration's fields, written once.
+
+Every field of the configuration file (its key, type, unit, default, bounds and help text) is
+declared here and nowhere else. The Python reader, validator and writer
+(:mod:`gyrodrift.imu.config`), the documentation of the format, and the C++ side follow from
+this table: ``include/gyrodrift/imu/config_schema.hpp`` is generated from it
+(:func:`gyrodrift.imu.firmware_header.emit_schema_header`, ``scripts/gen-config-schema``) and
+holds the C++ defaults, the bounds the loop's reader checks and the shipped default
+configuration; a test regenerates it and fails on any difference.
+
+"No value" has one spelling: a field whose default is ``None`` may be left out, and its value
+is then derived as its help text says (the timestamp tolerance is half a sample period, the
+loop rate is the sample rate, sigma2 is q). Fields whose default is :data:`REQUIRED` must be
+given.
+
+Units: ``"channel"`` is the channel's own unit (rad/s for the gyros gx gy gz, m/s^2 for the
+accelerometers ax ay az) and the key carries its suffix (``saturation_rad_s``,
+``saturation_m_s2``); ``"channel^2"`` is its square (a variance).
+
+Examples
+--------
+>>> f = field_spec("timing", "sample_rate_hz")
+>>> f.unit, f.required, f.lo, f.hi
+('Hz', True, 1.0, 100000.0)
+>>> field_spec("channel", "saturation").key("gx"), field_spec("channel", "saturation").default
+('saturation_rad_s', inf)
+>>> [f.name for f in FIELDS if f.section == "ar2_kalman"]
+['a1', 'a2', 'mean', 'sigma2', 'q', 'r', 'p0', 'steady_state']
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "CHANNEL_NAMES",
+    "DEFAULT_ACCEL_SATURATION_M_S2",
+    "DEFAULT_GYRO_SATURATION_RAD_S",
+    "DEFAULT_GYRO_STUCK_SAMPLES",
+    "DEFAULT_SAMPLE_RATE_HZ",
+    "DEMO_AR2",
+    "FIELDS",
+    "MAX_STAGES",
+    "PAPER_WAVELET",
+    "REQUIRED",
+    "SCHEMA",
+    "SECTIONS",
+    "STAGE_TYPES",
+    "THRESHOLDS",
+    "VERSION",
+    "WAVELETS",
+    "Field",
+    "channel_unit",
+    "channel_unit_suffix",
+    "default_period_us",
+    "default_time_tolerance_us",
+    "field_spec",
+    "max_wavelet_level",
+]
+
+SCHEMA = "gyrodrift.processor"
+VERSION = 1
+#: The six channels in order: gyro x y z (rad/s), accelerometer x y z (m/s^2).
+CHANNEL_NAMES = ("gx", "gy", "gz", "ax", "ay", "az")
+#: Stage types of a channel's chain (one or two stages; pass_through only alone).
+STAGE_TYPES = ("pass_through", "bias_removal", "wavelet", "ar2_kalman")
+MAX_STAGES = 2
+#: Wavelets of the real-time stage -> filter length.
+WAVELETS = {"db4": 8, "db8": 16}
+THRESHOLDS = ("forced", "soft", "hard")
+#: Where the fields live: the timing table, each channel's table, and each stage type's table.
+SECTIONS = ("timing", "channel", "bias_removal", "wavelet", "ar2_kalman")
+
+
+class _Required:
+    def __repr__(self) -> str:
+        return "REQUIRED"
+
+
+#: The default of a field that must be given.
+REQUIRED: Any = _Required()
+
+U32_MAX = 2**32 - 1
+
+
+@dataclass(frozen=True)
+class Field:
+    """One configuration field.
+
+    ``lo``/``hi`` bound the value (None: unbounded); ``lo_open``/``hi_open`` make a bound
+    strict. ``choices`` lists the accepted strings. ``finite`` refuses NaN and +-inf (a float
+    field that is not finite-only says so by its bounds, e.g. saturation accepts inf).
+
+    Examples
+    --------
+    >>> f = field_spec("ar2_kalman", "r")
+    >>> f.kind, f.unit, f.lo, f.lo_open, f.bounds_text()
+    ('float', 'channel^2', 0.0, True, '> 0')
+    """
+
+    section: str
+    name: str
+    kind: str  # "float", "int", "bool", "str"
+    unit: str  # "Hz", "us", "samples", "channel", "channel^2", "" (dimensionless)
+    default: Any
+    help: str
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    finite: bool = True
+    choices: tuple[str, ...] = ()
+    power_of_two: bool = False
+
+    @property
+    def required(self) -> bool:
+        return self.default is REQUIRED
+
+    def key(self, channel: str) -> str:
+        """The key in the file: the name with the channel unit's suffix where it has one."""
+        if self.unit == "channel":
+            return self.name + channel_unit_suffix(channel)
+        return self.name
+
+    def bounds_text(self) -> str:
+        """The accepted values in words (the same text in every error of both readers).
+
+        Examples
+        --------
+        >>> field_spec("timing", "loop_rate_hz").bounds_text()
+        '1..2000 Hz'
+        >>> field_spec("channel", "saturation").bounds_text()
+        '> 0 (or inf: off)'
+        """
+        if self.choices:
+            return "one of " + ", ".join(self.choices)
+        if self.power_of_two:
+            return f"a power of two in {_num(self.lo)}..{_num(self.hi)}"
+        unit = f" {self.unit}" if self.unit in ("Hz", "us") else ""
+        if self.lo is not None and self.hi is not None and not (self.lo_open or self.hi_open):
+            return f"{_num(self.lo)}..{_num(self.hi)}{unit}"
+        parts = []
+        if self.lo is not None:
+            parts.append(f"{'>' if self.lo_open else '>='} {_num(self.lo)}")
+        if self.hi is not None:
+            parts.append(f"{'<' if self.hi_open else '<='} {_num(self.hi)}")
+        text = " and ".join(parts) if parts else "finite"
+        if not self.finite:
+            text += " (or inf: off)"
+        return text + unit
+
+    def accepts(self, value: Any) -> bool:
+        """Whether a value of the right type lies within the bounds (relations between fields,
+        such as AR(2) stationarity or the wavelet level for its window, are checked apart).
+
+        Examples
+        --------
+        >>> s = field_spec("channel", "stuck_samples")
+        >>> s.accepts(0), s.accepts(-1), s.accepts(2**32)
+        (True, False, False)
+        """
+        if self.choices:
+            return value in self.choices
+        if self.kind == "bool":
+            return isinstance(value, bool)
+        if self.kind == "str":
+            return isinstance(value, str)
+        v = float(value)
+        if math.isnan(v) or (self.finite and math.isinf(v)):
+            return False
+        if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
+            return False
+        if self.hi is not None and (v >= self.hi if self.hi_open else v > self.hi):
+            return False
+        if self.power_of_two:
+            n = int(value)
+            return n > 0 and n & (n - 1) == 0
+        return True
+
+
+def _num(x: float | None) -> str:
+    if x is None:
+        return ""
+    return str(int(x)) if float(x).is_integer() and abs(x) < 1e16 else repr(float(x))
+
+
+def channel_unit(channel: str) -> str:
+    """rad/s for a gyro channel, m/s^2 for an accelerometer channel.
+
+    Examples
+    --------
+    >>> channel_unit("gz"), channel_unit("ax")
+    ('rad/s', 'm/s^2')
+    """
+    return "rad/s" if channel.startswith("g") else "m/s^2"
+
+
+def channel_unit_suffix(channel: str) -> str:
+    """The key suffix of a channel's unit.
+
+    Examples
+    --------
+    >>> channel_unit_suffix("gx"), channel_unit_suffix("az")
+    ('_rad_s', '_m_s2')
+    """
+    return "_rad_s" if channel.startswith("g") else "_m_s2"
+
+
+#: Every field, by section, in the order the canonical file writes them.
+FIELDS: tuple[Field, ...] = (
+    Field("timing", "sample_rate_hz", "float", "Hz", REQUIRED,
+          "IMU sample rate: the nominal period of the timestamps is 1e6 / rate us",
+          lo=1.0, hi=1e5),
+    Field("timing", "time_tolerance_us", "int", "us", None,
+          "timestamp check: |dt - k period| above it is a time jump (absent: half a sample "
+          "period; 0: check off)", lo=0, hi=U32_MAX),
+    Field("timing", "loop_rate_hz", "float", "Hz", None,
+          "rate of the loop program's cycle (absent: the sample rate)", lo=1.0, hi=2000.0),
+    Field("channel", "saturation", "float", "channel", math.inf,
+          "|x| >= saturation marks a value saturated (inf: off)", lo=0.0, lo_open=True,
+          finite=False),
+    Field("channel", "stuck_samples", "int", "samples", 0,
+          "the N-th identical value in a row marks the channel stuck (0: off)",
+          lo=0, hi=U32_MAX),
+    Field("bias_removal", "bias", "float", "channel", REQUIRED,
+          "subtracted from every sample"),
+    Field("wavelet", "wavelet", "str", "", REQUIRED,
+          "wavelet of the real-time sliding-window prefilter", choices=tuple(WAVELETS)),
+    Field("wavelet", "window", "int", "samples", REQUIRED,
+          "sliding window length N", lo=16, hi=4096, power_of_two=True),
+    Field("wavelet", "level", "int", "", REQUIRED,
+          "decomposition level J (at most the deepest level of the extended window 2N)",
+          lo=1, hi=8),
+    Field("wavelet", "threshold", "str", "", "forced",
+          "detail handling: forced (all details zeroed), soft or hard", choices=THRESHOLDS),
+    Field("ar2_kalman", "a1", "float", "", REQUIRED,
+          "AR(2) coefficient of x[k-1] (the model must be stationary)"),
+    Field("ar2_kalman", "a2", "float", "", REQUIRED, "AR(2) coefficient of x[k-2]"),
+    Field("ar2_kalman", "mean", "float", "channel", REQUIRED, "model mean (constant drift)"),
+    Field("ar2_kalman", "sigma2", "float", "channel^2", None,
+          "AR(2) driving-noise variance (absent: q)", lo=0.0),
+    Field("ar2_kalman", "q", "float", "channel^2", REQUIRED,
+          "Kalman process-noise variance", lo=0.0),
+    Field("ar2_kalman", "r", "float", "channel^2", REQUIRED,
+          "Kalman measurement-noise variance", lo=0.0, lo_open=True),
+    Field("ar2_kalman", "p0", "float", "channel^2", 1.0,
+          "initial state covariance P_0 = p0 I", lo=0.0),
+    Field("ar2_kalman", "steady_state", "bool", "", False,
+          "constant (DARE steady-state) Kalman gain instead of the time-varying one"),
+)
+
+
+def field_spec(section: str, name: str) -> Field:
+    """The field `name` of `section`.
+
+    Examples
+    --------
+    >>> field_spec("ar2_kalman", "p0").default
+    1.0
+    """
+    for f in FIELDS:
+        if f.section == section and f.name == name:
+            return f
+    raise KeyError(f"{section}.{name}")
+
+
+#: The sample rate of the shipped default configuration, and of a simulated record or a
+#: processor built when no rate is given, Hz.
+DEFAULT_SAMPLE_RATE_HZ = 400.0
+#: The wavelet stage the 2014 paper puts before SINS alignment: db4, N = 256, level 5, all
+#: details zeroed (forced). The defaults of a wavelet stage built in code.
+PAPER_WAVELET: dict[str, Any] = {"wavelet": "db4", "window": 256, "level": 5, "threshold": "forced"}
+#: The shipped default's bad-value detection: gyro and accelerometer saturation (rad/s,
+#: m/s^2) and the gyros' stuck count.
+DEFAULT_GYRO_SATURATION_RAD_S = 8.0
+DEFAULT_ACCEL_SATURATION_M_S2 = 160.0
+DEFAULT_GYRO_STUCK_SAMPLES = 50
+
+#: The demonstration AR(2)-Kalman model of the shipped default configuration (a1, a2: a
+#: double root at 0.5, stationary; mean in rad/s; q and r in (rad/s)^2; sigma2 = q). Identify
+#: the real gyro's with ``gyrodrift fit``.
+DEMO_AR2 = {"a1": 1.0, "a2": -0.25, "mean": 0.0, "q": 1e-10, "r": 1e-8}
+
+
+def default_period_us(sample_rate_hz: float) -> int:
+    """The nominal sample period, rounded to whole microseconds as the C++ side does (lround).
+
+    Examples
+    --------
+    >>> default_period_us(400.0), default_period_us(300.0)
+    (2500, 3333)
+    """
+    return math.floor(1e6 / sample_rate_hz + 0.5)
+
+
+def default_time_tolerance_us(sample_rate_hz: float) -> int:
+    """The timestamp tolerance when the file gives none: half a sample period (C++ lround).
+
+    Examples
+    --------
+    >>> default_time_tolerance_us(400.0)
+    1250
+    """
+    return math.floor(1e6 / sample_rate_hz / 2.0 + 0.5)
+
+
+def max_wavelet_level(window: int, wavelet: str) -> int:
+    """pywt.dwt_max_level(2N, filter length): the deepest level of the extended window.
+
+    Examples
+    --------
+    >>> max_wavelet_level(256, "db4"), max_wavelet_level(256, "db8")
+    (6, 5)
+    """
+    flen = WAVELETS[wavelet] - 1
+    level = 0
+    hi = field_spec("wavelet", "level").hi
+    assert hi is not None
+    while level < hi and (flen << (level + 1)) <= 2 * window:
+        level += 1
+    return level

@@ -1,0 +1,137 @@
+"""The processor configuration is written once (gyrodrift.imu.schema): every other side
+follows from that table or is held to it here.
+
+- the generated C++ header include/gyrodrift/imu/config_schema.hpp equals what the generator
+  writes from the table now (scripts/gen-config-schema regenerates it);
+- a corpus generated from the table, one file per field and bound (just inside, just outside,
+  the wrong type, a missing required field), gets the same verdict and names the same key in
+  the Python reader and in the loop's reader (gyrodrift-loop --config FILE --check-config).
+"""
+
+from __future__ import annotations
+
+import math
+import subprocess
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from gyrodrift.imu.config import ConfigError, default_config, dumps_config, parse_config
+from gyrodrift.imu.firmware_header import emit_schema_header
+from gyrodrift.imu.schema import FIELDS, Field
+
+ROOT = Path(__file__).resolve().parents[1]
+HEADER = ROOT / "include" / "gyrodrift" / "imu" / "config_schema.hpp"
+
+
+def test_committed_schema_header_is_generated() -> None:
+    assert HEADER.read_text() == emit_schema_header(), (
+        "include/gyrodrift/imu/config_schema.hpp differs from the schema: run "
+        "scripts/gen-config-schema and commit the result")
+
+
+def _location(f: Field) -> tuple[str, str]:
+    """(table header line in the default text, key) where the field `f` of gx lives."""
+    if f.section == "timing":
+        return "[timing]", f.name
+    if f.section == "channel":
+        return "[channels.gx]", f.key("gx")
+    if f.section == "bias_removal":
+        return "[channels.ax]", f.key("ax")
+    return "[channels.gx]", f.key("gx")
+
+
+def _set(text: str, f: Field, value: str | None) -> tuple[str, str]:
+    """The default configuration's text with field `f` (of gx's chain, or ax's bias stage) set
+    to `value` (None: removed); returns (text, the key an error must name)."""
+    table, key = _location(f)
+    if f.section in ("wavelet", "ar2_kalman"):
+        stage = 0 if f.section == "wavelet" else 1
+        full = f"channels.gx.stages[{stage}].{key}"
+        start = text.index(f'type = "{f.section}"')
+    elif f.section == "bias_removal":
+        full = f"channels.ax.stages[0].{key}"
+        start = text.index('type = "bias_removal"')
+    else:
+        full = f"{table.strip('[]')}.{key}"
+        start = text.index(table)
+    end = text.index("\n\n", start)
+    block = text[start:end].splitlines()
+    lines = [ln for ln in block if not ln.startswith(f"{key} =")]
+    if value is not None:
+        lines.append(f"{key} = {value}")
+    return text[:start] + "\n".join(lines) + text[end:], full
+
+
+def _literal(f: Field, x: float) -> str:
+    if f.kind == "int":
+        return str(int(x))
+    return "inf" if math.isinf(x) else repr(float(x))
+
+
+def corpus() -> Iterator[tuple[str, str, str | None]]:
+    """(case name, file text, key of the expected error or None: valid)."""
+    base = dumps_config(default_config())
+    for f in FIELDS:
+        if f.section == "wavelet" and f.name == "level":
+            continue  # its upper bound depends on the window: tests/test_config_windows.py
+        if f.required:
+            yield (f"{f.section}.{f.name} missing", *_set(base, f, None))
+        wrong = '"text"' if f.kind != "str" else "1"
+        yield (f"{f.section}.{f.name} wrong type", *_set(base, f, wrong))
+        if f.choices:
+            for c in f.choices:
+                text, _ = _set(base, f, f'"{c}"')
+                yield (f"{f.section}.{f.name} = {c}", text, None)
+            yield (f"{f.section}.{f.name} unknown choice", *_set(base, f, '"nope"'))
+        for bound, open_, side in ((f.lo, f.lo_open, -1), (f.hi, f.hi_open, +1)):
+            if bound is None or (f.name in ("a1", "a2")):
+                continue
+            step = 1 if f.kind == "int" else max(abs(bound) * 1e-9, 1e-300)
+            inside = bound - side * step if open_ else bound
+            outside = bound if open_ else bound + side * step
+            if not f.power_of_two:
+                text, _ = _set(base, f, _literal(f, inside))
+                yield (f"{f.section}.{f.name} at {inside!r}", text, None)
+            yield (f"{f.section}.{f.name} beyond {bound!r}", *_set(base, f, _literal(f, outside)))
+        if f.kind == "float" and f.finite:
+            yield (f"{f.section}.{f.name} = nan", *_set(base, f, "nan"))
+
+
+CASES = list(corpus())
+
+
+def test_corpus_covers_every_field() -> None:
+    named = {c[0].split(" ")[0] for c in CASES}
+    assert named >= {f"{f.section}.{f.name}" for f in FIELDS if f.name != "level"}
+
+
+@pytest.mark.parametrize("name,text,key", CASES, ids=[c[0] for c in CASES])
+def test_python_reader_verdict(name: str, text: str, key: str | None) -> None:
+    if key is None:
+        parse_config(text)
+        return
+    with pytest.raises(ConfigError) as info:
+        parse_config(text)
+    assert str(info.value).startswith(key + ":"), (name, str(info.value))
+
+
+@pytest.fixture(scope="module")
+def loop_check(cpp_build_dir: Path) -> Path:
+    path = cpp_build_dir / "cpp" / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
+    assert path.is_file(), path
+    return path
+
+
+@pytest.mark.parametrize("name,text,key", CASES, ids=[c[0] for c in CASES])
+def test_loop_reader_verdict(name: str, text: str, key: str | None, loop_check: Path,
+                             tmp_path: Path) -> None:
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    r = subprocess.run([str(loop_check), "--check-config", str(path)], capture_output=True,
+                       text=True, timeout=10)
+    if key is None:
+        assert r.returncode == 0, (name, r.stderr)
+    else:
+        assert r.returncode == 2, (name, r.stderr)
+        assert f"{path}: {key}:" in r.stderr, (name, r.stderr)
