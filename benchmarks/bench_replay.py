@@ -45,9 +45,9 @@ import numpy as np
 from _bench_util import machine, median_seconds
 from gyrodrift.codecs import FrameParser
 from gyrodrift.codecs.wire import Samples, encode_frames, make_samples
+from gyrodrift.imu.config import ProcessorConfig, default_config
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.harness import ReplayOptions, ReplayResult, find_loop_binary, run_replay
-from gyrodrift.replay.processor import ProcessorSettings
 from gyrodrift.simulation.records import NoiseTerms, simulate_imu
 
 
@@ -57,10 +57,9 @@ def record(n: int, rate_hz: float) -> Samples:
     return make_samples(np.arange(n) / rate_hz, rec.gyro_rad_s, rec.accel_m_s2)
 
 
-def settings(rate_hz: float) -> ProcessorSettings:
+def settings(rate_hz: float) -> ProcessorConfig:
     sigma2 = (0.5 * np.pi / 180 / 3600) ** 2
-    return ProcessorSettings(a1=1.0, a2=-0.25, sigma2=sigma2, q=sigma2, r=1e-10,
-                             sample_rate_hz=rate_hz)
+    return default_config(gyro_model=(1.0, -0.25, 0.0, sigma2, 1e-10), sample_rate_hz=rate_hz)
 
 
 def yes(ok: bool) -> str:
@@ -72,8 +71,9 @@ def real_time(args: argparse.Namespace, *, harness_rt: bool = True, load: str = 
     rate = 400.0
     n = int(args.duration_s * rate)
     res = run_replay(record(n, rate), ReplayOptions(
-        transport="serial", speed=1.0, loop_rate_hz=args.loop_rate_hz,
-        loop_binary=args.loop_binary, processor=settings(rate), harness_realtime=harness_rt,
+        transport="serial", speed=1.0, loop_binary=args.loop_binary,
+        processor=settings(rate).with_timing(loop_rate_hz=args.loop_rate_hz),
+        harness_realtime=harness_rt,
         local_link=local_link))
     rep, loop = res.report, res.loop_stats or {}
     acc = rep["accounting"]
@@ -128,8 +128,8 @@ def fast(args: argparse.Namespace) -> list[str]:
     rate = 400.0
     n = args.fast_frames
     rec = record(n, rate)
-    opt = ReplayOptions(transport="serial", speed=0.0, loop_rate_hz=args.loop_rate_hz,
-                        loop_binary=args.loop_binary, processor=settings(rate))
+    opt = ReplayOptions(transport="serial", speed=0.0, loop_binary=args.loop_binary,
+                        processor=settings(rate).with_timing(loop_rate_hz=args.loop_rate_hz))
     rates, oks = [], []
     for _ in range(args.repeats):
         res = run_replay(rec, opt)
@@ -152,8 +152,8 @@ def fast(args: argparse.Namespace) -> list[str]:
     # SLCAN through python-can (the Python peer of the loop's SLCAN side).
     n_can = min(n, args.slcan_frames)
     res_can = run_replay(rec.take(np.arange(n_can)), ReplayOptions(
-        transport="slcan", speed=0.0, loop_rate_hz=args.loop_rate_hz,
-        loop_binary=args.loop_binary, processor=settings(rate)))
+        transport="slcan", speed=0.0, loop_binary=args.loop_binary,
+        processor=settings(rate).with_timing(loop_rate_hz=args.loop_rate_hz)))
     can_fps = res_can.report["throughput"]["frames_per_s_end_to_end"]
     return [
         f"### As fast as possible (median of {args.repeats})",

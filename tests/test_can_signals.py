@@ -30,9 +30,9 @@ from gyrodrift.codecs.can_signals import (
     decode_table_text,
     load_signal_map,
 )
+from gyrodrift.imu.config import default_config, pass_through_config
 from gyrodrift.io.imu_log import CAN_FORMATS, read_imu_log
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
-from gyrodrift.replay.processor import ProcessorSettings
 
 DATA = Path(__file__).parent / "data"
 MAP = DATA / "vendor_imu_map.toml"
@@ -250,8 +250,8 @@ def test_replay_of_a_vendor_log(rng: np.random.Generator, tmp_path: Path,
             w.on_message_received(m)
     loop = str(cpp_build_dir / LOOP_RELATIVE)
     res = run_replay(read_imu_log(path, signals=MAP), ReplayOptions(
-        transport="serial", speed=0.0, loop_rate_hz=1000.0, loop_binary=loop,
-        processor=ProcessorSettings(sample_rate_hz=RATE_HZ, gyro_filter="pass_through")))
+        transport="serial", speed=0.0, loop_binary=loop,
+        processor=pass_through_config(RATE_HZ).with_timing(loop_rate_hz=1000.0)))
     assert res.ok, {k: v for k, v in res.report["checks"].items() if not v}
     assert res.report["accounting"]["outputs_received"] == n
     assert res.report["input_log"]["imu_frames_used"] == 3 * n
@@ -358,9 +358,9 @@ def test_hil_replay_in_the_vendor_layout(rng: np.random.Generator, tmp_path: Pat
             w.on_message_received(m)
     samples = read_imu_log(path, signals=MAP)
     res = run_replay(samples, ReplayOptions(
-        transport="slcan", speed=0.0, loop_rate_hz=1000.0, can_signals=str(MAP),
+        transport="slcan", speed=0.0, can_signals=str(MAP),
         loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
-        processor=ProcessorSettings(sample_rate_hz=RATE_HZ)))
+        processor=default_config(sample_rate_hz=RATE_HZ).with_timing(loop_rate_hz=1000.0)))
     rep = res.report
     assert rep["ok"], ({k: v for k, v in rep["checks"].items() if not v}, rep["loop"])
     assert rep["accounting"]["outputs_received"] == n

@@ -272,7 +272,6 @@ def test_real_record_chain_from_a_fitted_configuration(cpp_build_dir: Path) -> N
     import gyrodrift
     from conftest import SHARED_DATA, skip_unless_ci
     from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
-    from gyrodrift.replay.processor import ProcessorSettings
 
     path = SHARED_DATA / "lasergyro.imu"
     if not path.exists():
@@ -294,9 +293,8 @@ def test_real_record_chain_from_a_fitted_configuration(cpp_build_dir: Path) -> N
     cfg = ProcessorConfig(channels=tuple(chans), timing=Timing(100.0))
     samples = make_samples(np.arange(len(counts)) * 0.01, gyro, accel)
     res = run_replay(samples, ReplayOptions(
-        transport="serial", speed=0.0, loop_rate_hz=1000.0,
-        loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
-        processor=ProcessorSettings.from_config(cfg)))
+        transport="serial", speed=0.0, loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
+        processor=cfg.with_timing(loop_rate_hz=1000.0)))
     rep = res.report
     assert rep["ok"], ({k: v for k, v in rep["checks"].items() if not v}, rep["comparison"])
     assert max(rep["comparison"]["max_abs_error"]) <= 1e-5

@@ -14,9 +14,9 @@ import can
 import numpy as np
 import pytest
 from gyrodrift.codecs import INPUT_BASE_ID, encode_sample
+from gyrodrift.imu.config import default_config
 from gyrodrift.io.imu_log import CAN_FORMATS, read_imu_log
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
-from gyrodrift.replay.processor import ProcessorSettings
 
 SUFFIX = {"candump": ".log", "asc": ".asc", "blf": ".blf"}
 RATE_HZ = 400.0
@@ -141,9 +141,8 @@ def test_replay_of_a_bus_capture(tmp_path: Path, rng: np.random.Generator,
     want = _bus_capture(path, n, rng)
     samples = read_imu_log(path)
     res = run_replay(samples, ReplayOptions(
-        transport="slcan", speed=0.0, loop_rate_hz=1000.0,
-        loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
-        processor=ProcessorSettings(sample_rate_hz=RATE_HZ)))
+        transport="slcan", speed=0.0, loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
+        processor=default_config(sample_rate_hz=RATE_HZ).with_timing(loop_rate_hz=1000.0)))
     rep = res.report
     assert rep["ok"], {k: v for k, v in rep["checks"].items() if not v}
     assert rep["accounting"]["outputs_received"] == n and rep["accounting"]["unaccounted"] == 0

@@ -61,8 +61,10 @@ def test_log_input_real_time(tmp_path: Path, loop_bin: str, suffix: str,
 def test_user_errors(tmp_path: Path, loop_bin: str) -> None:
     with pytest.raises(CliError, match="no such log"):
         _run([str(tmp_path / "missing.bin"), "--loop-binary", loop_bin])
-    with pytest.raises(CliError, match="expected A1,A2"):
-        _run(["--ar2", "1,2,3", "--loop-binary", loop_bin])
+    bad = tmp_path / "bad.toml"
+    bad.write_text('schema = "gyrodrift.processor"\nversion = 1\n')
+    with pytest.raises(CliError, match="timing: missing value"):
+        _run(["--config", str(bad), "--loop-binary", loop_bin])
     with pytest.raises(CliError, match="does not exist"):
         _run(["--duration-s", "0.5", "--fast", "--loop-binary", str(tmp_path / "nope")])
     with pytest.raises(CliError, match="rates sum"):

@@ -18,9 +18,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gyrodrift.codecs.wire import Samples, make_samples
+from gyrodrift.imu.config import ProcessorConfig, default_config, write_config
 from gyrodrift.replay.faults import FAULT_KINDS, FaultSpec, plan_transmission
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, ReplayResult, run_replay
-from gyrodrift.replay.processor import ProcessorSettings
 from gyrodrift.simulation.records import NoiseTerms, simulate_imu
 
 
@@ -38,11 +38,10 @@ def _record(n: int, rate_hz: float, seed: int = 5) -> Samples:
     return make_samples(np.arange(n) / rate_hz, rec.gyro_rad_s, rec.accel_m_s2)
 
 
-def _settings(rate_hz: float) -> ProcessorSettings:
-    # AR(2)-Kalman on the gyros with the simulated drift's model, pass-through accelerometers.
+def _settings(rate_hz: float) -> ProcessorConfig:
+    # The default chain (wavelet prefilter, AR(2)-Kalman) with the simulated drift's model.
     sigma2 = (0.5 * np.pi / 180 / 3600) ** 2
-    return ProcessorSettings(a1=1.0, a2=-0.25, sigma2=sigma2, q=sigma2, r=1e-10,
-                             sample_rate_hz=rate_hz)
+    return default_config(gyro_model=(1.0, -0.25, 0.0, sigma2, 1e-10), sample_rate_hz=rate_hz)
 
 
 def _assert_exact(result: ReplayResult) -> None:
@@ -60,8 +59,8 @@ def _assert_exact(result: ReplayResult) -> None:
 def test_clean_as_fast_as_possible(loop_bin: str, transport: str) -> None:
     n = 3000 if transport == "serial" else 1500
     res = run_replay(_record(n, 400.0), ReplayOptions(
-        transport=transport, speed=0.0, loop_rate_hz=1000.0, loop_binary=loop_bin,
-        processor=_settings(400.0)))
+        transport=transport, speed=0.0, loop_binary=loop_bin,
+        processor=_settings(400.0).with_timing(loop_rate_hz=1000.0)))
     _assert_exact(res)
     assert res.report["accounting"]["outputs_received"] == n
     assert res.loop_stats is not None and res.loop_stats["end_reason"] == "end_of_input"
@@ -70,8 +69,8 @@ def test_clean_as_fast_as_possible(loop_bin: str, transport: str) -> None:
 def test_serial_real_time_2khz(loop_bin: str) -> None:
     rate = 2000.0
     res = run_replay(_record(3000, rate), ReplayOptions(
-        transport="serial", speed=1.0, loop_rate_hz=2000.0, loop_binary=loop_bin,
-        processor=_settings(rate)))
+        transport="serial", speed=1.0, loop_binary=loop_bin,
+        processor=_settings(rate).with_timing(loop_rate_hz=2000.0)))
     _assert_exact(res)
     # Paced at 1x: 3000 samples take 1.5 s (link pacing adds < 0.5 ms per frame, not
     # cumulative); loose bounds for a shared machine.
@@ -93,8 +92,8 @@ def test_serial_real_time_2khz(loop_bin: str) -> None:
 def test_slcan_real_time_400hz(loop_bin: str) -> None:
     rate = 400.0
     res = run_replay(_record(800, rate), ReplayOptions(
-        transport="slcan", speed=1.0, loop_rate_hz=1000.0, can_bitrate=500000,
-        loop_binary=loop_bin, processor=_settings(rate)))
+        transport="slcan", speed=1.0, can_bitrate=500000,
+        loop_binary=loop_bin, processor=_settings(rate).with_timing(loop_rate_hz=1000.0)))
     _assert_exact(res)
     assert 1.9 < res.report["throughput"]["send_s"] < 5.0  # 800 samples at 400 Hz = 2 s
 
@@ -106,8 +105,8 @@ def test_each_fault_kind(loop_bin: str, transport: str, kind: str) -> None:
     record = _record(n, 400.0, seed=11)
     spec = FaultSpec(**{kind: 0.03}, seed=100 + FAULT_KINDS.index(kind))
     res = run_replay(record, ReplayOptions(
-        transport=transport, speed=0.0, loop_rate_hz=1000.0, loop_binary=loop_bin,
-        faults=spec, processor=_settings(400.0)))
+        transport=transport, speed=0.0, loop_binary=loop_bin,
+        faults=spec, processor=_settings(400.0).with_timing(loop_rate_hz=1000.0)))
     _assert_exact(res)
     acc = res.report["accounting"]
     assert acc["injected"][kind] > 0
@@ -143,21 +142,22 @@ def test_each_fault_kind(loop_bin: str, transport: str, kind: str) -> None:
 def test_all_faults_together_at_real_time(loop_bin: str) -> None:
     spec = FaultSpec(drop=0.01, corrupt=0.01, duplicate=0.01, reorder=0.01, delay=0.01, seed=4)
     res = run_replay(_record(1600, 800.0), ReplayOptions(
-        transport="serial", speed=1.0, loop_rate_hz=2000.0, loop_binary=loop_bin, faults=spec,
-        processor=_settings(800.0)))
+        transport="serial", speed=1.0, loop_binary=loop_bin, faults=spec,
+        processor=_settings(800.0).with_timing(loop_rate_hz=2000.0)))
     _assert_exact(res)
     assert sum(res.report["accounting"]["injected"].values()) > 40
 
 
-def test_attach_to_a_running_target(loop_bin: str) -> None:
+def test_attach_to_a_running_target(loop_bin: str, tmp_path: Path) -> None:
     # A target already running on a serial device (here: the loop on a pty we made, as a
     # navigation computer on /dev/ttyUSB0 would be); the harness only opens the device path.
     rate = 400.0
-    settings = _settings(rate)
+    settings = _settings(rate).with_timing(loop_rate_hz=1000.0)
+    config = write_config(settings, tmp_path / "target.toml")
     master, slave = os.openpty()
     tty.setraw(slave)
-    proc = subprocess.Popen([loop_bin, "--serial", f"fd:{master}", "--rate-hz", "1000", "--no-rt",
-                             *settings.loop_args()], pass_fds=[master],
+    proc = subprocess.Popen([loop_bin, "--serial", f"fd:{master}", "--no-rt",
+                             "--config", str(config)], pass_fds=[master],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     os.close(master)
     assert proc.stderr is not None and b"ready" in proc.stderr.readline()

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gyrodrift.codecs.wire import make_samples
+from gyrodrift.imu.config import default_config
 from gyrodrift.replay import transport
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
-from gyrodrift.replay.processor import ProcessorSettings
 
 PREEMPT_S = 0.004  # longer than the loop's period (1 ms) plus its reply time
 
@@ -45,9 +45,9 @@ def test_latency_never_negative_when_the_sender_is_preempted(
     samples = make_samples(np.arange(n) / rate, rng.normal(0, 1e-4, (n, 3)),
                            rng.normal(0, 1e-2, (n, 3)))
     res = run_replay(samples, ReplayOptions(
-        transport=transport_name, speed=speed, loop_rate_hz=1000.0, batch_frames=1,
+        transport=transport_name, speed=speed, batch_frames=1,
         loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
-        processor=ProcessorSettings(sample_rate_hz=rate)))
+        processor=default_config(sample_rate_hz=rate).with_timing(loop_rate_hz=1000.0)))
     assert res.report["accounting"]["outputs_received"] == n
     assert res.latency_us.size == n
     assert float(np.min(res.latency_us)) >= 0.0, np.sort(res.latency_us)[:5]
@@ -74,9 +74,9 @@ def test_harness_threads_get_realtime_or_say_why_not(cpp_build_dir: Path,
 
     n, rate = 40, 400.0
     samples = make_samples(np.arange(n) / rate, np.zeros((n, 3)), np.zeros((n, 3)))
-    opt = ReplayOptions(transport=transport_name, speed=0.0, loop_rate_hz=1000.0,
+    opt = ReplayOptions(transport=transport_name, speed=0.0,
                         loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
-                        processor=ProcessorSettings(sample_rate_hz=rate))
+                        processor=default_config(sample_rate_hz=rate).with_timing(loop_rate_hz=1000.0))
     assert opt.harness_realtime  # the default, like the loop's
     policy_before = os.sched_getscheduler(0)
     rt = run_replay(samples, opt).report["harness_realtime"]
@@ -99,9 +99,9 @@ def test_refused_realtime_is_reported(monkeypatch: pytest.MonkeyPatch,
     n, rate = 40, 400.0
     samples = make_samples(np.arange(n) / rate, np.zeros((n, 3)), np.zeros((n, 3)))
     res = run_replay(samples, ReplayOptions(
-        transport="serial", speed=0.0, loop_rate_hz=1000.0, loop_realtime=False,
+        transport="serial", speed=0.0, loop_realtime=False,
         loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
-        processor=ProcessorSettings(sample_rate_hz=rate)))
+        processor=default_config(sample_rate_hz=rate).with_timing(loop_rate_hz=1000.0)))
     rt = res.report["harness_realtime"]
     assert rt["sender"].startswith("refused: ") and "not permitted" in rt["sender"], rt
     assert rt["receiver"].startswith("refused: "), rt
@@ -115,9 +115,9 @@ def test_socketpair_local_link(cpp_build_dir: Path) -> None:
     samples = make_samples(np.arange(n) / rate, rng.normal(0, 1e-4, (n, 3)),
                            rng.normal(0, 1e-2, (n, 3)))
     res = run_replay(samples, ReplayOptions(
-        transport="serial", speed=4.0, loop_rate_hz=2000.0, local_link="socketpair",
+        transport="serial", speed=4.0, local_link="socketpair",
         loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
-        processor=ProcessorSettings(sample_rate_hz=rate)))
+        processor=default_config(sample_rate_hz=rate).with_timing(loop_rate_hz=2000.0)))
     assert res.ok, {k: v for k, v in res.report["checks"].items() if not v}
     assert res.report["device"].startswith("socketpair fd:")
     assert res.report["accounting"]["outputs_received"] == n

@@ -5,14 +5,15 @@ detection on: the quantized counts repeat, so the health path is exercised on re
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import gyrodrift
 import numpy as np
 from conftest import SHARED_DATA, skip_unless_ci
 from gyrodrift.codecs.wire import make_samples
+from gyrodrift.imu.config import default_config
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, run_replay
-from gyrodrift.replay.processor import ProcessorSettings
 
 ARCSEC_RAD = np.pi / 180 / 3600
 DT_S = 0.01  # sampling interval 10 ms (data README)
@@ -32,12 +33,13 @@ def test_replay_real_laser_gyro_record(cpp_build_dir: Path) -> None:
     n = counts.shape[0]
     samples = make_samples(np.arange(n) * DT_S, gyro_rad_s, accel_m_s2)
     model = gyrodrift.fit_ar2(gyro_rad_s[:, 2])
-    settings = ProcessorSettings(a1=model.a1, a2=model.a2, sigma2=model.sigma2, mean=model.mean,
-                                 q=model.sigma2, r=model.measurement_variance,
-                                 stuck_samples=20, sample_rate_hz=1 / DT_S)
+    settings = default_config(gyro_model=(model.a1, model.a2, model.mean, model.sigma2,
+                                          model.measurement_variance), sample_rate_hz=1 / DT_S)
+    settings = replace(settings, channels=tuple(replace(c, stuck_samples=20) if c.is_gyro else c
+                                                for c in settings.channels))
     res = run_replay(samples, ReplayOptions(
-        transport="serial", speed=0.0, loop_rate_hz=1000.0,
-        loop_binary=str(cpp_build_dir / LOOP_RELATIVE), processor=settings))
+        transport="serial", speed=0.0, loop_binary=str(cpp_build_dir / LOOP_RELATIVE),
+        processor=settings.with_timing(loop_rate_hz=1000.0)))
     rep = res.report
     assert rep["ok"], ({k: v for k, v in rep["checks"].items() if not v}, rep["comparison"])
     assert rep["accounting"]["outputs_received"] == n

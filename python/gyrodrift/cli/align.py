@@ -26,6 +26,7 @@ from gyrodrift.cli.common import (
     emit_json,
     progress_enabled,
 )
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["register", "run"]
@@ -53,7 +54,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--runs", type=int, default=30, help="Monte Carlo runs per scenario (30)")
     p.add_argument("--duration-s", type=float, default=1800.0,
                    help="record length, s (1800 = 30 min)")
-    p.add_argument("--rate-hz", type=float, default=400.0, help="IMU rate, Hz (400)")
+    p.add_argument("--rate-hz", type=float, default=DEFAULT_SAMPLE_RATE_HZ,
+                   help=f"IMU sample rate, Hz (default {DEFAULT_SAMPLE_RATE_HZ:g})")
     p.add_argument("--coarse-s", type=float, default=60.0, help="coarse alignment, s (60)")
     p.add_argument("--states", type=int, choices=(12, 15), default=15, help="KF states (15)")
     p.add_argument("--kf-noise", choices=("spec", "samples"), default="spec",

@@ -22,11 +22,11 @@ import numpy as np
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_input_args, add_json_arg, emit_json, record_from_args
 from gyrodrift.io.json_text import json_text
+from gyrodrift.units import DPH
 
 __all__ = ["config_toml", "register", "run"]
 
 #: deg/h -> rad/s (the record is in deg/h; the configuration in SI).
-_DEG_H_TO_RAD_S = math.pi / 180.0 / 3600.0
 
 
 def register(subparsers: Any) -> None:
@@ -57,8 +57,9 @@ def _gyro_channel(column: str | None) -> str:
 
 
 def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
-    """The processor configuration (issue-12 schema v1, canonical layout) with the fitted
-    steady-state AR(2)-Kalman stage on `channel` (values converted from deg/h to rad/s).
+    """The processor configuration (canonical text) with the fitted steady-state
+    AR(2)-Kalman stage on `channel` (values converted from deg/h to rad/s), the other channels
+    passed through.
 
     Examples
     --------
@@ -69,40 +70,24 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
     >>> x = lfilter([1.0], [1.0, -0.6, -0.2], rng.normal(0, 1, 4000)) + rng.normal(0, 0.5, 4000)
     >>> best = compare_drift_models(x, 100.0).best
     >>> text = config_toml(best, 100.0, "gz", "gyro.csv")
-    >>> text.splitlines()[:3]
-    ['# gyrodrift processor configuration', 'schema = "gyrodrift.processor"', 'version = 1']
+    >>> text.splitlines()[1:3]
+    ['schema = "gyrodrift.processor"', 'version = 1']
     >>> from gyrodrift.imu.config import parse_config
     >>> parse_config(text).channels[2].stages[0].steady_state
     True
     """
-    k = _DEG_H_TO_RAD_S
-    lines = ["# gyrodrift processor configuration", 'schema = "gyrodrift.processor"',
-             "version = 1", "", "[meta]", 'written_by = "gyrodrift fit"',
-             f"record = {_toml_str(os.path.basename(source))}", f'model = "{fit.model}"',
-             f'tuning = "{fit.tuning}"',
-             f"loglike = {fit.loglike!r}", "", "[timing]", f"sample_rate_hz = {float(rate_hz)!r}",
-             ""]
-    for name in ("gx", "gy", "gz", "ax", "ay", "az"):
-        unit = "rad_s" if name[0] == "g" else "m_s2"
-        lines += [f"[channels.{name}]", f"saturation_{unit} = inf", "stuck_samples = 0", "",
-                  f"[[channels.{name}.stages]]"]
-        if name == channel:
-            # The filter's parameters: the fit's, or the minimax q = r tuning when the fit
-            # could not tell drift from white noise (fit.tuning).
-            a1, a2, q, r = fit.filter_params
-            r = max(r, 1e-12 * (q + r))
-            lines += ['type = "ar2_kalman"', f"a1 = {a1!r}", f"a2 = {a2!r}",
-                      f"mean_rad_s = {fit.mean * k!r}", f"sigma2 = {q * k * k!r}",
-                      f"q = {q * k * k!r}", f"r = {r * k * k!r}", "p0 = 1.0",
-                      "steady_state = true"]
-        else:
-            lines.append('type = "pass_through"')
-        lines.append("")
-    return "\n".join(lines)
+    from gyrodrift.imu.config import drift_filter_config, dumps_config
 
-
-def _toml_str(s: str) -> str:
-    return '"' + s.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    # The filter's parameters: the fit's, or the minimax q = r tuning when the fit could not
+    # tell drift from white noise (fit.tuning).
+    a1, a2, q, r = fit.filter_params
+    meta = (("written_by", "gyrodrift fit"), ("record", os.path.basename(source)),
+            ("model", str(fit.model)), ("tuning", str(fit.tuning)),
+            ("loglike", float(fit.loglike)))
+    cfg = drift_filter_config(channel, a1=a1, a2=a2, mean=fit.mean * DPH, q=q * DPH * DPH,
+                              r=max(r, 1e-12 * (q + r)) * DPH * DPH, sample_rate_hz=rate_hz,
+                              meta=meta)
+    return dumps_config(cfg)
 
 
 def _fmt(v: float, se: float) -> str:

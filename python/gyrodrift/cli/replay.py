@@ -12,7 +12,7 @@ from pathlib import Path
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_json_arg, add_progress_arg, check_out_dir
-from gyrodrift.cli.simulate import parse_ar2
+from gyrodrift.imu.schema import DEFAULT_SAMPLE_RATE_HZ, field_spec
 from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["register", "run"]
@@ -61,8 +61,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="CAN bit rate (default 500000)")
     p.add_argument("--no-link-pacing", action="store_true",
                    help="do not hold frames back by their time on the wire")
-    p.add_argument("--loop-rate-hz", type=float, default=400.0,
-                   help="gyrodrift-loop rate, 1..2000 Hz (default 400)")
+    p.add_argument("--loop-rate-hz", type=float, default=None,
+                   help="gyrodrift-loop rate, 1..2000 Hz (default: the configuration's "
+                        "timing.loop_rate_hz)")
     p.add_argument("--loop-binary", default=None, help="path of gyrodrift-loop")
     p.add_argument("--no-rt", action="store_true",
                    help="do not ask for real-time scheduling: SCHED_FIFO and mlockall for the "
@@ -70,7 +71,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--duration-s", type=float, default=5.0,
                    help="length of the simulated record without INPUT (default 5)")
     p.add_argument("--rate-hz", type=float, default=None,
-                   help="IMU sample rate, Hz (default: from the record, or 400 when simulating)")
+                   help="IMU sample rate, Hz (default: from the record, or the configuration's "
+                        "timing.sample_rate_hz when simulating)")
     g = p.add_argument_group("fault injection (rates per sample)")
     for kind, done in (("drop", "dropped"), ("corrupt", "corrupted"),
                        ("duplicate", "duplicated"), ("reorder", "reordered"),
@@ -84,27 +86,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     pr = p.add_argument_group("processor (given to the loop and the reference alike)")
     pr.add_argument("--config", default=None, metavar="FILE",
                     help="processor configuration file (TOML; `gyrodrift config`): per-channel "
-                         "chains, rates, tolerances; replaces the processor options below")
-    pr.add_argument("--gyro-filter", default="ar2_kalman",
-                    choices=("ar2_kalman", "bias_removal", "pass_through"),
-                    help="filter of the three gyro channels (default ar2_kalman)")
-    pr.add_argument("--accel-filter", default="pass_through",
-                    choices=("ar2_kalman", "bias_removal", "pass_through"),
-                    help="filter of the three accelerometer channels (default pass_through)")
-    pr.add_argument("--ar2", default="1.0,-0.25", metavar="A1,A2",
-                    help="AR(2) model of the gyro channels (default 1.0,-0.25: a double root "
-                         "at 0.5, a demonstration model)")
-    pr.add_argument("--ar2-sigma2", type=float, default=1e-10,
-                    help="AR(2) driving-noise variance, (rad/s)^2 (default 1e-10)")
-    pr.add_argument("--ar2-mean", type=float, default=0.0,
-                    help="AR(2) model mean (constant drift), rad/s (default 0)")
-    pr.add_argument("--kalman-q", type=float, default=1e-10,
-                    help="Kalman process variance, (rad/s)^2 (default 1e-10)")
-    pr.add_argument("--kalman-r", type=float, default=1e-8,
-                    help="Kalman measurement variance, (rad/s)^2 (default 1e-8)")
-    pr.add_argument("--stuck-samples", type=int, default=0,
-                    help="samples of an unchanged value after which a channel is flagged "
-                         "stuck (0 = off)")
+                         "chains, rates, tolerances (default: the shipped default "
+                         "configuration, `gyrodrift config write-default`, at the record's "
+                         "sample rate)")
     p.add_argument("--out-dir", default="replay-report",
                    help="where report.json and report.png go (default ./replay-report)")
     add_json_arg(p)
@@ -139,18 +123,16 @@ def run(args: argparse.Namespace) -> int:
 
     from gyrodrift.cli.common import emit_json, progress_enabled
     from gyrodrift.codecs.wire import make_samples
+    from gyrodrift.imu.config import ConfigError, default_config, load_config
     from gyrodrift.io.imu_log import read_imu_log
     from gyrodrift.replay.faults import FaultSpec
     from gyrodrift.replay.harness import ReplayError, ReplayOptions, run_replay
-    from gyrodrift.replay.processor import ProcessorSettings
     from gyrodrift.report.replay import format_table, write_json, write_png
 
     if args.can_signals and not args.input:
         raise CliError("--can-signals applies to an input CAN log")
     proc_cfg = None
     if args.config:
-        from gyrodrift.imu.config import ConfigError, load_config
-
         try:
             proc_cfg = load_config(args.config)
         except (ConfigError, OSError) as exc:
@@ -163,13 +145,14 @@ def run(args: argparse.Namespace) -> int:
             raise CliError(str(exc)) from None
         dt = np.diff(samples.t_us.astype(np.float64)) * 1e-6
         rate = args.rate_hz or (1.0 / float(np.median(dt)) if dt.size and
-                                       np.median(dt) > 0 else 400.0)
+                                np.median(dt) > 0 else DEFAULT_SAMPLE_RATE_HZ)
     else:
         from gyrodrift.simulation.records import NoiseTerms, simulate_imu
 
         if not (args.duration_s > 0 and math.isfinite(args.duration_s)):
             raise CliError("--duration-s must be > 0")
-        rate = args.rate_hz or (proc_cfg.timing.sample_rate_hz if proc_cfg else 400.0)
+        rate = args.rate_hz or (proc_cfg.timing.sample_rate_hz if proc_cfg
+                                else DEFAULT_SAMPLE_RATE_HZ)
         rec = simulate_imu(args.duration_s, rate_hz=rate, seed=args.seed,
                            gyro=NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)),
                            vrw_m_s_rt_h=0.02)
@@ -178,32 +161,28 @@ def run(args: argparse.Namespace) -> int:
     if proc_cfg is not None and abs(rate - proc_cfg.timing.sample_rate_hz) > 0.01 * rate:
         raise CliError(f"sample rate {rate:.6g} Hz (record or --rate-hz) contradicts "
                        f"timing.sample_rate_hz {proc_cfg.timing.sample_rate_hz:g} of {args.config}")
-    a1, a2 = parse_ar2(args.ar2) or (1.0, -0.25)
     try:
-        if proc_cfg is not None:
-            proc = ProcessorSettings.from_config(proc_cfg)
-        else:
-            proc = ProcessorSettings(gyro_filter=args.gyro_filter,
-                                     accel_filter=args.accel_filter, a1=a1, a2=a2,
-                                     sigma2=args.ar2_sigma2, mean=args.ar2_mean,
-                                     q=args.kalman_q, r=args.kalman_r,
-                                     stuck_samples=args.stuck_samples, sample_rate_hz=rate)
+        proc = proc_cfg if proc_cfg is not None else default_config(sample_rate_hz=rate)
+        if args.loop_rate_hz is not None:
+            spec = field_spec("timing", "loop_rate_hz")
+            if not spec.accepts(args.loop_rate_hz):
+                raise CliError(f"--loop-rate-hz: expected {spec.bounds_text()}, "
+                               f"got {args.loop_rate_hz:g}")
+            proc = proc.with_timing(loop_rate_hz=args.loop_rate_hz)
         faults = FaultSpec(drop=args.drop, corrupt=args.corrupt, duplicate=args.duplicate,
                            reorder=args.reorder, delay=args.delay, delay_s=args.delay_s,
                            seed=args.seed)
         opt = ReplayOptions(transport=args.transport, speed=0.0 if args.fast else args.speed,
                             baud=args.baud, can_bitrate=args.can_bitrate,
-                            pace_link=not args.no_link_pacing, loop_rate_hz=args.loop_rate_hz,
-                            loop_binary=args.loop_binary, loop_realtime=not args.no_rt,
+                            pace_link=not args.no_link_pacing, loop_binary=args.loop_binary,
+                            loop_realtime=not args.no_rt,
                             harness_realtime=not args.no_rt,
                             attach=args.device, faults=faults, processor=proc,
                             # CAN replays then speak the user's DBC to the loop as well
                             can_signals=args.can_signals if args.transport != "serial"
                             else None, progress=progress_enabled(args))
-    except ValueError as exc:
+    except (ConfigError, ValueError) as exc:
         raise CliError(str(exc)) from None
-    if not 1.0 <= args.loop_rate_hz <= 2000.0:
-        raise CliError("--loop-rate-hz must be within 1..2000")
     try:
         result = run_replay(samples, opt)
     except (ReplayError, OSError, ValueError) as exc:

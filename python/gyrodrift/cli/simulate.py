@@ -13,6 +13,7 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_json_arg, check_output, check_rate_hz, emit_json, write_csv
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["LOG_FORMATS", "LOG_SUFFIXES", "register", "run"]
@@ -39,7 +40,8 @@ def register(subparsers: Any) -> None:
     length = p.add_mutually_exclusive_group(required=True)
     length.add_argument("--n", type=int, help="number of samples")
     length.add_argument("--duration-s", type=float, help="duration, s")
-    p.add_argument("--rate-hz", type=float, default=400.0, help="sample rate, Hz (default 400)")
+    p.add_argument("--rate-hz", type=float, default=DEFAULT_SAMPLE_RATE_HZ,
+                   help=f"sample rate, Hz (default {DEFAULT_SAMPLE_RATE_HZ:g})")
     p.add_argument("--quant-arcsec", type=float, default=0.0,
                    help="quantization noise Q, arcsec (default 0)")
     p.add_argument("--arw-deg-rt-h", type=float, default=0.0,

@@ -10,6 +10,7 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_json_arg, check_output, check_rate_hz, emit_json
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["cutoff_hz", "register", "run"]
@@ -33,7 +34,8 @@ def register(subparsers: Any) -> None:
     p.add_argument("--wavelet", default="db4", choices=["db4", "db8"], help="wavelet (db4)")
     p.add_argument("--window", type=int, default=256, help="window N, power of two (256)")
     p.add_argument("--level", type=int, default=5, help="decomposition level J (5)")
-    p.add_argument("--rate-hz", type=float, default=400.0, help="sample rate, Hz (400)")
+    p.add_argument("--rate-hz", type=float, default=DEFAULT_SAMPLE_RATE_HZ,
+                   help=f"sample rate, Hz (default {DEFAULT_SAMPLE_RATE_HZ:g})")
     p.add_argument("--n-freqs", type=int, default=1024, help="frequency points (1024)")
     p.add_argument("--png", default="wavelet_response.png",
                    help="output plot (default wavelet_response.png)")

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift._native import core
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
@@ -125,7 +126,7 @@ def apply_fir(x: np.ndarray, taps: np.ndarray) -> np.ndarray:
 
 
 def fir_group_delay(
-    b: np.ndarray, rate_hz: float = 400.0, n_freqs: int = 512
+    b: np.ndarray, rate_hz: float = DEFAULT_SAMPLE_RATE_HZ, n_freqs: int = 512
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Frequency (Hz), magnitude |H| and group delay (s) of FIR taps b (newest first).
 

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift._native import core
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.filters.fir import forced_fir_taps
 
@@ -299,7 +300,8 @@ class RealtimeWavelet:
             raise GyrodriftValueError("fir_taps(): only the forced mode is a linear (FIR) filter")
         return forced_fir_taps(self.wavelet, self.window, self.level, self.dtype)
 
-    def group_delay_s(self, rate_hz: float = 400.0, freq_hz: float = 0.0) -> float:
+    def group_delay_s(self, rate_hz: float = DEFAULT_SAMPLE_RATE_HZ, freq_hz: float = 0.0
+                      ) -> float:
         """Group delay of the forced filter at freq_hz (default DC), seconds."""
         from scipy import signal
 

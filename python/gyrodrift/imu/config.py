@@ -73,10 +73,12 @@ __all__ = [
     "WaveletStage",
     "config_from_dict",
     "default_config",
+    "drift_filter_config",
     "dumps_config",
     "load_config",
     "max_wavelet_level",
     "parse_config",
+    "pass_through_config",
     "write_config",
 ]
 
@@ -263,6 +265,18 @@ class ProcessorConfig:
         chans = list(self.channels)
         chans[CHANNEL_NAMES.index(name)] = replace(channel, name=name)
         return replace(self, channels=tuple(chans))
+
+    def with_timing(self, **changes: Any) -> ProcessorConfig:
+        """A copy with timing fields replaced (sample_rate_hz, time_tolerance_us,
+        loop_rate_hz; None: derived).
+
+        Examples
+        --------
+        >>> cfg = default_config().with_timing(sample_rate_hz=200.0, time_tolerance_us=None)
+        >>> cfg.timing.period_us, cfg.timing.tolerance_us, cfg.timing.loop_hz
+        (5000, 2500, 400.0)
+        """
+        return replace(self, timing=replace(self.timing, **changes))
 
     def uses(self, stage_type: str) -> bool:
         return any(s.type == stage_type for c in self.channels for s in c.stages)
@@ -647,6 +661,44 @@ def write_config(cfg: ProcessorConfig, path: str | os.PathLike[str]) -> Path:
     return atomic_write_text(path, dumps_config(cfg))
 
 
+def pass_through_config(sample_rate_hz: float = DEFAULT_SAMPLE_RATE_HZ) -> ProcessorConfig:
+    """Every channel passed through unchanged (no saturation or stuck detection) at
+    ``sample_rate_hz``: the processor that only checks the stream (sequence, timestamps, bad
+    values), e.g. to test a link.
+
+    Examples
+    --------
+    >>> cfg = pass_through_config(100.0)
+    >>> {s.type for c in cfg.channels for s in c.stages}, cfg.timing.period_us
+    ({'pass_through'}, 10000)
+    """
+    loop_max = field_spec("timing", "loop_rate_hz").hi
+    assert loop_max is not None
+    return ProcessorConfig(
+        channels=tuple(ChannelConfig(name=ch, stages=(PassThrough(),)) for ch in CHANNEL_NAMES),
+        timing=Timing(sample_rate_hz=sample_rate_hz, loop_rate_hz=min(sample_rate_hz, loop_max)))
+
+
+def drift_filter_config(channel: str, *, a1: float, a2: float, mean: float, q: float,
+                        r: float, sample_rate_hz: float,
+                        meta: tuple[tuple[str, Any], ...] = ()) -> ProcessorConfig:
+    """A steady-state AR(2)-Kalman stage (sigma2 = q) on one channel, every other channel
+    passed through: what an identified drift model (``gyrodrift fit``) gives the processor.
+    Units: the channel's (rad/s for a gyro); q and r its square.
+
+    Examples
+    --------
+    >>> cfg = drift_filter_config("gz", a1=0.6, a2=0.2, mean=0.0, q=1e-10, r=1e-8,
+    ...                           sample_rate_hz=100.0)
+    >>> [c.stages[0].type for c in cfg.channels]
+    ['pass_through', 'pass_through', 'ar2_kalman', 'pass_through', 'pass_through', 'pass_through']
+    """
+    stage = Ar2KalmanStage(a1=a1, a2=a2, mean=mean, q=q, r=r, sigma2=q, steady_state=True)
+    cfg = pass_through_config(sample_rate_hz).with_channel(channel,
+                                                           ChannelConfig(channel, (stage,)))
+    return replace(cfg, meta=meta)
+
+
 def default_config(
     gyro_model: tuple[float, float, float, float, float] | None = None,
     sample_rate_hz: float = DEFAULT_SAMPLE_RATE_HZ,
@@ -655,7 +707,7 @@ def default_config(
     (``gyro_model`` = (a1, a2, mean_rad_s, q, r), by default the demonstration model
     gyrodrift.imu.schema.DEMO_AR2: identify yours with ``gyrodrift fit``), accelerometers bias
     removal (bias 0), saturation and stuck detection, at ``sample_rate_hz`` (the timestamp
-    tolerance half a period, the loop at the sample rate).
+    tolerance half a period, the loop at the sample rate, at most 2000 Hz).
 
     Examples
     --------
@@ -677,8 +729,10 @@ def default_config(
     chans += [ChannelConfig(name=ch, stages=(BiasRemoval(),),
                             saturation=DEFAULT_ACCEL_SATURATION_M_S2)
               for ch in CHANNEL_NAMES[3:]]
+    loop_max = field_spec("timing", "loop_rate_hz").hi
+    assert loop_max is not None
     timing = Timing(sample_rate_hz=sample_rate_hz,
                     time_tolerance_us=default_time_tolerance_us(sample_rate_hz),
-                    loop_rate_hz=sample_rate_hz)
+                    loop_rate_hz=min(sample_rate_hz, loop_max))
     return ProcessorConfig(channels=tuple(chans), timing=timing,
                            meta=(("written_by", "gyrodrift config write-default"),))

@@ -34,6 +34,8 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
+
 __all__ = [
     "CHANNEL_NAMES",
     "DEFAULT_ACCEL_SATURATION_M_S2",
@@ -266,9 +268,6 @@ def field_spec(section: str, name: str) -> Field:
     raise KeyError(f"{section}.{name}")
 
 
-#: The sample rate of the shipped default configuration, and of a simulated record or a
-#: processor built when no rate is given, Hz.
-DEFAULT_SAMPLE_RATE_HZ = 400.0
 #: The wavelet stage the 2014 paper puts before SINS alignment: db4, N = 256, level 5, all
 #: details zeroed (forced). The defaults of a wavelet stage built in code.
 PAPER_WAVELET: dict[str, Any] = {"wavelet": "db4", "window": 256, "level": 5, "threshold": "forced"}

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.units import ARCMIN, DEG, DPH, UG
 
 __all__ = ["AlignConfig", "AlignResult"]
@@ -29,7 +30,7 @@ class AlignConfig:
     6000
     """
 
-    dt_s: float = 1.0 / 400.0
+    dt_s: float = 1.0 / DEFAULT_SAMPLE_RATE_HZ
     lat_rad: float = 39.0 * DEG
     lon_rad: float = 116.0 * DEG
     h_m: float = 50.0

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.filters.fir import apply_fir, forced_fir_taps, group_delay_dc_samples
 from gyrodrift.nav.align_config import AlignConfig
@@ -86,7 +87,7 @@ class StudyConfig:
     scenario: str = "ship_mild"
     runs: int = 30
     duration_s: float = 1800.0
-    rate_hz: float = 400.0
+    rate_hz: float = DEFAULT_SAMPLE_RATE_HZ
     coarse_s: float = 60.0
     kf_hz: float = 10.0
     n_states: int = 15

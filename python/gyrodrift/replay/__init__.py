@@ -10,12 +10,10 @@ from __future__ import annotations
 from gyrodrift.io.imu_log import FORMATS, log_format, read_imu_log, write_imu_log
 from gyrodrift.replay.faults import FaultSpec
 from gyrodrift.replay.harness import ReplayError, ReplayOptions, ReplayResult, run_replay
-from gyrodrift.replay.processor import ProcessorSettings
 
 __all__ = [
     "FORMATS",
     "FaultSpec",
-    "ProcessorSettings",
     "ReplayError",
     "ReplayOptions",
     "ReplayResult",

@@ -9,6 +9,7 @@ or rejected by the processor (duplicate, out of order, ...). `unaccounted` must 
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -37,12 +38,14 @@ from gyrodrift.codecs.can_signals import (
 )
 from gyrodrift.codecs.wire import Samples, decode_stream
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
+from gyrodrift.imu.config import ProcessorConfig, default_config, dumps_config, write_config
 from gyrodrift.imu.contract import (
     FLAG_CONFIG_ERROR,
     FLAG_DUPLICATE,
     FLAG_OUT_OF_ORDER,
     FLAG_REJECTED,
 )
+from gyrodrift.imu.processor import ImuConfig
 from gyrodrift.reference.imu import process_imu
 from gyrodrift.replay.faults import (
     FaultSpec,
@@ -51,7 +54,6 @@ from gyrodrift.replay.faults import (
     corrupt_slcan_line,
     plan_transmission,
 )
-from gyrodrift.replay.processor import ProcessorSettings
 from gyrodrift.replay.transport import (
     CAN_FRAME_BITS,
     UART_BITS_PER_BYTE,
@@ -156,7 +158,6 @@ class ReplayOptions:
     baud: int = 921600  # serial line rate (frame pacing; a pty ignores it)
     can_bitrate: int = 500000  # CAN bit rate (frame pacing)
     pace_link: bool = True  # hold each unit back by its time on the wire (paced modes)
-    loop_rate_hz: float = 400.0
     loop_binary: str | None = None
     loop_realtime: bool = True  # ask the loop for SCHED_FIFO + mlockall
     # The harness's sender and receiver threads SCHED_FIFO too (when permitted; the report's
@@ -164,7 +165,9 @@ class ReplayOptions:
     harness_realtime: bool = True
     attach: str | None = None  # device path / CAN interface of a running target
     faults: FaultSpec = field(default_factory=FaultSpec)
-    processor: ProcessorSettings = field(default_factory=ProcessorSettings)
+    # The processor of the loop and of the reference alike; its timing gives the sample rate
+    # (CAN timestamps, the time checks) and the loop rate.
+    processor: ProcessorConfig = field(default_factory=default_config)
     settle_s: float = 1.0  # stop waiting after this long without new output
     timeout_s: float = 0.0  # 0: record duration / speed + 30 s
     batch_frames: int = 256  # as-fast-as-possible: serial frames per write
@@ -269,12 +272,23 @@ def _delivered(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions
                 acc += step - 65536 if step >= 32768 else step
             unwrapped[k] = acc
         t_us = np.where(unwrapped <= 0, 0,
-                        np.floor(unwrapped * 1e6 / opt.processor.sample_rate_hz + 0.5)
+                        np.floor(unwrapped * 1e6 / opt.processor.timing.sample_rate_hz + 0.5)
                         ).astype(np.uint64)
     else:
         t_us = samples.t_us[idx] if idx.size else np.zeros(0, np.uint64)
     values = samples.channels[idx].astype(np.float64) if idx.size else np.zeros((0, 6))
     return pos, seq, t_us, values
+
+
+def _config_file(config: ProcessorConfig) -> Path:
+    """The configuration's canonical text in a content-named temporary file, for the loop's
+    --config (its reader takes the canonical TOML subset, whatever layout a user's file has)."""
+    text = dumps_config(config)
+    digest = hashlib.sha256(text.encode()).hexdigest()[:16]
+    path = Path(tempfile.gettempdir()) / f"gyrodrift-config-{digest}.toml"
+    if not path.exists():
+        write_config(config, path)
+    return path
 
 
 class _Target:
@@ -298,7 +312,7 @@ class _Target:
         self.pty = PtyPair.open() if self.opt.local_link == "pty" else PtyPair.open_socketpair()
         mode = "--serial" if self.opt.transport == "serial" else "--slcan"
         args = [str(binary), mode, f"fd:{self.pty.master_fd}", "--baud", str(self.opt.baud),
-                "--rate-hz", repr(float(self.opt.loop_rate_hz)), *self.opt.processor.loop_args()]
+                "--config", str(_config_file(self.opt.processor))]
         if not self.opt.loop_realtime:
             args.append("--no-rt")
         if self.opt.can_signals is not None:
@@ -406,7 +420,10 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     pos, d_seq, d_t_us, d_values = _delivered(samples, plan, opt)
     if smap is not None and "time" in smap.roles:
         d_t_us = samples.t_us[[plan.units[k].index for k in pos]]  # the IMU's own clock
-    ref = process_imu(d_seq, d_t_us, d_values, opt.processor.imu_config())
+    # The loop stores every parameter as float32: the reference gets the float32-rounded
+    # values too (and runs the same model in double).
+    ref = process_imu(d_seq, d_t_us, d_values,
+                      ImuConfig.from_processor_config(opt.processor, float32=True))
     accepted = (ref.flags & FLAG_REJECTED) == 0
     expected_pos = pos[accepted]  # unit position of each expected output, in order
     exp_seq = d_seq[accepted]
@@ -719,9 +736,9 @@ def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, 
         "speed": "as fast as possible" if opt.speed == 0 else f"{opt.speed:g}x",
         "baud": opt.baud,
         "can_bitrate": opt.can_bitrate if opt.can else None,
-        "loop_rate_hz": opt.loop_rate_hz,
+        "loop_rate_hz": opt.processor.timing.loop_hz,
         "faults": opt.faults.to_dict(),
-        "processor": opt.processor.to_dict(),
+        "processor": {"config": opt.processor.as_dict()},
         "accounting": accounting,
         "comparison": {"n": n_cmp, "max_abs_error": max_err, "tolerance": tolerance,
                        "seq_equal": seq_equal, "flags_equal": flags_equal},

@@ -52,6 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.nav import earth
 
@@ -442,7 +443,7 @@ def simulate(
     duration_s: float | None = None,
     *,
     n: int | None = None,
-    rate_hz: float = 400.0,
+    rate_hz: float = DEFAULT_SAMPLE_RATE_HZ,
     q_deg: float = 0.0,
     n_deg_rt_h: float = 0.0,
     b_deg_h: float = 0.0,
@@ -498,7 +499,7 @@ def simulate_terms(
     duration_s: float | None = None,
     *,
     n: int | None = None,
-    rate_hz: float = 400.0,
+    rate_hz: float = DEFAULT_SAMPLE_RATE_HZ,
     axes: int = 1,
     seed: int = 0,
     keep_components: bool = False,
@@ -534,7 +535,7 @@ def simulate_imu(
     duration_s: float | None = None,
     *,
     n: int | None = None,
-    rate_hz: float = 400.0,
+    rate_hz: float = DEFAULT_SAMPLE_RATE_HZ,
     latitude_deg: float = 39.0,
     height_m: float = 0.0,
     heading_deg: float = 0.0,
