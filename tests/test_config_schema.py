@@ -135,3 +135,76 @@ def test_loop_reader_verdict(name: str, text: str, key: str | None, loop_check: 
     else:
         assert r.returncode == 2, (name, r.stderr)
         assert f"{path}: {key}:" in r.stderr, (name, r.stderr)
+
+
+# ------------------------------------------------------------------ no second spelling
+# A processor default written as a literal outside the schema (and the header generated from
+# it): the shipped default configuration's numbers and the fields' defaults, in the places
+# they used to be copied to. Comments, docstrings and strings are not code and are skipped.
+LITERAL_DEFAULTS = [
+    ("sample rate", r"\b(sample_rate_hz|rate_hz|period)\w*\s*[:=][^\n]*?\b400(\.0)?\b"),
+    ("sample rate (C++ period)", r"\b(period_us|PeriodUs)\w*\s*=\s*2500"),
+    ("timestamp tolerance", r"\b(time_tolerance_us|tolerance_us|ToleranceUs)\w*\s*=\s*1250"),
+    ("stuck count", r"\bstuck_samples\s*[:=][^\n]*?\b50\b"),
+    ("saturation", r"\bsaturation\w*\s*[:=][^\n]*?\b(8|160)\.0\b"),
+    ("demonstration AR(2) model", r"\ba2\s*[:=]\s*-\s*0\.25\b"),
+    ("demonstration q, r", r"\b(q|r|sigma2)\s*[:=][^\n]*?\b1e-(8|08|10)\b"),
+    ("wavelet stage", r"\bwindow\s*[:=][^\n]*?\b256\b"),
+]
+SINGLE_SOURCE = {"python/gyrodrift/imu/schema.py", "python/gyrodrift/defaults.py",
+                 "include/gyrodrift/imu/config_schema.hpp"}
+
+
+def _code_only(path: Path) -> str:
+    import io
+    import re
+    import tokenize
+
+    text = path.read_text()
+    if path.suffix == ".py":
+        out = []
+        for tok in tokenize.generate_tokens(io.StringIO(text).readline):
+            if tok.type in (tokenize.COMMENT, tokenize.STRING):
+                out.append(" ")
+            elif tok.type == tokenize.NL or tok.type == tokenize.NEWLINE:
+                out.append("\n")
+            else:
+                out.append(tok.string + " ")
+        return re.sub(r" +", " ", "".join(out))
+    text = re.sub(r"/\*.*?\*/", " ", text, flags=re.S)
+    text = re.sub(r"//[^\n]*", " ", text)
+    text = re.sub(r'R"(\w*)\(.*?\)\1"', '""', text, flags=re.S)
+    return re.sub(r'"(\\.|[^"\\\n])*"', '""', text)
+
+
+def _sources() -> list[Path]:
+    files = list((ROOT / "python" / "gyrodrift").rglob("*.py"))
+    for sub in ("include", "bindings", "cpp/programs", "cpp/cortex_m", "cpp/bench"):
+        files += [p for p in (ROOT / sub).rglob("*") if p.suffix in (".hpp", ".cpp")]
+    return [p for p in files if str(p.relative_to(ROOT)) not in SINGLE_SOURCE
+            and "generated" not in p.parts]
+
+
+def test_no_processor_default_is_written_outside_the_schema() -> None:
+    import re
+
+    hits = []
+    for path in _sources():
+        code = _code_only(path)
+        for what, pattern in LITERAL_DEFAULTS:
+            for m in re.finditer(pattern, code):
+                hits.append(f"{path.relative_to(ROOT)}: {what}: {m.group(0)!r}")
+    assert not hits, "\n".join(hits)
+
+
+def test_the_literal_scan_finds_a_copied_default(tmp_path: Path) -> None:
+    py = tmp_path / "m.py"
+    py.write_text('"""rate_hz = 400.0 in a docstring is fine"""\n'
+                  "def f(rate_hz: float = 400.0) -> None: ...\n")
+    cpp = tmp_path / "m.hpp"
+    cpp.write_text("// stuck_samples = 50 in a comment is fine\nstd::uint32_t stuck_samples = 50;\n")
+    import re
+
+    for path, what in ((py, "sample rate"), (cpp, "stuck count")):
+        pattern = dict(LITERAL_DEFAULTS)[what]
+        assert len(re.findall(pattern, _code_only(path))) == 1, path

@@ -121,6 +121,7 @@ REFERENCE_MAY_IMPORT = {
     "gyrodrift.imu.processor",  # configuration types the reference processor consumes
     "gyrodrift.imu.contract",  # the processor contract: flag bits, health counter names
     "gyrodrift.units",  # unit constants
+    "gyrodrift.defaults",  # shared defaults (the paper's prefilter parameters, sample rate)
     "gyrodrift.imu.config",  # the processor configuration file (records and reader, no algorithm)
 }
 # Single names the references may take from a production module: the model record, its error

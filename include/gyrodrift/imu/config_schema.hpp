@@ -181,6 +181,11 @@ inline constexpr double kDefaultSampleRateHz = 400.0;
 inline constexpr std::uint32_t kDefaultPeriodUs = 2500U;
 inline constexpr std::uint32_t kDefaultTimeToleranceUs = 1250U;
 
+// The real-time prefilter of the 2014 paper: the wavelet stage's defaults.
+inline constexpr const char* kPrefilterWavelet = "db4";
+inline constexpr std::size_t kPrefilterWindow = 256;
+inline constexpr int kPrefilterLevel = 5;
+
 // The demonstration AR(2)-Kalman model of the default configuration (sigma2 = q).
 struct DemoAr2 {
   static constexpr double a1 = 1.0, a2 = -0.25, mean = 0.0, q = 1e-10, r = 1e-08, sigma2 = 1e-10;

@@ -32,7 +32,12 @@ from typing import Any
 import numpy as np
 
 from gyrodrift._native import core
-from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
+from gyrodrift.defaults import (
+    DEFAULT_SAMPLE_RATE_HZ,
+    PREFILTER_LEVEL,
+    PREFILTER_WAVELET,
+    PREFILTER_WINDOW,
+)
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
@@ -51,7 +56,8 @@ _BANKS = {np.dtype(np.float64): "RealtimeWaveletBankF64",
 
 
 def forced_fir_taps(
-    wavelet: str = "db8", window: int = 256, level: int = 5, dtype: Any = np.float64
+    wavelet: str = PREFILTER_WAVELET, window: int = PREFILTER_WINDOW,
+    level: int = PREFILTER_LEVEL, dtype: Any = np.float64
 ) -> np.ndarray:
     """Taps of the forced real-time wavelet prefilter, newest first, from the C++ core.
 

@@ -21,7 +21,13 @@ from typing import Any
 import numpy as np
 
 from gyrodrift._native import core
-from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
+from gyrodrift.defaults import (
+    DEFAULT_SAMPLE_RATE_HZ,
+    PREFILTER_LEVEL,
+    PREFILTER_THRESHOLD,
+    PREFILTER_WAVELET,
+    PREFILTER_WINDOW,
+)
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.filters.fir import forced_fir_taps
 
@@ -225,10 +231,10 @@ class RealtimeWavelet:
 
     def __init__(
         self,
-        wavelet: str = "db8",
-        window: int = 256,
-        level: int = 5,
-        mode: str = "forced",
+        wavelet: str = PREFILTER_WAVELET,
+        window: int = PREFILTER_WINDOW,
+        level: int = PREFILTER_LEVEL,
+        mode: str = PREFILTER_THRESHOLD,
         *,
         dtype: Any = np.float64,
     ) -> None:

@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from gyrodrift.defaults import PREFILTER_LEVEL, PREFILTER_WAVELET, PREFILTER_WINDOW
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.imu.config import (
     CHANNEL_NAMES,
@@ -332,6 +333,11 @@ def emit_schema_header() -> str:
         f"inline constexpr std::uint32_t kDefaultPeriodUs = {default_period_us(rate)}U;",
         "inline constexpr std::uint32_t kDefaultTimeToleranceUs = "
         f"{default_time_tolerance_us(rate)}U;",
+        "",
+        "// The real-time prefilter of the 2014 paper: the wavelet stage's defaults.",
+        f"inline constexpr const char* kPrefilterWavelet = {_cpp_string(PREFILTER_WAVELET)};",
+        f"inline constexpr std::size_t kPrefilterWindow = {PREFILTER_WINDOW};",
+        f"inline constexpr int kPrefilterLevel = {PREFILTER_LEVEL};",
         "",
         "// The demonstration AR(2)-Kalman model of the default configuration (sigma2 = q).",
         "struct DemoAr2 {",

@@ -34,7 +34,13 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
+from gyrodrift.defaults import (
+    DEFAULT_SAMPLE_RATE_HZ,
+    PREFILTER_LEVEL,
+    PREFILTER_THRESHOLD,
+    PREFILTER_WAVELET,
+    PREFILTER_WINDOW,
+)
 
 __all__ = [
     "CHANNEL_NAMES",
@@ -235,7 +241,7 @@ FIELDS: tuple[Field, ...] = (
     Field("wavelet", "level", "int", "", REQUIRED,
           "decomposition level J (at most the deepest level of the extended window 2N)",
           lo=1, hi=8),
-    Field("wavelet", "threshold", "str", "", "forced",
+    Field("wavelet", "threshold", "str", "", PREFILTER_THRESHOLD,
           "detail handling: forced (all details zeroed), soft or hard", choices=THRESHOLDS),
     Field("ar2_kalman", "a1", "float", "", REQUIRED,
           "AR(2) coefficient of x[k-1] (the model must be stationary)"),
@@ -270,7 +276,8 @@ def field_spec(section: str, name: str) -> Field:
 
 #: The wavelet stage the 2014 paper puts before SINS alignment: db4, N = 256, level 5, all
 #: details zeroed (forced). The defaults of a wavelet stage built in code.
-PAPER_WAVELET: dict[str, Any] = {"wavelet": "db4", "window": 256, "level": 5, "threshold": "forced"}
+PAPER_WAVELET: dict[str, Any] = {"wavelet": PREFILTER_WAVELET, "window": PREFILTER_WINDOW,
+                                  "level": PREFILTER_LEVEL, "threshold": PREFILTER_THRESHOLD}
 #: The shipped default's bad-value detection: gyro and accelerometer saturation (rad/s,
 #: m/s^2) and the gyros' stuck count.
 DEFAULT_GYRO_SATURATION_RAD_S = 8.0

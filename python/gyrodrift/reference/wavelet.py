@@ -19,6 +19,13 @@ from collections.abc import Iterator
 import numpy as np
 import pywt
 
+from gyrodrift.defaults import (
+    PREFILTER_LEVEL,
+    PREFILTER_THRESHOLD,
+    PREFILTER_WAVELET,
+    PREFILTER_WINDOW,
+)
+
 __all__ = [
     "MAD_TO_SIGMA",
     "admissible_bases",
@@ -111,7 +118,8 @@ def realtime_window(w: np.ndarray, wavelet: str, level: int, mode: str) -> float
 
 
 def realtime_wavelet(
-    x: np.ndarray, wavelet: str = "db8", window: int = 256, level: int = 5, mode: str = "forced"
+    x: np.ndarray, wavelet: str = PREFILTER_WAVELET, window: int = PREFILTER_WINDOW,
+    level: int = PREFILTER_LEVEL, mode: str = PREFILTER_THRESHOLD
 ) -> np.ndarray:
     """Per-sample recompute over a 1-D stream. Start-up: the first window-1 accepted samples
     pass through unchanged. NaN/Inf samples are skipped (not in the window) and the previous
