@@ -379,6 +379,176 @@ class _Target:
         return self._stats
 
 
+def _as_decoded_by_the_loop(samples: Samples, smap: Any) -> Samples:
+    """What the loop will decode from a user's DBC frames (rounded to the DBC's resolution),
+    found by decoding them the same way: that is the record the reference must see."""
+    user_asm = SignalSampleAssembler(smap)
+    decoded: list[SignalSample] = []
+    for k in range(len(samples)):
+        done: SignalSample | None = None
+        for m in encode_sample_frames(smap, int(samples.seq[k]), int(samples.t_us[k]),
+                                      samples.channels[k]):
+            done = user_asm.push(m)
+        assert done is not None  # every sample's frames complete exactly that sample
+        decoded.append(done)
+    return Samples(np.array([d.seq for d in decoded], np.uint16), samples.flags,
+                   np.array([samples.t_us[k] if d.t_us is None else d.t_us
+                             for k, d in enumerate(decoded)], np.uint64),
+                   np.array([d.values for d in decoded], np.float64).astype(np.float32),
+                   log_report=samples.log_report)
+
+
+@dataclass
+class _Expected:
+    """The reference processor run on exactly what reaches the target: what must come back."""
+
+    ref: Any  # the reference's ImuResult over the delivered samples
+    delivered_seq: np.ndarray
+    positions: np.ndarray  # unit position of each expected output, in order
+    seq: np.ndarray
+    flags: np.ndarray
+    values: np.ndarray
+
+
+def _expected_outputs(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions,
+                      smap: Any) -> _Expected:
+    pos, d_seq, d_t_us, d_values = _delivered(samples, plan, opt)
+    if smap is not None and "time" in smap.roles:
+        d_t_us = samples.t_us[[plan.units[k].index for k in pos]]  # the IMU's own clock
+    # The loop stores every parameter as float32: the reference gets the float32-rounded
+    # values too (and runs the same model in double).
+    ref = process_imu(d_seq, d_t_us, d_values,
+                      ImuConfig.from_processor_config(opt.processor, float32=True))
+    accepted = (ref.flags & FLAG_REJECTED) == 0
+    return _Expected(ref, d_seq, pos[accepted], d_seq[accepted], ref.flags[accepted],
+                     ref.values[accepted])
+
+
+def _payloads(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, smap: Any,
+              rng: np.random.Generator) -> list[Any]:
+    """The bytes (serial) or frames (CAN, with the corrupt mark) of every unit to send."""
+    payload: list[Any] = []
+    if opt.transport == "serial":
+        raw = codec_encode_frames(samples.seq, samples.t_us, samples.channels)
+        for u in plan.units:
+            frame = raw[FRAME_SIZE * u.index: FRAME_SIZE * (u.index + 1)]
+            payload.append(corrupt_serial_frame(frame, rng) if u.corrupt else frame)
+        return payload
+    cache: dict[int, list[can.Message]] = {}
+    for u in plan.units:
+        if u.index not in cache:
+            k = u.index
+            cache[k] = encode_sample(int(samples.seq[k]), samples.channels[k]) \
+                if smap is None else encode_sample_frames(
+                    smap, int(samples.seq[k]), int(samples.t_us[k]), samples.channels[k])
+        payload.append((cache[u.index], u.corrupt))
+    return payload
+
+
+def _transmit(link: SerialLink | CanLink, payload: list[Any], plan: TransmissionPlan,
+              opt: ReplayOptions, rng: np.random.Generator, spin_ns: int, sent: list[int],
+              write_ns: np.ndarray) -> tuple[int, int]:
+    """Send every unit: paced at `opt.speed` x the record's time (each unit complete at the
+    receiver when its last bit has arrived), or as fast as possible. Fills `write_ns` (the
+    time before each unit's first byte leaves) and `sent`; returns (start_ns, end_ns)."""
+    n_units = len(payload)
+    wire_ns = _unit_wire_time_ns(opt) if opt.pace_link else 0
+    t_rec = np.array([u.t_s for u in plan.units], dtype=np.float64)
+    t0 = time.perf_counter_ns() + 20_000_000  # 20 ms to settle
+    sleep_until_ns(t0)
+    start_ns = time.perf_counter_ns()
+    if opt.speed > 0:
+        due = t0 + ((t_rec - t_rec[0]) / opt.speed * 1e9).astype(np.int64)
+        link_free = 0
+        for k in range(n_units):
+            ready_ns = max(int(due[k]), link_free) + wire_ns
+            sleep_until_ns(ready_ns, spin_ns)
+            # Latency starts before the first byte leaves: stamped after the call, a
+            # preempted sender would stamp after the reply arrived (negative latency).
+            write_ns[k] = time.perf_counter_ns()
+            _send(link, payload[k], rng)
+            sent[0] = k + 1
+            link_free = ready_ns
+    elif opt.transport == "serial":
+        assert isinstance(link, SerialLink)
+        b = max(1, opt.batch_frames)
+        for k0 in range(0, n_units, b):
+            chunk = b"".join(payload[k0:k0 + b])
+            write_ns[k0:k0 + b] = time.perf_counter_ns()  # before the first byte leaves
+            link.write(chunk)
+            sent[0] = min(k0 + b, n_units)
+    else:
+        for k in range(n_units):
+            write_ns[k] = time.perf_counter_ns()  # before the first byte leaves
+            _send(link, payload[k], rng)
+            sent[0] = k + 1
+    return start_ns, time.perf_counter_ns()
+
+
+def _wait_for_outputs(link: SerialLink | CanLink, expected_n: int, plan: TransmissionPlan,
+                      opt: ReplayOptions) -> None:
+    """Until all expected outputs arrived, or settle_s passed without anything new."""
+    t_rec = [u.t_s for u in plan.units]
+    duration_s = (t_rec[-1] - t_rec[0]) / opt.speed if opt.speed > 0 else 0.0
+    deadline = time.perf_counter() + (opt.timeout_s or duration_s + 30.0)
+    last_count, last_change = -1, time.perf_counter()
+    while time.perf_counter() < deadline:
+        count = _output_count(link)
+        if count >= expected_n:
+            break
+        if count != last_count:
+            last_count, last_change = count, time.perf_counter()
+        elif time.perf_counter() - last_change > opt.settle_s:
+            break
+        time.sleep(0.01)
+    time.sleep(0.05)  # anything still in flight
+
+
+def _received(link: SerialLink | CanLink) -> tuple[Samples, np.ndarray, dict[str, int]]:
+    """The outputs captured on the link, their arrival times (ns) and the link's issues."""
+    if isinstance(link, SerialLink):
+        stream = b"".join(c for _, c in link.capture.chunks)
+        ends = np.cumsum([len(c) for _, c in link.capture.chunks])
+        arrivals = np.array([t for t, _ in link.capture.chunks], dtype=np.int64)
+        dec = decode_stream(stream)
+        ok_type = dec.frame_type == TYPE_OUTPUT
+        got = dec.samples.take(np.nonzero(ok_type)[0])
+        got_arrival = arrivals[np.searchsorted(ends, dec.end_offset[ok_type], side="left")] \
+            if got.seq.size else np.zeros(0, np.int64)
+        return got, got_arrival, {"crc_errors": dec.crc_errors,
+                                  "garbage_bytes": dec.garbage_bytes,
+                                  "truncated_bytes": dec.truncated_bytes,
+                                  "input_type_frames": int(np.count_nonzero(~ok_type))}
+    asm = SampleAssembler(base_id=OUTPUT_BASE_ID)
+    seqs, flags_l, vals, arr = [], [], [], []
+    for t_ns, m in link.capture.messages:
+        s = asm.push(m)
+        if s is not None:
+            seqs.append(s.seq)
+            flags_l.append(s.flags)
+            vals.append(list(s.values))
+            arr.append(t_ns)
+    asm.finish()
+    got = Samples(np.asarray(seqs, np.uint16), np.asarray(flags_l, np.uint16),
+                  np.zeros(len(seqs), np.uint64), np.asarray(vals, np.float32).reshape(-1, 6))
+    st = asm.stats
+    return got, np.asarray(arr, dtype=np.int64), {
+        "can_incomplete": int(st.incomplete_samples),
+        "can_foreign_frames": int(st.foreign_frames)}
+
+
+def _output_jitter_us(got_arrival: np.ndarray, expected_pos: np.ndarray,
+                      plan: TransmissionPlan, opt: ReplayOptions) -> dict[str, float]:
+    """Each output's inter-arrival time against the spacing of its input in the record
+    (paced replays only; 0 for a perfect real-time chain)."""
+    n_j = min(got_arrival.size, expected_pos.size)
+    if opt.speed > 0 and n_j > 1:
+        due_us = np.array([plan.units[k].t_s for k in expected_pos[:n_j]]) / opt.speed * 1e6
+        dev_us = np.diff(got_arrival[:n_j]) * 1e-3 - np.diff(due_us)
+        return _pct(np.abs(dev_us))
+    return _pct(np.zeros(0))
+
+
 def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     """Replay `samples` into the target and check everything that comes back.
 
@@ -401,66 +571,23 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     rng = np.random.default_rng(opt.faults.seed + 1)
     smap = load_signal_map(opt.can_signals) if opt.can_signals is not None else None
     if smap is not None:
-        # What the loop will decode from the user's frames (rounded to the DBC's resolution),
-        # found by decoding them the same way: that is the record the reference must see.
-        user_asm = SignalSampleAssembler(smap)
-        decoded: list[SignalSample] = []
-        for k in range(len(samples)):
-            done: SignalSample | None = None
-            for m in encode_sample_frames(smap, int(samples.seq[k]), int(samples.t_us[k]),
-                                          samples.channels[k]):
-                done = user_asm.push(m)
-            assert done is not None  # every sample's frames complete exactly that sample
-            decoded.append(done)
-        samples = Samples(np.array([d.seq for d in decoded], np.uint16), samples.flags,
-                          np.array([samples.t_us[k] if d.t_us is None else d.t_us
-                                    for k, d in enumerate(decoded)], np.uint64),
-                          np.array([d.values for d in decoded], np.float64).astype(np.float32),
-                          log_report=samples.log_report)
-    pos, d_seq, d_t_us, d_values = _delivered(samples, plan, opt)
-    if smap is not None and "time" in smap.roles:
-        d_t_us = samples.t_us[[plan.units[k].index for k in pos]]  # the IMU's own clock
-    # The loop stores every parameter as float32: the reference gets the float32-rounded
-    # values too (and runs the same model in double).
-    ref = process_imu(d_seq, d_t_us, d_values,
-                      ImuConfig.from_processor_config(opt.processor, float32=True))
-    accepted = (ref.flags & FLAG_REJECTED) == 0
-    expected_pos = pos[accepted]  # unit position of each expected output, in order
-    exp_seq = d_seq[accepted]
-    exp_flags = ref.flags[accepted]
-    exp_values = ref.values[accepted]
-
-    # Payloads per unit.
-    n_units = plan.sent_units
-    payload: list[Any] = []
-    if opt.transport == "serial":
-        raw = codec_encode_frames(samples.seq, samples.t_us, samples.channels)
-        for u in plan.units:
-            frame = raw[FRAME_SIZE * u.index: FRAME_SIZE * (u.index + 1)]
-            payload.append(corrupt_serial_frame(frame, rng) if u.corrupt else frame)
-    else:
-        cache: dict[int, list[can.Message]] = {}
-        for u in plan.units:
-            if u.index not in cache:
-                k = u.index
-                cache[k] = encode_sample(int(samples.seq[k]), samples.channels[k]) \
-                    if smap is None else encode_sample_frames(
-                        smap, int(samples.seq[k]), int(samples.t_us[k]), samples.channels[k])
-            payload.append((cache[u.index], u.corrupt))
+        samples = _as_decoded_by_the_loop(samples, smap)
+    exp = _expected_outputs(samples, plan, opt, smap)
+    payload = _payloads(samples, plan, opt, smap, rng)
 
     target = _Target(opt)
     link: SerialLink | CanLink | None = None
-    write_ns = np.zeros(n_units, dtype=np.int64)
+    write_ns = np.zeros(plan.sent_units, dtype=np.int64)
     # Sender and receiver run SCHED_FIFO just below the loop (80): each thread asks for
     # itself, so a refusal is reported per thread and nothing else inherits the policy.
     rt_prio = HARNESS_RT_PRIORITY if opt.harness_realtime else None
     harness_rt = {"sender": "not requested", "receiver": "not requested"}
     switch_interval_s = sys.getswitchinterval()
     sent = [0]  # units written so far, read by the progress thread
-    bar = _ProgressThread(n_units, lambda: sent[0]) if opt.progress else None
+    bar = _ProgressThread(plan.sent_units, lambda: sent[0]) if opt.progress else None
     try:
         # Start-up inside the try: a Ctrl-C or failure while waiting for the loop's ready
-        # line must end the child too (issue 13).
+        # line must end the child too.
         target.start()
         if opt.transport == "serial":
             link = SerialLink(target.device, opt.baud, realtime_priority=rt_prio)
@@ -474,53 +601,9 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
             sys.setswitchinterval(HARNESS_SWITCH_INTERVAL_S)
         # A SCHED_FIFO sender wakes from an OS sleep within tens of us: spin less.
         spin_ns = 50_000 if harness_rt["sender"].startswith("SCHED_FIFO") else 200_000
-        wire_ns = _unit_wire_time_ns(opt) if opt.pace_link else 0
-        t_rec = np.array([u.t_s for u in plan.units], dtype=np.float64)
-        t0 = time.perf_counter_ns() + 20_000_000  # 20 ms to settle
-        sleep_until_ns(t0)
-        start_ns = time.perf_counter_ns()
-        if opt.speed > 0:
-            due = t0 + ((t_rec - t_rec[0]) / opt.speed * 1e9).astype(np.int64)
-            link_free = 0
-            for k in range(n_units):
-                # The unit is complete at the receiver when its last bit has arrived.
-                ready_ns = max(int(due[k]), link_free) + wire_ns
-                sleep_until_ns(ready_ns, spin_ns)
-                # Latency starts before the first byte leaves: stamped after the call, a
-                # preempted sender would stamp after the reply arrived (negative latency).
-                write_ns[k] = time.perf_counter_ns()
-                _send(link, payload[k], rng)
-                sent[0] = k + 1
-                link_free = ready_ns
-        elif opt.transport == "serial":
-            assert isinstance(link, SerialLink)
-            b = max(1, opt.batch_frames)
-            for k0 in range(0, n_units, b):
-                chunk = b"".join(payload[k0:k0 + b])
-                write_ns[k0:k0 + b] = time.perf_counter_ns()  # before the first byte leaves
-                link.write(chunk)
-                sent[0] = min(k0 + b, n_units)
-        else:
-            for k in range(n_units):
-                write_ns[k] = time.perf_counter_ns()  # before the first byte leaves
-                _send(link, payload[k], rng)
-                sent[0] = k + 1
-        end_write_ns = time.perf_counter_ns()
-        # Wait for the outputs: all expected ones, or settle_s without anything new.
-        duration_s = (t_rec[-1] - t_rec[0]) / opt.speed if opt.speed > 0 else 0.0
-        deadline = time.perf_counter() + (opt.timeout_s or duration_s + 30.0)
-        expected_n = int(exp_seq.size)
-        last_count, last_change = -1, time.perf_counter()
-        while time.perf_counter() < deadline:
-            count = _output_count(link)
-            if count >= expected_n:
-                break
-            if count != last_count:
-                last_count, last_change = count, time.perf_counter()
-            elif time.perf_counter() - last_change > opt.settle_s:
-                break
-            time.sleep(0.01)
-        time.sleep(0.05)  # anything still in flight
+        start_ns, end_write_ns = _transmit(link, payload, plan, opt, rng, spin_ns, sent,
+                                           write_ns)
+        _wait_for_outputs(link, int(exp.seq.size), plan, opt)
     finally:
         if bar is not None:
             bar.stop()
@@ -533,57 +616,17 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
         if link is not None:
             harness_rt["receiver"] = link.receiver_realtime
 
-    # Outputs received, with arrival times.
-    capture_error = link.capture.error if link is not None else ""
-    if opt.transport == "serial":
-        assert isinstance(link, SerialLink)
-        stream = b"".join(c for _, c in link.capture.chunks)
-        ends = np.cumsum([len(c) for _, c in link.capture.chunks])
-        arrivals = np.array([t for t, _ in link.capture.chunks], dtype=np.int64)
-        dec = decode_stream(stream)
-        ok_type = dec.frame_type == TYPE_OUTPUT
-        got = dec.samples.take(np.nonzero(ok_type)[0])
-        got_arrival = arrivals[np.searchsorted(ends, dec.end_offset[ok_type], side="left")] \
-            if got.seq.size else np.zeros(0, np.int64)
-        link_issues = {"crc_errors": dec.crc_errors, "garbage_bytes": dec.garbage_bytes,
-                       "truncated_bytes": dec.truncated_bytes,
-                       "input_type_frames": int(np.count_nonzero(~ok_type))}
-    else:
-        assert isinstance(link, CanLink)
-        asm = SampleAssembler(base_id=OUTPUT_BASE_ID)
-        seqs, flags_l, vals, arr = [], [], [], []
-        for t_ns, m in link.capture.messages:
-            s = asm.push(m)
-            if s is not None:
-                seqs.append(s.seq)
-                flags_l.append(s.flags)
-                vals.append(list(s.values))
-                arr.append(t_ns)
-        asm.finish()
-        got = Samples(np.asarray(seqs, np.uint16), np.asarray(flags_l, np.uint16),
-                      np.zeros(len(seqs), np.uint64), np.asarray(vals, np.float32).reshape(-1, 6))
-        got_arrival = np.asarray(arr, dtype=np.int64)
-        st = asm.stats
-        link_issues = {"can_incomplete": int(st.incomplete_samples),
-                       "can_foreign_frames": int(st.foreign_frames)}
-
-    report = _build_report(samples, plan, opt, ref, d_seq, exp_seq, exp_flags, exp_values,
-                           expected_pos, got, got_arrival, write_ns, start_ns, end_write_ns,
-                           link, loop_stats, link_issues, capture_error, target)
+    capture_error = link.capture.error
+    got, got_arrival, link_issues = _received(link)
+    report = _build_report(samples, plan, opt, exp.ref, exp.delivered_seq, exp.seq, exp.flags,
+                           exp.values, exp.positions, got, got_arrival, write_ns, start_ns,
+                           end_write_ns, link, loop_stats, link_issues, capture_error, target)
     report["harness_realtime"] = harness_rt
-    # Output jitter seen by the harness: each output's inter-arrival time against the spacing
-    # of its input in the record (paced replays only; 0 for a perfect real-time chain).
-    n_j = min(got.seq.size, expected_pos.size)
-    if opt.speed > 0 and n_j > 1:
-        due_us = np.array([plan.units[k].t_s for k in expected_pos[:n_j]]) / opt.speed * 1e6
-        dev_us = np.diff(got_arrival[:n_j]) * 1e-3 - np.diff(due_us)
-        report["output_jitter_us"] = _pct(np.abs(dev_us))
-    else:
-        report["output_jitter_us"] = _pct(np.zeros(0))
+    report["output_jitter_us"] = _output_jitter_us(got_arrival, exp.positions, plan, opt)
     if samples.log_report is not None:  # a CAN log: where every frame of it went
         report["input_log"] = samples.log_report.as_dict()
-    n_cmp = min(got.seq.size, expected_pos.size)
-    lat = (got_arrival[:n_cmp] - write_ns[expected_pos[:n_cmp]]) * 1e-3
+    n_cmp = min(got.seq.size, exp.positions.size)
+    lat = (got_arrival[:n_cmp] - write_ns[exp.positions[:n_cmp]]) * 1e-3
     arrival_s = (got_arrival - start_ns) * 1e-9
     return ReplayResult(report, lat, arrival_s, loop_stats)
 
