@@ -403,7 +403,6 @@ class _Expected:
     """The reference processor run on exactly what reaches the target: what must come back."""
 
     ref: Any  # the reference's ImuResult over the delivered samples
-    delivered_seq: np.ndarray
     positions: np.ndarray  # unit position of each expected output, in order
     seq: np.ndarray
     flags: np.ndarray
@@ -420,7 +419,7 @@ def _expected_outputs(samples: Samples, plan: TransmissionPlan, opt: ReplayOptio
     ref = process_imu(d_seq, d_t_us, d_values,
                       ImuConfig.from_processor_config(opt.processor, float32=True))
     accepted = (ref.flags & FLAG_REJECTED) == 0
-    return _Expected(ref, d_seq, pos[accepted], d_seq[accepted], ref.flags[accepted],
+    return _Expected(ref, pos[accepted], d_seq[accepted], ref.flags[accepted],
                      ref.values[accepted])
 
 
@@ -618,9 +617,8 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
 
     capture_error = link.capture.error
     got, got_arrival, link_issues = _received(link)
-    report = _build_report(samples, plan, opt, exp.ref, exp.delivered_seq, exp.seq, exp.flags,
-                           exp.values, exp.positions, got, got_arrival, write_ns, start_ns,
-                           end_write_ns, link, loop_stats, link_issues, capture_error, target)
+    report = _build_report(samples, plan, opt, exp, got, got_arrival, write_ns, start_ns,
+                           end_write_ns, loop_stats, link_issues, capture_error, target)
     report["harness_realtime"] = harness_rt
     report["output_jitter_us"] = _output_jitter_us(got_arrival, exp.positions, plan, opt)
     if samples.log_report is not None:  # a CAN log: where every frame of it went
@@ -689,13 +687,55 @@ def _pct(x: np.ndarray) -> dict[str, float]:
             "max": float(np.max(x))}
 
 
-def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, ref: Any,
-                  d_seq: np.ndarray, exp_seq: np.ndarray, exp_flags: np.ndarray,
-                  exp_values: np.ndarray, expected_pos: np.ndarray, got: Samples,
-                  got_arrival: np.ndarray, write_ns: np.ndarray, start_ns: int,
-                  end_write_ns: int, link: SerialLink | CanLink | None,
-                  loop: dict[str, Any] | None, link_issues: dict[str, int],
-                  capture_error: str, target: _Target) -> dict[str, Any]:
+def _max_abs_errors(got: Samples, exp_values: np.ndarray, n_cmp: int) -> list[float]:
+    """Per channel, the largest |output - reference| over the first n_cmp outputs (NaN where
+    both are NaN, a channel that never had a good value, counts as equal)."""
+    if not n_cmp:
+        return [float("nan")] * 6
+    err = np.abs(got.channels[:n_cmp].astype(np.float64) - exp_values[:n_cmp])
+    both_nan = np.isnan(got.channels[:n_cmp]) & np.isnan(exp_values[:n_cmp])
+    err = np.where(both_nan, 0.0, err)
+    return [float(np.max(err[:, c])) if not np.any(np.isnan(err[:, c])) else float("inf")
+            for c in range(6)]
+
+
+def _loop_checks(loop: dict[str, Any], opt: ReplayOptions, ref: Any, sent: int,
+                 corrupted: int, proc_rejected: dict[str, int], n_exp: int) -> dict[str, bool]:
+    """The loop's own statistics against what was sent and what the reference did."""
+    checks: dict[str, bool] = {}
+    rej = loop.get("rejected", {})
+    loop_link = int(rej.get("crc", 0)) if opt.transport == "serial" else \
+        int(rej.get("can_incomplete", 0))
+    checks["loop_frames_in"] = int(loop["frames_in"]) == sent - corrupted
+    checks["loop_link_rejections"] = loop_link == corrupted
+    checks["loop_processor_rejections"] = all(
+        int(rej.get(k, -1)) == v for k, v in proc_rejected.items())
+    checks["loop_frames_out"] = int(loop["frames_out"]) == n_exp
+    checks["loop_health_matches_reference"] = all(
+        int(loop.get("health", {}).get(k, -1)) == int(ref.health[k])
+        for k in ("samples_in", "samples_accepted", "seq_gaps", "missing_samples",
+                  "seq_resyncs", "time_jumps", "non_finite_samples", "saturated_values",
+                  "stuck_values"))
+    other = {k: v for k, v in rej.items()
+             if k not in (*proc_rejected, "crc", "can_incomplete") and v}
+    if opt.transport == "slcan":
+        # A line error costs the sample's GyroZ line (malformed), orphans its GyroXY
+        # frame and leaves the accel half (2 frames) incomplete: 3 frames dropped.
+        expect = {"slcan_malformed": corrupted, "can_orphan_frames": corrupted,
+                  "can_frames_dropped": 3 * corrupted}
+        checks["loop_slcan_line_errors"] = all(
+            int(rej.get(k, 0)) == v for k, v in expect.items())
+        other = {k: v for k, v in other.items() if k not in expect}
+    checks["loop_no_other_rejections"] = not other
+    return checks
+
+
+def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions,
+                  exp: _Expected, got: Samples, got_arrival: np.ndarray, write_ns: np.ndarray,
+                  start_ns: int, end_write_ns: int, loop: dict[str, Any] | None,
+                  link_issues: dict[str, int], capture_error: str,
+                  target: _Target) -> dict[str, Any]:
+    ref, exp_seq, expected_pos = exp.ref, exp.seq, exp.positions
     corrupted = sum(1 for u in plan.units if u.corrupt)
     rej_flags = ref.flags[(ref.flags & FLAG_REJECTED) != 0]
     proc_rejected = {
@@ -708,16 +748,8 @@ def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, 
     n_exp = int(exp_seq.size)
     n_cmp = min(n_got, n_exp)
     seq_equal = bool(n_got == n_exp and np.array_equal(got.seq, exp_seq))
-    flags_equal = bool(n_got == n_exp and np.array_equal(got.flags, exp_flags))
-    if n_cmp:
-        err = np.abs(got.channels[:n_cmp].astype(np.float64) - exp_values[:n_cmp])
-        # NaN where both are NaN (a channel that never had a good value) counts as equal.
-        both_nan = np.isnan(got.channels[:n_cmp]) & np.isnan(exp_values[:n_cmp])
-        err = np.where(both_nan, 0.0, err)
-        max_err = [float(np.max(err[:, c])) if not np.any(np.isnan(err[:, c])) else float("inf")
-                   for c in range(6)]
-    else:
-        max_err = [float("nan")] * 6
+    flags_equal = bool(n_got == n_exp and np.array_equal(got.flags, exp.flags))
+    max_err = _max_abs_errors(got, exp.values, n_cmp)
     sent = plan.sent_units
     rejected_total = corrupted + sum(proc_rejected.values())
     unaccounted = sent - rejected_total - n_got
@@ -746,30 +778,7 @@ def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, 
         "clean_output_link": not any(link_issues.values()) and not capture_error,
     }
     if loop is not None:
-        rej = loop.get("rejected", {})
-        loop_link = int(rej.get("crc", 0)) if opt.transport == "serial" else \
-            int(rej.get("can_incomplete", 0))
-        checks["loop_frames_in"] = int(loop["frames_in"]) == sent - corrupted
-        checks["loop_link_rejections"] = loop_link == corrupted
-        checks["loop_processor_rejections"] = all(
-            int(rej.get(k, -1)) == v for k, v in proc_rejected.items())
-        checks["loop_frames_out"] = int(loop["frames_out"]) == n_exp
-        checks["loop_health_matches_reference"] = all(
-            int(loop.get("health", {}).get(k, -1)) == int(ref.health[k])
-            for k in ("samples_in", "samples_accepted", "seq_gaps", "missing_samples",
-                      "seq_resyncs", "time_jumps", "non_finite_samples", "saturated_values",
-                      "stuck_values"))
-        other = {k: v for k, v in rej.items()
-                 if k not in (*proc_rejected, "crc", "can_incomplete") and v}
-        if opt.transport == "slcan":
-            # A line error costs the sample's GyroZ line (malformed), orphans its GyroXY
-            # frame and leaves the accel half (2 frames) incomplete: 3 frames dropped.
-            expect = {"slcan_malformed": corrupted, "can_orphan_frames": corrupted,
-                      "can_frames_dropped": 3 * corrupted}
-            checks["loop_slcan_line_errors"] = all(
-                int(rej.get(k, 0)) == v for k, v in expect.items())
-            other = {k: v for k, v in other.items() if k not in expect}
-        checks["loop_no_other_rejections"] = not other
+        checks.update(_loop_checks(loop, opt, ref, sent, corrupted, proc_rejected, n_exp))
     else:
         checks["loop_stats_available"] = opt.attach is not None  # attached: none expected
     report: dict[str, Any] = {
