@@ -1,4 +1,4 @@
-"""`gyrodrift align`: SINS alignment on a rocking base (issue 6, paper 004).
+"""`gyrodrift align`: SINS alignment on a rocking base (paper 004).
 
 Monte Carlo study (default): for each scenario, --runs seeded records of --duration-s at 400 Hz,
 1 min inertial-frame coarse alignment then 15-state zero-velocity Kalman fine alignment, with
@@ -53,7 +53,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--runs", type=int, default=30, help="Monte Carlo runs per scenario (30)")
     p.add_argument("--duration-s", type=float, default=1800.0,
                    help="record length, s (1800 = 30 min)")
-    p.add_argument("--rate-hz", type=float, default=400.0, help="IMU rate, Hz (400)")
+    p.add_argument("--rate-hz", type=float, default=400.0, help="IMU sample rate, Hz (400)")
     p.add_argument("--coarse-s", type=float, default=60.0, help="coarse alignment, s (60)")
     p.add_argument("--states", type=int, choices=(12, 15), default=15, help="KF states (15)")
     p.add_argument("--kf-noise", choices=("spec", "samples"), default="spec",

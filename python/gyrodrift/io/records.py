@@ -22,12 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.units import INCREMENT_UNITS, RATE_UNITS
+from gyrodrift.units import GYRO_INPUT_UNITS, INCREMENT_UNITS, RATE_UNITS
 
 __all__ = ["UNITS", "Record", "load_record", "rate_from_time", "to_deg_h"]
 
 #: The input units a gyro record may be in (gyrodrift.units: rates, then angle increments).
-UNITS: tuple[str, ...] = (*RATE_UNITS, *INCREMENT_UNITS)
+UNITS: tuple[str, ...] = GYRO_INPUT_UNITS
 LOG_SUFFIXES = (".bin", ".gdf", ".log", ".asc", ".blf")
 GYRO_AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -403,7 +403,7 @@ def _load_psins(p: Path, column: str | int | None, rate_hz: float | None, units:
             f"{p}: PSINS .imu logs hold gyro axes x, y, z; got column {column!r}")
     if units not in ("deg/h", "rad"):
         raise GyrodriftValueError(f"{p}: PSINS .imu logs carry their own units (angle increments); "
-                         f"--units {units} does not apply")
+                         f"--gyro-units {units} does not apply")
     rec = read_psins_imu(p)
     file_rate = 1.0 / rec.dt_s
     if rate_hz is not None and not math.isclose(rate_hz, file_rate, rel_tol=1e-9):
