@@ -311,6 +311,50 @@ def test_one_concept_one_flag_name() -> None:
     assert not stale, f"CONCEPT_EXCEPTIONS entries no option needs: {sorted(stale)}"
 
 
+# ------------------------------------------------------------------ no internal work items
+# User-facing text says what it means: no internal work-item numbers ("issue 11", "(#14)",
+# "issue-12 schema", "task 3"), no "the issue's formula", no paths of the machine it was
+# written on.
+WORK_ITEM = re.compile(r"\b(issues?|tasks?|tickets?|sessions?)[- ]?#?\d+|\(#\d+\)|"
+                       r"\b(the|this) issue\b|\bthe issue's\b|/work/", re.IGNORECASE)
+C_SUFFIXES = {".hpp", ".cpp", ".h", ".c"}
+
+
+def _work_item_hits(path: Path) -> list[str]:
+    return [f"{path.relative_to(REPO)}:{k}: {line.strip()}"
+            for k, line in enumerate(path.read_text(errors="replace").splitlines(), 1)
+            if WORK_ITEM.search(line)]
+
+
+def test_work_item_pattern() -> None:
+    for text in ("issue 11", "(issue 9)", "issues 5/6", "Issue 12:", "(#14)", "issue-12 schema",
+                 "task 3", "the issue's formula", "/work/shared/data/x.imu"):
+        assert WORK_ITEM.search(text), text
+    for text in ("one task per log", "an issue with the clock", "color: #222;", "#include"):
+        assert not WORK_ITEM.search(text), text
+
+
+def test_no_work_items_in_the_package_sources() -> None:
+    bad = [hit for path in _modules(PACKAGE) for hit in _work_item_hits(path)]
+    assert not bad, "internal work items in python/gyrodrift:\n" + "\n".join(bad)
+
+
+def test_no_work_items_in_the_cpp_sources() -> None:
+    bad = []
+    for folder in ("include", "cpp", "bindings"):
+        for path in sorted((REPO / folder).rglob("*")):
+            if path.is_file() and path.suffix in C_SUFFIXES:
+                bad += _work_item_hits(path)
+    assert not bad, "internal work items in the C++ sources:\n" + "\n".join(bad)
+
+
+@pytest.mark.parametrize("name", sorted(OWN_FLAGS))
+def test_no_work_items_in_help(name: str) -> None:
+    text = " ".join(_subparsers()[name].format_help().split())  # lines joined: no wrap hides one
+    hits = [m.group(0) for m in WORK_ITEM.finditer(text)]
+    assert not hits, f"gyrodrift {name} --help names internal work items: {hits}"
+
+
 @pytest.mark.parametrize("name", sorted(OWN_FLAGS))
 def test_every_subcommand_has_json(name: str) -> None:
     p = _subparsers()[name]

@@ -1,5 +1,5 @@
 """IEEE Std 952 Allan-variance fit with a fit range, term choice, model selection and an
-interval on every coefficient (issue 11; the command line's `gyrodrift allan` fit).
+interval on every coefficient (the command line's `gyrodrift allan` fit).
 
 Model (IEEE Std 952-1997 Annex C, table C.2; tau in s, sigma in deg/h):
 
