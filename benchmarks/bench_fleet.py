@@ -3,7 +3,7 @@ worker with the chunked .npy reader.
 
 Logs: N_LOGS records of N_SAMPLES x 6 channels (float32 .npy, white noise + random walk),
 written once in chunks into --dir (reused when present). Each configuration runs the whole
-fleet from scratch (--force semantics: fresh out dir) and reports wall time, logs/s,
+fleet from scratch (`fleet --redo` semantics: fresh out dir) and reports wall time, logs/s,
 samples/s (all channels), the ratio against 1 worker, the largest peak RSS of a worker during
 a task (the task's own high-water mark, VmHWM reset when it starts; not ru_maxrss, which a
 spawned worker inherits from this process) and the most a task added to the RSS it started

@@ -1,4 +1,4 @@
-// Strapdown navigation and SINS alignment (issue 6): whole-run entry points over numpy arrays
+// Strapdown navigation and SINS alignment: whole-run entry points over numpy arrays
 // of increments, so a Monte Carlo run costs one call with the GIL released.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -144,8 +144,8 @@ py::dict run_pipeline(const CArray<double>& dtheta, const CArray<double>& dv,
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) cnb.mutable_at(i, j) = pipe->coarse_cnb()(i, j);
   out["coarse_cnb"] = cnb;
-  // An alignment that never produced a solution failed, whatever the reason (issue 13: an
-  // all-NaN record gave empty histories with failed=False).
+  // An alignment that never produced a solution failed, whatever the reason (an
+  // all-NaN record once gave empty histories with failed=False).
   std::string reason;
   const auto bad = static_cast<std::size_t>(pipe->bad_samples());
   if (failed) {

@@ -241,7 +241,7 @@ class OadevStream {
 
 // Fused multi-tau sums for a record read in pieces (memory-mapped files): plan, seeds,
 // consecutive term ranges with one window of y per segment, finish. Like OadevStream, every
-// method touching the sums runs under the stream's lock (shared by threads: issue 13).
+// method touching the sums runs under the stream's lock (shared by threads).
 class OadevFusedStream {
  public:
   OadevFusedStream(std::int64_t n_data, const CArray<std::int64_t>& m_in, std::int64_t block)
@@ -323,7 +323,7 @@ class OadevFusedStream {
     }
     // The order check, the work and the move of next_ are one step under the stream's lock:
     // checked before the lock, a second call on the same range passed while the first one
-    // was still running (GIL released) and the sums counted the range twice (issue 13).
+    // was still running (GIL released) and the sums counted the range twice.
     bool in_order = false;
     bool ok = false;
     {

@@ -19,7 +19,7 @@ void bind_drift(pybind11::module_& m);    // drift-model likelihood (ML identifi
 
 // Per-object serialisation for bound objects whose methods release the GIL while they step
 // their own state (ImuProcessor, RealtimeWaveletBank, OadevStream): without it, one object
-// shared by several Python threads loses updates (issue 13). Every method touching such
+// shared by several Python threads loses updates. Every method touching such
 // state runs under the object's lock: `ReleasedAndLocked guard(&obj);` in place of
 // `py::gil_scoped_release release;` (methods that need the GIL afterwards, e.g. to build a
 // dict, copy what they need inside a scope holding the guard).

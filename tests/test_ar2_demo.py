@@ -19,7 +19,7 @@ def _json(capsys: pytest.CaptureFixture[str], *extra: str) -> dict:
 def test_demo_table(capsys) -> None:
     assert main(["demo", "--duration-s", "120"]) == 0
     out = capsys.readouterr().out
-    for text in ("AR(2) model (burg)", "| STD (deg/h) |", "AR(2)-Kalman", "STD reduction"):
+    for text in ("AR(2) model (yule-walker)", "| STD (deg/h) |", "AR(2)-Kalman", "STD reduction"):
         assert text in out
 
 
@@ -30,7 +30,7 @@ def test_demo_json_numbers_are_the_filters_numbers(capsys) -> None:
     assert set(table) == {"raw", "AR filter", "AR(2)-Kalman"}
     # Recompute the Kalman column independently of the CLI from the same seeded record.
     rec = gyrodrift.simulate(120.0, rate_hz=100.0, seed=2006, **DEFAULT_TERMS)
-    model = gyrodrift.fit_ar2(rec.rate_deg_h, "burg")
+    model = gyrodrift.fit_ar2(rec.rate_deg_h)
     assert res["model"]["a1"] == model.a1 and res["model"]["a2"] == model.a2
     y = gyrodrift.kalman_filter(rec.rate_deg_h, model)[100:]
     assert table["AR(2)-Kalman"]["std_deg_h"] == pytest.approx(np.std(y), rel=1e-12)
@@ -51,7 +51,7 @@ def test_demo_options(capsys) -> None:
     assert f32["table"]["AR(2)-Kalman"]["std_deg_h"] == pytest.approx(
         base["table"]["AR(2)-Kalman"]["std_deg_h"], rel=1e-4
     )
-    custom = _json(capsys, "--kalman-r", "10", "--method", "ls")
+    custom = _json(capsys, "--kalman-r", "10", "--ar-method", "ls")
     assert custom["kalman"]["r_deg_h_sq"] == 10.0 and custom["model"]["method"] == "ls"
     # A larger r trusts the model more: more smoothing.
     assert custom["table"]["AR(2)-Kalman"]["std_deg_h"] < base["table"]["AR(2)-Kalman"]["std_deg_h"]

@@ -123,7 +123,8 @@ def test_characterize_cli_outputs(tmp_path: Path, capsys: pytest.CaptureFixture[
     x = rng.standard_normal((20000, 6)) * [1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2]
     np.save(tmp_path / "imu.npy", x)
     code = main(["characterize", str(tmp_path / "imu.npy"), "--rate-hz", "100",
-                 "--kalibr", str(tmp_path / "imu.yaml"), "--html", str(tmp_path / "r.html"),
+                 "--gyro-units", "rad/s", "--kalibr", str(tmp_path / "imu.yaml"),
+                 "--html", str(tmp_path / "r.html"),
                  "--out-dir", str(tmp_path / "plots"), "--self-check", "--json"])
     assert code == 0
     import json
@@ -209,7 +210,7 @@ def test_real_lasergyro_record(lasergyro_path: Path) -> None:
 
 
 def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
-    """--method gmwm goes through gyrodrift.identify_gmwm (issue 11's published API, results in
+    """--identifier gmwm goes through gyrodrift.identify_gmwm (the published API, results in
     IEEE units of the deg/h record unit). A stand-in returning known values checks the channel
     scaling and the conversions back to SI; without the function the error is clear."""
     import gyrodrift
@@ -247,7 +248,7 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_gmwm_method_with_the_real_identify_gmwm() -> None:
-    """--method gmwm end to end with issue 11's GMWM (not a stand-in): white gyro noise of a
+    """--identifier gmwm end to end with the package's GMWM (not a stand-in): white gyro noise of a
     known density is identified as model N, and the density's 95 % interval holds the truth."""
     from gyrodrift.workflows.characterize import characterize_channel
 

@@ -37,7 +37,7 @@ def run_json(argv: list[str], capsys: pytest.CaptureFixture[str]) -> dict:
 
 def test_simulate_npy_then_allan_matches_allantools(tmp_path: Path, capsys) -> None:
     rec_path = tmp_path / "r.npy"
-    info = run_json(["simulate", "-o", rec_path, "--n", 20000, "--rate-hz", 50,
+    info = run_json(["simulate", "-o", rec_path, "--samples", 20000, "--rate-hz", 50,
                      "--arw-deg-rt-h", 0.02,
                      "--quant-arcsec", 0.36, "--seed", 5], capsys)
     assert info["n"] == 20000 and rec_path.exists()
@@ -66,7 +66,8 @@ def test_simulate_npy_then_allan_matches_allantools(tmp_path: Path, capsys) -> N
 
 def test_csv_column_choice_and_rate_from_time(tmp_path: Path, capsys) -> None:
     path = tmp_path / "r.csv"
-    run_json(["simulate", "-o", path, "--n", 4000, "--rate-hz", 20, "--arw-deg-rt-h", 0.05], capsys)
+    run_json(["simulate", "-o", path, "--samples", 4000, "--rate-hz", 20, "--arw-deg-rt-h", 0.05],
+             capsys)
     out = run_json(["allan", path, "--column", "rate_deg_h"], capsys)
     assert out["record"]["rate_hz"] == pytest.approx(20.0, rel=1e-9)
     x = np.loadtxt(path, delimiter=",", skiprows=1)[:, 1]
@@ -81,8 +82,8 @@ def test_units_conversion(tmp_path: Path, capsys) -> None:
     x_deg_h = rng.normal(0.0, 10.0, 5000)
     np.save(tmp_path / "dps.npy", x_deg_h / 3600.0)
     np.save(tmp_path / "inc.npy", x_deg_h / 10.0)  # arcsec per sample at 10 Hz = deg/h / 10
-    a = run_json(["allan", tmp_path / "dps.npy", "--rate-hz", 10, "--units", "deg/s"], capsys)
-    b = run_json(["allan", tmp_path / "inc.npy", "--rate-hz", 10, "--units", "arcsec"], capsys)
+    a = run_json(["allan", tmp_path / "dps.npy", "--rate-hz", 10, "--gyro-units", "deg/s"], capsys)
+    b = run_json(["allan", tmp_path / "inc.npy", "--rate-hz", 10, "--gyro-units", "arcsec"], capsys)
     _, dev, _, _ = allantools.oadev(x_deg_h, rate=10.0, data_type="freq", taus="octave")
     np.testing.assert_allclose(a["allan"]["adev"], dev, rtol=1e-9)
     np.testing.assert_allclose(b["allan"]["adev"], dev, rtol=1e-9)
@@ -119,9 +120,8 @@ def test_progress_bar_always(tmp_path: Path, capsys) -> None:
 
 def test_psd_cli(tmp_path: Path, capsys) -> None:
     path = tmp_path / "r.npy"
-    run_json(["simulate", "-o", path, "--n", 100_000, "--rate-hz", 100, "--arw-deg-rt-h", 0.05,
-              "--seed", 2],
-             capsys)
+    run_json(["simulate", "-o", path, "--samples", 100_000, "--rate-hz", 100,
+              "--arw-deg-rt-h", 0.05, "--seed", 2], capsys)
     png, csv_path = tmp_path / "p.png", tmp_path / "p.csv"
     out = run_json(["psd", path, "--rate-hz", 100, "--png", png, "--csv", csv_path], capsys)
     assert png.read_bytes()[:4] == b"\x89PNG"
@@ -139,7 +139,7 @@ def test_filter_cli_matches_library(tmp_path: Path, capsys, method: str) -> None
                              ar2=(0.6868, -0.0213, 0.5), seed=4)
     np.save(tmp_path / "r.npy", rec.rate_deg_h)
     out_path = tmp_path / "f.npy"
-    out = run_json(["filter", tmp_path / "r.npy", "--rate-hz", 100, "--method", method, "-o",
+    out = run_json(["filter", tmp_path / "r.npy", "--rate-hz", 100, "--filter", method, "-o",
                     out_path], capsys)
     y = np.load(out_path)
     x = rec.rate_deg_h
@@ -157,11 +157,11 @@ def test_filter_cli_matches_library(tmp_path: Path, capsys, method: str) -> None
 
 
 @pytest.mark.parametrize("extra", [
-    ["--method", "kalman", "--kalman-q", "0.05", "--kalman-r", "2.0"],
-    ["--method", "wavelet", "--wavelet", "db4", "--level", "4", "--threshold", "hard"],
-    ["--method", "realtime-wavelet", "--wavelet", "db4", "--window", "64", "--level", "3",
+    ["--filter", "kalman", "--kalman-q", "0.05", "--kalman-r", "2.0"],
+    ["--filter", "wavelet", "--wavelet", "db4", "--level", "4", "--threshold", "hard"],
+    ["--filter", "realtime-wavelet", "--wavelet", "db4", "--window", "64", "--level", "3",
      "--threshold", "soft"],
-    ["--method", "wpacket", "--threshold", "hard"],
+    ["--filter", "wpacket", "--threshold", "hard"],
 ])
 def test_filter_cli_options_reach_the_library(tmp_path: Path, capsys, extra: list[str]) -> None:
     """issue 9: filter has the Kalman variances, the wavelet choice and the threshold mode."""
@@ -183,7 +183,7 @@ def test_filter_cli_options_reach_the_library(tmp_path: Path, capsys, extra: lis
         expected = gyrodrift.wavelet_packet_denoise(x, wavelet="bior3.7", level=4, mode="hard")
     np.testing.assert_array_equal(y, expected)
     code, _, err = run(["filter", tmp_path / "r.npy", "--rate-hz", 100, "-o",
-                        tmp_path / "g.npy", "--method", "wavelet", "--threshold", "forced"],
+                        tmp_path / "g.npy", "--filter", "wavelet", "--threshold", "forced"],
                        capsys)
     assert code == 2 and "realtime-wavelet" in err
 
@@ -226,9 +226,8 @@ def test_simulate_imu_logs_read_back(tmp_path: Path, capsys, suffix: str) -> Non
     from gyrodrift.io.imu_log import read_imu_log
 
     path = tmp_path / f"imu{suffix}"
-    info = run_json(["simulate", "-o", path, "--n", 300, "--rate-hz", 100, "--arw-deg-rt-h", 0.01,
-                     "--seed", 3],
-                    capsys)
+    info = run_json(["simulate", "-o", path, "--samples", 300, "--rate-hz", 100,
+                     "--arw-deg-rt-h", 0.01, "--seed", 3], capsys)
     assert info["n"] == 300
     samples = read_imu_log(path)
     ref = gyrodrift.simulate_imu(n=300, rate_hz=100.0,
@@ -243,9 +242,9 @@ def test_simulate_imu_logs_read_back(tmp_path: Path, capsys, suffix: str) -> Non
 
 def test_simulate_format_flag_and_bad_suffix(tmp_path: Path, capsys) -> None:
     path = tmp_path / "frames.gdf"
-    run_json(["simulate", "-o", path, "--n", 50, "--rate-hz", 100, "--format", "bin"], capsys)
+    run_json(["simulate", "-o", path, "--samples", 50, "--rate-hz", 100, "--format", "bin"], capsys)
     assert path.stat().st_size == 50 * 42  # 42-byte serial frames
-    code, _, err = run(["simulate", "-o", tmp_path / "x.txt", "--n", 50], capsys)
+    code, _, err = run(["simulate", "-o", tmp_path / "x.txt", "--samples", 50], capsys)
     assert code == 2 and "cannot tell" in err
 
 

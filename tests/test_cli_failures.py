@@ -67,7 +67,7 @@ def test_second_output_bad_writes_neither(tmp_path: Path, rec: Path, capsys) -> 
 
 
 @pytest.mark.parametrize("argv", [
-    ("simulate", "-o", "{d}/nodir/x.npy", "--n", "100", "--arw-deg-rt-h", "0.1"),
+    ("simulate", "-o", "{d}/nodir/x.npy", "--samples", "100", "--arw-deg-rt-h", "0.1"),
     ("filter", "{rec}", "--rate-hz", "100", "-o", "{d}/nodir/f.npy"),
     ("filter", "{rec}", "--rate-hz", "100", "-o", "{d}/rec.npy/f.npy"),  # parent is a file
     ("psd", "{rec}", "--rate-hz", "100", "--png", "{d}/nodir/p.png"),
@@ -162,7 +162,7 @@ def test_semicolon_csv_is_read(tmp_path: Path, capsys) -> None:
 def test_absurd_rates(tmp_path: Path, rec: Path, capsys, rate: str) -> None:
     before = files(tmp_path)
     for argv in (("allan", rec, "--rate-hz", rate),
-                 ("simulate", "-o", tmp_path / "s.npy", "--n", "100", "--rate-hz", rate,
+                 ("simulate", "-o", tmp_path / "s.npy", "--samples", "100", "--rate-hz", rate,
                   "--arw-deg-rt-h", "1"),
                  ("wavelet-response", "--rate-hz", rate, "--png", tmp_path / "w.png")):
         code, _, err = run(capsys, *argv)
@@ -194,7 +194,7 @@ def test_psd_of_a_constant_record_is_refused(tmp_path: Path, capsys) -> None:
 
 
 def test_simulate_without_noise_is_refused(tmp_path: Path, capsys) -> None:
-    code, _, err = run(capsys, "simulate", "-o", tmp_path / "z.npy", "--n", "100")
+    code, _, err = run(capsys, "simulate", "-o", tmp_path / "z.npy", "--samples", "100")
     one_line_error(code, err, "no noise term")
     assert not (tmp_path / "z.npy").exists()
 

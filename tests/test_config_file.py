@@ -254,7 +254,7 @@ def test_replay_with_config_passes(tmp_path: Path) -> None:
     path = write_config(default_config(), tmp_path / "d.toml")
     out = tmp_path / "rep"
     code = main(["replay", "--config", str(path), "--fast", "--no-rt", "--duration-s", "1.5",
-                 "--drop", "0.02", "--duplicate", "0.02", "--out-dir", str(out)])
+                 "--fault-drop", "0.02", "--fault-duplicate", "0.02", "--out-dir", str(out)])
     report = _json.loads((out / "report.json").read_text())
     assert code == 0, report.get("checks")
     assert report["processor"]["config"]["channels"]["gx"]["stages"][0]["type"] == "wavelet"

@@ -202,7 +202,8 @@ def test_the_literal_scan_finds_a_copied_default(tmp_path: Path) -> None:
     py.write_text('"""rate_hz = 400.0 in a docstring is fine"""\n'
                   "def f(rate_hz: float = 400.0) -> None: ...\n")
     cpp = tmp_path / "m.hpp"
-    cpp.write_text("// stuck_samples = 50 in a comment is fine\nstd::uint32_t stuck_samples = 50;\n")
+    cpp.write_text("// stuck_samples = 50 in a comment is fine\n"
+                   "std::uint32_t stuck_samples = 50;\n")
     import re
 
     for path, what in ((py, "sample rate"), (cpp, "stuck count")):

@@ -1,4 +1,4 @@
-"""`gyrodrift identify` (GMWM, Allan NNLS, slope) and the issue-11 Allan fit options of
+"""`gyrodrift identify` (GMWM, Allan NNLS, slope) and the Allan fit options of
 `gyrodrift allan` (--fit-range, --terms, selection, intervals, JSON `taus`), end to end."""
 
 from __future__ import annotations
@@ -35,14 +35,14 @@ def record(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_identify_gmwm_table_json_png(record: Path, tmp_path: Path, capsys) -> None:
     png = tmp_path / "wv.png"
-    code, out, err = run(["identify", record, "--rate-hz", 100, "--model", "N+K",
-                          "--png", png], capsys)
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--identifier", "gmwm",
+                          "--model", "N+K", "--ci", "0.95", "--png", png], capsys)
     assert code == 0, err
     assert "GMWM model N+K" in out and "deg/sqrt(h)" in out and "rad/s/sqrt(Hz)" in out
     assert "deg/h/sqrt(h)" in out and "rad/s^2/sqrt(Hz)" in out and "95.00 %" in out
     assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 10_000
-    code, out, _ = run(["identify", record, "--rate-hz", 100, "--model", "N+K", "--json"],
-                       capsys)
+    code, out, _ = run(["identify", record, "--rate-hz", 100, "--identifier", "gmwm",
+                        "--model", "N+K", "--ci", "0.95", "--json"], capsys)
     d = json.loads(out)
     lib = gyrodrift.identify_gmwm(np.load(record), 100.0, model="N+K")
     assert [p["name"] for p in d["gmwm"]["params"]] == ["N", "K"]
@@ -52,10 +52,10 @@ def test_identify_gmwm_table_json_png(record: Path, tmp_path: Path, capsys) -> N
 
 
 def test_identify_gmwm_fit_range_selects_the_scales(record: Path, capsys) -> None:
-    # Regression: --fit-range was silently ignored by --method gmwm (the README's real-record
+    # Regression: --fit-range was silently ignored by --identifier gmwm (the README's real-record
     # GMWM fits scales >= 2.56 s, which the command line could not reproduce).
-    code, out, err = run(["identify", record, "--rate-hz", 100, "--model", "N+K",
-                          "--fit-range", "0.1:", "--json"], capsys)
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--identifier", "gmwm",
+                          "--model", "N+K", "--fit-range", "0.1:", "--json"], capsys)
     assert code == 0, err
     got = json.loads(out)["gmwm"]
     x = np.load(record)
@@ -63,13 +63,13 @@ def test_identify_gmwm_fit_range_selects_the_scales(record: Path, capsys) -> Non
     whole = gyrodrift.identify_gmwm(x, 100.0, model="N+K")
     assert got["params"][1]["value"] == pytest.approx(lib.value("K"), rel=1e-12)
     assert lib.value("K") != pytest.approx(whole.value("K"), rel=1e-6)
-    code, _, err = run(["identify", record, "--rate-hz", 100, "--method", "slope",
+    code, _, err = run(["identify", record, "--rate-hz", 100, "--identifier", "slope",
                         "--fit-range", "0.1:"], capsys)
-    assert code == 2 and "--fit-range applies to --method gmwm and allan-nnls" in err
+    assert code == 2 and "--fit-range applies to --identifier gmwm and allan-nnls" in err
 
 
 def test_identify_allan_nnls_and_slope(record: Path, capsys) -> None:
-    code, out, err = run(["identify", record, "--rate-hz", 100, "--method", "allan-nnls",
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--identifier", "allan-nnls",
                           "--json"], capsys)
     assert code == 0, err
     fit = json.loads(out)["fit"]
@@ -78,7 +78,7 @@ def test_identify_allan_nnls_and_slope(record: Path, capsys) -> None:
     n = fit["terms"][0]
     assert n["ci_low"] < n["value"] < n["ci_high"] and n["value"] == pytest.approx(0.05,
                                                                                   rel=0.05)
-    code, out, err = run(["identify", record, "--rate-hz", 100, "--method", "slope"], capsys)
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--identifier", "slope"], capsys)
     assert code == 0, err
     assert "slope method" in out
     assert "deg/sqrt(h)" in out and "n/a" in out  # no -1 stretch: Q is n/a
@@ -122,16 +122,16 @@ def test_allan_fit_options_json_taus(record: Path, tmp_path: Path, capsys) -> No
 def test_identify_refuses_options_of_another_method(record: Path, capsys, method: str,
                                                     option: list[str]) -> None:
     # Regression: --terms (and the other method-specific options) were silently ignored by
-    # the methods that do not use them, so `--method gmwm --terms N,K` printed a fit of
+    # the methods that do not use them, so `--identifier gmwm --terms N,K` printed a fit of
     # other terms than asked for without a word.
-    code, _, err = run(["identify", record, "--rate-hz", 100, "--method", method, *option],
+    code, _, err = run(["identify", record, "--rate-hz", 100, "--identifier", method, *option],
                        capsys)
     assert code == 2
-    assert f"{option[0]} applies to --method" in err and method in err
+    assert f"{option[0]} applies to --identifier" in err and method in err
 
 
 def test_identify_terms_still_select_the_allan_nnls_terms(record: Path, capsys) -> None:
-    code, out, err = run(["identify", record, "--rate-hz", 100, "--method", "allan-nnls",
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--identifier", "allan-nnls",
                           "--terms", "N,B", "--json"], capsys)
     assert code == 0, err
     fit = json.loads(out)["fit"]
@@ -146,20 +146,20 @@ def test_identify_notes_a_gauss_markov_term_below_the_fitted_scales(tmp_path: Pa
     path = tmp_path / "w.npy"
     np.save(path, gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05,
                                      seed=5).rate_deg_h)
-    code, out, err = run(["identify", path, "--rate-hz", 100, "--model", "GM",
-                          "--fit-range", "0.64:", "--json"], capsys)
+    code, out, err = run(["identify", path, "--rate-hz", 100, "--identifier", "gmwm",
+                          "--model", "GM", "--fit-range", "0.64:", "--json"], capsys)
     assert code == 0, err
     d = json.loads(out)
     tc = next(p["value"] for p in d["gmwm"]["params"] if p["name"] == "GM1_tau")
     assert tc < 0.64
     assert len(d["notes"]) == 1 and "below the smallest fitted scale 0.64 s" in d["notes"][0]
-    code, out, err = run(["identify", path, "--rate-hz", 100, "--model", "GM",
-                          "--fit-range", "0.64:"], capsys)
+    code, out, err = run(["identify", path, "--rate-hz", 100, "--identifier", "gmwm",
+                          "--model", "GM", "--fit-range", "0.64:"], capsys)
     assert "# note: GM1: T_c" in out and "not separately resolved" in out
 
 
 def test_identify_no_note_when_every_term_is_resolved(record: Path, capsys) -> None:
-    code, out, err = run(["identify", record, "--rate-hz", 100, "--model", "N+K", "--json"],
-                         capsys)
+    code, out, err = run(["identify", record, "--rate-hz", 100, "--identifier", "gmwm",
+                          "--model", "N+K", "--json"], capsys)
     assert code == 0, err
     assert json.loads(out)["notes"] == []

@@ -1,5 +1,5 @@
 """Every JSON the package writes is strict JSON: NaN/Inf become null (issue 13: output a
-strict parser can read). Before: `gyrodrift characterize --method gmwm --json` wrote bare NaN
+strict parser can read). Before: `gyrodrift characterize --identifier gmwm --json` wrote bare NaN
 for taus outside the fit range, which JavaScript, jq and serde refuse."""
 
 from __future__ import annotations
@@ -46,7 +46,9 @@ def test_fleet_result_and_summary_files_are_strict(tmp_path, monkeypatch) -> Non
         return type("R", (), {"model": "N+K",
                               "params": (P("N", 0.3, 0.6), P("K", 12.0, np.inf))})()
 
-    monkeypatch.setattr(gyrodrift, "identify_gmwm", fake, raising=False)
+    import gyrodrift.stability.gmwm
+
+    monkeypatch.setattr(gyrodrift.stability.gmwm, "identify_gmwm", fake)
     log = tmp_path / "unit0.npy"
     np.save(log, np.random.default_rng(0).standard_normal((4000, 6)) * 1e-3)
     s = run_fleet([log], tmp_path / "out", opts=FleetOptions(rate_hz=100.0, method="gmwm",

@@ -168,7 +168,7 @@ def test_installed_package_is_complete() -> None:
     """Every source module and data file of python/gyrodrift is importable from where the
     package actually lives (identical set of files when installed)."""
     source_files = _package_source_files()
-    assert "simulate.py" in source_files and "reference/__init__.py" in source_files
+    assert "simulation/records.py" in source_files and "reference/__init__.py" in source_files
     pkg_dir = Path(gyrodrift.__file__).resolve().parent
     present = {f for f in source_files if (pkg_dir / f).is_file()}
     assert present == source_files, f"missing from {pkg_dir}: {sorted(source_files - present)}"

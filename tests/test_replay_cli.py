@@ -29,8 +29,8 @@ def loop_bin(cpp_build_dir: Path) -> str:
 
 def test_demo_without_input(tmp_path: Path, loop_bin: str,
                             capsys: pytest.CaptureFixture[str]) -> None:
-    rc = _run(["--duration-s", "1.5", "--fast", "--loop-binary", loop_bin, "--corrupt", "0.02",
-               "--seed", "3", "--out-dir", str(tmp_path)])
+    rc = _run(["--duration-s", "1.5", "--fast", "--loop-binary", loop_bin,
+               "--fault-corrupt", "0.02", "--seed", "3", "--out-dir", str(tmp_path)])
     out = capsys.readouterr().out
     assert rc == 0, out
     assert "PASS" in out and "unaccounted" in out
@@ -68,7 +68,7 @@ def test_user_errors(tmp_path: Path, loop_bin: str) -> None:
     with pytest.raises(CliError, match="does not exist"):
         _run(["--duration-s", "0.5", "--fast", "--loop-binary", str(tmp_path / "nope")])
     with pytest.raises(CliError, match="rates sum"):
-        _run(["--drop", "0.7", "--corrupt", "0.7", "--loop-binary", loop_bin])
+        _run(["--fault-drop", "0.7", "--fault-corrupt", "0.7", "--loop-binary", loop_bin])
     with pytest.raises(CliError, match="loop-rate-hz"):
         _run(["--loop-rate-hz", "5000", "--loop-binary", loop_bin])
 

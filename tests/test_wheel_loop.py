@@ -65,7 +65,7 @@ def test_wheel_contains_loop_and_replays_from_a_clean_venv(tmp_path: Path) -> No
     assert pkg.startswith(str(env_dir)) and found == str(env_dir / "bin" / "gyrodrift-loop")
     rep = subprocess.run(
         [str(env_dir / "bin" / "gyrodrift"), "replay", "--fast", "--no-rt", "--duration-s", "1",
-         "--drop", "0.02", "--out-dir", str(tmp_path / "rep")],
+         "--fault-drop", "0.02", "--out-dir", str(tmp_path / "rep")],
         capture_output=True, text=True, env=clean, cwd=tmp_path, timeout=600, check=False)
     assert rep.returncode == 0, rep.stdout[-3000:] + rep.stderr[-3000:]
     assert "PASS" in rep.stdout

@@ -1,4 +1,4 @@
-// C++-only timing of the alignment step (issue 6): per IMU sample at 400 Hz, strapdown with
+// C++-only timing of the alignment step: per IMU sample at 400 Hz, strapdown with
 // coning/sculling alone, and the whole pipeline (mechanization + 15-state KF at 10 Hz, and
 // + the 256-tap wavelet prefilter), double and float, on synthetic static-base increments
 // with pseudo-noise. Process CPU time, median of 5 repeats. Usage: bench_align [N]

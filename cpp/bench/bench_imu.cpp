@@ -2,7 +2,7 @@
 //   * ImuProcessor step, six channels (3 AR(2)-Kalman gyros + 3 pass-through accels; and all
 //     six through RealtimeWavelet<., 256> forced): median ns per step over a record, plus the
 //     per-step distribution (p50/p99/max of single steps timed with steady_clock, which
-//     includes ~20 ns of clock overhead) - the issue's target is <= 2 us worst case per cycle;
+//     includes ~20 ns of clock overhead) - the target is <= 2 us worst case per cycle;
 //   * serial encode and parse (ns per 42-byte frame), CRC-16 (ns per byte), CAN encode +
 //     reassembly (ns per sample), SLCAN encode + parse (ns per frame).
 // Prints a markdown table; benchmarks/bench_imu.py runs it and adds the Python rows.
@@ -23,7 +23,7 @@
 #include <memory>
 #include <vector>
 
-#include "../cortex_m/generated/gyrodrift_budget_config.hpp"  // the issue-12 budget chain
+#include "../cortex_m/generated/gyrodrift_budget_config.hpp"  // the Cortex-M budget chain
 
 using namespace gyrodrift;
 using Clock = std::chrono::steady_clock;
@@ -158,7 +158,7 @@ int main(int argc, char** argv) {
   }
 
   {
-    // The issue-12 budget chain from the generated configuration header: 3 gyros wavelet db4
+    // The Cortex-M budget chain from the generated configuration header: 3 gyros wavelet db4
     // N=256 J=5 forced (flash-FIR stage) -> steady-state AR(2)-Kalman, 3 accels bias removal.
     const auto in = record<float>(n / 4);
     auto p = std::make_unique<budget_config::Processor>(budget_config::kImuConfig, budget_config::make_wavelet);

@@ -1,4 +1,4 @@
-// Cortex-M4F golden-I/O unit (MCU equals host, issue 12): reads golden_in.bin through
+// Cortex-M4F golden-I/O unit (MCU equals host): reads golden_in.bin through
 // semihosting, runs the float kernels of golden_kernels.hpp, writes golden_out.bin. Built and
 // run by tests/test_cortex_m_golden.py with the gate's flags (not a use_*.cpp: it needs its
 // input file next to it).

@@ -1,4 +1,4 @@
-// MCU equals host (issue 12): the float kernels run identically on the Cortex-M4F (under QEMU,
+// MCU equals host: the float kernels run identically on the Cortex-M4F (under QEMU,
 // golden_io_unit.cpp, I/O through semihosting) and on the host (golden_host.cpp, stdio), on
 // the same golden input; tests/test_cortex_m_golden.py compares the two outputs bit for bit
 // and with the double reference.

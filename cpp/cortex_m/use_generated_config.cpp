@@ -1,6 +1,6 @@
 // Cortex-M4F gate unit: the firmware processor built from a GENERATED configuration header
 // (`gyrodrift config emit-cpp cpp/cortex_m/budget_config.toml -o generated/...hpp`; the test
-// checks the committed header is what the generator writes). The budget chain of issue 12:
+// checks the committed header is what the generator writes). The budget chain:
 // gyros wavelet db4 N = 256 J = 5 forced (FIR taps in flash, one window per gyro) ->
 // steady-state AR(2)-Kalman, accelerometers bias removal. Its sizes are the budget figures
 // (flash <= 16 KiB, RAM data + bss + measured stack <= 8 KiB; tests/test_cortex_m_golden.py).

@@ -139,7 +139,7 @@ TEST_CASE("parser: feed refuses bytes beyond capacity and counts them") {
   CHECK(p.feed(nullptr, 10) == 0);
 }
 
-TEST_CASE("parser: a frame cut short by any number of bytes loses only itself (issue 13)") {
+TEST_CASE("parser: a frame cut short by any number of bytes loses only itself") {
   for (std::size_t kept = 1; kept < serial::kFrameSize; ++kept) {
     std::vector<std::uint8_t> s;
     auto append = [&s](const std::vector<std::uint8_t>& b) { s.insert(s.end(), b.begin(), b.end()); };

@@ -240,7 +240,7 @@ TEST_CASE("invalid configuration rejects every sample") {
   CHECK(p3.bad_channel() == 1);
 }
 
-// Issue 12: FirPrefilter (flash taps, one circular window) is RealtimeWavelet's forced mode
+// FirPrefilter (flash taps, one circular window) is RealtimeWavelet's forced mode
 // bit for bit when given its taps; NaN skipped the same way.
 TEST_CASE("FirPrefilter equals RealtimeWavelet forced bit for bit") {
   using W = RealtimeWavelet<float, 64>;
@@ -258,7 +258,7 @@ TEST_CASE("FirPrefilter equals RealtimeWavelet forced bit for bit") {
   CHECK(FirPrefilter<float, 64>().status() == FirPrefilterStatus::no_taps);
 }
 
-// Issue 12: the chain wavelet -> steady-state AR(2)-Kalman equals the two filters run by hand,
+// The chain wavelet -> steady-state AR(2)-Kalman equals the two filters run by hand,
 // a missing value is "missing" for the second stage, and the wavelet exists only on the first
 // WaveletChannels channels (asking for it on channel 3 of a 3-channel build is refused).
 TEST_CASE("chain wavelet -> steady-state Kalman; WaveletChannels") {

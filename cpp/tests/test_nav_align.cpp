@@ -1,4 +1,4 @@
-// Strapdown, coarse alignment, fine-alignment KF and the whole pipeline (issue 6), in double
+// Strapdown, coarse alignment, fine-alignment KF and the whole pipeline, in double
 // and float, on ideal static-base increments built here from the Earth model:
 //   omega_ib^b = C_n^b [0, W cos L, W sin L],  f^b = C_n^b [0, 0, g(L, h)].
 // The Python suite (tests/test_align_*.py) compares the same headers with the numpy reference
@@ -187,7 +187,7 @@ TEST_CASE("fine alignment converges to the steady-state formulas (static, biases
   // Biases chosen with the nav-frame gyro drift purely East (eps_N = eps_U = 0 are the
   // observable components a 15-min alignment only partly estimates), so the residual
   // misalignment must be phi_E = -nab_N/g, phi_N = nab_E/g,
-  // phi_U = -eps_E/(W cos L) + (nab_E/g) tan L   (the issue's formula, heading error).
+  // phi_U = -eps_E/(W cos L) + (nab_E/g) tan L   (the steady-state heading-error formula).
   const double dt = 0.05;
   const Eigen::Matrix3d c = euler2dcm<double>(kAtt);
   const Eigen::Vector3d eps_n(0.01 * kDph, 0, 0), nab_n(100 * kUg, -80 * kUg, 50 * kUg);
@@ -202,7 +202,7 @@ TEST_CASE("fine alignment converges to the steady-state formulas (static, biases
                                -eps_n(0) / (w * std::cos(kLat)) + nab_n(0) / g * std::tan(kLat));
   for (int i = 0; i < 3; ++i) {
     INFO("axis " << i << " phi " << phi(i) / kArcsec << " theory " << theory(i) / kArcsec);
-    CHECK(std::fabs(phi(i) - theory(i)) < 0.05 * std::fabs(theory(i)));  // 5% (issue 6)
+    CHECK(std::fabs(phi(i) - theory(i)) < 0.05 * std::fabs(theory(i)));  // 5%
   }
 }
 

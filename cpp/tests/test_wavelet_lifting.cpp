@@ -1,7 +1,7 @@
 // Lifting transform vs a direct periodized convolution with PyWavelets' filter taps
 // (independent oracle), perfect reconstruction, Parseval, float accuracy, bad arguments.
 // Tolerances: double 1e-12 absolute on unit-variance data (observed ~1e-15); float 4x the
-// direct float convolution's error against the double oracle (issue 3).
+// direct float convolution's error against the double oracle.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 

@@ -17,7 +17,7 @@ tested. Conventions (unit suffixes, results, errors): CONTRIBUTING.md.
   python-can, cantools and pyserial on first use only).
 - Alignment: `AlignConfig`, `run_alignment`.
 - GMWM noise-model identification with intervals and selection: `identify_gmwm`,
-  `GmwmResult` (issue 11; the Allan fit with selection is `gyrodrift.stability.allan_fit`).
+  `GmwmResult` (the Allan fit with selection is `gyrodrift.stability.allan_fit`).
 - Errors: `GyrodriftError`, `GyrodriftValueError`, `GyrodriftTypeError`.
 
 Examples
@@ -42,13 +42,13 @@ __path__ = _pkgutil.extend_path(__path__, __name__)
 
 __version__ = "0.1.0"
 
-# --- errors (issue 9) ---
+# --- errors ---
 from gyrodrift.errors import GyrodriftError as GyrodriftError
 from gyrodrift.errors import GyrodriftTypeError as GyrodriftTypeError
 from gyrodrift.errors import GyrodriftValueError as GyrodriftValueError
 
 # isort: split
-# --- foundation (issue 2): simulator, AR(2) identification, AR and AR(2)-Kalman filters ---
+# --- foundation: simulator, AR(2) identification, AR and AR(2)-Kalman filters ---
 from gyrodrift.filters.ar2 import Ar2FitError as Ar2FitError
 from gyrodrift.filters.ar2 import Ar2Model as Ar2Model
 from gyrodrift.filters.ar2 import KalmanFilter as KalmanFilter
@@ -62,14 +62,14 @@ from gyrodrift.simulation.records import simulate as simulate
 from gyrodrift.simulation.records import simulate_imu as simulate_imu
 
 # isort: split
-# --- wavelets (issue 3) ---
+# --- wavelets ---
 from gyrodrift.filters.fir import forced_fir_taps as forced_fir_taps
 from gyrodrift.filters.wavelet import RealtimeWavelet as RealtimeWavelet
 from gyrodrift.filters.wavelet import wavelet_denoise as wavelet_denoise
 from gyrodrift.filters.wavelet_packet import best_basis as best_basis
 from gyrodrift.filters.wavelet_packet import wavelet_packet_denoise as wavelet_packet_denoise
 
-# --- Allan / PSD / analysis (issue 4) ---
+# --- Allan / PSD / analysis ---
 # isort: split
 from gyrodrift.io.records import load_record as load_record
 from gyrodrift.stability.allan import AllanResult as AllanResult
@@ -85,19 +85,19 @@ from gyrodrift.stability.ieee952 import paper_fit as paper_fit
 from gyrodrift.stability.ieee952 import slope_method as slope_method
 from gyrodrift.stability.psd import welch_psd as welch_psd
 
-# --- IMU processor (issue 5) ---
+# --- IMU processor ---
 # isort: split
 from gyrodrift.imu.processor import ImuChannelConfig as ImuChannelConfig
 from gyrodrift.imu.processor import ImuConfig as ImuConfig
 from gyrodrift.imu.processor import ImuProcessor as ImuProcessor
 
-# --- alignment (issue 6) ---
+# --- alignment ---
 # isort: split
 from gyrodrift.nav import AlignConfig as AlignConfig
 from gyrodrift.nav import run_alignment as run_alignment
 
-# --- imported on first use: replay (issue 5: python-can, cantools, pyserial), the drift
-# models' maximum likelihood (issue 10) and GMWM (issue 11) (scipy.optimize, scipy.stats:
+# --- imported on first use: replay (python-can, cantools, pyserial), the drift
+# models' maximum likelihood and GMWM (scipy.optimize, scipy.stats:
 # ~0.6 s, which every `gyrodrift` command and each fleet worker would otherwise pay) ---
 _LAZY = {
     "ReplayOptions": "gyrodrift.replay",

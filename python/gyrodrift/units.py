@@ -11,6 +11,8 @@ Examples
 (3600.0, True)
 >>> TERM_UNITS["gyro"]["N"].si, TERM_UNITS["gyro"]["N"].ieee
 ('rad/s/sqrt(Hz)', 'deg/sqrt(h)')
+>>> GYRO_INPUT_UNITS, DEFAULT_GYRO_UNITS
+(('deg/h', 'deg/s', 'rad/s', 'arcsec', 'deg', 'rad'), 'deg/h')
 """
 
 from __future__ import annotations
@@ -20,13 +22,17 @@ from typing import NamedTuple
 
 __all__ = [
     "ACCEL_INCREMENT_UNITS",
+    "ACCEL_INPUT_UNITS",
     "ACCEL_UNITS",
     "ARCMIN",
     "ARCSEC",
+    "DEFAULT_ACCEL_UNITS",
+    "DEFAULT_GYRO_UNITS",
     "DEG",
     "DPH",
     "DPSH",
     "G0_M_S2",
+    "GYRO_INPUT_UNITS",
     "INCREMENT_UNITS",
     "RAD_TO_DEG",
     "RATE_UNITS",
@@ -76,6 +82,18 @@ INCREMENT_UNITS: dict[str, RateUnit] = {
 ACCEL_UNITS: dict[str, float] = {"m/s^2": 1.0, "g": G0_M_S2}
 #: Accelerometer velocity-increment input units -> factor to m/s (divided by dt).
 ACCEL_INCREMENT_UNITS: dict[str, float] = {"m/s": 1.0}
+
+#: Every unit a gyro input column may be in: rates, then per-sample angle increments (the
+#: choices of the command line's ``--gyro-units``).
+GYRO_INPUT_UNITS: tuple[str, ...] = (*RATE_UNITS, *INCREMENT_UNITS)
+#: Every unit an accelerometer input column may be in: accelerations, then per-sample velocity
+#: increments (the choices of ``--accel-units``).
+ACCEL_INPUT_UNITS: tuple[str, ...] = (*ACCEL_UNITS, *ACCEL_INCREMENT_UNITS)
+#: The command line's default ``--gyro-units`` for a .npy or text record that does not say
+#: (IMU logs and ROS bags carry rad/s, PSINS logs angle increments, whatever this says).
+DEFAULT_GYRO_UNITS = "deg/h"
+#: The command line's default ``--accel-units`` for a .npy or text record.
+DEFAULT_ACCEL_UNITS = "m/s^2"
 
 
 class TermUnit(NamedTuple):

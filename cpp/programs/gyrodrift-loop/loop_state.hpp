@@ -9,7 +9,7 @@
 #include <gyrodrift/codecs/serial_frame.hpp>
 #include <gyrodrift/codecs/slcan.hpp>
 
-#include "can_signal_input.hpp"  // --can-signals FILE (issue 13)
+#include "can_signal_input.hpp"  // --can-signals FILE
 #include "latency_histogram.hpp"
 #include "output_queue.hpp"
 #include "processing.hpp"

@@ -2,7 +2,7 @@
 // accounts for whole output frames. A frame counts as written only when its last byte has
 // been accepted by the device; at exit the frames still (partly) queued are dropped and
 // counted, so that  frames_queued = frames_written + frames_dropped  holds exactly
-// (issue 13: a frame used to count as sent when it was queued).
+// (a frame used to count as sent when it was queued).
 #pragma once
 #include <unistd.h>
 

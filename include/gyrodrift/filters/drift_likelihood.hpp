@@ -2,7 +2,7 @@
 // evaluated by the Kalman filter (prediction-error decomposition), for maximum-likelihood
 // identification of a1, a2, q, r and the mean from a record.
 //
-// Model (issue 10; the AR(2) of papers 000/002 eq. 1 plus white rate noise):
+// Model (the AR(2) of papers 000/002 eq. 1 plus white rate noise):
 //   x_k = a1 x_{k-1} + a2 x_{k-2} + w_k,   w_k ~ N(0, q)
 //   y_k = mean + x_k + v_k,                  v_k ~ N(0, r)
 // AR(1) + white is a2 = 0; white noise alone is a1 = a2 = q = 0.

@@ -66,7 +66,8 @@ def main(argv: list[str] | None = None) -> int:
     --------
     >>> import os, tempfile
     >>> out = os.path.join(tempfile.mkdtemp(), "r.npy")
-    >>> main(["simulate", "-o", out, "--n", "100", "--arw-deg-rt-h", "0.01"])  # doctest: +ELLIPSIS
+    >>> main(["simulate", "-o", out, "--samples", "100",
+    ...       "--arw-deg-rt-h", "0.01"])  # doctest: +ELLIPSIS
     wrote .../r.npy (rate deg/h, 100 samples at 400 Hz, seed 0)
     0
     """

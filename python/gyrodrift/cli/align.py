@@ -1,4 +1,4 @@
-"""`gyrodrift align`: SINS alignment on a rocking base (issue 6, paper 004).
+"""`gyrodrift align`: SINS alignment on a rocking base (paper 004).
 
 Monte Carlo study (default): for each scenario, --runs seeded records of --duration-s at 400 Hz,
 1 min inertial-frame coarse alignment then 15-state zero-velocity Kalman fine alignment, with

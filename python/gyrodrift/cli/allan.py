@@ -11,6 +11,7 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
+    DEFAULT_FIT_TERMS,
     add_ci_arg,
     add_input_args,
     add_json_arg,
@@ -41,7 +42,7 @@ def register(subparsers: Any) -> None:
     --------
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> args = p.parse_args(["allan", "gyro.csv", "--rate-hz", "100", "--taus", "decade"])
-    >>> args.taus, args.per_decade, round(args.ci, 4), args.deviation
+    >>> args.taus, args.taus_per_decade, round(args.ci, 4), args.deviation
     ('decade', 10, 0.6827, 'oadev')
     """
     p = subparsers.add_parser("allan", help="overlapping Allan deviation, noise terms, plot",
@@ -51,9 +52,10 @@ def register(subparsers: Any) -> None:
                    help="a CAN log in your own DBC: the signal map naming the DBC and its "
                         "channel signals (gyrodrift.codecs.can_signals)")
     p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave",
-                   help="averaging times: octave (m = 1, 2, 4, ...), decade (--per-decade "
-                        "points per decade) or all (every m; slow on long records)")
-    p.add_argument("--per-decade", type=int, default=10, help="points per decade (--taus decade)")
+                   help="averaging times: octave (m = 1, 2, 4, ...), decade (--taus-per-decade "
+                        "taus per decade) or all (every m; slow on long records)")
+    p.add_argument("--taus-per-decade", type=int, default=10,
+                   help="averaging times per decade of tau with --taus decade (default 10)")
     add_ci_arg(p)
     p.add_argument("--noise-id", choices=("acf", "slope"), default="acf",
                    help="noise type per tau for the edf: lag-1 autocorrelation where >= 30 "
@@ -65,8 +67,9 @@ def register(subparsers: Any) -> None:
                         "fits use the Allan deviation and run for oadev only")
     p.add_argument("--fit-range", metavar="TMIN:TMAX",
                    help="IEEE 952 fit: taus in s to fit (either side may be empty; default all)")
-    p.add_argument("--terms", default="Q,N,B,K,R",
-                   help="IEEE 952 fit: terms to consider, comma-separated (default Q,N,B,K,R)")
+    p.add_argument("--terms", default=DEFAULT_FIT_TERMS,
+                   help="IEEE 952 fit: terms the fit may use, comma-separated (default "
+                        f"{DEFAULT_FIT_TERMS})")
     p.add_argument("--no-select", action="store_true",
                    help="IEEE 952 fit: no model selection (keep every term the NNLS makes "
                         "non-zero); default: terms that do not improve the information "
@@ -116,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     dev_name = getattr(args, "deviation", "oadev")
     try:
         res = deviation(rec.rate_deg_h, rec.rate_hz, dev_name, taus=args.taus,
-                        per_decade=args.per_decade, ci=args.ci, progress=progress,
+                        per_decade=args.taus_per_decade, ci=args.ci, progress=progress,
                         alpha="slope" if args.noise_id == "slope" else None)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
@@ -134,10 +137,10 @@ def run(args: argparse.Namespace) -> int:
             afit = fit_allan(res.tau_s, res.adev, res.edf, terms=args.terms,
                              fit_range=args.fit_range, select=not args.no_select, ci=res.ci)
         except ValueError as exc:
-            if args.fit_range or args.terms != "Q,N,B,K,R":
+            if args.fit_range or args.terms != DEFAULT_FIT_TERMS:
                 raise CliError(str(exc)) from exc
             afit = None  # too few taus for the default fit: the table is still printed
-    elif args.fit_range or args.terms != "Q,N,B,K,R":
+    elif args.fit_range or args.terms != DEFAULT_FIT_TERMS:
         raise CliError("--fit-range and --terms apply to the Allan fit (--deviation oadev)")
     paper = ieee952.paper_fit(tau, dev) if allan_fits and tau.size >= 3 else None
     slope = ieee952.slope_method(tau, dev) if allan_fits and tau.size >= 3 else None

@@ -12,16 +12,20 @@ from typing import Any
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
+    DEFAULT_FIT_TERMS,
     add_ci_arg,
+    add_gyro_units_arg,
     add_json_arg,
     add_progress_arg,
     emit_json,
     progress_enabled,
 )
 from gyrodrift.errors import GyrodriftError
-from gyrodrift.io.imu_data import ACCEL_UNITS, GYRO_UNITS, ImuData, bag_imu_topics, load_imu
+from gyrodrift.io.imu_data import ImuData, bag_imu_topics, load_imu
+from gyrodrift.stability import DEFAULT_IDENTIFIER, MODEL_IDENTIFIERS
+from gyrodrift.units import ACCEL_INPUT_UNITS, DEFAULT_ACCEL_UNITS
 
-__all__ = ["add_imu_input_args", "imu_from_args", "register", "run"]
+__all__ = ["add_analysis_args", "add_imu_input_args", "imu_from_args", "register", "run"]
 
 
 def add_imu_input_args(p: argparse.ArgumentParser) -> None:
@@ -30,23 +34,24 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
     Examples
     --------
     >>> p = argparse.ArgumentParser(); add_imu_input_args(p)
-    >>> args = p.parse_args(["--rate-hz", "200", "--columns", "gyro_x,-,gyro_z"])
-    >>> args.rate_hz, args.columns, args.gyro_units, args.drop_nan
-    (200.0, 'gyro_x,-,gyro_z', 'rad/s', False)
+    >>> args = p.parse_args(["--rate-hz", "200", "--column-channels", "gyro_x,-,gyro_z"])
+    >>> args.rate_hz, args.column_channels, args.gyro_units, args.drop_nan
+    (200.0, 'gyro_x,-,gyro_z', 'deg/h', False)
     """
     p.add_argument("--rate-hz", type=float, help="sample rate, Hz (required for .npy and for "
                    "text without a time column)")
-    p.add_argument("--columns", help="channel per data column, comma-separated from gyro_x, "
-                   "gyro_y, gyro_z, accel_x, accel_y, accel_z, '-' to skip (default: from the "
-                   "header, or gyro x,y,z[,accel x,y,z] for 3 [6] columns)")
+    p.add_argument("--column-channels", metavar="CHANNELS",
+                   help="the channel of each data column, in column order, comma-separated from "
+                        "gyro_x, gyro_y, gyro_z, accel_x, accel_y, accel_z, '-' to skip "
+                        "(default: from the header, or gyro x,y,z[,accel x,y,z] for 3 [6] "
+                        "columns)")
     p.add_argument("--time-column", help="text: time column name/index, or 'none' (default: "
                    "detected)")
     p.add_argument("--topic", help="ROS bag: the sensor_msgs/msg/Imu topic (listed when absent)")
-    p.add_argument("--gyro-units", choices=tuple(GYRO_UNITS), default="rad/s",
-                   help="gyro column units for .npy/text (rates, or per-sample increments "
-                        "rad/deg/arcsec)")
-    p.add_argument("--accel-units", choices=tuple(ACCEL_UNITS), default="m/s^2",
-                   help="accelerometer column units for .npy/text (m/s = per-sample increments)")
+    add_gyro_units_arg(p)
+    p.add_argument("--accel-units", choices=ACCEL_INPUT_UNITS, default=DEFAULT_ACCEL_UNITS,
+                   help="units of the accelerometer data of a .npy or text record: m/s^2, g, "
+                        f"or m/s (per-sample velocity increments) (default {DEFAULT_ACCEL_UNITS})")
     p.add_argument("--drop-nan", action="store_true",
                    help="drop rows with NaN/Inf (their count is reported); default: refuse")
 
@@ -63,13 +68,14 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
     >>> with tempfile.TemporaryDirectory() as d:
     ...     path = os.path.join(d, "imu.npy")
     ...     np.save(path, np.zeros((100, 3)))
-    ...     rec = imu_from_args(p.parse_args(["--rate-hz", "100"]), path)
+    ...     rec = imu_from_args(p.parse_args(["--rate-hz", "100", "--gyro-units", "rad/s"]), path)
     >>> rec.names, rec.rate_hz
     (('gyro_x', 'gyro_y', 'gyro_z'), 100.0)
     """
     try:
         return load_imu(path or args.input, rate_hz=args.rate_hz,
-                        columns=args.columns.split(",") if args.columns else None,
+                        columns=(args.column_channels.split(",") if args.column_channels
+                                 else None),
                         time_column=args.time_column, topic=args.topic,
                         gyro_units=args.gyro_units, accel_units=args.accel_units,
                         nan_policy="drop" if args.drop_nan else "refuse", **kw)
@@ -78,10 +84,23 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
 
 
 def add_analysis_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--method", choices=("allan-nnls", "gmwm"), default="allan-nnls",
-                   help="identification: IEEE 952 Allan fit (default) or GMWM (issue 11, when "
-                        "installed)")
-    p.add_argument("--terms", default="Q,N,B,K,R", help="IEEE 952 terms the fit may use")
+    """Analysis options shared by ``characterize`` and ``fleet``: ``--identifier``,
+    ``--terms``, ``--taus``, ``--ci``.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_analysis_args(p)
+    >>> args = p.parse_args([])
+    >>> args.identifier, args.terms, args.taus
+    ('allan-nnls', 'Q,N,B,K,R', 'octave')
+    """
+    p.add_argument("--identifier", choices=MODEL_IDENTIFIERS, default=DEFAULT_IDENTIFIER,
+                   help="noise identifier: allan-nnls (IEEE 952 weighted NNLS fit of the Allan "
+                        "variance with term selection) or gmwm (generalized method of wavelet "
+                        f"moments) (default {DEFAULT_IDENTIFIER})")
+    p.add_argument("--terms", default=DEFAULT_FIT_TERMS,
+                   help=f"IEEE 952 terms the fit may use, comma-separated (default "
+                        f"{DEFAULT_FIT_TERMS})")
     p.add_argument("--taus", choices=("octave", "decade", "all"), default="octave",
                    help="Allan tau grid (default octave)")
     add_ci_arg(p)
@@ -94,7 +113,7 @@ def register(subparsers: Any) -> None:
     --------
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> args = p.parse_args(["characterize", "imu.npy", "--rate-hz", "400"])
-    >>> args.method, args.terms, args.taus, round(args.ci, 4)
+    >>> args.identifier, args.terms, args.taus, round(args.ci, 4)
     ('allan-nnls', 'Q,N,B,K,R', 'octave', 0.6827)
     """
     p = subparsers.add_parser("characterize", help="whole-IMU noise characterization, Kalibr "
@@ -107,7 +126,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--kalibr-axis", choices=("worst", "x", "y", "z"), default="worst",
                    help="axis exported to Kalibr (default: the worst per parameter)")
     p.add_argument("--html", metavar="FILE", help="write a self-contained HTML report")
-    p.add_argument("--out-dir", help="write the plots (gyro.png, accel.png) there")
+    p.add_argument("--out-dir", help="output directory of the plots (gyro.png, accel.png)")
     p.add_argument("--self-check", action="store_true",
                    help="simulate the identified model (same length and rate), identify it "
                         "again, report whether each term is recovered inside its interval")
@@ -132,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "imu.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
-    >>> run(p.parse_args(["characterize", rec, "--rate-hz", "100"]))
+    >>> run(p.parse_args(["characterize", rec, "--rate-hz", "100", "--gyro-units", "rad/s"]))
     # .../imu.npy (npy): 4096 samples at 100 Hz, 40.96 s; channels gyro_x, gyro_y, gyro_z
     # method allan-nnls, intervals at probability 0.6827
     ...
@@ -162,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         res = ch.characterize(rec, ci=args.ci, taus=args.taus, terms=_terms(args.terms),
-                              method=args.method, progress=progress)
+                              method=args.identifier, progress=progress)
         kalibr = ch.kalibr_yaml(res, args.kalibr_axis) if (args.kalibr or args.html) else None
         sc = (ch.self_check(res, seed=args.seed, taus=args.taus, terms=_terms(args.terms))
               if args.self_check else None)

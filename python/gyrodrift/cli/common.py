@@ -1,6 +1,7 @@
 """Input and output helpers shared by every subcommand (the conventions of CONTRIBUTING.md).
 
-- input record: positional ``INPUT``, ``--column``, ``--rate-hz``, ``--units``, ``--drop-nan``
+- input record: positional ``INPUT``, ``--column``, ``--rate-hz``, ``--gyro-units``,
+  ``--drop-nan``, ``--force-rate``
   (:func:`add_input_args`, :func:`record_from_args`);
 - ``--json`` (:func:`add_json_arg`) printed by the one JSON writer :func:`emit_json`;
 - ``--progress auto|always|never`` (:func:`add_progress_arg`, :func:`progress_enabled`): auto
@@ -39,11 +40,16 @@ from gyrodrift.cli import CliError
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.io.atomic import atomic_output
 from gyrodrift.io.json_text import json_default, json_text
-from gyrodrift.io.records import UNITS, Record, load_record
+from gyrodrift.io.records import Record, load_record
+from gyrodrift.stability import IEEE952_TERMS
+from gyrodrift.units import DEFAULT_GYRO_UNITS, GYRO_INPUT_UNITS
 
 __all__ = [
+    "DEFAULT_FIT_TERMS",
     "PROGRESS_CHOICES",
+    "add_ar_method_arg",
     "add_ci_arg",
+    "add_gyro_units_arg",
     "add_input_args",
     "add_json_arg",
     "add_progress_arg",
@@ -59,11 +65,13 @@ __all__ = [
 ]
 
 PROGRESS_CHOICES = ("auto", "always", "never")
+#: ``--terms`` unless told otherwise: every IEEE Std 952 term (gyrodrift.stability).
+DEFAULT_FIT_TERMS = ",".join(IEEE952_TERMS)
 
 
 def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
-    """Add the input-record arguments: ``INPUT``, ``--column``, ``--rate-hz``, ``--units``,
-    ``--drop-nan``.
+    """Add the input-record arguments: ``INPUT``, ``--column``, ``--rate-hz``, ``--gyro-units``,
+    ``--drop-nan``, ``--force-rate``.
 
     Examples
     --------
@@ -79,13 +87,29 @@ def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None
     p.add_argument("--rate-hz", type=float,
                    help="sample rate, Hz (required for .npy; csv and logs give it by their time "
                         "column)")
-    p.add_argument("--units", choices=UNITS, default="deg/h",
-                   help="input units: rates deg/h, deg/s, rad/s; per-sample angle increments "
-                        "arcsec, deg, rad (default deg/h; IMU logs are rad/s)")
+    add_gyro_units_arg(p)
     p.add_argument("--drop-nan", action="store_true",
                    help="drop NaN/Inf samples (their count is reported); default: refuse")
     p.add_argument("--force-rate", action="store_true",
                    help="use --rate-hz even where it contradicts the file's own time column")
+
+
+def add_gyro_units_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--gyro-units`` (the units of a gyro input column; choices and default from the one
+    units table, :data:`gyrodrift.units.GYRO_INPUT_UNITS` and
+    :data:`gyrodrift.units.DEFAULT_GYRO_UNITS`).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_gyro_units_arg(p)
+    >>> p.parse_args([]).gyro_units, p.parse_args(["--gyro-units", "arcsec"]).gyro_units
+    ('deg/h', 'arcsec')
+    """
+    p.add_argument("--gyro-units", choices=GYRO_INPUT_UNITS, default=DEFAULT_GYRO_UNITS,
+                   help="units of the gyro data of a .npy or text record: rates deg/h, deg/s, "
+                        "rad/s; per-sample angle increments arcsec, deg, rad (default "
+                        f"{DEFAULT_GYRO_UNITS}; IMU logs and ROS bags carry rad/s, PSINS logs "
+                        "angle increments)")
 
 
 def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
@@ -95,18 +119,36 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
     --------
     >>> import tempfile, os
     >>> d = tempfile.mkdtemp(); f = os.path.join(d, "x.npy"); np.save(f, np.arange(5.0))
-    >>> ns = argparse.Namespace(input=f, column=None, rate_hz=10.0, units="deg/h",
+    >>> ns = argparse.Namespace(input=f, column=None, rate_hz=10.0, gyro_units="deg/h",
     ...                         drop_nan=False)
     >>> record_from_args(ns).n
     5
     """
     try:
         return load_record(args.input, column=args.column, rate_hz=args.rate_hz,
-                           units=args.units, nan_policy="drop" if args.drop_nan else "refuse",
+                           units=args.gyro_units, nan_policy="drop" if args.drop_nan else "refuse",
                            mmap=mmap, can_signals=getattr(args, "can_signals", None),
                            force_rate=bool(getattr(args, "force_rate", False)))
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
+
+
+def add_ar_method_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--ar-method`` (the AR(2) estimator; choices and default from
+    :data:`gyrodrift.filters.ar2.AR2_METHODS` and
+    :data:`~gyrodrift.filters.ar2.DEFAULT_AR2_METHOD`).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_ar_method_arg(p)
+    >>> p.parse_args([]).ar_method
+    'yule-walker'
+    """
+    from gyrodrift.filters.ar2 import AR2_METHODS, DEFAULT_AR2_METHOD
+
+    p.add_argument("--ar-method", choices=AR2_METHODS, default=DEFAULT_AR2_METHOD,
+                   help="AR(2) estimator: yule-walker, burg or ls (forward-backward least "
+                        f"squares) (default {DEFAULT_AR2_METHOD})")
 
 
 def add_json_arg(p: argparse.ArgumentParser) -> None:

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from gyrodrift.cli.common import add_json_arg, emit_json
+from gyrodrift.cli.common import add_ar_method_arg, add_json_arg, emit_json
 
 __all__ = ["DEFAULT_TERMS", "compute", "register", "run"]
 
@@ -43,8 +43,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     --------
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> args = p.parse_args(["demo", "--duration-s", "60"])
-    >>> args.duration_s, args.rate_hz, args.seed, args.method
-    (60.0, 100.0, 2006, 'burg')
+    >>> args.duration_s, args.rate_hz, args.seed, args.ar_method
+    (60.0, 100.0, 2006, 'yule-walker')
     """
     p = subparsers.add_parser(
         "demo",
@@ -55,10 +55,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--duration-s", type=float, default=600.0, help="record length, s (600)")
     p.add_argument("--rate-hz", type=float, default=100.0, help="sample rate, Hz (100)")
     p.add_argument("--seed", type=int, default=2006, help="simulator seed (2006)")
-    p.add_argument(
-        "--method", default="burg", choices=["yule-walker", "burg", "ls"],
-        help="AR(2) identification method (burg)",
-    )
+    add_ar_method_arg(p)
     p.add_argument("--kalman-q", type=float, default=None,
                    help="Kalman process variance, (deg/h)^2 (default: the fitted sigma2)")
     p.add_argument("--kalman-r", type=float, default=None,
@@ -110,7 +107,7 @@ def compute(args: argparse.Namespace) -> dict[str, Any]:
         raise CliError(f"{x.size} samples is too short for a meaningful demo (>= 1000)")
     dtype = np.float32 if args.float32 else np.float64
     try:
-        model = fit_ar2(x, args.method)
+        model = fit_ar2(x, args.ar_method)
         assert isinstance(model, Ar2Model)  # x is 1-D: one model
         filtered = {
             "AR filter": ar_filter(x, model, dtype=dtype),

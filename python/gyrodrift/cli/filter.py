@@ -16,6 +16,7 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
+    add_ar_method_arg,
     add_input_args,
     add_json_arg,
     check_output,
@@ -36,9 +37,9 @@ def register(subparsers: Any) -> None:
     Examples
     --------
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> args = p.parse_args(["filter", "gyro.csv", "-o", "out.npy", "--method", "wavelet",
+    >>> args = p.parse_args(["filter", "gyro.csv", "-o", "out.npy", "--filter", "wavelet",
     ...                       "--threshold", "soft"])
-    >>> args.method, args.wavelet, args.threshold, args.core
+    >>> args.filter, args.wavelet, args.threshold, args.core
     ('wavelet', 'db8', 'soft', 'double')
     """
     p = subparsers.add_parser("filter", help="AR / AR(2)-Kalman / wavelet filters",
@@ -46,12 +47,13 @@ def register(subparsers: Any) -> None:
     add_input_args(p)
     p.add_argument("-o", "--output", required=True,
                    help="filtered record: .npy (rate, deg/h) or .csv (t_s, rate_deg_h)")
-    p.add_argument("--method", choices=METHODS, default="kalman",
-                   help="filter (default kalman, the AR(2)-Kalman filter)")
+    p.add_argument("--filter", choices=METHODS, default="kalman",
+                   help="filter: ar (AR model filter), kalman (AR(2)-Kalman filter, the "
+                        "default), wavelet (offline wavelet denoising), wpacket (bior3.7 "
+                        "wavelet-packet denoising) or realtime-wavelet (sliding-window prefilter)")
     p.add_argument("--core", choices=("double", "float"), default="double",
                    help="scalar type of the C++ core (float = the MCU build)")
-    p.add_argument("--ar-method", choices=("yule-walker", "burg", "ls"), default="yule-walker",
-                   help="AR(2) identification method for ar and kalman (default yule-walker)")
+    add_ar_method_arg(p)
     p.add_argument("--kalman-q", type=float, default=None,
                    help="Kalman process variance, (deg/h)^2 (default: the fitted sigma2)")
     p.add_argument("--kalman-r", type=float, default=None,
@@ -76,13 +78,13 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
     import gyrodrift
 
     dtype = np.float32 if args.core == "float" else np.float64
-    info: dict[str, Any] = {"method": args.method, "core": args.core}
-    if args.method in ("ar", "kalman"):
+    info: dict[str, Any] = {"method": args.filter, "core": args.core}
+    if args.filter in ("ar", "kalman"):
         model = gyrodrift.fit_ar2(x, method=args.ar_method)
         assert isinstance(model, gyrodrift.Ar2Model)  # x is 1-D: one model
         info["ar2"] = {"a1": model.a1, "a2": model.a2, "sigma2": model.sigma2,
                        "mean": model.mean, "method": args.ar_method}
-        if args.method == "ar":
+        if args.filter == "ar":
             return np.asarray(gyrodrift.ar_filter(x.astype(dtype), model)), info
         info["kalman"] = {"q": model.sigma2 if args.kalman_q is None else args.kalman_q,
                           "r": model.measurement_variance if args.kalman_r is None
@@ -90,16 +92,16 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
         return np.asarray(gyrodrift.kalman_filter(x.astype(dtype), model, q=args.kalman_q,
                                                   r=args.kalman_r,
                                                   steady_state=args.steady_state)), info
-    if args.method == "wavelet":
+    if args.filter == "wavelet":
         level = args.level or 5
         mode = args.threshold or "soft"
         if mode == "forced":
             raise CliError("--threshold forced is the real-time prefilter's mode: use "
-                           "--method realtime-wavelet, or soft/hard")
+                           "--filter realtime-wavelet, or soft/hard")
         info |= {"wavelet": args.wavelet, "level": level, "threshold": mode}
         return np.asarray(gyrodrift.wavelet_denoise(x, wavelet=args.wavelet, level=level,
                                                     mode=mode, dtype=dtype)), info
-    if args.method == "wpacket":
+    if args.filter == "wpacket":
         if args.core == "float":
             raise CliError("wpacket runs in Python (PyWavelets, float64) only; drop --core float")
         level = args.level or 4
@@ -122,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    The AR(2)-Kalman filter (the default method) on a white-noise record halves its spread:
+    The AR(2)-Kalman filter (the default filter) on a white-noise record halves its spread:
 
     >>> import os, tempfile, numpy as np
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
@@ -154,6 +156,6 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(result)
     else:
-        print(f"{args.method} ({args.core}): std {result['std_in_deg_h']:.5g} -> "
+        print(f"{args.filter} ({args.core}): std {result['std_in_deg_h']:.5g} -> "
               f"{result['std_out_deg_h']:.5g} deg/h; wrote {out}")
     return 0

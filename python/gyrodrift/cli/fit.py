@@ -4,9 +4,9 @@
 Prints one row per model (log-likelihood, AIC, BIC, parameters with standard errors, the
 Ljung-Box p-value of the innovations), the model chosen by the lowest AIC (or BIC with
 --criterion bic), the filter's steady-state gain, DC gain and -3 dB bandwidth. -o FILE writes
-the filter configuration: a .toml processor configuration (the issue-12 schema, version 1:
-the fitted ar2_kalman stage, steady_state = true, on the gyro channel of the record, in rad/s;
-pass_through elsewhere), or .json with the fields of --json.
+the filter configuration: a .toml processor configuration (schema "gyrodrift.processor",
+version 1: the fitted ar2_kalman stage, steady_state = true, on the gyro channel of the
+record, in rad/s; pass_through elsewhere), or .json with the fields of --json.
 """
 
 from __future__ import annotations

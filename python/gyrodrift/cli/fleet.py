@@ -27,19 +27,22 @@ def register(subparsers: Any) -> None:
     --------
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> args = p.parse_args(["fleet", "logs/*.npy", "--out-dir", "fleet", "--rate-hz", "400"])
-    >>> args.input, args.workers, args.method
-    (['logs/*.npy'], 2, 'allan-nnls')
+    >>> args.input, args.workers, args.identifier, args.redo
+    (['logs/*.npy'], 2, 'allan-nnls', False)
     """
     p = subparsers.add_parser("fleet", help="characterize many IMU logs on Dask, fleet summary",
                               description=__doc__.splitlines()[0])
     p.add_argument("input", metavar="GLOB", nargs="+",
                    help="log files or glob patterns (quote them; ** recurses)")
-    p.add_argument("--out-dir", required=True, help="per-unit results and the fleet summary")
+    p.add_argument("--out-dir", required=True,
+                   help="output directory: per-unit results and the fleet summary")
     p.add_argument("--workers", type=int, default=2,
                    help="LocalCluster worker processes (default 2; 0: serial, no Dask)")
     p.add_argument("--scheduler", metavar="ADDRESS",
                    help="use an existing dask.distributed scheduler (e.g. tcp://127.0.0.1:8786)")
-    p.add_argument("--force", action="store_true", help="redo logs that are already done")
+    p.add_argument("--redo", action="store_true",
+                   help="characterize again the logs whose results are already in --out-dir "
+                        "(default: skip them, so an interrupted fleet resumes)")
     p.add_argument("--spec", help="JSON limits per parameter; units outside are flagged")
     p.add_argument("--memory-budget-mib", type=float, default=DEFAULT_MEMORY_BUDGET_MIB,
                    metavar="MIB",
@@ -66,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "unit1.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
     >>> out = os.path.join(tmp.name, "fleet")
-    >>> run(p.parse_args(["fleet", rec, "--rate-hz", "100", "--workers", "0", "--out-dir", out]))
+    >>> run(p.parse_args(["fleet", rec, "--rate-hz", "100", "--gyro-units", "rad/s",
+    ...                   "--workers", "0", "--out-dir", out]))
     fleet: 1 done (0 already done, skipped), 0 failed, 0 outside the spec; summary: .../summary.html
     0
     >>> tmp.cleanup()
@@ -89,18 +93,19 @@ def run(args: argparse.Namespace) -> int:
     try:
         opts = FleetOptions(
             rate_hz=args.rate_hz,
-            columns=tuple(args.columns.split(",")) if args.columns else None,
+            columns=(tuple(args.column_channels.split(",")) if args.column_channels
+                     else None),
             time_column=args.time_column, topic=args.topic, gyro_units=args.gyro_units,
             accel_units=args.accel_units, ci=args.ci, taus=args.taus,
             terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),
-            method=args.method, memory_budget_mib=args.memory_budget_mib)
+            method=args.identifier, memory_budget_mib=args.memory_budget_mib)
     except GyrodriftError as exc:
         raise CliError(str(exc)) from exc
     show = progress_enabled(args)
     root = os.path.commonpath([os.path.abspath(p) for p in paths]) if len(paths) > 1 else None
     try:
         summary = run_fleet([os.path.abspath(p) for p in paths], args.out_dir, opts=opts,
-                            workers=args.workers, scheduler=args.scheduler, force=args.force,
+                            workers=args.workers, scheduler=args.scheduler, force=args.redo,
                             spec=spec, root=root, progress=show)
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc

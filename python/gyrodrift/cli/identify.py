@@ -1,6 +1,7 @@
-"""`gyrodrift identify`: noise model of a gyro record with units and intervals, by GMWM
-(generalized method of wavelet moments, with model selection), the IEEE Std 952 NNLS Allan
-fit (with model selection) or the IEEE 952 slope method; one table, optional JSON and plot."""
+"""`gyrodrift identify`: noise model of a gyro record with units and intervals, by the IEEE
+Std 952 NNLS Allan fit (with model selection, the default), GMWM (generalized method of wavelet
+moments, with model selection) or the IEEE 952 slope method; one table, optional JSON and
+plot."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
+    DEFAULT_FIT_TERMS,
     add_ci_arg,
     add_input_args,
     add_json_arg,
@@ -18,11 +20,12 @@ from gyrodrift.cli.common import (
     emit_json,
     record_from_args,
 )
+from gyrodrift.stability import DEFAULT_IDENTIFIER, NOISE_IDENTIFIERS
 
 if TYPE_CHECKING:
     from gyrodrift.stability.gmwm import GmwmResult
 
-__all__ = ["format_terms", "gm_resolution_notes", "register", "run"]
+__all__ = ["IDENTIFIER_OPTIONS", "format_terms", "gm_resolution_notes", "register", "run"]
 
 #: One row of the printed table: name, value, unit, low, high, density, its unit, low, high.
 Row = tuple[str, float, str, float | None, float | None, float | None, str | None,
@@ -61,18 +64,20 @@ def register(subparsers: Any) -> None:
     Examples
     --------
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> args = p.parse_args(["identify", "gyro.csv", "--method", "allan-nnls"])
-    >>> args.method, args.model, args.bootstrap
-    ('allan-nnls', None, None)
+    >>> args = p.parse_args(["identify", "gyro.csv", "--identifier", "gmwm"])
+    >>> args.identifier, args.model, args.bootstrap
+    ('gmwm', None, None)
     """
     p = subparsers.add_parser("identify", help="noise model with intervals (GMWM, Allan fit)",
                               description=__doc__)
     add_input_args(p)
-    p.add_argument("--method", choices=("gmwm", "allan-nnls", "slope"), default="gmwm",
-                   help="gmwm (default), allan-nnls (IEEE 952 fit of the Allan variance with "
-                        "term selection) or slope (IEEE 952 slope read-offs)")
-    # Method-specific options default to None so that run() can refuse one given to a method
-    # that would ignore it; their working defaults are in _METHOD_OPTIONS.
+    p.add_argument("--identifier", choices=NOISE_IDENTIFIERS, default=DEFAULT_IDENTIFIER,
+                   help="noise identifier: allan-nnls (IEEE 952 weighted NNLS fit of the Allan "
+                        "variance with term selection), gmwm (generalized method of wavelet "
+                        "moments, with model selection) or slope (IEEE 952 slope read-offs) "
+                        f"(default {DEFAULT_IDENTIFIER})")
+    # Identifier-specific options default to None so that run() can refuse one given to an
+    # identifier that would ignore it; their working defaults are in IDENTIFIER_OPTIONS.
     p.add_argument("--model",
                    help="gmwm: 'auto' (WIC selection, the default) or terms joined by '+' from "
                         "Q, N, K, R, GM (GM up to 3 times), e.g. Q+N+GM+K")
@@ -86,38 +91,38 @@ def register(subparsers: Any) -> None:
     p.add_argument("--fit-range",
                    help="allan-nnls: the taus fitted; gmwm: the scales tau_j = 2^j dt fitted; "
                         "TMIN:TMAX in s (either side may be empty)")
-    p.add_argument("--terms", help="allan-nnls: terms to fit (default Q,N,B,K,R)")
+    p.add_argument("--terms", help="allan-nnls: IEEE 952 terms the fit may use, comma-separated "
+                   f"(default {DEFAULT_FIT_TERMS})")
     p.add_argument("--no-select", action="store_true", default=None,
                    help="allan-nnls: keep every term the NNLS gives a non-zero value")
     add_ci_arg(p)
-    p.set_defaults(ci=0.95)
     p.add_argument("--png", help="plot: wavelet variance (gmwm) or Allan deviation with the fit")
     add_json_arg(p)
     add_progress_arg(p)
     p.set_defaults(func=run)
 
 
-# option -> (the methods that use it, its value when not given)
-_METHOD_OPTIONS: dict[str, tuple[tuple[str, ...], object]] = {
+#: option -> (the identifiers that use it, its value when not given)
+IDENTIFIER_OPTIONS: dict[str, tuple[tuple[str, ...], object]] = {
     "model": (("gmwm",), "auto"),
     "max_model": (("gmwm",), "Q+N+K+R+GM+GM"),
     "bootstrap": (("gmwm",), 0),
     "seed": (("gmwm",), 0),
-    "terms": (("allan-nnls",), "Q,N,B,K,R"),
+    "terms": (("allan-nnls",), DEFAULT_FIT_TERMS),
     "no_select": (("allan-nnls",), False),
     "fit_range": (("gmwm", "allan-nnls"), None),
 }
 
 
-def _check_method_options(args: argparse.Namespace) -> None:
-    """Refuse an option the chosen method would ignore (a fit of other terms or models than
+def _check_identifier_options(args: argparse.Namespace) -> None:
+    """Refuse an option the chosen identifier would ignore (a fit of other terms or models than
     asked for, printed without a word), then fill in the defaults of the unset ones."""
-    for name, (methods, default) in _METHOD_OPTIONS.items():
+    for name, (identifiers, default) in IDENTIFIER_OPTIONS.items():
         if getattr(args, name) is None:
             setattr(args, name, default)
-        elif args.method not in methods:
-            raise CliError(f"--{name.replace('_', '-')} applies to --method "
-                           f"{' and '.join(methods)}, not {args.method}")
+        elif args.identifier not in identifiers:
+            raise CliError(f"--{name.replace('_', '-')} applies to --identifier "
+                           f"{' and '.join(identifiers)}, not {args.identifier}")
 
 
 def gm_resolution_notes(res: GmwmResult) -> list[str]:
@@ -155,7 +160,7 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    >>> run(p.parse_args(["identify", rec, "--rate-hz", "100", "--method", "allan-nnls"]))
+    >>> run(p.parse_args(["identify", rec, "--rate-hz", "100"]))
     # .../gyro.npy: 4096 samples at 100 Hz, rate in deg/h
     ...
     N             0.001663 ... deg/sqrt(h) ...
@@ -170,8 +175,8 @@ def run(args: argparse.Namespace) -> int:
     head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"
             + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
     # the slope method reads its lines off the whole curve: a range would be ignored
-    _check_method_options(args)
-    if args.method == "gmwm":
+    _check_identifier_options(args)
+    if args.identifier == "gmwm":
         from gyrodrift.stability.allan_fit import parse_fit_range
         from gyrodrift.stability.gmwm import identify_gmwm
 
@@ -209,7 +214,7 @@ def run(args: argparse.Namespace) -> int:
         allan = oadev(x, rec.rate_hz, taus="octave", ci=args.ci)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
-    if args.method == "allan-nnls":
+    if args.identifier == "allan-nnls":
         from gyrodrift.stability.allan_fit import fit_allan
 
         try:

@@ -37,7 +37,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("--png", default="psd.png", help="output plot (default psd.png)")
     p.add_argument("--nperseg", type=int, help="Welch segment length (default: n/8, <= 65536)")
     p.add_argument("--bins-per-decade", type=int, default=20,
-                   help="log-spaced frequency bins per decade in the plot (default 20)")
+                   help="log-spaced frequency bins per decade of the plotted PSD (default 20)")
     p.add_argument("--csv", dest="csv_out", help="write f_hz,psd as CSV")
     add_json_arg(p)
     p.set_defaults(func=run)

@@ -77,20 +77,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     for kind, done in (("drop", "dropped"), ("corrupt", "corrupted"),
                        ("duplicate", "duplicated"), ("reorder", "reordered"),
                        ("delay", "delayed")):
-        g.add_argument(f"--{kind}", type=float, default=0.0, metavar="RATE",
-                       help=f"probability that a sample is {done} (default 0)")
-    g.add_argument("--delay-s", type=float, default=0.02,
-                   help="delay of a delayed sample, s (default 0.02)")
+        g.add_argument(f"--fault-{kind}", type=float, default=0.0, metavar="P",
+                       help=f"fault injection: probability that a sample is {done} (default 0)")
+    g.add_argument("--fault-delay-s", type=float, default=0.02,
+                   help="fault injection: delay of a delayed sample, s (default 0.02)")
     g.add_argument("--seed", type=int, default=0,
                    help="seed of the fault injection and of the simulated record (default 0)")
     pr = p.add_argument_group("processor (given to the loop and the reference alike)")
     pr.add_argument("--config", default=None, metavar="FILE",
                     help="processor configuration file (TOML; `gyrodrift config`): per-channel "
                          "chains, rates, tolerances (default: the shipped default "
-                         "configuration, `gyrodrift config write-default`, at the record's "
-                         "sample rate)")
+                         "configuration, `gyrodrift config write-default`, with the record's "
+                         "timing)")
     p.add_argument("--out-dir", default="replay-report",
-                   help="where report.json and report.png go (default ./replay-report)")
+                   help="output directory of report.json and report.png (default ./replay-report)")
     add_json_arg(p)
     add_progress_arg(p)
     p.set_defaults(func=run)
@@ -169,9 +169,9 @@ def run(args: argparse.Namespace) -> int:
                 raise CliError(f"--loop-rate-hz: expected {spec.bounds_text()}, "
                                f"got {args.loop_rate_hz:g}")
             proc = proc.with_timing(loop_rate_hz=args.loop_rate_hz)
-        faults = FaultSpec(drop=args.drop, corrupt=args.corrupt, duplicate=args.duplicate,
-                           reorder=args.reorder, delay=args.delay, delay_s=args.delay_s,
-                           seed=args.seed)
+        faults = FaultSpec(drop=args.fault_drop, corrupt=args.fault_corrupt,
+                           duplicate=args.fault_duplicate, reorder=args.fault_reorder,
+                           delay=args.fault_delay, delay_s=args.fault_delay_s, seed=args.seed)
         opt = ReplayOptions(transport=args.transport, speed=0.0 if args.fast else args.speed,
                             baud=args.baud, can_bitrate=args.can_bitrate,
                             pace_link=not args.no_link_pacing, loop_binary=args.loop_binary,

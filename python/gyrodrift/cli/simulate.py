@@ -38,7 +38,7 @@ def register(subparsers: Any) -> None:
     p.add_argument("-o", "--output", required=True,
                    help=".npy or .csv (t_s, rate_deg_h), or an IMU log (.bin/.gdf/.log/.asc/.blf)")
     length = p.add_mutually_exclusive_group(required=True)
-    length.add_argument("--n", type=int, help="number of samples")
+    length.add_argument("--samples", type=int, help="record length, samples")
     length.add_argument("--duration-s", type=float, help="duration, s")
     p.add_argument("--rate-hz", type=float, default=DEFAULT_SAMPLE_RATE_HZ,
                    help=f"sample rate, Hz (default {DEFAULT_SAMPLE_RATE_HZ:g})")
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     >>> import argparse, os, tempfile
     >>> p = argparse.ArgumentParser(); register(p.add_subparsers())
     >>> out = os.path.join(tempfile.mkdtemp(), "r.csv")
-    >>> args = p.parse_args(["simulate", "-o", out, "--n", "3", "--rate-hz", "10",
+    >>> args = p.parse_args(["simulate", "-o", out, "--samples", "3", "--rate-hz", "10",
     ...                       "--arw-deg-rt-h", "0.01"])
     >>> run(args)  # doctest: +ELLIPSIS
     wrote .../r.csv (rate deg/h, 3 samples at 10 Hz, seed 0)
@@ -131,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
 
             if ar2 is not None:
                 raise CliError("--ar2 is not available for IMU logs (static IMU simulator)")
-            imu = gyrodrift.simulate_imu(n=args.n, duration_s=args.duration_s,
+            imu = gyrodrift.simulate_imu(n=args.samples, duration_s=args.duration_s,
                                          rate_hz=args.rate_hz, gyro=gyrodrift.NoiseTerms(**kw),
                                          seed=args.seed)
             t_s = np.arange(imu.gyro_rad_s.shape[0]) / args.rate_hz
@@ -141,7 +141,8 @@ def run(args: argparse.Namespace) -> int:
             n = int(t_s.size)
             kind = f"imu log ({fmt or suffix})"
         else:
-            rec = gyrodrift.simulate(n=args.n, duration_s=args.duration_s, rate_hz=args.rate_hz,
+            rec = gyrodrift.simulate(n=args.samples, duration_s=args.duration_s,
+                                     rate_hz=args.rate_hz,
                                      ar2=ar2, seed=args.seed, **kw)
             n = rec.n
             if suffix == ".npy":

@@ -32,6 +32,8 @@ from gyrodrift._native import core
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
 __all__ = [
+    "AR2_METHODS",
+    "DEFAULT_AR2_METHOD",
     "MIN_SAMPLES",
     "Ar2FitError",
     "Ar2Model",
@@ -43,6 +45,11 @@ __all__ = [
     "kalman_filter",
     "kalman_filter_result",
 ]
+
+#: The AR(2) estimators (``fit_ar2(method=...)``, the command line's ``--ar-method``).
+AR2_METHODS: tuple[str, ...] = ("yule-walker", "burg", "ls")
+#: The one default AR(2) estimator of the library and of every command.
+DEFAULT_AR2_METHOD = "yule-walker"
 
 #: Fewest samples a fit accepts (include/gyrodrift/filters/ar2_model.hpp kAr2MinSamples).
 MIN_SAMPLES = 8
@@ -246,7 +253,7 @@ def _report_faults(faults: np.ndarray, what: str) -> None:
 
 
 def fit_ar2(
-    x: object, method: str = "yule-walker", dtype: object = np.float64
+    x: object, method: str = DEFAULT_AR2_METHOD, dtype: object = np.float64
 ) -> Ar2Model | tuple[Ar2Model, ...]:
     """Identify an AR(2) model (C++ core) from a record of shape (n,) or (n, 3).
 

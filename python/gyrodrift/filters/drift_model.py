@@ -1,6 +1,6 @@
 """Maximum-likelihood identification of the drift model, and the Kalman filter it tunes.
 
-Model (issue 10), on a rate record y in its own units:
+Model, on a rate record y in its own units:
 
     x_k = a1 x_{k-1} + a2 x_{k-2} + w_k,   w_k ~ N(0, q)     (AR(2) drift, papers 000/002 eq. 1)
     y_k = mean + x_k + v_k,                 v_k ~ N(0, r)     (white rate noise: ARW, quantization)

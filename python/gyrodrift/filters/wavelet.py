@@ -1,4 +1,4 @@
-"""Lifting wavelet denoisers (issue 3) on the C++ core.
+"""Lifting wavelet denoisers on the C++ core.
 
 * :func:`wavedec` / :func:`waverec`: periodized db4/db8 DWT by lifting (C++), identical to
   ``numpy.concatenate(pywt.wavedec(x, w, mode="periodization", level=J))`` (no index shift).

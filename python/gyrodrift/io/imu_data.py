@@ -261,7 +261,7 @@ def _default_names(k: int, source: str) -> list[str]:
     if k == 1:
         return ["gyro_z"]
     raise GyrodriftValueError(
-        f"{source}: {k} data columns; name them with columns= (CLI --columns, "
+        f"{source}: {k} data columns; name them with columns= (CLI --column-channels, "
         f"e.g. gyro_x,gyro_y,gyro_z,accel_x,accel_y,accel_z; '-' skips one)")
 
 

@@ -1,4 +1,4 @@
-"""Reader for the PSINS text IMU log format (e.g. /work/shared/data/lasergyro.imu) and the
+"""Reader for the PSINS text IMU log format (e.g. lasergyro.imu) and the
 real-data alignment-consistency run.
 
 Format (the file's own header): `%` comment lines; data line 1 = pitch0, roll0, yaw0 (deg),

@@ -22,12 +22,12 @@ from pathlib import Path
 import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.units import INCREMENT_UNITS, RATE_UNITS
+from gyrodrift.units import GYRO_INPUT_UNITS, INCREMENT_UNITS, RATE_UNITS
 
 __all__ = ["UNITS", "Record", "load_record", "rate_from_time", "to_deg_h"]
 
 #: The input units a gyro record may be in (gyrodrift.units: rates, then angle increments).
-UNITS: tuple[str, ...] = (*RATE_UNITS, *INCREMENT_UNITS)
+UNITS: tuple[str, ...] = GYRO_INPUT_UNITS
 LOG_SUFFIXES = (".bin", ".gdf", ".log", ".asc", ".blf")
 GYRO_AXES = {"x": 0, "y": 1, "z": 2}
 
@@ -177,12 +177,37 @@ def load_record(
     (100, 10800.0)
     """
     p = Path(path)
-    source = str(p)
+    _check_load_args(p, units, nan_policy, rate_hz)
+    suffix = p.suffix.lower()
+    header_names, delimiter = _read_csv_header(p) if suffix == ".csv" else (None, ",")
+    is_replay_csv = header_names is not None and "gyro_z_rad_s" in header_names
+    if can_signals is not None and suffix not in (".log", ".asc", ".blf"):
+        raise GyrodriftValueError(f"{p}: a DBC signal map applies to CAN logs "
+                                  "(.log, .asc, .blf)")
+    if suffix in LOG_SUFFIXES or is_replay_csv:
+        return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate)
+    if suffix == ".imu":
+        return _load_psins(p, column, rate_hz, units, nan_policy)
+    if suffix == ".npy":
+        return _load_npy_record(p, column, rate_hz, units, nan_policy, mmap)
+    if suffix == ".csv":
+        assert header_names is not None
+        return _load_csv_record(p, header_names, delimiter, column, rate_hz, units, nan_policy,
+                                force_rate)
+    raise GyrodriftValueError(
+        f"{p}: unsupported file type {suffix!r} (use .npy, .csv, PSINS .imu, "
+        f"or an IMU log {', '.join(LOG_SUFFIXES)})")
+
+
+def _check_load_args(p: Path, units: str, nan_policy: str, rate_hz: float | None) -> None:
+    """Refuse what no reader can use: a missing path or one that is not a regular file (a
+    FIFO or device would block or never end), an unknown NaN policy or unit, a sample rate
+    outside RATE_MIN_HZ..RATE_MAX_HZ."""
     if not p.exists():
         raise FileNotFoundError(f"no such file: {p}")
     if not p.is_file():
-        raise GyrodriftValueError(f"{source}: not a regular file (a directory, FIFO or device); "
-                         "give a record file")
+        raise GyrodriftValueError(f"{p}: not a regular file (a directory, FIFO or device); "
+                                  "give a record file")
     if nan_policy not in ("refuse", "drop"):
         raise GyrodriftValueError(f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
     if units not in UNITS:
@@ -192,107 +217,112 @@ def load_record(
         raise GyrodriftValueError(
             f"sample rate must be within {RATE_MIN_HZ:g}..{RATE_MAX_HZ:g} Hz, "
             f"got {rate_hz!r}")
-    suffix = p.suffix.lower()
-    header_names: list[str] | None = None
-    delimiter = ","
-    if suffix == ".csv":
-        try:
-            with p.open(newline="", encoding="utf-8") as fh:
-                first_line = fh.readline()
-        except UnicodeDecodeError as exc:
-            raise GyrodriftValueError(
-                f"{source}: not a text CSV file (byte {exc.start} is not UTF-8; "
-                "a binary file named .csv?)") from None
-        if not first_line.strip():
-            raise GyrodriftValueError(f"{source}: empty file (no header or data line first)")
-        if "," not in first_line and ";" in first_line:
-            delimiter = ";"  # the spreadsheet export of locales with a decimal comma
-        header_names = [c.strip() for c in next(csv.reader([first_line], delimiter=delimiter))]
-    is_replay_csv = header_names is not None and "gyro_z_rad_s" in header_names
-    if can_signals is not None and suffix not in (".log", ".asc", ".blf"):
-        raise GyrodriftValueError(f"{source}: a DBC signal map applies to CAN logs "
-                                  "(.log, .asc, .blf)")
-    if suffix in LOG_SUFFIXES or is_replay_csv:
-        return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate)
-    if suffix == ".imu":
-        return _load_psins(p, column, rate_hz, units, nan_policy)
-    if suffix == ".npy":
-        arr = _load_npy(p, mmap)
-        if arr.ndim == 2:
-            idx = 0 if column is None and arr.shape[1] == 1 else None
-            if idx is None:
-                if column is None:
-                    raise GyrodriftValueError(
-                        f"{source}: array of shape {arr.shape}; choose a column")
-                idx = _pick_column([str(i) for i in range(arr.shape[1])], column, source)
-            col_name = str(idx)
-            values = np.asarray(arr[:, idx])
-        elif arr.ndim == 1:
-            if column not in (None, 0, "0"):
-                raise GyrodriftValueError(f"{source}: 1-D array has no column {column!r}")
-            col_name = "0"
-            values = arr
-        else:
-            raise GyrodriftValueError(
-                f"{source}: expected a 1-D or 2-D array, got shape {arr.shape}")
-        if not np.issubdtype(values.dtype, np.floating) and not np.issubdtype(
-                values.dtype, np.integer):
-            raise GyrodriftValueError(f"{source}: expected numbers, got dtype {values.dtype}")
+
+
+def _read_csv_header(p: Path) -> tuple[list[str], str]:
+    """The first line of a .csv split into cells, and the delimiter: ',' or, for the
+    spreadsheet export of locales with a decimal comma, ';'."""
+    try:
+        with p.open(newline="", encoding="utf-8") as fh:
+            first_line = fh.readline()
+    except UnicodeDecodeError as exc:
+        raise GyrodriftValueError(
+            f"{p}: not a text CSV file (byte {exc.start} is not UTF-8; "
+            "a binary file named .csv?)") from None
+    if not first_line.strip():
+        raise GyrodriftValueError(f"{p}: empty file (no header or data line first)")
+    delimiter = ";" if "," not in first_line and ";" in first_line else ","
+    return [c.strip() for c in next(csv.reader([first_line], delimiter=delimiter))], delimiter
+
+
+def _load_npy_record(p: Path, column: str | int | None, rate_hz: float | None, units: str,
+                     nan_policy: str, mmap: bool) -> Record:
+    """One column of a 1-D or 2-D .npy array. A float64 deg/h column without NaN stays
+    memory-mapped (read in chunks by the Allan code); anything else is converted in memory."""
+    source = str(p)
+    arr = _load_npy(p, mmap)
+    if arr.ndim == 2:
+        idx = 0 if column is None and arr.shape[1] == 1 else None
+        if idx is None:
+            if column is None:
+                raise GyrodriftValueError(
+                    f"{source}: array of shape {arr.shape}; choose a column")
+            idx = _pick_column([str(i) for i in range(arr.shape[1])], column, source)
+        col_name = str(idx)
+        values = np.asarray(arr[:, idx])
+    elif arr.ndim == 1:
+        if column not in (None, 0, "0"):
+            raise GyrodriftValueError(f"{source}: 1-D array has no column {column!r}")
+        col_name = "0"
+        values = arr
+    else:
+        raise GyrodriftValueError(
+            f"{source}: expected a 1-D or 2-D array, got shape {arr.shape}")
+    if not np.issubdtype(values.dtype, np.floating) and not np.issubdtype(
+            values.dtype, np.integer):
+        raise GyrodriftValueError(f"{source}: expected numbers, got dtype {values.dtype}")
+    if rate_hz is None:
+        raise GyrodriftValueError(f"{source}: a .npy record carries no sample rate; "
+                                  "give --rate-hz (rate_hz=)")
+    n_total = int(values.shape[0])
+    keep_mapped = (isinstance(values, np.memmap) and units == "deg/h"
+                   and values.dtype == np.float64)
+    if keep_mapped:
+        n_bad = _count_nonfinite_chunked(values)
+        if n_bad == 0:
+            return Record(values, float(rate_hz), source, col_name, units, n_total, 0)
+    x = to_deg_h(np.asarray(values), units, rate_hz)
+    x, dropped = _apply_nan_policy(x, nan_policy, source)
+    return Record(x, float(rate_hz), source, col_name, units, n_total, dropped)
+
+
+def _load_csv_record(p: Path, header_names: list[str], delimiter: str,
+                     column: str | int | None, rate_hz: float | None, units: str,
+                     nan_policy: str, force_rate: bool) -> Record:
+    """One column of a .csv (header optional); the rate from its t_s/time/t column unless
+    given (and checked against it, _resolve_rate)."""
+    source = str(p)
+    has_header = not all(_is_number(c) for c in header_names)
+    names = header_names if has_header else [str(i) for i in range(len(header_names))]
+    idx = _pick_column(names, column, source)
+    table = _read_csv_table(p, delimiter, 1 if has_header else 0)
+    if table.shape[1] != len(names):
+        raise GyrodriftValueError(f"{source}: rows have {table.shape[1]} fields, header has "
+                                  f"{len(names)}")
+    values = table[:, idx]
+    t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")), None)
+    _check_text_cells(p, table, [i for i in (idx, t_idx) if i is not None], names,
+                      delimiter, 1 if has_header else 0)
+    if t_idx is None:
         if rate_hz is None:
-            raise GyrodriftValueError(f"{source}: a .npy record carries no sample rate; "
-                             "give --rate-hz (rate_hz=)")
-        n_total = int(values.shape[0])
-        keep_mapped = (isinstance(values, np.memmap) and units == "deg/h"
-                       and values.dtype == np.float64)
-        if keep_mapped:
-            n_bad = _count_nonfinite_chunked(values)
-            if n_bad == 0:
-                return Record(values, float(rate_hz), source, col_name, units, n_total, 0)
-        x = to_deg_h(np.asarray(values), units, rate_hz)
-        x, dropped = _apply_nan_policy(x, nan_policy, source)
-        return Record(x, float(rate_hz), source, col_name, units, n_total, dropped)
-    if suffix == ".csv":
-        assert header_names is not None
-        has_header = not all(_is_number(c) for c in header_names)
-        names = header_names if has_header else [str(i) for i in range(len(header_names))]
-        idx = _pick_column(names, column, source)
-        try:
-            # Rows with a wrong number of fields are an error (never dropped silently);
-            # unparseable cells are found below and named.
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")  # "Empty input file": reported below
-                table = np.genfromtxt(p, delimiter=delimiter,
-                                      skip_header=1 if has_header else 0, dtype=np.float64,
-                                      invalid_raise=True, ndmin=2, encoding="utf-8")
-        except UnicodeDecodeError as exc:
-            raise GyrodriftValueError(
-                f"{source}: not a text CSV file (byte {exc.start} of a line is "
-                "not UTF-8; a binary file named .csv?)") from None
-        except ValueError as exc:
-            detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
-            raise GyrodriftValueError(f"{source}: malformed CSV: {detail}") from exc
-        if table.size == 0:
-            raise GyrodriftValueError(f"{source}: no data rows (header only?)")
-        if table.shape[1] != len(names):
-            raise GyrodriftValueError(f"{source}: rows have {table.shape[1]} fields, header has "
-                             f"{len(names)}")
-        values = table[:, idx]
-        t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")),
-                     None)
-        _check_text_cells(p, table, [i for i in (idx, t_idx) if i is not None], names,
-                          delimiter, 1 if has_header else 0)
-        if t_idx is None:
-            if rate_hz is None:
-                raise GyrodriftValueError(f"{source}: no t_s/time column to infer the rate; "
-                                 "give --rate-hz (rate_hz=)")
-        else:
-            rate_hz = _resolve_rate(rate_hz, table[:, t_idx], source, force_rate)
-        x = to_deg_h(values, units, rate_hz)
-        x, dropped = _apply_nan_policy(x, nan_policy, source)
-        return Record(x, float(rate_hz), source, names[idx], units, int(values.size), dropped)
-    raise GyrodriftValueError(
-        f"{source}: unsupported file type {suffix!r} (use .npy, .csv, PSINS .imu, "
-        f"or an IMU log {', '.join(LOG_SUFFIXES)})")
+            raise GyrodriftValueError(f"{source}: no t_s/time column to infer the rate; "
+                                      "give --rate-hz (rate_hz=)")
+    else:
+        rate_hz = _resolve_rate(rate_hz, table[:, t_idx], source, force_rate)
+    x = to_deg_h(values, units, rate_hz)
+    x, dropped = _apply_nan_policy(x, nan_policy, source)
+    return Record(x, float(rate_hz), source, names[idx], units, int(values.size), dropped)
+
+
+def _read_csv_table(p: Path, delimiter: str, skip: int) -> np.ndarray:
+    """The numbers of a .csv as a 2-D float64 table. Rows with a wrong number of fields are an
+    error (never dropped silently); unparseable cells become NaN here and are named by
+    _check_text_cells."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "Empty input file": reported below
+            table = np.genfromtxt(p, delimiter=delimiter, skip_header=skip, dtype=np.float64,
+                                  invalid_raise=True, ndmin=2, encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise GyrodriftValueError(
+            f"{p}: not a text CSV file (byte {exc.start} of a line is "
+            "not UTF-8; a binary file named .csv?)") from None
+    except ValueError as exc:
+        detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+        raise GyrodriftValueError(f"{p}: malformed CSV: {detail}") from exc
+    if table.size == 0:
+        raise GyrodriftValueError(f"{p}: no data rows (header only?)")
+    return table
 
 
 #: sample rates accepted from the user (outside them the analyses' fits overflow)
@@ -403,7 +433,7 @@ def _load_psins(p: Path, column: str | int | None, rate_hz: float | None, units:
             f"{p}: PSINS .imu logs hold gyro axes x, y, z; got column {column!r}")
     if units not in ("deg/h", "rad"):
         raise GyrodriftValueError(f"{p}: PSINS .imu logs carry their own units (angle increments); "
-                         f"--units {units} does not apply")
+                         f"--gyro-units {units} does not apply")
     rec = read_psins_imu(p)
     file_rate = 1.0 / rec.dt_s
     if rate_hz is not None and not math.isclose(rate_hz, file_rate, rel_tol=1e-9):

@@ -1,4 +1,4 @@
-"""SINS initial alignment on a rocking base (issue 6, paper 004): truth simulation by exact
+"""SINS initial alignment on a rocking base (paper 004): truth simulation by exact
 inversion, the C++ alignment pipeline (strapdown, inertial-frame coarse alignment, 12/15-state
 fine-alignment Kalman filter, the real-time wavelet prefilter as an FIR), Monte Carlo study and
 real-data run.

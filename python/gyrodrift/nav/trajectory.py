@@ -75,7 +75,7 @@ class Scenario:
 
 
 def scenario(name: str, lat_deg: float = 39.0, yaw0_deg: float = 30.0) -> Scenario:
-    """Named scenarios of issue 6: static, ship_mild, ship_moderate, vehicle_engine.
+    """Named scenarios of the alignment study: static, ship_mild, ship_moderate, vehicle_engine.
 
     Examples
     --------

@@ -1,11 +1,11 @@
-"""Monte Carlo alignment study (issue 6): runs of the C++ pipeline on simulated rocking-base
+"""Monte Carlo alignment study: runs of the C++ pipeline on simulated rocking-base
 records with and without the real-time wavelet prefilter, statistics against theory, the
 prefilter mechanism study, and the real-data heading-consistency run.
 
 Definitions used in every table:
 - heading error psi(t) = phi_U(t), the Up misalignment of the computed attitude (estimated -
   true clockwise heading), sampled at the KF updates;
-- convergence time (band criterion of issue 6): the first fine-alignment time t_c with
+- convergence time (band criterion): the first fine-alignment time t_c with
   |psi(t) - psi(end)| <= 1 arcmin for all t >= t_c, per run; a run whose band is entered only
   in the last minute counts as not converged;
 - theory: steady-state heading -eps_E/(W cos L) + (nab_E/g) tan L and level nab/g with the
@@ -329,7 +329,7 @@ PUBLISHED_RAW_ROW: dict[str, object] = {
     "converged": "0/1", "psi_1sigma_7min": "",
 }
 
-# Mechanism study: which modelled effects make the prefilter help (issue 6).
+# Mechanism study: which modelled effects make the prefilter help.
 MECHANISMS: dict[str, tuple[str, ImuErrors, str]] = {
     "white+bias": ("static", ImuErrors(), "spec"),
     "quantization": ("static", ImuErrors(gyro_lsb_arcsec=0.1), "spec"),

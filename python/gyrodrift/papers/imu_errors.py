@@ -1,6 +1,6 @@
 """IMU error model for the alignment study: the foundation simulator's IEEE Std 952 gyro terms
-(`gyrodrift.simulation.records.simulate`) plus the effects issue 6 asks for on top of the truth
-increments.
+(`gyrodrift.simulation.records.simulate`) plus the effects the alignment study adds on top of
+the truth increments.
 
 Gyro (rad per sample): constant drift (per axis, deg/h), ARW N, bias instability B, IEEE
 quantization Q (white angle error, from the foundation simulator), optional dither residue

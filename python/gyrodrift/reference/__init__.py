@@ -22,27 +22,27 @@ __all__ = [
     "wavelet_denoise",
 ]
 
-# --- foundation (issue 2) ---
+# --- foundation: AR(2) fits and filters ---
 from gyrodrift.reference.ar2 import ar_filter as ar_filter
 from gyrodrift.reference.ar2 import fit_ar2 as fit_ar2
 from gyrodrift.reference.ar2 import kalman_filter as kalman_filter
 from gyrodrift.reference.ar2 import steady_state_gain as steady_state_gain
 
 # isort: split
-# --- drift-model likelihood (issue 10) ---
+# --- drift-model likelihood ---
 from gyrodrift.reference.drift import drift_loglike as drift_loglike
 
 # isort: split
-# --- wavelets (issue 3) ---
+# --- wavelets ---
 from gyrodrift.reference.wavelet import realtime_wavelet as realtime_wavelet
 from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise
 
 # isort: split
-# --- Allan (issue 4) ---
+# --- Allan ---
 from gyrodrift.reference.allan import oadev_phase as oadev_phase
 from gyrodrift.reference.allan import oadev_rate as oadev_rate
 
-# --- deviation family (issue 11) ---
+# --- deviation family ---
 # isort: split
 from gyrodrift.reference.deviation import hdev_phase as hdev_phase
 from gyrodrift.reference.deviation import mdev_phase as mdev_phase
@@ -52,16 +52,16 @@ from gyrodrift.reference.deviation import tdev_phase as tdev_phase
 from gyrodrift.reference.deviation import totdev_phase as totdev_phase
 
 # isort: split
-# --- GMWM (issue 11) ---
+# --- GMWM ---
 from gyrodrift.reference.gmwm import haar_wv as haar_wv
 from gyrodrift.reference.gmwm import haar_wv_pywt as haar_wv_pywt
 from gyrodrift.reference.gmwm import wv_covariance_fft as wv_covariance_fft
 
-# --- IMU processor / codecs (issue 5) ---
+# --- IMU processor / codecs ---
 # isort: split
 from gyrodrift.reference.imu import process_imu as process_imu
 
-# --- alignment (issue 6) ---
+# --- alignment ---
 # isort: split
 from gyrodrift.reference.align import FineAlignKF as FineAlignKF
 from gyrodrift.reference.align import InertialCoarseAlign as InertialCoarseAlign

@@ -1,4 +1,4 @@
-"""PyWavelets reference implementations of the wavelet denoisers (issue 3), the test oracles.
+"""PyWavelets reference implementations of the wavelet denoisers, the test oracles.
 
 Written straight from the equations, deliberately plain:
 
@@ -99,7 +99,9 @@ def wavelet_denoise(
 
 
 def realtime_window(w: np.ndarray, wavelet: str, level: int, mode: str) -> float:
-    """The issue's exact definition for one window w (oldest first).
+    """The real-time wavelet prefilter's output for one window w (oldest first), by its
+    definition: decompose the window followed by its mirror image (periodized DWT), threshold
+    the details (forced: zero them), reconstruct, and keep the newest sample of the window.
 
     Examples
     --------

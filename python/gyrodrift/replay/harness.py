@@ -586,7 +586,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     bar = _ProgressThread(plan.sent_units, lambda: sent[0]) if opt.progress else None
     try:
         # Start-up inside the try: a Ctrl-C or failure while waiting for the loop's ready
-        # line must end the child too.
+        # line must end the child too (no loop program left running).
         target.start()
         if opt.transport == "serial":
             link = SerialLink(target.device, opt.baud, realtime_priority=rt_prio)

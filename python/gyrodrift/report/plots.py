@@ -106,7 +106,7 @@ def plot_allan_fit(result: AllanResult, fit: AllanFit, path: str | Path, *, labe
                    title: str = "Overlapping Allan deviation and IEEE 952 fit",
                    unit: str = "deg/h") -> Path:
     """Allan deviation with its interval bars, the fitted total and each kept term, drawn
-    only inside the fit range used (issue 11).
+    only inside the fit range used.
 
     Examples
     --------
@@ -142,7 +142,7 @@ def plot_allan_fit(result: AllanResult, fit: AllanFit, path: str | Path, *, labe
 def plot_gmwm(res: GmwmResult, path: str | Path, *, label: str = "",
               title: str = "Haar wavelet variance and GMWM fit", unit: str = "deg/h") -> Path:
     """Empirical Haar wavelet variance with its interval band, the fitted total and each
-    component (issue 11).
+    component.
 
     Examples
     --------

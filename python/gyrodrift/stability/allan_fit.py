@@ -1,5 +1,5 @@
 """IEEE Std 952 Allan-variance fit with a fit range, term choice, model selection and an
-interval on every coefficient (issue 11; the command line's `gyrodrift allan` fit).
+interval on every coefficient (the command line's `gyrodrift allan` fit).
 
 Model (IEEE Std 952-1997 Annex C, table C.2; tau in s, sigma in deg/h):
 
@@ -47,7 +47,7 @@ import numpy as np
 import scipy.stats
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.stability import ieee952
+from gyrodrift.stability import IEEE952_TERMS, ieee952
 from gyrodrift.units import TERM_UNITS
 
 __all__ = ["ALLAN_TERMS", "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range",
@@ -215,7 +215,7 @@ def _nnls(tau: np.ndarray, var: np.ndarray, edf: np.ndarray, names: tuple[str, .
 
 
 def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
-              terms: str | tuple[str, ...] = ("Q", "N", "B", "K", "R"),
+              terms: str | tuple[str, ...] = IEEE952_TERMS,
               fit_range: tuple[float, float] | str | None = None, select: bool = True,
               ci: float = 0.95) -> AllanFit:
     """Allan-variance fit (module docstring). tau_s in s, adev in deg/h, edf per tau.

@@ -378,11 +378,6 @@ def theoretical_wv(model: str | tuple[str, ...], params: np.ndarray, tau: np.nda
 # covariance of the wavelet variance under a Gaussian model
 
 
-def _haar_taps(m: int) -> np.ndarray:
-    """Haar MODWT wavelet filter of half-width m, taps h_l for l = 0..2m-1 (newest first)."""
-    return np.r_[np.full(m, 1.0 / (2 * m)), np.full(m, -1.0 / (2 * m))]
-
-
 def _series_g3(x: np.ndarray) -> np.ndarray:
     """exp(-x) - 1 + x - x^2/2 without cancellation (Taylor below 0.1, relative error
     < 1e-10 there)."""

@@ -28,7 +28,8 @@ intervals are conservative). When no model of the chosen terms fits inside the b
 the terms do not describe, e.g. vibration), the band's log-width is widened by the smallest
 factor that admits one, reported as `band_scale` (> 1 flags a misfit).
 
-`method="gmwm"` uses `gyrodrift.identify_gmwm` (issue 11) when the installed package has it.
+`method="gmwm"` identifies the terms by the generalized method of wavelet moments
+(`gyrodrift.identify_gmwm`) instead of the Allan fit.
 
 Example
 -------
@@ -57,6 +58,7 @@ from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.imu_data import CHANNELS, ImuData
 from gyrodrift.io.json_text import json_text
+from gyrodrift.stability import DEFAULT_IDENTIFIER, IEEE952_TERMS, MODEL_IDENTIFIERS
 from gyrodrift.stability.allan import ONE_SIGMA_CI, AllanResult, oadev
 from gyrodrift.stability.ieee952 import B_FLOOR_FACTOR, identify
 from gyrodrift.units import TERM_UNITS
@@ -77,7 +79,7 @@ __all__ = [
     "write_outputs",
 ]
 
-TERMS: tuple[str, ...] = ("Q", "N", "B", "K", "R")
+TERMS: tuple[str, ...] = IEEE952_TERMS
 _POWERS = {"Q": -2, "N": -1, "B": 0, "K": 1, "R": 2}
 TERM_NAMES = {"Q": "quantization", "N": "white noise density", "B": "bias instability",
               "K": "random walk", "R": "rate ramp"}
@@ -286,7 +288,7 @@ def _coef_to_term(name: str, c: float) -> float:
 
 def characterize_channel(x: np.ndarray, rate_hz: float, channel: str, *, ci: float = ONE_SIGMA_CI,
                          taus: str = "octave", terms: Sequence[str] = TERMS,
-                         method: str = "allan-nnls", threads: int | None = None
+                         method: str = DEFAULT_IDENTIFIER, threads: int | None = None
                          ) -> ChannelResult:
     """Allan deviation and noise terms of one channel in SI units (module docstring)."""
     sensor = _sensor(channel)
@@ -300,8 +302,9 @@ def characterize_channel(x: np.ndarray, rate_hz: float, channel: str, *, ci: flo
             f"identify {len(used)} terms")
     if method == "gmwm":
         return _gmwm_channel(x, rate_hz, channel, a, ci)
-    if method != "allan-nnls":
-        raise GyrodriftValueError(f"method must be 'allan-nnls' or 'gmwm', got {method!r}")
+    if method not in MODEL_IDENTIFIERS:
+        raise GyrodriftValueError(
+            f"method must be one of {', '.join(MODEL_IDENTIFIERS)}, got {method!r}")
     fit = identify(tau[pos], a.adev[pos], a.edf[pos],
                    powers=tuple(_POWERS[t] for t in used))
     coeffs = np.asarray(fit.coeffs)
@@ -352,7 +355,7 @@ def _gmwm_channel(x: np.ndarray, rate_hz: float, channel: str, a: AllanResult,
 
 
 def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave",
-                 terms: Sequence[str] = TERMS, method: str = "allan-nnls",
+                 terms: Sequence[str] = TERMS, method: str = DEFAULT_IDENTIFIER,
                  threads: int | None = None,
                  progress: Callable[[str], None] | None = None) -> CharacterizeResult:
     """Characterize every channel of an IMU record (module docstring).
@@ -362,7 +365,8 @@ def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave"
     ci : two-sided probability of every interval.
     taus : Allan tau grid ("octave", "decade", "all").
     terms : IEEE 952 terms the fit may use (subset of Q, N, B, K, R).
-    method : "allan-nnls" (IEEE 952 Annex C fit) or "gmwm" (issue 11, when installed).
+    method : "allan-nnls" (IEEE 952 Annex C fit, the default) or "gmwm" (generalized method of
+        wavelet moments); gyrodrift.stability.MODEL_IDENTIFIERS.
     threads : threads of the in-memory Allan kernel (None: all cores; fleet workers use 1).
     progress : called with each channel name before it is analysed.
 
@@ -389,7 +393,7 @@ def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave"
 def characterize_channels(names: Sequence[str], load: Callable[[str], np.ndarray],
                           rate_hz: float, record: dict[str, object], *,
                           ci: float = ONE_SIGMA_CI, taus: str = "octave",
-                          terms: Sequence[str] = TERMS, method: str = "allan-nnls",
+                          terms: Sequence[str] = TERMS, method: str = DEFAULT_IDENTIFIER,
                           threads: int | None = None,
                           progress: Callable[[str], None] | None = None
                           ) -> CharacterizeResult:

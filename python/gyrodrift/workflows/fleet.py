@@ -39,6 +39,7 @@ import numpy as np
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.io.atomic import atomic_write_text
 from gyrodrift.io.json_text import json_text
+from gyrodrift.stability import DEFAULT_IDENTIFIER
 
 __all__ = ["DEFAULT_MEMORY_BUDGET_MIB", "FleetOptions", "characterize_log", "load_spec",
            "run_fleet", "unit_name", "write_summary"]
@@ -76,7 +77,7 @@ class FleetOptions:
     ci: float = math.erf(1.0 / math.sqrt(2.0))
     taus: str = "octave"
     terms: tuple[str, ...] = ("Q", "N", "B", "K", "R")
-    method: str = "allan-nnls"
+    method: str = DEFAULT_IDENTIFIER
     chunk_rows: int = 1 << 18
     plots: bool = True
     memory_budget_mib: float = DEFAULT_MEMORY_BUDGET_MIB
