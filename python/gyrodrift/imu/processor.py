@@ -288,56 +288,63 @@ class ImuProcessor:
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
             raise GyrodriftTypeError(f"dtype: expected float64 or float32, got {self.dtype}")
-        f64 = self.dtype == np.float64
-        ch = config.channels
-        extra: tuple[object, ...] = ()
-        kw: dict[str, object] = {
-            "filters2": [FILTERS.index(c.filter2) for c in ch],
-            "steady_state": [bool(c.steady_state) for c in ch],
-        }
-        uses_wavelet = [c.filter == "wavelet" or c.filter2 == "wavelet" for c in ch]
-        if any(uses_wavelet):
-            settings = [c.wavelet or wavelet for c in ch]
-            per_channel: list[tuple[str, int, int, str] | None] = []
-            for i, (used, ws) in enumerate(zip(uses_wavelet, settings, strict=True)):
-                if not used:
-                    per_channel.append(None)
-                    continue
-                if ws is None:
-                    raise GyrodriftValueError(
-                        f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
-                    )
-                _check_wavelet(f"channels[{i}].wavelet", ws)
-                per_channel.append((ws.wavelet, ws.window, ws.level, ws.mode))
-            first = next(w for w in per_channel if w is not None)
-            cls = lib.ImuProcessorWavelet if f64 else lib.ImuProcessorWaveletF32
-            extra = (first[0], first[2], first[3])
-            kw["window"] = first[1]
-            kw["channel_wavelets"] = per_channel
-        else:
-            cls = lib.ImuProcessor if f64 else lib.ImuProcessorF32
-        self._proc = cls(
-            [FILTERS.index(c.filter) for c in ch],
-            [c.bias for c in ch],
-            [c.a1 for c in ch],
-            [c.a2 for c in ch],
-            [c.sigma2 for c in ch],
-            [c.mean for c in ch],
-            [c.q for c in ch],
-            [c.r for c in ch],
-            [c.p0 for c in ch],
-            [c.saturation for c in ch],
-            [c.stuck_samples for c in ch],
-            config.period_us,
-            config.time_tolerance_us,
-            *extra,
-            **kw,
-        )
+        try:
+            settings = self._settings(lib, config, wavelet)
+        except (GyrodriftValueError, GyrodriftTypeError):
+            raise
+        except ValueError as e:  # a field the binding refuses (the message names it)
+            raise GyrodriftValueError(f"invalid IMU processor configuration: {e}") from None
+        except TypeError as e:
+            raise GyrodriftTypeError(f"invalid IMU processor configuration: {e}") from None
+        cls = lib.ImuProcessor if self.dtype == np.float64 else lib.ImuProcessorF32
+        self._proc = cls(settings=settings)
         if self._proc.status != "ok":
             where = f" (channel {self._proc.bad_channel})" if self._proc.bad_channel >= 0 else ""
             raise GyrodriftValueError(f"invalid IMU processor configuration: "
                                       f"{self._proc.status}{where}")
         self.config = config
+
+    @staticmethod
+    def _settings(lib: Any, config: ImuConfig, wavelet: WaveletSettings | None) -> Any:
+        """The binding's configuration object (_core.ImuProcessorSettings), built by keyword.
+        A channel whose chain uses the wavelet stage takes its own WaveletSettings, else the
+        shared `wavelet`; the others get none."""
+        channels = []
+        for i, c in enumerate(config.channels):
+            stage = None
+            if "wavelet" in (c.filter, c.filter2):
+                ws = c.wavelet or wavelet
+                if ws is None:
+                    raise GyrodriftValueError(
+                        f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
+                    )
+                _check_wavelet(f"channels[{i}].wavelet", ws)
+                stage = lib.ImuWaveletSettings(
+                    wavelet=ws.wavelet, window=ws.window, level=ws.level, threshold=ws.mode
+                )
+            channels.append(
+                lib.ImuChannelSettings(
+                    filter=c.filter,
+                    filter2=c.filter2,
+                    steady_state=bool(c.steady_state),
+                    bias=c.bias,
+                    a1=c.a1,
+                    a2=c.a2,
+                    sigma2=c.sigma2,
+                    mean=c.mean,
+                    q=c.q,
+                    r=c.r,
+                    p0=c.p0,
+                    saturation=c.saturation,
+                    stuck_samples=c.stuck_samples,
+                    wavelet=stage,
+                )
+            )
+        return lib.ImuProcessorSettings(
+            channels=channels,
+            period_us=config.period_us,
+            time_tolerance_us=config.time_tolerance_us,
+        )
 
     def process(self, seq: npt.ArrayLike, t_us: npt.ArrayLike, values: npt.ArrayLike) -> ImuResult:
         s, t, v = _as_inputs(seq, t_us, values, self.dtype)
