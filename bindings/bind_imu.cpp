@@ -124,13 +124,24 @@ struct ImuWaveletSettings {
 
   WaveletSpec spec(const std::string& at) const {
     WaveletSpec w;
-    if (wavelet == "db4") w.kind = WaveletKind::db4;
-    else if (wavelet == "db8") w.kind = WaveletKind::db8;
-    else throw py::value_error(at + "wavelet: expected " + schema::kWaveletWavelet.bounds_text + ", got '" + wavelet + "'");
-    if (threshold == "forced") w.mode = WaveletMode::forced;
-    else if (threshold == "soft") w.mode = WaveletMode::soft;
-    else if (threshold == "hard") w.mode = WaveletMode::hard;
-    else throw py::value_error(at + "threshold: expected " + schema::kWaveletThreshold.bounds_text + ", got '" + threshold + "'");
+    if (wavelet == "db4") {
+      w.kind = WaveletKind::db4;
+    } else if (wavelet == "db8") {
+      w.kind = WaveletKind::db8;
+    } else {
+      throw py::value_error(at + "wavelet: expected " + schema::kWaveletWavelet.bounds_text + ", got '" + wavelet +
+                            "'");
+    }
+    if (threshold == "forced") {
+      w.mode = WaveletMode::forced;
+    } else if (threshold == "soft") {
+      w.mode = WaveletMode::soft;
+    } else if (threshold == "hard") {
+      w.mode = WaveletMode::hard;
+    } else {
+      throw py::value_error(at + "threshold: expected " + schema::kWaveletThreshold.bounds_text + ", got '" +
+                            threshold + "'");
+    }
     if (!config_wavelet_window_ok(window)) {
       throw py::value_error(at + "window: expected " + schema::kWaveletWindow.bounds_text + ", got " +
                             std::to_string(window));
@@ -268,8 +279,10 @@ void bind_channel_settings(py::module_& m) {
                     "checked when built and by the processor.");
   cls.def(py::init([](const std::string& filter, const std::string& filter2, bool steady_state, double bias,
                       double a1, double a2, double sigma2, double mean, double q, double r, double p0,
-                      double saturation, std::int64_t stuck_samples, const std::optional<ImuWaveletSettings>& wavelet) {
-            C c{filter, filter2, steady_state, bias, a1, a2, sigma2, mean, q, r, p0, saturation, stuck_samples, wavelet};
+                      double saturation, std::int64_t stuck_samples,
+                      const std::optional<ImuWaveletSettings>& wavelet) {
+            C c{filter, filter2, steady_state, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
+                stuck_samples, wavelet};
             c.config<double>("");
             return c;
           }),
