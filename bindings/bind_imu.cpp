@@ -1,30 +1,36 @@
 // gyrodrift._core: IMU processor and the frame codecs (serial, CAN, SLCAN).
 //
 // Low-level, strict API (gyrodrift.imu adds the config dataclasses and messages):
-//   ImuProcessor / ImuProcessorF32(filters[6], bias[6], a1[6], a2[6], sigma2[6], mean[6],
-//       q[6], r[6], p0[6], saturation[6], stuck_samples[6], period_us, time_tolerance_us)
+//   ImuWaveletSettings(*, wavelet "db4"|"db8", window (power of two, 16..4096), level,
+//       threshold "forced"|"soft"|"hard" = schema default)        one channel's wavelet stage
+//   ImuChannelSettings(*, filter, filter2 (stage names "pass_through" "bias_removal" "wavelet"
+//       "ar2_kalman"), steady_state, bias, a1, a2, sigma2, mean (the Ar2Model), q, r, p0,
+//       saturation, stuck_samples, wavelet: ImuWaveletSettings | None)      one channel's chain
+//   ImuProcessorSettings(*, channels [ImuChannelSettings] * 6, period_us, time_tolerance_us)
+//     keyword-only, closed to unknown fields, checked when built and again by the processor;
+//     defaults from ImuChannelConfig / ImuConfig (imu/imu_processor.hpp), field names those
+//     of the configuration schema (imu/config_schema.hpp). Nested values (channels, wavelet)
+//     are copied in and out: assign the whole object to change one.
+//   ImuProcessor / ImuProcessorF32(settings)   float64 / float32; the wavelet stages
+//       (RealtimeWavelet<T, window> per channel, RealtimeWaveletAnyWindow) exist only when a
+//       channel's chain uses one
 //     .process(seq u16[n], t_us u64[n], values (n, 6) float64|float32)
 //         -> (out (n, 6), flags u16[n])   rows with flags & 0x8000 (rejected) are NaN
-//     .health() -> dict, .reset(), .status -> str
-//     keyword-only extras: filters2[6] (second stage, 0 = none), steady_state[6] (bool)
-//   ImuProcessorWavelet / ImuProcessorWaveletF32(..., wavelet "db4"|"db8", level, mode
-//       "forced"|"soft"|"hard"[, channel_wavelets=[(wavelet, window, level, mode) or None] * 6,
-//       window=256]): the same with RealtimeWavelet<T, window> as the wavelet stage (window a
-//       power of two in 16..4096, chosen per channel at construction: RealtimeWaveletAnyWindow)
-//   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS, IMU_REJECTION_KEYS (tuples), IMU_RESYNC_AFTER, IMU_DEFAULT_PERIOD_US,
-//   IMU_DEFAULT_TIME_TOLERANCE_US, IMU_DEMO_AR2 {a1 a2 sigma2 mean q r}: the processor contract
-//   from imu/imu_processor.hpp
+//     .health() -> dict, .reset(), .status -> str, .bad_channel -> int
+//   IMU_FLAGS {name: bit}, IMU_HEALTH_KEYS, IMU_REJECTION_KEYS (tuples), IMU_RESYNC_AFTER,
+//   IMU_DEFAULT_PERIOD_US, IMU_DEFAULT_TIME_TOLERANCE_US, IMU_CHANNELS,
+//   IMU_DEMO_AR2 {a1 a2 sigma2 mean q r}: the processor contract from imu/imu_processor.hpp
 //   crc16_ccitt_false(bytes) -> int
 //   serial_encode_frame(frame_type, seq, flags, t_us, values[6]) -> bytes
 //   serial_parse(data, chunk, finish) -> (frames list, stats dict)   (C++ parser, 256-B buffer)
 //   can_encode_sample(seq, flags, values[6], base_id) -> [(id, bytes)] * 4
 //   can_assemble(frames [(id, data[, extended, remote])], base_id, finish) -> (samples, stats)
 //   slcan_encode(id, data, extended, remote) -> bytes
+//   slcan_parse(data) -> (events, stats)   events: ("frame", id, data, ext, rtr, reply) |
+//                                          ("command", letter, arg bytes, reply) | ("error", reply)
 //   can_signal_table(text) -> [entry dict]            (a user-DBC decode table, parsed in C++)
 //   can_signal_decode(text, frames) -> [{role: value}] per frame (codecs/can_signal_decode.hpp)
 //   can_signal_assemble(text, frames, finish) -> ([(seq, t_us | None, values)], stats)
-//   slcan_parse(data) -> (events, stats)   events: ("frame", id, data, ext, rtr, reply) |
-//                                          ("command", letter, arg bytes, reply) | ("error", reply)
 // Arrays are C-contiguous and taken without copy (.noconvert(): a wrong dtype is a TypeError).
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -40,12 +46,12 @@
 #include <gyrodrift/codecs/slcan.hpp>
 #include <gyrodrift/filters/realtime_wavelet.hpp>
 #include <gyrodrift/filters/realtime_wavelet_windows.hpp>
+#include <gyrodrift/imu/config_schema.hpp>
 #include <gyrodrift/imu/imu_processor.hpp>
 #include <limits>
 #include <memory>
 #include <optional>
 #include <string>
-#include <tuple>
 #include <vector>
 
 #include "array_checks.hpp"
@@ -55,9 +61,7 @@ namespace gyrodrift::py_bindings {
 
 namespace {
 
-using Six = std::array<double, kImuChannels>;
-using SixInt = std::array<int, kImuChannels>;
-using SixBool = std::array<bool, kImuChannels>;
+namespace schema = config_schema;
 
 const char* status_name(ImuStatus s) {
   switch (s) {
@@ -69,47 +73,31 @@ const char* status_name(ImuStatus s) {
   return "unknown";
 }
 
-template <class T>
-ImuConfig<T> make_config(const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
-                         const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
-                         const Six& p0, const Six& saturation,
-                         const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
-                         std::uint32_t tol_us, const std::optional<SixInt>& filters2,
-                         const std::optional<SixBool>& steady_state) {
-  ImuConfig<T> cfg;
-  for (std::size_t c = 0; c < kImuChannels; ++c) {
-    if (filters[c] < 0 || filters[c] > 3) {
-      throw py::value_error("filters[" + std::to_string(c) + "]: expected 0..3 (pass_through, "
-                            "bias_removal, ar2_kalman, wavelet), got " + std::to_string(filters[c]));
-    }
-    ImuChannelConfig<T>& cc = cfg.channels[c];
-    cc.filter = static_cast<ChannelFilter>(filters[c]);
-    if (filters2) {
-      const int f2 = (*filters2)[c];
-      if (f2 < 0 || f2 > 3) {
-        throw py::value_error("filters2[" + std::to_string(c) + "]: expected 0..3, got " + std::to_string(f2));
-      }
-      cc.filter2 = static_cast<ChannelFilter>(f2);
-    }
-    if (steady_state) cc.steady_state = (*steady_state)[c];
-    cc.bias = static_cast<T>(bias[c]);
-    cc.model = Ar2Model<T>{static_cast<T>(a1[c]), static_cast<T>(a2[c]), static_cast<T>(sigma2[c]),
-                           static_cast<T>(mean[c])};
-    cc.q = static_cast<T>(q[c]);
-    cc.r = static_cast<T>(r[c]);
-    cc.p0 = static_cast<T>(p0[c]);
-    cc.saturation = static_cast<T>(saturation[c]);
-    cc.stuck_samples = stuck[c];
-  }
-  cfg.period_us = period_us;
-  cfg.time_tolerance_us = tol_us;
-  return cfg;
-}
-
 py::dict health_dict(const ImuHealth& h) {
   py::dict d;
   for_each_health_field(h, [&d](const char* name, std::uint64_t v) { d[name] = v; });
   return d;
+}
+
+// ---- Processor configuration: the bound settings objects --------------------------------
+
+// Stage names of a channel's chain (the configuration file's stage types).
+constexpr std::array<const char*, 4> kStageNames = {"pass_through", "bias_removal", "ar2_kalman", "wavelet"};
+
+const char* stage_name(ChannelFilter f) { return kStageNames[static_cast<std::size_t>(f)]; }
+
+ChannelFilter parse_stage(const std::string& at, const char* field, const std::string& name) {
+  for (std::size_t i = 0; i < kStageNames.size(); ++i) {
+    if (name == kStageNames[i]) return static_cast<ChannelFilter>(i);
+  }
+  throw py::value_error(at + field + ": expected one of pass_through, bias_removal, wavelet, ar2_kalman, got '" +
+                        name + "'");
+}
+
+void check_u32(const std::string& at, const char* field, std::int64_t v, const char* bounds_text) {
+  if (v < 0 || v > static_cast<std::int64_t>(std::numeric_limits<std::uint32_t>::max())) {
+    throw py::value_error(at + field + ": expected " + bounds_text + ", got " + std::to_string(v));
+  }
 }
 
 // The wavelet stage over every window of the configuration format (16..4096), chosen per
@@ -117,159 +105,359 @@ py::dict health_dict(const ImuHealth& h) {
 template <class T>
 using WaveletStage = RealtimeWaveletAnyWindow<T>;
 
-// One wavelet stage's settings, checked; ValueError "<who>.window: ..." / "<who>.level: ..."
-// (who empty: the shared wavelet arguments) in the configuration reader's wording.
+// One wavelet stage's settings, checked (RealtimeWaveletWindows' constructor arguments).
 struct WaveletSpec {
-  WaveletKind kind = WaveletKind::db8;
-  std::size_t window = 256;
-  int level = 5;
+  WaveletKind kind = WaveletKind::db4;
+  std::size_t window = 0;
+  int level = 0;
   WaveletMode mode = WaveletMode::forced;
 };
 
-WaveletSpec wavelet_spec(const std::string& who, const std::string& wavelet, long long window, int level,
-                         const std::string& mode) {
-  const std::string at = who.empty() ? "" : who + ".";
-  WaveletSpec w;
-  if (wavelet == "db4") w.kind = WaveletKind::db4;
-  else if (wavelet != "db8") throw py::value_error(at + "wavelet: expected 'db4' or 'db8', got '" + wavelet + "'");
-  if (mode == "soft") w.mode = WaveletMode::soft;
-  else if (mode == "hard") w.mode = WaveletMode::hard;
-  else if (mode != "forced") throw py::value_error(at + "mode: expected 'forced', 'soft' or 'hard', got '" + mode + "'");
-  if (!config_wavelet_window_ok(window)) {
-    throw py::value_error(at + "window: expected a power of two in 16..4096, got " + std::to_string(window));
+// gyrodrift._core.ImuWaveletSettings: the schema's "wavelet" stage (wavelet, window and level
+// required; threshold defaults to the schema's). ValueError "<at>window: ..." in the
+// configuration reader's wording (at: "" or "channels[c].wavelet.").
+struct ImuWaveletSettings {
+  std::string wavelet;
+  std::int64_t window = 0;
+  int level = 0;
+  std::string threshold{schema::kWaveletThreshold.default_text};
+
+  WaveletSpec spec(const std::string& at) const {
+    WaveletSpec w;
+    if (wavelet == "db4") {
+      w.kind = WaveletKind::db4;
+    } else if (wavelet == "db8") {
+      w.kind = WaveletKind::db8;
+    } else {
+      throw py::value_error(at + "wavelet: expected " + schema::kWaveletWavelet.bounds_text + ", got '" + wavelet +
+                            "'");
+    }
+    if (threshold == "forced") {
+      w.mode = WaveletMode::forced;
+    } else if (threshold == "soft") {
+      w.mode = WaveletMode::soft;
+    } else if (threshold == "hard") {
+      w.mode = WaveletMode::hard;
+    } else {
+      throw py::value_error(at + "threshold: expected " + schema::kWaveletThreshold.bounds_text + ", got '" +
+                            threshold + "'");
+    }
+    if (!config_wavelet_window_ok(window)) {
+      throw py::value_error(at + "window: expected " + schema::kWaveletWindow.bounds_text + ", got " +
+                            std::to_string(window));
+    }
+    w.window = static_cast<std::size_t>(window);
+    const int jmax = realtime_wavelet_max_level(w.window, w.kind);
+    if (level < 1 || level > jmax) {
+      throw py::value_error(at + "level: expected 1.." + std::to_string(jmax) + " for " + wavelet + " with window " +
+                            std::to_string(window) + ", got " + std::to_string(level));
+    }
+    w.level = level;
+    return w;
   }
-  w.window = static_cast<std::size_t>(window);
-  const int jmax = realtime_wavelet_max_level(w.window, w.kind);
-  if (level < 1 || level > jmax) {
-    throw py::value_error(at + "level: expected 1.." + std::to_string(jmax) + " for " + wavelet + " with window " +
-                          std::to_string(window) + ", got " + std::to_string(level));
+};
+
+// gyrodrift._core.ImuChannelSettings: ImuChannelConfig with the stages by name, the model's
+// fields flat (the schema's names) and the channel's wavelet stage (None: none). Values are
+// stored in double and rounded to the processor's scalar when it is built, as before.
+struct ImuChannelSettings {
+  std::string filter, filter2;
+  bool steady_state = false;
+  double bias = 0, a1 = 0, a2 = 0, sigma2 = 0, mean = 0, q = 0, r = 0, p0 = 0, saturation = 0;
+  std::int64_t stuck_samples = 0;
+  std::optional<ImuWaveletSettings> wavelet;
+
+  static ImuChannelSettings of(const ImuChannelConfig<double>& c) {
+    return ImuChannelSettings{stage_name(c.filter), stage_name(c.filter2), c.steady_state, c.bias,
+                              c.model.a1, c.model.a2, c.model.sigma2, c.model.mean, c.q, c.r, c.p0,
+                              c.saturation, static_cast<std::int64_t>(c.stuck_samples), std::nullopt};
   }
-  w.level = level;
-  return w;
+
+  bool uses_wavelet() const { return filter == "wavelet" || filter2 == "wavelet"; }
+
+  // Field checks (names, integer ranges, the wavelet stage); the values' meaning (model,
+  // saturation, chain) is the processor's status, as for the C++ ImuProcessor.
+  template <class T>
+  ImuChannelConfig<T> config(const std::string& at) const {
+    ImuChannelConfig<T> cc;
+    cc.filter = parse_stage(at, "filter", filter);
+    cc.filter2 = parse_stage(at, "filter2", filter2);
+    check_u32(at, "stuck_samples", stuck_samples, schema::kChannelStuckSamples.bounds_text);
+    if (wavelet) wavelet->spec(at + "wavelet.");
+    cc.steady_state = steady_state;
+    cc.bias = static_cast<T>(bias);
+    cc.model = Ar2Model<T>{static_cast<T>(a1), static_cast<T>(a2), static_cast<T>(sigma2), static_cast<T>(mean)};
+    cc.q = static_cast<T>(q);
+    cc.r = static_cast<T>(r);
+    cc.p0 = static_cast<T>(p0);
+    cc.saturation = static_cast<T>(saturation);
+    cc.stuck_samples = static_cast<std::uint32_t>(stuck_samples);
+    return cc;
+  }
+};
+
+// gyrodrift._core.ImuProcessorSettings: ImuConfig (six channels and the timing).
+struct ImuProcessorSettings {
+  std::vector<ImuChannelSettings> channels;
+  std::int64_t period_us = 0;
+  std::int64_t time_tolerance_us = 0;
+
+  static ImuProcessorSettings of(const ImuConfig<double>& c) {
+    ImuProcessorSettings s{{}, c.period_us, c.time_tolerance_us};
+    for (const auto& cc : c.channels) s.channels.push_back(ImuChannelSettings::of(cc));
+    return s;
+  }
+
+  std::string at(std::size_t c) const { return "channels[" + std::to_string(c) + "]."; }
+
+  template <class T>
+  ImuConfig<T> config() const {
+    if (channels.size() != kImuChannels) {
+      throw py::value_error("channels: expected 6 ImuChannelSettings, got " + std::to_string(channels.size()));
+    }
+    ImuConfig<T> cfg;
+    for (std::size_t c = 0; c < kImuChannels; ++c) cfg.channels[c] = channels[c].config<T>(at(c));
+    check_u32("", "period_us", period_us, "0..4294967295 us");
+    check_u32("", "time_tolerance_us", time_tolerance_us, schema::kTimingTimeToleranceUs.bounds_text);
+    cfg.period_us = static_cast<std::uint32_t>(period_us);
+    cfg.time_tolerance_us = static_cast<std::uint32_t>(time_tolerance_us);
+    return cfg;
+  }
+
+  bool uses_wavelet() const {
+    for (const auto& ch : channels) {
+      if (ch.uses_wavelet()) return true;
+    }
+    return false;
+  }
+};
+
+// ---- Binding the settings objects ---------------------------------------------------------
+
+// A bool field that refuses anything but a bool (numpy.bool_ included): steady_state=1 or
+// None is a TypeError, not a silent truth value.
+template <class S>
+void def_bool_field(py::class_<S>& cls, const char* name, bool S::*field) {
+  cls.def_property(
+      name, [field](const S& s) { return s.*field; },
+      py::cpp_function([field](S& s, bool v) { s.*field = v; }, py::is_method(cls), py::arg("value").noconvert()));
 }
 
-template <class T, class Proc, class Cls>
-void def_processor_methods(Cls& cls) {
-  cls.def(
-         "process",
-         [](Proc& p, const CArray<std::uint16_t>& seq, const CArray<std::uint64_t>& t_us,
-            const CArray<T>& values) {
-           if (values.ndim() != 2 || values.shape(1) != static_cast<py::ssize_t>(kImuChannels)) {
-             throw py::value_error("values: expected an (n, 6) array, got ndim=" +
-                                   std::to_string(values.ndim()));
-           }
-           const auto n = static_cast<std::size_t>(values.shape(0));
-           if (seq.ndim() != 1 || t_us.ndim() != 1 || static_cast<std::size_t>(seq.shape(0)) != n ||
-               static_cast<std::size_t>(t_us.shape(0)) != n) {
-             throw py::value_error("seq and t_us: expected 1-D arrays of length " + std::to_string(n));
-           }
-           CArray<T> out({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(kImuChannels)});
-           py::array_t<std::uint16_t> flags(static_cast<py::ssize_t>(n));
-           const std::uint16_t* s = seq.data();
-           const std::uint64_t* t = t_us.data();
-           const T* v = values.data();
-           T* o = out.mutable_data();
-           std::uint16_t* f = flags.mutable_data();
-           {
-             ReleasedAndLocked guard(&p);  // GIL released, then this processor's lock
-             ImuSample<T> in;
-             ImuOutput<T> res;
-             for (std::size_t k = 0; k < n; ++k) {
-               in.seq = s[k];
-               in.t_us = t[k];
-               for (std::size_t c = 0; c < kImuChannels; ++c) in.values[c] = v[k * kImuChannels + c];
-               f[k] = p.step(in, res);
-               const bool rejected = (f[k] & kFlagRejected) != 0;
-               for (std::size_t c = 0; c < kImuChannels; ++c) {
-                 o[k * kImuChannels + c] = rejected ? std::numeric_limits<T>::quiet_NaN() : res.values[c];
-               }
-             }
-           }
-           return py::make_tuple(out, flags);
-         },
-         py::arg("seq").noconvert(), py::arg("t_us").noconvert(), py::arg("values").noconvert())
+void bind_wavelet_settings(py::module_& m) {
+  using W = ImuWaveletSettings;
+  py::class_<W>(m, "ImuWaveletSettings",
+                "One channel's real-time wavelet stage (the configuration schema's 'wavelet' stage): "
+                "wavelet ('db4' or 'db8'), window (a power of two in 16..4096), level (1..the "
+                "window's deepest), threshold ('forced', 'soft' or 'hard'). Keyword-only; checked "
+                "when built and by the processor.")
+      .def(py::init([](const std::string& wavelet, std::int64_t window, int level, const std::string& threshold) {
+             W w{wavelet, window, level, threshold};
+             w.spec("");
+             return w;
+           }),
+           py::kw_only(), py::arg("wavelet"), py::arg("window"), py::arg("level"),
+           py::arg("threshold") = std::string(schema::kWaveletThreshold.default_text))
+      .def_readwrite("wavelet", &W::wavelet)
+      .def_readwrite("window", &W::window)
+      .def_readwrite("level", &W::level)
+      .def_readwrite("threshold", &W::threshold)
+      .def("__repr__", [](const W& w) {
+        return py::str("ImuWaveletSettings(wavelet={!r}, window={!r}, level={!r}, threshold={!r})")
+            .format(w.wavelet, w.window, w.level, w.threshold);
+      });
+}
+
+void bind_channel_settings(py::module_& m) {
+  using C = ImuChannelSettings;
+  const C d = C::of(ImuChannelConfig<double>{});  // the defaults: ImuChannelConfig's
+  py::class_<C> cls(m, "ImuChannelSettings",
+                    "One channel's chain (ImuChannelConfig): filter then filter2 (stage names "
+                    "'pass_through', 'bias_removal', 'wavelet', 'ar2_kalman'; filter2 "
+                    "'pass_through': none), steady_state, bias, the AR(2) model a1, a2, sigma2, "
+                    "mean, the Kalman q, r, p0, saturation, stuck_samples and the wavelet stage "
+                    "(ImuWaveletSettings or None). Keyword-only, defaults from ImuChannelConfig; "
+                    "checked when built and by the processor.");
+  cls.def(py::init([](const std::string& filter, const std::string& filter2, bool steady_state, double bias,
+                      double a1, double a2, double sigma2, double mean, double q, double r, double p0,
+                      double saturation, std::int64_t stuck_samples,
+                      const std::optional<ImuWaveletSettings>& wavelet) {
+            C c{filter, filter2, steady_state, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
+                stuck_samples, wavelet};
+            c.config<double>("");
+            return c;
+          }),
+          py::kw_only(), py::arg("filter") = d.filter, py::arg("filter2") = d.filter2,
+          py::arg("steady_state").noconvert() = d.steady_state, py::arg("bias") = d.bias, py::arg("a1") = d.a1,
+          py::arg("a2") = d.a2, py::arg("sigma2") = d.sigma2, py::arg("mean") = d.mean, py::arg("q") = d.q,
+          py::arg("r") = d.r, py::arg("p0") = d.p0, py::arg("saturation") = d.saturation,
+          py::arg("stuck_samples") = d.stuck_samples, py::arg("wavelet") = py::none());
+  cls.def_readwrite("filter", &C::filter).def_readwrite("filter2", &C::filter2);
+  def_bool_field(cls, "steady_state", &C::steady_state);
+  cls.def_readwrite("bias", &C::bias)
+      .def_readwrite("a1", &C::a1)
+      .def_readwrite("a2", &C::a2)
+      .def_readwrite("sigma2", &C::sigma2)
+      .def_readwrite("mean", &C::mean)
+      .def_readwrite("q", &C::q)
+      .def_readwrite("r", &C::r)
+      .def_readwrite("p0", &C::p0)
+      .def_readwrite("saturation", &C::saturation)
+      .def_readwrite("stuck_samples", &C::stuck_samples)
+      .def_readwrite("wavelet", &C::wavelet)
+      .def("__repr__", [](const C& c) {
+        return py::str("ImuChannelSettings(filter={!r}, filter2={!r}, steady_state={!r}, bias={!r}, a1={!r}, "
+                       "a2={!r}, sigma2={!r}, mean={!r}, q={!r}, r={!r}, p0={!r}, saturation={!r}, "
+                       "stuck_samples={!r}, wavelet={!r})")
+            .format(c.filter, c.filter2, c.steady_state, c.bias, c.a1, c.a2, c.sigma2, c.mean, c.q, c.r, c.p0,
+                    c.saturation, c.stuck_samples, c.wavelet);
+      });
+}
+
+void bind_processor_settings(py::module_& m) {
+  using P = ImuProcessorSettings;
+  const P d = P::of(ImuConfig<double>{});  // the defaults: ImuConfig's
+  py::class_<P>(m, "ImuProcessorSettings",
+                "The processor's configuration (ImuConfig): channels (6 ImuChannelSettings: gyro x "
+                "y z, accel x y z), period_us and time_tolerance_us (0: timestamp check off). "
+                "Keyword-only, defaults from ImuConfig; checked when built and by the processor. "
+                "channels is copied in and out: assign the whole list to change a channel.")
+      .def(py::init([](const std::vector<ImuChannelSettings>& channels, std::int64_t period_us,
+                       std::int64_t time_tolerance_us) {
+             P s{channels, period_us, time_tolerance_us};
+             s.config<double>();
+             return s;
+           }),
+           py::kw_only(), py::arg("channels") = d.channels, py::arg("period_us") = d.period_us,
+           py::arg("time_tolerance_us") = d.time_tolerance_us)
+      .def_readwrite("channels", &P::channels)
+      .def_readwrite("period_us", &P::period_us)
+      .def_readwrite("time_tolerance_us", &P::time_tolerance_us)
+      .def("__repr__", [](const P& s) {
+        return py::str("ImuProcessorSettings(channels={!r}, period_us={!r}, time_tolerance_us={!r})")
+            .format(s.channels, s.period_us, s.time_tolerance_us);
+      });
+}
+
+// ---- Processors ---------------------------------------------------------------------------
+
+// The C++ processor of one settings object: ImuProcessor<T> when no channel uses the wavelet
+// stage, else ImuProcessor<T, WaveletStage<T>> with each wavelet channel's stage built in
+// place (six stages sized for the largest window: on the heap). A channel whose chain uses
+// the wavelet stage without settings gets an empty stage (status: wavelet unavailable).
+template <class T>
+class BoundImuProcessor {
+ public:
+  using Plain = ImuProcessor<T>;
+  using WithWavelet = ImuProcessor<T, WaveletStage<T>>;
+
+  explicit BoundImuProcessor(const ImuProcessorSettings& s) {
+    const ImuConfig<T> cfg = s.config<T>();  // checked again: the fields are writable
+    if (!s.uses_wavelet()) {
+      plain_ = std::make_unique<Plain>(cfg);
+      return;
+    }
+    std::array<std::optional<WaveletSpec>, kImuChannels> specs;
+    for (std::size_t c = 0; c < kImuChannels; ++c) {
+      const ImuChannelSettings& ch = s.channels[c];
+      if (ch.uses_wavelet() && ch.wavelet) specs[c] = ch.wavelet->spec(s.at(c) + "wavelet.");
+    }
+    wavelet_ = std::make_unique<WithWavelet>(cfg, [&specs](std::size_t c) {
+      if (!specs[c]) return WaveletStage<T>();
+      const WaveletSpec& w = *specs[c];
+      return WaveletStage<T>(w.window, w.kind, w.level, w.mode);
+    });
+  }
+
+  // f(processor) on the held processor.
+  template <class F>
+  decltype(auto) visit(F&& f) {
+    if (wavelet_) return f(*wavelet_);
+    return f(*plain_);
+  }
+  template <class F>
+  decltype(auto) visit(F&& f) const {
+    if (wavelet_) return f(static_cast<const WithWavelet&>(*wavelet_));
+    return f(static_cast<const Plain&>(*plain_));
+  }
+
+ private:
+  std::unique_ptr<Plain> plain_;
+  std::unique_ptr<WithWavelet> wavelet_;
+};
+
+// Steps every row of (seq, t_us, values) through p; rejected rows are NaN. GIL released.
+template <class T, class Proc>
+void process_rows(Proc& p, const std::uint16_t* s, const std::uint64_t* t, const T* v, std::size_t n, T* o,
+                  std::uint16_t* f) {
+  ImuSample<T> in;
+  ImuOutput<T> res;
+  for (std::size_t k = 0; k < n; ++k) {
+    in.seq = s[k];
+    in.t_us = t[k];
+    for (std::size_t c = 0; c < kImuChannels; ++c) in.values[c] = v[k * kImuChannels + c];
+    f[k] = p.step(in, res);
+    const bool rejected = (f[k] & kFlagRejected) != 0;
+    for (std::size_t c = 0; c < kImuChannels; ++c) {
+      o[k * kImuChannels + c] = rejected ? std::numeric_limits<T>::quiet_NaN() : res.values[c];
+    }
+  }
+}
+
+template <class T>
+py::tuple process(BoundImuProcessor<T>& p, const CArray<std::uint16_t>& seq, const CArray<std::uint64_t>& t_us,
+                  const CArray<T>& values) {
+  if (values.ndim() != 2 || values.shape(1) != static_cast<py::ssize_t>(kImuChannels)) {
+    throw py::value_error("values: expected an (n, 6) array, got ndim=" + std::to_string(values.ndim()));
+  }
+  const auto n = static_cast<std::size_t>(values.shape(0));
+  if (seq.ndim() != 1 || t_us.ndim() != 1 || static_cast<std::size_t>(seq.shape(0)) != n ||
+      static_cast<std::size_t>(t_us.shape(0)) != n) {
+    throw py::value_error("seq and t_us: expected 1-D arrays of length " + std::to_string(n));
+  }
+  CArray<T> out({static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(kImuChannels)});
+  py::array_t<std::uint16_t> flags(static_cast<py::ssize_t>(n));
+  const std::uint16_t* s = seq.data();
+  const std::uint64_t* t = t_us.data();
+  const T* v = values.data();
+  T* o = out.mutable_data();
+  std::uint16_t* f = flags.mutable_data();
+  {
+    ReleasedAndLocked guard(&p);  // GIL released, then this processor's lock
+    p.visit([&](auto& proc) { process_rows<T>(proc, s, t, v, n, o, f); });
+  }
+  return py::make_tuple(out, flags);
+}
+
+template <class T>
+void bind_processor(py::module_& m, const char* name, const char* doc) {
+  using P = BoundImuProcessor<T>;
+  py::class_<P>(m, name, doc)
+      .def(py::init<const ImuProcessorSettings&>(), py::arg("settings"))
+      .def("process", &process<T>, py::arg("seq").noconvert(), py::arg("t_us").noconvert(),
+           py::arg("values").noconvert())
       .def("health",
-           [](const Proc& p) {
+           [](const P& p) {
              ImuHealth h;
              {
                ReleasedAndLocked guard(&p);
-               h = p.health();
+               h = p.visit([](const auto& proc) { return proc.health(); });
              }
              return health_dict(h);
            })
       .def("reset",
-           [](Proc& p) {
+           [](P& p) {
              ReleasedAndLocked guard(&p);
-             p.reset();
+             p.visit([](auto& proc) { proc.reset(); });
            })
-      .def_property_readonly("status", [](const Proc& p) { return std::string(status_name(p.status())); })
-      .def_property_readonly("bad_channel", &Proc::bad_channel);
+      .def_property_readonly("status",
+                             [](const P& p) {
+                               return std::string(status_name(p.visit([](const auto& proc) { return proc.status(); })));
+                             })
+      .def_property_readonly("bad_channel",
+                             [](const P& p) { return p.visit([](const auto& proc) { return proc.bad_channel(); }); });
 }
 
-template <class T>
-void bind_processor(py::module_& m, const char* name) {
-  using Proc = ImuProcessor<T>;
-  py::class_<Proc> cls(m, name);
-  cls.def(py::init([](const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
-                      const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
-                      const Six& p0, const Six& saturation,
-                      const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
-                      std::uint32_t tol_us, const std::optional<SixInt>& filters2,
-                      const std::optional<SixBool>& steady_state) {
-            return Proc(make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
-                                       stuck, period_us, tol_us, filters2, steady_state));
-          }),
-          py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
-          py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
-          py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"), py::kw_only(),
-          py::arg("filters2") = py::none(), py::arg("steady_state") = py::none());
-  def_processor_methods<T, Proc>(cls);
-}
-
-template <class T>
-void bind_wavelet_processor(py::module_& m, const char* name) {
-  using Proc = ImuProcessor<T, WaveletStage<T>>;
-  py::class_<Proc> cls(m, name);
-  using ChannelWavelet = std::tuple<std::string, long long, int, std::string>;  // wavelet, window, level, mode
-  cls.def(py::init([](const std::array<int, kImuChannels>& filters, const Six& bias, const Six& a1,
-                      const Six& a2, const Six& sigma2, const Six& mean, const Six& q, const Six& r,
-                      const Six& p0, const Six& saturation,
-                      const std::array<std::uint32_t, kImuChannels>& stuck, std::uint32_t period_us,
-                      std::uint32_t tol_us, const std::string& wavelet, int level, const std::string& mode,
-                      const std::optional<SixInt>& filters2, const std::optional<SixBool>& steady_state,
-                      const std::optional<std::vector<std::optional<ChannelWavelet>>>& channel_wavelets,
-                      long long window) {
-            // Six wavelet stages sized for the largest window: keep the processor on the heap.
-            const ImuConfig<T> cfg = make_config<T>(filters, bias, a1, a2, sigma2, mean, q, r, p0, saturation,
-                                                    stuck, period_us, tol_us, filters2, steady_state);
-            std::array<WaveletSpec, kImuChannels> specs;
-            specs.fill(wavelet_spec("", wavelet, window, level, mode));
-            if (channel_wavelets) {
-              if (channel_wavelets->size() != kImuChannels) {
-                throw py::value_error("channel_wavelets: expected 6 entries (None or (wavelet, window, level, mode))");
-              }
-              for (std::size_t c = 0; c < kImuChannels; ++c) {
-                const auto& e = (*channel_wavelets)[c];
-                if (e) {
-                  specs[c] = wavelet_spec("channel_wavelets[" + std::to_string(c) + "]", std::get<0>(*e),
-                                          std::get<1>(*e), std::get<2>(*e), std::get<3>(*e));
-                }
-              }
-            }
-            // Each stage built in place in the processor (no window-sized temporaries).
-            return std::make_unique<Proc>(cfg, [&specs](std::size_t c) {
-              const WaveletSpec& w = specs[c];
-              return WaveletStage<T>(w.window, w.kind, w.level, w.mode);
-            });
-          }),
-          py::arg("filters"), py::arg("bias"), py::arg("a1"), py::arg("a2"), py::arg("sigma2"),
-          py::arg("mean"), py::arg("q"), py::arg("r"), py::arg("p0"), py::arg("saturation"),
-          py::arg("stuck_samples"), py::arg("period_us"), py::arg("time_tolerance_us"),
-          py::arg("wavelet"), py::arg("level"), py::arg("mode"), py::kw_only(),
-          py::arg("filters2") = py::none(), py::arg("steady_state") = py::none(),
-          py::arg("channel_wavelets") = py::none(), py::arg("window") = 256);
-  def_processor_methods<T, Proc>(cls);
-}
+// ---- Codecs ------------------------------------------------------------------------------
 
 const std::uint8_t* bytes_ptr(const py::bytes& b, std::size_t& n) {
   char* p = nullptr;
@@ -389,10 +577,10 @@ py::dict signal_stats_dict(const can::SignalRxStats& s) {
   return d;
 }
 
-}  // namespace
+// ---- Module contents ---------------------------------------------------------------------
 
-void bind_imu(py::module_& m) {
-  // The processor contract (imu/imu_processor.hpp), the one source for Python, loop and harness.
+// The processor contract (imu/imu_processor.hpp), the one source for Python, loop and harness.
+void bind_contract(py::module_& m) {
   py::dict flag_bits;
   for (const ImuFlagName& f : kImuFlagNames) flag_bits[f.name] = f.bit;
   m.attr("IMU_FLAGS") = flag_bits;
@@ -410,12 +598,24 @@ void bind_imu(py::module_& m) {
   m.attr("IMU_DEFAULT_PERIOD_US") = kImuDefaultPeriodUs;
   m.attr("IMU_DEFAULT_TIME_TOLERANCE_US") = kImuDefaultTimeToleranceUs;
   m.attr("IMU_CHANNELS") = kImuChannels;
+}
 
-  bind_processor<double>(m, "ImuProcessor");
-  bind_processor<float>(m, "ImuProcessorF32");
-  bind_wavelet_processor<double>(m, "ImuProcessorWavelet");
-  bind_wavelet_processor<float>(m, "ImuProcessorWaveletF32");
+// ImuWaveletSettings, ImuChannelSettings, ImuProcessorSettings (in that order: each default
+// and signature uses the one before).
+void bind_processor_config(py::module_& m) {
+  bind_wavelet_settings(m);
+  bind_channel_settings(m);
+  bind_processor_settings(m);
+}
 
+void bind_processors(py::module_& m) {
+  bind_processor<double>(m, "ImuProcessor", "The six-channel IMU processor in float64 "
+                         "(include/gyrodrift/imu/imu_processor.hpp), built from ImuProcessorSettings.");
+  bind_processor<float>(m, "ImuProcessorF32", "The six-channel IMU processor in float32 (as on target), "
+                        "built from ImuProcessorSettings.");
+}
+
+void bind_serial_codec(py::module_& m) {
   m.def("crc16_ccitt_false", [](const py::bytes& data) {
     std::size_t n = 0;
     const std::uint8_t* p = bytes_ptr(data, n);
@@ -463,7 +663,9 @@ void bind_imu(py::module_& m) {
           return py::make_tuple(out, stats);
         },
         py::arg("data"), py::arg("chunk") = 4096, py::arg("finish") = true);
+}
 
+void bind_can_codec(py::module_& m) {
   m.def("can_encode_sample",
         [](std::uint16_t seq, std::uint16_t flags, const std::array<float, kImuChannels>& values,
            std::uint32_t base_id) {
@@ -484,18 +686,7 @@ void bind_imu(py::module_& m) {
           can::CanSampleAssembler<4> assembler(base_id);
           py::list samples;
           for (const py::handle& item : frames) {
-            const auto t = item.cast<py::tuple>();
-            if (t.size() < 2) throw py::value_error("can_assemble: each frame is (id, data[, extended, remote])");
-            can::CanFrame fr;
-            fr.id = t[0].cast<std::uint32_t>();
-            const auto data = t[1].cast<py::bytes>();
-            std::size_t n = 0;
-            const std::uint8_t* p = bytes_ptr(data, n);
-            if (n > 8) throw py::value_error("can_assemble: classic CAN data is at most 8 bytes");
-            fr.dlc = static_cast<std::uint8_t>(n);
-            for (std::size_t i = 0; i < n; ++i) fr.data[i] = p[i];
-            if (t.size() > 2) fr.extended = t[2].cast<bool>();
-            if (t.size() > 3) fr.remote = t[3].cast<bool>();
+            const can::CanFrame fr = frame_from_tuple(item, "can_assemble");
             can::CanSample s;
             if (assembler.push(fr, s)) {
               py::tuple v(kImuChannels);
@@ -509,7 +700,9 @@ void bind_imu(py::module_& m) {
           return py::make_tuple(samples, stats);
         },
         py::arg("frames"), py::arg("base_id") = can::kInputBaseId, py::arg("finish") = true);
+}
 
+void bind_slcan(py::module_& m) {
   m.def("slcan_encode",
         [](std::uint32_t id, const py::bytes& data, bool extended, bool remote) {
           std::size_t n = 0;
@@ -553,7 +746,9 @@ void bind_imu(py::module_& m) {
     stats["buffered"] = parser.buffered();
     return py::make_tuple(events, stats);
   }, py::arg("data"));
+}
 
+void bind_can_signals(py::module_& m) {
   m.def("can_signal_table", [](const std::string& text) {
     const can::SignalTable<> table = parse_signal_table(text);
     py::list out;
@@ -616,6 +811,18 @@ void bind_imu(py::module_& m) {
     stats["pending_frames"] = assembler.pending_frames();
     return py::make_tuple(samples, stats);
   }, py::arg("text"), py::arg("frames"), py::arg("finish") = true);
+}
+
+}  // namespace
+
+void bind_imu(py::module_& m) {
+  bind_contract(m);
+  bind_processor_config(m);
+  bind_processors(m);
+  bind_serial_codec(m);
+  bind_can_codec(m);
+  bind_slcan(m);
+  bind_can_signals(m);
 }
 
 }  // namespace gyrodrift::py_bindings

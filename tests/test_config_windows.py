@@ -177,8 +177,8 @@ def test_window_and_level_errors_name_the_key_in_both_readers(
 
 
 def test_binding_window_argument_and_errors() -> None:
-    """The low-level binding takes the window per channel; a window outside the format or a
-    level too deep for it is a one-line ValueError naming the argument."""
+    """The low-level binding takes the window per channel (_core.ImuWaveletSettings); a window
+    outside the format or a level too deep for it is a one-line ValueError naming the field."""
     wav = [ImuChannelConfig(filter="wavelet")] * 6
     ws = WaveletSettings("db8", 32, 1, "soft")
     p = ImuProcessor(ImuConfig(channels=list(wav)), wavelet=ws)
@@ -197,24 +197,37 @@ def test_binding_window_argument_and_errors() -> None:
                         r"got 3$")):
         with pytest.raises(ValueError, match=match):
             ImuProcessor(ImuConfig(channels=list(wav)), wavelet=bad)
-    args = ([3] * 6, [0.0] * 6, [0.0] * 6, [0.0] * 6, [1.0] * 6, [0.0] * 6, [1.0] * 6, [1.0] * 6,
-            [1.0] * 6, [float("inf")] * 6, [0] * 6, 2500, 1250, "db8", 1, "soft")
-    for cls in (_core.ImuProcessorWavelet, _core.ImuProcessorWaveletF32):
-        assert cls(*args, window=32).status == "ok"
+
+    def settings(*stages: _core.ImuWaveletSettings | None) -> _core.ImuProcessorSettings:
+        chans = [_core.ImuChannelSettings(filter="wavelet", wavelet=w) for w in stages]
+        return _core.ImuProcessorSettings(channels=chans)
+
+    soft32 = _core.ImuWaveletSettings(wavelet="db8", window=32, level=1, threshold="soft")
+    for cls in (_core.ImuProcessor, _core.ImuProcessorF32):
+        assert cls(settings(*[soft32] * 6)).status == "ok"
         with pytest.raises(ValueError, match=r"^window: expected a power of two in 16\.\.4096, "
                                              r"got 48$"):
-            cls(*args, window=48)
+            _core.ImuWaveletSettings(wavelet="db8", window=48, level=1, threshold="soft")
         with pytest.raises(ValueError, match=r"^level: expected 1\.\.2 for db8 with window 32, "
                                              r"got 3$"):
-            cls(*args[:-2], 3, "soft", window=32)
-        with pytest.raises(ValueError, match=r"^channel_wavelets\[2\]\.window: expected a power "
+            _core.ImuWaveletSettings(wavelet="db8", window=32, level=3, threshold="soft")
+        # fields are writable: checked again, naming the channel, when the processor is built
+        # (nested values are copies: change them and assign them back)
+        s = settings(*[soft32] * 6)
+        chans, stage = s.channels, _core.ImuWaveletSettings(wavelet="db4", window=16, level=1)
+        stage.window = 5000
+        chans[2].wavelet = stage
+        s.channels = chans
+        with pytest.raises(ValueError, match=r"^channels\[2\]\.wavelet\.window: expected a power "
                                              r"of two in 16\.\.4096, got 5000$"):
-            cls(*args, channel_wavelets=[None, None, ("db4", 5000, 1, "forced"), None, None,
-                                         None])
-        mixed = cls(*args, window=32, channel_wavelets=[("db4", 16, 2, "forced"), None,
-                                                        ("db8", 4096, 8, "hard"), None, None,
-                                                        None])
+            cls(s)
+        mixed = cls(settings(_core.ImuWaveletSettings(wavelet="db4", window=16, level=2), soft32,
+                             _core.ImuWaveletSettings(wavelet="db8", window=4096, level=8,
+                                                      threshold="hard"), soft32, soft32, soft32))
         assert mixed.status == "ok"
+        # a wavelet channel without a stage: the processor says so, as the C++ one does
+        assert cls(settings(soft32, None, soft32, soft32, soft32, soft32)).status == (
+            "wavelet unavailable")
 
 
 def test_pass_through_channels_do_not_need_a_wavelet_window() -> None:

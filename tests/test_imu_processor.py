@@ -298,11 +298,7 @@ def test_argument_and_configuration_errors() -> None:
 def test_unconfigured_cpp_processor_rejects_everything() -> None:
     """Built directly (bypassing the Python check), an invalid configuration rejects every
     sample with FLAG_CONFIG_ERROR instead of passing data through."""
-    nan6 = [math.nan] * 6
-    raw = _core.ImuProcessor(
-        [2, 2, 2, 0, 0, 0], [0.0] * 6, nan6, nan6, nan6, nan6, nan6, nan6, [1.0] * 6,
-        [math.inf] * 6, [0] * 6, 2500, 1250,
-    )  # fmt: skip
+    raw = _core.ImuProcessor(settings=_core.ImuProcessorSettings())  # gyro models unset (NaN)
     assert raw.status == "bad channel config" and raw.bad_channel == 0
     out, flags = raw.process(
         np.arange(5, dtype=np.uint16), np.arange(5, dtype=np.uint64), np.zeros((5, 6))

@@ -17,6 +17,7 @@ import numpy.typing as npt
 from gyrodrift._native import core
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.imu.contract import CHANNELS, contract
+from gyrodrift.imu.schema import PAPER_WAVELET, field_spec
 
 if TYPE_CHECKING:
     from gyrodrift.imu.config import ProcessorConfig
@@ -36,18 +37,22 @@ FILTERS = ("pass_through", "bias_removal", "ar2_kalman", "wavelet")
 class WaveletSettings:
     """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
     all of them, or per channel (ImuChannelConfig.wavelet). window: a power of two in
-    16..4096 (the configuration format's windows; the C++ stage takes any of them).
+    16..4096 (the configuration format's windows; the C++ stage takes any of them). mode: the
+    detail handling (the configuration file's `threshold`). Defaults: the 2014 paper's stage
+    (gyrodrift.imu.schema.PAPER_WAVELET, db4, N = 256, level 5, forced).
 
     Examples
     --------
     >>> WaveletSettings(level=4)  # one setting for the processor's wavelet channels
-    WaveletSettings(wavelet='db8', window=256, level=4, mode='forced')
+    WaveletSettings(wavelet='db4', window=256, level=4, mode='forced')
+    >>> WaveletSettings(wavelet="db8", mode="soft")
+    WaveletSettings(wavelet='db8', window=256, level=5, mode='soft')
     """
 
-    wavelet: str = "db8"
-    window: int = 256
-    level: int = 5
-    mode: str = "forced"
+    wavelet: str = PAPER_WAVELET["wavelet"]
+    window: int = PAPER_WAVELET["window"]
+    level: int = PAPER_WAVELET["level"]
+    mode: str = PAPER_WAVELET["threshold"]
 
 
 def _check_wavelet(key: str, ws: WaveletSettings) -> None:
@@ -86,17 +91,18 @@ class ImuChannelConfig:
     filter: str = "pass_through"
     bias: float = 0.0
     filter2: str = "pass_through"
-    steady_state: bool = False
+    steady_state: bool = field_spec("ar2_kalman", "steady_state").default
     wavelet: WaveletSettings | None = None  # this channel's wavelet stage (None: the shared one)
+    # the model and variances: NaN until given (the schema requires them for ar2_kalman)
     a1: float = math.nan
     a2: float = math.nan
     sigma2: float = math.nan
     mean: float = math.nan
     q: float = math.nan
     r: float = math.nan
-    p0: float = 1.0
-    saturation: float = math.inf
-    stuck_samples: int = 0
+    p0: float = field_spec("ar2_kalman", "p0").default
+    saturation: float = field_spec("channel", "saturation").default
+    stuck_samples: int = field_spec("channel", "stuck_samples").default
 
     @classmethod
     def ar2_kalman(
@@ -288,56 +294,64 @@ class ImuProcessor:
         self.dtype = np.dtype(dtype)
         if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
             raise GyrodriftTypeError(f"dtype: expected float64 or float32, got {self.dtype}")
-        f64 = self.dtype == np.float64
-        ch = config.channels
-        extra: tuple[object, ...] = ()
-        kw: dict[str, object] = {
-            "filters2": [FILTERS.index(c.filter2) for c in ch],
-            "steady_state": [bool(c.steady_state) for c in ch],
-        }
-        uses_wavelet = [c.filter == "wavelet" or c.filter2 == "wavelet" for c in ch]
-        if any(uses_wavelet):
-            settings = [c.wavelet or wavelet for c in ch]
-            per_channel: list[tuple[str, int, int, str] | None] = []
-            for i, (used, ws) in enumerate(zip(uses_wavelet, settings, strict=True)):
-                if not used:
-                    per_channel.append(None)
-                    continue
-                if ws is None:
-                    raise GyrodriftValueError(
-                        f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
-                    )
-                _check_wavelet(f"channels[{i}].wavelet", ws)
-                per_channel.append((ws.wavelet, ws.window, ws.level, ws.mode))
-            first = next(w for w in per_channel if w is not None)
-            cls = lib.ImuProcessorWavelet if f64 else lib.ImuProcessorWaveletF32
-            extra = (first[0], first[2], first[3])
-            kw["window"] = first[1]
-            kw["channel_wavelets"] = per_channel
-        else:
-            cls = lib.ImuProcessor if f64 else lib.ImuProcessorF32
-        self._proc = cls(
-            [FILTERS.index(c.filter) for c in ch],
-            [c.bias for c in ch],
-            [c.a1 for c in ch],
-            [c.a2 for c in ch],
-            [c.sigma2 for c in ch],
-            [c.mean for c in ch],
-            [c.q for c in ch],
-            [c.r for c in ch],
-            [c.p0 for c in ch],
-            [c.saturation for c in ch],
-            [c.stuck_samples for c in ch],
-            config.period_us,
-            config.time_tolerance_us,
-            *extra,
-            **kw,
-        )
+        cls = lib.ImuProcessor if self.dtype == np.float64 else lib.ImuProcessorF32
+        self._proc = cls(settings=self._settings(lib, config, wavelet))
         if self._proc.status != "ok":
             where = f" (channel {self._proc.bad_channel})" if self._proc.bad_channel >= 0 else ""
             raise GyrodriftValueError(f"invalid IMU processor configuration: "
                                       f"{self._proc.status}{where}")
         self.config = config
+
+    @staticmethod
+    def _settings(lib: Any, config: ImuConfig, wavelet: WaveletSettings | None) -> Any:
+        """The binding's configuration object (_core.ImuProcessorSettings), built by keyword.
+        A channel whose chain uses the wavelet stage takes its own WaveletSettings, else the
+        shared `wavelet`; the others get none. A value the binding refuses is a
+        GyrodriftValueError (GyrodriftTypeError for a wrong type) naming the channel."""
+        channels = []
+        for i, c in enumerate(config.channels):
+            uses = "wavelet" in (c.filter, c.filter2)
+            ws = (c.wavelet or wavelet) if uses else None
+            if uses and ws is None:
+                raise GyrodriftValueError(
+                    f"channels[{i}] uses the wavelet stage: pass wavelet=WaveletSettings()"
+                )
+            if ws is not None:
+                _check_wavelet(f"channels[{i}].wavelet", ws)
+            try:
+                stage = None if ws is None else lib.ImuWaveletSettings(
+                    wavelet=ws.wavelet, window=ws.window, level=ws.level, threshold=ws.mode
+                )
+                settings = lib.ImuChannelSettings(
+                    filter=c.filter,
+                    filter2=c.filter2,
+                    steady_state=bool(c.steady_state),
+                    bias=c.bias,
+                    a1=c.a1,
+                    a2=c.a2,
+                    sigma2=c.sigma2,
+                    mean=c.mean,
+                    q=c.q,
+                    r=c.r,
+                    p0=c.p0,
+                    saturation=c.saturation,
+                    stuck_samples=c.stuck_samples,
+                    wavelet=stage,
+                )
+            except ValueError as e:  # the binding's message names the field
+                raise GyrodriftValueError(
+                    f"invalid IMU processor configuration: channels[{i}]: {e}"
+                ) from None
+            except TypeError as e:
+                raise GyrodriftTypeError(
+                    f"invalid IMU processor configuration: channels[{i}]: {e}"
+                ) from None
+            channels.append(settings)
+        return lib.ImuProcessorSettings(
+            channels=channels,
+            period_us=config.period_us,
+            time_tolerance_us=config.time_tolerance_us,
+        )
 
     def process(self, seq: npt.ArrayLike, t_us: npt.ArrayLike, values: npt.ArrayLike) -> ImuResult:
         s, t, v = _as_inputs(seq, t_us, values, self.dtype)
