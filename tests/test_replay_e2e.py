@@ -18,6 +18,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 from gyrodrift.codecs.wire import Samples, make_samples
+from gyrodrift.imu.config import (
+    Ar2KalmanStage,
+    ChannelConfig,
+    PassThrough,
+    ProcessorConfig,
+    Timing,
+    write_config,
+)
 from gyrodrift.replay.faults import FAULT_KINDS, FaultSpec, plan_transmission
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, ReplayResult, run_replay
 from gyrodrift.replay.processor import ProcessorSettings
@@ -43,6 +51,16 @@ def _settings(rate_hz: float) -> ProcessorSettings:
     sigma2 = (0.5 * np.pi / 180 / 3600) ** 2
     return ProcessorSettings(a1=1.0, a2=-0.25, sigma2=sigma2, q=sigma2, r=1e-10,
                              sample_rate_hz=rate_hz)
+
+
+def _config(rate_hz: float, loop_rate_hz: float) -> ProcessorConfig:
+    """_settings(rate_hz) as a configuration file's processor, the loop at `loop_rate_hz`."""
+    sigma2 = (0.5 * np.pi / 180 / 3600) ** 2
+    gyro = (Ar2KalmanStage(a1=1.0, a2=-0.25, mean=0.0, q=sigma2, r=1e-10, sigma2=sigma2),)
+    chans = [ChannelConfig(ch, gyro) for ch in ("gx", "gy", "gz")]
+    chans += [ChannelConfig(ch, (PassThrough(),)) for ch in ("ax", "ay", "az")]
+    return ProcessorConfig(channels=tuple(chans),
+                           timing=Timing(rate_hz, loop_rate_hz=loop_rate_hz))
 
 
 def _assert_exact(result: ReplayResult) -> None:
@@ -149,16 +167,17 @@ def test_all_faults_together_at_real_time(loop_bin: str) -> None:
     assert sum(res.report["accounting"]["injected"].values()) > 40
 
 
-def test_attach_to_a_running_target(loop_bin: str) -> None:
+def test_attach_to_a_running_target(loop_bin: str, tmp_path: Path) -> None:
     # A target already running on a serial device (here: the loop on a pty we made, as a
     # navigation computer on /dev/ttyUSB0 would be); the harness only opens the device path.
     rate = 400.0
-    settings = _settings(rate)
+    cfg = _config(rate, loop_rate_hz=1000.0)
+    settings = ProcessorSettings.from_config(cfg)
     master, slave = os.openpty()
     tty.setraw(slave)
-    proc = subprocess.Popen([loop_bin, "--serial", f"fd:{master}", "--rate-hz", "1000", "--no-rt",
-                             *settings.loop_args()], pass_fds=[master],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    proc = subprocess.Popen([loop_bin, "--serial", f"fd:{master}", "--no-rt",
+                             "--config", str(write_config(cfg, tmp_path / "target.toml"))],
+                            pass_fds=[master], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     os.close(master)
     assert proc.stderr is not None and b"ready" in proc.stderr.readline()
     spec = FaultSpec(duplicate=0.02, corrupt=0.02, seed=8)
