@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -30,6 +31,37 @@ def cpp_build_dir() -> Path:
     if not path.is_dir():
         raise RuntimeError(f"GYRODRIFT_CPP_BUILD_DIR={path} does not exist")
     return path
+
+
+@pytest.fixture(scope="session")
+def pass_through_config(tmp_path_factory: pytest.TempPathFactory) -> Callable[..., Path]:
+    """A processor configuration file with pass-through on every channel (outputs = inputs,
+    bit-exact float32), for the tests that start gyrodrift-loop directly: the loop takes its
+    processor and its rates only from a configuration. ``pass_through_config(sample_rate_hz,
+    loop_rate_hz)`` returns the file's path (written once per pair of rates)."""
+    from gyrodrift.imu.config import (
+        CHANNEL_NAMES,
+        ChannelConfig,
+        PassThrough,
+        ProcessorConfig,
+        Timing,
+        write_config,
+    )
+
+    made: dict[tuple[float, float], Path] = {}
+
+    def make(sample_rate_hz: float = 1000.0, loop_rate_hz: float = 1000.0) -> Path:
+        key = (sample_rate_hz, loop_rate_hz)
+        if key not in made:
+            cfg = ProcessorConfig(
+                channels=tuple(ChannelConfig(ch, (PassThrough(),)) for ch in CHANNEL_NAMES),
+                timing=Timing(sample_rate_hz, loop_rate_hz=loop_rate_hz),
+                meta=(("written_by", "tests/conftest.py pass_through_config"),))
+            name = f"pass_through_{sample_rate_hz:g}hz_loop_{loop_rate_hz:g}hz.toml"
+            made[key] = write_config(cfg, tmp_path_factory.mktemp("config") / name)
+        return made[key]
+
+    return make
 
 
 def skip_unless_ci(reason: str) -> None:

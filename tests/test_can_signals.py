@@ -270,7 +270,8 @@ def test_replay_of_a_vendor_log(rng: np.random.Generator, tmp_path: Path,
 
 
 def test_loop_decodes_a_user_dbc_over_slcan(smap, rng: np.random.Generator, tmp_path: Path,
-                                            cpp_build_dir: Path) -> None:
+                                            cpp_build_dir: Path,
+                                            pass_through_config) -> None:
     # gyrodrift-loop --can-signals TABLE: the vendor frames as SLCAN lines into the loop,
     # pass-through filters, outputs in the project's frames: every output must equal the
     # sample cantools decodes (Python reader), and the loop's counters the log's content.
@@ -289,8 +290,9 @@ def test_loop_decodes_a_user_dbc_over_slcan(smap, rng: np.random.Generator, tmp_
     master, slave = os.openpty()
     tty.setraw(slave)
     proc = subprocess.Popen(
-        [str(cpp_build_dir / LOOP_RELATIVE), "--slcan", f"fd:{master}", "--rate-hz", "1000",
-         "--gyro-filter", "pass_through", "--no-rt", "--can-signals", str(table)],
+        [str(cpp_build_dir / LOOP_RELATIVE), "--slcan", f"fd:{master}",
+         "--config", str(pass_through_config(RATE_HZ, 1000.0)), "--no-rt",
+         "--can-signals", str(table)],
         pass_fds=[master], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     os.close(master)
     try:

@@ -92,14 +92,17 @@ def test_python_round_trip_is_identity(tmp_path: Path) -> None:
         assert parse_config(dumps_config(cfg)) == cfg
 
 
-def run_loop(binary: Path, cfg_path: Path, seq: np.ndarray, t_us: np.ndarray,
+def run_loop(binary: Path, cfg_path: Path | None, seq: np.ndarray, t_us: np.ndarray,
              v: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The record through the loop with the configuration file (None: without --config, the
+    loop's built-in default configuration)."""
     s = make_samples(np.zeros(len(seq)), np.zeros((len(seq), 3)), np.zeros((len(seq), 3)))
     s.seq[:] = seq.astype(np.uint16)
     s.t_us[:] = t_us.astype(np.uint64)
     s.channels[:] = v
     data = encode_frames(s).tobytes()
-    loop = Loop(binary, "--serial", "--config", str(cfg_path), "--no-rt")
+    config = [] if cfg_path is None else ["--config", str(cfg_path)]
+    loop = Loop(binary, "--serial", *config, "--no-rt")
     loop.write(data)
     got = loop.read_until(42 * (len(seq) - 1), timeout_s=10.0)
     stats = loop.finish()
@@ -133,11 +136,47 @@ def test_loop_reads_the_same_file_and_matches_python_and_reference(
     assert ref.health["stuck_values"] > 0 and ref.health["saturated_values"] == 2
 
 
-def test_loop_rejects_config_with_processor_options(loop_bin: Path, tmp_path: Path) -> None:  # noqa: F811
-    path = write_config(default_config(), tmp_path / "d.toml")
-    r = subprocess.run([str(loop_bin), "--serial", "fd:0", "--config", str(path),
-                        "--gyro-filter", "pass_through"], capture_output=True, timeout=10)
-    assert r.returncode == 2 and b"do not combine" in r.stderr
+def test_loop_without_config_runs_the_shipped_default(loop_bin: Path,  # noqa: F811
+                                                     tmp_path: Path) -> None:
+    """Without --config the loop runs its built-in default configuration (the generated
+    config_schema.hpp's text, through the same reader): the same outputs as --config with the
+    file `gyrodrift config write-default` writes, and as the Python float32 processor."""
+    path = write_config(default_config(), tmp_path / "default.toml")
+    seq, t_us, v = record()
+    out, out_seq, stats = run_loop(loop_bin, None, seq, t_us, v)
+    out_file, out_seq_file, stats_file = run_loop(loop_bin, path, seq, t_us, v)
+    np.testing.assert_array_equal(out, out_file)
+    np.testing.assert_array_equal(out_seq, out_seq_file)
+    assert stats["health"] == stats_file["health"]
+    assert stats["config"] == "built-in default configuration"
+    assert stats_file["config"] == str(path)
+    timing = default_config().timing
+    assert stats["sample_rate_hz"] == timing.sample_rate_hz
+    assert stats["loop_rate_hz"] == timing.loop_hz
+    py = ImuProcessor(ImuConfig.from_processor_config(default_config(), float32=True),
+                      dtype=np.float32)
+    res = py.process(seq, t_us, v)
+    acc = (res.flags & FLAG_REJECTED) == 0
+    np.testing.assert_array_equal(out, res.values[acc].astype(np.float32).astype(np.float64))
+    # the default's saturation limits (8 rad/s, 160 m/s^2) caught the two values put in
+    assert stats["health"]["saturated_values"] == res.health["saturated_values"] == 2
+
+
+def test_check_config_gives_the_loop_readers_verdict(loop_bin: Path,  # noqa: F811
+                                                     tmp_path: Path) -> None:
+    """`gyrodrift-loop --check-config FILE`: "FILE: ok" and exit 0, or the one-line error
+    naming the key and exit 2, without a device."""
+    good = write_config(mixed_config(), tmp_path / "mixed.toml")
+    r = subprocess.run([str(loop_bin), "--check-config", str(good)], capture_output=True,
+                       text=True, timeout=10)
+    assert (r.returncode, r.stdout, r.stderr) == (0, f"{good}: ok\n", "")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(good.read_text().replace("stuck_samples = 20", "stuck_samples = -1"))
+    r = subprocess.run([str(loop_bin), "--check-config", str(bad)], capture_output=True,
+                       text=True, timeout=10)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr == (f"gyrodrift-loop: error: {bad}: channels.gx.stuck_samples: expected "
+                        "0..4294967295, got -1\n")
 
 
 # (description, transformation of the canonical default text, key the error must name)

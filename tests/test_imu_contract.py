@@ -15,7 +15,7 @@ from pathlib import Path
 import gyrodrift.imu.processor as imu
 from gyrodrift._native import core
 from gyrodrift.imu import contract
-from test_loop_program import PASS, Loop, _frames, loop_bin  # noqa: F401 (fixture)
+from test_loop_program import Loop, _frames, loop_bin, pass_args  # noqa: F401 (fixtures)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -54,9 +54,10 @@ def test_python_takes_the_contract_from_core() -> None:
         channels=[imu.ImuChannelConfig() for _ in range(6)])).health) == health
 
 
-def test_loop_json_uses_the_contract_names(loop_bin: Path) -> None:  # noqa: F811
+def test_loop_json_uses_the_contract_names(loop_bin: Path,  # noqa: F811
+                                           pass_args: list[str]) -> None:  # noqa: F811
     _, health, rejections = _core_contract()
-    loop = Loop(loop_bin, "--serial", *PASS)
+    loop = Loop(loop_bin, "--serial", *pass_args)
     data, _ = _frames(20)
     loop.write(data + data[:42])  # seq 0 again after seq 19: out of order (rejected)
     loop.read_until(20 * 42)
@@ -80,22 +81,67 @@ def test_gyrodrift_loop_help_mentions_config(loop_bin: Path) -> None:  # noqa: F
     assert r.returncode == 0 and b"--config FILE" in r.stdout
 
 
-def test_loop_demo_model_has_one_source(loop_bin: Path) -> None:  # noqa: F811
-    """The loop's demonstration AR(2) model (no identified model given) is ImuDemoAr2 in
-    imu/imu_processor.hpp; the loop's defaults, its --help text and the replay harness's
-    ProcessorSettings all carry the exported values (before: three hand-typed copies)."""
+LOOP_DIR = ROOT / "cpp" / "programs" / "gyrodrift-loop"
+# The processor options the loop no longer has: the processor and the rates come only from a
+# configuration (--config FILE, or the built-in default configuration).
+RETIRED = ("--gyro-filter", "--accel-filter", "--gyro-ar2", "--gyro-q", "--gyro-r",
+           "--gyro-bias", "--accel-bias", "--gyro-saturation", "--accel-saturation",
+           "--stuck-samples", "--time-tolerance-us", "--rate-hz", "--sample-rate-hz")
+
+
+def test_processor_defaults_have_one_source() -> None:
+    """The processor's defaults are the schema's (gyrodrift.imu.schema -> the generated
+    config_schema.hpp): the demonstration AR(2) model (ImuDemoAr2 is the schema's DemoAr2,
+    exported as IMU_DEMO_AR2, read by the replay harness's ProcessorSettings), the default
+    timing, and the channel defaults (no literal left in imu_processor.hpp)."""
+    from gyrodrift.imu.schema import (
+        DEFAULT_SAMPLE_RATE_HZ,
+        DEMO_AR2,
+        default_period_us,
+        default_time_tolerance_us,
+        field_spec,
+    )
     from gyrodrift.replay.processor import ProcessorSettings
 
-    demo = dict(core("imu").IMU_DEMO_AR2)
+    c = core("imu")
+    demo = dict(c.IMU_DEMO_AR2)
+    assert demo == {**DEMO_AR2, "sigma2": DEMO_AR2["q"]}
     s = ProcessorSettings()
     assert {k: getattr(s, k) for k in demo} == demo
-    processing = (ROOT / "cpp" / "programs" / "gyrodrift-loop" / "processing.hpp").read_text()
-    assert "-0.25" not in processing and "ImuDemoAr2::a1" in processing
+    assert c.IMU_DEFAULT_PERIOD_US == default_period_us(DEFAULT_SAMPLE_RATE_HZ)
+    assert c.IMU_DEFAULT_TIME_TOLERANCE_US == default_time_tolerance_us(DEFAULT_SAMPLE_RATE_HZ)
+    ch = imu.ImuChannelConfig()
+    assert ch.p0 == field_spec("ar2_kalman", "p0").default
+    assert ch.saturation == field_spec("channel", "saturation").default
+    assert ch.stuck_samples == field_spec("channel", "stuck_samples").default
+    text = (ROOT / "include" / "gyrodrift" / "imu" / "imu_processor.hpp").read_text()
+    assert "using ImuDemoAr2 = config_schema::DemoAr2;" in text
+    assert "kImuDefaultPeriodUs = config_schema::kDefaultPeriodUs;" in text
+    for literal in ("2500", "1250", "-0.25", "1e-10", "Scalar p0 = Scalar(1)",
+                    "saturation = std::numeric_limits"):
+        assert literal not in text, literal
+
+
+def test_loop_processor_comes_only_from_a_configuration(loop_bin: Path) -> None:  # noqa: F811
+    """One meaning per flag: the loop's usage has --config FILE and --check-config FILE, no
+    processor or rate option (each is refused, pointing to the configuration), and names the
+    built-in default configuration's sample rate as the schema has it. The loop's sources
+    never say a bare `rate_hz`: sample_rate_hz and loop_rate_hz are different rates."""
+    from gyrodrift.imu.schema import DEFAULT_SAMPLE_RATE_HZ
+
     text = subprocess.run([str(loop_bin), "--help"], capture_output=True, timeout=10,
                           text=True).stdout
-    ar2 = re.search(r"--gyro-ar2 A1,A2,SIGMA2,MEAN .*\(default ([^:]+):", text)
-    qr = re.search(r"--gyro-q Q --gyro-r R .*\(default ([^,]+), ([^)]+)\)", text)
-    assert ar2 and qr, text
-    assert [float(v) for v in ar2[1].split(",")] == [demo[k] for k in ("a1", "a2", "sigma2",
-                                                                        "mean")]
-    assert (float(qr[1]), float(qr[2])) == (demo["q"], demo["r"])
+    assert "--config FILE" in text and "--check-config FILE" in text
+    for flag in RETIRED:
+        assert flag not in text, flag
+        r = subprocess.run([str(loop_bin), "--serial", "fd:0", flag, "1"], capture_output=True,
+                           timeout=10, text=True)
+        assert r.returncode == 2 and "no such option" in r.stderr, (flag, r.stderr)
+    rate = re.search(r"built-in default configuration.*?\(sample rate ([\d.]+) Hz\)", text,
+                     re.S)
+    assert rate and float(rate[1]) == DEFAULT_SAMPLE_RATE_HZ, text
+    for src in sorted(LOOP_DIR.glob("*.[hc]pp")):
+        code = src.read_text()
+        assert "ProcessingOptions" not in code, src.name
+        bare = re.findall(r"(?<![A-Za-z0-9_])rate_hz", code)
+        assert not bare, (src.name, len(bare))

@@ -14,6 +14,7 @@ import struct
 import subprocess
 import time
 import tty
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -23,16 +24,19 @@ from gyrodrift.codecs import TYPE_OUTPUT
 from gyrodrift.codecs.wire import decode_stream, encode_frames, make_samples
 from gyrodrift.replay.harness import LOOP_RELATIVE
 
-# The default processor needs a gyro model; pass-through on every channel makes the expected
-# outputs equal the inputs (bit-exact float32), which is what these transport tests want.
-PASS = ["--gyro-filter", "pass_through", "--no-rt"]
-
 
 @pytest.fixture(scope="module")
 def loop_bin(cpp_build_dir: Path) -> Path:
     path = cpp_build_dir / LOOP_RELATIVE
     assert path.is_file(), f"gyrodrift-loop not built at {path}"
     return path
+
+
+@pytest.fixture()
+def pass_args(pass_through_config: Callable[..., Path]) -> list[str]:
+    """Pass-through on every channel (the expected outputs equal the inputs, bit-exact float32,
+    which is what these transport tests want), samples and cycles at 1 kHz, no real time."""
+    return ["--config", str(pass_through_config(1000.0, 1000.0)), "--no-rt"]
 
 
 class Loop:
@@ -43,7 +47,7 @@ class Loop:
         tty.setraw(slave)
         self.fd = slave
         self.proc = subprocess.Popen(
-            [str(binary), mode, f"fd:{master}", "--rate-hz", "1000", *extra],
+            [str(binary), mode, f"fd:{master}", *extra],
             pass_fds=[master], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         os.close(master)
         assert self.proc.stderr is not None
@@ -79,18 +83,35 @@ def _frames(n: int, seq0: int = 0, rate_hz: float = 1000.0) -> tuple[bytes, np.n
     return encode_frames(s).tobytes(), s.channels
 
 
-def test_argument_errors_exit_2(loop_bin: Path) -> None:
+def test_argument_errors_exit_2(loop_bin: Path, tmp_path: Path) -> None:
+    # A file the reader accepts (its checks are in double) but the float processor refuses:
+    # r = 1e-300 is 0 in float.
+    from gyrodrift.imu.config import default_config, dumps_config
+
+    tiny = tmp_path / "tiny_r.toml"
+    tiny.write_text(dumps_config(default_config()).replace("r = 1e-08", "r = 1e-300", 1))
     for args, needle in (
         ([], "exactly one of"),
-        (["--serial", "fd:0", "--rate-hz", "5000"], "1..2000"),
+        (["--serial", "fd:0", "--rate-hz", "1000"], "the rates come from the configuration"),
+        (["--serial", "fd:0", "--sample-rate-hz", "400"], "the rates come from the configuration"),
+        (["--serial", "fd:0", "--gyro-filter", "pass_through"], "comes from --config FILE"),
+        (["--serial", "fd:0", "--stuck-samples", "5"], "comes from --config FILE"),
         (["--serial", "/nonexistent/tty"], "cannot open serial device"),
-        (["--serial", "fd:0", "--gyro-ar2", "2.0,0.0,1e-10,0"], "invalid processor"),
+        (["--serial", "fd:0", "--config", str(tmp_path / "none.toml")],
+         "cannot read the configuration"),
+        (["--serial", "fd:0", "--config", str(tiny)], "channels.gx: invalid processor"),
         (["--serial", "fd:0", "--bogus"], "unknown argument"),
+        (["--serial", "fd:0", "--config"], "--config needs a value"),
         (["--serial", "fd:999"], "not open"),
+        (["--check-config", str(tiny), "--serial", "fd:0"], "takes no other option"),
     ):
-        r = subprocess.run([str(loop_bin), *args], capture_output=True, timeout=10)
+        r = subprocess.run([str(loop_bin), *args], capture_output=True, timeout=10, text=True)
         assert r.returncode == 2, args
-        assert needle in r.stderr.decode(), (args, r.stderr)
+        assert needle in r.stderr and r.stderr.count("\n") == 1, (args, r.stderr)
+    # The reader alone accepts it (--check-config: no processor, no device).
+    r = subprocess.run([str(loop_bin), "--check-config", str(tiny)], capture_output=True,
+                       timeout=10, text=True)
+    assert (r.returncode, r.stdout) == (0, f"{tiny}: ok\n"), r.stderr
 
 
 def test_socketcan_unavailable_is_a_clear_error(loop_bin: Path) -> None:
@@ -102,8 +123,8 @@ def test_socketcan_unavailable_is_a_clear_error(loop_bin: Path) -> None:
     assert "SocketCAN is not available" in msg or "no CAN interface 'gdcan_missing0'" in msg
 
 
-def test_clean_frames_pass_through_exactly(loop_bin: Path) -> None:
-    loop = Loop(loop_bin, "--serial", *PASS)
+def test_clean_frames_pass_through_exactly(loop_bin: Path, pass_args: list[str]) -> None:
+    loop = Loop(loop_bin, "--serial", *pass_args)
     data, values = _frames(500)
     loop.write(data)
     got = loop.read_until(len(data))
@@ -118,8 +139,9 @@ def test_clean_frames_pass_through_exactly(loop_bin: Path) -> None:
     assert not any(stats["rejected"].values())
 
 
-def test_bad_input_is_counted_and_never_stops_the_loop(loop_bin: Path) -> None:
-    loop = Loop(loop_bin, "--serial", *PASS)
+def test_bad_input_is_counted_and_never_stops_the_loop(loop_bin: Path,
+                                                       pass_args: list[str]) -> None:
+    loop = Loop(loop_bin, "--serial", *pass_args)
     good, _ = _frames(300)
     f = [good[42 * k: 42 * (k + 1)] for k in range(300)]
     rng = np.random.default_rng(11)
@@ -160,8 +182,8 @@ def _crc(body: bytes) -> int:
     return binascii.crc_hqx(body, 0xFFFF)
 
 
-def test_sigterm_prints_statistics(loop_bin: Path) -> None:
-    loop = Loop(loop_bin, "--serial", *PASS)
+def test_sigterm_prints_statistics(loop_bin: Path, pass_args: list[str]) -> None:
+    loop = Loop(loop_bin, "--serial", *pass_args)
     time.sleep(0.2)
     loop.proc.send_signal(signal.SIGTERM)
     out, _ = loop.proc.communicate(timeout=10)
@@ -174,17 +196,20 @@ def test_sigterm_prints_statistics(loop_bin: Path) -> None:
     for key in ("period_jitter_us", "wake_latency_us", "compute_us", "sample_us"):
         assert set(stats[key]) == {"n", "p50", "p99", "max"}
     assert stats["realtime"]["sched_error"] == "not requested (--no-rt)"
+    # The rates and their source: the configuration's [timing].
+    assert stats["config"] == pass_args[1]
+    assert stats["sample_rate_hz"] == stats["loop_rate_hz"] == 1000.0
 
 
-def test_idle_exit(loop_bin: Path) -> None:
-    loop = Loop(loop_bin, "--serial", *PASS, "--idle-exit-s", "0.2")
+def test_idle_exit(loop_bin: Path, pass_args: list[str]) -> None:
+    loop = Loop(loop_bin, "--serial", *pass_args, "--idle-exit-s", "0.2")
     out, _ = loop.proc.communicate(timeout=10)
     os.close(loop.fd)
     assert json.loads(out)["end_reason"] == "idle"
 
 
-def test_slcan_commands_frames_and_errors(loop_bin: Path) -> None:
-    loop = Loop(loop_bin, "--slcan", *PASS)
+def test_slcan_commands_frames_and_errors(loop_bin: Path, pass_args: list[str]) -> None:
+    loop = Loop(loop_bin, "--slcan", *pass_args)
     loop.write(b"V\rS6\rO\r")
     assert loop.read_until(len(b"V1013\r\r\r")) == b"V1013\r\r\r"
     # One sample as four frames (GyroXY, GyroZ+Seq, AccelXY, AccelZ+Seq), seq 5.
@@ -206,7 +231,8 @@ def test_slcan_commands_frames_and_errors(loop_bin: Path) -> None:
 
 @pytest.mark.parametrize("variant", ["", "-asan"])
 @pytest.mark.parametrize("mode", ["--serial", "--slcan"])
-def test_random_bytes_never_stop_the_loop(loop_bin: Path, mode: str, variant: str) -> None:
+def test_random_bytes_never_stop_the_loop(loop_bin: Path, pass_args: list[str], mode: str,
+                                          variant: str) -> None:
     # ~130 KiB of random bytes with valid input frames (serial) or lines (SLCAN) spliced in:
     # the loop must keep running, take every byte, and still turn the valid ones into outputs.
     # The -asan variant is the same program under ASan+UBSan (any finding aborts it, and
@@ -216,7 +242,7 @@ def test_random_bytes_never_stop_the_loop(loop_bin: Path, mode: str, variant: st
         skip_unless_ci("gyrodrift-loop-asan is built only with -DGYRODRIFT_SANITIZE=ON "
                     "(scripts/test builds it)")
     rng = np.random.default_rng(99)
-    loop = Loop(binary, mode, *PASS)
+    loop = Loop(binary, mode, *pass_args)
     good, _ = _frames(200)
     sent = 0
     for k in range(200):
@@ -241,12 +267,12 @@ def test_random_bytes_never_stop_the_loop(loop_bin: Path, mode: str, variant: st
     assert 190 <= stats["frames_out"] <= 200, stats
 
 
-def test_unread_output_is_counted_as_dropped_not_sent(loop_bin: Path) -> None:
+def test_unread_output_is_counted_as_dropped_not_sent(loop_bin: Path, pass_args: list[str]) -> None:
     """Issue 13 regression: with a peer that never reads, the loop used to report every
     queued frame as sent (frames_out 20000, bytes_out for 377 frames, output_overflow 0).
     Now frames_queued = frames_out (fully written) + frames_dropped (left at exit), and
     bytes_out covers exactly the written frames (plus at most one partial frame)."""
-    loop = Loop(loop_bin, "--serial", *PASS)
+    loop = Loop(loop_bin, "--serial", *pass_args)
     n = 3000  # 126 kB: far more than a pty holds unread
     data, _ = _frames(n)
     loop.write(data)

@@ -39,7 +39,7 @@ std::vector<ImuSample<Scalar>> record(std::size_t n) {
   double p1 = 0.0, p2 = 0.0;
   for (std::size_t k = 0; k < n; ++k) {
     out[k].seq = static_cast<std::uint16_t>(k);
-    out[k].t_us = 2500ULL * k;
+    out[k].t_us = std::uint64_t{kImuDefaultPeriodUs} * k;  // on the default period's grid
     for (std::size_t c = 0; c < 6; ++c) {
       s = s * 1664525u + 1013904223u;
       const double w = static_cast<double>(s >> 8) / static_cast<double>(1u << 24) - 0.5;

@@ -30,7 +30,10 @@ int main(int argc, char** argv) {
   namespace gs = gyrodrift::serial;
   gyrodrift::ImuConfig<float> cfg;
   for (std::size_t c = 0; c < 3; ++c) {
-    cfg.channels[c].model = gyrodrift::Ar2Model<float>{1.0F, -0.25F, 5.9e-12F, 0.0F};
+    // The demonstration model's coefficients (config_schema.hpp), this record's noise level.
+    cfg.channels[c].model = gyrodrift::Ar2Model<float>{static_cast<float>(gyrodrift::ImuDemoAr2::a1),
+                                                       static_cast<float>(gyrodrift::ImuDemoAr2::a2), 5.9e-12F,
+                                                       static_cast<float>(gyrodrift::ImuDemoAr2::mean)};
     cfg.channels[c].q = 5.9e-12F;
     cfg.channels[c].r = 1e-10F;
   }
@@ -41,7 +44,7 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < n; ++i) {
     gs::ImuFrame f;
     f.seq = static_cast<std::uint16_t>(i & 0xFFFFU);
-    f.t_us = 2500U * static_cast<std::uint64_t>(i);
+    f.t_us = std::uint64_t{gyrodrift::kImuDefaultPeriodUs} * static_cast<std::uint64_t>(i);
     for (std::size_t c = 0; c < 6; ++c) f.values[c] = noise(rng) + (c == 5 ? 9.8F : 0.0F);
     gs::encode_frame(f, frames[i].data(), frames[i].size());
   }

@@ -23,7 +23,7 @@ extern "C" int app_main(void) {
   std::uint32_t outputs = 0;
   for (std::uint32_t k = 0; k < 600; ++k) {
     s.seq = static_cast<std::uint16_t>(k);
-    s.t_us = 2500u * static_cast<std::uint64_t>(k);
+    s.t_us = std::uint64_t{budget_config::kImuConfig.period_us} * static_cast<std::uint64_t>(k);
     for (std::size_t c = 0; c < 6; ++c) s.values[c] = input(k + 7u * c);
     if ((processor.step(s, y) & gyrodrift::kFlagRejected) != 0u) continue;
     sink(y.values[0] + y.values[1] + y.values[2] + y.values[3] + y.values[4] + y.values[5]);

@@ -52,7 +52,7 @@ extern "C" int app_main(void) {
   for (std::uint16_t k = 0; k < 300; ++k) {
     serial::ImuFrame in;
     in.seq = k;
-    in.t_us = 2500u * static_cast<std::uint64_t>(k);
+    in.t_us = std::uint64_t{gyrodrift::kImuDefaultPeriodUs} * static_cast<std::uint64_t>(k);
     for (std::size_t c = 0; c < 6; ++c) in.values[c] = input(k + c);
     serial::encode_frame(in, wire, sizeof wire);
     if (k % 50 == 7) wire[20] ^= 0x5Au;  // a corrupted frame: dropped by its CRC

@@ -49,7 +49,7 @@ std::vector<ImuSample<Scalar>> record(std::size_t n, unsigned seed) {
   std::array<double, 3> x1{}, x2{};
   for (std::size_t k = 0; k < n; ++k) {
     out[k].seq = static_cast<std::uint16_t>(k);
-    out[k].t_us = 2500ULL * k;
+    out[k].t_us = std::uint64_t{kImuDefaultPeriodUs} * k;  // on the default period's grid
     for (std::size_t c = 0; c < 3; ++c) {
       const double x = 1.6 * x1[c] - 0.65 * x2[c] + 1e-5 * noise(gen);
       x2[c] = x1[c];
@@ -282,7 +282,7 @@ TEST_CASE("chain wavelet -> steady-state Kalman; WaveletChannels") {
   std::normal_distribution<float> d(0.5f, 0.1f);
   for (std::uint16_t k = 0; k < 300; ++k) {
     s.seq = k;
-    s.t_us = 2500u * k;
+    s.t_us = std::uint64_t{kImuDefaultPeriodUs} * static_cast<std::uint64_t>(k);
     s.values.fill(1.0f);
     s.values[0] = (k == 150) ? std::numeric_limits<float>::quiet_NaN() : d(gen);
     p.step(s, y);

@@ -107,7 +107,7 @@ TEST_CASE("a processor with per-channel windows steps without allocating") {
     gyrodrift::test::AllocationScope scope;
     for (std::size_t k = 0; k < 600; ++k) {
       in.seq = static_cast<std::uint16_t>(k);
-      in.t_us = 2500U * k;
+      in.t_us = std::uint64_t{gyrodrift::kImuDefaultPeriodUs} * k;
       for (std::size_t c = 0; c < 6; ++c) in.values[c] = static_cast<float>(input(k + 7 * c));
       p->step(in, out);
       acc += out.values[2];

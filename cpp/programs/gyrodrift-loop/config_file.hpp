@@ -1,27 +1,46 @@
 // The processor configuration file (version 1, README "Processor configuration file") read by
-// `gyrodrift-loop --config FILE`. The file is TOML; this reader accepts the canonical subset
-// that `gyrodrift config` / gyrodrift.config.write_config emit (`key = value` lines,
-// `[table]` and `[[channels.X.stages]]` headers, `#` comments; strings, integers, floats incl.
-// inf, booleans) and refuses anything else with the line number. It applies the same checks
-// as the Python reader (gyrodrift/config.py) and names the key in every error, so a file the
-// Python side accepts builds the same processor here (tests/test_config_file.py).
+// `gyrodrift-loop --config FILE` and `--check-config FILE`, and the built-in default
+// configuration (config_schema::kDefaultConfigToml) read by the same code.
+//
+// Every field is read through its FieldSpec (include/gyrodrift/imu/config_schema.hpp,
+// generated from python/gyrodrift/imu/schema.py): required or its default (an optional field
+// without a default is derived, as its help says), its kind, its bounds, with the error
+// "<key>: expected <bounds_text>, got <value>" naming the same key as the Python reader
+// (gyrodrift/imu/config.py). The relations between fields (AR(2) stationarity, the wavelet
+// level for the wavelet and window, the stage combinations) and the wrong-units and
+// unknown-key errors follow the Python reader too (tests/test_config_schema.py,
+// tests/test_config_file.py).
 //
 // Program code (standard library allowed): the header-only core stays free of parsing.
 #pragma once
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
+#include <cstring>
 #include <fstream>
-#include <map>
+#include <set>
 #include <sstream>
 #include <string>
 
 #include <gyrodrift/filters/realtime_wavelet.hpp>
 #include <gyrodrift/filters/realtime_wavelet_windows.hpp>
+#include <gyrodrift/imu/config_schema.hpp>
 #include <gyrodrift/imu/imu_processor.hpp>
 
+#include "toml_subset.hpp"
+
 namespace gyrodrift::loop {
+
+namespace schema = gyrodrift::config_schema;
+
+// The loop builds every window the schema allows, and every level it allows.
+static_assert(schema::kWaveletWindow.lo == static_cast<double>(kConfigMinWaveletWindow) &&
+                  schema::kWaveletWindow.hi == static_cast<double>(kConfigMaxWaveletWindow),
+              "the schema's wavelet windows are the ones RealtimeWaveletAnyWindow holds");
+static_assert(schema::kWaveletLevel.hi == static_cast<double>(kMaxWaveletLevel), "wavelet levels");
+static_assert(schema::kMaxStages == 2, "ImuChannelConfig holds two stages");
+static_assert(sizeof(schema::kChannelNames) / sizeof(schema::kChannelNames[0]) == kImuChannels, "six channels");
 
 // One channel's wavelet stage as read from the file (used only if the chain has one).
 struct WaveletSpec {
@@ -34,253 +53,182 @@ struct WaveletSpec {
 struct FileConfig {
   ImuConfig<float> imu;
   std::array<WaveletSpec, kImuChannels> wavelets{};
-  double sample_rate_hz = 400.0;
-  double loop_rate_hz = 0.0;  // 0: not given (the sample rate)
+  double sample_rate_hz = schema::kDefaultSampleRateHz;  // timing.sample_rate_hz
+  double loop_rate_hz = schema::kDefaultSampleRateHz;    // timing.loop_rate_hz (absent: the sample rate)
 };
 
 namespace detail {
 
-struct TomlValue {
-  enum class Kind { string, integer, floating, boolean } kind = Kind::string;
-  std::string s;
-  double d = 0.0;
-  long long i = 0;
-  bool b = false;
-  int line = 0;
-};
+inline bool is_gyro(const std::string& channel) { return !channel.empty() && channel[0] == 'g'; }
 
-inline std::string trim(const std::string& s) {
-  const auto a = s.find_first_not_of(" \t\r");
-  if (a == std::string::npos) return "";
-  const auto b = s.find_last_not_of(" \t\r");
-  return s.substr(a, b - a + 1);
+// The key suffix of a channel's unit ("" outside a channel).
+inline std::string unit_suffix(const std::string& channel) {
+  if (channel.empty()) return "";
+  return is_gyro(channel) ? "_rad_s" : "_m_s2";
 }
 
-inline bool bare_key(const std::string& k) {
-  if (k.empty()) return false;
-  for (const char c : k) {
-    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-                    c == '-' || c == '.';
-    if (!ok) return false;
-  }
-  return k.front() != '.' && k.back() != '.' && k.find("..") == std::string::npos;
+inline std::string wrong_units_message(const std::string& base, const std::string& channel) {
+  return std::string("wrong units for a") +
+         (is_gyro(channel) ? " gyro channel (rad/s)" : "n accelerometer channel (m/s^2)") + ": use " + base +
+         unit_suffix(channel);
 }
 
-// Parses the value text (comment already removed); false if it is not in the subset.
-inline bool parse_value(const std::string& text, TomlValue& v) {
-  if (text.empty()) return false;
-  if (text.front() == '"') {
-    std::string out;
-    std::size_t i = 1;
-    for (; i < text.size() && text[i] != '"'; ++i) {
-      if (text[i] == '\\') {
-        if (++i >= text.size()) return false;
-        const char e = text[i];
-        if (e == '"' || e == '\\') out += e;
-        else if (e == 'n') out += '\n';
-        else if (e == 't') out += '\t';
-        else if (e == 'u' && i + 4 < text.size()) {
-          out += static_cast<char>(std::strtol(text.substr(i + 1, 4).c_str(), nullptr, 16));
-          i += 4;
-        } else return false;
-      } else {
-        out += text[i];
-      }
-    }
-    if (i != text.size() - 1) return false;  // unterminated or trailing text
-    v.kind = TomlValue::Kind::string;
-    v.s = out;
-    return true;
-  }
-  if (text == "true" || text == "false") {
-    v.kind = TomlValue::Kind::boolean;
-    v.b = text == "true";
-    return true;
-  }
-  if (text == "inf" || text == "+inf" || text == "-inf" || text == "nan" || text == "+nan" || text == "-nan") {
-    v.kind = TomlValue::Kind::floating;
-    v.d = text.find("nan") != std::string::npos ? NAN : (text[0] == '-' ? -INFINITY : INFINITY);
-    return true;
-  }
-  std::string t;
-  for (const char c : text) {
-    if (c != '_') t += c;  // TOML digit separators
-  }
-  const bool is_float = t.find_first_of(".eE") != std::string::npos;
-  char* end = nullptr;
-  errno = 0;
-  if (is_float) {
-    v.d = std::strtod(t.c_str(), &end);
-    v.kind = TomlValue::Kind::floating;
-  } else {
-    v.i = std::strtoll(t.c_str(), &end, 10);
-    v.d = static_cast<double>(v.i);
-    v.kind = TomlValue::Kind::integer;
-  }
-  return end != t.c_str() && *end == '\0' && errno == 0;
+// Suffixes that name a unit the processor refuses (a key with one gets a wrong-units error).
+inline constexpr const char* kOtherSuffixes[] = {"_deg_s", "_deg_h", "_rad_h", "_mrad_s", "_g",
+                                                 "_mg",    "_ug",    "_ft_s2", "_rad_s",  "_m_s2"};
+
+inline bool ends_with(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-class Doc {
- public:
-  std::map<std::string, TomlValue> values;
-  std::map<std::string, bool> used;
-  std::map<std::string, int> stage_count;  // "channels.gx" -> number of [[...stages]] headers
-  std::map<std::string, bool> tables;
-
-  bool has(const std::string& key) const { return values.count(key) != 0; }
-};
-
-inline bool parse_doc(std::istream& in, Doc& doc, std::string& error) {
-  std::string line;
-  std::string table;
-  int n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    // Strip a comment outside strings.
-    bool in_str = false;
-    for (std::size_t i = 0; i < line.size(); ++i) {
-      if (line[i] == '\\' && in_str) {
-        ++i;
-        continue;
-      }
-      if (line[i] == '"') in_str = !in_str;
-      if (line[i] == '#' && !in_str) {
-        line.resize(i);
-        break;
-      }
-    }
-    const std::string s = trim(line);
-    if (s.empty()) continue;
-    if (s.rfind("[[", 0) == 0) {
-      const auto close = s.find("]]");
-      const std::string name = close == std::string::npos ? "" : trim(s.substr(2, close - 2));
-      if (close != s.size() - 2 || name.size() < 7 || name.compare(name.size() - 7, 7, ".stages") != 0 ||
-          name.rfind("channels.", 0) != 0) {
-        error = "line " + std::to_string(n) + ": only [[channels.<name>.stages]] arrays are supported";
-        return false;
-      }
-      const std::string ch = name.substr(0, name.size() - 7);
-      const int idx = doc.stage_count[ch]++;
-      table = ch + ".stages[" + std::to_string(idx) + "]";
-      doc.tables[ch] = true;
-      continue;
-    }
-    if (s.front() == '[') {
-      if (s.back() != ']' || !bare_key(trim(s.substr(1, s.size() - 2)))) {
-        error = "line " + std::to_string(n) + ": bad table header (canonical layout: see gyrodrift config show)";
-        return false;
-      }
-      table = trim(s.substr(1, s.size() - 2));
-      doc.tables[table] = true;
-      continue;
-    }
-    const auto eq = s.find('=');
-    if (eq == std::string::npos) {
-      error = "line " + std::to_string(n) + ": expected key = value";
-      return false;
-    }
-    const std::string key = trim(s.substr(0, eq));
-    if (!bare_key(key)) {
-      error = "line " + std::to_string(n) + ": unsupported key syntax '" + key + "'";
-      return false;
-    }
-    TomlValue v;
-    v.line = n;
-    if (!parse_value(trim(s.substr(eq + 1)), v)) {
-      error = "line " + std::to_string(n) + ": " + (table.empty() ? key : table + "." + key) +
-              ": value not in the supported TOML subset (string, integer, float, inf, true/false)";
-      return false;
-    }
-    const std::string full = table.empty() ? key : table + "." + key;
-    if (doc.values.count(full) != 0) {
-      error = full + ": given twice (line " + std::to_string(n) + ")";
-      return false;
-    }
-    doc.values[full] = v;
+inline const char* kind_words(schema::FieldKind kind) {
+  switch (kind) {
+    case schema::FieldKind::integer:
+      return "an integer";
+    case schema::FieldKind::boolean:
+      return "true or false";
+    case schema::FieldKind::string:
+      return "a string";
+    case schema::FieldKind::number:
+    default:
+      return "a number";
   }
+}
+
+inline bool kind_ok(schema::FieldKind kind, const toml::Value& v) {
+  using K = toml::Value::Kind;
+  switch (kind) {
+    case schema::FieldKind::integer:
+      return v.kind == K::integer;
+    case schema::FieldKind::boolean:
+      return v.kind == K::boolean;
+    case schema::FieldKind::string:
+      return v.kind == K::string;
+    case schema::FieldKind::number:
+    default:
+      return v.kind == K::integer || v.kind == K::floating;
+  }
+}
+
+inline bool in_choices(const char* choices, const std::string& s) {
+  std::string rest = choices;
+  for (std::size_t bar = 0; bar != std::string::npos; rest.erase(0, bar + 1)) {
+    bar = rest.find('|');
+    if (rest.substr(0, bar) == s) return true;
+  }
+  return false;
+}
+
+// The field's own bounds (relations between fields are checked apart), as
+// gyrodrift.imu.schema.Field.accepts.
+inline bool accepts(const schema::FieldSpec& f, const toml::Value& v) {
+  if (f.choices[0] != '\0') return in_choices(f.choices, v.s);
+  if (f.kind == schema::FieldKind::boolean || f.kind == schema::FieldKind::string) return true;
+  const double x = v.d;
+  if (std::isnan(x) || (f.finite && std::isinf(x))) return false;
+  if (f.lo_open ? x <= f.lo : x < f.lo) return false;
+  if (f.hi_open ? x >= f.hi : x > f.hi) return false;
+  if (f.power_of_two) return v.i > 0 && (v.i & (v.i - 1)) == 0;
   return true;
 }
 
+// A field's value: from the file, or the field's default; `given` false: absent and without a
+// default (derived, as the field's help says).
+struct FieldValue {
+  bool given = false;
+  double number = 0.0;    // number and integer fields
+  long long integer = 0;  // integer fields
+  bool boolean = false;
+  std::string text;  // string fields
+};
+
+// Reads the document's keys table by table and remembers which it read: what nothing read is
+// an unknown key.
 class Reader {
  public:
-  explicit Reader(Doc& doc) : doc_(doc) {}
+  explicit Reader(const toml::Doc& doc) : doc_(doc) {}
 
-  bool number(const std::string& key, double& out, bool required, std::string& err) {
+  // Field `f` of `table` ("timing", "channels.gx", "channels.gx.stages[1]"; `channel` names the
+  // channel for the unit suffix, "" outside one). `own_bounds` false: the caller checks the
+  // value (a bound that depends on other fields).
+  bool field(const schema::FieldSpec& f, const std::string& table, const std::string& channel, FieldValue& out,
+             std::string& err, bool own_bounds = true) {
+    out = FieldValue{};
+    const std::string name = std::string(f.name) + (f.channel_unit ? unit_suffix(channel) : "");
+    const std::string key = table + "." + name;
+    if (f.channel_unit && wrong_units(table, f.name, channel, err)) return false;
     const auto it = doc_.values.find(key);
     if (it == doc_.values.end()) {
-      if (required) err = key + ": missing value";
-      return !required;
+      if (f.required) {
+        err = key + ": missing value";
+        return false;
+      }
+      if (f.has_default) set_default(f, out);
+      return true;
     }
-    doc_.used[key] = true;
-    if (it->second.kind != TomlValue::Kind::floating && it->second.kind != TomlValue::Kind::integer) {
-      err = key + ": expected a number";
+    used_.insert(key);
+    const toml::Value& v = it->second;
+    if (!kind_ok(f.kind, v)) {
+      err = key + ": expected " + kind_words(f.kind) + ", got " + toml::repr(v);
       return false;
     }
-    out = it->second.d;
+    if (own_bounds && !accepts(f, v)) {
+      err = key + ": expected " + f.bounds_text + ", got " + toml::repr(v);
+      return false;
+    }
+    out.given = true;
+    out.number = v.d;
+    out.integer = v.i;
+    out.boolean = v.b;
+    out.text = v.s;
     return true;
   }
 
-  bool integer(const std::string& key, long long& out, bool required, std::string& err) {
-    const auto it = doc_.values.find(key);
-    if (it == doc_.values.end()) {
-      if (required) err = key + ": missing value";
-      return !required;
-    }
-    doc_.used[key] = true;
-    if (it->second.kind != TomlValue::Kind::integer) {
-      err = key + ": expected an integer";
-      return false;
-    }
-    out = it->second.i;
-    return true;
+  // A required string that is not a schema field (schema, a stage's type).
+  bool text(const std::string& key, std::string& out, std::string& err) {
+    const toml::Value* v = required(key, toml::Value::Kind::string, "a string", err);
+    if (v != nullptr) out = v->s;
+    return v != nullptr;
   }
 
-  bool string(const std::string& key, std::string& out, bool required, std::string& err) {
-    const auto it = doc_.values.find(key);
-    if (it == doc_.values.end()) {
-      if (required) err = key + ": missing value";
-      return !required;
-    }
-    doc_.used[key] = true;
-    if (it->second.kind != TomlValue::Kind::string) {
-      err = key + ": expected a string";
-      return false;
-    }
-    out = it->second.s;
-    return true;
+  // A required integer that is not a schema field (version).
+  bool integer(const std::string& key, long long& out, std::string& err) {
+    const toml::Value* v = required(key, toml::Value::Kind::integer, "an integer", err);
+    if (v != nullptr) out = v->i;
+    return v != nullptr;
   }
 
-  bool boolean(const std::string& key, bool& out, std::string& err) {
-    const auto it = doc_.values.find(key);
-    if (it == doc_.values.end()) return true;
-    doc_.used[key] = true;
-    if (it->second.kind != TomlValue::Kind::boolean) {
-      err = key + ": expected true or false";
-      return false;
+  // Marks every key under `prefix` read (free-form tables such as [meta]).
+  void skip(const std::string& prefix) {
+    for (const auto& kv : doc_.values) {
+      if (kv.first.rfind(prefix, 0) == 0) used_.insert(kv.first);
     }
-    out = it->second.b;
-    return true;
   }
 
-  // A key given with the other channel kind's (or another) unit suffix.
-  bool wrong_units(const std::string& prefix, const std::string& base, bool gyro, std::string& err) {
-    static const char* const kSuffixes[] = {"_deg_s", "_deg_h", "_rad_h", "_mrad_s", "_g", "_mg", "_ug",
-                                            "_ft_s2", "_rad_s", "_m_s2"};
-    const std::string want = gyro ? "_rad_s" : "_m_s2";
-    if (doc_.has(prefix + base + want)) return false;
-    for (const char* suf : kSuffixes) {
-      if (want == suf || !doc_.has(prefix + base + suf)) continue;
-      err = prefix + base + suf + ": wrong units for a" + (gyro ? " gyro channel (rad/s)" : "n accelerometer channel (m/s^2)") +
-            ": use " + base + want;
+  // The first key directly in `table` that nothing read: unknown, or (in a channel's tables)
+  // a key with another unit's suffix.
+  bool unread_key(const std::string& table, const std::string& channel, std::string& err) const {
+    const std::string prefix = table + ".";
+    for (const auto& kv : doc_.values) {
+      if (kv.first.rfind(prefix, 0) != 0 || used_.count(kv.first) != 0) continue;
+      const std::string name = kv.first.substr(prefix.size());
+      err = kv.first + ": unknown key";
+      if (channel.empty()) return true;
+      for (const char* suffix : kOtherSuffixes) {
+        if (ends_with(name, suffix) && suffix != unit_suffix(channel)) {
+          err = kv.first + ": " + wrong_units_message(name.substr(0, name.size() - std::strlen(suffix)), channel);
+          return true;
+        }
+      }
       return true;
     }
     return false;
   }
 
-  // The first key under `prefix` that nothing read.
-  bool unknown(const std::string& prefix, std::string& err) {
+  // The first key of the whole document that nothing read.
+  bool unread_key(std::string& err) const {
     for (const auto& kv : doc_.values) {
-      if (kv.first.rfind(prefix, 0) == 0 && doc_.used.count(kv.first) == 0) {
+      if (used_.count(kv.first) == 0) {
         err = kv.first + ": unknown key";
         return true;
       }
@@ -289,7 +237,45 @@ class Reader {
   }
 
  private:
-  Doc& doc_;
+  static void set_default(const schema::FieldSpec& f, FieldValue& out) {
+    out.given = true;
+    out.text = f.default_text;
+    if (f.kind == schema::FieldKind::boolean) out.boolean = f.default_value != 0.0;
+    else out.number = f.default_value;
+    if (f.kind == schema::FieldKind::integer) out.integer = static_cast<long long>(f.default_value);
+  }
+
+  const toml::Value* required(const std::string& key, toml::Value::Kind kind, const char* words, std::string& err) {
+    const auto it = doc_.values.find(key);
+    if (it == doc_.values.end()) {
+      err = key + ": missing value";
+      return nullptr;
+    }
+    used_.insert(key);
+    if (it->second.kind != kind) {
+      err = key + ": expected " + words + ", got " + toml::repr(it->second);
+      return nullptr;
+    }
+    return &it->second;
+  }
+
+  // `base` given with another unit's suffix (and not with this channel's): the wrong-units
+  // error for that key, rather than "missing value".
+  bool wrong_units(const std::string& table, const std::string& base, const std::string& channel,
+                   std::string& err) const {
+    const std::string want = unit_suffix(channel);
+    if (doc_.values.count(table + "." + base + want) != 0) return false;
+    for (const char* suffix : kOtherSuffixes) {
+      const std::string key = table + "." + base + suffix;
+      if (want == suffix || doc_.values.count(key) == 0) continue;
+      err = key + ": " + wrong_units_message(base, channel);
+      return true;
+    }
+    return false;
+  }
+
+  const toml::Doc& doc_;
+  std::set<std::string> used_;
 };
 
 inline bool stage_type(const std::string& s, ChannelFilter& f) {
@@ -301,157 +287,254 @@ inline bool stage_type(const std::string& s, ChannelFilter& f) {
   return true;
 }
 
-}  // namespace detail
+inline const char* stage_name(ChannelFilter f) {
+  switch (f) {
+    case ChannelFilter::bias_removal:
+      return "bias_removal";
+    case ChannelFilter::ar2_kalman:
+      return "ar2_kalman";
+    case ChannelFilter::wavelet:
+      return "wavelet";
+    case ChannelFilter::pass_through:
+    default:
+      return "pass_through";
+  }
+}
 
-// Reads and checks a configuration file; false with a one-line `error` naming the key.
-inline bool read_config_file(const std::string& path, FileConfig& out, std::string& error) {
-  std::ifstream file(path);
-  if (!file) {
-    error = "cannot read configuration '" + path + "'";
-    return false;
-  }
-  detail::Doc doc;
-  std::string err;
-  if (!detail::parse_doc(file, doc, err)) {
-    error = path + ": " + err;
-    return false;
-  }
-  auto fail = [&](const std::string& e) {
-    error = path + ": " + e;
-    return false;
-  };
-  detail::Reader rd(doc);
-  std::string schema;
+// ---------------------------------------------------------------- one section each
+
+inline bool read_header(Reader& rd, const toml::Doc& doc, std::string& err) {
+  std::string schema_name;
   long long version = 0;
-  if (!rd.string("schema", schema, true, err)) return fail(err);
-  if (schema != "gyrodrift.processor") return fail("schema: expected 'gyrodrift.processor', got '" + schema + "'");
-  if (!rd.integer("version", version, true, err)) return fail(err);
-  if (version != 1) return fail("version: this gyrodrift-loop reads version 1, got " + std::to_string(version));
-  for (const auto& kv : doc.values) {
-    if (kv.first.rfind("meta.", 0) == 0) doc.used[kv.first] = true;  // free-form, ignored
+  if (!rd.text("schema", schema_name, err)) return false;
+  if (schema_name != schema::kSchema) {
+    err = std::string("schema: expected '") + schema::kSchema + "', got '" + schema_name + "'";
+    return false;
   }
-  FileConfig fc;
-  double rate = 0.0;
-  if (!rd.number("timing.sample_rate_hz", rate, true, err)) return fail(err);
-  if (!(std::isfinite(rate) && rate >= 1.0 && rate <= 1e5)) return fail("timing.sample_rate_hz: expected 1..100000 Hz");
-  fc.sample_rate_hz = rate;
-  const double period_us = 1e6 / rate;
-  fc.imu.period_us = static_cast<std::uint32_t>(std::lround(period_us));
-  long long tol = std::lround(period_us / 2.0);
-  if (!rd.integer("timing.time_tolerance_us", tol, false, err)) return fail(err);
-  if (tol < 0 || tol > 0xFFFFFFFFLL) return fail("timing.time_tolerance_us: expected 0..2^32-1");
-  fc.imu.time_tolerance_us = static_cast<std::uint32_t>(tol);
-  if (!rd.number("timing.loop_rate_hz", fc.loop_rate_hz, false, err)) return fail(err);
-  if (doc.has("timing.loop_rate_hz") && !(fc.loop_rate_hz >= 1.0 && fc.loop_rate_hz <= 2000.0)) {
-    return fail("timing.loop_rate_hz: expected 1..2000 Hz");
+  if (!rd.integer("version", version, err)) return false;
+  if (version != schema::kVersion) {
+    err = "version: this gyrodrift-loop reads version " + std::to_string(schema::kVersion) + ", got " +
+          std::to_string(version);
+    return false;
   }
+  if (doc.values.count("meta") != 0) {
+    err = "meta: expected a table";
+    return false;
+  }
+  rd.skip("meta.");  // free-form (who wrote the file, from which record), not read
+  return true;
+}
 
-  static const char* const kNames[kImuChannels] = {"gx", "gy", "gz", "ax", "ay", "az"};
+// [timing]: the sample rate (the timestamps' nominal period), the timestamp tolerance
+// (absent: half a period) and the loop rate (absent: the sample rate).
+inline bool read_timing(Reader& rd, const toml::Doc& doc, FileConfig& fc, std::string& err) {
+  if (!doc.has_table("timing")) {
+    err = "timing: missing value";
+    return false;
+  }
+  FieldValue sample_rate, tolerance, loop_rate;
+  if (!rd.field(schema::kTimingSampleRateHz, "timing", "", sample_rate, err) ||
+      !rd.field(schema::kTimingTimeToleranceUs, "timing", "", tolerance, err) ||
+      !rd.field(schema::kTimingLoopRateHz, "timing", "", loop_rate, err)) {
+    return false;
+  }
+  fc.sample_rate_hz = sample_rate.number;
+  const double period_us = 1e6 / fc.sample_rate_hz;
+  fc.imu.period_us = static_cast<std::uint32_t>(std::lround(period_us));
+  fc.imu.time_tolerance_us = static_cast<std::uint32_t>(tolerance.given ? tolerance.integer : std::lround(period_us / 2.0));
+  fc.loop_rate_hz = loop_rate.given ? loop_rate.number : fc.sample_rate_hz;
+  if (!loop_rate.given && fc.loop_rate_hz > schema::kTimingLoopRateHz.hi) {
+    // Valid for the format, not for this program: its cycle runs at most at 2000 Hz.
+    err = std::string("timing.") + schema::kTimingLoopRateHz.name + ": absent, so the sample rate " +
+          toml::repr_number(fc.loop_rate_hz) + " Hz, outside the loop's " + schema::kTimingLoopRateHz.bounds_text +
+          ": give it";
+    return false;
+  }
+  return !rd.unread_key("timing", "", err);
+}
+
+inline bool read_bias_stage(Reader& rd, const std::string& st, const std::string& ch, ImuChannelConfig<float>& cc,
+                            std::string& err) {
+  FieldValue bias;
+  if (!rd.field(schema::kBiasRemovalBias, st, ch, bias, err)) return false;
+  cc.bias = static_cast<float>(bias.number);
+  return true;
+}
+
+inline bool read_wavelet_stage(Reader& rd, const std::string& st, const std::string& ch, WaveletSpec& ws,
+                               std::string& err) {
+  FieldValue wavelet, window, level, threshold;
+  if (!rd.field(schema::kWaveletWavelet, st, ch, wavelet, err) || !rd.field(schema::kWaveletWindow, st, ch, window, err) ||
+      !rd.field(schema::kWaveletLevel, st, ch, level, err, /*own_bounds=*/false)) {
+    return false;
+  }
+  ws.kind = wavelet.text == "db8" ? WaveletKind::db8 : WaveletKind::db4;
+  ws.window = static_cast<std::size_t>(window.integer);
+  // The deepest level of the extended window 2N depends on the wavelet and the window.
+  const int jmax = realtime_wavelet_max_level(ws.window, ws.kind);
+  if (level.integer < 1 || level.integer > jmax) {
+    err = st + "." + schema::kWaveletLevel.name + ": expected 1.." + std::to_string(jmax) + " for " + wavelet.text +
+          " with window " + std::to_string(window.integer) + ", got " + std::to_string(level.integer);
+    return false;
+  }
+  ws.level = static_cast<int>(level.integer);
+  if (!rd.field(schema::kWaveletThreshold, st, ch, threshold, err)) return false;
+  ws.mode = threshold.text == "soft" ? WaveletMode::soft
+                                     : (threshold.text == "hard" ? WaveletMode::hard : WaveletMode::forced);
+  return true;
+}
+
+inline bool read_ar2_stage(Reader& rd, const std::string& st, const std::string& ch, ImuChannelConfig<float>& cc,
+                           std::string& err) {
+  FieldValue a1, a2, mean, sigma2, q, r, p0, steady_state;
+  if (!rd.field(schema::kAr2KalmanA1, st, ch, a1, err) || !rd.field(schema::kAr2KalmanA2, st, ch, a2, err) ||
+      !rd.field(schema::kAr2KalmanMean, st, ch, mean, err) || !rd.field(schema::kAr2KalmanSigma2, st, ch, sigma2, err) ||
+      !rd.field(schema::kAr2KalmanQ, st, ch, q, err) || !rd.field(schema::kAr2KalmanR, st, ch, r, err) ||
+      !rd.field(schema::kAr2KalmanP0, st, ch, p0, err) ||
+      !rd.field(schema::kAr2KalmanSteadyState, st, ch, steady_state, err)) {
+    return false;
+  }
+  const double x1 = a1.number, x2 = a2.number;
+  if (!(std::fabs(x2) < 1.0 && x1 + x2 < 1.0 && x2 - x1 < 1.0)) {
+    err = st + "." + schema::kAr2KalmanA1.name + ": AR(2) model is not stationary (a1=" + toml::repr_number(x1) +
+          ", a2=" + toml::repr_number(x2) + "; needs |a2| < 1, a1 + a2 < 1, a2 - a1 < 1)";
+    return false;
+  }
+  const double s2 = sigma2.given ? sigma2.number : q.number;  // absent: q
+  cc.model = Ar2Model<float>{static_cast<float>(x1), static_cast<float>(x2), static_cast<float>(s2),
+                             static_cast<float>(mean.number)};
+  cc.q = static_cast<float>(q.number);
+  cc.r = static_cast<float>(r.number);
+  cc.p0 = static_cast<float>(p0.number);
+  cc.steady_state = steady_state.boolean;
+  return true;
+}
+
+// One stage `st` ("channels.gx.stages[k]"): its type and its fields, nothing else.
+inline bool read_stage(Reader& rd, const std::string& st, const std::string& ch, ImuChannelConfig<float>& cc,
+                       WaveletSpec& ws, ChannelFilter& type, std::string& err) {
+  std::string name;
+  if (!rd.text(st + ".type", name, err)) return false;
+  if (!stage_type(name, type)) {
+    err = st + ".type: expected one of pass_through, bias_removal, wavelet, ar2_kalman, got '" + name + "'";
+    return false;
+  }
+  bool ok = true;
+  if (type == ChannelFilter::bias_removal) ok = read_bias_stage(rd, st, ch, cc, err);
+  else if (type == ChannelFilter::wavelet) ok = read_wavelet_stage(rd, st, ch, ws, err);
+  else if (type == ChannelFilter::ar2_kalman) ok = read_ar2_stage(rd, st, ch, cc, err);
+  return ok && !rd.unread_key(st, ch, err);
+}
+
+// A chain: pass_through only alone, at most one stage of each type.
+inline bool check_chain(const std::string& table, const ChannelFilter* types, int n, std::string& err) {
+  const bool pass = types[0] == ChannelFilter::pass_through || (n > 1 && types[1] == ChannelFilter::pass_through);
+  if (pass && n > 1) {
+    err = table + ".stages: pass_through must be the only stage of a chain";
+    return false;
+  }
+  if (n > 1 && types[0] == types[1]) {
+    err = table + ".stages: at most one stage of each type, got ['" + stage_name(types[0]) + "', '" +
+          stage_name(types[1]) + "']";
+    return false;
+  }
+  return true;
+}
+
+// [channels.<ch>] and its [[channels.<ch>.stages]].
+inline bool read_channel(Reader& rd, const toml::Doc& doc, const std::string& ch, ImuChannelConfig<float>& cc,
+                         WaveletSpec& ws, std::string& err) {
+  const std::string table = "channels." + ch;
+  if (!doc.has_table(table)) {
+    err = table + ": missing value";
+    return false;
+  }
+  cc = ImuChannelConfig<float>{};
+  FieldValue saturation, stuck_samples;
+  if (!rd.field(schema::kChannelSaturation, table, ch, saturation, err) ||
+      !rd.field(schema::kChannelStuckSamples, table, ch, stuck_samples, err)) {
+    return false;
+  }
+  cc.saturation = static_cast<float>(saturation.number);
+  cc.stuck_samples = static_cast<std::uint32_t>(stuck_samples.integer);
+  const int n = doc.stages(table);
+  if (n < 1 || n > schema::kMaxStages) {
+    err = table + ".stages: expected 1.." + std::to_string(schema::kMaxStages) + " stages, got " + std::to_string(n);
+    return false;
+  }
+  ChannelFilter types[schema::kMaxStages] = {ChannelFilter::pass_through, ChannelFilter::pass_through};
+  for (int k = 0; k < n; ++k) {
+    if (!read_stage(rd, table + ".stages[" + std::to_string(k) + "]", ch, cc, ws, types[k], err)) return false;
+  }
+  if (!check_chain(table, types, n, err)) return false;
+  cc.filter = types[0];
+  cc.filter2 = types[1];  // pass_through: no second stage
+  return !rd.unread_key(table, ch, err);
+}
+
+// A table header the format does not have ([foo], [channels.qx], [meta.sub]).
+inline bool unknown_table(const toml::Doc& doc, std::string& err) {
+  for (const std::string& t : doc.tables) {
+    bool known = t == "timing" || t == "meta" || t == "channels";
+    for (const char* ch : schema::kChannelNames) known = known || t == std::string("channels.") + ch;
+    if (!known) {
+      err = t.rfind("meta.", 0) == 0 ? t + ": expected a string, number or boolean" : t + ": unknown key";
+      return true;
+    }
+  }
+  return false;
+}
+
+// The whole document.
+inline bool read_doc(const toml::Doc& doc, FileConfig& out, std::string& err) {
+  Reader rd(doc);
+  FileConfig fc;
+  if (!read_header(rd, doc, err) || !read_timing(rd, doc, fc, err)) return false;
   for (std::size_t c = 0; c < kImuChannels; ++c) {
-    const std::string ch = std::string("channels.") + kNames[c];
-    const bool gyro = c < 3;
-    const std::string u = gyro ? "_rad_s" : "_m_s2";
-    ImuChannelConfig<float>& cc = fc.imu.channels[c];
-    cc = ImuChannelConfig<float>{};
-    if (doc.tables.count(ch) == 0 && doc.stage_count.count(ch) == 0) return fail(ch + ": missing channel");
-    if (rd.wrong_units(ch + ".", "saturation", gyro, err)) return fail(err);
-    double sat = INFINITY;
-    if (!rd.number(ch + ".saturation" + u, sat, false, err)) return fail(err);
-    if (std::isnan(sat) || !(sat > 0.0)) return fail(ch + ".saturation" + u + ": must be > 0 (or inf: off)");
-    cc.saturation = static_cast<float>(sat);
-    long long stuck = 0;
-    if (!rd.integer(ch + ".stuck_samples", stuck, false, err)) return fail(err);
-    if (stuck < 0 || stuck > 0xFFFFFFFFLL) return fail(ch + ".stuck_samples: expected 0..2^32-1");
-    cc.stuck_samples = static_cast<std::uint32_t>(stuck);
-    const int n = doc.stage_count.count(ch) != 0 ? doc.stage_count[ch] : 0;
-    if (n < 1 || n > 2) return fail(ch + ".stages: expected 1..2 stages, got " + std::to_string(n));
-    ChannelFilter types[2] = {ChannelFilter::pass_through, ChannelFilter::pass_through};
-    for (int k = 0; k < n; ++k) {
-      const std::string st = ch + ".stages[" + std::to_string(k) + "]";
-      std::string type;
-      if (!rd.string(st + ".type", type, true, err)) return fail(err);
-      ChannelFilter f = ChannelFilter::pass_through;
-      if (!detail::stage_type(type, f)) {
-        return fail(st + ".type: expected one of pass_through, bias_removal, wavelet, ar2_kalman, got '" + type + "'");
-      }
-      types[k] = f;
-      if (f == ChannelFilter::bias_removal) {
-        if (rd.wrong_units(st + ".", "bias", gyro, err)) return fail(err);
-        double b = 0.0;
-        if (!rd.number(st + ".bias" + u, b, true, err)) return fail(err);
-        if (!std::isfinite(b)) return fail(st + ".bias" + u + ": must be finite");
-        cc.bias = static_cast<float>(b);
-      } else if (f == ChannelFilter::wavelet) {
-        std::string w, thr = "forced";
-        long long window = 0, level = 0;
-        if (!rd.string(st + ".wavelet", w, true, err)) return fail(err);
-        if (w != "db4" && w != "db8") return fail(st + ".wavelet: expected 'db4' or 'db8', got '" + w + "'");
-        if (!rd.integer(st + ".window", window, true, err)) return fail(err);
-        if (!rd.integer(st + ".level", level, true, err)) return fail(err);
-        if (!rd.string(st + ".threshold", thr, false, err)) return fail(err);
-        WaveletSpec& ws = fc.wavelets[c];
-        ws.kind = w == "db4" ? WaveletKind::db4 : WaveletKind::db8;
-        if (!config_wavelet_window_ok(window)) {
-          return fail(st + ".window: expected a power of two in 16..4096, got " + std::to_string(window));
-        }
-        ws.window = static_cast<std::size_t>(window);
-        const int jmax = realtime_wavelet_max_level(ws.window, ws.kind);
-        if (level < 1 || level > jmax) {
-          return fail(st + ".level: expected 1.." + std::to_string(jmax) + " for " + w + " with window " +
-                      std::to_string(window) + ", got " + std::to_string(level));
-        }
-        ws.level = static_cast<int>(level);
-        if (thr == "forced") ws.mode = WaveletMode::forced;
-        else if (thr == "soft") ws.mode = WaveletMode::soft;
-        else if (thr == "hard") ws.mode = WaveletMode::hard;
-        else return fail(st + ".threshold: expected forced, soft or hard, got '" + thr + "'");
-      } else if (f == ChannelFilter::ar2_kalman) {
-        double a1 = 0, a2 = 0, mean = 0, q = 0, r = 0, p0 = 1.0, sigma2 = NAN;
-        if (!rd.number(st + ".a1", a1, true, err) || !rd.number(st + ".a2", a2, true, err)) return fail(err);
-        if (rd.wrong_units(st + ".", "mean", gyro, err)) return fail(err);
-        if (!rd.number(st + ".mean" + u, mean, true, err) || !rd.number(st + ".q", q, true, err) ||
-            !rd.number(st + ".r", r, true, err) || !rd.number(st + ".p0", p0, false, err) ||
-            !rd.number(st + ".sigma2", sigma2, false, err) || !rd.boolean(st + ".steady_state", cc.steady_state, err)) {
-          return fail(err);
-        }
-        if (std::isnan(sigma2)) sigma2 = q;
-        const char* names[] = {"a1", "a2", "q", "r", "p0", "sigma2"};
-        const double vals[] = {a1, a2, q, r, p0, sigma2};
-        for (int i = 0; i < 6; ++i) {
-          if (!std::isfinite(vals[i])) return fail(st + "." + names[i] + ": must be finite");
-        }
-        if (!std::isfinite(mean)) return fail(st + ".mean" + u + ": must be finite");
-        if (!(std::fabs(a2) < 1.0 && a1 + a2 < 1.0 && a2 - a1 < 1.0)) {
-          std::ostringstream m;
-          m.precision(17);
-          m << st << ".a1: AR(2) model is not stationary (a1=" << a1 << ", a2=" << a2
-            << "; needs |a2| < 1, a1 + a2 < 1, a2 - a1 < 1)";
-          return fail(m.str());
-        }
-        if (q < 0) return fail(st + ".q: a variance must be >= 0");
-        if (!(r > 0)) return fail(st + ".r: must be > 0");
-        if (p0 < 0) return fail(st + ".p0: must be >= 0");
-        if (sigma2 < 0) return fail(st + ".sigma2: a variance must be >= 0");
-        cc.model = Ar2Model<float>{static_cast<float>(a1), static_cast<float>(a2), static_cast<float>(sigma2),
-                                   static_cast<float>(mean)};
-        cc.q = static_cast<float>(q);
-        cc.r = static_cast<float>(r);
-        cc.p0 = static_cast<float>(p0);
-      }
-      if (rd.unknown(st + ".", err)) return fail(err);
-    }
-    if ((types[0] == ChannelFilter::pass_through && n > 1) || (n > 1 && types[1] == ChannelFilter::pass_through)) {
-      return fail(ch + ".stages: pass_through must be the only stage of a chain");
-    }
-    if (n > 1 && types[0] == types[1]) return fail(ch + ".stages: at most one stage of each type");
-    cc.filter = types[0];
-    cc.filter2 = n > 1 ? types[1] : ChannelFilter::pass_through;
+    if (!read_channel(rd, doc, schema::kChannelNames[c], fc.imu.channels[c], fc.wavelets[c], err)) return false;
   }
-  for (const char* prefix : {"timing.", "channels.", ""}) {
-    if (rd.unknown(prefix, err)) return fail(err);
-  }
+  if (rd.unread_key(err) || unknown_table(doc, err)) return false;
   out = fc;
   return true;
+}
+
+}  // namespace detail
+
+// Reads and checks a configuration's text; false with a one-line `error` "<source>: <key>: ...".
+inline bool read_config_text(const std::string& text, const std::string& source, FileConfig& out,
+                             std::string& error) {
+  toml::Doc doc;
+  std::istringstream in(text);
+  std::string err;
+  if (!toml::parse_doc(in, doc, err) || !detail::read_doc(doc, out, err)) {
+    error = source + ": " + err;
+    return false;
+  }
+  return true;
+}
+
+// Reads and checks a configuration file (see read_config_text).
+inline bool read_config_file(const std::string& path, FileConfig& out, std::string& error) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) {
+    error = path + ": cannot read the configuration (" + std::strerror(errno) + ")";
+    return false;
+  }
+  std::ostringstream text;
+  text << file.rdbuf();
+  if (file.bad()) {
+    error = path + ": cannot read the configuration";
+    return false;
+  }
+  return read_config_text(text.str(), path, out, error);
+}
+
+// The built-in default configuration (no --config): the shipped default file's text, through
+// the same reader.
+inline constexpr const char* kBuiltinConfigSource = "built-in default configuration";
+
+inline bool read_builtin_config(FileConfig& out, std::string& error) {
+  return read_config_text(schema::kDefaultConfigToml, kBuiltinConfigSource, out, error);
 }
 
 }  // namespace gyrodrift::loop

@@ -18,6 +18,14 @@ struct RtStatus {
   std::string mlock_error;
 };
 
+// What the run was set up with (the statistics repeat it).
+struct RunInfo {
+  std::string config;           // the configuration's source: --config FILE, or the built-in default
+  double sample_rate_hz = 0.0;  // timing.sample_rate_hz
+  double loop_rate_hz = 0.0;    // timing.loop_rate_hz (absent: the sample rate)
+  RtStatus rt;
+};
+
 inline void json_string(std::FILE* f, const std::string& s) {
   std::fputc('"', f);
   for (const char c : s) {
@@ -38,12 +46,16 @@ void json_hist(std::FILE* f, const char* name, const LatencyHistogram<B>& h, dou
                static_cast<double>(h.quantile_ns(0.99)) * scale, static_cast<double>(h.max_ns()) * scale);
 }
 
-inline void write_stats(std::FILE* f, const Options& o, const RtStatus& rt, const LoopState& st,
+inline void write_stats(std::FILE* f, const Options& o, const RunInfo& run, const LoopState& st,
                         const char* end_reason, double elapsed_s) {
+  const RtStatus& rt = run.rt;
   const char* mode = o.mode == Mode::kSerial ? "serial" : (o.mode == Mode::kSlcan ? "slcan" : "socketcan");
   std::fprintf(f, "{\n  \"program\": \"gyrodrift-loop\",\n  \"interface\": \"%s\",\n  \"device\": ", mode);
   json_string(f, o.device);
-  std::fprintf(f, ",\n  \"rate_hz\": %.3f,\n  \"baud\": %ld,\n", o.rate_hz, o.baud);
+  std::fputs(",\n  \"config\": ", f);
+  json_string(f, run.config);
+  std::fprintf(f, ",\n  \"sample_rate_hz\": %.3f,\n  \"loop_rate_hz\": %.3f,\n  \"baud\": %ld,\n", run.sample_rate_hz,
+               run.loop_rate_hz, o.baud);
   std::fprintf(f, "  \"realtime\": {\"sched_fifo\": %s, \"priority\": %d, \"mlockall\": %s, \"sched_error\": ",
                rt.sched_fifo ? "true" : "false", rt.sched_fifo ? o.rt_priority : 0, rt.mlockall ? "true" : "false");
   json_string(f, rt.sched_error);

@@ -52,6 +52,7 @@
 #include "../filters/ar2_kalman.hpp"
 #include "../filters/ar2_model.hpp"
 #include "../filters/ar2_steady_state.hpp"
+#include "config_schema.hpp"
 
 namespace gyrodrift {
 
@@ -87,23 +88,33 @@ inline constexpr ImuFlagName kImuFlagNames[] = {
     {kFlagResync, "resync"},            {kFlagConfigError, "config_error"},
     {kFlagRejected, "rejected"},
 };
-inline constexpr std::uint32_t kImuDefaultPeriodUs = 2500;         // 400 Hz
-inline constexpr std::uint32_t kImuDefaultTimeToleranceUs = 1250;  // half a period
+// Every default below comes from the configuration schema (config_schema.hpp, generated from
+// gyrodrift/imu/schema.py): the shipped default configuration's timing (its sample period, and
+// half of it as the timestamp tolerance) and the fields' own defaults.
+inline constexpr std::uint32_t kImuDefaultPeriodUs = config_schema::kDefaultPeriodUs;
+inline constexpr std::uint32_t kImuDefaultTimeToleranceUs = config_schema::kDefaultTimeToleranceUs;
 inline constexpr std::uint32_t kImuResyncAfter = 8;  // consecutive rejections -> source restart
 
-// The loop program's demonstration gyro model, used when no identified model is given: AR(2)
-// with a double root at 0.5 (stationary); sigma2, q, r in (rad/s)^2, mean in rad/s. The one
-// copy: the loop's command-line defaults and gyrodrift._core.IMU_DEMO_AR2 (the replay
-// harness's ProcessorSettings) both read it.
-struct ImuDemoAr2 {
-  static constexpr double a1 = 1.0, a2 = -0.25, sigma2 = 1e-10, mean = 0.0, q = 1e-10, r = 1e-8;
-};
+// The demonstration gyro model of the shipped default configuration (used when no identified
+// model is given): AR(2) with a double root at 0.5 (stationary); sigma2, q, r in (rad/s)^2,
+// mean in rad/s. The one copy is config_schema::DemoAr2; gyrodrift._core.IMU_DEMO_AR2 exports it.
+using ImuDemoAr2 = config_schema::DemoAr2;
+
+// A field's default in the processor's scalar type, as a constant (converted at compile time:
+// a float build does no double arithmetic for it).
+template <class Scalar>
+inline constexpr Scalar kImuDefaultP0 = static_cast<Scalar>(config_schema::kAr2KalmanP0.default_value);
+template <class Scalar>
+inline constexpr Scalar kImuDefaultSaturation = static_cast<Scalar>(config_schema::kChannelSaturation.default_value);
+inline constexpr std::uint32_t kImuDefaultStuckSamples =
+    static_cast<std::uint32_t>(config_schema::kChannelStuckSamples.default_value);
+inline constexpr bool kImuDefaultSteadyState = config_schema::kAr2KalmanSteadyState.default_value != 0.0;
 
 template <class Scalar>
 struct ImuChannelConfig {
   ChannelFilter filter = ChannelFilter::pass_through;   // first stage
   ChannelFilter filter2 = ChannelFilter::pass_through;  // second stage (pass_through: none)
-  bool steady_state = false;  // ar2_kalman stage: constant DARE gain (Ar2SteadyStateKalman)
+  bool steady_state = kImuDefaultSteadyState;  // ar2_kalman stage: constant DARE gain (Ar2SteadyStateKalman)
   // Units of the channel (rad/s or m/s^2): subtracted by the bias_removal stage, or after the
   // last stage when the chain has no bias_removal stage.
   Scalar bias = Scalar(0);
@@ -112,9 +123,9 @@ struct ImuChannelConfig {
                          std::numeric_limits<Scalar>::quiet_NaN(), std::numeric_limits<Scalar>::quiet_NaN()};
   Scalar q = std::numeric_limits<Scalar>::quiet_NaN();
   Scalar r = std::numeric_limits<Scalar>::quiet_NaN();
-  Scalar p0 = Scalar(1);
-  Scalar saturation = std::numeric_limits<Scalar>::infinity();  // |x| >= saturation: saturated
-  std::uint32_t stuck_samples = 0;  // 0: off; N: the N-th identical value in a row is stuck
+  Scalar p0 = kImuDefaultP0<Scalar>;
+  Scalar saturation = kImuDefaultSaturation<Scalar>;  // |x| >= saturation: saturated (inf: off)
+  std::uint32_t stuck_samples = kImuDefaultStuckSamples;  // 0: off; N: the N-th identical value in a row is stuck
 };
 
 template <class Scalar>
