@@ -25,8 +25,9 @@ gyrodrift::ImuConfig<float> make_config() noexcept {
     cc.model = gyrodrift::Ar2Model<float>{0.6868f, -0.0213f, 0.01f, 0.5f};  // paper 002 values
     cc.q = 0.01f;
     cc.r = 0.02f;
-    cc.saturation = 8.0f;
-    cc.stuck_samples = 50;
+    // the shipped default configuration's detection (gyrodrift/imu/config_schema.hpp)
+    cc.saturation = static_cast<float>(gyrodrift::config_schema::kDefaultGyroSaturationRadS);
+    cc.stuck_samples = gyrodrift::config_schema::kDefaultGyroStuckSamples;
   }
   for (std::size_t c = 3; c < 6; ++c) cfg.channels[c].filter = gyrodrift::ChannelFilter::wavelet;
   return cfg;

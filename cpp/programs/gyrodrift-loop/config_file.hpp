@@ -43,11 +43,12 @@ static_assert(schema::kMaxStages == 2, "ImuChannelConfig holds two stages");
 static_assert(sizeof(schema::kChannelNames) / sizeof(schema::kChannelNames[0]) == kImuChannels, "six channels");
 
 // One channel's wavelet stage as read from the file (used only if the chain has one).
+// Defaults: the paper's prefilter (schema kPrefilter*); a stage read from a file sets them all.
 struct WaveletSpec {
   WaveletKind kind = WaveletKind::db4;
-  int level = 5;
+  int level = schema::kPrefilterLevel;
   WaveletMode mode = WaveletMode::forced;
-  std::size_t window = 256;
+  std::size_t window = schema::kPrefilterWindow;
 };
 
 struct FileConfig {

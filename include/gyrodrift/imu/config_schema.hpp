@@ -181,6 +181,12 @@ inline constexpr double kDefaultSampleRateHz = 400.0;
 inline constexpr std::uint32_t kDefaultPeriodUs = 2500U;
 inline constexpr std::uint32_t kDefaultTimeToleranceUs = 1250U;
 
+// The shipped default configuration's bad-value detection on the gyros (rad/s) and
+// the accelerometers (m/s^2).
+inline constexpr double kDefaultGyroSaturationRadS = 8.0;
+inline constexpr double kDefaultAccelSaturationMS2 = 160.0;
+inline constexpr std::uint32_t kDefaultGyroStuckSamples = 50U;
+
 // The real-time prefilter of the 2014 paper: the wavelet stage's defaults.
 inline constexpr const char* kPrefilterWavelet = "db4";
 inline constexpr std::size_t kPrefilterWindow = 256;

@@ -423,13 +423,7 @@ class _Table:
                 want = channel_unit_suffix(channel)
                 for suf in _OTHER_SUFFIXES:
                     if name.endswith(suf) and suf != want:
-                        base = name[: -len(suf)]
-                        kind = "gyro" if channel.startswith("g") else "n accelerometer"
-                        raise ConfigError(
-                            key,
-                            f"wrong units for a {kind} channel ({channel_unit(channel)}): "
-                            f"use {base}{want}",
-                        )
+                        raise _wrong_units(key, name[: -len(suf)], channel)
             raise ConfigError(key, "unknown key")
 
 
@@ -470,12 +464,15 @@ def _wrong_unit_key(t: _Table, base: str, ch: str) -> bool:
         return False
     for suf in _OTHER_SUFFIXES:
         if suf != want and f"{base}{suf}" in t.data:
-            kind = "gyro" if ch.startswith("g") else "n accelerometer"
-            raise ConfigError(
-                t._k(f"{base}{suf}"),
-                f"wrong units for a {kind} channel ({channel_unit(ch)}): use {base}{want}",
-            )
+            raise _wrong_units(t._k(f"{base}{suf}"), base, ch)
     return False
+
+
+def _wrong_units(key: str, base: str, channel: str) -> ConfigError:
+    """The error of a key written in another unit than its channel's."""
+    kind = "a gyro" if channel.startswith("g") else "an accelerometer"
+    return ConfigError(key, f"wrong units for {kind} channel ({channel_unit(channel)}): use "
+                            f"{base}{channel_unit_suffix(channel)}")
 
 
 def config_from_dict(data: Mapping[str, Any]) -> ProcessorConfig:

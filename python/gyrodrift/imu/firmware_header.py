@@ -33,6 +33,9 @@ from gyrodrift.imu.config import (
 )
 from gyrodrift.imu.schema import (
     CHANNEL_NAMES,
+    DEFAULT_ACCEL_SATURATION_M_S2,
+    DEFAULT_GYRO_SATURATION_RAD_S,
+    DEFAULT_GYRO_STUCK_SAMPLES,
     DEFAULT_SAMPLE_RATE_HZ,
     DEMO_AR2,
     FIELDS,
@@ -356,6 +359,12 @@ def emit_schema_header() -> str:
         f"inline constexpr std::uint32_t kDefaultPeriodUs = {default_period_us(rate)}U;",
         "inline constexpr std::uint32_t kDefaultTimeToleranceUs = "
         f"{default_time_tolerance_us(rate)}U;",
+        "",
+        "// The shipped default configuration's bad-value detection on the gyros (rad/s) and",
+        "// the accelerometers (m/s^2).",
+        f"inline constexpr double kDefaultGyroSaturationRadS = {DEFAULT_GYRO_SATURATION_RAD_S!r};",
+        f"inline constexpr double kDefaultAccelSaturationMS2 = {DEFAULT_ACCEL_SATURATION_M_S2!r};",
+        f"inline constexpr std::uint32_t kDefaultGyroStuckSamples = {DEFAULT_GYRO_STUCK_SAMPLES}U;",
         "",
         "// The real-time prefilter of the 2014 paper: the wavelet stage's defaults.",
         f"inline constexpr const char* kPrefilterWavelet = {_cpp_string(PREFILTER_WAVELET)};",
