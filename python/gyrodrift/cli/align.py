@@ -50,21 +50,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "align", help="SINS alignment Monte Carlo study, mechanism study, real-data consistency",
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scenario", default="all",
-                   help="static, ship_mild, ship_moderate, vehicle_engine or all (all)")
-    p.add_argument("--runs", type=int, default=30, help="Monte Carlo runs per scenario (30)")
+                   help="static, ship_mild, ship_moderate, vehicle_engine or all (default all)")
+    p.add_argument("--runs", type=int, default=30,
+                   help="Monte Carlo runs per scenario (default 30)")
     p.add_argument("--duration-s", type=float, default=1800.0,
-                   help="record length, s (1800 = 30 min)")
+                   help="record length, s (default 1800 = 30 min)")
     p.add_argument("--rate-hz", type=float, default=DEFAULT_SAMPLE_RATE_HZ,
                    help=f"IMU sample rate, Hz (default {DEFAULT_SAMPLE_RATE_HZ:g})")
-    p.add_argument("--coarse-s", type=float, default=60.0, help="coarse alignment, s (60)")
-    p.add_argument("--states", type=int, choices=(12, 15), default=15, help="KF states (15)")
+    p.add_argument("--coarse-s", type=float, default=60.0, help="coarse alignment, s (default 60)")
+    p.add_argument("--states", type=int, choices=(12, 15), default=15,
+                   help="KF states (default 15)")
     p.add_argument("--kf-noise", choices=("spec", "samples"), default="spec",
                    help="KF process noise from the IMU spec or from the raw per-sample scatter")
     p.add_argument("--gyro-lsb-arcsec", type=float, default=0.0,
                    help="gyro pulse quantization, arcsec (0 = off)")
     p.add_argument("--dither-arcsec", type=float, default=0.0,
                    help="dither residue amplitude, arcsec (0 = off)")
-    p.add_argument("--seed", type=int, default=2014, help="Monte Carlo seed (2014)")
+    p.add_argument("--seed", type=int, default=2014, help="Monte Carlo seed (default 2014)")
     p.add_argument("--mechanism", action="store_true", help="run the mechanism study instead")
     p.add_argument("--real", metavar="PATH", help="real-data mode on a PSINS IMU log")
     p.add_argument("--segment-s", type=float, default=300.0,

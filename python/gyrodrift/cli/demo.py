@@ -52,9 +52,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--duration-s", type=float, default=600.0, help="record length, s (600)")
-    p.add_argument("--rate-hz", type=float, default=100.0, help="sample rate, Hz (100)")
-    p.add_argument("--seed", type=int, default=2006, help="simulator seed (2006)")
+    p.add_argument("--duration-s", type=float, default=600.0, help="record length, s (default 600)")
+    p.add_argument("--rate-hz", type=float, default=100.0, help="sample rate, Hz (default 100)")
+    p.add_argument("--seed", type=int, default=2006, help="simulator seed (default 2006)")
     add_ar_method_arg(p)
     p.add_argument("--kalman-q", type=float, default=None,
                    help="Kalman process variance, (deg/h)^2 (default: the fitted sigma2)")

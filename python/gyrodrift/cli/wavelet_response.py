@@ -10,7 +10,12 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import add_json_arg, check_output, check_rate_hz, emit_json
-from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
+from gyrodrift.defaults import (
+    DEFAULT_SAMPLE_RATE_HZ,
+    PREFILTER_LEVEL,
+    PREFILTER_WAVELET,
+    PREFILTER_WINDOW,
+)
 from gyrodrift.io.atomic import atomic_output
 
 __all__ = ["cutoff_hz", "register", "run"]
@@ -31,12 +36,15 @@ def register(subparsers: Any) -> None:
         help="frequency response (magnitude, group delay) of the forced wavelet prefilter",
         description=__doc__,
     )
-    p.add_argument("--wavelet", default="db4", choices=["db4", "db8"], help="wavelet (db4)")
-    p.add_argument("--window", type=int, default=256, help="window N, power of two (256)")
-    p.add_argument("--level", type=int, default=5, help="decomposition level J (5)")
+    p.add_argument("--wavelet", default=PREFILTER_WAVELET, choices=["db4", "db8"],
+                   help=f"wavelet (default {PREFILTER_WAVELET})")
+    p.add_argument("--window", type=int, default=PREFILTER_WINDOW,
+                   help=f"window N, power of two (default {PREFILTER_WINDOW})")
+    p.add_argument("--level", type=int, default=PREFILTER_LEVEL,
+                   help=f"decomposition level J (default {PREFILTER_LEVEL})")
     p.add_argument("--rate-hz", type=float, default=DEFAULT_SAMPLE_RATE_HZ,
                    help=f"sample rate, Hz (default {DEFAULT_SAMPLE_RATE_HZ:g})")
-    p.add_argument("--n-freqs", type=int, default=1024, help="frequency points (1024)")
+    p.add_argument("--n-freqs", type=int, default=1024, help="frequency points (default 1024)")
     p.add_argument("--png", default="wavelet_response.png",
                    help="output plot (default wavelet_response.png)")
     add_json_arg(p)
