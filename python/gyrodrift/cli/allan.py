@@ -103,7 +103,6 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
-    from gyrodrift.stability import ieee952
     from gyrodrift.stability.deviations import deviation
 
     check_output(args.png, "--png")
@@ -123,6 +122,34 @@ def run(args: argparse.Namespace) -> int:
                         alpha="slope" if args.noise_id == "slope" else None)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
+    fit, afit, paper, slope = _fits(res, dev_name, args)
+    if args.png:
+        from gyrodrift.report.plots import plot_allan, plot_allan_fit
+
+        with atomic_output(args.png) as tmp:
+            if afit is not None:
+                plot_allan_fit(res, afit, tmp, label=rec.source)
+            else:
+                plot_allan([(rec.source, res)], tmp,
+                           title=f"{DEVIATION_TITLES[dev_name]} deviation",
+                           symbol="sigma" if dev_name == "oadev" else dev_name)
+    if args.csv_out:
+        write_csv(args.csv_out,
+                  ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],
+                  [res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf, res.terms])
+    if args.json:
+        _emit_json(rec, res, fit, afit, paper, slope, args)
+        return 0
+    _print_text(rec, res, dev_name, afit, paper, slope)
+    return 0
+
+
+def _fits(res: Any, dev_name: str, args: argparse.Namespace) -> tuple[Any, Any, Any, Any]:
+    """The noise-term fits of an Allan deviation: IEEE 952 NNLS on all taus, the fit with
+    range, terms and selection, the 2006 paper's eq. 8 fit and the slope method (None where
+    they do not apply)."""
+    from gyrodrift.stability import ieee952
+
     # The fits need positive deviations (a zero can occur on exactly periodic or quantized
     # data at some taus); they use the positive points and need enough of them.
     pos = res.adev > 0
@@ -144,35 +171,27 @@ def run(args: argparse.Namespace) -> int:
         raise CliError("--fit-range and --terms apply to the Allan fit (--deviation oadev)")
     paper = ieee952.paper_fit(tau, dev) if allan_fits and tau.size >= 3 else None
     slope = ieee952.slope_method(tau, dev) if allan_fits and tau.size >= 3 else None
-    if args.png:
-        from gyrodrift.report.plots import plot_allan, plot_allan_fit
+    return fit, afit, paper, slope
 
-        with atomic_output(args.png) as tmp:
-            if afit is not None:
-                plot_allan_fit(res, afit, tmp, label=rec.source)
-            else:
-                plot_allan([(rec.source, res)], tmp,
-                           title=f"{DEVIATION_TITLES[dev_name]} deviation",
-                           symbol="sigma" if dev_name == "oadev" else dev_name)
-    if args.csv_out:
-        write_csv(args.csv_out,
-                  ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],
-                  [res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf, res.terms])
-    if args.json:
-        fit_adev = (afit.fit_adev if afit is not None else np.full(res.tau_s.size, np.nan))
-        used = (afit.fit_used if afit is not None else np.zeros(res.tau_s.size, dtype=bool))
-        taus = [{"tau_s": float(t), "adev": float(a), "ci_low": float(lo),
-                 "ci_high": float(hi), "fit_adev": None if np.isnan(f) else float(f),
-                 "fit_used": bool(u)}
-                for t, a, lo, hi, f, u in zip(res.tau_s, res.adev, res.ci_low, res.ci_high,
-                                              fit_adev, used, strict=True)]
-        emit_json({"record": rec.summary(), "allan": res.as_dict(), "taus": taus,
-                   "fit": None if afit is None else afit.as_dict(),
-                   "ieee952": None if fit is None else fit.as_dict(),
-                   "paper_fit": None if paper is None else paper.as_dict(),
-                   "slope_method": None if slope is None else slope.as_dict(),
-                   "files": {"png": args.png, "csv": args.csv_out}})
-        return 0
+
+def _emit_json(rec: Any, res: Any, fit: Any, afit: Any, paper: Any, slope: Any,
+               args: argparse.Namespace) -> None:
+    fit_adev = (afit.fit_adev if afit is not None else np.full(res.tau_s.size, np.nan))
+    used = (afit.fit_used if afit is not None else np.zeros(res.tau_s.size, dtype=bool))
+    taus = [{"tau_s": float(t), "adev": float(a), "ci_low": float(lo),
+             "ci_high": float(hi), "fit_adev": None if np.isnan(f) else float(f),
+             "fit_used": bool(u)}
+            for t, a, lo, hi, f, u in zip(res.tau_s, res.adev, res.ci_low, res.ci_high,
+                                          fit_adev, used, strict=True)]
+    emit_json({"record": rec.summary(), "allan": res.as_dict(), "taus": taus,
+               "fit": None if afit is None else afit.as_dict(),
+               "ieee952": None if fit is None else fit.as_dict(),
+               "paper_fit": None if paper is None else paper.as_dict(),
+               "slope_method": None if slope is None else slope.as_dict(),
+               "files": {"png": args.png, "csv": args.csv_out}})
+
+
+def _print_text(rec: Any, res: Any, dev_name: str, afit: Any, paper: Any, slope: Any) -> None:
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz"
           + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
     if rec.log_summary:
@@ -204,4 +223,3 @@ def run(args: argparse.Namespace) -> int:
     if slope is not None:
         print("slope method: " + ", ".join(
             f"{k} = {'n/a' if v is None else f'{v:.4g}'}" for k, v in slope.as_dict().items()))
-    return 0
