@@ -48,7 +48,7 @@ import numpy as np
 
 from gyrodrift import units
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.io.records import LOG_SUFFIXES, rate_from_time
+from gyrodrift.io.records import LOG_SUFFIXES, is_number, rate_from_time
 from gyrodrift.units import ACCEL_INCREMENT_UNITS, INCREMENT_UNITS, RATE_UNITS
 
 __all__ = [
@@ -498,14 +498,6 @@ def _split(line: str, delim: str | None) -> list[str]:
     return [c.strip() for c in (line.split(delim) if delim else line.split())]
 
 
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
-
-
 def _header_channel(name: str) -> str | None:
     low = name.strip().lower()
     for prefix, rx in (("gyro", _GYRO_RE), ("accel", _ACCEL_RE)):
@@ -531,7 +523,7 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
         raise GyrodriftValueError(f"{source}: empty file")
     delim = "," if "," in first else (";" if ";" in first else None)
     cells = _split(first, delim)
-    has_header = not all(_is_number(c) for c in cells)
+    has_header = not all(is_number(c) for c in cells)
     try:
         # Rows with a wrong number of fields are an error (never dropped silently);
         # unparseable cells become NaN and go through the NaN policy.

@@ -24,7 +24,7 @@ import numpy as np
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.units import GYRO_INPUT_UNITS, INCREMENT_UNITS, RATE_UNITS
 
-__all__ = ["UNITS", "Record", "load_record", "rate_from_time", "to_deg_h"]
+__all__ = ["UNITS", "Record", "is_number", "load_record", "rate_from_time", "to_deg_h"]
 
 #: The input units a gyro record may be in (gyrodrift.units: rates, then angle increments).
 UNITS: tuple[str, ...] = GYRO_INPUT_UNITS
@@ -282,7 +282,7 @@ def _load_csv_record(p: Path, header_names: list[str], delimiter: str,
     """One column of a .csv (header optional); the rate from its t_s/time/t column unless
     given (and checked against it, _resolve_rate)."""
     source = str(p)
-    has_header = not all(_is_number(c) for c in header_names)
+    has_header = not all(is_number(c) for c in header_names)
     names = header_names if has_header else [str(i) for i in range(len(header_names))]
     idx = _pick_column(names, column, source)
     table = _read_csv_table(p, delimiter, 1 if has_header else 0)
@@ -382,13 +382,20 @@ def _check_text_cells(p: Path, table: np.ndarray, cols: list[int], names: list[s
                 continue
             for c in cols:
                 cell = row[c].strip() if c < len(row) else ""
-                if cell and not _is_number(cell):
+                if cell and not is_number(cell):
                     raise GyrodriftValueError(
                         f"{p}: line {k + 1}, column {names[c]!r}: {cell!r} is "
                         "not a number")
 
 
-def _is_number(text: str) -> bool:
+def is_number(text: str) -> bool:
+    """Whether a text cell reads as a float (a CSV header cell that does is data, not a name).
+
+    Examples
+    --------
+    >>> is_number("1e-3"), is_number("nan"), is_number("gyro_x")
+    (True, True, False)
+    """
     try:
         float(text)
     except ValueError:
