@@ -1,4 +1,4 @@
-"""Alignment benchmark (issue 6): per-sample cost of the C++ pipeline (through the binding)
+"""Alignment benchmark: per-sample cost of the C++ pipeline (through the binding)
 vs the numpy reference in the same process, the 15-state KF cycle vs FilterPy, and the Monte
 Carlo wall time (goal: 30 runs x 30 min x 2 configurations < 2 min on this 2-core machine).
 

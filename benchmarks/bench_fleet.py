@@ -147,8 +147,8 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=1,
                     help="run the configurations this many times in turn; median ratios")
     ap.add_argument("--memory-budget-mib", type=float, default=DEFAULT_MEMORY_BUDGET_MIB,
-                    help="FleetOptions.memory_budget_mib (0: spool every log, the reader "
-                         "before issue 14's fix)")
+                    help="FleetOptions.memory_budget_mib (0: spool every log to disk "
+                         "first)")
     ap.add_argument("--run-one", type=int, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     n = int(args.samples)

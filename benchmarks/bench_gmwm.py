@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""GMWM speed (issue 11): Haar wavelet variance (cumulative sums, all levels) and the full
+"""GMWM speed: Haar wavelet variance (cumulative sums, all levels) and the full
 fit (wavelet variance + two-step GMM with the exact covariance) at 1e6 and 1e7 samples.
 
     PYTHONPATH=python python3 benchmarks/bench_gmwm.py [--sizes 1e6,1e7] [--repeats 3]

@@ -2,7 +2,7 @@
 (/work/shared/data/lasergyro.imu, PSINS format, 100 Hz): gyro axis rate in deg/h, the
 overlapping Allan deviation with the lag-1 ACF noise ID (default) and with the old slope
 rule, the edf ratio between them, and every deviation at the same taus. Prints markdown
-tables (README, issue 11); --png writes the figure (not committed).
+tables (the documentation's validation tables); --png writes the figure (not committed).
 
     PYTHONPATH=python:build/dev-NAME/py python3 scripts/deviation_real_record.py \
         [--path ../shared/data/lasergyro.imu] [--axis z] [--png /tmp/real.png]

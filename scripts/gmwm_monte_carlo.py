@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Monte Carlo evidence for GMWM (issue 11): interval coverage, RMSE against the IEEE Std 952
+"""Monte Carlo evidence for GMWM: interval coverage, RMSE against the IEEE Std 952
 NNLS Allan fit, and model-selection hit rate, on composite models simulated by
 gyrodrift.simulation.records (100 Hz, deg/h).
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Noise identification of the shared ring-laser record (issue 11): per gyro axis, GMWM with
+"""Noise identification of the shared ring-laser record: per gyro axis, GMWM with
 WIC model selection on the scales tau_j >= 2.56 s (above the vehicle-vibration peak), the
-issue-11 IEEE 952 Allan fit (model selection, 95 % intervals, lag-1 ACF noise types for the
+IEEE 952 Allan fit (model selection, 95 % intervals, lag-1 ACF noise types for the
 edf) on the range where its model holds, and the old all-terms NNLS fit of the whole curve.
 
     PYTHONPATH=python:build/dev-NAME/py python scripts/gmwm_real_record.py [PATH]

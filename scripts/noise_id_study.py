@@ -1,7 +1,7 @@
 """Monte Carlo of the per-tau noise identification (gyrodrift.stability.noise_type) on the five
 power-law noises of allantools' Kasdin generator: the fraction of taus (with >= 128
 averages) where the default (lag-1 ACF, slope fallback) and the slope-only method find the
-true alpha, and the largest error. Prints a markdown table (README, issue 11).
+true alpha, and the largest error. Prints a markdown table (the documentation's validation tables).
 
     PYTHONPATH=python:build/dev-NAME/py python3 scripts/noise_id_study.py [--reps 20]
 """

@@ -3,7 +3,7 @@
 
 Simulated record (100 Hz, 60000 samples, 5 seeds): AR(2) drift 0.6868/-0.0213 (paper 002's FOG)
 with innovation std 0.5 deg/h on a 9.7 deg/h offset, plus white rate noise std 0.3 deg/h (the
-issue-10 example). Filters: the offline db8 denoiser (gyrodrift.wavelet_denoise, level 5,
+drift-model example). Filters: the offline db8 denoiser (gyrodrift.wavelet_denoise, level 5,
 soft universal threshold), the real-time db4 prefilter (RealtimeWavelet db4, N = 256, J = 5,
 forced: an exact FIR), the steady-state AR(2)-Kalman with the papers' tuning and with the
 maximum-likelihood tuning, and the true-model Kalman (the optimum, for reference).

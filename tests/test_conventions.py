@@ -335,6 +335,14 @@ def test_no_work_items_in_the_package_sources() -> None:
     assert not bad, "internal work items in python/gyrodrift:\n" + "\n".join(bad)
 
 
+def test_no_work_items_in_the_tools() -> None:
+    # benchmarks and scripts print the tables the documentation shows, and have --help
+    bad = [hit for folder in ("benchmarks", "scripts")
+           for path in sorted((REPO / folder).iterdir()) if path.is_file()
+           for hit in _work_item_hits(path)]
+    assert not bad, "internal work items in benchmarks/ or scripts/:\n" + "\n".join(bad)
+
+
 def test_no_work_items_in_the_cpp_sources() -> None:
     bad = []
     for folder in ("include", "cpp", "bindings"):
