@@ -44,7 +44,7 @@ def load_segment(path: str | Path) -> tuple[np.ndarray, float, int, float, float
 
 
 def main() -> None:
-    path = sys.argv[1] if len(sys.argv) > 1 else "/work/shared/data/lasergyro.imu"
+    path = sys.argv[1] if len(sys.argv) > 1 else str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu")
     seg, rate_hz, start, score, median = load_segment(path)
     print(f"# {path}: quietest 300 s window starts at {start / rate_hz:.0f} s; variance of 1 s "
           f"means summed over gyros {score:.4g} (deg/h)^2 (median window {median:.4g})")

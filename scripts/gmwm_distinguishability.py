@@ -2,7 +2,7 @@
 """Can GMWM model selection tell the Monte Carlo's case 3 (white + two Gauss-Markov, N+GM+GM:
 N = 0.05 deg/sqrt(h), GM 20 deg/h @ 0.1 s and 10 deg/h @ 5 s) from its nearest smaller
 competitor, white + random walk + one Gauss-Markov (N+K+GM), at a given record length?
-(Issue 11; the companion of scripts/gmwm_monte_carlo.py, in the spirit of
+(The companion of scripts/gmwm_monte_carlo.py, in the spirit of
 scripts/drift_identifiability.py.)
 
 1. Noncentrality. With the true model's wavelet variance nu_0 and its exact covariance Omega_0

@@ -38,7 +38,7 @@ def main(argv: list[str]) -> int:
     from gyrodrift.stability.allan_fit import fit_allan
     from gyrodrift.stability.gmwm import identify_gmwm
 
-    path = argv[0] if argv else "/work/shared/data/lasergyro.imu"
+    path = argv[0] if argv else str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu")
     for ax, x in load_axes(path).items():
         print(f"\n## axis {ax} (mean {x.mean():.3f} deg/h)")
         t0 = time.perf_counter()
