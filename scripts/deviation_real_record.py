@@ -1,5 +1,6 @@
 """The deviation family and the per-tau noise identification on the real laser-gyro record
-(../shared/data/lasergyro.imu beside the checkout, PSINS format, 100 Hz): gyro axis rate in deg/h, the
+(../shared/data/lasergyro.imu beside the checkout, PSINS format, 100 Hz): gyro axis rate
+in deg/h, the
 overlapping Allan deviation with the lag-1 ACF noise ID (default) and with the old slope
 rule, the edf ratio between them, and every deviation at the same taus. Prints markdown
 tables (the documentation's validation tables); --png writes the figure (not committed).
@@ -21,9 +22,12 @@ from gyrodrift.io.psins import read_psins_imu
 RAD_S_TO_DEG_H = 180.0 / math.pi * 3600.0
 
 
+#: The shared real record beside the checkout (../shared/data, see its README).
+SHARED_RECORD = str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu")
+
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--path", default=str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu"))
+    ap.add_argument("--path", default=SHARED_RECORD)
     ap.add_argument("--axis", choices="xyz", default="z")
     ap.add_argument("--png")
     args = ap.parse_args()

@@ -23,6 +23,9 @@ from gyrodrift.io.psins import read_psins_imu
 RAD_TO_DEG_H = 180.0 / np.pi * 3600.0
 
 
+#: The shared real record beside the checkout (../shared/data, see its README).
+SHARED_RECORD = str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu")
+
 def static_window(rate_deg_h: np.ndarray, rate_hz: float, window_s: float = 300.0
                   ) -> tuple[int, float, float]:
     """Start index of the quietest window, its motion measure and the median one (deg/h)^2."""
@@ -44,7 +47,7 @@ def load_segment(path: str | Path) -> tuple[np.ndarray, float, int, float, float
 
 
 def main() -> None:
-    path = sys.argv[1] if len(sys.argv) > 1 else str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu")
+    path = sys.argv[1] if len(sys.argv) > 1 else SHARED_RECORD
     seg, rate_hz, start, score, median = load_segment(path)
     print(f"# {path}: quietest 300 s window starts at {start / rate_hz:.0f} s; variance of 1 s "
           f"means summed over gyros {score:.4g} (deg/h)^2 (median window {median:.4g})")

@@ -23,6 +23,9 @@ GMWM_TAU_MIN_S = 2.56
 ALLAN_FIT_MIN_S = {"x": 5.0, "y": 20.0, "z": 5.0}
 
 
+#: The shared real record beside the checkout (../shared/data, see its README).
+SHARED_RECORD = str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu")
+
 def load_axes(path: str | Path) -> dict[str, np.ndarray]:
     """Gyro rates in deg/h per axis (PSINS counts x 0.1 arcsec per 10 ms sample)."""
     from gyrodrift.io.psins import read_psins_imu
@@ -38,7 +41,7 @@ def main(argv: list[str]) -> int:
     from gyrodrift.stability.allan_fit import fit_allan
     from gyrodrift.stability.gmwm import identify_gmwm
 
-    path = argv[0] if argv else str(Path(__file__).resolve().parents[2] / "shared" / "data" / "lasergyro.imu")
+    path = argv[0] if argv else SHARED_RECORD
     for ax, x in load_axes(path).items():
         print(f"\n## axis {ax} (mean {x.mean():.3f} deg/h)")
         t0 = time.perf_counter()
