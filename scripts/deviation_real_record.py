@@ -1,7 +1,6 @@
 """The deviation family and the per-tau noise identification on the real laser-gyro record
 (../shared/data/lasergyro.imu beside the checkout, PSINS format, 100 Hz): gyro axis rate
-in deg/h, the
-overlapping Allan deviation with the lag-1 ACF noise ID (default) and with the old slope
+in deg/h, the overlapping Allan deviation with the lag-1 ACF noise ID (default) and with the old slope
 rule, the edf ratio between them, and every deviation at the same taus. Prints markdown
 tables (the documentation's validation tables); --png writes the figure (not committed).
 
