@@ -92,8 +92,9 @@ RETIRED = ("--gyro-filter", "--accel-filter", "--gyro-ar2", "--gyro-q", "--gyro-
 def test_processor_defaults_have_one_source() -> None:
     """The processor's defaults are the schema's (gyrodrift.imu.schema -> the generated
     config_schema.hpp): the demonstration AR(2) model (ImuDemoAr2 is the schema's DemoAr2,
-    exported as IMU_DEMO_AR2, read by the replay harness's ProcessorSettings), the default
+    exported as IMU_DEMO_AR2, and the model of the shipped default configuration), the default
     timing, and the channel defaults (no literal left in imu_processor.hpp)."""
+    from gyrodrift.imu.config import default_config
     from gyrodrift.imu.schema import (
         DEFAULT_SAMPLE_RATE_HZ,
         DEMO_AR2,
@@ -101,13 +102,13 @@ def test_processor_defaults_have_one_source() -> None:
         default_time_tolerance_us,
         field_spec,
     )
-    from gyrodrift.replay.processor import ProcessorSettings
 
     c = core("imu")
     demo = dict(c.IMU_DEMO_AR2)
     assert demo == {**DEMO_AR2, "sigma2": DEMO_AR2["q"]}
-    s = ProcessorSettings()
-    assert {k: getattr(s, k) for k in demo} == demo
+    kalman = default_config().channel("gx").stages[1]
+    assert {k: getattr(kalman, k) for k in ("a1", "a2", "mean", "q", "r")} == DEMO_AR2
+    assert kalman.sigma2_value == demo["sigma2"]
     assert c.IMU_DEFAULT_PERIOD_US == default_period_us(DEFAULT_SAMPLE_RATE_HZ)
     assert c.IMU_DEFAULT_TIME_TOLERANCE_US == default_time_tolerance_us(DEFAULT_SAMPLE_RATE_HZ)
     ch = imu.ImuChannelConfig()
