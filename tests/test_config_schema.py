@@ -98,7 +98,17 @@ def corpus() -> Iterator[tuple[str, str, str | None]]:
             yield (f"{f.section}.{f.name} = nan", *_set(base, f, "nan"))
 
 
-CASES = list(corpus())
+def relations() -> Iterator[tuple[str, str, str | None]]:
+    """Cases of relations between fields, where both readers must agree too."""
+    base = dumps_config(default_config())
+    fast = base.replace("sample_rate_hz = 400.0", "sample_rate_hz = 5000.0").replace(
+        "time_tolerance_us = 1250\n", "")
+    yield ("fast record, loop rate absent", fast.replace("loop_rate_hz = 400.0\n", ""),
+           "timing.loop_rate_hz")
+    yield ("fast record, loop rate given", fast, None)
+
+
+CASES = list(corpus()) + list(relations())
 
 
 def test_corpus_covers_every_field() -> None:

@@ -367,6 +367,12 @@ def validate(cfg: ProcessorConfig) -> None:
     for f in FIELDS:
         if f.section == "timing":
             _check_field(f"timing.{f.key('')}", f, getattr(cfg.timing, f.name))
+    loop = field_spec("timing", "loop_rate_hz")
+    if cfg.timing.loop_rate_hz is None and not loop.accepts(cfg.timing.sample_rate_hz):
+        # valid for the format, not for the loop program: its cycle runs at most at 2000 Hz
+        raise ConfigError("timing.loop_rate_hz", f"absent, so the sample rate "
+                          f"{cfg.timing.sample_rate_hz!r} Hz, outside the loop's "
+                          f"{loop.bounds_text()}: give it")
 
 
 # ----------------------------------------------------------------------------- reading
