@@ -145,7 +145,7 @@ def test_property_processor_any_value(width: int, data: st.DataObject) -> None:
         ImuChannelConfig(filter="bias_removal", bias=0.01),
     ]
     proc = ImuProcessor(ImuConfig(channels=channels, time_tolerance_us=0), dtype=dtype,
-                        wavelet=WaveletSettings(wavelet="db8", mode="soft"))
+                        wavelet=WaveletSettings(wavelet="db8", threshold="soft"))
     x = np.tile(base_record(dtype)[:, None], (1, 6))
     for i, v in hits:
         x[i, chan] = v

@@ -250,7 +250,7 @@ def test_wavelet_channels_match_reference(mode: str, level: int) -> None:
         cfg.channels[c] = ImuChannelConfig(filter="wavelet", bias=0.001 * c)
     v = values[:n].copy()
     v[400, 0] = np.nan
-    ws = WaveletSettings(wavelet="db8", window=256, level=level, mode=mode)
+    ws = WaveletSettings(wavelet="db8", window=256, level=level, threshold=mode)
     got = ImuProcessor(cfg, wavelet=ws).process(seq[:n], t_us[:n], v)
     ref = process_imu(seq[:n], t_us[:n], v, cfg, wavelet=ws)
     # lifting transform vs pywt convolution: ~1e-15 observed -> 1e-12 relative.

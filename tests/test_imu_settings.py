@@ -78,7 +78,7 @@ def test_python_dataclass_defaults_are_the_schema_defaults() -> None:
                           ("channel", "saturation"), ("channel", "stuck_samples")):
         assert getattr(ch, name) == schema.field_spec(section, name).default, name
     ws = WaveletSettings()
-    assert (ws.wavelet, ws.window, ws.level, ws.mode) == tuple(schema.PAPER_WAVELET.values())
+    assert (ws.wavelet, ws.window, ws.level, ws.threshold) == tuple(schema.PAPER_WAVELET.values())
     # and the binding's: a default dataclass channel gives a default binding channel
     b = _core.ImuChannelSettings()
     for name in ("filter", "filter2", "steady_state", "bias", "p0", "saturation",

@@ -37,22 +37,22 @@ FILTERS = ("pass_through", "bias_removal", "ar2_kalman", "wavelet")
 class WaveletSettings:
     """Real-time wavelet stage of the wavelet channels (paper 004 sec. 2.2): one setting for
     all of them, or per channel (ImuChannelConfig.wavelet). window: a power of two in
-    16..4096 (the configuration format's windows; the C++ stage takes any of them). mode: the
-    detail handling (the configuration file's `threshold`). Defaults: the 2014 paper's stage
-    (gyrodrift.imu.schema.PAPER_WAVELET, db4, N = 256, level 5, forced).
+    16..4096 (the configuration format's windows; the C++ stage takes any of them). threshold:
+    the detail handling (forced, soft, hard), as in the configuration file. Defaults: the 2014
+    paper's stage (gyrodrift.imu.schema.PAPER_WAVELET, db4, N = 256, level 5, forced).
 
     Examples
     --------
     >>> WaveletSettings(level=4)  # one setting for the processor's wavelet channels
-    WaveletSettings(wavelet='db4', window=256, level=4, mode='forced')
-    >>> WaveletSettings(wavelet="db8", mode="soft")
-    WaveletSettings(wavelet='db8', window=256, level=5, mode='soft')
+    WaveletSettings(wavelet='db4', window=256, level=4, threshold='forced')
+    >>> WaveletSettings(wavelet="db8", threshold="soft")
+    WaveletSettings(wavelet='db8', window=256, level=5, threshold='soft')
     """
 
     wavelet: str = PAPER_WAVELET["wavelet"]
     window: int = PAPER_WAVELET["window"]
     level: int = PAPER_WAVELET["level"]
-    mode: str = PAPER_WAVELET["threshold"]
+    threshold: str = PAPER_WAVELET["threshold"]
 
 
 def _check_wavelet(key: str, ws: WaveletSettings) -> None:
@@ -320,7 +320,7 @@ class ImuProcessor:
                 _check_wavelet(f"channels[{i}].wavelet", ws)
             try:
                 stage = None if ws is None else lib.ImuWaveletSettings(
-                    wavelet=ws.wavelet, window=ws.window, level=ws.level, threshold=ws.mode
+                    wavelet=ws.wavelet, window=ws.window, level=ws.level, threshold=ws.threshold
                 )
                 settings = lib.ImuChannelSettings(
                     filter=c.filter,

@@ -59,7 +59,7 @@ def _stage(
             raise ValueError("a channel uses the wavelet stage: pass wavelet=WaveletSettings(...)")
         from gyrodrift.reference.wavelet import realtime_wavelet
 
-        return realtime_wavelet(z, ws.wavelet, ws.window, ws.level, ws.mode)
+        return realtime_wavelet(z, ws.wavelet, ws.window, ws.level, ws.threshold)
     bias = cc.bias if kind == "bias_removal" else 0.0
     out = np.empty_like(z)
     last = 0.0
