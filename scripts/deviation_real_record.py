@@ -1,7 +1,7 @@
 """The deviation family and the per-tau noise identification on the real laser-gyro record
 (../shared/data/lasergyro.imu beside the checkout, PSINS format, 100 Hz): gyro axis rate
-in deg/h, the overlapping Allan deviation with the lag-1 ACF noise ID (default) and with the old slope
-rule, the edf ratio between them, and every deviation at the same taus. Prints markdown
+in deg/h, the overlapping Allan deviation with the lag-1 ACF noise ID (default) and with the
+old slope rule, the edf ratio between them, and every deviation at the same taus. Prints markdown
 tables (the documentation's validation tables); --png writes the figure (not committed).
 
     PYTHONPATH=python:build/dev-NAME/py python3 scripts/deviation_real_record.py \
