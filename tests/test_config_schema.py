@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from gyrodrift.imu.config import ConfigError, default_config, dumps_config, parse_config
 from gyrodrift.imu.firmware_header import emit_schema_header
-from gyrodrift.imu.schema import FIELDS, Field
+from gyrodrift.imu.schema import FIELDS, FLOAT32_MIN_NORMAL, Field
 
 ROOT = Path(__file__).resolve().parents[1]
 HEADER = ROOT / "include" / "gyrodrift" / "imu" / "config_schema.hpp"
@@ -87,7 +87,12 @@ def corpus() -> Iterator[tuple[str, str, str | None]]:
         for bound, open_, side in ((f.lo, f.lo_open, -1), (f.hi, f.hi_open, +1)):
             if bound is None or (f.name in ("a1", "a2")):
                 continue
-            step = 1 if f.kind == "int" else max(abs(bound) * 1e-9, 1e-300)
+            if f.kind == "int":
+                step: float = 1
+            elif f.float32:  # a step the float32 rounding keeps
+                step = max(abs(bound) * 1e-6, FLOAT32_MIN_NORMAL)
+            else:
+                step = max(abs(bound) * 1e-9, 1e-300)
             inside = bound - side * step if open_ else bound
             outside = bound if open_ else bound + side * step
             if not f.power_of_two:
@@ -96,6 +101,9 @@ def corpus() -> Iterator[tuple[str, str, str | None]]:
             yield (f"{f.section}.{f.name} beyond {bound!r}", *_set(base, f, _literal(f, outside)))
         if f.kind == "float" and f.finite:
             yield (f"{f.section}.{f.name} = nan", *_set(base, f, "nan"))
+        if f.float32:  # valid doubles that are no float32: underflow, overflow
+            for x in ("1e-50", "-1e-45", "1e39", "-3.5e38"):
+                yield (f"{f.section}.{f.name} = {x} (no float32)", *_set(base, f, x))
 
 
 def relations() -> Iterator[tuple[str, str, str | None]]:

@@ -279,6 +279,7 @@ _FIELD_SPEC_STRUCT = (
     "  bool hi_open;",
     "  bool finite;",
     "  bool power_of_two;",
+    "  bool float32;  // the processors hold it as a float32: it must fit one",
     "  const char* choices;",
     "  const char* bounds_text;",
     "  const char* unit;",
@@ -318,7 +319,8 @@ def emit_schema_header() -> str:
             f"{_cpp_double(float(dflt), 0.0)}, {_cpp_string(text_default)},\n"
             f"    {_cpp_double(f.lo, -math.inf)}, {'true' if f.lo_open else 'false'}, "
             f"{_cpp_double(f.hi, math.inf)}, {'true' if f.hi_open else 'false'}, "
-            f"{'true' if f.finite else 'false'}, {'true' if f.power_of_two else 'false'},\n"
+            f"{'true' if f.finite else 'false'}, {'true' if f.power_of_two else 'false'}, "
+            f"{'true' if f.float32 else 'false'},\n"
             f"    {_cpp_string('|'.join(f.choices))}, {_cpp_string(f.bounds_text())}, "
             f"{_cpp_string(f.unit)},\n    {_cpp_string(f.help)}}};")
     rate = DEFAULT_SAMPLE_RATE_HZ
