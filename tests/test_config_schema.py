@@ -242,3 +242,65 @@ def test_wrong_units_message_reads_as_english() -> None:
                                           r"for an accelerometer channel \(m/s\^2\): use "
                                           r"bias_m_s2$"):
         parse_config(text)
+
+
+# ------------------------------------------------------------------ the hostile corpus
+# tests/data/config_corpus: valid and invalid files (TOML 1.0 forms the format reads, what
+# TOML refuses, what the format refuses, encodings, NUL bytes, nesting, duplicate tables,
+# float32 limits), each with its expected verdict in expected.json: "ok", the key the error
+# must name, or for an error of the whole file its reason ("not valid TOML", "not a UTF-8
+# text file", after the file's name). Both readers must give exactly that.
+CORPUS = ROOT / "tests" / "data" / "config_corpus"
+EXPECTED: dict[str, str] = __import__("json").loads((CORPUS / "expected.json").read_text())
+FILE_ERRORS = ("not valid TOML", "not a UTF-8 text file")
+
+
+def _verdict(path: Path, message: str | None) -> str:
+    """'ok', the key named, or the reason of an error of the whole file."""
+    if message is None:
+        return "ok"
+    prefix = f"{path}: "
+    assert message.startswith(prefix), message
+    rest = message[len(prefix):]
+    for reason in FILE_ERRORS:
+        if rest.startswith(reason):
+            return reason
+    assert "\n" not in rest, message  # one line
+    return rest.split(": ", 1)[0]
+
+
+def test_corpus_is_complete() -> None:
+    files = {p.name for p in CORPUS.glob("*.toml")}
+    assert files == set(EXPECTED)
+    verdicts = list(EXPECTED.values())
+    assert verdicts.count("ok") >= 15 and verdicts.count("not valid TOML") >= 40
+    assert len([v for v in verdicts if v not in ("ok", *FILE_ERRORS)]) >= 30
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_corpus_python_reader(name: str) -> None:
+    from gyrodrift.imu.config import load_config
+
+    path = CORPUS / name
+    try:
+        load_config(path)
+        message = None
+    except ConfigError as exc:
+        message = f"{path}: {exc}" if not str(exc).startswith(str(path)) else str(exc)
+    assert _verdict(path, message) == EXPECTED[name], message
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_corpus_loop_reader(name: str, loop_check: Path) -> None:
+    path = CORPUS / name
+    r = subprocess.run([str(loop_check), "--check-config", str(path)], capture_output=True,
+                       text=True, timeout=20)
+    if r.returncode == 0:
+        assert r.stdout.strip() == f"{path}: ok", r.stdout
+        message = None
+    else:
+        assert r.returncode == 2, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1, r.stderr  # one line, never a trace
+        message = lines[0].removeprefix("gyrodrift-loop: error: ")
+    assert _verdict(path, message) == EXPECTED[name], message
