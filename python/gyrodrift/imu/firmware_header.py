@@ -46,6 +46,7 @@ from gyrodrift.imu.schema import (
     default_period_us,
     default_time_tolerance_us,
     field_spec,
+    to_float32,
 )
 
 __all__ = ["emit_cpp", "emit_schema_header", "float_literal"]
@@ -65,7 +66,14 @@ def float_literal(x: float) -> str:
     --------
     >>> float_literal(0.1), float_literal(1e-10), float_literal(float("inf"))
     ('1.0e-01f', '1.0e-10f', 'std::numeric_limits<float>::infinity()')
+    >>> float_literal(1e-50)  # would be 0.0f: refused
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: 1e-50 does not fit a float32 (a magnitude 1.1754944e-38..3.4028235e+38, or 0)
     """
+    if to_float32(float(x)) is None:
+        raise GyrodriftValueError(f"{float(x)!r} does not fit a float32 (a magnitude "
+                                  "1.1754944e-38..3.4028235e+38, or 0)")
     v = np.float32(x)
     if np.isinf(v):
         return ("-" if v < 0 else "") + "std::numeric_limits<float>::infinity()"
