@@ -157,7 +157,7 @@ def test_the_loop_counts_undefined_pages(tmp_path: Path, cpp_build_dir: Path,
                 os.read(slave, 65536)
     finally:
         os.close(slave)
-        stdout, stderr = proc.communicate(timeout=20)
+        stdout, _ = proc.communicate(timeout=20)
     stats = json.loads(stdout)
     assert stats["can"]["frames_in"] == 110
     assert stats["rejected"]["can_undefined_page_frames"] == 10
@@ -190,5 +190,5 @@ def test_a_signal_that_cannot_fit_is_refused(line: str, tmp_path: Path,
                         "--can-signals", str(bad)], capture_output=True, text=True, timeout=10)
     assert r.returncode == 2 and f"{bad}:2: bad " in r.stderr and "fit" in r.stderr, r.stderr
     assert r.stderr.count("\n") == 1
-    with pytest.raises(ValueError, match="line 2: bad .*fit"):
+    with pytest.raises(ValueError, match=r"line 2: bad .*fit"):
         _core.can_signal_table(bad.read_text())

@@ -30,6 +30,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 AR2_FIELDS = ["a1", "a2", "mean", "sigma2", "q", "r", "p0"]
+SLOW = [HealthCheck.too_slow, HealthCheck.filter_too_much]
 LITERAL = r"-?(?:\d\.\d*e[+-]\d+f|std::numeric_limits<float>::infinity\(\)|kNaN)"
 
 
@@ -87,7 +88,7 @@ def _check_built(cfg: ProcessorConfig, channel: int = 0) -> None:
 
 
 @pytest.mark.parametrize("name", [*AR2_FIELDS, "saturation"])
-@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@settings(max_examples=12, deadline=None, suppress_health_check=SLOW)
 @given(data=st.data())
 def test_every_accepted_value_builds_the_float_processor_and_header(name: str,
                                                                     data: st.DataObject) -> None:
@@ -105,7 +106,7 @@ def test_every_accepted_value_builds_the_float_processor_and_header(name: str,
     assert parse_config(dumps_config(cfg)) == cfg
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@settings(max_examples=25, deadline=None, suppress_health_check=SLOW)
 @given(a1=st.floats(-2.0, 2.0), a2=st.floats(-1.0, 1.0))
 def test_every_accepted_ar2_model_builds(a1: float, a2: float) -> None:
     try:

@@ -351,8 +351,9 @@ def decode_table_text(smap: SignalMap) -> str:
              "gyrodrift.codecs.can_signals.decode_table_text",
              "# role id ext dlc start length order type scale offset factor mux"]
     for m in _multiplexed_messages(smap):
-        lines.append(f"pages {m['id']:#x} {int(m['extended'])} {m['dlc']} {m['start']}:{m['length']}:"
-                     f"{m['order']}:{','.join(str(v) for v in m['values'])}  # {m['message']}")
+        values = ",".join(str(v) for v in m["values"])
+        lines.append(f"pages {m['id']:#x} {int(m['extended'])} {m['dlc']} "
+                     f"{m['start']}:{m['length']}:{m['order']}:{values}  # {m['message']}")
     for e in decode_table(smap):
         mux = "-" if e["mux"] is None else \
             f"{e['mux']['start']}:{e['mux']['length']}:{e['mux']['order']}:{e['mux']['value']}"
