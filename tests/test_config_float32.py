@@ -88,7 +88,7 @@ def _check_built(cfg: ProcessorConfig, channel: int = 0) -> None:
 
 
 @pytest.mark.parametrize("name", [*AR2_FIELDS, "saturation"])
-@settings(max_examples=12, deadline=None, suppress_health_check=SLOW)
+@settings(max_examples=12, deadline=None, derandomize=True, suppress_health_check=SLOW)
 @given(data=st.data())
 def test_every_accepted_value_builds_the_float_processor_and_header(name: str,
                                                                     data: st.DataObject) -> None:
@@ -106,13 +106,13 @@ def test_every_accepted_value_builds_the_float_processor_and_header(name: str,
     assert parse_config(dumps_config(cfg)) == cfg
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=SLOW)
+@settings(max_examples=25, deadline=None, derandomize=True, suppress_health_check=SLOW)
 @given(a1=st.floats(-2.0, 2.0), a2=st.floats(-1.0, 1.0))
 def test_every_accepted_ar2_model_builds(a1: float, a2: float) -> None:
     try:
         cfg = _with_gx(default_config(), a1=a1, a2=a2)
     except ConfigError as exc:
-        assert exc.key == "channels.gx.stages[1].a1", str(exc)
+        assert exc.key in ("channels.gx.stages[1].a1", "channels.gx.stages[1].a2"), str(exc)
         assume(False)
         return
     _check_built(cfg)

@@ -400,13 +400,14 @@ inline bool check_stage(const std::string& key, const std::string& ch, const Sta
             ", a2=" + tomldoc::repr_number(a2) + "; needs |a2| < 1, a1 + a2 < 1, a2 - a1 < 1)";
       return false;
     }
-    double f1 = 0.0, f2 = 0.0;
-    to_float32(a1, f1);  // both fit: checked with the fields
-    to_float32(a2, f2);
-    if (!ar2_stationary(f1, f2)) {
+    // The float32 processor's own test (ar2_is_stationary<float>), in float arithmetic.
+    const float one = 1.0F - 64.0F * std::numeric_limits<float>::epsilon();
+    const auto x1 = static_cast<float>(a1), x2 = static_cast<float>(a2);  // both fit: checked with the fields
+    if (!(x2 < one && x2 > -one && x1 + x2 < one && x2 - x1 < one)) {
       err = key + ".a1: AR(2) model is not stationary in float32, the processor's scalar (a1=" +
-            tomldoc::repr_number(a1) + ", a2=" + tomldoc::repr_number(a2) + " round to " + tomldoc::repr_number(f1) +
-            ", " + tomldoc::repr_number(f2) + "; needs |a2| < 1, a1 + a2 < 1, a2 - a1 < 1)";
+            tomldoc::repr_number(a1) + ", a2=" + tomldoc::repr_number(a2) +
+            "; in float32 |a2|, a1 + a2 and a2 - a1 must stay below 1 - 64 eps = " +
+            tomldoc::repr_number(static_cast<double>(one)) + ")";
       return false;
     }
   }

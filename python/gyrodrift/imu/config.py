@@ -29,6 +29,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Union
 
+import numpy as np
+
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.imu.schema import (
     CHANNEL_NAMES,
@@ -302,6 +304,17 @@ def ar2_is_stationary(a1: float, a2: float) -> bool:
     return abs(a2) < 1.0 and a1 + a2 < 1.0 and a2 - a1 < 1.0
 
 
+#: The float32 processor's stationarity bound (include/gyrodrift/filters/ar2_model.hpp:
+#: ar2_is_stationary, 1 - 64 machine epsilons).
+_F32_ONE = np.float32(1.0) - np.float32(64.0) * np.finfo(np.float32).eps
+
+
+def _ar2_is_stationary_f32(a1: float, a2: float) -> bool:
+    """The float32 processor's own stationarity test, in float32 arithmetic as it runs it."""
+    x1, x2 = np.float32(a1), np.float32(a2)
+    return bool(-_F32_ONE < x2 < _F32_ONE and x1 + x2 < _F32_ONE and x2 - x1 < _F32_ONE)
+
+
 def _check_field(key: str, spec: Field, value: Any) -> None:
     """The field's own bounds (gyrodrift.imu.schema), in the words both readers use."""
     if value is None and spec.default is None:
@@ -341,15 +354,13 @@ def _check_stage(key: str, ch: str, s: Stage) -> None:
             f"AR(2) model is not stationary (a1={s.a1!r}, a2={s.a2!r}; needs |a2| < 1, "
             "a1 + a2 < 1, a2 - a1 < 1)",
         )
-    if isinstance(s, Ar2KalmanStage):
-        a1, a2 = to_float32(s.a1), to_float32(s.a2)
-        assert a1 is not None and a2 is not None  # checked with the fields
-        if not ar2_is_stationary(a1, a2):
-            raise ConfigError(
-                f"{key}.a1",
-                f"AR(2) model is not stationary in float32, the processor's scalar (a1={s.a1!r}, "
-                f"a2={s.a2!r} round to {a1!r}, {a2!r}; needs |a2| < 1, a1 + a2 < 1, a2 - a1 < 1)",
-            )
+    if isinstance(s, Ar2KalmanStage) and not _ar2_is_stationary_f32(s.a1, s.a2):
+        raise ConfigError(
+            f"{key}.a1",
+            f"AR(2) model is not stationary in float32, the processor's scalar (a1={s.a1!r}, "
+            f"a2={s.a2!r}; in float32 |a2|, a1 + a2 and a2 - a1 must stay below "
+            f"1 - 64 eps = {float(_F32_ONE)!r})",
+        )
 
 
 def validate(cfg: ProcessorConfig) -> None:
