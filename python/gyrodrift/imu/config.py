@@ -568,7 +568,7 @@ _DOUBLE_MIN_NORMAL = 2.2250738585072014e-308
 FLOAT32_RANGE_TEXT = "1.1754944e-38..3.4028235e+38"
 
 
-class _LiteralError(ValueError):
+class _LiteralError(GyrodriftValueError):
     """A float literal outside the normal range of a double (raised while parsing)."""
 
 
