@@ -146,7 +146,7 @@ class Field:
     --------
     >>> f = field_spec("ar2_kalman", "r")
     >>> f.kind, f.unit, f.lo, f.lo_open, f.bounds_text()
-    ('float', 'channel^2', 0.0, True, '> 0')
+    ('float', 'channel^2', 0.0, True, '> 0 and <= 1e+30')
     """
 
     section: str
