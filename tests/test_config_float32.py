@@ -146,3 +146,17 @@ def test_values_valid_in_double_but_not_in_float32_are_refused(name: str, value:
 def test_float32_fields_are_the_processors_floats() -> None:
     names = {f.name for f in FIELDS if f.float32}
     assert names == {"saturation", "bias", "a1", "a2", "mean", "sigma2", "q", "r", "p0"}
+
+
+def test_the_float_processor_names_the_channel() -> None:
+    # A processor built in code (no configuration file, so no validator): r = 1e-50 is 0 in
+    # float32, the float processor refuses it and says which channel.
+    from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig
+
+    chans = [ImuChannelConfig() for _ in range(6)]
+    chans[2] = ImuChannelConfig(filter="ar2_kalman", a1=0.5, a2=0.1, mean=0.0, sigma2=1e-10,
+                                q=1e-10, r=1e-50)
+    ImuProcessor(ImuConfig(channels=chans))  # fine in double
+    with pytest.raises(ValueError, match=r"^channels\.gz: invalid IMU processor configuration "
+                                         r"in float32: "):
+        ImuProcessor(ImuConfig(channels=chans), dtype=np.float32)
