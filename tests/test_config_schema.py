@@ -304,3 +304,23 @@ def test_corpus_loop_reader(name: str, loop_check: Path) -> None:
         assert len(lines) == 1, r.stderr  # one line, never a trace
         message = lines[0].removeprefix("gyrodrift-loop: error: ")
     assert _verdict(path, message) == EXPECTED[name], message
+
+
+@pytest.mark.parametrize("name,needle", [
+    ("toml_deep_array.toml", "not valid TOML: tables or arrays nested deeper than 128"),
+    ("toml_deep_inline_table.toml", "not valid TOML: tables or arrays nested deeper than 128"),
+    ("f32_r_underflow.toml", "channels.gx.stages[1].r: 1e-50 does not fit a float32"),
+])
+def test_config_command_refuses_in_one_line(name: str, needle: str, tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    # `config validate` on 5000-deep arrays raised RecursionError; `emit-cpp` wrote r = 0.0f.
+    from gyrodrift.cli import main
+
+    path = CORPUS / name
+    assert main(["config", "validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("gyrodrift config: error: ") and needle in err
+    assert err.count("\n") == 1, err
+    out = tmp_path / "h.hpp"
+    assert main(["config", "emit-cpp", str(path), "-o", str(out)]) == 2
+    assert needle in capsys.readouterr().err and not out.exists()
