@@ -20,6 +20,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -586,15 +587,35 @@ inline bool read_doc(const toml::table& doc, FileConfig& out, std::string& err) 
 
 }  // namespace detail
 
+// One line: control characters (of a quoted key, of the parser's message) escaped as \xNN,
+// as the Python reader does.
+inline std::string one_line(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x20U && u != 0x7FU) {
+      out += c;
+      continue;
+    }
+    char b[8];
+    std::snprintf(b, sizeof b, "\\x%02x", static_cast<unsigned>(u));
+    out += b;
+  }
+  return out;
+}
+
 // Reads and checks a configuration's text; false with a one-line `error` "<source>: <key>: ...".
 inline bool read_config_text(const std::string& text, const std::string& source, FileConfig& out,
                              std::string& error) {
   toml::table doc;
   std::string err;
-  if (!tomldoc::parse(text, source, doc, error)) return false;
+  if (!tomldoc::parse(text, source, doc, err)) {
+    error = one_line(err);
+    return false;
+  }
   FileConfig fc;
   if (!detail::read_doc(doc, fc, err)) {
-    error = source + ": " + err;
+    error = one_line(source + ": " + err);
     return false;
   }
   out = fc;

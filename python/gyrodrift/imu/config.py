@@ -107,7 +107,10 @@ class ConfigError(GyrodriftValueError):
 
     def __init__(self, key: str, message: str) -> None:
         self.key = key
-        super().__init__(f"{key}: {message}" if key else message)
+        text = f"{key}: {message}" if key else message
+        # one line: control characters (of a quoted key, of a parser's message) escaped
+        super().__init__("".join(c if c >= " " and c != "\x7f" else f"\\x{ord(c):02x}"
+                                 for c in text))
 
 
 @dataclass(frozen=True)
