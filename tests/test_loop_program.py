@@ -195,15 +195,18 @@ def _crc(body: bytes) -> int:
 
 def test_sigterm_prints_statistics(loop_bin: Path, pass_args: list[str]) -> None:
     loop = Loop(loop_bin, "--serial", *pass_args)
-    time.sleep(0.2)
+    t0 = time.monotonic()
+    time.sleep(0.5)
     loop.proc.send_signal(signal.SIGTERM)
     out, _ = loop.proc.communicate(timeout=10)
+    elapsed_s = time.monotonic() - t0
     os.close(loop.fd)
     stats = json.loads(out)
     assert stats["end_reason"] == "signal"
     assert stats["frames_in"] == 0
-    # ~200 cycles at 1 kHz in 0.2 s; loose bound for a shared machine.
-    assert stats["cycles"] >= 50
+    # The loop ran (at least one 1 kHz cycle in 0.5 s, however loaded the machine) and never
+    # more cycles than the time allows: no rate window, which a loaded machine cannot keep.
+    assert 1 <= stats["cycles"] <= 1000.0 * elapsed_s + 2
     for key in ("period_jitter_us", "wake_latency_us", "compute_us", "sample_us"):
         assert set(stats[key]) == {"n", "p50", "p99", "max"}
     assert stats["realtime"]["sched_error"] == "not requested (--no-rt)"
