@@ -11,9 +11,11 @@
   ``repr`` (the shortest string that reads back to the same double, at most ``%.17g``
   digits), integers as integers);
 - output files: every location checked before the work (:func:`check_output`,
-  :func:`check_out_dir`), every file written atomically (:func:`atomic_output`: a temporary
-  file in the same directory, renamed over the target only when complete, removed on any
-  failure or Ctrl-C), so a failed or interrupted command leaves no partial output.
+  :func:`check_out_dir`), every file written by the one rule of :mod:`gyrodrift.io.atomic`
+  (:func:`atomic_output`: a file is replaced atomically, a symbolic link is followed, a
+  device or FIFO is written through, a directory is refused), so a failed or interrupted
+  command leaves no partial output; the human-readable lines go to stderr when an output is
+  stdout itself (:func:`human_stream`).
 
 Examples
 --------
@@ -38,7 +40,7 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
-from gyrodrift.io.atomic import atomic_output
+from gyrodrift.io.atomic import atomic_output, is_stdout, output_target
 from gyrodrift.io.json_text import json_default, json_text
 from gyrodrift.io.records import Record, load_record
 from gyrodrift.stability import IEEE952_TERMS
@@ -58,6 +60,7 @@ __all__ = [
     "check_rate_hz",
     "emit_json",
     "format_csv_value",
+    "human_stream",
     "json_default",
     "progress_enabled",
     "record_from_args",
@@ -315,10 +318,11 @@ def _png_suffixes() -> tuple[str, ...]:
 
 def check_output(path: str | Path | None, flag: str, suffixes: Sequence[str] | None = None
                  ) -> Path | None:
-    """Check an output location before any work: its directory exists and is writable, the
-    path is not a directory, its suffix is one the writer knows (``suffixes``; for ``--png``
-    the image formats matplotlib can write). Returns the path (None stays None); raises a
-    :class:`CliError` naming the flag.
+    """Check an output location before any work, by the rule of :mod:`gyrodrift.io.atomic`:
+    its suffix is one the writer knows (``suffixes``; for ``--png`` the image formats
+    matplotlib can write); it is not a directory; a file (or the file a symbolic link leads
+    to) has a writable directory; a device, FIFO or socket is writable. Returns the path (None
+    stays None); raises a :class:`CliError` naming the flag.
 
     Examples
     --------
@@ -335,14 +339,37 @@ def check_output(path: str | Path | None, flag: str, suffixes: Sequence[str] | N
     if suffixes is not None and p.suffix.lower() not in suffixes:
         raise CliError(f"{flag} {p}: unsupported file type {p.suffix or '(none)'!r}; use one "
                        f"of {', '.join(suffixes)}")
-    parent = p.parent if str(p.parent) else Path(".")
+    try:
+        target = output_target(p)
+    except IsADirectoryError:
+        raise CliError(f"{flag} {p}: is a directory") from None
+    except OSError as exc:
+        raise CliError(f"{flag} {p}: {exc.strerror or exc}") from None
+    if target.kind == "stream":  # a device, FIFO or socket: written through, never replaced
+        if not os.access(p, os.W_OK):
+            raise CliError(f"{flag} {p}: not writable (permission denied)")
+        return p
+    parent = target.real.parent
     if not parent.is_dir():
-        raise CliError(f"{flag} {p}: directory {parent} does not exist")
-    if p.is_dir():
-        raise CliError(f"{flag} {p}: is a directory")
-    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        shown = parent if p.is_symlink() else (p.parent if str(p.parent) else Path("."))
+        raise CliError(f"{flag} {p}: directory {shown} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK) or (
+            target.exists and not os.access(target.real, os.W_OK)):
         raise CliError(f"{flag} {p}: not writable (permission denied)")
     return p
+
+
+def human_stream(*outputs: str | Path | None) -> IO[str]:
+    """Where a command prints its human-readable lines: stdout, or stderr when one of its
+    output files is the standard output itself (``-o /dev/stdout``), so that stdout carries
+    the file's bytes and nothing else.
+
+    Examples
+    --------
+    >>> human_stream(None, "result.npy") is sys.stdout
+    True
+    """
+    return sys.stderr if any(o is not None and is_stdout(o) for o in outputs) else sys.stdout
 
 
 def check_out_dir(path: str | Path | None, flag: str = "--out-dir") -> Path | None:

@@ -651,7 +651,8 @@ def plot_sensor(res: CharacterizeResult, sensor: str, path: str | Path | None = 
     plt.close(fig)
     data = buf.getvalue()
     if path is not None:
-        Path(path).write_bytes(data)
+        with atomic_output(path) as tmp:
+            tmp.write_bytes(data)
     return data
 
 
