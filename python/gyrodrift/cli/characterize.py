@@ -18,6 +18,7 @@ from gyrodrift.cli.common import (
     add_gyro_units_arg,
     add_json_arg,
     add_progress_arg,
+    add_time_units_arg,
     check_out_dir,
     check_output,
     emit_json,
@@ -51,6 +52,7 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
                         "columns)")
     p.add_argument("--time-column", help="text: time column name/index, or 'none' (default: "
                    "detected)")
+    add_time_units_arg(p)
     p.add_argument("--topic", help="ROS bag: the sensor_msgs/msg/Imu topic (listed when absent)")
     add_gyro_units_arg(p)
     p.add_argument("--accel-units", choices=ACCEL_INPUT_UNITS, default=DEFAULT_ACCEL_UNITS,
@@ -80,7 +82,8 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
         return load_imu(path or args.input, rate_hz=args.rate_hz,
                         columns=(args.column_channels.split(",") if args.column_channels
                                  else None),
-                        time_column=args.time_column, topic=args.topic,
+                        time_column=args.time_column, time_units=args.time_units,
+                        topic=args.topic,
                         gyro_units=args.gyro_units, accel_units=args.accel_units,
                         nan_policy="drop" if args.drop_nan else "refuse", **kw)
     except (OSError, ValueError, GyrodriftError) as exc:

@@ -1,7 +1,7 @@
 """Input and output helpers shared by every subcommand (the conventions of CONTRIBUTING.md).
 
 - input record: positional ``INPUT``, ``--column``, ``--rate-hz``, ``--gyro-units``,
-  ``--drop-nan``, ``--force-rate``
+  ``--drop-nan``, ``--force-rate``, ``--time-units``
   (:func:`add_input_args`, :func:`record_from_args`);
 - ``--json`` (:func:`add_json_arg`) printed by the one JSON writer :func:`emit_json`;
 - ``--progress auto|always|never`` (:func:`add_progress_arg`, :func:`progress_enabled`): auto
@@ -44,7 +44,7 @@ from gyrodrift.io.atomic import atomic_output, is_stdout, output_target
 from gyrodrift.io.json_text import json_default, json_text
 from gyrodrift.io.records import Record, load_record
 from gyrodrift.stability import IEEE952_TERMS
-from gyrodrift.units import DEFAULT_GYRO_UNITS, GYRO_INPUT_UNITS
+from gyrodrift.units import DEFAULT_GYRO_UNITS, DEFAULT_TIME_UNITS, GYRO_INPUT_UNITS, TIME_UNITS
 
 __all__ = [
     "DEFAULT_FIT_TERMS",
@@ -55,6 +55,7 @@ __all__ = [
     "add_input_args",
     "add_json_arg",
     "add_progress_arg",
+    "add_time_units_arg",
     "check_out_dir",
     "check_output",
     "check_rate_hz",
@@ -74,7 +75,7 @@ DEFAULT_FIT_TERMS = ",".join(IEEE952_TERMS)
 
 def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
     """Add the input-record arguments: ``INPUT``, ``--column``, ``--rate-hz``, ``--gyro-units``,
-    ``--drop-nan``, ``--force-rate``.
+    ``--drop-nan``, ``--force-rate``, ``--time-units``.
 
     Examples
     --------
@@ -95,6 +96,24 @@ def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None
                    help="drop NaN/Inf samples (their count is reported); default: refuse")
     p.add_argument("--force-rate", action="store_true",
                    help="use --rate-hz even where it contradicts the file's own time column")
+    add_time_units_arg(p)
+
+
+def add_time_units_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--time-units`` (the units of a text record's time column; choices and default
+    from the one units table, :data:`gyrodrift.units.TIME_UNITS` and
+    :data:`gyrodrift.units.DEFAULT_TIME_UNITS`).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_time_units_arg(p)
+    >>> p.parse_args([]).time_units, p.parse_args(["--time-units", "ns"]).time_units
+    ('s', 'ns')
+    """
+    p.add_argument("--time-units", choices=tuple(TIME_UNITS), default=DEFAULT_TIME_UNITS,
+                   help="units of the time column of a text record: s, ms, us or ns (default "
+                        f"{DEFAULT_TIME_UNITS}; the rate it gives must lie within 1e-06..1e+09 "
+                        "Hz, like --rate-hz)")
 
 
 def add_gyro_units_arg(p: argparse.ArgumentParser) -> None:
@@ -131,7 +150,8 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
         return load_record(args.input, column=args.column, rate_hz=args.rate_hz,
                            units=args.gyro_units, nan_policy="drop" if args.drop_nan else "refuse",
                            mmap=mmap, can_signals=getattr(args, "can_signals", None),
-                           force_rate=bool(getattr(args, "force_rate", False)))
+                           force_rate=bool(getattr(args, "force_rate", False)),
+                           time_units=getattr(args, "time_units", DEFAULT_TIME_UNITS))
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
 

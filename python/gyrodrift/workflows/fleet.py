@@ -71,6 +71,7 @@ class FleetOptions:
     rate_hz: float | None = None
     columns: tuple[str, ...] | None = None
     time_column: str | None = None
+    time_units: str = "s"
     topic: str | None = None
     gyro_units: str = "rad/s"
     accel_units: str = "m/s^2"
@@ -256,8 +257,8 @@ def _characterize_record(path: str, d: Path, opts: FleetOptions) -> tuple[Any, s
             del rec
         return res, "spool"
     rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
-                   time_column=opts.time_column, topic=opts.topic, gyro_units=opts.gyro_units,
-                   accel_units=opts.accel_units)
+                   time_column=opts.time_column, time_units=opts.time_units, topic=opts.topic,
+                   gyro_units=opts.gyro_units, accel_units=opts.accel_units)
     return ch.characterize(rec, **kw), "whole"
 
 
