@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gyrodrift.defaults import RATE_MAX_HZ, RATE_MIN_HZ
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.units import ARCSEC, DEG, UG
 
@@ -107,8 +108,6 @@ def read_psins_imu(path: str | Path) -> PsinsRecord:
     dt_s = l2[4] / 1000.0
     if not dt_s > 0:
         raise GyrodriftValueError(f"{path}: sampling interval must be > 0 ms, got {l2[4]}")
-    from gyrodrift.io.records import RATE_MAX_HZ, RATE_MIN_HZ
-
     if not RATE_MIN_HZ <= 1.0 / dt_s <= RATE_MAX_HZ:  # the range a given --rate-hz has
         raise GyrodriftValueError(
             f"{path}: sampling interval {l2[4]:g} ms gives a sample rate of {1.0 / dt_s:.3g} "

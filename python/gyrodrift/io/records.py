@@ -21,6 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gyrodrift.defaults import RATE_MAX_HZ as _RATE_MAX_HZ
+from gyrodrift.defaults import RATE_MIN_HZ as _RATE_MIN_HZ
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.units import (
     DEFAULT_TIME_UNITS,
@@ -394,9 +396,10 @@ def _read_csv_table(p: Path, delimiter: str, skip: int) -> np.ndarray:
     return table
 
 
-#: sample rates accepted from the user (outside them the analyses' fits overflow)
-RATE_MIN_HZ = 1e-6
-RATE_MAX_HZ = 1e9
+#: sample rates accepted from the user or a file (gyrodrift.defaults: outside them the
+#: analyses' fits overflow)
+RATE_MIN_HZ = _RATE_MIN_HZ
+RATE_MAX_HZ = _RATE_MAX_HZ
 
 
 def _resolve_rate(given: float | None, t: np.ndarray, source: str, force: bool,
