@@ -327,3 +327,12 @@ def test_suffix_of_the_temporary_file(tmp_path: Path) -> None:
         np.save(tmp, np.zeros(3))  # numpy would append .npy to a name without it
         assert tmp.suffix == ".npy"
     assert is_device(null, 3)
+
+
+def test_a_writer_that_misses_the_temporary_file_is_named(tmp_path: Path) -> None:
+    """numpy.save appends .npy to a suffix-less name: the output rule says so instead of
+    failing on a temporary path the caller never saw."""
+    null = device(tmp_path, "nul", 3)
+    with pytest.raises(AssertionError, match="suffix="), atomic_output(null) as tmp:
+        np.save(tmp, np.zeros(3))
+    assert is_device(null, 3)

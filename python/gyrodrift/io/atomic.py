@@ -166,6 +166,9 @@ def atomic_output(path: str | os.PathLike[str], *, suffix: str | None = None
         with tempfile.TemporaryDirectory(prefix="gyrodrift-out-") as d:
             tmp = Path(d) / f"output{sfx}"
             yield tmp
+            if not tmp.is_file():  # e.g. numpy.save appends .npy to a name without it
+                raise AssertionError(f"the writer made no file at {tmp.name!r}; give "
+                                     "atomic_output the suffix it needs (suffix=)")
             _write_through(target.path, tmp)
         return
     parent = target.real.parent
