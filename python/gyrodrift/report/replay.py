@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.replay.harness import ReplayResult
 
@@ -114,9 +115,7 @@ def write_json(result: ReplayResult, path: str | Path) -> Path:
     ...     print(json.loads(write_json(res, Path(d) / "report.json").read_text())["ok"])
     True
     """
-    path = Path(path)
-    path.write_text(json_text(result.report) + "\n")
-    return path
+    return atomic_write_text(path, json_text(result.report) + "\n")
 
 
 def _hist(ax: Any, values: np.ndarray, bins: int, **kw: Any) -> None:
@@ -178,6 +177,9 @@ def write_png(result: ReplayResult, path: str | Path) -> Path:
     fig.suptitle(f"gyrodrift replay: {result.report['transport']}, {result.report['speed']}, "
                  f"{'PASS' if result.ok else 'FAIL'}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        with atomic_output(path) as tmp:  # the output rule of gyrodrift.io.atomic
+            fig.savefig(tmp, dpi=100)
+    finally:
+        plt.close(fig)
     return path
