@@ -153,7 +153,7 @@ def test_parser_resyncs_after_garbage_corruption_truncation(rng: np.random.Gener
     garbage = bytes([0x00, 0xA5, 0x00, 0x5A, 0xA5, 0x17])  # contains sync0 but no valid header
     corrupted = bytearray(enc[2])
     corrupted[30] ^= 0x40
-    bad_header = enc[4][:2] + b"\x02\x24" + enc[4][4:]  # unknown type 0x02
+    bad_header = enc[4][:2] + b"\x03\x24" + enc[4][4:]  # unknown type 0x03
     stream = (
         garbage
         + enc[0]
