@@ -14,11 +14,14 @@ is a failure, not a skip.
 
 from __future__ import annotations
 
+import argparse
+import json
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
+from gyrodrift.cli import replay as replay_cli
 from gyrodrift.codecs.wire import Samples, make_samples
 from gyrodrift.imu.config import (
     Ar2KalmanStage,
@@ -36,7 +39,7 @@ from gyrodrift.replay.firmware import (
     cached_firmware,
     instruction_budget,
 )
-from gyrodrift.replay.harness import ReplayOptions, ReplayResult, run_replay
+from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, ReplayResult, run_replay
 from gyrodrift.simulation.records import NoiseTerms, simulate_imu
 
 # Every fault kind, a few percent each: over 4000 samples each kind happens dozens of times.
@@ -161,3 +164,23 @@ def test_build_refuses_what_does_not_fit(tmp_path: Path) -> None:
         replace(cfg.channel("gx").stages[0], threshold="soft"), cfg.channel("gx").stages[1])))
     with pytest.raises(FirmwareError, match="forced wavelet stages only"):
         build_firmware(soft, tmp_path / "soft")
+
+
+def test_command_line_target_qemu(tmp_path: Path, cpp_build_dir: Path,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """`gyrodrift replay --target qemu`: the table, report.json and report.png name the target
+    and carry the image's cost (the plot used to expect the host loop's clock statistics)."""
+    parser = argparse.ArgumentParser(prog="gyrodrift")
+    replay_cli.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["replay", "--target", "qemu", "--duration-s", "1", "--no-rt",
+                              "--fault-corrupt", "0.02", "--seed", "2",
+                              "--loop-binary", str(cpp_build_dir / LOOP_RELATIVE),
+                              "--out-dir", str(tmp_path)])
+    rc = args.func(args)
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "qemu netduinoplus2" in out and "instructions per step" in out
+    rep = json.loads((tmp_path / "report.json").read_text())
+    assert rep["ok"] and rep["target"].startswith("qemu netduinoplus2")
+    assert rep["firmware"]["step_cost"]["steps"] == rep["loop"]["frames_in"] > 0
+    assert (tmp_path / "report.png").stat().st_size > 10_000

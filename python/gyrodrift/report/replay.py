@@ -207,7 +207,7 @@ def write_png(result: ReplayResult, path: str | Path) -> Path:
     if arr.size > 2:
         _hist(ax[2], np.diff(arr) * 1e6, 100, log=True, label="output inter-arrival")
     loop = result.loop_stats
-    if loop:
+    if loop and "period_jitter_us" in loop:  # the host loop's (the firmware has no such clock)
         for key, style in (("p50", ":"), ("p99", "--"), ("max", "-")):
             ax[2].axvline(loop["period_jitter_us"][key], color="k", ls=style,
                           label=f"loop period jitter {key}")
