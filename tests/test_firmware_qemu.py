@@ -126,6 +126,10 @@ def test_default_image_cost_is_reported(default_run: ReplayResult) -> None:
     # chain is thousands of instructions, within the 5 % budget at 400 Hz.
     assert 1000 < cost["instructions_median"] <= cost["instructions_max"]
     assert cost["instructions_max"] <= instruction_budget(400.0)
+    # The counter is checked in the image: a start-up loop of 4000 instructions, timed the
+    # same way, reads back as 4000 (within the 6-instruction count step and the few
+    # instructions of reading the timer: 1 %).
+    assert cost["calibration_ratio"] == pytest.approx(1.0, abs=0.01)
 
 
 def test_second_configuration_equals_host_loop() -> None:

@@ -200,6 +200,9 @@ class ReplayOptions:
     # qemu: replay the same transmission into the host loop too and compare (outputs and
     # counters).
     compare_host_loop: bool = True
+    # qemu: count instructions (-icount; the emulated clock then runs on the instruction
+    # count and may fall behind real time on a loaded host) or run on the host's clock.
+    qemu_icount: bool = True
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
@@ -605,7 +608,7 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     if opt.target == "qemu":
         image = opt.firmware_image or cached_firmware(opt.processor)
     target: _Target | QemuTarget = _Target(opt) if image is None else \
-        QemuTarget(image, opt.processor.timing.loop_hz)
+        QemuTarget(image, opt.processor.timing.loop_hz, icount=opt.qemu_icount)
     link: SerialLink | CanLink | None = None
     write_ns = np.zeros(plan.sent_units, dtype=np.int64)
     # Sender and receiver run SCHED_FIFO just below the loop (80): each thread asks for
