@@ -281,17 +281,28 @@ def cached_firmware(config: ProcessorConfig, defines: tuple[str, ...] = (), *,
                          .encode()).hexdigest()[:16]
     out = Path(tempfile.gettempdir()) / f"gyrodrift-firmware-{key}"
     meta = out / "image.json"
-    if meta.is_file():
-        m = json.loads(meta.read_text())
-        image = FirmwareImage(Path(m["elf"]), m["text"], m["data"], m["bss"],
-                              m["stack_reserved"], tuple(m["defines"]), dumps_config(config))
-        if image.elf.is_file():
-            if check_budget and budget_violations(image):
-                raise FirmwareError("the configuration does not fit the MCU budget: "
-                                    + "; ".join(budget_violations(image)))
-            return image
-    image = build_firmware(config, out, defines=defines, check_budget=check_budget)
-    meta.write_text(json.dumps(image.as_dict()))
+    if not meta.is_file():
+        # Built aside and renamed into place: a concurrent session building the same image
+        # never sees a half-built directory (the loser of the race uses the winner's).
+        tmp = Path(tempfile.mkdtemp(prefix=f"gyrodrift-firmware-{key}-"))
+        try:
+            image = build_firmware(config, tmp, defines=defines, check_budget=False)
+            (tmp / "image.json").write_text(json.dumps(image.as_dict()))
+            if out.exists() and not meta.is_file():  # left by an interrupted build
+                shutil.rmtree(out, ignore_errors=True)
+            os.rename(tmp, out)
+        except OSError:
+            if not meta.is_file():
+                raise
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    m = json.loads(meta.read_text())
+    image = FirmwareImage(out / "build" / "gyrodrift-firmware.elf", m["text"], m["data"],
+                          m["bss"], m["stack_reserved"], tuple(m["defines"]),
+                          dumps_config(config))
+    if check_budget and budget_violations(image):
+        raise FirmwareError("the configuration does not fit the MCU budget: "
+                            + "; ".join(budget_violations(image)))
     return image
 
 
