@@ -44,6 +44,10 @@ std::uint32_t stamp() noexcept;
 std::uint32_t cycles_since(std::uint32_t stamp) noexcept;
 std::uint32_t core_clock_hz() noexcept;
 
+// Core-clock cycles spent in the link's interrupt handler since init (as timed by stamp):
+// the app subtracts what lands inside a step, so a step's cost is its own.
+std::uint32_t interrupt_cycles() noexcept;
+
 const LinkCounters& link_counters() noexcept;
 
 // Deepest stack use so far in bytes (painted-RAM high-water mark).
