@@ -105,7 +105,8 @@ def test_default_image_fits_the_budget(default_image: FirmwareImage) -> None:
     assert default_image.bss >= 3 * 256 * 4
 
 
-def test_default_image_10s_every_fault_equals_host_loop(default_run: ReplayResult) -> None:
+def test_default_image_10s_every_fault_equals_host_loop(default_run: ReplayResult,
+                                                        default_image: FirmwareImage) -> None:
     assert_equal_to_host_loop(default_run)
     r = default_run.report
     injected = r["accounting"]["injected"]
@@ -117,6 +118,8 @@ def test_default_image_10s_every_fault_equals_host_loop(default_run: ReplayResul
     # every corrupted frame is a CRC rejection on the image, nothing lost in the driver
     assert loop["rejected"]["crc"] == r["accounting"]["rejected_on_link"]["crc"] > 0
     assert loop["rejected"]["rx_overrun"] == loop["rejected"]["rx_ring_overflow"] == 0
+    # the measured stack (painted-RAM high-water mark) fits the stack the budget reserves
+    assert 0 < loop["firmware"]["stack_bytes"] <= default_image.stack_reserved
 
 
 def test_default_image_cost_is_reported(default_run: ReplayResult) -> None:
