@@ -503,18 +503,22 @@ class QemuTarget:
             return self._stats
         self._stopped = True
         rep = HealthReport()
-        if self._fd >= 0:
-            if self.proc is not None and self.proc.poll() is None:
+        try:
+            if self._fd >= 0 and self.proc is not None and self.proc.poll() is None:
                 rep = self._request_report(time.monotonic() + timeout_s)
-            os.close(self._fd)
-            self._fd = -1
-        if self.proc is not None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(timeout=5.0)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
+        except OSError:
+            rep = HealthReport()  # the pty went away: no final report (checks then fail)
+        finally:  # QEMU never outlives the replay, whatever happened
+            if self._fd >= 0:
+                os.close(self._fd)
+                self._fd = -1
+            if self.proc is not None:
+                self.proc.terminate()
+                try:
+                    self.proc.wait(timeout=5.0)
+                except subprocess.TimeoutExpired:
+                    self.proc.kill()
+                    self.proc.wait()
         if not rep.complete:
             self._stats = None
             return None
