@@ -48,7 +48,7 @@ OWN_FLAGS: dict[str, set[str]] = {
     "replay": {"--transport", "--device", "--speed", "--fast", "--baud", "--can-bitrate",
                "--no-link-pacing", "--loop-rate-hz", "--loop-binary", "--no-rt", "--fault-drop",
                "--fault-corrupt", "--fault-duplicate", "--fault-reorder", "--fault-delay",
-               "--fault-delay-s"},
+               "--fault-delay-s", "--target"},
     "simulate": {"--samples"},
     "filter": {"--filter", "--core"},
     "allan": {"--taus-per-decade", "--noise-id", "--deviation"},
