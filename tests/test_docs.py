@@ -349,8 +349,8 @@ def test_readme_python_example_runs(tmp_path: Path) -> None:
 
 
 INTERNAL = re.compile(
-    r"\bissue[- ]?\d+|\(#\d+\)|\bengineers?\b|\bsessions?\b|\bthe team\b|"
-    r"\btried and (?:dropped|not kept)\b|\bnot kept\b|\brun \d+\b", re.I)
+    r"/work/|\bissue[- ]?\d+|\(#\d+\)|\bengineers?\b|\bsessions?\b|\bthe team\b|"
+    r"\btried and (?:dropped|not kept)\b|\bnot kept\b|\brun \d+[a-e]?\b(?!\.\d)", re.I)
 
 
 def test_user_pages_name_no_work_items() -> None:
