@@ -21,7 +21,7 @@ import gyrodrift  # noqa: E402
 
 project = "gyrodrift"
 author = "gyrodrift authors"
-copyright = "gyrodrift authors, MIT licence"  # noqa: A001
+copyright = "gyrodrift authors, MIT licence"
 release = gyrodrift.__version__
 version = release
 

@@ -23,9 +23,8 @@ import sys
 import textwrap
 from pathlib import Path
 
-import pytest
-
 import gyrodrift
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
@@ -177,7 +176,7 @@ def test_every_subcommand_and_flag_is_in_the_cli_reference(site: Path) -> None:
     starts = {name: text.find(f'id="gyrodrift-{name}"') for name in sub.choices}
     missing = [name for name, i in starts.items() if i < 0]
     assert not missing, f"subcommands without a section: {missing}"
-    order = sorted(starts.values()) + [len(text)]
+    order = [*sorted(starts.values()), len(text)]
     problems = []
     for name, p in sub.choices.items():
         i = starts[name]

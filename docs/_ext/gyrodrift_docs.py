@@ -104,7 +104,7 @@ def generate_api() -> None:
     names = public_names()
     keep = set()
     for m, rows in names.items():
-        lines = [f".. Generated from the package by docs/_ext/gyrodrift_docs.py; do not edit.\n",
+        lines = [".. Generated from the package by docs/_ext/gyrodrift_docs.py; do not edit.\n",
                  _title(f"``{m}``"),
                  f".. automodule:: {m}\n   :no-members:\n",
                  ".. rubric:: Names\n",
@@ -274,7 +274,9 @@ def run_doxygen() -> None:
         shutil.rmtree(DOXYGEN_OUT)
     DOXYGEN_OUT.mkdir(parents=True)
     config = DOXYFILE.format(out=DOXYGEN_OUT, inc=inc / "gyrodrift")
-    subprocess.run([doxygen, "-"], input=config.encode(), check=True, cwd=ROOT)
+    with open(DOXYGEN_OUT / "doxygen.log", "wb") as log:  # its notes on the comments' markup
+        subprocess.run([doxygen, "-"], input=config.encode(), check=True, cwd=ROOT,
+                       stdout=log, stderr=log)
     # A class's "#include <...>" line links to its header's file page, which the site does not
     # have (each header is a section of its area's page): keep the line, drop the link.
     for xml in (DOXYGEN_OUT / "xml").glob("*.xml"):
@@ -359,6 +361,46 @@ def _drop_type_docstring(app: Any, what: str, name: str, obj: Any, options: Any,
             lines[:] = []
 
 
+# The docstrings are plain text inside numpydoc sections: |x| is an absolute value and C_-2 a
+# subscript, not reST substitutions or link targets. Escape those outside literals, doctest
+# blocks and literal blocks, so the text renders as written.
+_LITERAL = re.compile(r"(``.*?``|`[^`]*`_?)")
+_BAR = re.compile(r"(?<!\\)\|")
+_TRAILING_UNDERSCORE = re.compile(r"(?<=[\w)\]])_(?=[^\w`]|$)")
+
+
+def _escape_plain(text: str) -> str:
+    parts = _LITERAL.split(text)
+    for i in range(0, len(parts), 2):
+        parts[i] = _TRAILING_UNDERSCORE.sub(r"\\_", _BAR.sub(r"\\|", parts[i]))
+    return "".join(parts)
+
+
+def _escape_docstring(app: Any, what: str, name: str, obj: Any, options: Any,
+                      lines: list[str]) -> None:
+    in_doctest = False
+    literal_indent: int | None = None
+    for i, line in enumerate(lines):
+        stripped = line.strip()
+        indent = len(line) - len(line.lstrip())
+        if literal_indent is not None:
+            if stripped and indent <= literal_indent:
+                literal_indent = None
+            else:
+                continue
+        if stripped.startswith(">>>"):
+            in_doctest = True
+        if in_doctest:
+            if not stripped:
+                in_doctest = False
+            continue
+        if stripped.startswith((".. ", "| ", "+-", "+=")) or set(stripped) <= set("=-~^ |"):
+            continue
+        lines[i] = _escape_plain(line)
+        if stripped.endswith("::"):
+            literal_indent = indent
+
+
 # Layout messages of docutils about docstrings written as plain text (indented continuation
 # lines under "name: text" entries): the text renders as written, so they are not errors of
 # the site. Every other warning about a docstring (a broken reference above all) still is.
@@ -383,4 +425,5 @@ def setup(app: Any) -> dict[str, Any]:
     app.connect("config-inited", lambda app, config: _generate(app), priority=400)
     app.connect("missing-reference", _resolve_alias)
     app.connect("autodoc-process-docstring", _drop_type_docstring, priority=100)
+    app.connect("autodoc-process-docstring", _escape_docstring, priority=110)
     return {"parallel_read_safe": True, "parallel_write_safe": True, "version": "1"}

@@ -14,10 +14,9 @@ instability, under angle random walk.
 # :func:`gyrodrift.simulate` returns a :class:`gyrodrift.GyroRecord` in deg/h. With
 # ``keep_components=True`` it also keeps each noise term, so we can tell the drift (what the
 # gyro's error really is) from the white noise on top of it.
+import gyrodrift
 import matplotlib.pyplot as plt
 import numpy as np
-
-import gyrodrift
 
 rec = gyrodrift.simulate(
     300.0, rate_hz=100.0, n_deg_rt_h=0.0005, b_deg_h=0.02, bias_deg_h=9.7,
@@ -40,7 +39,8 @@ papers = gyrodrift.kalman_filter(x, model, steady_state=True)
 
 ml = gyrodrift.fit_drift_model(x, rec.rate_hz, "ar2+white")
 tuned = ml.kalman().process(x)
-print(f"AR(2) fit: a1 = {model.a1:.3f}, a2 = {model.a2:.3f}, sigma2 = {model.sigma2:.3f} (deg/h)^2")
+print(f"AR(2) fit: a1 = {model.a1:.3f}, a2 = {model.a2:.3f}, "
+      f"sigma2 = {model.sigma2:.3f} (deg/h)^2")
 print(f"maximum likelihood: a1 = {ml.a1:.3f}, a2 = {ml.a2:.3f}, q = {ml.q:.3f}, r = {ml.r:.3f}"
       f" (deg/h)^2, identified: {ml.identified}")
 
