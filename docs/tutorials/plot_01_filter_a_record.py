@@ -32,8 +32,9 @@ print(f"{x.size} samples at {rec.rate_hz:g} Hz, mean {x.mean():.3f} deg/h, STD {
 # -----------------------------
 # Two ways to tune the AR(2)-Kalman filter: the papers' recipe (an AR(2) fit on the record,
 # ``q`` the fit's driving-noise variance and ``r`` its one-step prediction error), and maximum
-# likelihood on the model "AR(2) drift + white noise" (:func:`~gyrodrift.filters.drift_model.fit_drift_model`),
-# which separates the two parts of the record.
+# likelihood on the model "AR(2) drift + white noise"
+# (:func:`~gyrodrift.filters.drift_model.fit_drift_model`), which separates the two parts of
+# the record.
 model = gyrodrift.fit_ar2(x, "yule-walker")
 papers = gyrodrift.kalman_filter(x, model, steady_state=True)
 

@@ -19,6 +19,7 @@ from pathlib import Path
 import gyrodrift
 import matplotlib.pyplot as plt
 import numpy as np
+from distributed import LocalCluster
 from gyrodrift.workflows.fleet import FleetOptions, run_fleet
 
 work = Path(tempfile.mkdtemp())
