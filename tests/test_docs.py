@@ -61,7 +61,7 @@ def _tiny_build(tmp_path: Path, page: str) -> subprocess.CompletedProcess[str]:
     """Build one page with the site's own configuration (its warning rules), without the
     tutorials, the C++ reference and the generated pages."""
     src = tmp_path / "src"
-    src.mkdir()
+    src.mkdir(parents=True)
     (src / "conf.py").write_text(textwrap.dedent(f"""
         __file__ = {str(DOCS / "conf.py")!r}
         exec(compile(open(__file__).read(), __file__, "exec"))
@@ -79,7 +79,11 @@ def _tiny_build(tmp_path: Path, page: str) -> subprocess.CompletedProcess[str]:
 
 GOOD_PAGE = """# Index
 
-See {py:func}`gyrodrift.stability.allan.oadev` and [the other page](other.md#a-heading).
+```{py:function} demo_function(x)
+A documented function.
+```
+
+See {py:func}`demo_function` and [the other page](other.md#a-heading).
 
 ```{toctree}
 other
@@ -91,7 +95,7 @@ def test_site_configuration_fails_on_a_broken_reference(tmp_path: Path) -> None:
     good = _tiny_build(tmp_path / "good", GOOD_PAGE)
     assert good.returncode == 0, good.stderr[-3000:]
     bad_name = _tiny_build(tmp_path / "name",
-                           GOOD_PAGE.replace("allan.oadev", "allan.no_such_function"))
+                           GOOD_PAGE.replace("`demo_function`", "`no_such_function`"))
     assert bad_name.returncode != 0
     assert "no_such_function" in bad_name.stderr
     bad_link = _tiny_build(tmp_path / "link", GOOD_PAGE.replace("other.md#", "missing.md#"))
@@ -187,7 +191,7 @@ def test_every_subcommand_and_flag_is_in_the_cli_reference(site: Path) -> None:
         for action in p._actions:
             if isinstance(action, argparse._HelpAction):
                 continue
-            names = action.option_strings or [action.dest]
+            names = action.option_strings or [action.metavar or action.dest]
             problems += [f"{name} {n}" for n in names if n not in entries]
     assert not problems, f"not in the command line reference: {problems}"
 
