@@ -1,5 +1,5 @@
 """`gyrodrift config`: validate, show or write a processor configuration file, or emit it as a
-constexpr C++ header for firmware (README: Processor configuration file)."""
+constexpr C++ header for firmware (documentation: the configuration file format guide)."""
 
 from __future__ import annotations
 

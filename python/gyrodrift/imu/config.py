@@ -5,8 +5,9 @@ per channel a chain of one or two stages from pass_through, bias_removal, wavele
 ar2_kalman, plus saturation and stuck detection, and the timing (sample rate, timestamp
 tolerance, loop rate). ``gyrodrift-loop --config``, ``gyrodrift replay --config``, the Python
 ``ImuProcessor``, the numpy reference processor and ``gyrodrift config emit-cpp`` read it;
-``gyrodrift fit`` writes it. The format is documented in README.md (section "Processor
-configuration file"); ``gyrodrift config write-default`` writes a full example.
+``gyrodrift fit`` writes it. The format is documented in the configuration file format guide
+of the documentation (docs/guides/configuration-file.md); ``gyrodrift config write-default``
+writes a full example.
 
 Every problem is a :class:`ConfigError` whose one-line message starts with the key
 (``channels.gx.stages[1].a1: ...``).

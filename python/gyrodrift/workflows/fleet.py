@@ -703,7 +703,7 @@ def _warnings(done: Sequence[dict[str, Any]]) -> list[str]:
             " ran in workers started with MALLOC_TRIM_THRESHOLD_ (dask's nanny default): each "
             "costs about 4 s of system time per 1e7 samples in page faults; start the workers "
             "with distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_ set to null, or "
-            "raise --memory-budget-mib (README, fleet limits)"]
+            "raise --memory-budget-mib (documentation: validation, characterization and fleets)"]
 
 
 def _boxplot(series: dict[tuple[str, str], list[float]]) -> bytes:
