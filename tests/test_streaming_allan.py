@@ -1,9 +1,11 @@
 """Streaming octave Allan variance (C++ core through gyrodrift.stability.streaming) against the
 numpy reference from the definition (gyrodrift.reference.adev_rate / adev_octaves), against
 allantools.adev (non-overlapped) at the octave taus, float against double after 10 h at
-400 Hz, chunking, edf and intervals, and bad input."""
+400 Hz, chunking, edf and intervals, one object shared by threads, and bad input."""
 
 from __future__ import annotations
+
+import threading
 
 import allantools
 import numpy as np
@@ -130,3 +132,48 @@ def test_bad_push_and_alpha_are_clear_errors() -> None:
         sa.push(np.zeros((4, 2)))
     with pytest.raises(GyrodriftValueError, match="alpha"):
         sa.edf(3)
+
+
+def test_reader_never_sees_half_a_push() -> None:
+    # push runs without the GIL and counts sample by sample; a reader polling `samples` from
+    # another thread meanwhile must wait for the object's lock, so it only ever sees whole
+    # pushes (multiples of n), never a push in progress.
+    n, calls = 200_000, 8
+    sa = StreamingAllan(400.0, 20)
+    y = np.random.default_rng(6).standard_normal(n)
+    done = threading.Event()
+
+    def writer() -> None:
+        for _ in range(calls):
+            sa.push(y)
+        done.set()
+
+    t = threading.Thread(target=writer)
+    seen = {sa.samples}
+    t.start()
+    while not done.is_set():
+        seen.add(sa.samples)
+    t.join()
+    seen.add(sa.samples)
+    assert all(v % n == 0 for v in seen), sorted(seen)
+    assert sa.samples == calls * n
+
+
+def test_shared_object_counts_every_sample() -> None:
+    n, threads, calls = 100_000, 4, 4
+    sa = StreamingAllan(400.0, 10, dtype=np.float32)
+    y = np.ones(n, dtype=np.float32)
+    start = threading.Barrier(threads)
+
+    def body() -> None:
+        start.wait()
+        for _ in range(calls):
+            sa.push(y)
+
+    pool = [threading.Thread(target=body) for _ in range(threads)]
+    for t in pool:
+        t.start()
+    for t in pool:
+        t.join()
+    assert sa.samples == threads * calls * n
+    assert sa.counts[0] == threads * calls * n - 1
