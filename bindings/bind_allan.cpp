@@ -481,6 +481,7 @@ void bind_allan(pybind11::module_& m) {
   m.def("tau_grid", &tau_grid_py, py::arg("grid"), py::arg("max_m"), py::arg("per_decade") = 10,
         "Averaging factors 1 <= m <= max_m: 'octave', 'decade' (per_decade points), 'all'.");
   bind_deviation(m);  // bind_deviation.cpp: mdev, ohdev, hdev, totdev kernels
+  bind_streaming_allan(m);  // bind_streaming_allan.cpp: StreamingAllan, StreamingAllanF32
 }
 
 }  // namespace gyrodrift::py_bindings

@@ -10,6 +10,8 @@ __all__ = [
     "FineAlignKF",
     "InertialCoarseAlign",
     "Strapdown",
+    "adev_octaves",
+    "adev_rate",
     "ar_filter",
     "fit_ar2",
     "kalman_filter",
@@ -39,6 +41,8 @@ from gyrodrift.reference.wavelet import wavelet_denoise as wavelet_denoise
 
 # isort: split
 # --- Allan ---
+from gyrodrift.reference.allan import adev_octaves as adev_octaves
+from gyrodrift.reference.allan import adev_rate as adev_rate
 from gyrodrift.reference.allan import oadev_phase as oadev_phase
 from gyrodrift.reference.allan import oadev_rate as oadev_rate
 
