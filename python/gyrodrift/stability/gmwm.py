@@ -179,6 +179,10 @@ TC_BOUND_LOG_TOL = 1e-3
 #: Model-error allowance (relative, per scale) added to the common weight's covariance when
 #: no candidate's fit holds (identify_gmwm): half the check's ratio tolerance.
 MODEL_ERROR_REL = DEFAULT_TOLERANCE / 2.0
+#: The intervals of N and K of a selected model cover those of the eligible candidates
+#: within this WIC distance (`_widen_by_model_set`): twice the nested-selection margin, the
+#: distance within which information-criterion weights still give a model real support.
+MODEL_SET_DELTA = 2.0 * WIC_MARGIN
 
 
 # --------------------------------------------------------------------------------------
@@ -1400,6 +1404,37 @@ def _select_common(top: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
                       select_nested(holding or wics))
 
 
+def _widen_by_model_set(params: tuple[GmwmParam, ...], near: list[tuple[str, ...]],
+                        sel: _Selection, tau: np.ndarray, dt: float, ci: float,
+                        n_scales: int) -> tuple[tuple[GmwmParam, ...], list[str]]:
+    """Widen the intervals of N and K (the values a user carries into a filter) to cover
+    those of every eligible candidate within MODEL_SET_DELTA of the selected one's WIC that
+    has the term (model uncertainty: the data do not tell those models apart, and under
+    misspecification their estimates differ by more than one model's interval; cf. the
+    model-averaged intervals of Buckland, Burnham & Augustin, Biometrics 53 (1997) 603)."""
+    lo: dict[str, float] = {}
+    hi: dict[str, float] = {}
+    for c in near:
+        f = sel.fits[c]
+        dof = max(n_scales - _n_params(c), 1)
+        cov = _param_cov(c, f.theta, tau, sel.omega) * max(1.0, f.objective / dof)
+        for q in _make_params(c, f.theta, cov, dt, ci, None):
+            if q.name in ("N", "K"):
+                lo[q.name] = min(lo.get(q.name, math.inf), q.ci_low)
+                hi[q.name] = max(hi.get(q.name, -math.inf), q.ci_high)
+    out = []
+    widened = []
+    for q in params:
+        if q.name in lo and (lo[q.name] < q.ci_low or hi[q.name] > q.ci_high):
+            a, b = min(q.ci_low, lo[q.name]), max(q.ci_high, hi[q.name])
+            dens = _DENSITY[q.name][0]
+            q = GmwmParam(q.name, q.value, q.unit, q.se, a, b, q.density, q.density_unit,
+                          a * dens, b * dens)
+            widened.append(q.name)
+        out.append(q)
+    return tuple(out), widened
+
+
 def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
                   max_model: str = DEFAULT_MAX_MODEL, ci: float = 0.95, bootstrap: int = 0,
                   seed: int = 0, max_level: int | None = None,
@@ -1454,6 +1489,7 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
     candidates: tuple[tuple[str, float], ...] = ()
     wic = None
     notes: list[str] = []
+    near: list[tuple[str, ...]] = []
     if model == "auto":
         top = parse_model(max_model)
         if wv.nu2.size < _n_params(top) + 1:
@@ -1482,6 +1518,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         candidates = tuple(sorted(((_model_str(c), float(w)) for c, w in wics.items()),
                                   key=lambda cw: cw[1]))
         wic = float(wics[terms])
+        pool = sel.holding or sel.wics
+        near = [c for c in pool if c != terms and pool[c] <= wic + MODEL_SET_DELTA]
         notes += sel.fit_notes[terms]
         if sel.reduced:
             notes.append(f"{len(sel.reduced)} candidates with a Gauss-Markov term at a "
@@ -1531,6 +1569,13 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             boots.append(_fit_model(terms, wb.nu2, tau, chol, start=fit.theta).theta)
         boot = np.array(boots)
     params = _make_params(terms, fit.theta, cov, dt, ci, boot, inflate)
+    if model == "auto" and near:
+        params, widened = _widen_by_model_set(params, near, sel, tau, dt, ci, wv.nu2.size)
+        if widened:
+            notes.append(
+                f"the interval of {' and '.join(widened)} covers the intervals of the "
+                f"models within {MODEL_SET_DELTA:g} of the selected one's WIC (model "
+                f"uncertainty): {', '.join(_model_str(c) for c in near)}")
     pins = _pinned_gms(terms, fit.theta, tau)
     if pins:
         # a correlation time at its upper bound is only a lower limit (no finite upper
