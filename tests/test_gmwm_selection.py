@@ -177,3 +177,12 @@ def test_coverage_of_n_on_a_misspecified_record_small_monte_carlo() -> None:
             p = res.param("N")
             covered += int(p.ci_low <= 0.3 <= p.ci_high)
     assert covered >= 10, covered
+
+
+def test_interval_of_a_term_at_its_variance_bound_is_unbounded() -> None:
+    """Regression: a candidate term at its lower variance bound has a vanishing derivative,
+    so se_log ~ 1e300 and exp(z se_log) overflowed (OverflowError from the Monte Carlo's
+    first misspecified case when the N/K intervals were widened over the near candidates).
+    Its interval is now [0, inf)."""
+    params = gmwm._make_params(("N",), np.array([0.0]), np.array([[1e300]]), 0.01, 0.95, None)
+    assert params[0].ci_low == 0.0 and params[0].ci_high == math.inf

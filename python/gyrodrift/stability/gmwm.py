@@ -1126,7 +1126,10 @@ def _make_params(terms: tuple[str, ...], theta: np.ndarray, cov: np.ndarray, dt:
                 lo, hi = value * (lo / value) ** widen, value * (hi / value) ** widen
             se = float(np.std(bvals, ddof=1)) * widen
         else:
-            lo, hi = value * math.exp(-z * se_log), value * math.exp(z * se_log)
+            # a term at its variance bound has a vanishing derivative: an unbounded interval
+            half = z * se_log
+            lo, hi = ((value * math.exp(-half), value * math.exp(half)) if half < 700.0
+                      else (0.0, math.inf))
             se = value * se_log
         dens = _DENSITY.get(name)
         out.append(GmwmParam(
