@@ -125,3 +125,18 @@ def test_bad_input() -> None:
         simulate_preset("tactical-mems", 3, 0)
     with pytest.raises(GyrodriftValueError, match="vibration"):
         SensorPreset(name="x", description="x", rate_hz=10.0, vibration=((1.0, 6.0),))
+
+
+def test_output_filter_truth_closed_form() -> None:
+    # White noise through the FIR g: sigma^2(dt) = r(0) - r(1) with r(j) = s^2 sum g_k g_{k+j}
+    # (exact; 1e-12 relative). The filter lowers the short-tau deviation below the N line.
+    import scipy.signal
+
+    p = SensorPreset(name="w", description="filtered white", rate_hz=100.0, n_deg_rt_h=1.0,
+                     bandwidth_hz=20.0, filter_taps=15)
+    t = simulate_preset(p, 4096, seed=0).truth
+    g = scipy.signal.firwin(15, 20.0, fs=100.0)
+    s2 = 1.0 / (0.01 / 3600.0)
+    expected = s2 * (np.sum(g * g) - np.sum(g[:-1] * g[1:]))
+    assert t.adev(0.01)[0] ** 2 == pytest.approx(expected, rel=1e-12)
+    assert t.adev(0.01)[0] < 0.7 * 60.0 / math.sqrt(0.01)

@@ -17,7 +17,10 @@ a slow trend, and records are finite. A `SensorPreset` combines all of these:
   so its Allan deviation is the IEEE Std 952 floor sqrt(2 ln2 / pi) B = 0.664 B for tau well
   above the sample period;
 - sinusoidal vibration A sin(2 pi f0 t + phi), phi uniform (a hump near tau = 0.37 / f0);
-- a temperature-like warm-up W (1 - exp(-t / T_w)) (deterministic, starts at 0).
+- a temperature-like warm-up W (1 - exp(-t / T_w)) (deterministic, starts at 0);
+- the sensor's digital output filter (a linear-phase FIR low-pass) acting on N, B, the
+  Gauss-Markov terms and the vibration: it lowers the Allan deviation over the first few
+  sample periods below the N line, which a flat-B IEEE 952 fit then misreads.
 
 The truth (`PresetTruth`) holds the generating N, B, K, Q, R and the exact expected
 overlapping Allan deviation of a record of the given length, `adev(tau)` (tau a multiple of
@@ -26,7 +29,8 @@ function D(k) = k r(0) + 2 sum_{j<k} (k - j) r(j) of the cumulated rate,
 sigma^2(m) = (4 D(m) - D(2m)) / (2 m^2); quantization 3 Q^2 / tau^2, the discrete random
 walk s^2 (2 m^2 + 1) / (6 m), the ramp R^2 tau^2 / 2, and the warm-up's own overlapping Allan
 variance over the record (a deterministic signal: its contribution to the expectation is the
-estimator applied to it). The datasheet read-off of B is the minimum of that curve over
+estimator applied to it); the output filter enters through the autocovariance
+r_f(j) = sum_d rho_g(d) r(j - d), rho_g the autocorrelation of its taps. The datasheet read-off of B is the minimum of that curve over
 dt <= tau <= T / 10 divided by 0.664 (`b_min_deg_h`, at `tau_b_min_s`): what a user reading the
 Allan minimum of an infinitely repeated record would get, and above B wherever N, K or the
 other terms still contribute at the minimum.
@@ -38,7 +42,7 @@ Examples
 ((20000,), 100.0)
 >>> t = rec.truth  # the read-off overstates B: N and K still contribute at the minimum
 >>> t.b_deg_h, bool(t.b_min_deg_h > 1.05 * t.b_deg_h)
-(3.0, True)
+(15.0, True)
 """
 
 from __future__ import annotations
@@ -77,6 +81,11 @@ class SensorPreset:
         gauss_markov: (sigma_deg_h, correlation_time_s) of each Gauss-Markov term.
         vibration: (amplitude_deg_h, frequency_hz) of each sinusoid.
         warmup: (amplitude_deg_h, time_constant_s) of the warm-up, or None.
+        bandwidth_hz: cut-off of the sensor's digital low-pass filter (a `filter_taps`-tap
+            linear-phase FIR, scipy.signal.firwin, unit gain at DC) acting on the wideband
+            terms N, B, Gauss-Markov and vibration, or None (no filter). It lowers the Allan
+            deviation over the first few sample periods below the N line, as the output
+            filters of MEMS parts do.
         default_n_samples: a record length that shows the preset's terms.
     """
 
@@ -91,6 +100,8 @@ class SensorPreset:
     gauss_markov: tuple[tuple[float, float], ...] = ()
     vibration: tuple[tuple[float, float], ...] = ()
     warmup: tuple[float, float] | None = None
+    bandwidth_hz: float | None = None
+    filter_taps: int = 31
     default_n_samples: int = 1_000_000
 
     def __post_init__(self) -> None:
@@ -107,6 +118,21 @@ class SensorPreset:
                     f"{(amp, f0)!r}")
         if self.warmup is not None and not (self.warmup[1] > 0.0):
             raise GyrodriftValueError(f"warmup time constant must be > 0, got {self.warmup!r}")
+        if self.bandwidth_hz is not None and not (
+                0.0 < self.bandwidth_hz < self.rate_hz / 2.0 and self.filter_taps >= 3):
+            raise GyrodriftValueError(
+                f"bandwidth_hz must lie in (0, rate_hz / 2) with filter_taps >= 3, got "
+                f"{self.bandwidth_hz!r} Hz, {self.filter_taps!r} taps")
+
+    @property
+    def lowpass(self) -> np.ndarray:
+        """Taps of the output filter (a single 1.0 when there is none)."""
+        if self.bandwidth_hz is None:
+            return np.ones(1)
+        import scipy.signal
+
+        return np.asarray(scipy.signal.firwin(self.filter_taps, self.bandwidth_hz,
+                                              fs=self.rate_hz))
 
     @property
     def noise_terms(self) -> NoiseTerms:
@@ -121,28 +147,30 @@ PRESETS: dict[str, SensorPreset] = {
         SensorPreset(
             name="tactical-mems",
             description=(
-                "Tactical-grade MEMS gyro of the ADIS16465 / ADIS16405 class, read at 100 Hz. "
-                "ADIS16465-1 datasheet: angle random walk 0.15 deg/sqrt(h), in-run bias "
-                "stability 2 deg/h; ADIS16405: 2 deg/sqrt(h) (0.05 deg/s/sqrt(Hz)) and "
-                "0.007 deg/s = 25 deg/h. Here N = 0.3 deg/sqrt(h), B = 3 deg/h (flicker), "
-                "K = 3 deg/h/sqrt(h), 0.2 arcsec quantization, a 1 deg/h Gauss-Markov term "
-                "of 2 s, a 0.5 deg/h vibration line at 17 Hz and a 0.5 deg/h warm-up of 600 s."),
-            rate_hz=100.0, q_arcsec=0.2, n_deg_rt_h=0.3, b_deg_h=3.0, k_deg_h_rt_h=3.0,
-            gauss_markov=((1.0, 2.0),), vibration=((0.5, 17.0),), warmup=(0.5, 600.0),
-            default_n_samples=1_000_000),
+                "Tactical-grade MEMS gyro of the ADIS16405 / ADIS16465 class read at 100 Hz "
+                "through its digital filter. ADIS16405 datasheet: angle random walk "
+                "2 deg/sqrt(h), in-run bias stability 0.007 deg/s = 25 deg/h (the Allan "
+                "minimum); ADIS16465-1: 0.15 deg/sqrt(h), 2 deg/h. Here N = 2 deg/sqrt(h), "
+                "B = 15 deg/h (flicker), K = 60 deg/h/sqrt(h), 3 arcsec quantization, a "
+                "25 Hz 31-tap FIR output filter, a 4 deg/h Gauss-Markov term of 5 s, a "
+                "20 deg/h vibration line at 11 Hz and a 5 deg/h warm-up of 600 s."),
+            rate_hz=100.0, q_arcsec=3.0, n_deg_rt_h=2.0, b_deg_h=15.0, k_deg_h_rt_h=60.0,
+            gauss_markov=((4.0, 5.0),), vibration=((20.0, 11.0),), warmup=(5.0, 600.0),
+            bandwidth_hz=25.0, default_n_samples=1_000_000),
         SensorPreset(
             name="consumer-mems",
             description=(
-                "Consumer MEMS gyro of the BMI088 / MPU-6000 class, read at 200 Hz. BMI088 "
-                "datasheet: noise density 0.014 deg/s/sqrt(Hz) (N = 0.84 deg/sqrt(h)), "
-                "bias stability 2 deg/h; MPU-6000: 0.005 deg/s/sqrt(Hz). Here N = 0.84 "
-                "deg/sqrt(h), B = 8 deg/h (flicker; the Allan floors measured on such parts "
-                "lie at 3-20 deg/h), K = 30 deg/h/sqrt(h), 1 arcsec quantization, a 3 deg/h "
-                "Gauss-Markov term of 0.5 s, a 20 deg/h vibration line at 41 Hz and a 3 deg/h "
-                "warm-up of 300 s."),
+                "Consumer MEMS gyro of the BMI088 / MPU-6000 class at 200 Hz output with the "
+                "23 Hz filter bandwidth (BMI088 setting ODR 200 Hz / 23 Hz). BMI088 datasheet: "
+                "noise density 0.014 deg/s/sqrt(Hz) (N = 0.84 deg/sqrt(h)), bias stability "
+                "2 deg/h; MPU-6000: 0.005 deg/s/sqrt(Hz). Here N = 0.84 deg/sqrt(h), "
+                "B = 8 deg/h (flicker; the Allan floors measured on such parts lie at 3-20 "
+                "deg/h), K = 30 deg/h/sqrt(h), 1 arcsec quantization, a 3 deg/h Gauss-Markov "
+                "term of 0.5 s, a 20 deg/h vibration line at 41 Hz and a 3 deg/h warm-up of "
+                "300 s."),
             rate_hz=200.0, q_arcsec=1.0, n_deg_rt_h=0.84, b_deg_h=8.0, k_deg_h_rt_h=30.0,
             gauss_markov=((3.0, 0.5),), vibration=((20.0, 41.0),), warmup=(3.0, 300.0),
-            default_n_samples=400_000),
+            bandwidth_hz=23.0, default_n_samples=400_000),
         SensorPreset(
             name="navigation-fog",
             description=(
@@ -290,21 +318,30 @@ def _truth(p: SensorPreset, n: int) -> PresetTruth:
 
     dt_s = 1.0 / p.rate_hz
     dt_h = dt_s / 3600.0
-    lags = np.arange(n, dtype=np.float64)
-    r = np.zeros(n)
+    g = p.lowpass
+    taps = g.size
+    n_ext = n + taps - 1  # samples generated before the filter's "valid" part
+    lags = np.arange(n_ext, dtype=np.float64)
+    r = np.zeros(n_ext)  # autocovariance of the wideband terms before the filter
     r[0] += p.n_deg_rt_h**2 / dt_h
     if p.b_deg_h > 0.0:
-        h = _kasdin_filter(n)
-        size = scipy.fft.next_fast_len(2 * n, real=True)
+        h = _kasdin_filter(n_ext)
+        size = scipy.fft.next_fast_len(2 * n_ext, real=True)
         spec = scipy.fft.rfft(h, size)
-        r += p.b_deg_h**2 * scipy.fft.irfft(np.abs(spec) ** 2, size)[:n]
+        r += p.b_deg_h**2 * scipy.fft.irfft(np.abs(spec) ** 2, size)[:n_ext]
     for sigma, tc in p.gauss_markov:
         r += sigma**2 * np.exp(-lags * dt_s / tc)
     for amp, f0 in p.vibration:
         r += amp**2 / 2.0 * np.cos(2.0 * math.pi * f0 * lags * dt_s)
+    if taps > 1:
+        # filtered autocovariance: sum_d rho_g(d) r(j - d), rho_g the taps' autocorrelation
+        rho = np.correlate(g, g, mode="full")
+        r_sym = np.concatenate([r[taps - 1:0:-1], r])
+        r = np.convolve(r_sym, rho, mode="valid")
     truth = PresetTruth(q_arcsec=p.q_arcsec, n_deg_rt_h=p.n_deg_rt_h, b_deg_h=p.b_deg_h,
                         k_deg_h_rt_h=p.k_deg_h_rt_h, r_deg_h2=p.r_deg_h2, rate_hz=p.rate_hz,
-                        n_samples=n, _d_stationary=_structure(r), _warmup=_warmup_signal(p, n))
+                        n_samples=n, _d_stationary=_structure(r[:n]),
+                        _warmup=_warmup_signal(p, n))
     m_hi = max(1, int(B_MIN_TAU_FRACTION * n))
     m = np.unique(np.rint(np.logspace(0.0, math.log10(m_hi), 200)).astype(np.int64))
     adev = np.sqrt(truth.avar_m(m))
@@ -318,11 +355,15 @@ def simulate_preset(preset: str | SensorPreset, n_samples: int, seed: int, *,
     """Simulate ``n_samples`` of a preset (name in `PRESETS` or a `SensorPreset`).
 
     ``axes`` = 3 gives three independent axes with the same terms, shape (n, 3). The same
-    seed always gives the same record.
+    seed always gives the same record. With an output filter, n + taps - 1 samples are
+    generated and the filter's "valid" part kept, so the record is stationary from its first
+    sample.
 
     Raises:
         GyrodriftValueError: unknown preset, fewer than 16 samples, bad seed or axes.
     """
+    import scipy.signal
+
     p = _resolve(preset)
     if not isinstance(n_samples, (int, np.integer)) or isinstance(n_samples, bool) \
             or n_samples < 16:
@@ -332,15 +373,28 @@ def simulate_preset(preset: str | SensorPreset, n_samples: int, seed: int, *,
     if axes not in (1, 3):
         raise GyrodriftValueError(f"axes must be 1 or 3, got {axes!r}")
     n = int(n_samples)
-    base = simulate_terms(p.noise_terms, n=n, rate_hz=p.rate_hz, axes=axes, seed=int(seed))
-    rate = np.array(base.rate_deg_h, dtype=np.float64).reshape(n, axes)
+    g = p.lowpass
+    n_ext = n + g.size - 1
+    base = simulate_terms(p.noise_terms, n=n_ext, rate_hz=p.rate_hz, axes=axes, seed=int(seed),
+                          keep_components=True)
+    total = np.array(base.rate_deg_h, dtype=np.float64).reshape(n_ext, axes)
+    wide = np.zeros((n_ext, axes))
+    for name in ("arw", "gauss_markov"):
+        if name in base.components:
+            part = base.components[name].reshape(n_ext, axes)
+            total -= part
+            wide += part
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x5EED]))
-    t = np.arange(n, dtype=np.float64) / p.rate_hz
+    t = np.arange(n_ext, dtype=np.float64) / p.rate_hz
     for axis in range(axes):
         if p.b_deg_h > 0.0:
-            rate[:, axis] += kasdin_flicker(rng, p.b_deg_h, n)
+            wide[:, axis] += kasdin_flicker(rng, p.b_deg_h, n_ext)
         for amp, f0 in p.vibration:
-            rate[:, axis] += amp * np.sin(2.0 * math.pi * f0 * t + rng.uniform(0.0, 2 * math.pi))
+            wide[:, axis] += amp * np.sin(2.0 * math.pi * f0 * t + rng.uniform(0.0, 2 * math.pi))
+    if g.size > 1:
+        wide = np.stack([scipy.signal.fftconvolve(wide[:, a], g, mode="valid")
+                         for a in range(axes)], axis=1)
+    rate = total[g.size - 1:] + wide
     warm = _warmup_signal(p, n)
     if warm is not None:
         rate += warm[:, None]
