@@ -30,7 +30,8 @@ sigma^2(m) = (4 D(m) - D(2m)) / (2 m^2); quantization 3 Q^2 / tau^2, the discret
 walk s^2 (2 m^2 + 1) / (6 m), the ramp R^2 tau^2 / 2, and the warm-up's own overlapping Allan
 variance over the record (a deterministic signal: its contribution to the expectation is the
 estimator applied to it); the output filter enters through the autocovariance
-r_f(j) = sum_d rho_g(d) r(j - d), rho_g the autocorrelation of its taps. The datasheet read-off of B is the minimum of that curve over
+r_f(j) = sum_d rho_g(d) r(j - d), rho_g the autocorrelation of its taps. The datasheet
+read-off of B is the minimum of that curve over
 dt <= tau <= T / 10 divided by 0.664 (`b_min_deg_h`, at `tau_b_min_s`): what a user reading the
 Allan minimum of an infinitely repeated record would get, and above B wherever N, K or the
 other terms still contribute at the minimum.
