@@ -161,28 +161,28 @@ PRESETS: dict[str, SensorPreset] = {
         SensorPreset(
             name="consumer-mems",
             description=(
-                "Consumer MEMS gyro of the BMI088 / MPU-6000 class at 200 Hz output with the "
-                "23 Hz filter bandwidth (BMI088 setting ODR 200 Hz / 23 Hz). BMI088 datasheet: "
+                "Consumer MEMS gyro of the BMI088 / MPU-6000 class at 100 Hz output with the "
+                "32 Hz filter bandwidth (BMI088 setting ODR 100 Hz / 32 Hz). BMI088 datasheet: "
                 "noise density 0.014 deg/s/sqrt(Hz) (N = 0.84 deg/sqrt(h)), bias stability "
                 "2 deg/h; MPU-6000: 0.005 deg/s/sqrt(Hz). Here N = 0.84 deg/sqrt(h), "
                 "B = 8 deg/h (flicker; the Allan floors measured on such parts lie at 3-20 "
-                "deg/h), K = 30 deg/h/sqrt(h), 1 arcsec quantization, a 3 deg/h Gauss-Markov "
-                "term of 0.5 s, a 20 deg/h vibration line at 41 Hz and a 3 deg/h warm-up of "
-                "300 s."),
-            rate_hz=200.0, q_arcsec=1.0, n_deg_rt_h=0.84, b_deg_h=8.0, k_deg_h_rt_h=30.0,
-            gauss_markov=((3.0, 0.5),), vibration=((20.0, 41.0),), warmup=(3.0, 300.0),
-            bandwidth_hz=23.0, default_n_samples=400_000),
+                "deg/h), K = 10 deg/h/sqrt(h), 1 arcsec quantization, a 3 deg/h Gauss-Markov "
+                "term of 0.5 s, a 20 deg/h vibration line at 21 Hz and a 3 deg/h warm-up of "
+                "300 s; two hours by default."),
+            rate_hz=100.0, q_arcsec=1.0, n_deg_rt_h=0.84, b_deg_h=8.0, k_deg_h_rt_h=10.0,
+            gauss_markov=((3.0, 0.5),), vibration=((20.0, 21.0),), warmup=(3.0, 300.0),
+            bandwidth_hz=32.0, default_n_samples=720_000),
         SensorPreset(
             name="navigation-fog",
             description=(
                 "Navigation-grade fibre-optic or ring-laser gyro, averaged to 10 Hz. "
                 "Published class values: angle random walk 0.003 deg/sqrt(h) and bias "
                 "instability 0.005 deg/h (e.g. 0.0015-0.005 deg/sqrt(h), < 0.005 deg/h on "
-                "navigation-grade FOG datasheets). Here N = 0.003 deg/sqrt(h), B = 0.005 deg/h "
+                "navigation-grade FOG datasheets). Here N = 0.002 deg/sqrt(h), B = 0.005 deg/h "
                 "(flicker), K = 0.0003 deg/h/sqrt(h) (below what a day shows: an upper limit), "
                 "0.05 arcsec quantization, a 0.002 deg/h Gauss-Markov term of 30 s and a "
                 "0.003 deg/h vibration line at 1.3 Hz."),
-            rate_hz=10.0, q_arcsec=0.05, n_deg_rt_h=0.003, b_deg_h=0.005,
+            rate_hz=10.0, q_arcsec=0.05, n_deg_rt_h=0.002, b_deg_h=0.005,
             k_deg_h_rt_h=0.0003, gauss_markov=((0.002, 30.0),), vibration=((0.003, 1.3),),
             default_n_samples=1_000_000),
     )
