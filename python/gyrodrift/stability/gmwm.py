@@ -1380,8 +1380,8 @@ def _select_common(top: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
                    ) -> _Selection:
     """Fit every sub-model of top with the weight omega^-1 (the same for all), convert
     Gauss-Markov terms at a correlation-time bound, check each fit at every scale, and
-    select by WIC (select_nested) among the candidates whose check holds (among all if
-    none does)."""
+    select by WIC (select_nested) among the candidates whose check holds (if none does,
+    among those that leave the measured WV at the fewest scales)."""
     chol_c = _chol(omega)
 
     def refit(t: tuple[str, ...], start: np.ndarray) -> tuple[_Fit, np.ndarray]:
@@ -1402,9 +1402,12 @@ def _select_common(top: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
             fits[f1.terms] = f1
             fit_notes[f1.terms] = conv if f1.terms != cand else []
     wics = {c: _wic(f) for c, f in fits.items()}
-    holding = {c: w for c, w in wics.items() if _check(wv, lo, hi, fits[c], tau).holds}
-    return _Selection(omega, fits, wics, holding, fit_notes, reduced,
-                      select_nested(holding or wics))
+    failed = {c: _check(wv, lo, hi, fits[c], tau).n_failed for c in fits}
+    holding = {c: w for c, w in wics.items() if failed[c] == 0}
+    # none holds: the candidates that leave the measured curve at the fewest scales
+    fewest = min(failed.values())
+    pool = holding or {c: w for c, w in wics.items() if failed[c] == fewest}
+    return _Selection(omega, fits, wics, holding, fit_notes, reduced, select_nested(pool))
 
 
 def _widen_by_model_set(params: tuple[GmwmParam, ...], near: list[tuple[str, ...]],
@@ -1521,8 +1524,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         candidates = tuple(sorted(((_model_str(c), float(w)) for c, w in wics.items()),
                                   key=lambda cw: cw[1]))
         wic = float(wics[terms])
-        pool = sel.holding or sel.wics
-        near = [c for c in pool if c != terms and pool[c] <= wic + MODEL_SET_DELTA]
+        near = [c for c in sel.holding if c != terms
+                and sel.holding[c] <= wic + MODEL_SET_DELTA]
         notes += sel.fit_notes[terms]
         if sel.reduced:
             notes.append(f"{len(sel.reduced)} candidates with a Gauss-Markov term at a "
@@ -1531,7 +1534,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
                                                           else "") + ")")
         if not sel.holding:
             notes.append("no candidate model describes the measured wavelet variance at every "
-                         "scale: the selected one has the smallest WIC and is approximate")
+                         "scale: the selected one leaves it at the fewest scales (then the "
+                         "smallest WIC) and is approximate")
     else:
         terms = parse_model(model)
         if _n_params(terms) >= wv.nu2.size:
