@@ -186,3 +186,25 @@ def test_interval_of_a_term_at_its_variance_bound_is_unbounded() -> None:
     Its interval is now [0, inf)."""
     params = gmwm._make_params(("N",), np.array([0.0]), np.array([[1e300]]), 0.01, 0.95, None)
     assert params[0].ci_low == 0.0 and params[0].ci_high == math.inf
+
+
+@pytest.mark.parametrize(("preset", "n"), [("tactical-mems", 1 << 18),
+                                           ("navigation-fog", 1 << 16)])
+def test_presets_implied_n_within_10_percent(preset: str, n: int) -> None:
+    """On the simulator's misspecified presets (flicker, output filter, vibration, warm-up,
+    quantization, Gauss-Markov; gyrodrift.simulation.presets) the selected model's implied
+    N lies within 10 % of the generating N, the implied K is not above 1.3x the generating K
+    on the navigation FOG (whose K a record this short cannot show: 0 or an estimate), and
+    the result says whether its model holds. Seed 9000: the first replicate of
+    scripts/gmwm_monte_carlo.py --preset (docs/validation/gmwm.md)."""
+    from gyrodrift.simulation.presets import simulate_preset
+
+    rec = simulate_preset(preset, n, 9000)
+    res = gmwm.identify_gmwm(rec.gyro_deg_h, rec.rate_hz)
+    imp = res.implied()
+    assert imp["N"] == pytest.approx(rec.truth.n_deg_rt_h, rel=0.10), (res.model, imp)
+    if preset == "navigation-fog":
+        assert imp["K"] <= 1.3 * rec.truth.k_deg_h_rt_h, (res.model, imp)
+    assert res.check is not None
+    assert res.approximate == (not res.check.holds or any(
+        "approximate" in v for v in res.notes))
