@@ -1023,34 +1023,73 @@ class GmwmResult:
 
     def implied(self) -> dict[str, float]:
         """The white-noise density N (deg/sqrt(h)) and random walk K (deg/h/sqrt(h)) the
-        fitted model implies over the fitted scales: N adds every Gauss-Markov term whose
-        correlation time lies below the smallest scale (white noise there, with its
-        spectral density at zero frequency, sigma^2 (1 + phi) / (1 - phi) per sample); K
-        adds every one whose correlation time exceeds the longest scale (a random walk
-        there, increment variance sigma^2 (1 - phi^2)). 0.0 where the model has neither.
+        fitted model implies over the fitted scales, with intervals (probability ci): N adds
+        every Gauss-Markov term whose correlation time lies below the smallest scale (white
+        noise there, with its spectral density at zero frequency, sigma^2 (1 + phi) /
+        (1 - phi) per sample); K adds every one whose correlation time exceeds the longest
+        scale (a random walk there, increment variance sigma^2 (1 - phi^2)). 0.0 where the
+        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high. Where the
+        value is the model's own N (K) term alone, its interval is that parameter's;
+        otherwise it follows from param_cov by the delta method on the log scale
+        (d log(1 + phi)/(1 - phi) / d log T_c = 2 phi / (T_c (1 - phi^2)),
+        d log(1 - phi^2) / d log T_c = -2 phi^2 / (T_c (1 - phi^2)), T_c in samples).
 
         Examples
         --------
         >>> x = np.random.default_rng(1).standard_normal(4096) * 30.0
         >>> res = identify_gmwm(x, 100.0, model="N")
-        >>> res.implied()["N"] == res.value("N"), res.implied()["K"]
-        (True, 0.0)
+        >>> imp = res.implied()
+        >>> imp["N"] == res.value("N"), imp["K"], imp["N_ci_low"] == res.param("N").ci_low
+        (True, 0.0, True)
         """
         dt = 1.0 / self.rate_hz
-        s2 = (60.0 * self.value("N")) ** 2 / dt if "N" in self.model.split("+") else 0.0
-        g2 = (self.value("K") / 60.0) ** 2 * dt if "K" in self.model.split("+") else 0.0
-        lo, hi = float(self.tau_s[0]), float(self.tau_s[-1])
-        for g in range(1, MAX_GM + 1):
-            if f"GM{g}_tau" not in {p.name for p in self.params}:
-                break
-            sigma2 = self.value(f"GM{g}_sigma") ** 2
-            tc = self.value(f"GM{g}_tau")
-            phi = math.exp(-dt / tc)
-            if tc < lo:
-                s2 += sigma2 * (1.0 + phi) / (1.0 - phi)
-            elif tc > hi:
-                g2 += sigma2 * (1.0 - phi * phi)
-        return {"N": math.sqrt(s2 * dt) / 60.0, "K": 60.0 * math.sqrt(g2 / dt)}
+        terms = parse_model(self.model)
+        lo_s, hi_s = float(self.tau_s[0]), float(self.tau_s[-1])
+        z = float(scipy.stats.norm.ppf(0.5 + self.ci / 2.0))
+        # per quantity: [(variance, gradient of its log w.r.t. theta)], own-term-only flag
+        parts: dict[str, list[tuple[float, np.ndarray]]] = {"N": [], "K": []}
+        npar = _n_params(terms)
+        k = 0
+        g = 0
+        for t in terms:
+            grad = np.zeros(npar)
+            grad[k] = 1.0
+            if t == "N":
+                parts["N"].append(((60.0 * self.value("N")) ** 2 / dt, grad))
+            elif t == "K":
+                parts["K"].append(((self.value("K") / 60.0) ** 2 * dt, grad))
+            elif t == "GM":
+                g += 1
+                sigma2 = self.value(f"GM{g}_sigma") ** 2
+                tc_s = self.value(f"GM{g}_tau")
+                tc = tc_s / dt
+                phi = math.exp(-1.0 / tc)
+                if tc_s < lo_s:
+                    grad[k + 1] = 2.0 * phi / (tc * (1.0 - phi * phi))
+                    parts["N"].append((sigma2 * (1.0 + phi) / (1.0 - phi), grad))
+                elif tc_s > hi_s:
+                    grad[k + 1] = -2.0 * phi * phi / (tc * (1.0 - phi * phi))
+                    parts["K"].append((sigma2 * (1.0 - phi * phi), grad))
+            k += 2 if t == "GM" else 1
+        out: dict[str, float] = {}
+        for name, items in parts.items():
+            total = sum(v for v, _ in items)
+            conv = (lambda v: math.sqrt(v * dt) / 60.0) if name == "N" else (
+                lambda v: 60.0 * math.sqrt(v / dt))
+            value = conv(total) if total > 0 else 0.0
+            out[name] = value
+            if not items:
+                out[f"{name}_ci_low"] = out[f"{name}_ci_high"] = 0.0
+            elif len(items) == 1 and name in terms and value == self.value(name):
+                out[f"{name}_ci_low"] = self.param(name).ci_low
+                out[f"{name}_ci_high"] = self.param(name).ci_high
+            else:
+                grad = np.sum([v / total * gr for v, gr in items], axis=0)
+                var = float(grad @ self.param_cov @ grad)
+                half = z * 0.5 * math.sqrt(max(var, 0.0))
+                out[f"{name}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
+                out[f"{name}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
+        return out
 
     def as_dict(self) -> dict[str, object]:
         return {
