@@ -71,6 +71,107 @@ CASES = (
          3000),
 )
 
+@dataclass(frozen=True)
+class Misspecified:
+    """A record outside every candidate family: flicker (bias instability) noise, optionally
+    passed through a moving average of `average` samples (a sensor's decimation filter; it
+    leaves the spectral density at zero frequency, hence N, unchanged)."""
+    name: str
+    sim: dict[str, float]  # gyrodrift.simulate keyword arguments
+    average: int
+    n: int
+    seed: int
+
+    @property
+    def truth(self) -> dict[str, float]:
+        return {"N": float(self.sim.get("n_deg_rt_h", 0.0)),
+                "K": float(self.sim.get("k_deg_h_rt_h", 0.0))}
+
+
+MISSPECIFIED = (
+    Misspecified("white + flicker + random walk", {"n_deg_rt_h": 0.3, "b_deg_h": 5.0,
+                                                   "k_deg_h_rt_h": 60.0}, 1, 1 << 17, 5000),
+    Misspecified("white + flicker + random walk, 2-sample average",
+                 {"n_deg_rt_h": 0.3, "b_deg_h": 5.0, "k_deg_h_rt_h": 60.0}, 2, 1 << 17, 6000),
+    Misspecified("ADIS16405-like: white + flicker + random walk, 2-sample average",
+                 {"n_deg_rt_h": 2.0, "b_deg_h": 30.0, "k_deg_h_rt_h": 100.0}, 2, 1 << 16, 7000),
+)
+
+
+def misspecified_record(case: Misspecified, rep: int) -> np.ndarray:
+    """Replicate rep of a misspecified case (seed case.seed + rep), deg/h."""
+    import gyrodrift
+
+    pad = case.average
+    x = gyrodrift.simulate(n=case.n + pad, rate_hz=RATE_HZ, seed=case.seed + rep,
+                           **case.sim).rate_deg_h  # type: ignore[arg-type]
+    if case.average > 1:
+        c = np.concatenate(([0.0], np.cumsum(x)))
+        x = (c[case.average:] - c[:-case.average]) / case.average
+    return np.asarray(x[-case.n:], dtype=np.float64)
+
+
+def one_misspecified(case: Misspecified, rep: int, max_model: str = "Q+N+K+R+GM+GM"
+                     ) -> dict[str, object]:
+    """Model selection on one misspecified record: the selected model, the N and K it
+    implies, the implied N's interval, the misfit flag."""
+    from gyrodrift.stability.gmwm import identify_gmwm
+
+    res = identify_gmwm(misspecified_record(case, rep), RATE_HZ, model="auto",
+                        max_model=max_model)
+    imp = res.implied()
+    # the implied N's interval (the N term's, or by the delta method where a short GM
+    # holds white noise); nan where the model implies no white noise
+    n_lo, n_hi = ((imp["N_ci_low"], imp["N_ci_high"]) if imp["N"] > 0
+                  else (math.nan, math.nan))
+    return {"selected": res.model, "N": imp["N"], "K": imp["K"], "N_lo": n_lo, "N_hi": n_hi,
+            "approximate": res.approximate, "holds": bool(res.check is not None
+                                                          and res.check.holds)}
+
+
+def run_misspecified(case: Misspecified, reps: int, workers: int = 1,
+                     max_model: str = "Q+N+K+R+GM+GM") -> dict[str, object]:
+    """Selection, accuracy of the implied N and K, coverage of N's 95 % interval."""
+    if workers > 1:
+        with ProcessPoolExecutor(workers) as ex:
+            rows = list(ex.map(one_misspecified, [case] * reps, range(reps),
+                               [max_model] * reps))
+    else:
+        rows = [one_misspecified(case, r, max_model) for r in range(reps)]
+    t = case.truth
+    n_err = np.array([float(r["N"]) / t["N"] - 1.0 for r in rows])  # type: ignore[arg-type]
+    k_err = np.array([float(r["K"]) / t["K"] - 1.0 for r in rows])  # type: ignore[arg-type]
+    cover = [float(r["N_lo"]) <= t["N"] <= float(r["N_hi"]) for r in rows]  # type: ignore[arg-type]
+    sel = [str(r["selected"]) for r in rows]
+    return {"reps": reps, "selected": {m: sel.count(m) for m in sorted(set(sel))},
+            "n_err_median": float(np.median(np.abs(n_err))),
+            "n_err_max": float(np.max(np.abs(n_err))),
+            "n_within_10": float(np.mean(np.abs(n_err) <= 0.10)),
+            "k_err_median": float(np.median(np.abs(k_err))),
+            "k_within_30": float(np.mean(np.abs(k_err) <= 0.30)),
+            "n_coverage": float(np.mean(cover)),
+            "approximate": float(np.mean([bool(r["approximate"]) for r in rows]))}
+
+
+def one_preset(name: str, rep: int, n: int, max_model: str = "Q+N+K+R+GM+GM"
+               ) -> dict[str, object]:
+    """Model selection on replicate rep (seed 9000 + rep) of a simulator preset
+    (gyrodrift.simulation.presets): selected model, implied N and K, N's interval."""
+    from gyrodrift.simulation.presets import simulate_preset
+    from gyrodrift.stability.gmwm import identify_gmwm
+
+    rec = simulate_preset(name, n, 9000 + rep)
+    res = identify_gmwm(rec.gyro_deg_h, rec.rate_hz, model="auto", max_model=max_model)
+    imp = res.implied()
+    # the implied N's interval (the N term's, or by the delta method where a short GM
+    # holds white noise); nan where the model implies no white noise
+    n_lo, n_hi = ((imp["N_ci_low"], imp["N_ci_high"]) if imp["N"] > 0
+                  else (math.nan, math.nan))
+    return {"selected": res.model, "N": imp["N"], "K": imp["K"], "N_lo": n_lo, "N_hi": n_hi,
+            "approximate": res.approximate, "true_N": rec.truth.n_deg_rt_h,
+            "true_K": rec.truth.k_deg_h_rt_h}
+
+
 #: GMWM parameter -> attribute of ieee952.NoiseFit (the Allan fit's estimate of it).
 ALLAN_NAMES = {"Q": "q_arcsec", "N": "n_deg_rt_h", "K": "k_deg_h_rt_h"}
 
@@ -97,7 +198,8 @@ def one_replicate(case: Case, rep: int, n: int, max_model: str, select: bool = T
 
     rec = gyrodrift.simulate(n=n, rate_hz=RATE_HZ, seed=case.seed + rep, **case.sim)  # type: ignore[arg-type]
     x = rec.rate_deg_h
-    true_fit = identify_gmwm(x, RATE_HZ, model=case.model)
+    # the true model as named: no conversion of a correlation time at its bound
+    true_fit = identify_gmwm(x, RATE_HZ, model=case.model, convert_bounds=False)
     out: dict[str, object] = {}
     if select:
         auto = identify_gmwm(x, RATE_HZ, model="auto", max_model=max_model)
@@ -204,7 +306,59 @@ def main(argv: list[str] | None = None) -> int:
                     help="one line per replicate on stderr (one worker)")
     ap.add_argument("--lengths", default=None,
                     help="log2 record lengths, e.g. 14,15,16,17: selection hit rate only")
+    ap.add_argument("--misspecified", action="store_true",
+                    help="run the misspecified (flicker) cases: selection, implied N and K, "
+                         "coverage of N")
+    ap.add_argument("--preset", action="append",
+                    help="run GMWM selection on this simulator preset (repeatable; records "
+                         "of --n samples)")
     args = ap.parse_args(argv)
+    if args.preset:
+        print(f"# GMWM selection on simulator presets: {args.reps} replicates (seeds 9000 + "
+              f"0 .. {args.reps - 1}), {args.n} samples, among the sub-models of "
+              f"{args.max_model}, nominal 95 % intervals")
+        print("| preset | selected | implied N / true: median, worst | N within 10 % | implied "
+              "K / true: median | K within 30 % | N has an interval / covers | flagged "
+              "approximate | CPU s |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        for name in args.preset:
+            c0 = time.process_time()
+            rows = [one_preset(name, r, args.n, args.max_model) for r in range(args.reps)]
+            nr = np.array([float(r["N"]) / float(r["true_N"]) for r in rows])  # type: ignore[arg-type]
+            kr = np.array([float(r["K"]) / float(r["true_K"]) for r in rows])  # type: ignore[arg-type]
+            has = [not math.isnan(float(r["N_lo"])) for r in rows]  # type: ignore[arg-type]
+            cov = [h and float(r["N_lo"]) <= float(r["true_N"]) <= float(r["N_hi"])  # type: ignore[arg-type]
+                   for h, r in zip(has, rows, strict=True)]
+            sel = [str(r["selected"]) for r in rows]
+            worst = float(nr[np.argmax(np.abs(nr - 1.0))])
+            print(f"| {name} | " + ", ".join(f"{m} x{sel.count(m)}" for m in sorted(set(sel)))
+                  + f" | {np.median(nr):.3f}, {worst:.3f} | "
+                  f"{100 * np.mean(np.abs(nr - 1) <= 0.1):.0f} % | {np.median(kr):.2f} | "
+                  f"{100 * np.mean(np.abs(kr - 1) <= 0.3):.0f} % | {sum(has)} / {sum(cov)} | "
+                  f"{100 * np.mean([bool(r['approximate']) for r in rows]):.0f} % | "
+                  f"{time.process_time() - c0:.0f} |")
+            sys.stdout.flush()
+        return 0
+    if args.misspecified:
+        print(f"# GMWM on misspecified records: {args.reps} replicates per case, {RATE_HZ:g} Hz, "
+              f"selection among the sub-models of {args.max_model}, nominal 95 % intervals")
+        print("| case | n | selected | implied N: median abs error, within 10 % | implied K: "
+              "median abs error, within 30 % | coverage of N | flagged approximate | CPU s |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        for k, mcase in enumerate(MISSPECIFIED, 1):
+            if args.case and k not in args.case:
+                continue
+            c0 = time.process_time()
+            m = run_misspecified(mcase, args.reps, args.workers, args.max_model)
+            print(f"| {mcase.name} (N {mcase.truth['N']:g}, K {mcase.truth['K']:g}, B "
+                  f"{mcase.sim['b_deg_h']:g}) | 2^{mcase.n.bit_length() - 1} | "
+                  + ", ".join(f"{mm} x{c}" for mm, c in m["selected"].items())  # type: ignore[attr-defined]
+                  + f" | {100 * m['n_err_median']:.1f} %, {100 * m['n_within_10']:.0f} % | "  # type: ignore[operator]
+                  f"{100 * m['k_err_median']:.0f} %, {100 * m['k_within_30']:.0f} % | "  # type: ignore[operator]
+                  f"{100 * m['n_coverage']:.0f} % | {100 * m['approximate']:.0f} % | "  # type: ignore[operator]
+                  f"{time.process_time() - c0:.0f} |")
+            sys.stdout.flush()
+        return 0
     if args.lengths:
         lgs = [int(v) for v in args.lengths.split(",")]
         print(f"# GMWM model selection hit rate vs record length: {args.reps} replicates per "

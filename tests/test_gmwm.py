@@ -208,13 +208,16 @@ def test_auto_keeps_lower_wic_model_over_smaller_non_nested_one(seed: int) -> No
     which lowered N+K+GM's WIC there to 0.006 below N+GM+GM's) on which the true model
     N+GM+GM had the smallest WIC and N+K+GM, one parameter smaller but not nested in it,
     was within the 2-unit margin: the old rule (fewest parameters among all models within 2
-    of the minimum) selected N+K+GM. Parsimony now acts only along nested chains (select_nested)."""
+    of the minimum) selected N+K+GM. Parsimony now acts only along nested chains (select_nested).
+    (With the common weight the candidates are scored with since, N+K+GM is no longer within
+    the margin on these records; the true model must still have the smallest WIC and be
+    selected.)"""
     rec = gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05,
                              gm=((20.0, 0.1), (10.0, 5.0)), seed=seed)
     res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="auto",
                                   max_model="N+K+GM+GM")
     wic = dict(res.candidates)
-    assert wic["N+GM+GM"] < wic["N+K+GM"] < wic["N+GM+GM"] + gmwm.WIC_MARGIN, wic
+    assert wic["N+GM+GM"] < wic["N+K+GM"], wic
     assert res.model == "N+GM+GM", res.candidates[:4]
 
 
@@ -261,8 +264,9 @@ def test_true_model_fit_from_default_starts_reaches_the_true_start_j(seed: int) 
     theta = np.log([(60.0 * 0.05) ** 2 / dt, 20.0**2, 0.1 / dt, 10.0**2, 5.0 / dt])
     j_ref = _reference_j(terms, wv, tau, theta)
     assert j_ref < 13.0, j_ref  # the reference itself: a typical chi-squared(8) value
-    res = gyrodrift.identify_gmwm(rec.rate_deg_h, 100.0, model="N+GM+GM")
-    assert abs(res.objective - j_ref) < 0.5, (res.objective, j_ref)
+    # the iterated fit itself (identify_gmwm may then turn a GM at its T_c bound into K)
+    fit, _ = gmwm._weighted_lsq(terms, wv, tau)
+    assert abs(fit.objective - j_ref) < 0.5, (fit.objective, j_ref)
 
 
 def _reference_j(terms: tuple[str, ...], wv: gmwm.WaveletVariance, tau: np.ndarray,

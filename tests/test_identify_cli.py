@@ -138,24 +138,25 @@ def test_identify_terms_still_select_the_allan_nnls_terms(record: Path, capsys) 
     assert {t["name"] for t in fit["terms"]} | set(fit["dropped"]) == {"N", "B"}
 
 
-def test_identify_notes_a_gauss_markov_term_below_the_fitted_scales(tmp_path: Path,
-                                                                     capsys) -> None:
-    # White noise fitted with a Gauss-Markov term on scales from 0.64 s: the GM must stand in
-    # for N with its T_c below the range (the fit allows down to 0.64 / 8 s), and the output
-    # says so; the same record on all scales with N+K (record fixture) has no note.
+def test_identify_gm_at_its_lower_bound_becomes_white_noise(tmp_path: Path, capsys) -> None:
+    # White noise fitted with a Gauss-Markov term on scales from 0.64 s: the GM's T_c goes to
+    # its lower bound (0.64 / 8 s), where it is white noise over the fitted scales; GMWM
+    # turns it into N, refits, and the JSON says so (this test asserted the GM and a note
+    # on it, before GM terms at a bound were converted).
     path = tmp_path / "w.npy"
-    np.save(path, gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05,
-                                     seed=5).rate_deg_h)
+    x = gyrodrift.simulate(n=1 << 14, rate_hz=100.0, n_deg_rt_h=0.05, seed=5).rate_deg_h
+    np.save(path, x)
     code, out, err = run(["identify", path, "--rate-hz", 100, "--identifier", "gmwm",
                           "--model", "GM", "--fit-range", "0.64:", "--json"], capsys)
     assert code == 0, err
     d = json.loads(out)
-    tc = next(p["value"] for p in d["gmwm"]["params"] if p["name"] == "GM1_tau")
-    assert tc < 0.64
-    assert len(d["notes"]) == 1 and "below the smallest fitted scale 0.64 s" in d["notes"][0]
-    code, out, err = run(["identify", path, "--rate-hz", 100, "--identifier", "gmwm",
-                          "--model", "GM", "--fit-range", "0.64:"], capsys)
-    assert "# note: GM1: T_c" in out and "not separately resolved" in out
+    assert d["gmwm"]["model"] == "N"
+    n = next(p for p in d["gmwm"]["params"] if p["name"] == "N")
+    # the refit is the white-noise model's own fit on those scales (the same iterated GMM)
+    lib = gyrodrift.identify_gmwm(x, 100.0, model="N", tau_range=(0.64, math.inf))
+    assert n["value"] == pytest.approx(lib.value("N"), rel=1e-9)
+    assert n["value"] == pytest.approx(0.05, rel=0.1)
+    assert any("lower bound" in v and "white noise" in v for v in d["gmwm"]["notes"])
 
 
 def test_identify_no_note_when_every_term_is_resolved(record: Path, capsys) -> None:

@@ -211,12 +211,12 @@ def _print_text(rec: Any, res: Any, dev_name: str, afit: Any, paper: Any, slope:
     if afit is not None:
         from gyrodrift.cli.identify import format_terms
 
-        print(f"IEEE 952 fit (weighted NNLS, taus {afit.tau_min_s:g}..{afit.tau_max_s:g} s; "
-              f"intervals from the weighted least-squares covariance); dropped (no gain in "
-              f"chi2 + 2p): {', '.join(afit.dropped) or 'none'}")
+        print(f"IEEE 952 fit (log-scale weighted, taus {afit.tau_min_s:g}..{afit.tau_max_s:g} "
+              "s; misspecification-robust intervals)")
         print("\n".join(format_terms(
             [(t.name, t.value, t.unit, t.ci_low, t.ci_high, t.density, t.density_unit,
               t.density_ci_low, t.density_ci_high) for t in afit.terms], afit.ci)))
+        print("\n".join(f"# {line}" for line in afit.notes()))
     if paper is not None:
         print(f"paper 2006 eq. 8 fit: Q = {paper.q_paper:.4g} (paper's 'deg' column; "
               f"= arcsec), N = {paper.n_deg_rt_h:.4g} deg/sqrt(h), B = {paper.b_deg_h:.4g} deg/h")

@@ -233,11 +233,12 @@ def run(args: argparse.Namespace) -> int:
                        "files": {"png": args.png}})
             return 0
         print(head)
-        print(f"IEEE 952 NNLS Allan fit, taus {fit.tau_min_s:g}..{fit.tau_max_s:g} s; dropped "
+        print(f"IEEE 952 Allan fit, taus {fit.tau_min_s:g}..{fit.tau_max_s:g} s; dropped "
               f"(no IC gain): {', '.join(fit.dropped) or 'none'}")
         rows = [(t.name, t.value, t.unit, t.ci_low, t.ci_high, t.density, t.density_unit,
                  t.density_ci_low, t.density_ci_high) for t in fit.terms]
         print("\n".join(format_terms(rows, fit.ci)))
+        print("\n".join(f"# {line}" for line in fit.notes()))
         return 0
     # slope method: read-offs with the interval of the Allan deviation at the read tau
     from gyrodrift.stability.allan_fit import slope_readouts

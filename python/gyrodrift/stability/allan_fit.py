@@ -1,5 +1,6 @@
-"""IEEE Std 952 Allan-variance fit with a fit range, term choice, model selection and an
-interval on every coefficient (the command line's `gyrodrift allan` fit).
+"""IEEE Std 952 Allan-variance fit with an automatic fit range, term choice, model selection,
+a self-check and misspecification-robust intervals (the default noise identifier of
+`gyrodrift allan`, `identify` and `characterize`).
 
 Model (IEEE Std 952-1997 Annex C, table C.2; tau in s, sigma in deg/h):
 
@@ -7,24 +8,68 @@ Model (IEEE Std 952-1997 Annex C, table C.2; tau in s, sigma in deg/h):
     Q = sqrt(C_-2 / 3) arcsec, N = sqrt(C_-1) / 60 deg/sqrt(h), B = sqrt(C_0 pi / (2 ln 2))
     deg/h, K = 60 sqrt(3 C_1) deg/h/sqrt(h), R = 3600 sqrt(2 C_2) deg/h^2.
 
-Fit: `ieee952.identify` (weighted NNLS of sigma^2, each tau weighted by its inverse variance
-edf / (2 sigma_model^4), iteratively reweighted) on the taus inside `fit_range`, with the
-chosen terms.
+The flat C_0 is the exact Allan variance of flicker (1/f) rate noise for averaging times well
+above the sample period and below the record's low-frequency end, so the model's shape is right
+for bias instability; what goes wrong on real records is how the fit weighs the points.
 
-Model selection (default): the weighted residual sum of squares
-chi2 = sum_i (edf_i / 2) (sigma_hat_i^2 - sigma_model_i^2)^2 / sigma_model_i^4 plays the
-role of -2 log-likelihood (the Gaussian approximation of a chi-squared variance estimate),
-and IC = chi2 + 2 p (Akaike) with p the number of non-zero terms. Terms the NNLS sets to zero
-are dropped; then, while removing a remaining term does not increase IC, the term whose
-removal gives the smallest IC is dropped (backward elimination). Dropped terms are listed.
+Objective (log scale). The fit minimises
 
-Intervals: from the covariance of the weighted least-squares coefficients of the kept terms,
-Cov(C) = (A' W A)^-1 with W = diag(edf_i / (2 sigma_model_i^4)) (the weighted NNLS
-covariance, the constraint inactive at the solution), mapped to each term by the delta method
-on the log scale (value exp(+-z se_log), se_log = se(C) / (2 C)). The Allan variances at
-neighbouring taus are correlated (overlapping clusters); W ignores that, so these intervals
-are optimistic where many taus share one term: gyrodrift.identify_gmwm carries the full
-covariance.
+    chi2 = sum_i w_i (log sigma_hat_i^2 - log sigma_model_i^2)^2,  w_i = 1 / (2 / edf_i + d^2)
+
+over C_k >= 0 (scipy.optimize.least_squares, bounds, started from the weighted NNLS of
+`ieee952.identify`). 2 / edf_i is the variance of the log of a chi-squared variance estimate
+with edf_i degrees of freedom; d = MODEL_DISCREPANCY (10 % of sigma^2, 5 % of sigma) is the
+relative error the five-term model is allowed at any tau (output filters, vibration lines and
+Gauss-Markov humps of real sensors), so that the short taus, whose edf run to 1e5, do not
+decide every term alone. The old objective, squared residuals of sigma^2 divided by the squared
+*model*, is bounded when the model overshoots ((v - m)^2 / m^2 -> 1 as m -> infinity) but not
+when it undershoots; on a curve the model cannot follow it lifts a flat B far above the curve
+(3-5x the Allan minimum on real MEMS records, 40x on the tactical-mems preset). The log residual
+is symmetric.
+
+Fit range. Unless the caller gives `fit_range`, the range is chosen automatically and stated
+(`AllanFit.range_note`): taus with a positive deviation and edf >= MIN_FIT_EDF, then, one at a
+time, the end tau (shortest or longest) whose standardised residual
+|log sigma_hat^2 - log sigma_model^2| sqrt(w) exceeds TRIM_SIGMAS is removed and the model
+refitted, while more than max(5, terms + 1) taus remain: a sensor's output filter bends the
+first taus below the N line, a warm-up or the record's end bends the last ones; both are outside
+the five-term model. Taus inside the range are never removed: where the model leaves them, the
+self-check says so.
+
+Model selection: IC = chi2 + 2 p (Akaike, chi2 playing -2 log-likelihood) with p the number of
+non-zero terms; terms at zero are dropped; then, while removing a remaining term does not
+increase IC, the term whose removal gives the smallest IC is dropped (backward elimination).
+
+Self-check: `AllanFit.check` (`gyrodrift.stability.fit_check.check_fit`) compares the fitted
+deviation with the measured one and its 95 % chi-squared interval (from the edf) at every tau;
+`AllanFit.approximate` is True when a used tau fails it or the reduced chi2 exceeds its 99 %
+point: the output then says the model is approximate.
+
+Intervals (misspecification-robust): the variance of each coefficient is the larger of
+(1) s^2 [(J' W J)^-1]_kk with J = d log sigma_model^2 / d C, W = diag(w_i) and
+s^2 = max(1, chi2 / dof) (dof = used taus - kept terms): the Gauss-Newton covariance of the
+log-scale fit, inflated by the reduced chi-square when the model does not describe the curve
+within the stated errors (the quasi-likelihood / Birge-ratio scale), and
+(2) the residual sandwich H^-1 M H^-1 (n / dof), H = J' W J, M the Bartlett-weighted
+(HAC_LAGS neighbours each side) sum of the products of the per-tau scores
+J_i' w_i (log sigma_hat_i^2 - log sigma_model_i^2): where the model misses the curve
+systematically over neighbouring taus (an output filter bending the short taus, a hump) the
+residuals are correlated and larger than the stated errors, and (2) measures what they do to
+the coefficient, which (1) cannot, since a systematic misfit spread over a few taus barely
+moves chi2. The Allan variances at neighbouring octave taus also share clusters; the Monte
+Carlo coverage on the `gyrodrift.simulation.presets` records
+(docs/validation/noise-identification.md) is the check. Each term's interval is the delta
+method on the log scale, value exp(+-z se_log), se_log = se(C) / (2 C).
+
+Datasheet read-off: `AllanFit.b_readoff` is the minimum of the measured Allan deviation over
+the taus with edf >= READOFF_MIN_EDF, divided by 0.664, at `b_readoff_tau_s`, with the
+chi-squared interval of the deviation there; it overstates B where N, K or other terms still
+contribute at the minimum. K is reported as identified only where the fitted K line carries at
+least half of the model variance at the longest fitted tau (the record shows the +1/2 slope)
+and its interval spans at most a factor K_MAX_SPAN; otherwise `AllanFit.upper_limits["K"]`
+gives the K whose line alone reaches the upper end of
+the measured interval at some fitted tau (the largest K the curve allows), and the K term, if
+kept, is marked ``identified = False``.
 
 Example
 -------
@@ -33,12 +78,13 @@ Example
 >>> tau = np.logspace(-1, 3, 20)
 >>> adev = allan_model_deg_h(tau, n_deg_rt_h=0.01, k_deg_h_rt_h=0.5)
 >>> fit = fit_allan(tau, adev, np.full(20, 1e4))
->>> [t.name for t in fit.terms], fit.dropped
-(['N', 'K'], ('Q', 'B', 'R'))
+>>> [t.name for t in fit.terms], fit.dropped, fit.check.holds
+(['N', 'K'], ('Q', 'B', 'R'), True)
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -48,10 +94,27 @@ import scipy.stats
 
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.stability import IEEE952_TERMS, ieee952
+from gyrodrift.stability.fit_check import FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
 
-__all__ = ["ALLAN_TERMS", "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range",
-           "parse_terms", "slope_readouts"]
+__all__ = ["ALLAN_TERMS", "MIN_FIT_EDF", "MODEL_DISCREPANCY", "READOFF_MIN_EDF", "TRIM_SIGMAS",
+           "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range", "parse_terms",
+           "slope_readouts"]
+
+#: Relative error of sigma^2 the five-term model is allowed at any tau (module docstring).
+MODEL_DISCREPANCY = 0.1
+#: Taus with fewer equivalent degrees of freedom are left out of an automatic fit range.
+MIN_FIT_EDF = 3.0
+#: An end tau whose standardised log residual exceeds this leaves an automatic range.
+TRIM_SIGMAS = 2.0
+#: The datasheet read-off of B looks for the minimum over taus with at least these edf.
+READOFF_MIN_EDF = 10.0
+#: Probability of the measured interval the self-check compares against.
+CHECK_CI = 0.95
+#: K counts as identified only if its interval spans at most this factor (high / low).
+K_MAX_SPAN = 3.0
+#: Neighbouring taus (each side) whose residuals the robust covariance lets correlate.
+HAC_LAGS = 2
 
 #: Term letter -> power k of tau in sigma^2.
 ALLAN_TERMS: dict[str, int] = {"Q": -2, "N": -1, "B": 0, "K": 1, "R": 2}
@@ -119,8 +182,8 @@ class AllanTerm:
     >>> from gyrodrift.stability.allan import oadev
     >>> r = oadev(np.random.default_rng(0).normal(0.0, 1.0, 8192), 100.0)  # white, deg/h
     >>> n = fit_allan(r.tau_s, r.adev, r.edf).term("N")
-    >>> n.name, n.unit, round(n.value, 5), n.density_unit
-    ('N', 'deg/sqrt(h)', 0.00167, 'rad/s/sqrt(Hz)')
+    >>> n.name, n.unit, round(n.value, 4), n.density_unit
+    ('N', 'deg/sqrt(h)', 0.0017, 'rad/s/sqrt(Hz)')
     """
 
     name: str
@@ -133,6 +196,7 @@ class AllanTerm:
     density_unit: str | None = None
     density_ci_low: float | None = None
     density_ci_high: float | None = None
+    identified: bool = True
 
     def as_dict(self) -> dict[str, object]:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
@@ -149,8 +213,18 @@ class AllanFit:
         fit_used: per input tau, whether it was in the fit.
         fit_adev: fitted total deviation at every input tau (deg/h).
         components: each kept term's deviation at every input tau (deg/h).
+        check: the self-check of the fitted curve against the measured one (every fit).
         ic: the information criterion of the kept model; chi2: its weighted residual.
         ci: interval probability.
+        dof: used taus minus kept terms; scale: the factor the covariance was inflated by,
+            max(1, chi2 / dof).
+        approximate: the model does not describe the curve within its errors (the check
+            fails or chi2 / dof exceeds its 99 % point); the values are approximate.
+        range_source: "automatic" or "user"; range_note: which taus were fitted and why.
+        b_readoff, b_readoff_tau_s, b_readoff_ci_low, b_readoff_ci_high: the datasheet
+            read-off min adev / 0.664 (deg/h), its tau and interval (probability ci).
+        upper_limits: terms the record cannot identify, with the largest value the curve
+            allows (K, deg/h/sqrt(h)).
 
     Examples
     --------
@@ -169,9 +243,20 @@ class AllanFit:
     fit_used: np.ndarray
     fit_adev: np.ndarray
     components: dict[str, np.ndarray] = field(repr=False)
+    check: FitCheck = field(repr=False)
     ic: float = math.nan
     chi2: float = math.nan
     ci: float = 0.95
+    dof: int = 0
+    scale: float = 1.0
+    approximate: bool = False
+    range_source: str = "automatic"
+    range_note: str = ""
+    b_readoff: float = math.nan
+    b_readoff_tau_s: float = math.nan
+    b_readoff_ci_low: float = math.nan
+    b_readoff_ci_high: float = math.nan
+    upper_limits: dict[str, float] = field(default_factory=dict)
 
     def term(self, name: str) -> AllanTerm:
         for t in self.terms:
@@ -187,6 +272,27 @@ class AllanFit:
         """The term's value, 0.0 if it was dropped."""
         return self.term(name).value if name in self.names else 0.0
 
+    def notes(self) -> list[str]:
+        """Lines to print under the terms: the fitted range, the datasheet read-off of B
+        beside the fitted B, upper limits, and the warnings when the model is approximate."""
+        out = [f"fitted {self.range_note}; dropped (no gain in chi2 + 2p): "
+               f"{', '.join(self.dropped) or 'none'}"]
+        if math.isfinite(self.b_readoff):
+            fitted = (f"fitted B = {self.value('B'):.4g} deg/h" if "B" in self.names
+                      else "B not in the fitted model")
+            out.append(f"datasheet read-off B = min adev / 0.664 = {self.b_readoff:.4g} deg/h "
+                       f"[{self.b_readoff_ci_low:.4g}, {self.b_readoff_ci_high:.4g}] at tau = "
+                       f"{self.b_readoff_tau_s:.4g} s ({fitted}; the read-off includes what "
+                       "N, K and other terms add at the minimum)")
+        for name, value in self.upper_limits.items():
+            out.append(f"{name} not identified by this record (its slope is not seen): "
+                       f"{name} <= {value:.4g} {TERM_UNITS['gyro'][name].ieee}")
+        if self.approximate:
+            out.extend(self.check.warnings or (
+                f"model is approximate: chi2 / dof = {self.chi2 / max(self.dof, 1):.3g} "
+                f"(dof {self.dof}); intervals widened by sqrt({self.scale:.3g}) or more",))
+        return out
+
     def as_dict(self) -> dict[str, object]:
         return {
             "terms": [t.as_dict() for t in self.terms],
@@ -197,21 +303,88 @@ class AllanFit:
             "ic": self.ic,
             "chi2": self.chi2,
             "ci": self.ci,
+            "dof": self.dof,
+            "scale": self.scale,
+            "approximate": self.approximate,
+            "range_source": self.range_source,
+            "range_note": self.range_note,
+            "b_readoff": {"value": self.b_readoff, "tau_s": self.b_readoff_tau_s,
+                          "ci_low": self.b_readoff_ci_low,
+                          "ci_high": self.b_readoff_ci_high, "unit": "deg/h"},
+            "upper_limits": dict(self.upper_limits),
+            "check": self.check.as_dict(),
         }
 
 
-def _nnls(tau: np.ndarray, var: np.ndarray, edf: np.ndarray, names: tuple[str, ...]
-          ) -> tuple[np.ndarray, np.ndarray, float]:
-    """Coefficients (for names), model variance at tau, chi2."""
-    powers = tuple(ALLAN_TERMS[n] for n in names)
-    fit = ieee952.identify(tau, np.sqrt(var), edf, powers=powers)
-    c_all = np.asarray(fit.coeffs)
-    idx = [list(ALLAN_TERMS).index(n) for n in names]
-    c = c_all[idx]
-    model = (tau[:, None] ** np.array(powers)[None, :]) @ c
-    model = np.maximum(model, 1e-300)
-    chi2 = float(np.sum(edf / 2.0 * (var - model) ** 2 / model**2))
-    return c, model, chi2
+def _solve(tau: np.ndarray, var: np.ndarray, wt: np.ndarray, names: tuple[str, ...]
+           ) -> tuple[np.ndarray, np.ndarray, float]:
+    """Log-scale weighted fit (module docstring): coefficients (for names), model, chi2."""
+    import scipy.optimize
+
+    powers = np.array([ALLAN_TERMS[n] for n in names])
+    a = tau[:, None] ** powers[None, :].astype(np.float64)
+    # column scale: the coefficient each term alone would need at the median tau
+    scale = np.median(var[:, None] / a, axis=0)
+    a_s = a * scale[None, :]
+    logv = np.log(var)
+    sw = np.sqrt(wt)
+    start = ieee952.identify(tau, np.sqrt(var), None, powers=tuple(int(p) for p in powers))
+    c0 = np.asarray(start.coeffs)[[list(ALLAN_TERMS).index(n) for n in names]]
+    u0 = np.maximum(c0 / scale, 1e-3)
+
+    def model(u: np.ndarray) -> np.ndarray:
+        return np.maximum(a_s @ u, 1e-300 * float(np.max(var)))
+
+    def fun(u: np.ndarray) -> np.ndarray:
+        return np.asarray(sw * (np.log(model(u)) - logv))
+
+    def jac(u: np.ndarray) -> np.ndarray:
+        return np.asarray((sw / model(u))[:, None] * a_s)
+
+    sol = scipy.optimize.least_squares(fun, u0, jac=jac, bounds=(0.0, np.inf), method="trf",
+                                       xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=500)
+    u = np.asarray(sol.x, dtype=np.float64)
+    m = model(u)
+    # a term below 1e-6 of the model at every fitted tau is zero (the bound)
+    share = (a_s * u[None, :]) / m[:, None]
+    u = np.where(np.max(share, axis=0) < 1e-6, 0.0, u)
+    m = model(u)
+    chi2 = float(np.sum(wt * (np.log(m) - logv) ** 2))
+    return u * scale, m, chi2
+
+
+def _select(tau: np.ndarray, var: np.ndarray, wt: np.ndarray, names: tuple[str, ...],
+            select: bool) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, float]:
+    """Kept terms, their coefficients, the model and chi2 (backward elimination on IC)."""
+    kept = names
+    c, model, chi2 = _solve(tau, var, wt, kept)
+    if not select:
+        return kept, c, model, chi2
+    nz = tuple(n for n, ck in zip(kept, c, strict=True) if ck > 0)
+    if nz and nz != kept:
+        kept = nz
+        c, model, chi2 = _solve(tau, var, wt, kept)
+    ic = chi2 + 2.0 * len(kept)
+    while len(kept) > 1:
+        trials = []
+        for drop in kept:
+            sub = tuple(n for n in kept if n != drop)
+            cs, ms, x2 = _solve(tau, var, wt, sub)
+            trials.append((x2 + 2.0 * np.count_nonzero(cs > 0), sub, cs, ms, x2))
+        best = min(trials, key=lambda t: t[0])
+        if best[0] > ic:
+            break
+        _, kept, c, model, chi2 = best
+        nz = tuple(n for n, ck in zip(kept, c, strict=True) if ck > 0)
+        if nz and nz != kept:
+            kept = nz
+            c, model, chi2 = _solve(tau, var, wt, kept)
+        ic = chi2 + 2.0 * len(kept)
+    return kept, c, model, chi2
+
+
+def _fmt_tau(t: float) -> str:
+    return f"{t:.3g} s"
 
 
 def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
@@ -219,6 +392,9 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
               fit_range: tuple[float, float] | str | None = None, select: bool = True,
               ci: float = 0.95) -> AllanFit:
     """Allan-variance fit (module docstring). tau_s in s, adev in deg/h, edf per tau.
+
+    ``fit_range`` (s, "TMIN:TMAX" or a pair) fixes the fitted taus; None chooses them
+    automatically (module docstring) and says which in ``range_note``.
 
     Raises:
         ValueError: bad curve, bad terms / fit range, fewer taus in the range than terms.
@@ -229,12 +405,14 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     >>> rng = np.random.default_rng(0)  # white noise 1 deg/h per sample at 100 Hz: N only
     >>> r = oadev(rng.normal(0.0, 1.0, 8192), 100.0)
     >>> fit = fit_allan(r.tau_s, r.adev, r.edf)
-    >>> fit.names, fit.dropped
-    (('N',), ('Q', 'B', 'K', 'R'))
+    >>> fit.names, fit.dropped, fit.check.holds, fit.approximate
+    (('N',), ('Q', 'B', 'K', 'R'), True, False)
     >>> n = fit.term("N")  # sigma * sqrt(dt) / 60 = 1 * 0.1 / 60 deg/sqrt(h)
-    >>> round(n.value, 5), n.ci_low < 1 / 600 < n.ci_high
-    (0.00167, True)
+    >>> round(n.value, 4), n.ci_low < 1 / 600 < n.ci_high
+    (0.0017, True)
     """
+    from gyrodrift.stability.allan import chi2_interval
+
     tau = np.asarray(tau_s, dtype=np.float64)
     dev = np.asarray(adev, dtype=np.float64)
     e = np.asarray(edf, dtype=np.float64)
@@ -243,43 +421,59 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     if not 0.0 < ci < 1.0:
         raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     names = parse_terms(terms) if not isinstance(terms, tuple) else parse_terms(list(terms))
+    user_range = fit_range is not None
     lo, hi = (parse_fit_range(fit_range) if isinstance(fit_range, str)
               else (fit_range if fit_range is not None else (0.0, math.inf)))
-    used = (tau >= lo * (1 - 1e-12)) & (tau <= hi * (1 + 1e-12)) & (dev > 0)
+    finite = np.isfinite(dev) & np.isfinite(e) & np.isfinite(tau)
+    used = finite & (tau >= lo * (1 - 1e-12)) & (tau <= hi * (1 + 1e-12)) & (dev > 0) & (e > 0)
+    n_low_edf = 0
+    if not user_range:
+        n_low_edf = int(np.count_nonzero(used & (e < MIN_FIT_EDF)))
+        used &= e >= MIN_FIT_EDF
     if np.count_nonzero(used) < len(names):
         raise GyrodriftValueError(
-            f"{int(np.count_nonzero(used))} taus with a positive deviation in the "
-            f"fit range {lo:g}:{hi:g} s cannot identify {len(names)} terms")
-    t_u, var_u, e_u = tau[used], dev[used] ** 2, e[used]
-    kept = names
-    c, model, chi2 = _nnls(t_u, var_u, e_u, kept)
-    if select:
-        kept = tuple(n for n, ci_ in zip(kept, c, strict=True) if ci_ > 0) or kept
-        c, model, chi2 = _nnls(t_u, var_u, e_u, kept)
-        ic = chi2 + 2.0 * len(kept)
-        while len(kept) > 1:
-            trials = []
-            for drop in kept:
-                sub = tuple(n for n in kept if n != drop)
-                cs, _, x2 = _nnls(t_u, var_u, e_u, sub)
-                trials.append((x2 + 2.0 * np.count_nonzero(cs > 0), sub))
-            best_ic, best_sub = min(trials, key=lambda s: s[0])
-            if best_ic > ic:
-                break
-            kept = best_sub
-            c, model, chi2 = _nnls(t_u, var_u, e_u, kept)
-            kept_nz = tuple(n for n, ci_ in zip(kept, c, strict=True) if ci_ > 0)
-            if kept_nz and kept_nz != kept:
-                kept = kept_nz
-                c, model, chi2 = _nnls(t_u, var_u, e_u, kept)
-            ic = chi2 + 2.0 * len(kept)
+            f"{int(np.count_nonzero(used))} taus with a positive deviation"
+            + ("" if user_range else f" and edf >= {MIN_FIT_EDF:g}")
+            + f" in the fit range {lo:g}:{hi:g} s cannot identify {len(names)} terms")
+    var_all = np.where(used, dev, 1.0) ** 2
+    wt_all = 1.0 / (2.0 / np.where(used, e, 1.0) + MODEL_DISCREPANCY**2)
+    trimmed_short = trimmed_long = 0
+    while True:
+        idx = np.flatnonzero(used)
+        kept, c, model, chi2 = _select(tau[idx], var_all[idx], wt_all[idx], names, select)
+        if user_range or idx.size <= max(5, len(names) + 1):
+            break
+        z = np.abs(np.log(var_all[idx] / model)) * np.sqrt(wt_all[idx])
+        end = 0 if z[0] >= z[-1] else -1
+        if z[end] <= TRIM_SIGMAS:
+            break
+        used[idx[end]] = False
+        if end == 0:
+            trimmed_short += 1
+        else:
+            trimmed_long += 1
+    idx = np.flatnonzero(used)
+    t_u, var_u, wt_u, e_u = tau[idx], var_all[idx], wt_all[idx], e[idx]
     ic = chi2 + 2.0 * len(kept)
-    # interval: weighted LS covariance of the coefficients of the kept, non-zero terms
+    dof = max(int(idx.size) - len(kept), 0)
+    scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
+    # Gauss-Newton covariance of the log-scale fit, inflated by the reduced chi-square
     powers = np.array([ALLAN_TERMS[n] for n in kept])
-    a = t_u[:, None] ** powers[None, :]
-    w = e_u / (2.0 * model**2)
-    info = a.T @ (a * w[:, None])
-    cov = np.linalg.pinv(info)
+    jac = (t_u[:, None] ** powers[None, :].astype(np.float64)) / model[:, None]
+    info = jac.T @ (jac * wt_u[:, None])
+    bread = np.linalg.pinv(info)
+    cov = bread * scale
+    if dof > 0:
+        # residual sandwich with Bartlett weights over neighbouring taus (their Allan
+        # variances, and a misfit, are correlated), small-sample factor n / dof
+        score = jac * (wt_u * np.log(var_u / model))[:, None]
+        meat = score.T @ score
+        for lag in range(1, HAC_LAGS + 1):
+            g = score[lag:].T @ score[:-lag]
+            meat += (1.0 - lag / (HAC_LAGS + 1.0)) * (g + g.T)
+        cov_hac = bread @ meat @ bread * (idx.size / dof)
+        cov = np.where(np.eye(len(kept), dtype=bool) & (np.diag(cov_hac) > np.diag(cov)),
+                       cov_hac, cov)
     z = float(scipy.stats.norm.ppf(0.5 + ci / 2.0))
     out = []
     for k, name in enumerate(kept):
@@ -297,11 +491,56 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     kept_names = tuple(t.name for t in out)
     comps = {t.name: np.sqrt(t.coeff * tau ** ALLAN_TERMS[t.name]) for t in out}
     total = np.sqrt(sum((v**2 for v in comps.values()), np.zeros_like(tau)))
+    # K identified only where its line carries half the model variance at the longest tau
+    upper: dict[str, float] = {}
+    if "K" in names:
+        k_share = (float(comps["K"][idx[-1]] ** 2 / total[idx[-1]] ** 2)
+                   if "K" in comps and total[idx[-1]] > 0 else 0.0)
+        k_span = next((t.ci_high / t.ci_low for t in out if t.name == "K"), math.inf)
+        if k_share < 0.5 or not k_span <= K_MAX_SPAN:
+            _, hi_ci = chi2_interval(dev[idx], e_u, ci)
+            upper["K"] = float(np.min(60.0 * np.sqrt(3.0 * hi_ci**2 / t_u)))
+            out = [t if t.name != "K" else dataclasses.replace(t, identified=False)
+                   for t in out]
+    # self-check against the measured 95 % interval
+    ok = finite & (dev > 0) & (e > 0)
+    m_lo, m_hi = chi2_interval(np.where(ok, dev, np.nan), np.where(ok, e, 1.0), CHECK_CI)
+    check = check_fit(tau, dev, np.where(ok, m_lo, np.nan), np.where(ok, m_hi, np.nan), total,
+                      used, statistic=chi2 / dof if dof > 0 else math.nan, dof=dof)
+    approximate = (not check.holds) or (
+        dof > 0 and chi2 > float(scipy.stats.chi2.ppf(0.99, dof)))
+    # datasheet read-off of B
+    ro = ok & (e >= READOFF_MIN_EDF)
+    b_ro = b_ro_tau = b_ro_lo = b_ro_hi = math.nan
+    if np.any(ro):
+        j = int(np.flatnonzero(ro)[np.argmin(dev[ro])])
+        r_lo, r_hi = chi2_interval(dev[j:j + 1], e[j:j + 1], ci)
+        f = ieee952.B_FLOOR_FACTOR
+        b_ro, b_ro_tau = float(dev[j] / f), float(tau[j])
+        b_ro_lo, b_ro_hi = float(r_lo[0] / f), float(r_hi[0] / f)
+    source = "user" if user_range else "automatic"
+    note = f"taus {_fmt_tau(float(t_u.min()))}..{_fmt_tau(float(t_u.max()))}"
+    if user_range:
+        note += " (the range given)"
+    else:
+        why = []
+        if trimmed_short:
+            why.append(f"{trimmed_short} shortest left out: the model leaves them by more "
+                       f"than {TRIM_SIGMAS:g} sigma")
+        if trimmed_long:
+            why.append(f"{trimmed_long} longest left out: the model leaves them by more than "
+                       f"{TRIM_SIGMAS:g} sigma")
+        if n_low_edf:
+            why.append(f"{n_low_edf} with edf < {MIN_FIT_EDF:g} left out")
+        note += " chosen automatically" + (f" ({'; '.join(why)})" if why else "")
     return AllanFit(
         terms=tuple(out), requested=names,
         dropped=tuple(n for n in names if n not in kept_names),
         tau_min_s=float(t_u.min()), tau_max_s=float(t_u.max()), fit_used=used,
-        fit_adev=total, components=comps, ic=float(ic), chi2=float(chi2), ci=float(ci))
+        fit_adev=total, components=comps, check=check, ic=float(ic), chi2=float(chi2),
+        ci=float(ci), dof=dof, scale=float(scale), approximate=bool(approximate),
+        range_source=source, range_note=note, b_readoff=b_ro, b_readoff_tau_s=b_ro_tau,
+        b_readoff_ci_low=b_ro_lo, b_readoff_ci_high=b_ro_hi, upper_limits=upper)
 
 
 def slope_readouts(result: Any, tolerance: float = 0.15) -> list[tuple[Any, ...]]:

@@ -32,6 +32,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gyrodrift.errors import GyrodriftValueError
+
 __all__ = ["DEFAULT_TOLERANCE", "FitCheck", "check_fit"]
 
 #: Default ratio tolerance of a point outside its interval (fitted / measured within
@@ -135,7 +137,7 @@ def check_fit(x: np.ndarray, measured: np.ndarray, low: np.ndarray, high: np.nda
     used = np.asarray(used, dtype=bool)
     shapes = {a.shape for a in (x, measured, low, high, fitted, used)}
     if len(shapes) != 1:
-        raise ValueError(f"check_fit needs arrays of one shape, got {sorted(shapes)}")
+        raise GyrodriftValueError(f"check_fit needs arrays of one shape, got {sorted(shapes)}")
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = fitted / measured
     finite = np.isfinite(fitted) & np.isfinite(ratio) & (ratio > 0)

@@ -62,23 +62,39 @@ asymptotic intervals are symmetric on the log scale (theta_hat exp(+-z se_log)),
 with bootstrap=B > 0, percentile intervals of B parametric-bootstrap refits (records
 simulated from theta_hat, same weight matrix).
 
-Model selection (model="auto"): every sub-model of max_model (but the drift alone, which
-has no covariance) is fitted with its own iterated efficient weight and scored by the
-wavelet variance information criterion (Guerrier, Stebler, Skaloud, Victoria-Feser, IEEE TIM
-65 (2016) 973-983), with Omega = Omega(theta_hat) of that candidate:
+Model selection (model="auto"): every sub-model of max_model (but the drift alone) is
+fitted with ONE common weight, the inverse of `wv_covariance_nonparametric`: the Gaussian
+covariance of the estimated WV under a sieve (white, quantization, random walk and one
+Gauss-Markov term per octave, matched to the measured WV by NNLS), i.e. an octave-band
+spectral estimate that depends on the data only, not on the candidate. All candidates then
+minimise the same quadratic form, so their J statistics and the wavelet variance
+information criterion (Guerrier, Stebler, Skaloud, Victoria-Feser, IEEE TIM 65 (2016)
+973-983)
 
-    WIC = (nu_hat - nu(theta_hat))' Omega^-1 (nu_hat - nu(theta_hat))
-          + 2 tr(Omega^-1 Cov(nu_hat, nu(theta_hat))),
+    WIC = J + 2 tr(P) = J + 2 p,  P = D (D' W D)^+ D' W,  W = Omega_np^-1,
 
-with Cov(nu_hat, nu(theta_hat)) = Omega Omega^-1 D (D' Omega^-1 D)^+ D' by the delta method,
-so the penalty is 2 tr(P) with P = D (D' Omega^-1 D)^+ D' Omega^-1 (twice the nominal number
-of parameters p). The first term is the J statistic with the candidate's weight taken at its
-own final estimate, so that it is chi-squared with (scales - p) degrees of freedom under that
-candidate. (A common weight from the largest model's fit, used before, misstated the
-variance of the long scales whenever that fit's Gauss-Markov terms had absorbed the random
-walk: the true model's J reached 100+ on 13 scales and selection missed it; see the GMWM
-validation page.)
-Selected (`select_nested`): start at the candidate of smallest WIC; while a sub-model with
+are comparable (tr(P) = p: W is the inverse of the covariance the penalty needs). Scoring
+each candidate with its own model-based weight Omega(theta_hat), as done before, made
+the objectives incomparable: a model that misstates the variance of the long scales (a
+random walk alone with an absurd K) states an enormous Omega there and scored the smallest
+J while its fitted WV was 1e7 times the measured one. Each candidate's fit is then
+checked scale by scale (`gyrodrift.stability.fit_check.check_fit`: inside the measured
+chi-squared interval or within the ratio tolerance), and only candidates whose check holds
+are eligible; when none holds, the candidates are refitted with a model-error allowance
+of MODEL_ERROR_REL per scale added to the common covariance, and the notes say that no
+candidate describes the data. A Gauss-Markov term whose correlation time stops at a bound
+is turned into the white noise (lower bound) or random walk (upper bound) it stands for
+and the candidate is scored as that model (`_convert_pinned`). A named model (model=
+"N+K", ...) keeps the iterated efficient weight below, and the same conversion.
+
+Misfit and intervals: where J exceeds its MISFIT_P quantile of chi-squared (scales - p
+dof) or the check fails, the result is flagged approximate and the parameter covariance
+is multiplied by J / dof (the reduced chi-square: the residual scatter exceeds what the
+weight expects by that factor; treating the excess as noise of the same covariance scales
+the estimator's covariance by it, as for a weighted least-squares fit with an unknown
+scale). A correlation time at a bound that is kept gets a one-sided interval.
+
+Selected (`select_nested`): start at the eligible candidate of smallest WIC; while a sub-model with
 one term fewer has a WIC within WIC_MARGIN = 2 of the current model's, move to the best such
 sub-model. WIC(sub) - WIC(model) = J_sub - J_model - 2 dp, so a term of dp parameters is kept
 only if it lowers J by more than 2 dp + 2: a nested GMM distance test at about 5 % (chi-squared
@@ -106,6 +122,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -116,6 +133,7 @@ import scipy.optimize
 import scipy.stats
 
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
+from gyrodrift.stability.fit_check import DEFAULT_TOLERANCE, FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
 
 __all__ = [
@@ -128,6 +146,7 @@ __all__ = [
     "parse_model",
     "theoretical_wv",
     "wv_covariance",
+    "wv_covariance_nonparametric",
 ]
 
 #: Term letters in canonical order; GM may repeat up to MAX_GM times.
@@ -151,6 +170,20 @@ J_REL_TOL = 0.01
 #: the T_c bounds (all combinations for several GMs).
 RESTART_P = 0.999
 RESTART_TC_POINTS = 3
+#: A fit whose J statistic exceeds this quantile of chi-squared (scales - parameters dof), or
+#: whose fitted wavelet variance leaves the measured one (FitCheck), is reported as
+#: approximate and its intervals are widened (identify_gmwm).
+MISFIT_P = 0.95
+#: A Gauss-Markov correlation time within this distance (on the log scale) of a bound of
+#: `_tc_bounds` is at the bound (converted by `_resolve_pinned`).
+TC_BOUND_LOG_TOL = 1e-3
+#: Model-error allowance (relative, per scale) added to the common weight's covariance when
+#: no candidate's fit holds (identify_gmwm): half the check's ratio tolerance.
+MODEL_ERROR_REL = DEFAULT_TOLERANCE / 2.0
+#: The intervals of N and K of a selected model cover those of the eligible candidates
+#: within this WIC distance (`_widen_by_model_set`): twice the nested-selection margin, the
+#: distance within which information-criterion weights still give a model real support.
+MODEL_SET_DELTA = 2.0 * WIC_MARGIN
 
 
 # --------------------------------------------------------------------------------------
@@ -547,6 +580,63 @@ def wv_covariance(model: str | tuple[str, ...], params: np.ndarray, levels: np.n
     return cov
 
 
+def wv_covariance_nonparametric(wv: WaveletVariance) -> np.ndarray:
+    """Covariance of the estimated wavelet variances taken from the measured wavelet
+    variance alone, the same for every candidate model: the common weight of model
+    selection (identify_gmwm).
+
+    The measured WV is matched by a sieve: quantization, white noise, random walk and a
+    comb of Gauss-Markov terms with correlation times 2^k samples, k = -1 .. J - 1 (one per
+    octave, so the comb can follow any spectrum that is smooth over an octave: a sum of
+    octave-spaced Lorentzians approximates flicker noise's 1/f, and humps from vibration or
+    a filter), its variances by non-negative least squares with the model-free weights
+    sqrt(eta_j / 2) / nu_hat_j (the chi-squared approximation of each scale, P&W eq. 313c).
+    Its covariance follows from the Gaussian formula of `wv_covariance`, exact for the
+    record length. It is a spectral estimate in the octave bands of the Haar filters (the
+    WV at level j is about twice the spectrum's integral over the octave 1/2^(j+1) ..
+    1/2^j, Percival & Walden 2000 sec. 8.1), not a candidate model: it does not change
+    with the model being scored and does not depend on any model being right, which is what
+    makes the candidates' J statistics comparable. (A weight built from each candidate's own
+    fit is not: a model that misstates the long-scale variance, e.g. a random walk alone
+    with an absurd K, states an enormous variance there and scores a small J against
+    its own weight while its fitted WV is 1e7 times the measured one.)
+
+    Examples
+    --------
+    >>> x = np.random.default_rng(0).normal(0, 1.0, 1 << 14)
+    >>> wv = haar_wv(x, 100.0)
+    >>> om = wv_covariance_nonparametric(wv)
+    >>> exact = wv_covariance("N", np.array([1.0]), wv.level, wv.n_samples)
+    >>> ratio = np.diag(om) / np.diag(exact)  # white noise: the exact covariance
+    >>> bool(np.all(np.abs(ratio[:7] - 1.0) < 0.15))  # levels 1-7 (>= 127 dof each)
+    True
+    """
+    tau = 2.0 ** wv.level.astype(np.float64)
+    tcs = [2.0 ** k for k in range(-1, int(wv.level[-1]))]
+    names = ("Q", "N", "K") + ("GM",) * len(tcs)
+    cols = [_component_wv(t, np.array([1.0]), tau) for t in ("Q", "N", "K")]
+    cols += [_component_wv("GM", np.array([1.0, tc]), tau) for tc in tcs]
+    a = np.column_stack(cols)
+    w = np.sqrt(wv.eta / 2.0) / wv.nu2
+    aw = a * w[:, None]
+    scale = np.linalg.norm(aw, axis=0)
+    scale[scale == 0] = 1.0
+    coef, _ = scipy.optimize.nnls(aw / scale, w * wv.nu2)
+    coef = coef / scale
+    terms: list[str] = []
+    params: list[float] = []
+    for k, t in enumerate(names):
+        if coef[k] <= 0.0:
+            continue
+        terms.append(t)
+        params.append(float(coef[k]))
+        if t == "GM":
+            params.append(tcs[k - 3])
+    if not terms:  # cannot happen for a positive WV; keep the diagonal fallback honest
+        return np.diag(2.0 * wv.nu2 ** 2 / wv.eta)
+    return wv_covariance(tuple(terms), np.array(params), wv.level, wv.n_samples)
+
+
 # --------------------------------------------------------------------------------------
 # fitting
 
@@ -885,13 +975,21 @@ class GmwmResult:
         candidates: (model, WIC) of every sub-model tried, best first (model="auto").
         ci, ci_method: interval probability and "asymptotic" or "bootstrap".
         param_cov: covariance of the log parameters (internal, model order).
+        check: the fitted WV against the measured one at every scale (FitCheck; statistic
+            J / dof).
+        approximate: the model does not describe the data (J above its MISFIT_P quantile of
+            chi-squared, or the check fails); the intervals are widened by J / dof.
+        weight: "common" (the model-free weight of wv_covariance_nonparametric, model="auto")
+            or "efficient" (the fitted model's own, iterated; a named model).
+        notes: what the fit changed or found (converted Gauss-Markov terms, misfit), one
+            line each.
 
     Examples
     --------
     >>> import numpy as np
     >>> res = identify_gmwm(np.random.default_rng(2).standard_normal(2048), 10.0, model="N")
     >>> res.model, [p.name for p in res.params], sorted(res.as_dict())[:3]
-    ('N', ['N'], ['candidates', 'ci', 'ci_method'])
+    ('N', ['N'], ['approximate', 'candidates', 'check'])
     """
 
     model: str
@@ -910,6 +1008,10 @@ class GmwmResult:
     ci: float
     ci_method: str
     param_cov: np.ndarray = field(repr=False)
+    check: FitCheck | None = field(default=None, repr=False)
+    approximate: bool = False
+    weight: str = "efficient"
+    notes: tuple[str, ...] = ()
 
     def param(self, name: str) -> GmwmParam:
         for p in self.params:
@@ -919,6 +1021,76 @@ class GmwmResult:
 
     def value(self, name: str) -> float:
         return self.param(name).value
+
+    def implied(self) -> dict[str, float]:
+        """The white-noise density N (deg/sqrt(h)) and random walk K (deg/h/sqrt(h)) the
+        fitted model implies over the fitted scales, with intervals (probability ci): N adds
+        every Gauss-Markov term whose correlation time lies below the smallest scale (white
+        noise there, with its spectral density at zero frequency, sigma^2 (1 + phi) /
+        (1 - phi) per sample); K adds every one whose correlation time exceeds the longest
+        scale (a random walk there, increment variance sigma^2 (1 - phi^2)). 0.0 where the
+        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high. Where the
+        value is the model's own N (K) term alone, its interval is that parameter's;
+        otherwise it follows from param_cov by the delta method on the log scale
+        (d log(1 + phi)/(1 - phi) / d log T_c = 2 phi / (T_c (1 - phi^2)),
+        d log(1 - phi^2) / d log T_c = -2 phi^2 / (T_c (1 - phi^2)), T_c in samples).
+
+        Examples
+        --------
+        >>> x = np.random.default_rng(1).standard_normal(4096) * 30.0
+        >>> res = identify_gmwm(x, 100.0, model="N")
+        >>> imp = res.implied()
+        >>> imp["N"] == res.value("N"), imp["K"], imp["N_ci_low"] == res.param("N").ci_low
+        (True, 0.0, True)
+        """
+        dt = 1.0 / self.rate_hz
+        terms = parse_model(self.model)
+        lo_s, hi_s = float(self.tau_s[0]), float(self.tau_s[-1])
+        z = float(scipy.stats.norm.ppf(0.5 + self.ci / 2.0))
+        # per quantity: [(variance, gradient of its log w.r.t. theta)], own-term-only flag
+        parts: dict[str, list[tuple[float, np.ndarray]]] = {"N": [], "K": []}
+        npar = _n_params(terms)
+        k = 0
+        g = 0
+        for t in terms:
+            grad = np.zeros(npar)
+            grad[k] = 1.0
+            if t == "N":
+                parts["N"].append(((60.0 * self.value("N")) ** 2 / dt, grad))
+            elif t == "K":
+                parts["K"].append(((self.value("K") / 60.0) ** 2 * dt, grad))
+            elif t == "GM":
+                g += 1
+                sigma2 = self.value(f"GM{g}_sigma") ** 2
+                tc_s = self.value(f"GM{g}_tau")
+                tc = tc_s / dt
+                phi = math.exp(-1.0 / tc)
+                if tc_s < lo_s:
+                    grad[k + 1] = 2.0 * phi / (tc * (1.0 - phi * phi))
+                    parts["N"].append((sigma2 * (1.0 + phi) / (1.0 - phi), grad))
+                elif tc_s > hi_s:
+                    grad[k + 1] = -2.0 * phi * phi / (tc * (1.0 - phi * phi))
+                    parts["K"].append((sigma2 * (1.0 - phi * phi), grad))
+            k += 2 if t == "GM" else 1
+        out: dict[str, float] = {}
+        for name, items in parts.items():
+            total = sum(v for v, _ in items)
+            conv = (lambda v: math.sqrt(v * dt) / 60.0) if name == "N" else (
+                lambda v: 60.0 * math.sqrt(v / dt))
+            value = conv(total) if total > 0 else 0.0
+            out[name] = value
+            if not items:
+                out[f"{name}_ci_low"] = out[f"{name}_ci_high"] = 0.0
+            elif len(items) == 1 and name in terms and value == self.value(name):
+                out[f"{name}_ci_low"] = self.param(name).ci_low
+                out[f"{name}_ci_high"] = self.param(name).ci_high
+            else:
+                grad = np.sum([v / total * gr for v, gr in items], axis=0)
+                var = float(grad @ self.param_cov @ grad)
+                half = z * 0.5 * math.sqrt(max(var, 0.0))
+                out[f"{name}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
+                out[f"{name}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
+        return out
 
     def as_dict(self) -> dict[str, object]:
         return {
@@ -938,6 +1110,11 @@ class GmwmResult:
             "ci": self.ci,
             "ci_method": self.ci_method,
             "param_cov": self.param_cov.tolist(),
+            "check": None if self.check is None else self.check.as_dict(),
+            "approximate": self.approximate,
+            "weight": self.weight,
+            "notes": list(self.notes),
+            "implied": self.implied(),
         }
 
 
@@ -972,8 +1149,12 @@ _DENSITY = {n: (TERM_UNITS["gyro"][n].from_ieee, TERM_UNITS["gyro"][n].si) for n
 
 
 def _make_params(terms: tuple[str, ...], theta: np.ndarray, cov: np.ndarray, dt: float,
-                 ci: float, boot: np.ndarray | None) -> tuple[GmwmParam, ...]:
+                 ci: float, boot: np.ndarray | None, inflate: float = 1.0
+                 ) -> tuple[GmwmParam, ...]:
+    """IEEE-unit parameters with intervals; cov is already inflated, bootstrap percentile
+    intervals are widened about the estimate by sqrt(inflate) on the log scale."""
     z = float(scipy.stats.norm.ppf(0.5 + ci / 2.0))
+    widen = math.sqrt(inflate)
     vals = _to_ieee(terms, theta, dt)
     out = []
     for k, (name, value, unit, fac) in enumerate(vals):
@@ -981,9 +1162,14 @@ def _make_params(terms: tuple[str, ...], theta: np.ndarray, cov: np.ndarray, dt:
         if boot is not None:
             bvals = np.array([_to_ieee(terms, b, dt)[k][1] for b in boot])
             lo, hi = (float(v) for v in np.quantile(bvals, [(1 - ci) / 2, (1 + ci) / 2]))
-            se = float(np.std(bvals, ddof=1))
+            if widen > 1.0 and lo > 0.0:
+                lo, hi = value * (lo / value) ** widen, value * (hi / value) ** widen
+            se = float(np.std(bvals, ddof=1)) * widen
         else:
-            lo, hi = value * math.exp(-z * se_log), value * math.exp(z * se_log)
+            # a term at its variance bound has a vanishing derivative: an unbounded interval
+            half = z * se_log
+            lo, hi = ((value * math.exp(-half), value * math.exp(half)) if half < 700.0
+                      else (0.0, math.inf))
             se = value * se_log
         dens = _DENSITY.get(name)
         out.append(GmwmParam(
@@ -1073,10 +1259,233 @@ def _simulate_model(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.rando
     return x
 
 
+def _gm_offsets(terms: tuple[str, ...]) -> list[tuple[int, int]]:
+    """(index of the log variance in theta, GM number from 1) of each Gauss-Markov term."""
+    out: list[tuple[int, int]] = []
+    k = 0
+    for t in terms:
+        if t == "GM":
+            out.append((k, len(out) + 1))
+        k += 2 if t == "GM" else 1
+    return out
+
+
+def _pinned_gms(terms: tuple[str, ...], theta: np.ndarray, tau: np.ndarray
+                ) -> dict[int, str]:
+    """{index of a GM's log variance in theta: "low" or "high"} for every Gauss-Markov term
+    whose correlation time stopped at a bound of `_tc_bounds` (within TC_BOUND_LOG_TOL)."""
+    tc_lo, tc_hi = _tc_bounds(tau)
+    out: dict[int, str] = {}
+    k = 0
+    for t in terms:
+        if t == "GM":
+            if theta[k + 1] <= math.log(tc_lo) + TC_BOUND_LOG_TOL:
+                out[k] = "low"
+            elif theta[k + 1] >= math.log(tc_hi) - TC_BOUND_LOG_TOL:
+                out[k] = "high"
+            k += 2
+        else:
+            k += 1
+    return out
+
+
+def _convert_pinned(terms: tuple[str, ...], theta: np.ndarray, tau: np.ndarray, dt: float,
+                    side: str) -> tuple[tuple[str, ...], np.ndarray, list[str]]:
+    """Turn each Gauss-Markov term at a correlation-time bound into what it stands for over
+    the fitted scales; returns the new model, its start (log parameters) and one note per
+    conversion.
+
+    AR(1) x_t = phi x_{t-1} + u_t, stationary variance sigma^2, phi = exp(-1 / T_c) (T_c in
+    samples), autocovariance sigma^2 phi^|k|:
+
+    - T_c at the lower bound (the fit wanted it shorter still): at every scale tau >> T_c
+      the Haar WV of the AR(1) tends to S(0) / tau, with S(0) = sum_k sigma^2 phi^|k| =
+      sigma^2 (1 + phi) / (1 - phi) its spectral density at zero frequency (per sample).
+      White noise of that per-sample variance has the same WV there (nu^2 = s2 / tau),
+      so s2 = sigma^2 (1 + phi) / (1 - phi) (-> 2 sigma^2 T_c for T_c >> 1: the continuous
+      PSD equivalence N^2 = 2 sigma^2 T_c), N = sqrt(s2 dt) / 60.
+    - T_c at the upper bound (the fit wanted it longer still): over scales tau << T_c the
+      increments x_t - x_{t-1} = u_t - (1 - phi) x_{t-1} are u_t up to a mean reversion of
+      order tau / T_c, i.e. a random walk of increment variance g2 = var u =
+      sigma^2 (1 - phi^2), K = 60 sqrt(g2 / dt).
+
+    The converted variance is added to the model's white noise (random walk) if it has one.
+    Only the terms at the bound `side` ("low" or "high") are converted.
+    """
+    pins = {k: v for k, v in _pinned_gms(terms, theta, tau).items() if v == side}
+    p = np.exp(theta)
+    tc_lo, tc_hi = _tc_bounds(tau)
+    single: dict[str, float] = {}
+    gms: list[tuple[float, float]] = []
+    notes: list[str] = []
+    k = 0
+    g = 0
+    for t in terms:
+        if t != "GM":
+            single[t] = single.get(t, 0.0) + float(p[k])
+            k += 1
+            continue
+        g += 1
+        sigma2, tc = float(p[k]), float(p[k + 1])
+        phi = math.exp(-1.0 / tc)
+        head = (f"GM{g} (sigma {math.sqrt(sigma2):.4g}, T_c {tc * dt:.4g} s) stopped at the "
+                f"{'lower' if pins.get(k) == 'low' else 'upper'} bound of its correlation "
+                f"time ({(tc_lo if pins.get(k) == 'low' else tc_hi) * dt:.4g} s)")
+        if pins.get(k) == "low":
+            s2 = sigma2 * (1.0 + phi) / (1.0 - phi)
+            single["N"] = single.get("N", 0.0) + s2
+            notes.append(f"{head}: it is white noise over the fitted scales; converted to white "
+                         f"noise of the same spectral density at zero frequency (N = "
+                         f"{math.sqrt(s2 * dt) / 60.0:.4g} deg/sqrt(h)) and refitted")
+        elif pins.get(k) == "high":
+            g2 = sigma2 * (1.0 - phi * phi)
+            single["K"] = single.get("K", 0.0) + g2
+            notes.append(f"{head}: it is a random walk over the fitted scales; converted to a "
+                         f"random walk of the same increment variance (K = "
+                         f"{60.0 * math.sqrt(g2 / dt):.4g} deg/h/sqrt(h)) and refitted")
+        else:
+            gms.append((sigma2, tc))
+        k += 2
+    new_terms = tuple(t for t in TERMS[:-1] if t in single) + ("GM",) * len(gms)
+    theta_new = [math.log(single[t]) for t in TERMS[:-1] if t in single]
+    for sigma2, tc in sorted(gms, key=lambda v: v[1]):
+        theta_new += [math.log(sigma2), math.log(tc)]
+    return new_terms, np.array(theta_new), notes
+
+
+def _resolve_pinned(fit: _Fit, omega: np.ndarray, tau: np.ndarray, dt: float,
+                    refit: Callable[[tuple[str, ...], np.ndarray], tuple[_Fit, np.ndarray]]
+                    ) -> tuple[_Fit, np.ndarray, list[str]]:
+    """Convert Gauss-Markov terms at a correlation-time bound (`_convert_pinned`) and refit.
+
+    At the lower bound the conversion to white noise is always made (the fit wanted a
+    shorter correlation time than half a sample, or an eighth of the shortest scale: white
+    at every fitted scale). The upper bound is an eighth of the longest scale, so a term
+    there is a random walk over the shorter scales but levels off at the longest ones, like
+    bias instability: it is converted to a random walk only if the converted model's J is
+    not worse by more than the nested-selection margin (WIC_MARGIN plus twice the
+    parameters dropped, one per term: what select_nested would accept); otherwise it is
+    kept, with a note that its correlation time is only a lower limit (its interval's upper
+    end is then unbounded, `_make_params`)."""
+    notes: list[str] = []
+    tried_high = False
+    while True:
+        pins = _pinned_gms(fit.terms, fit.theta, tau)
+        if "low" in pins.values():
+            terms, start, conv = _convert_pinned(fit.terms, fit.theta, tau, dt, "low")
+            notes += conv
+            fit, omega = refit(terms, start)
+            continue
+        n_high = sum(1 for v in pins.values() if v == "high")
+        if n_high and not tried_high:
+            tried_high = True
+            terms, start, conv = _convert_pinned(fit.terms, fit.theta, tau, dt, "high")
+            f2, o2 = refit(terms, start)
+            if f2.objective <= fit.objective + WIC_MARGIN + 2.0 * n_high:
+                notes += conv
+                fit, omega = f2, o2
+                continue
+            notes.append(
+                f"{n_high} Gauss-Markov term(s) at the upper bound of the correlation time "
+                f"({_tc_bounds(tau)[1] * dt:.4g} s): bias-instability-like over the record, "
+                f"T_c is only a lower limit (a random walk in its place fits worse: J "
+                f"{f2.objective:.4g} against {fit.objective:.4g})")
+        return fit, omega, notes
+
+
+def _check(wv: WaveletVariance, lo: np.ndarray, hi: np.ndarray, fit: _Fit, tau: np.ndarray
+           ) -> FitCheck:
+    """The fitted WV against the measured one at every scale (statistic J / dof)."""
+    dof = max(wv.nu2.size - _n_params(fit.terms), 1)
+    return check_fit(wv.tau_s, wv.nu2, lo, hi,
+                     theoretical_wv(fit.terms, np.exp(fit.theta), tau),
+                     np.ones(wv.nu2.size, dtype=bool), statistic=fit.objective / dof,
+                     dof=dof, what="wavelet variance", x_name="tau", x_unit="s")
+
+
+@dataclass
+class _Selection:
+    """Every candidate fitted with one common weight (identify_gmwm, model="auto")."""
+    omega: np.ndarray
+    fits: dict[tuple[str, ...], _Fit]
+    wics: dict[tuple[str, ...], float]
+    holding: dict[tuple[str, ...], float]
+    fit_notes: dict[tuple[str, ...], list[str]]
+    reduced: list[str]
+    terms: tuple[str, ...]
+
+
+def _select_common(top: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
+                   lo: np.ndarray, hi: np.ndarray, dt: float, omega: np.ndarray
+                   ) -> _Selection:
+    """Fit every sub-model of top with the weight omega^-1 (the same for all), convert
+    Gauss-Markov terms at a correlation-time bound, check each fit at every scale, and
+    select by WIC (select_nested) among the candidates whose check holds (if none does,
+    among those that leave the measured WV at the fewest scales)."""
+    chol_c = _chol(omega)
+
+    def refit(t: tuple[str, ...], start: np.ndarray) -> tuple[_Fit, np.ndarray]:
+        return _fit_model(t, wv.nu2, tau, chol_c, start=start), omega
+
+    fits: dict[tuple[str, ...], _Fit] = {}
+    fit_notes: dict[tuple[str, ...], list[str]] = {}
+    reduced: list[str] = []
+    for cand in _sub_models(top):
+        # the drift alone is deterministic: not a noise model
+        if _n_params(cand) >= wv.nu2.size or cand == ("R",):
+            continue
+        f0 = _fit_model(cand, wv.nu2, tau, chol_c)
+        f1, _, conv = _resolve_pinned(f0, omega, tau, dt, refit)
+        if f1.terms != cand:
+            reduced.append(f"{_model_str(cand)} -> {_model_str(f1.terms)}")
+        if f1.terms not in fits or f1.objective < fits[f1.terms].objective:
+            fits[f1.terms] = f1
+            fit_notes[f1.terms] = conv if f1.terms != cand else []
+    wics = {c: _wic(f) for c, f in fits.items()}
+    failed = {c: _check(wv, lo, hi, fits[c], tau).n_failed for c in fits}
+    holding = {c: w for c, w in wics.items() if failed[c] == 0}
+    # none holds: the candidates that leave the measured curve at the fewest scales
+    fewest = min(failed.values())
+    pool = holding or {c: w for c, w in wics.items() if failed[c] == fewest}
+    return _Selection(omega, fits, wics, holding, fit_notes, reduced, select_nested(pool))
+
+
+def _widen_by_model_set(params: tuple[GmwmParam, ...], near: list[tuple[str, ...]],
+                        sel: _Selection, tau: np.ndarray, dt: float, ci: float,
+                        n_scales: int) -> tuple[tuple[GmwmParam, ...], list[str]]:
+    """Widen the intervals of N and K (the values a user carries into a filter) to cover
+    those of every eligible candidate within MODEL_SET_DELTA of the selected one's WIC that
+    has the term (model uncertainty: the data do not tell those models apart, and under
+    misspecification their estimates differ by more than one model's interval; cf. the
+    model-averaged intervals of Buckland, Burnham & Augustin, Biometrics 53 (1997) 603)."""
+    lo: dict[str, float] = {}
+    hi: dict[str, float] = {}
+    for c in near:
+        f = sel.fits[c]
+        dof = max(n_scales - _n_params(c), 1)
+        cov = _param_cov(c, f.theta, tau, sel.omega) * max(1.0, f.objective / dof)
+        for q in _make_params(c, f.theta, cov, dt, ci, None):
+            if q.name in ("N", "K"):
+                lo[q.name] = min(lo.get(q.name, math.inf), q.ci_low)
+                hi[q.name] = max(hi.get(q.name, -math.inf), q.ci_high)
+    out = []
+    widened = []
+    for q in params:
+        if q.name in lo and (lo[q.name] < q.ci_low or hi[q.name] > q.ci_high):
+            a, b = min(q.ci_low, lo[q.name]), max(q.ci_high, hi[q.name])
+            dens = _DENSITY[q.name][0]
+            q = GmwmParam(q.name, q.value, q.unit, q.se, a, b, q.density, q.density_unit,
+                          a * dens, b * dens)
+            widened.append(q.name)
+        out.append(q)
+    return tuple(out), widened
+
+
 def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
                   max_model: str = DEFAULT_MAX_MODEL, ci: float = 0.95, bootstrap: int = 0,
                   seed: int = 0, max_level: int | None = None,
-                  tau_range: tuple[float, float] | None = None) -> GmwmResult:
+                  tau_range: tuple[float, float] | None = None,
+                  convert_bounds: bool = True) -> GmwmResult:
     """GMWM fit of a composite noise model to a rate record (module docstring).
 
     Args:
@@ -1092,6 +1501,11 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         tau_range: (min, max) scale tau_j = 2^j dt in s of the levels fitted (default
             all); e.g. to leave out a vibration peak at short scales. The covariance is
             that of the levels kept.
+        convert_bounds: a named model's Gauss-Markov term whose correlation time stops at
+            a bound is turned into the white noise or random walk it is and the model
+            refitted (`_resolve_pinned`; the notes say so). False keeps the named model
+            (simulation studies of its estimator); a correlation time at a bound then
+            gets a one-sided interval. Selection (model="auto") always converts.
 
     Raises:
         GyrodriftValueError: bad record (not 1-D, NaN/Inf, too short), bad model, bad ci.
@@ -1117,33 +1531,77 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
     if np.any(wv.nu2 <= 0):
         raise GyrodriftValueError("x: the record is constant at some scale (zero wavelet variance)")
     tau = 2.0 ** wv.level.astype(np.float64)
+    lo, hi = wv.interval(ci)
     candidates: tuple[tuple[str, float], ...] = ()
     wic = None
+    notes: list[str] = []
+    near: list[tuple[str, ...]] = []
     if model == "auto":
         top = parse_model(max_model)
-        subs = _sub_models(top)
         if wv.nu2.size < _n_params(top) + 1:
             raise GyrodriftValueError(f"{wv.nu2.size} scales cannot identify {max_model}")
-        scores = []
-        fits: dict[tuple[str, ...], tuple[_Fit, np.ndarray]] = {}
-        for cand in subs:
-            # the drift alone is deterministic: no covariance, no efficient weight, no WIC
-            if _n_params(cand) >= wv.nu2.size or cand == ("R",):
-                continue
-            fits[cand] = _weighted_lsq(cand, wv, tau)
-            scores.append((_wic(fits[cand][0]), cand))
-        scores.sort(key=lambda s: s[0])
-        candidates = tuple((_model_str(c), float(w)) for w, c in scores)
-        terms = select_nested(dict((c, w) for w, c in scores))
-        wic = float(dict((c, w) for w, c in scores)[terms])
-        fit, omega = fits[terms]
+        weight = "common"
+        omega_np = wv_covariance_nonparametric(wv)
+        sel = _select_common(top, wv, tau, lo, hi, dt, omega_np)
+        if not sel.holding:
+            # No candidate follows the measured WV within its sampling precision and the
+            # check's tolerance: the shortest scales, whose precision is highest, then
+            # dictate the fit of a model that cannot follow their shape (a sensor's
+            # anti-alias filter, quantization, vibration) and the misfit is pushed to the
+            # other scales. A model-error allowance of MODEL_ERROR_REL nu_hat_j per scale,
+            # independent between scales, is added to the common covariance (the
+            # discrepancy term of model calibration, Kennedy & O'Hagan 2001): a misfit
+            # of the check's tolerance is then a 2-sigma event at every scale.
+            omega_me = omega_np + np.diag((MODEL_ERROR_REL * wv.nu2) ** 2)
+            sel_me = _select_common(top, wv, tau, lo, hi, dt, omega_me)
+            notes.append(
+                f"no candidate model follows the measured wavelet variance within its "
+                f"sampling precision; refitted with a model-error allowance of "
+                f"{100 * MODEL_ERROR_REL:g} % per scale in the weight")
+            sel = sel_me
+        terms, fit, omega = sel.terms, sel.fits[sel.terms], sel.omega
+        wics = sel.wics
+        candidates = tuple(sorted(((_model_str(c), float(w)) for c, w in wics.items()),
+                                  key=lambda cw: cw[1]))
+        wic = float(wics[terms])
+        near = [c for c in sel.holding if c != terms
+                and sel.holding[c] <= wic + MODEL_SET_DELTA]
+        notes += sel.fit_notes[terms]
+        if sel.reduced:
+            notes.append(f"{len(sel.reduced)} candidates with a Gauss-Markov term at a "
+                         "correlation-time bound were scored as the model they reduce to ("
+                         + ", ".join(sel.reduced[:3]) + (", ..." if len(sel.reduced) > 3
+                                                          else "") + ")")
+        if not sel.holding:
+            notes.append("no candidate model describes the measured wavelet variance at every "
+                         "scale: the selected one leaves it at the fewest scales (then the "
+                         "smallest WIC) and is approximate")
     else:
         terms = parse_model(model)
         if _n_params(terms) >= wv.nu2.size:
             raise GyrodriftValueError(f"{wv.nu2.size} scales cannot identify {_model_str(terms)} "
                              f"({_n_params(terms)} parameters): record too short")
+        weight = "efficient"
         fit, omega = _weighted_lsq(terms, wv, tau)
-    cov = _param_cov(terms, fit.theta, tau, omega)
+        if convert_bounds:
+            fit, omega, conv = _resolve_pinned(
+                fit, omega, tau, dt, lambda t, _start: _weighted_lsq(t, wv, tau))
+            notes += conv
+        terms = fit.terms
+    check = _check(wv, lo, hi, fit, tau)
+    dof = check.dof
+    p_value = float(scipy.stats.chi2.sf(fit.objective, dof))
+    approximate = p_value < 1.0 - MISFIT_P or not check.holds
+    inflate = max(1.0, fit.objective / dof) if approximate else 1.0
+    if approximate:
+        notes.append(
+            f"the model is approximate: J = {fit.objective:.4g} on {dof} degrees of freedom "
+            f"(p = {p_value:.2g})"
+            + ("" if check.holds else f", {check.n_failed} of {wv.nu2.size} scales outside "
+               "the measured interval and tolerance")
+            + (f"; intervals widened by sqrt(J / dof) = {math.sqrt(inflate):.3g}"
+               if inflate > 1.0 else "; J / dof <= 1: intervals not widened"))
+    cov = _param_cov(terms, fit.theta, tau, omega) * inflate
     boot = None
     if bootstrap:
         rng = np.random.default_rng(seed)
@@ -1157,7 +1615,26 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
                 wb = _subset(wb, tau_range)
             boots.append(_fit_model(terms, wb.nu2, tau, chol, start=fit.theta).theta)
         boot = np.array(boots)
-    params = _make_params(terms, fit.theta, cov, dt, ci, boot)
+    params = _make_params(terms, fit.theta, cov, dt, ci, boot, inflate)
+    if model == "auto" and near:
+        params, widened = _widen_by_model_set(params, near, sel, tau, dt, ci, wv.nu2.size)
+        if widened:
+            notes.append(
+                f"the interval of {' and '.join(widened)} covers the intervals of the "
+                f"models within {MODEL_SET_DELTA:g} of the selected one's WIC (model "
+                f"uncertainty): {', '.join(_model_str(c) for c in near)}")
+    pins = _pinned_gms(terms, fit.theta, tau)
+    if pins:
+        # a correlation time at its upper bound is only a lower limit (no finite upper
+        # end), one at its lower bound only an upper limit (lower end 0)
+        gm_of = dict(_gm_offsets(terms))
+        side = {f"GM{gm_of[k]}_tau": v for k, v in pins.items()}
+        params = tuple(
+            p if p.name not in side else
+            GmwmParam(p.name, p.value, p.unit, math.inf, p.ci_low, math.inf)
+            if side[p.name] == "high" else
+            GmwmParam(p.name, p.value, p.unit, math.inf, 0.0, p.ci_high)
+            for p in params)
     p_nat = np.exp(fit.theta)
     comps: dict[str, np.ndarray] = {}
     k = 0
@@ -1170,10 +1647,10 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             name = f"GM{g}"
         comps[name] = _component_wv(t, p_nat[k:k + width], tau)
         k += width
-    lo, hi = wv.interval(ci)
     return GmwmResult(
         model=_model_str(terms), params=params, rate_hz=float(rate_hz), n_samples=arr.size,
         tau_s=wv.tau_s, wv=wv.nu2, wv_ci_low=lo, wv_ci_high=hi,
         wv_fit=theoretical_wv(terms, p_nat, tau), wv_components=comps,
         objective=fit.objective, wic=wic, candidates=candidates, ci=float(ci),
-        ci_method="bootstrap" if bootstrap else "asymptotic", param_cov=cov)
+        ci_method="bootstrap" if bootstrap else "asymptotic", param_cov=cov, check=check,
+        approximate=approximate, weight=weight, notes=tuple(notes))

@@ -2,8 +2,9 @@
 export and a self-check by simulation (`gyrodrift characterize`).
 
 Every channel is analysed in SI units (gyro rad/s, accelerometer m/s^2). The IEEE Std 952
-Annex C fit (`gyrodrift.stability.ieee952.identify`) gives sigma^2(tau) = sum_k C_k tau^k, k =
--2..2,
+Annex C fit (the default identifier, `gyrodrift.stability.allan_fit.fit_allan`: automatic fit
+range, log-scale objective, misspecification-robust intervals, self-check) gives
+sigma^2(tau) = sum_k C_k tau^k, k = -2..2,
 from which, for a record unit U (rad/s or m/s^2):
 
     Q = sqrt(C_-2 / 3)            U s           (quantization; rad, m/s)
@@ -18,7 +19,10 @@ white noise of density K^2). Kalibr's discrete-time values are sigma_d = N / sqr
 standard deviation of one sample) and sigma_bd = K sqrt(dt) (the standard deviation of one
 bias step).
 
-Intervals of the terms: a simultaneous confidence band for the Allan variance, the
+Intervals of the kept terms: the fit's (misspecification-robust, see
+`gyrodrift.stability.allan_fit`) joined with the range the band below allows (so a term the
+band admits at zero has an interval reaching zero). Dropped terms are 0 with an upper end
+from a simultaneous confidence band for the Allan variance, the
 chi-squared interval of every tau (edf of NIST SP 1065 Table 5) at probability
 1 - (1 - ci) / n_taus (Bonferroni: the true curve lies inside the whole band with probability
 >= ci), projected onto each coefficient by linear programming: C_k ranges over all models
@@ -60,7 +64,7 @@ from gyrodrift.io.imu_data import CHANNELS, ImuData
 from gyrodrift.io.json_text import json_text
 from gyrodrift.stability import DEFAULT_IDENTIFIER, IEEE952_TERMS, MODEL_IDENTIFIERS
 from gyrodrift.stability.allan import ONE_SIGMA_CI, AllanResult, oadev
-from gyrodrift.stability.ieee952 import B_FLOOR_FACTOR, identify
+from gyrodrift.stability.ieee952 import B_FLOOR_FACTOR
 from gyrodrift.units import TERM_UNITS
 
 __all__ = [
@@ -305,25 +309,44 @@ def characterize_channel(x: np.ndarray, rate_hz: float, channel: str, *, ci: flo
     if method not in MODEL_IDENTIFIERS:
         raise GyrodriftValueError(
             f"method must be one of {', '.join(MODEL_IDENTIFIERS)}, got {method!r}")
-    fit = identify(tau[pos], a.adev[pos], a.edf[pos],
-                   powers=tuple(_POWERS[t] for t in used))
-    coeffs = np.asarray(fit.coeffs)
+    # The default identifier, the same fit as `gyrodrift allan` and `identify`: automatic
+    # range, log-scale objective, robust intervals, self-check (gyrodrift.stability.allan_fit).
+    # It works in the record's own unit; C_k are (unit)^2 s^k whatever the unit.
+    from gyrodrift.stability.allan_fit import fit_allan
+
+    afit = fit_allan(tau, a.adev, a.edf, terms=tuple(used), ci=ci)
+    coeffs = np.zeros(len(TERMS))
+    for t in afit.terms:
+        coeffs[TERMS.index(t.name)] = t.coeff
     iv, band_scale = _term_intervals(tau, a, pos, coeffs, used, ci)
     est = {}
     for j, name in enumerate(TERMS):
         if name not in used:
             continue
         c = float(coeffs[j])
-        lo, hi = iv[name]
-        # The NNLS estimate need not lie inside every tau's band; the interval reported is the
-        # LP range widened to include the estimate.
-        est[name] = TermEstimate(name, _coef_to_term(name, c), _coef_to_term(name, min(lo, c)),
-                                 _coef_to_term(name, max(hi, c)), TERM_UNITS[sensor][name].si)
-    fit_adev = np.sqrt(sum(coeffs[j] * tau ** p for j, p in enumerate(_POWERS.values())))
+        if name in afit.names:
+            # the fit's misspecification-robust interval (ratio to the value: unit-free),
+            # joined with the band's range (which reaches 0 where the band admits no term)
+            t = afit.term(name)
+            v = _coef_to_term(name, c)
+            est[name] = TermEstimate(
+                name, v, min(v * t.ci_low / t.value, _coef_to_term(name, iv[name][0])),
+                max(v * t.ci_high / t.value, _coef_to_term(name, iv[name][1])),
+                TERM_UNITS[sensor][name].si)
+        else:
+            # dropped: zero, with the band's upper end (linear programming, docstring)
+            est[name] = TermEstimate(name, 0.0, 0.0, _coef_to_term(name, iv[name][1]),
+                                     TERM_UNITS[sensor][name].si)
     unit = "rad/s" if sensor == "gyro" else "m/s^2"
-    return ChannelResult(channel, sensor, unit, a, est, fit_adev, "allan-nnls",
+    return ChannelResult(channel, sensor, unit, a, est, afit.fit_adev, "allan-nnls",
                          {"coeffs": [float(c) for c in coeffs], "band_scale": band_scale,
-                          "fit_tau_s": [float(tau[pos][0]), float(tau[pos][-1])]})
+                          "fit_tau_s": [afit.tau_min_s, afit.tau_max_s],
+                          "fit_range": afit.range_note, "approximate": afit.approximate,
+                          "b_readoff": {"value": afit.b_readoff, "tau_s": afit.b_readoff_tau_s,
+                                        "unit": unit},
+                          "k_upper_limit": (None if "K" not in afit.upper_limits
+                                            else afit.upper_limits["K"] / 60.0),
+                          "check": afit.check.as_dict()})
 
 
 def _gmwm_channel(x: np.ndarray, rate_hz: float, channel: str, a: AllanResult,
@@ -382,7 +405,7 @@ def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave"
     >>> [c.channel for c in res.channels]
     ['gyro_x', 'accel_x']
     >>> res.channels[0].terms["N"]  # 1e-4 * sqrt(0.01 s) = 1e-5 rad/s/sqrt(Hz)
-    TermEstimate(name='N', value=9.93...e-06, ci_low=9.27...e-06, ci_high=1.02...e-05,
+    TermEstimate(name='N', value=9.99...e-06, ci_low=9.27...e-06, ci_high=1.02...e-05,
                  unit='rad/s/sqrt(Hz)')
     """
     return characterize_channels(rec.names, rec.channels.__getitem__, rec.rate_hz,
@@ -449,7 +472,7 @@ def kalibr_values(res: CharacterizeResult, axis: str = "worst"
     >>> vals = kalibr_values(characterize(rec))
     >>> value, channel, term = vals["gyroscope_noise_density"]
     >>> round(value, 7), channel, term.name
-    (9.9e-06, 'gyro_x', 'N')
+    (1e-05, 'gyro_x', 'N')
     >>> sorted(vals)  # doctest: +NORMALIZE_WHITESPACE
     ['accelerometer_noise_density', 'accelerometer_random_walk', 'gyroscope_noise_density',
      'gyroscope_random_walk']
@@ -491,7 +514,7 @@ def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | No
     >>> line = next(ln for ln in text.splitlines() if ln.startswith("gyroscope_noise_density"))
     >>> value, comment = line.split(":", 1)[1].split("#")
     >>> f"{float(value):.4g}", comment.strip()
-    ('9.934e-06', 'rad/s/sqrt(Hz), from gyro_x')
+    ('9.996e-06', 'rad/s/sqrt(Hz), from gyro_x')
     """
     vals = kalibr_values(res, axis)
     if not vals:
