@@ -115,8 +115,9 @@ def to_float32(x: float) -> float | None:
 
     Examples
     --------
-    >>> to_float32(0.1), to_float32(0.0), to_float32(float("inf"))
-    (0.10000000149011612, 0.0, inf)
+    >>> f32_of_tenth = struct.unpack("<f", struct.pack("<f", 0.1))[0]
+    >>> to_float32(0.1) == f32_of_tenth, to_float32(0.0), to_float32(float("inf"))
+    (True, 0.0, inf)
     >>> to_float32(1e-50), to_float32(1e39), to_float32(0.999999999)
     (None, None, 1.0)
     """

@@ -221,6 +221,23 @@ def build_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
 
     Raises FirmwareError with the reason when the configuration cannot become an image or
     the image does not fit.
+
+    Examples
+    --------
+    A soft wavelet threshold has no firmware form; the build refuses it before compiling:
+
+    >>> import tempfile
+    >>> from dataclasses import replace
+    >>> from gyrodrift.imu.config import default_config
+    >>> cfg = default_config()
+    >>> gx = cfg.channel("gx")
+    >>> soft = cfg.with_channel("gx", replace(gx, stages=(
+    ...     replace(gx.stages[0], threshold="soft"), gx.stages[1])))
+    >>> try:
+    ...     build_firmware(soft, tempfile.mkdtemp())
+    ... except FirmwareError as exc:
+    ...     print(str(exc).split(":")[0])
+    configuration refused for the firmware
     """
     src = firmware_source_dir()
     out = Path(out_dir)
@@ -276,7 +293,18 @@ def _source_digest() -> str:
 def cached_firmware(config: ProcessorConfig, defines: tuple[str, ...] = (), *,
                     check_budget: bool = True) -> FirmwareImage:
     """The image for `config`, built once per (configuration, defines, sources) in the
-    temporary directory and reused."""
+    temporary directory and reused.
+
+    Examples
+    --------
+    Building needs the Cortex-M toolchain and takes tens of seconds, so this is not run here
+    (tests/test_firmware_qemu.py does):
+
+    >>> from gyrodrift.imu.config import default_config
+    >>> image = cached_firmware(default_config())  # doctest: +SKIP
+    >>> image.flash_bytes < 16 * 1024  # doctest: +SKIP
+    True
+    """
     key = hashlib.sha256("\n".join([dumps_config(config), *defines, _source_digest()])
                          .encode()).hexdigest()[:16]
     out = Path(tempfile.gettempdir()) / f"gyrodrift-firmware-{key}"
@@ -422,6 +450,17 @@ class QemuTarget:
     final health report, ends QEMU and returns the counters in the host loop's statistics
     layout (``frames_in``, ``rejected``, ``health``, ...) plus ``firmware`` and
     ``step_cost``.
+
+    Examples
+    --------
+    Booting needs QEMU and a built image (tests/test_firmware_qemu.py runs this):
+
+    >>> from gyrodrift.imu.config import default_config
+    >>> target = QemuTarget(cached_firmware(default_config()), 400.0)  # doctest: +SKIP
+    >>> target.start()  # doctest: +SKIP
+    >>> target.device.startswith("/dev/pts/")  # doctest: +SKIP
+    True
+    >>> stats = target.stop()  # doctest: +SKIP
     """
 
     def __init__(self, image: FirmwareImage, loop_rate_hz: float, *, icount: bool = True

@@ -34,6 +34,17 @@ def measure_step_cost(image: FirmwareImage, config: ProcessorConfig, *,
     """Instructions per step of `image` on QEMU over `duration_s` of simulated IMU data at
     the configuration's sample rate, replayed at 1x (the receive interrupts that land inside
     a step count with it, as on the MCU); raises FirmwareError if the replay itself fails.
+
+    Examples
+    --------
+    Needs QEMU and a built image (tests/test_firmware_qemu.py runs this):
+
+    >>> from gyrodrift.imu.config import default_config
+    >>> from gyrodrift.replay.firmware import cached_firmware
+    >>> cfg = default_config()
+    >>> cost = measure_step_cost(cached_firmware(cfg), cfg)  # doctest: +SKIP
+    >>> cost["instructions_max"] < 14000  # doctest: +SKIP
+    True
     """
     rate = config.timing.sample_rate_hz
     rec = simulate_imu(duration_s, rate_hz=rate, seed=seed,
@@ -57,7 +68,26 @@ def check_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
     """Build the image for `config` in `out_dir` and hold it to the whole budget: flash, RAM,
     and instructions per step (worst case of a measuring replay on QEMU) within
     `instruction_budget` at the configuration's loop rate. Returns the image's sizes and its
-    step cost; raises FirmwareError with the reason otherwise (scripts/build-firmware)."""
+    step cost; raises FirmwareError with the reason otherwise (scripts/build-firmware).
+
+    Examples
+    --------
+    A configuration with no firmware form is refused before anything is built or run:
+
+    >>> import tempfile
+    >>> from dataclasses import replace
+    >>> from gyrodrift.imu.config import default_config
+    >>> from gyrodrift.replay.firmware import FirmwareError
+    >>> cfg = default_config()
+    >>> gx = cfg.channel("gx")
+    >>> soft = cfg.with_channel("gx", replace(gx, stages=(
+    ...     replace(gx.stages[0], threshold="soft"), gx.stages[1])))
+    >>> try:
+    ...     check_firmware(soft, tempfile.mkdtemp())
+    ... except FirmwareError as exc:
+    ...     print(str(exc).split(":")[0])
+    configuration refused for the firmware
+    """
     image = build_firmware(config, out_dir, defines=defines)
     cost = measure_step_cost(image, config)
     budget = instruction_budget(config.timing.loop_hz)
