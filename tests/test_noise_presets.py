@@ -127,3 +127,21 @@ def test_default_on_shared_laser_gyro_record(lasergyro_path: Path) -> None:
         assert int(fit.fit_used.sum()) >= 5 and "chosen automatically" in fit.range_note
         t = fit.term("N")
         assert t.ci_low < t.value < t.ci_high
+
+
+def test_characterize_uses_the_same_default_fit() -> None:
+    # One default for allan, identify and characterize: characterize's N (rad/s/sqrt(Hz), on
+    # the record in rad/s) is the identify fit's N (deg/sqrt(h), on deg/h) converted. The
+    # log-scale fit is invariant to the unit up to the optimizer's tolerance: 1e-6 relative.
+    import math
+
+    from gyrodrift.workflows.characterize import characterize_channel
+
+    rec = simulate_preset("consumer-mems", 100_000, seed=2)
+    r = oadev(rec.gyro_deg_h, rec.rate_hz, progress=False)
+    fit = fit_allan(r.tau_s, r.adev, r.edf)
+    ch = characterize_channel(np.deg2rad(rec.gyro_deg_h / 3600.0), rec.rate_hz, "gyro_x")
+    n_si = fit.value("N") * math.pi / 180.0 / 60.0
+    assert ch.terms["N"].value == pytest.approx(n_si, rel=1e-6)
+    assert ch.extra["fit_range"] == fit.range_note
+    assert ch.extra["approximate"] == fit.approximate
