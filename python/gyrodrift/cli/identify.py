@@ -17,6 +17,7 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
+    check_output,
     emit_json,
     record_from_args,
 )
@@ -170,6 +171,7 @@ def run(args: argparse.Namespace) -> int:
     """
     import numpy as np
 
+    check_output(args.png, "--png")  # before the work
     rec = record_from_args(args, mmap=False)
     x = np.asarray(rec.rate_deg_h, dtype=np.float64)
     head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"
