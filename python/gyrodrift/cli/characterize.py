@@ -162,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
     # .../imu.npy (npy): 4096 samples at 100 Hz, 40.96 s; channels gyro_x, gyro_y, gyro_z
     # method allan-nnls, intervals at probability 0.6827
     ...
-    gyro_x   N      1.014e-05 ... rad/s/sqrt(Hz) ... deg/sqrt(h)
+    gyro_x   N      1.021e-05 ... rad/s/sqrt(Hz) ... deg/sqrt(h)
     ...
     0
     >>> tmp.cleanup()

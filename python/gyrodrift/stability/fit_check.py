@@ -58,6 +58,13 @@ class FitCheck:
         tolerance: ratio tolerance (see module docstring).
         holds: every used point passed.
         warnings: lines to show the user (empty when the model holds).
+
+    Examples
+    --------
+    >>> one = np.array([1.0])
+    >>> chk = check_fit(one, 2 * one, 1.8 * one, 2.2 * one, 2.1 * one, np.array([True]))
+    >>> chk.holds, chk.n_failed, chk.as_dict()["n_used"]
+    (True, 0, 1)
     """
 
     what: str
