@@ -6,13 +6,20 @@ subparser and sets `func` (called with the parsed args, returning the exit code)
 
 from __future__ import annotations
 
-import argparse
 import contextlib
-import importlib
 import os
 import sys
+from typing import TYPE_CHECKING
 
+from gyrodrift._startup import restore as restore_interrupts
 from gyrodrift.errors import GyrodriftError
+
+if TYPE_CHECKING:
+    import argparse
+
+# Imports here are kept to what the interpreter has already loaded (and the light errors
+# module): everything else, argparse included, loads inside main(), where Ctrl-C during
+# start-up ends in one line and exit code 130, not a traceback.
 
 __all__ = ["SUBCOMMAND_MODULES", "CliError", "build_parser", "main"]
 
@@ -46,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
     >>> list(sub.choices)[:5]
     ['demo', 'replay', 'simulate', 'filter', 'allan']
     """
+    import argparse
+    import importlib
+
     from gyrodrift import __version__
 
     parser = argparse.ArgumentParser(
@@ -72,6 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     0
     """
     command = "gyrodrift"
+    restore_interrupts()  # Ctrl-C from here on: KeyboardInterrupt, handled below
     try:
         parser = build_parser()
         args = parser.parse_args(argv)

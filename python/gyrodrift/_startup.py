@@ -1,0 +1,52 @@
+"""Ctrl-C while the `gyrodrift` command starts: one line and exit code 130, not a traceback.
+
+Imported first by the package's ``__init__``. When the process is the `gyrodrift` command
+(``python -m gyrodrift``: ``sys.argv[0]`` is "-m" while the package is located and imported;
+the installed script: its name), SIGINT ends it at once with the line the command's own
+handler prints, until `gyrodrift.cli.main` gives Ctrl-C back to Python (KeyboardInterrupt,
+handled there) by `restore`. An import of the package by any other program leaves its signal
+handling alone. Only the standard library's already loaded modules are used before the
+handler is in place.
+
+Examples
+--------
+>>> import signal
+>>> signal.getsignal(signal.SIGINT) is interrupt_at_start_up  # pytest is not the command
+False
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+__all__ = ["interrupt_at_start_up", "restore"]
+
+
+def interrupt_at_start_up(signum: int, frame: object) -> None:
+    """The start-up SIGINT handler: "gyrodrift: interrupted" on stderr, exit code 130."""
+    os.write(2, b"gyrodrift: interrupted\n")
+    os._exit(130)
+
+
+def _is_command() -> bool:
+    argv0 = sys.argv[0] if sys.argv else ""
+    return argv0 == "-m" or os.path.basename(argv0) in ("gyrodrift", "gyrodrift.exe")
+
+
+def restore() -> None:
+    """Python's own SIGINT handling again (KeyboardInterrupt), if the start-up handler is set."""
+    import signal
+
+    try:
+        if signal.getsignal(signal.SIGINT) is interrupt_at_start_up:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:  # not the main thread: nothing was set here
+        pass
+
+
+if _is_command():
+    import signal
+
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, interrupt_at_start_up)
