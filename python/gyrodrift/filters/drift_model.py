@@ -864,9 +864,9 @@ def fit_drift_model(
 def _fit_normalised(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
     """`_fit_1d` of a record scaled into the safe range (`normalising_scale`), its fit scaled
     back: q, r, their standard errors and the filter's q, r by c^2; mean by c;
-    log-likelihoods by -n ln c (the density of c x); AIC and BIC accordingly. a1, a2, the Ljung-Box test and the split
-    drops do not depend on the scale. A record of extreme magnitude (1e150, 1e-150) failed
-    with OverflowError/ZeroDivisionError in the likelihood before."""
+    log-likelihoods by -n ln c (the density of c x); AIC and BIC accordingly. a1, a2, the
+    Ljung-Box test and the split drops do not depend on the scale. A record of extreme
+    magnitude (1e150, 1e-150) failed with OverflowError/ZeroDivisionError before."""
     c = normalising_scale(a)
     if c == 1.0:
         return _fit_1d(a, rate_hz, model)
