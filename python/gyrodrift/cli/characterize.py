@@ -141,25 +141,11 @@ def _terms(text: str) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``gyrodrift characterize`` (`_run`); a .npy record (without --drop-nan) is spooled
-    in chunks to one float64 file per channel in a temporary directory, which the Allan
-    analysis reads in chunks: the command's memory does not grow with the record."""
-    import tempfile
-
-    from gyrodrift.io.imu_data import input_kind
-
-    try:
-        npy = input_kind(Path(args.input)) == "npy" and not args.drop_nan
-    except (OSError, ValueError, GyrodriftError):
-        npy = False  # the reader reports it
-    if not npy:
-        return _run(args, None)
-    with tempfile.TemporaryDirectory(prefix="gyrodrift-characterize.") as spool:
-        return _run(args, spool)
-
-
-def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
     """Run ``gyrodrift characterize``; returns the exit code.
+
+    A .npy record (without --drop-nan) is spooled in chunks to one float64 file per
+    channel in a temporary directory, which the Allan analysis reads in chunks: the
+    command's memory does not grow with the record.
 
     Examples
     --------
@@ -178,6 +164,22 @@ def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
     0
     >>> tmp.cleanup()
     """
+    import tempfile
+
+    from gyrodrift.io.imu_data import input_kind
+
+    try:
+        npy = input_kind(Path(args.input)) == "npy" and not args.drop_nan
+    except (OSError, ValueError, GyrodriftError):
+        npy = False  # the reader reports it
+    if not npy:
+        return _run(args, None)
+    with tempfile.TemporaryDirectory(prefix="gyrodrift-characterize.") as spool:
+        return _run(args, spool)
+
+
+def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
+    """`run` with the record spooled to `spool_dir` (a .npy record), or read whole."""
     from gyrodrift.workflows import characterize as ch
 
     if args.input and Path(args.input).suffix.lower() in (".bag", ".db3", ".mcap") \
