@@ -2,9 +2,9 @@
 rejection names and defaults are defined once in include/gyrodrift/imu/imu_processor.hpp and
 exported by gyrodrift._core. This test fails if any other copy differs: the C++ constants
 themselves (a flag added without a table entry), gyrodrift.imu.processor, the loop's JSON, the
-README
-table. (The replay harness's rejection names are checked at run time against the loop's JSON
-by its own `loop_processor_rejections` check.)"""
+flag table of the wire formats guide (docs/guides/wire-formats.md). (The replay harness's
+rejection names are checked at run time against the loop's JSON by its own
+`loop_processor_rejections` check.)"""
 
 from __future__ import annotations
 
@@ -68,9 +68,9 @@ def test_loop_json_uses_the_contract_names(loop_bin: Path,  # noqa: F811
     assert stats["rejected"]["out_of_order"] == 1  # seq 0 after seq 19: behind
 
 
-def test_readme_flag_table_matches() -> None:
+def test_wire_formats_guide_flag_table_matches() -> None:
     flags, _, _ = _core_contract()
-    text = (ROOT / "README.md").read_text()
+    text = (ROOT / "docs" / "guides" / "wire-formats.md").read_text()
     rows = dict((m[2], int(m[1])) for m in re.finditer(r"^\| (\d+) \| (\w+) \|", text, re.M)
                 if m[2] in flags or m[2].startswith(("non_", "seq_", "time_", "filter_")))
     assert {k: 1 << v for k, v in rows.items()} == flags

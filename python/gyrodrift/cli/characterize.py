@@ -6,6 +6,7 @@ one plot per sensor type, and the outputs filter users need (--json, --kalibr im
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 from typing import Any
@@ -17,7 +18,11 @@ from gyrodrift.cli.common import (
     add_gyro_units_arg,
     add_json_arg,
     add_progress_arg,
+    add_time_units_arg,
+    check_out_dir,
+    check_output,
     emit_json,
+    human_stream,
     progress_enabled,
 )
 from gyrodrift.errors import GyrodriftError
@@ -47,6 +52,7 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
                         "columns)")
     p.add_argument("--time-column", help="text: time column name/index, or 'none' (default: "
                    "detected)")
+    add_time_units_arg(p)
     p.add_argument("--topic", help="ROS bag: the sensor_msgs/msg/Imu topic (listed when absent)")
     add_gyro_units_arg(p)
     p.add_argument("--accel-units", choices=ACCEL_INPUT_UNITS, default=DEFAULT_ACCEL_UNITS,
@@ -76,7 +82,8 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
         return load_imu(path or args.input, rate_hz=args.rate_hz,
                         columns=(args.column_channels.split(",") if args.column_channels
                                  else None),
-                        time_column=args.time_column, topic=args.topic,
+                        time_column=args.time_column, time_units=args.time_units,
+                        topic=args.topic,
                         gyro_units=args.gyro_units, accel_units=args.accel_units,
                         nan_policy="drop" if args.drop_nan else "refuse", **kw)
     except (OSError, ValueError, GyrodriftError) as exc:
@@ -182,6 +189,9 @@ def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
     """`run` with the record spooled to `spool_dir` (a .npy record), or read whole."""
     from gyrodrift.workflows import characterize as ch
 
+    check_output(args.kalibr, "--kalibr")  # every output location before the work
+    check_output(args.html, "--html")
+    check_out_dir(args.out_dir)
     if args.input and Path(args.input).suffix.lower() in (".bag", ".db3", ".mcap") \
             and args.topic is None:
         try:
@@ -209,6 +219,14 @@ def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
         raise CliError(str(exc)) from exc
     files = ch.write_outputs(res, kalibr=kalibr, kalibr_path=args.kalibr, html_path=args.html,
                           out_dir=args.out_dir, self_check=sc)
+    # An output that is stdout itself (--kalibr /dev/stdout) keeps stdout to itself.
+    with contextlib.redirect_stdout(human_stream(args.kalibr, args.html)):
+        _report(args, ch, res, rec, sc, files)
+    return 0
+
+
+def _report(args: argparse.Namespace, ch: Any, res: Any, rec: ImuData, sc: Any,
+            files: dict[str, Any]) -> None:
     if args.json:
         payload = res.as_dict()
         payload["kalibr"] = {k: {"value": v, "channel": c, "unit": t.unit} for k, (v, c, t)
@@ -216,7 +234,7 @@ def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
         payload["self_check"] = None if sc is None else sc.as_dict()
         payload["files"] = files
         emit_json(payload)
-        return 0
+        return
     r = res.record
     print(f"# {r['source']} ({r['format']}): {r['n_used']} samples at {r['rate_hz']:g} Hz, "
           f"{r['duration_s']:.6g} s; channels {', '.join(rec.names)}"
@@ -241,5 +259,4 @@ def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
     for k, v in files.items():
         if v:
             print(f"wrote {k}: {v}")
-    return 0
 

@@ -96,7 +96,8 @@ def run(args: argparse.Namespace) -> int:
             rate_hz=args.rate_hz,
             columns=(tuple(args.column_channels.split(",")) if args.column_channels
                      else None),
-            time_column=args.time_column, topic=args.topic, gyro_units=args.gyro_units,
+            time_column=args.time_column, time_units=args.time_units, topic=args.topic,
+            gyro_units=args.gyro_units,
             accel_units=args.accel_units, ci=args.ci, taus=args.taus,
             terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),
             method=args.identifier, memory_budget_mib=args.memory_budget_mib)

@@ -17,6 +17,7 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
+    check_output,
     emit_json,
     record_from_args,
 )
@@ -170,6 +171,7 @@ def run(args: argparse.Namespace) -> int:
     """
     import numpy as np
 
+    check_output(args.png, "--png")  # before the work
     # The Allan identifiers stream a memory-mapped .npy record from its file (bounded
     # memory); GMWM's wavelet variance needs the whole record in memory.
     rec = record_from_args(args, mmap=args.identifier != "gmwm")

@@ -163,7 +163,7 @@ class DriftModelFit:
     cannot tell drift from white noise. tuning: "ml" (the
     filter uses the fitted a1, a2, q, r) or "minimax-split" (not identified: the filter uses
     the profile fit at q = r, whose gain minimises the worst-case error over all splits; see
-    the README).
+    the drift model validation page).
     filter_params: (a1, a2, q, r) of the filter that `kalman()` and `response()` use.
 
     Examples
@@ -677,7 +677,8 @@ def _split_check(prof: _Profile, model: str, u_ml: np.ndarray
     profile fit at q = r, (a1, a2, q, r). Why q = r: for such (nearly white) drift a gain g
     gives the error (1 - g)^2 q + g^2 r; over all splits of the identified total q + r its
     worst case is smallest, a quarter of the total, at g = 1/2, the steady-state gain of q = r
-    (minimax; README and scripts/drift_identifiability.py give the numbers). Records longer
+    (minimax; the drift model validation page and scripts/drift_identifiability.py give the
+    numbers). Records longer
     than _PROFILE_N are profiled on their first _PROFILE_N samples with the drops scaled by
     n / _PROFILE_N (the expected drop grows in proportion to n)."""
     if model == "white":

@@ -4,8 +4,8 @@ Q, N, B (its eq. 8 fit) and STD of the raw record and of four filtered versions 
 bior3.7 wavelet packet, AR model filter, AR(2)-Kalman), beside the published rows.
 
 Default record (`default_record`): the paper gives no sample rate. Its raw row is matched
-through these choices (see the README section "Allan variance, noise identification, PSD,
-command line, paper comparison"):
+through these choices (see the documentation's validation page "Allan variance, noise
+identification, PSD, command line, paper comparison"):
 - the random part is the AR(2) drift of the paper's eq. (6) itself, y_k = -0.0340 y_{k-1}
   + 0.0252 y_{k-2} + r_k, whose low-frequency level sigma_r / (1 - a1 - a2) is set to the
   published N = 0.0012 deg/sqrt(h) (white-rate Allan line N' = 60 N (deg/h) sqrt(s));
@@ -179,7 +179,9 @@ class CompareReport:
         return "\n".join(lines) + "\n"
 
     def write_csv(self, path: Path) -> None:
-        with path.open("w", newline="") as fh:
+        from gyrodrift.io.atomic import atomic_output
+
+        with atomic_output(path) as tmp, tmp.open("w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["signal", "source", "q_paper_arcsec", "n_deg_rt_h", "b_deg_h",
                         "std_deg_h"])

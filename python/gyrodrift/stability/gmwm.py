@@ -76,7 +76,8 @@ of parameters p). The first term is the J statistic with the candidate's weight 
 own final estimate, so that it is chi-squared with (scales - p) degrees of freedom under that
 candidate. (A common weight from the largest model's fit, used before, misstated the
 variance of the long scales whenever that fit's Gauss-Markov terms had absorbed the random
-walk: the true model's J reached 100+ on 13 scales and selection missed it; see README.)
+walk: the true model's J reached 100+ on 13 scales and selection missed it; see the GMWM
+validation page.)
 Selected (`select_nested`): start at the candidate of smallest WIC; while a sub-model with
 one term fewer has a WIC within WIC_MARGIN = 2 of the current model's, move to the best such
 sub-model. WIC(sub) - WIC(model) = J_sub - J_model - 2 dp, so a term of dp parameters is kept
@@ -86,7 +87,8 @@ models in general. Models that are not nested in one another (white + random wal
 against white + two GM, where a slow GM and a random walk are nearly the same curve over
 the longest scales) are compared by WIC alone. (The earlier rule took the model with the
 fewest parameters among all within 2 of the minimum, nested or not; on the Monte Carlo's
-tuning seeds it chose N+K+GM over a lower-WIC N+GM+GM; scripts/gmwm_monte_carlo.py, README.)
+tuning seeds it chose N+K+GM over a lower-WIC N+GM+GM; scripts/gmwm_monte_carlo.py and
+the GMWM validation page.)
 
 Example
 -------

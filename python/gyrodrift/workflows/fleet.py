@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.io.atomic import atomic_write_text
+from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.stability import DEFAULT_IDENTIFIER
 
@@ -79,6 +79,7 @@ class FleetOptions:
     rate_hz: float | None = None
     columns: tuple[str, ...] | None = None
     time_column: str | None = None
+    time_units: str = "s"
     topic: str | None = None
     gyro_units: str = "rad/s"
     accel_units: str = "m/s^2"
@@ -308,7 +309,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
         if opts.plots:
             ch.write_outputs(res, kalibr=None, kalibr_path=None, html_path=None, out_dir=str(d))
         kal = ch.kalibr_yaml(res)
-        (d / "imu.yaml").write_text(kal)
+        atomic_write_text(d / "imu.yaml", kal)
         summary = {"unit": d.name, "path": str(path), "status": "done",
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
@@ -350,8 +351,8 @@ def _characterize_record(path: str, d: Path, opts: FleetOptions) -> tuple[Any, s
             del rec
         return res, "spool"
     rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
-                   time_column=opts.time_column, topic=opts.topic, gyro_units=opts.gyro_units,
-                   accel_units=opts.accel_units)
+                   time_column=opts.time_column, time_units=opts.time_units, topic=opts.topic,
+                   gyro_units=opts.gyro_units, accel_units=opts.accel_units)
     return ch.characterize(rec, **kw), "whole"
 
 
@@ -836,7 +837,8 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
     images = []
     if series:
         png = _boxplot(series)
-        (out / "boxplot.png").write_bytes(png)
+        with atomic_output(out / "boxplot.png") as tmp:
+            tmp.write_bytes(png)
         images.append(("Distribution over units per parameter and axis", png_data_uri(png)))
     atomic_write_text(out / "summary.json", json_text(summary, indent=1))
     dist_head = ["parameter", "channel", "unit", "n", "min", "q1", "median", "q3", "max"]
@@ -873,7 +875,7 @@ def _warnings(done: Sequence[dict[str, Any]]) -> list[str]:
             " ran in workers started with MALLOC_TRIM_THRESHOLD_ (dask's nanny default): each "
             "costs about 4 s of system time per 1e7 samples in page faults; start the workers "
             "with distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_ set to null, or "
-            "raise --memory-budget-mib (README, fleet limits)"]
+            "raise --memory-budget-mib (documentation: validation, characterization and fleets)"]
 
 
 def _boxplot(series: dict[tuple[str, str], list[float]]) -> bytes:
