@@ -73,3 +73,18 @@ def test_ctrl_c_during_start_up_is_one_line(record: Path, tmp_path: Path, comman
             assert code in (-signal.SIGINT, 1), where
             assert not lines or "Traceback" in err, where
     assert handled >= 3, f"only {handled} interrupts reached the command"
+
+
+@pytest.mark.parametrize("argv0", [None, "-m"])
+def test_other_programs_keep_their_ctrl_c(argv0: str | None) -> None:
+    """Only the `gyrodrift` command itself gets the start-up handler: a program importing
+    the package keeps Python's own handling, also while sys.argv[0] is "-m" (as during
+    `python -m` of another module that imports the package)."""
+    code = ("import signal, sys\n"
+            + ("" if argv0 is None else f"sys.argv[0] = {argv0!r}\n")
+            + "import gyrodrift\n"
+            "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler)")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=os.environ.copy(), timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip().splitlines()[-1] == "True"

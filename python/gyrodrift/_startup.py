@@ -31,7 +31,10 @@ def interrupt_at_start_up(signum: int, frame: object) -> None:
 
 def _is_command() -> bool:
     argv0 = sys.argv[0] if sys.argv else ""
-    return argv0 == "-m" or os.path.basename(argv0) in ("gyrodrift", "gyrodrift.exe")
+    if argv0 == "-m":  # python [options] -m MODULE: only the package itself is the command
+        orig = list(getattr(sys, "orig_argv", []))
+        return any(orig[i] == "-m" and orig[i + 1] == "gyrodrift" for i in range(len(orig) - 1))
+    return os.path.basename(argv0) in ("gyrodrift", "gyrodrift.exe")
 
 
 def restore() -> None:
