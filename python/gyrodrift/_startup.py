@@ -5,8 +5,8 @@ Imported first by the package's ``__init__``. When the process is the `gyrodrift
 the installed script: its name), SIGINT ends it at once with the line the command's own
 handler prints, until `gyrodrift.cli.main` gives Ctrl-C back to Python (KeyboardInterrupt,
 handled there) by `restore`. An import of the package by any other program leaves its signal
-handling alone. Only the standard library's already loaded modules are used before the
-handler is in place.
+handling alone. Only modules the interpreter has already loaded, and the built-in _signal,
+are used before the handler is in place.
 
 Examples
 --------
@@ -49,7 +49,9 @@ def restore() -> None:
 
 
 if _is_command():
-    import signal
+    # _signal (built in, what the signal module wraps): importing `signal` would first load
+    # `enum`, tens of milliseconds on a busy machine in which Ctrl-C would still be a trace.
+    import _signal  # type: ignore[import-not-found]
 
-    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
-        signal.signal(signal.SIGINT, interrupt_at_start_up)
+    if _signal.getsignal(_signal.SIGINT) is _signal.default_int_handler:
+        _signal.signal(_signal.SIGINT, interrupt_at_start_up)

@@ -82,10 +82,13 @@ def main(argv: list[str] | None = None) -> int:
     0
     """
     command = "gyrodrift"
-    restore_interrupts()  # Ctrl-C from here on: KeyboardInterrupt, handled below
     try:
+        # The subcommands' imports (numpy, scipy, the core) run under the start-up handler
+        # when this is the `gyrodrift` command: an extension module interrupted while it
+        # imports turns KeyboardInterrupt into an ImportError, and nothing is written yet.
         parser = build_parser()
         args = parser.parse_args(argv)
+        restore_interrupts()  # Ctrl-C from here on: KeyboardInterrupt, handled below
         if not getattr(args, "func", None):
             parser.print_help()
             return 2
@@ -108,6 +111,22 @@ def main(argv: list[str] | None = None) -> int:
         # Partial files are removed by atomic_output; child processes by their owners'
         # context managers, which have run by now.
         return _fail(command, "interrupted", 130)
+    except ImportError as exc:
+        if _interrupted(exc):  # Ctrl-C inside an extension module's import (lazy imports)
+            return _fail(command, "interrupted", 130)
+        raise
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is among the causes of `exc`."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
 
 
 def _fail(command: str, message: str, code: int) -> int:
