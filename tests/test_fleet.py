@@ -488,3 +488,174 @@ def test_cli_with_its_own_cluster_in_a_fresh_process(logs: list[Path], tmp_path:
     assert run.returncode == 0, run.stderr[-2000:]
     assert "1 done" in run.stdout
     assert json.loads((out / "summary.json").read_text())["n_done"] == 1
+
+
+# ------------------------------------------------------------------ stale results on resume
+
+
+def _copy_logs(logs: list[Path], dest: Path, k: int = 2) -> list[Path]:
+    dest.mkdir()
+    out = []
+    for p in logs[:k]:
+        out.append(dest / p.name)
+        out[-1].write_bytes(p.read_bytes())
+    return out
+
+
+def test_resume_redoes_units_whose_options_changed(logs: list[Path], tmp_path: Path) -> None:
+    """A rerun with another sample rate or other fit terms must not report the old numbers
+    as "already done"; a rerun with the same options (and a changed reading option only)
+    skips them."""
+    mine = _copy_logs(logs, tmp_path / "logs")
+    out = tmp_path / "out"
+    first = run_fleet(mine, out, opts=NO_PLOTS, workers=0, root=mine[0].parent)
+    assert first["n_run"] == 2 and first["n_redone"] == 0
+    before = _results(out)
+    same = run_fleet(mine, out, opts=FleetOptions(rate_hz=100.0, plots=False,
+                                                  memory_budget_mib=0.0),
+                     workers=0, root=mine[0].parent)
+    assert same["n_run"] == 0 and same["n_skipped"] == 2
+    rate = run_fleet(mine, out, opts=FleetOptions(rate_hz=200.0, plots=False), workers=0,
+                     root=mine[0].parent)
+    assert rate["n_run"] == 2 and rate["n_skipped"] == 0 and rate["n_redone"] == 2
+    assert all("rate_hz" in r["reason"] for r in rate["redone"]), rate["redone"]
+    after = _results(out)
+    assert [after[u]["record"]["rate_hz"] for u in ("unit0", "unit1")] == [200.0, 200.0]
+    assert before["unit0"]["record"]["rate_hz"] == 100.0
+    terms = run_fleet(mine, out, opts=FleetOptions(rate_hz=200.0, plots=False,
+                                                   terms=("N", "K")),
+                      workers=0, root=mine[0].parent)
+    assert terms["n_redone"] == 2 and all("terms" in r["reason"] for r in terms["redone"])
+    chan = _results(out)["unit0"]["channels"]["gyro_x"]
+    assert set(chan["terms"]) == {"N", "K"}
+
+
+def test_resume_redoes_a_log_replaced_with_the_same_size_and_mtime(
+        logs: list[Path], tmp_path: Path) -> None:
+    """A log replaced by another of the same size whose modification time is set back to the
+    old one (os.utime) is redone; a log only touched (same content, new time) is not."""
+    import os
+
+    mine = _copy_logs(logs, tmp_path / "logs")
+    out = tmp_path / "out"
+    run_fleet(mine, out, opts=NO_PLOTS, workers=0, root=mine[0].parent)
+    old = _results(out)["unit0"]
+    st = mine[0].stat()
+    rng = np.random.default_rng(123)
+    np.save(mine[0], rng.standard_normal((6000, 6)) * 5e-3)  # same shape: same size
+    os.utime(mine[0], ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert mine[0].stat().st_size == st.st_size
+    assert mine[0].stat().st_mtime_ns == st.st_mtime_ns
+    os.utime(mine[1])  # touched only
+    again = run_fleet(mine, out, opts=NO_PLOTS, workers=0, root=mine[0].parent)
+    assert again["n_run"] == 1 and again["n_skipped"] == 1
+    assert again["redone"] == [{"unit": "unit0", "path": str(mine[0]),
+                                "reason": "input changed (content)"}]
+    new = _results(out)["unit0"]
+    n_new, n_old = (r["channels"]["gyro_x"]["terms"]["N"]["value"] for r in (new, old))
+    assert n_new != n_old
+    mine[1].write_bytes(mine[1].read_bytes()[:-8])  # shorter
+    third = run_fleet(mine, out, opts=NO_PLOTS, workers=0, root=mine[0].parent)
+    assert [r["reason"] for r in third["redone"]] == ["input changed (size)"]
+
+
+def test_resume_redoes_a_result_without_provenance(logs: list[Path], tmp_path: Path) -> None:
+    mine = _copy_logs(logs, tmp_path / "logs", k=1)
+    out = tmp_path / "out"
+    run_fleet(mine, out, opts=NO_PLOTS, workers=0, root=mine[0].parent)
+    res = out / "units" / "unit0" / "result.json"
+    payload = json.loads(res.read_text())
+    del payload["provenance"]
+    res.write_text(json.dumps(payload))
+    again = run_fleet(mine, out, opts=NO_PLOTS, workers=0, root=mine[0].parent)
+    assert again["n_redone"] == 1 and "older result" in again["redone"][0]["reason"]
+
+
+def test_cli_says_what_was_redone(logs: list[Path], tmp_path: Path,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    from gyrodrift.cli import main
+
+    mine = _copy_logs(logs, tmp_path / "logs", k=1)
+    base = ["fleet", str(mine[0]), "--out-dir", str(tmp_path / "out"), "--workers", "0",
+            "--progress", "never"]
+    assert main([*base, "--rate-hz", "100"]) == 0
+    capsys.readouterr()
+    assert main([*base, "--rate-hz", "50"]) == 0
+    out = capsys.readouterr().out
+    assert "1 redone" in out
+    assert f"redone: {mine[0]}: options changed (rate_hz)" in out
+
+
+@pytest.mark.parametrize("spec, message", [
+    ({"gyroscope_noise_density": {"max": "1e-4"}}, "max must be a finite number"),
+    ({"gyro_N": {"min": True}}, "min must be a finite number"),
+    ({"gyro_N": {"max": None}}, "max must be a finite number"),
+    ({"gyro_N": {"min": 2e-4, "max": 1e-4}}, "min 0.0002 is above max 0.0001"),
+])
+def test_bad_spec_is_one_line_before_any_work(tmp_path: Path, logs: list[Path],
+                                              capsys: pytest.CaptureFixture[str],
+                                              spec: dict, message: str) -> None:
+    """A spec limit that is not a number used to fail with a TypeError in the summary, after
+    every log was characterized, and leave no summary; NaN disabled its check; min > max was
+    accepted. Now: one line, exit 2, nothing characterized."""
+    from gyrodrift.cli import main
+
+    path = tmp_path / "spec.json"
+    path.write_text(json.dumps(spec))
+    out = tmp_path / "out"
+    code = main(["fleet", str(logs[0]), "--out-dir", str(out), "--rate-hz", "100",
+                 "--workers", "0", "--spec", str(path), "--progress", "never"])
+    err = capsys.readouterr().err
+    assert code == 2
+    key, lim = next(iter(spec.items()))
+    got = "" if "above" in message else f", got {next(iter(lim.values()))!r}"
+    assert err.strip().splitlines() == [f"gyrodrift fleet: error: {path}: {key}: {message}{got}"]
+    assert not (out / "units").exists() or not any((out / "units").iterdir())
+
+
+def test_nan_spec_limit_is_refused(tmp_path: Path) -> None:
+    path = tmp_path / "spec.json"
+    path.write_text('{"gyro_N": {"max": NaN}}')  # Python's json reads NaN
+    with pytest.raises(ValueError, match="max must be a finite number, got nan"):
+        load_spec(path)
+    with pytest.raises(ValueError, match="finite number"):
+        run_fleet([tmp_path / "x.npy"], tmp_path / "out", opts=NO_PLOTS, workers=0,
+                  spec={"gyro_N": {"max": float("nan")}})
+
+
+def test_resumed_cli_run_closes_its_cluster_without_a_trace(logs: list[Path],
+                                                           tmp_path: Path) -> None:
+    """A resumed run (one new log, the rest done) with its own 2-worker cluster: a worker
+    whose heartbeat was in flight when the scheduler closed used to print a CommClosedError
+    traceback on stderr (seen in about 1 of 15 runs on a busy machine; a test cannot force
+    that timing, so this runs the case a few times and also checks the mechanism directly:
+    a worker's heartbeat error record after the silencing is not emitted)."""
+    import logging
+    import os
+    import subprocess
+    import sys
+
+    from gyrodrift.workflows.fleet import _silence_distributed_logging
+
+    mine = _copy_logs(logs, tmp_path / "logs", k=3)
+    for k in range(3):
+        out = tmp_path / f"out{k}"
+        base = [sys.executable, "-m", "gyrodrift", "fleet", "--out-dir", str(out), "--rate-hz",
+                "100", "--workers", "2", "--progress", "never"]
+        first = subprocess.run([*base, str(mine[0]), str(mine[1])], capture_output=True,
+                               text=True, env=os.environ.copy(), timeout=300)
+        assert first.returncode == 0, first.stderr[-2000:]
+        again = subprocess.run([*base, *map(str, mine)], capture_output=True, text=True,
+                               env=os.environ.copy(), timeout=300)
+        assert again.returncode == 0, again.stderr[-2000:]
+        assert "2 already done" in again.stdout
+        for err in (first.stderr, again.stderr):
+            assert "Traceback" not in err and "CommClosedError" not in err, err[-2000:]
+    worker_log = logging.getLogger("distributed.worker")
+    saved = [(lg, lg.level) for lg in (logging.getLogger("distributed"), worker_log)]
+    try:
+        _silence_distributed_logging()
+        assert not worker_log.isEnabledFor(logging.ERROR)
+    finally:
+        for lg, level in saved:
+            lg.setLevel(level)

@@ -6,13 +6,20 @@ subparser and sets `func` (called with the parsed args, returning the exit code)
 
 from __future__ import annotations
 
-import argparse
 import contextlib
-import importlib
 import os
 import sys
+from typing import TYPE_CHECKING
 
+from gyrodrift._startup import restore as restore_interrupts
 from gyrodrift.errors import GyrodriftError
+
+if TYPE_CHECKING:
+    import argparse
+
+# Imports here are kept to what the interpreter has already loaded (and the light errors
+# module): everything else, argparse included, loads inside main(), where Ctrl-C during
+# start-up ends in one line and exit code 130, not a traceback.
 
 __all__ = ["SUBCOMMAND_MODULES", "CliError", "build_parser", "main"]
 
@@ -46,6 +53,9 @@ def build_parser() -> argparse.ArgumentParser:
     >>> list(sub.choices)[:5]
     ['demo', 'replay', 'simulate', 'filter', 'allan']
     """
+    import argparse
+    import importlib
+
     from gyrodrift import __version__
 
     parser = argparse.ArgumentParser(
@@ -73,8 +83,12 @@ def main(argv: list[str] | None = None) -> int:
     """
     command = "gyrodrift"
     try:
+        # The subcommands' imports (numpy, scipy, the core) run under the start-up handler
+        # when this is the `gyrodrift` command: an extension module interrupted while it
+        # imports turns KeyboardInterrupt into an ImportError, and nothing is written yet.
         parser = build_parser()
         args = parser.parse_args(argv)
+        restore_interrupts()  # Ctrl-C from here on: KeyboardInterrupt, handled below
         if not getattr(args, "func", None):
             parser.print_help()
             return 2
@@ -97,6 +111,22 @@ def main(argv: list[str] | None = None) -> int:
         # Partial files are removed by atomic_output; child processes by their owners'
         # context managers, which have run by now.
         return _fail(command, "interrupted", 130)
+    except ImportError as exc:
+        if _interrupted(exc):  # Ctrl-C inside an extension module's import (lazy imports)
+            return _fail(command, "interrupted", 130)
+        raise
+
+
+def _interrupted(exc: BaseException) -> bool:
+    """Whether a KeyboardInterrupt is among the causes of `exc`."""
+    seen: set[int] = set()
+    e: BaseException | None = exc
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
 
 
 def _fail(command: str, message: str, code: int) -> int:

@@ -150,6 +150,10 @@ def _terms(text: str) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift characterize``; returns the exit code.
 
+    A .npy record (without --drop-nan) is spooled in chunks to one float64 file per
+    channel in a temporary directory, which the Allan analysis reads in chunks: the
+    command's memory does not grow with the record.
+
     Examples
     --------
     Three white gyro channels (1e-4 rad/s per sample at 100 Hz): N = 1e-4 * sqrt(0.01 s):
@@ -167,6 +171,22 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
+    import tempfile
+
+    from gyrodrift.io.imu_data import input_kind
+
+    try:
+        npy = input_kind(Path(args.input)) == "npy" and not args.drop_nan
+    except (OSError, ValueError, GyrodriftError):
+        npy = False  # the reader reports it
+    if not npy:
+        return _run(args, None)
+    with tempfile.TemporaryDirectory(prefix="gyrodrift-characterize.") as spool:
+        return _run(args, spool)
+
+
+def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
+    """`run` with the record spooled to `spool_dir` (a .npy record), or read whole."""
     from gyrodrift.workflows import characterize as ch
 
     check_output(args.kalibr, "--kalibr")  # every output location before the work
@@ -182,7 +202,7 @@ def run(args: argparse.Namespace) -> int:
             listing = ", ".join(f"{t} ({n} messages)" for t, n in topics.items()) or "none"
             raise CliError(f"{args.input}: choose a sensor_msgs/msg/Imu topic with --topic; "
                            f"the bag has: {listing}")
-    rec = imu_from_args(args)
+    rec = imu_from_args(args, spool_dir=spool_dir) if spool_dir else imu_from_args(args)
     show = progress_enabled(args)
 
     def progress(name: str) -> None:

@@ -42,7 +42,8 @@ def register(subparsers: Any) -> None:
                    help="use an existing dask.distributed scheduler (e.g. tcp://127.0.0.1:8786)")
     p.add_argument("--redo", action="store_true",
                    help="characterize again the logs whose results are already in --out-dir "
-                        "(default: skip them, so an interrupted fleet resumes)")
+                        "(default: skip them, so an interrupted fleet resumes; a result whose "
+                        "options or log changed is redone either way)")
     p.add_argument("--spec", help="JSON limits per parameter; units outside are flagged")
     p.add_argument("--memory-budget-mib", type=float, default=DEFAULT_MEMORY_BUDGET_MIB,
                    metavar="MIB",
@@ -113,9 +114,14 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(summary)
     else:
-        print(f"fleet: {summary['n_done']} done ({summary['n_skipped']} already done, skipped), "
-              f"{summary['n_failed']} failed, {len({f['unit'] for f in summary['flagged']})} "
+        redone = (f"; {summary['n_redone']} redone: options or input changed"
+                  if summary["n_redone"] else "")
+        print(f"fleet: {summary['n_done']} done ({summary['n_skipped']} already done, skipped"
+              f"{redone}), {summary['n_failed']} failed, "
+              f"{len({f['unit'] for f in summary['flagged']})} "
               f"outside the spec; summary: {os.path.join(args.out_dir, 'summary.html')}")
+        for r in summary["redone"]:
+            print(f"redone: {r['path']}: {r['reason']}")
         for f in summary["failed"]:
             print(f"failed: {f['path']}: {f['reason']}")
         for f in summary["flagged"]:

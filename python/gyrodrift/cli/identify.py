@@ -172,8 +172,11 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     check_output(args.png, "--png")  # before the work
-    rec = record_from_args(args, mmap=False)
-    x = np.asarray(rec.rate_deg_h, dtype=np.float64)
+    # The Allan identifiers stream a memory-mapped .npy record from its file (bounded
+    # memory); GMWM's wavelet variance needs the whole record in memory.
+    rec = record_from_args(args, mmap=args.identifier != "gmwm")
+    x = (rec.rate_deg_h if isinstance(rec.rate_deg_h, np.memmap)
+         else np.asarray(rec.rate_deg_h, dtype=np.float64))
     head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"
             + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
     # the slope method reads its lines off the whole curve: a range would be ignored

@@ -45,7 +45,7 @@ AIC = 2 k - 2 log L, BIC = k log n - 2 log L with k = 5
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -54,6 +54,7 @@ import scipy.stats
 from threadpoolctl import threadpool_limits
 
 from gyrodrift._native import core
+from gyrodrift._scale import normalising_scale
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.filters.ar2 import Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
 
@@ -857,8 +858,29 @@ def fit_drift_model(
     # fit on 2 cores; on a loaded machine a trivial 3-parameter minimize took 45 ms instead of 2).
     with threadpool_limits(limits=1, user_api="blas"):
         if a.ndim == 2 and a.shape[1] == 3:
-            return tuple(_fit_1d(_prepare(a[:, i]), rate, model) for i in range(3))
-        return _fit_1d(_prepare(a), rate, model)
+            return tuple(_fit_normalised(_prepare(a[:, i]), rate, model) for i in range(3))
+        return _fit_normalised(_prepare(a), rate, model)
+
+
+def _fit_normalised(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
+    """`_fit_1d` of a record scaled into the safe range (`normalising_scale`), its fit scaled
+    back: q, r, their standard errors and the filter's q, r by c^2; mean by c;
+    log-likelihoods by -n ln c (the density of c x); AIC and BIC accordingly. a1, a2, the
+    Ljung-Box test and the split drops do not depend on the scale. A record of extreme
+    magnitude (1e150, 1e-150) failed with OverflowError/ZeroDivisionError before."""
+    c = normalising_scale(a)
+    if c == 1.0:
+        return _fit_1d(a, rate_hz, model)
+    fit = _fit_1d(a / c, rate_hz, model)
+    c2 = c * c
+    dll = fit.n * math.log(c)
+    scale = {"a1": 1.0, "a2": 1.0, "q": c2, "r": c2, "mean": c}
+    a1, a2, q, r = fit.filter_params
+    return replace(
+        fit, q=fit.q * c2, r=fit.r * c2, mean=fit.mean * c, loglike=fit.loglike - dll,
+        aic=fit.aic + 2.0 * dll, bic=fit.bic + 2.0 * dll, start_loglike=fit.start_loglike - dll,
+        stderr={k: v * scale.get(k, 1.0) for k, v in fit.stderr.items()},
+        filter_params=(a1, a2, q * c2, r * c2))
 
 
 def compare_drift_models(x: object, rate_hz: float, criterion: str = "aic"

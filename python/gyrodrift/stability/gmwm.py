@@ -123,7 +123,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -132,6 +132,7 @@ import scipy.linalg
 import scipy.optimize
 import scipy.stats
 
+from gyrodrift._scale import normalising_scale
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.stability.fit_check import DEFAULT_TOLERANCE, FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
@@ -1524,6 +1525,11 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     if not isinstance(bootstrap, (int, np.integer)) or bootstrap < 0:
         raise GyrodriftValueError(f"bootstrap must be an integer >= 0, got {bootstrap!r}")
+    scale = normalising_scale(arr)
+    if scale != 1.0:  # an extreme-magnitude record: fitted scaled, results scaled back
+        return _scaled_back(identify_gmwm(arr / scale, rate_hz, model, max_model=max_model,
+                                          ci=ci, bootstrap=bootstrap, seed=seed,
+                                          max_level=max_level, tau_range=tau_range), scale)
     dt = 1.0 / float(rate_hz)
     wv = haar_wv(arr, rate_hz, max_level=max_level)
     if tau_range is not None:
@@ -1654,3 +1660,28 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         objective=fit.objective, wic=wic, candidates=candidates, ci=float(ci),
         ci_method="bootstrap" if bootstrap else "asymptotic", param_cov=cov, check=check,
         approximate=approximate, weight=weight, notes=tuple(notes))
+
+
+
+def _scaled_back(res: GmwmResult, c: float) -> GmwmResult:
+    """The GMWM result of ``x`` from that of ``x / c`` (c a power of two, identify_gmwm of a
+    record of extreme magnitude, which overflowed or underflowed before): parameters in the
+    record's units (Q, N, K, R, GM sigma, their densities and intervals) by c, correlation
+    times (unit "s") unchanged, wavelet variances by c^2 (inf where that exceeds float64);
+    the covariance of the log parameters, the J statistic and WIC do not depend on c."""
+    def param(p: GmwmParam) -> GmwmParam:
+        if p.unit == "s":
+            return p
+        def opt(v: float | None) -> float | None:
+            return None if v is None else v * c
+        return replace(p, value=p.value * c, se=p.se * c, ci_low=p.ci_low * c,
+                       ci_high=p.ci_high * c, density=opt(p.density),
+                       density_ci_low=opt(p.density_ci_low),
+                       density_ci_high=opt(p.density_ci_high))
+
+    c2 = c * c
+    with np.errstate(over="ignore"):
+        return replace(res, params=tuple(param(p) for p in res.params), wv=res.wv * c2,
+                       wv_ci_low=res.wv_ci_low * c2, wv_ci_high=res.wv_ci_high * c2,
+                       wv_fit=res.wv_fit * c2,
+                       wv_components={k: v * c2 for k, v in res.wv_components.items()})

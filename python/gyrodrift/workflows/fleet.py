@@ -6,7 +6,12 @@ One task per log, run by `characterize_log` inside a worker: the worker reads it
 code reads in chunks; bounded memory either way), characterizes it and writes
 `<out>/units/<name>/result.json` and its plots itself; only the small per-unit summary goes
 back through the scheduler. `result.json` is written last (atomic rename), so a unit with it
-is done: a resumed run skips it unless `force`. A failed log's one-line reason is written to
+is done: a resumed run skips it unless `force`, or unless it is stale. Each result stores what
+it was computed from (`provenance`): the options that change a result (`result_options`, with
+the package version) and a fingerprint of its log (`input_fingerprint`: size, modification
+and status-change times, inode and a BLAKE2b hash of the whole file). A resumed run redoes a
+unit whose options differ, or whose log differs (by size, or by content when its times or
+inode differ), and says which and why. A failed log's one-line reason is written to
 `failed.json` beside it and listed in the summary, never dropped.
 
 The fleet summary (`summary.json`, `summary.html`, `boxplot.png`) gives per parameter and axis
@@ -22,6 +27,8 @@ Example
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 import json
 import math
 import os
@@ -41,8 +48,9 @@ from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.stability import DEFAULT_IDENTIFIER
 
-__all__ = ["DEFAULT_MEMORY_BUDGET_MIB", "FleetOptions", "characterize_log", "load_spec",
-           "run_fleet", "unit_name", "write_summary"]
+__all__ = ["DEFAULT_MEMORY_BUDGET_MIB", "FleetOptions", "characterize_log", "check_spec",
+           "input_fingerprint", "load_spec", "result_options", "run_fleet", "unit_name",
+           "write_summary"]
 
 PARAMS: tuple[tuple[str, str, str], ...] = (
     ("gyro", "N", "gyroscope_noise_density"), ("gyro", "K", "gyroscope_random_walk"),
@@ -87,6 +95,90 @@ class FleetOptions:
         if not (math.isfinite(self.memory_budget_mib) and self.memory_budget_mib >= 0):
             raise GyrodriftValueError(
                 f"memory_budget_mib must be >= 0 and finite, got {self.memory_budget_mib!r}")
+
+
+#: FleetOptions fields that change how a log is read, not what comes out (the in-memory and
+#: the spooled reader give the same numbers): a change of these does not make a result stale.
+READING_OPTIONS = frozenset({"chunk_rows", "memory_budget_mib"})
+
+
+def result_options(opts: FleetOptions) -> dict[str, Any]:
+    """Everything that a unit's result depends on besides its log: the options (all fields
+    but READING_OPTIONS, tuples as lists) and the package version, as stored with the result
+    and compared by a resumed run.
+
+    Examples
+    --------
+    >>> r = result_options(FleetOptions(rate_hz=400.0, terms=("N", "K")))
+    >>> r["rate_hz"], r["terms"], "chunk_rows" in r, "version" in r
+    (400.0, ['N', 'K'], False, True)
+    """
+    from gyrodrift.workflows.characterize import version
+
+    out: dict[str, Any] = {"version": version()}
+    for f in dataclasses.fields(opts):
+        if f.name not in READING_OPTIONS:
+            v = getattr(opts, f.name)
+            out[f.name] = list(v) if isinstance(v, tuple) else v
+    # Through canonical JSON and back: what a resumed run reads from result.json compares
+    # equal to what it computes now.
+    loaded: dict[str, Any] = json.loads(json.dumps(out, sort_keys=True))
+    return loaded
+
+
+#: Bytes read per step while hashing a log.
+_HASH_BLOCK = 1 << 20
+
+
+def input_fingerprint(path: str | Path) -> dict[str, Any]:
+    """What identifies a log's content: size, st_mtime_ns, st_ctime_ns, inode and the
+    BLAKE2b (128-bit) hash of the whole file, streamed in 1 MiB blocks (about 1 s per GB,
+    paid once per log by the task that characterizes it; the size and times alone would miss
+    a log replaced by one of the same size whose modification time was set back).
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = os.path.join(d, "log.npy")
+    ...     _ = open(p, "wb").write(b"abc")
+    ...     fp = input_fingerprint(p)
+    >>> fp["size"], fp["blake2b"][:8]
+    (3, 'cf4ab791')
+    """
+    st = os.stat(path)
+    h = hashlib.blake2b(digest_size=16)
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(_HASH_BLOCK), b""):
+            h.update(block)
+    return {"size": st.st_size, "mtime_ns": st.st_mtime_ns, "ctime_ns": st.st_ctime_ns,
+            "inode": st.st_ino, "blake2b": h.hexdigest()}
+
+
+def _stale_reason(payload: dict[str, Any], path: str, opts: FleetOptions) -> str | None:
+    """Why a finished unit's result no longer answers for `path` under `opts` (None: it
+    does). The hash is computed only when the size matches but the times or inode do not."""
+    prov = payload.get("provenance")
+    if not isinstance(prov, dict) or "options" not in prov or "input" not in prov:
+        return "no record of its options and input (an older result)"
+    now = result_options(opts)
+    old = prov["options"]
+    if old != now:
+        keys = sorted(k for k in set(old) | set(now) if old.get(k) != now.get(k))
+        return f"options changed ({', '.join(keys)})"
+    fp = prov["input"]
+    try:
+        st = os.stat(path)
+    except OSError:
+        return "input missing"
+    if st.st_size != fp.get("size"):
+        return "input changed (size)"
+    if (st.st_mtime_ns, st.st_ctime_ns, st.st_ino) == (
+            fp.get("mtime_ns"), fp.get("ctime_ns"), fp.get("inode")):
+        return None
+    if input_fingerprint(path)["blake2b"] != fp.get("blake2b"):
+        return "input changed (content)"
+    return None
 
 
 def unit_name(path: str | Path, root: str | Path | None = None) -> str:
@@ -211,6 +303,8 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
     rss_start = _status_mib("VmRSS")
     cpu_start = _thread_cpu()
     try:
+        # Before the log is read: a log replaced while it is read is then seen as changed.
+        provenance = {"options": result_options(opts), "input": input_fingerprint(path)}
         res, reader = _characterize_record(path, d, opts)
         if opts.plots:
             ch.write_outputs(res, kalibr=None, kalibr_path=None, html_path=None, out_dir=str(d))
@@ -223,7 +317,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
                    **_cpu_since(cpu_start), "t_start": t_start, "t_ready": t_ready,
                    "t_end": time.time(), "pid": os.getpid(), **_process_cpu(),
                    "malloc_trim_threshold": _start_environ("MALLOC_TRIM_THRESHOLD_")}
-        payload = {"summary": summary, "result": res.as_dict()}
+        payload = {"summary": summary, "result": res.as_dict(), "provenance": provenance}
         atomic_write_text(d / "result.json", json_text(payload, indent=1))
         return summary
     except Exception as exc:
@@ -294,15 +388,43 @@ def load_spec(path: str | Path) -> dict[str, dict[str, float]]:
         spec = json.loads(Path(path).read_text())
     except json.JSONDecodeError as exc:
         raise GyrodriftValueError(f"{path}: not JSON: {exc}") from exc
+    except UnicodeDecodeError as exc:
+        raise GyrodriftValueError(f"{path}: not JSON: not UTF-8 text") from exc
+    return check_spec(spec, str(path))
+
+
+def check_spec(spec: Any, source: str = "spec") -> dict[str, dict[str, float]]:
+    """`spec` if it is a valid spec, else a GyrodriftValueError naming `source` and the first
+    fault: an unknown parameter, a limit other than "min"/"max", a limit that is not a finite
+    number (a string, a boolean, NaN, inf), or min > max. Checked before any work.
+
+    Examples
+    --------
+    >>> check_spec({"gyro_N": {"min": 0, "max": 2e-4}})
+    {'gyro_N': {'min': 0, 'max': 0.0002}}
+    >>> check_spec({"gyro_N": {"max": "1e-4"}}, "spec.json")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: spec.json: gyro_N: max must be a finite number, got '1e-4'
+    """
     names = {k for _, _, k in PARAMS} | {f"{s}_{t}" for s, t, _ in PARAMS}
     if not isinstance(spec, dict):
-        raise GyrodriftValueError(f"{path}: expected an object of parameter limits")
+        raise GyrodriftValueError(f"{source}: expected an object of parameter limits")
     for k, lim in spec.items():
         if k not in names:
             raise GyrodriftValueError(
-                f"{path}: unknown parameter {k!r}; use one of {sorted(names)}")
+                f"{source}: unknown parameter {k!r}; use one of {sorted(names)}")
         if not isinstance(lim, dict) or not set(lim) <= {"min", "max"} or not lim:
-            raise GyrodriftValueError(f"{path}: {k}: give limits as {{\"min\": x, \"max\": y}}")
+            raise GyrodriftValueError(
+                f"{source}: {k}: give limits as {{\"min\": x, \"max\": y}}")
+        for side, v in lim.items():
+            if (isinstance(v, bool) or not isinstance(v, (int, float))
+                    or not math.isfinite(v)):
+                raise GyrodriftValueError(
+                    f"{source}: {k}: {side} must be a finite number, got {v!r}")
+        if "min" in lim and "max" in lim and lim["min"] > lim["max"]:
+            raise GyrodriftValueError(
+                f"{source}: {k}: min {lim['min']!r} is above max {lim['max']!r}")
     return spec
 
 
@@ -325,6 +447,9 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     scheduler: address of an existing dask.distributed scheduler; else a LocalCluster of
     `workers` processes (one thread each) on 127.0.0.1 is started and closed. `client`: an
     existing distributed.Client to use instead (tests share one).
+    A finished unit is skipped unless `force` or stale (module docstring); the returned
+    summary counts the skipped (n_skipped), the run (n_run) and, among these, the stale ones
+    redone with their reason (n_redone, redone: [{unit, path, reason}]).
     Returns the summary dict (also written to out_dir/summary.json). `phases`, if given, is
     filled with this process's cost per phase (plan, cluster_start, submit, tasks, summary,
     close: what remains of the close after the summary, which it overlaps): {"wall_s",
@@ -354,16 +479,23 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     names = [unit_name(p, root) for p in path_strs]
     if len(set(names)) != len(names):
         raise GyrodriftValueError("two logs map to the same unit name; pass a common root")
+    if spec is not None:
+        check_spec(spec)
     results: dict[str, dict[str, Any]] = {}
     todo: list[tuple[str, str]] = []
+    redone: list[dict[str, str]] = []
     for p, n in zip(path_strs, names, strict=True):
         done = out / "units" / n / "result.json"
         if done.is_file() and not force:
             try:
-                results[n] = {**json.loads(done.read_text())["summary"], "skipped": True}
-                continue
-            except (json.JSONDecodeError, KeyError):
-                pass  # a damaged result is redone
+                payload = json.loads(done.read_text())
+                why = _stale_reason(payload, p, opts)
+                if why is None:
+                    results[n] = {**payload["summary"], "skipped": True}
+                    continue
+                redone.append({"unit": n, "path": p, "reason": why})
+            except (json.JSONDecodeError, KeyError, TypeError, AttributeError):
+                redone.append({"unit": n, "path": p, "reason": "result damaged"})
         todo.append((p, n))
 
     def record(r: dict[str, Any]) -> None:
@@ -398,6 +530,8 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
         lap("close")
     summary["n_skipped"] = sum(1 for r in ordered if r.get("skipped"))
     summary["n_run"] = len(todo)
+    summary["n_redone"] = len(redone)
+    summary["redone"] = redone
     return summary
 
 
@@ -573,10 +707,48 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
     return (lambda: _close(client, cluster)) if own_client else None
 
 
+def _silence_distributed_logging() -> None:
+    """Run in each worker of the fleet's own cluster once every result is in, before the
+    cluster closes: a worker that is still sending its periodic heartbeat when the scheduler
+    shuts down logs the closed connection (CommClosedError) with a traceback, on the
+    command's stderr. That race is part of every close, not a fault of the run: the
+    workers' distributed loggers report only critical records from here on."""
+    import logging
+
+    for log in _distributed_loggers():
+        log.setLevel(logging.CRITICAL)
+
+
+def _distributed_loggers() -> list[Any]:
+    """The "distributed" logger and those below it that exist (some carry their own level)."""
+    import logging
+
+    names = [n for n in list(logging.root.manager.loggerDict)
+             if n == "distributed" or n.startswith("distributed.")]
+    return [logging.getLogger(n) for n in ("distributed", *names)]
+
+
 def _close(client: Any, cluster: Any) -> None:
-    client.close()
-    if cluster is not None:
+    """Close the client, then the cluster this run started (if any): its workers told first to
+    keep shutdown races off stderr (_silence_distributed_logging), and this process's
+    scheduler and nannies likewise while the cluster closes. An exception still propagates."""
+    import contextlib
+    import logging
+
+    if cluster is None:
+        client.close()
+        return
+    with contextlib.suppress(Exception):  # a worker already gone needs no telling
+        client.run(_silence_distributed_logging)
+    levels = [(log, log.level) for log in _distributed_loggers()]
+    for log, _ in levels:
+        log.setLevel(logging.CRITICAL)
+    try:
+        client.close()
         cluster.close()
+    finally:
+        for log, level in levels:
+            log.setLevel(level)
 
 
 class _InThread:

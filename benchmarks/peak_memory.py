@@ -1,0 +1,121 @@
+"""Peak resident memory of the analysis commands on a large .npy record.
+
+Writes a float64 white-noise record of N samples (deg/h, 400 Hz) into a temporary directory
+in pieces (this process never holds it), runs each command as its own process
+(``python -m gyrodrift CMD record.npy ...``) and reads that process's peak resident set size
+from ``os.wait4`` (``ru_maxrss``: resident pages, including mapped file pages), then prints
+a table: command, samples, peak MB, budget MB, ok. The budgets are stated in BUDGET_MB and
+do not depend on the record's length; docs/validation/memory.md holds the table on 1e8 and
+1e7 samples, and tests/test_peak_memory.py runs this script on 2e7 samples.
+
+Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit,...] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+#: Peak resident memory each command may use, MB (10^6 bytes), whatever the record length:
+#: the interpreter with numpy, scipy and the command's libraries (about 100-170 MB) plus the
+#: command's bounded working set. A command that held one float64 copy of a 2e7-sample
+#: record (160 MB) on top of its libraries would exceed these at that size.
+BUDGET_MB: dict[str, float] = {
+    "allan": 250.0,
+    "identify": 250.0,
+    "fit": 300.0,
+    "characterize": 250.0,
+}
+
+RATE_HZ = 400.0
+
+
+def command_args(command: str, record: Path, out: Path) -> list[str]:
+    """The command line run for `command` (its JSON output, no plots or reports)."""
+    rate = ["--rate-hz", f"{RATE_HZ:g}"]
+    return {
+        "allan": ["allan", str(record), *rate, "--json"],
+        "identify": ["identify", str(record), *rate, "--json"],
+        "fit": ["fit", str(record), *rate, "--json"],
+        "characterize": ["characterize", str(record), *rate, "--json"],
+    }[command]
+
+
+def write_record(path: Path, n: int, chunk: int = 1 << 22) -> None:
+    """N samples of white noise (30 deg/h per sample) written piece by piece."""
+    mm = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=(n,))
+    rng = np.random.default_rng(0)
+    for start in range(0, n, chunk):
+        stop = min(n, start + chunk)
+        mm[start:stop] = rng.standard_normal(stop - start) * 30.0
+        mm.flush()
+    del mm
+
+
+def peak_mb(argv: list[str], cwd: Path) -> tuple[float, int, float, str]:
+    """(peak RSS MB, exit code, wall s, last stderr line) of one run of `argv`."""
+    t0 = time.perf_counter()
+    with open(cwd / "stderr.txt", "wb") as err:
+        proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=err, cwd=cwd)
+        _, status, usage = os.wait4(proc.pid, 0)
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    wall = time.perf_counter() - t0
+    lines = (cwd / "stderr.txt").read_text(errors="replace").strip().splitlines()
+    return usage.ru_maxrss * 1024 / 1e6, proc.returncode, wall, lines[-1] if lines else ""
+
+
+def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
+    rows: list[dict[str, object]] = []
+    with tempfile.TemporaryDirectory(prefix="gyrodrift-mem.") as tmp:
+        d = Path(tmp)
+        rec = d / "record.npy"
+        # In a child: Linux carries a process's peak RSS over to the children it forks
+        # (and across exec), so this process must never have held the record's pages.
+        subprocess.run([sys.executable, __file__, "--write", str(rec), str(samples)],
+                       check=True)
+        for cmd in commands:
+            argv = [sys.executable, "-m", "gyrodrift", *command_args(cmd, rec, d / "out")]
+            peak, code, wall, last = peak_mb(argv, d)
+            budget = BUDGET_MB[cmd]
+            rows.append({"command": cmd, "samples": samples, "peak_mb": round(peak, 1),
+                         "budget_mb": budget, "ok": code == 0 and peak <= budget,
+                         "exit": code, "wall_s": round(wall, 1), "stderr": last})
+    return rows
+
+
+def main() -> int:
+    if sys.argv[1:2] == ["--write"]:
+        write_record(Path(sys.argv[2]), int(sys.argv[3]))
+        return 0
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--samples", type=float, nargs="+", default=[1e8, 1e7])
+    ap.add_argument("--commands", default=",".join(BUDGET_MB))
+    ap.add_argument("--json", action="store_true", help="rows as JSON on stdout")
+    a = ap.parse_args()
+    commands = [c for c in a.commands.split(",") if c]
+    rows = [r for n in a.samples for r in measure(int(n), commands)]
+    if a.json:
+        print(json.dumps(rows))
+        return 0
+    print("| command | samples | peak MB | budget MB | ok | exit | wall s |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for r in rows:
+        print(f"| {r['command']} | {r['samples']:.0e} | {r['peak_mb']:.0f} | "
+              f"{r['budget_mb']:.0f} | {'yes' if r['ok'] else 'NO'} | {r['exit']} | "
+              f"{r['wall_s']} |")
+    for r in rows:
+        if r["exit"] != 0:
+            print(f"{r['command']}: {r['stderr']}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,40 @@
+"""The power of two that brings a record of extreme magnitude into the range where sums of
+squares and optimiser steps neither overflow nor underflow.
+
+Estimators whose results scale with the record (a variance by c^2, a deviation by c) run on
+``x / c`` and scale their results back: dividing by a power of two is exact (short of
+subnormal numbers), and records inside the safe range are left as they are (c = 1).
+
+Examples
+--------
+>>> import math
+>>> import numpy as np
+>>> c = normalising_scale(np.array([3e150, -1.0]))
+>>> normalising_scale(np.array([1.0, -3.0])), c / 2 <= 3e150 < c, math.log2(c).is_integer()
+(1.0, True, True)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["SAFE_EXPONENT", "normalising_scale"]
+
+#: A record whose largest magnitude has a binary exponent within +-SAFE_EXPONENT is left as
+#: it is: its squares (and sums of 1e9 of them) stay within float64 by a wide margin.
+SAFE_EXPONENT = 64
+
+
+def normalising_scale(a: np.ndarray) -> float:
+    """1.0, or the power of two c with max|a| / c in [0.5, 1) when max|a| is outside
+    [2^-SAFE_EXPONENT, 2^SAFE_EXPONENT]; 1.0 for an empty, all-zero or non-finite record
+    (left to the estimator's own checks). Reads the record twice (max, min), no copy."""
+    if a.size == 0:
+        return 1.0
+    peak = max(float(np.max(a)), -float(np.min(a)))
+    if not math.isfinite(peak) or peak == 0.0:
+        return 1.0
+    exponent = math.frexp(peak)[1]
+    return 1.0 if abs(exponent) <= SAFE_EXPONENT else math.ldexp(1.0, exponent)
