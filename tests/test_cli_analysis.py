@@ -196,7 +196,8 @@ def test_csv_outputs_carry_every_digit(tmp_path: Path, capsys) -> None:
     out = run_json(["allan", tmp_path / "r.npy", "--rate-hz", 3, "--csv", tmp_path / "a.csv"],
                    capsys)
     lines = (tmp_path / "a.csv").read_text().splitlines()
-    assert lines[0] == "tau_s,m,adev_deg_h,ci_low_deg_h,ci_high_deg_h,edf,terms"
+    assert lines[0] == ("tau_s,m,adev_deg_h,ci_low_deg_h,ci_high_deg_h,edf,terms,"
+                        "fit_adev_deg_h,fit_used,fit_ratio,fit_passed")
     first = lines[1].split(",")
     assert first[1] == "1" and first[6] == str(out["allan"]["terms"][0])  # integers
     table = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)

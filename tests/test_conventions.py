@@ -41,6 +41,7 @@ SHARED_FLAGS: dict[str, str] = {
     "--can-signals": r"signal map|DBC", "--accel-units": r"units of the accelerometer",
     "--column-channels": r"channel of each data column", "--time-column": r"time column",
     "--topic": r"topic",
+    "--self-check": r"self-check.*does not describe",
 }
 # Flags that name one subcommand's own concept (no other subcommand has the concept).
 OWN_FLAGS: dict[str, set[str]] = {
@@ -58,7 +59,7 @@ OWN_FLAGS: dict[str, set[str]] = {
     "compare": set(),
     "wavelet-response": {"--n-freqs"},
     "config": {"--emit-cpp", "--namespace"},
-    "characterize": {"--kalibr", "--kalibr-axis", "--html", "--self-check"},
+    "characterize": {"--kalibr", "--kalibr-axis", "--html"},
     "fleet": {"--workers", "--scheduler", "--redo", "--spec", "--memory-budget-mib"},
     "align": {"--scenario", "--runs", "--coarse-s", "--states", "--kf-noise", "--gyro-lsb-arcsec",
               "--dither-arcsec", "--mechanism", "--real", "--segment-s", "--no-plots"},

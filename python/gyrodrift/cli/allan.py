@@ -16,14 +16,17 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
+    add_self_check_arg,
     check_output,
     emit_json,
     progress_enabled,
     record_from_args,
+    self_check_exit,
     write_csv,
 )
 from gyrodrift.io.atomic import atomic_output
 from gyrodrift.stability.deviations import DEVIATIONS
+from gyrodrift.stability.self_check import check_lines, check_summary, fit_check_of
 
 #: Plot titles of the deviations (NIST SP 1065 names).
 DEVIATION_TITLES = {"oadev": "Overlapping Allan", "mdev": "Modified Allan", "tdev": "Time",
@@ -76,7 +79,9 @@ def register(subparsers: Any) -> None:
                         "criterion chi2 + 2 p are dropped and listed")
     p.add_argument("--png", help="write a log-log plot with error bars, the fitted total and "
                                  "each term inside the fit range")
-    p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV")
+    p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV (with the fit and "
+                   "its self-check per tau)")
+    add_self_check_arg(p)
     add_json_arg(p)
     add_progress_arg(p)
     p.set_defaults(func=run)
@@ -123,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     fit, afit, paper, slope = _fits(res, dev_name, args)
+    chk = None if afit is None else fit_check_of(afit, res)
     if args.png:
         from gyrodrift.report.plots import plot_allan, plot_allan_fit
 
@@ -134,14 +140,22 @@ def run(args: argparse.Namespace) -> int:
                            title=f"{DEVIATION_TITLES[dev_name]} deviation",
                            symbol="sigma" if dev_name == "oadev" else dev_name)
     if args.csv_out:
+        nan = np.full(res.tau_s.size, np.nan)
         write_csv(args.csv_out,
-                  ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms"],
-                  [res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf, res.terms])
+                  ["tau_s", "m", "adev_deg_h", "ci_low_deg_h", "ci_high_deg_h", "edf", "terms",
+                   "fit_adev_deg_h", "fit_used", "fit_ratio", "fit_passed"],
+                  [res.tau_s, res.m, res.adev, res.ci_low, res.ci_high, res.edf, res.terms,
+                   nan if afit is None else afit.fit_adev,
+                   np.zeros(res.tau_s.size, dtype=int) if afit is None
+                   else afit.fit_used.astype(int),
+                   nan if chk is None else chk.ratio,
+                   np.zeros(res.tau_s.size, dtype=int) if chk is None
+                   else chk.passed.astype(int)])
     if args.json:
-        _emit_json(rec, res, fit, afit, paper, slope, args)
-        return 0
-    _print_text(rec, res, dev_name, afit, paper, slope)
-    return 0
+        _emit_json(rec, res, fit, afit, paper, slope, args, chk)
+    else:
+        _print_text(rec, res, dev_name, afit, paper, slope, chk)
+    return self_check_exit(args, [] if chk is None else [("", chk)])
 
 
 def _fits(res: Any, dev_name: str, args: argparse.Namespace) -> tuple[Any, Any, Any, Any]:
@@ -175,23 +189,28 @@ def _fits(res: Any, dev_name: str, args: argparse.Namespace) -> tuple[Any, Any, 
 
 
 def _emit_json(rec: Any, res: Any, fit: Any, afit: Any, paper: Any, slope: Any,
-               args: argparse.Namespace) -> None:
+               args: argparse.Namespace, chk: Any) -> None:
     fit_adev = (afit.fit_adev if afit is not None else np.full(res.tau_s.size, np.nan))
     used = (afit.fit_used if afit is not None else np.zeros(res.tau_s.size, dtype=bool))
+    ratio = chk.ratio if chk is not None else np.full(res.tau_s.size, np.nan)
+    passed = chk.passed if chk is not None else np.zeros(res.tau_s.size, dtype=bool)
     taus = [{"tau_s": float(t), "adev": float(a), "ci_low": float(lo),
              "ci_high": float(hi), "fit_adev": None if np.isnan(f) else float(f),
-             "fit_used": bool(u)}
-            for t, a, lo, hi, f, u in zip(res.tau_s, res.adev, res.ci_low, res.ci_high,
-                                          fit_adev, used, strict=True)]
+             "fit_used": bool(u), "fit_ratio": None if np.isnan(r) else float(r),
+             "fit_passed": bool(ok)}
+            for t, a, lo, hi, f, u, r, ok in zip(res.tau_s, res.adev, res.ci_low, res.ci_high,
+                                                 fit_adev, used, ratio, passed, strict=True)]
     emit_json({"record": rec.summary(), "allan": res.as_dict(), "taus": taus,
                "fit": None if afit is None else afit.as_dict(),
+               "self_check": None if chk is None else chk.as_dict(),
                "ieee952": None if fit is None else fit.as_dict(),
                "paper_fit": None if paper is None else paper.as_dict(),
                "slope_method": None if slope is None else slope.as_dict(),
                "files": {"png": args.png, "csv": args.csv_out}})
 
 
-def _print_text(rec: Any, res: Any, dev_name: str, afit: Any, paper: Any, slope: Any) -> None:
+def _print_text(rec: Any, res: Any, dev_name: str, afit: Any, paper: Any, slope: Any,
+                chk: Any) -> None:
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz"
           + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
     if rec.log_summary:
@@ -217,6 +236,8 @@ def _print_text(rec: Any, res: Any, dev_name: str, afit: Any, paper: Any, slope:
         print("\n".join(format_terms(
             [(t.name, t.value, t.unit, t.ci_low, t.ci_high, t.density, t.density_unit,
               t.density_ci_low, t.density_ci_high) for t in afit.terms], afit.ci)))
+        print(check_summary(chk))
+        print("\n".join(check_lines(chk)), end="\n" if chk.warnings else "")
     if paper is not None:
         print(f"paper 2006 eq. 8 fit: Q = {paper.q_paper:.4g} (paper's 'deg' column; "
               f"= arcsec), N = {paper.n_deg_rt_h:.4g} deg/sqrt(h), B = {paper.b_deg_h:.4g} deg/h")

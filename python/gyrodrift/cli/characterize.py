@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from gyrodrift.cli import CliError
@@ -17,12 +18,15 @@ from gyrodrift.cli.common import (
     add_gyro_units_arg,
     add_json_arg,
     add_progress_arg,
+    add_self_check_arg,
     emit_json,
     progress_enabled,
+    self_check_exit,
 )
 from gyrodrift.errors import GyrodriftError
 from gyrodrift.io.imu_data import ImuData, bag_imu_topics, load_imu
 from gyrodrift.stability import DEFAULT_IDENTIFIER, MODEL_IDENTIFIERS
+from gyrodrift.stability.self_check import check_summary
 from gyrodrift.units import ACCEL_INPUT_UNITS, DEFAULT_ACCEL_UNITS
 
 __all__ = ["add_analysis_args", "add_imu_input_args", "imu_from_args", "register", "run"]
@@ -127,9 +131,9 @@ def register(subparsers: Any) -> None:
                    help="axis exported to Kalibr (default: the worst per parameter)")
     p.add_argument("--html", metavar="FILE", help="write a self-contained HTML report")
     p.add_argument("--out-dir", help="output directory of the plots (gyro.png, accel.png)")
-    p.add_argument("--self-check", action="store_true",
-                   help="simulate the identified model (same length and rate), identify it "
-                        "again, report whether each term is recovered inside its interval")
+    add_self_check_arg(p, "; characterize also simulates the identified model (same length "
+                          "and rate), identifies it again and reports whether each term is "
+                          "recovered inside its interval")
     p.add_argument("--seed", type=int, default=0, help="seed of the self-check simulation")
     add_json_arg(p)
     add_progress_arg(p)
@@ -182,21 +186,35 @@ def run(args: argparse.Namespace) -> int:
     try:
         res = ch.characterize(rec, ci=args.ci, taus=args.taus, terms=_terms(args.terms),
                               method=args.identifier, progress=progress)
-        kalibr = ch.kalibr_yaml(res, args.kalibr_axis) if (args.kalibr or args.html) else None
+        kalibr, refused = None, None
+        if args.kalibr:  # a refused export is an error: nothing is written
+            kalibr = ch.kalibr_yaml(res, args.kalibr_axis)
+        elif args.html:  # the report says why there is no Kalibr file
+            try:
+                kalibr = ch.kalibr_yaml(res, args.kalibr_axis)
+            except GyrodriftError as exc:
+                refused = str(exc)
         sc = (ch.self_check(res, seed=args.seed, taus=args.taus, terms=_terms(args.terms))
               if args.self_check else None)
+        kalibr_warns = ch.kalibr_warnings(res, args.kalibr_axis)
     except (ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
     files = ch.write_outputs(res, kalibr=kalibr, kalibr_path=args.kalibr, html_path=args.html,
-                          out_dir=args.out_dir, self_check=sc)
+                             out_dir=args.out_dir, self_check=sc, kalibr_axis=args.kalibr_axis,
+                             kalibr_refused=refused)
+    checks: list[tuple[str, Any]] = [(c.channel, c.check) for c in res.channels
+                                     if c.check is not None]
+    if kalibr_warns:  # a widened band or a random walk the record does not show
+        checks.append(("the noise terms (see the warnings)", SimpleNamespace(holds=False)))
     if args.json:
         payload = res.as_dict()
         payload["kalibr"] = {k: {"value": v, "channel": c, "unit": t.unit} for k, (v, c, t)
                              in ch.kalibr_values(res, args.kalibr_axis).items()}
-        payload["self_check"] = None if sc is None else sc.as_dict()
+        payload["kalibr_warnings"] = kalibr_warns
+        payload["simulation_check"] = None if sc is None else sc.as_dict()
         payload["files"] = files
         emit_json(payload)
-        return 0
+        return self_check_exit(args, checks)
     r = res.record
     print(f"# {r['source']} ({r['format']}): {r['n_used']} samples at {r['rate_hz']:g} Hz, "
           f"{r['duration_s']:.6g} s; channels {', '.join(rec.names)}"
@@ -213,6 +231,10 @@ def run(args: argparse.Namespace) -> int:
         if isinstance(scale, float) and scale > 1.0:
             print(f"# {c.channel}: no model of the chosen terms fits inside the Allan interval "
                   f"band; band widened x{scale:.3g} for the term intervals (misfit)")
+        if c.check is not None:
+            print(f"# {c.channel} {check_summary(c.check)}")
+    for w in kalibr_warns:
+        print(f"WARNING: {w}")
     if sc is not None:
         n_in = sum(bool(row["inside"]) for row in sc.rows)
         print(f"self-check (seed {sc.seed}): {n_in} of {len(sc.rows)} terms recovered inside "
@@ -221,5 +243,7 @@ def run(args: argparse.Namespace) -> int:
     for k, v in files.items():
         if v:
             print(f"wrote {k}: {v}")
-    return 0
+    if refused:
+        print(f"# Kalibr export not possible: {refused}")
+    return self_check_exit(args, checks)
 

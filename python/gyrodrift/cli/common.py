@@ -53,6 +53,7 @@ __all__ = [
     "add_input_args",
     "add_json_arg",
     "add_progress_arg",
+    "add_self_check_arg",
     "check_out_dir",
     "check_output",
     "check_rate_hz",
@@ -61,6 +62,7 @@ __all__ = [
     "json_default",
     "progress_enabled",
     "record_from_args",
+    "self_check_exit",
     "write_csv",
 ]
 
@@ -131,6 +133,46 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
                            force_rate=bool(getattr(args, "force_rate", False)))
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
+
+
+def add_self_check_arg(p: argparse.ArgumentParser, extra: str = "") -> None:
+    """Add ``--self-check``: exit with :data:`~gyrodrift.stability.self_check.SELF_CHECK_EXIT`
+    when a fitted model does not describe its measured curve (every output carries the check
+    whether or not the flag is given). ``extra``: what the command does besides.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_self_check_arg(p)
+    >>> p.parse_args([]).self_check, p.parse_args(["--self-check"]).self_check
+    (False, True)
+    """
+    from gyrodrift.stability.self_check import SELF_CHECK_EXIT
+
+    p.add_argument("--self-check", action="store_true",
+                   help=f"self-check: exit with code {SELF_CHECK_EXIT} (after writing every "
+                        "output) when a fitted noise model does not describe its measured curve "
+                        "(the check and its warning lines are in every output anyway)" + extra)
+
+
+def self_check_exit(args: argparse.Namespace, checks: Sequence[tuple[str, Any]]) -> int:
+    """The exit code of a command that fitted noise models: 0, or
+    :data:`~gyrodrift.stability.self_check.SELF_CHECK_EXIT` with one line on stderr naming
+    the channels whose model does not hold when ``--self-check`` was given. ``checks``:
+    (channel or "", FitCheck) pairs.
+
+    Examples
+    --------
+    >>> self_check_exit(argparse.Namespace(self_check=True), [])
+    0
+    """
+    from gyrodrift.stability.self_check import SELF_CHECK_EXIT
+
+    failed = [label or "the record" for label, chk in checks if not chk.holds]
+    if not getattr(args, "self_check", False) or not failed:
+        return 0
+    print(f"gyrodrift: self-check failed: the fitted model does not hold for "
+          f"{', '.join(failed)}", file=sys.stderr)
+    return SELF_CHECK_EXIT
 
 
 def add_ar_method_arg(p: argparse.ArgumentParser) -> None:
