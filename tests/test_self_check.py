@@ -7,8 +7,8 @@ vibration): the Allan deviation then has a hump and dips at multiples of the per
 sum of IEEE 952 terms follows (the fitted curve leaves the measured one at several taus by
 far more than the tolerance). With a sinusoid of 20 standard deviations the fit drops the
 white noise altogether (N = 0), the failure a Kalibr export must refuse. The good record:
-white noise alone (the model N describes it; the check's band is simultaneous at 95 %, so a right model fails it rarely,
-and this seed is fixed)."""
+white noise alone (the model N describes it; the check's band is simultaneous at 95 %, so a
+right model fails it rarely, and this seed is fixed)."""
 
 from __future__ import annotations
 
