@@ -123,7 +123,8 @@ def test_characterize_cli_outputs(tmp_path: Path, capsys: pytest.CaptureFixture[
     x = rng.standard_normal((20000, 6)) * [1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2]
     np.save(tmp_path / "imu.npy", x)
     code = main(["characterize", str(tmp_path / "imu.npy"), "--rate-hz", "100",
-                 "--gyro-units", "rad/s", "--kalibr", str(tmp_path / "imu.yaml"),
+                 "--gyro-units", "rad/s", "--accel-units", "m/s^2",
+                 "--kalibr", str(tmp_path / "imu.yaml"),
                  "--html", str(tmp_path / "r.html"),
                  "--out-dir", str(tmp_path / "plots"), "--self-check", "--json"])
     assert code == 0

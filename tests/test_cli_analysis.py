@@ -11,6 +11,7 @@ import gyrodrift
 import gyrodrift.cli as cli
 import numpy as np
 import pytest
+from cli_units import with_units
 from gyrodrift.stability import allan
 
 MINE = ["simulate", "filter", "allan", "psd", "compare"]
@@ -24,7 +25,7 @@ def only_analysis_subcommands(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = cli.main([str(a) for a in argv])
+    code = cli.main(with_units(argv))
     out, err = capsys.readouterr()
     return code, out, err
 

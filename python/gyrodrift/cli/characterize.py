@@ -21,10 +21,17 @@ from gyrodrift.cli.common import (
     add_self_check_arg,
     emit_json,
     progress_enabled,
+    require_units,
     self_check_exit,
 )
 from gyrodrift.errors import GyrodriftError
-from gyrodrift.io.imu_data import ImuData, bag_imu_topics, load_imu
+from gyrodrift.io.imu_data import (
+    ImuData,
+    bag_imu_topics,
+    check_units_plausible,
+    load_imu,
+    units_carried,
+)
 from gyrodrift.stability import DEFAULT_IDENTIFIER, MODEL_IDENTIFIERS
 from gyrodrift.stability.self_check import check_summary
 from gyrodrift.units import ACCEL_INPUT_UNITS, DEFAULT_ACCEL_UNITS
@@ -40,7 +47,7 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
     >>> p = argparse.ArgumentParser(); add_imu_input_args(p)
     >>> args = p.parse_args(["--rate-hz", "200", "--column-channels", "gyro_x,-,gyro_z"])
     >>> args.rate_hz, args.column_channels, args.gyro_units, args.drop_nan
-    (200.0, 'gyro_x,-,gyro_z', 'deg/h', False)
+    (200.0, 'gyro_x,-,gyro_z', None, False)
     """
     p.add_argument("--rate-hz", type=float, help="sample rate, Hz (required for .npy and for "
                    "text without a time column)")
@@ -55,7 +62,9 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
     add_gyro_units_arg(p)
     p.add_argument("--accel-units", choices=ACCEL_INPUT_UNITS, default=DEFAULT_ACCEL_UNITS,
                    help="units of the accelerometer data of a .npy or text record: m/s^2, g, "
-                        f"or m/s (per-sample velocity increments) (default {DEFAULT_ACCEL_UNITS})")
+                        "or m/s (per-sample velocity increments) (required for those when "
+                        "they hold accelerometer columns, never guessed; logs and bags carry "
+                        "m/s^2)")
     p.add_argument("--drop-nan", action="store_true",
                    help="drop rows with NaN/Inf (their count is reported); default: refuse")
 
@@ -76,15 +85,33 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
     >>> rec.names, rec.rate_hz
     (('gyro_x', 'gyro_y', 'gyro_z'), 100.0)
     """
+    src = path or args.input
     try:
-        return load_imu(path or args.input, rate_hz=args.rate_hz,
-                        columns=(args.column_channels.split(",") if args.column_channels
-                                 else None),
-                        time_column=args.time_column, topic=args.topic,
-                        gyro_units=args.gyro_units, accel_units=args.accel_units,
-                        nan_policy="drop" if args.drop_nan else "refuse", **kw)
+        carried = units_carried(src)
+    except GyrodriftError:
+        carried = True  # an unsupported input: load_imu says so
+    try:
+        # placeholders where the file carries its units or the sensor is absent (checked below)
+        rec = load_imu(src, rate_hz=args.rate_hz,
+                       columns=(args.column_channels.split(",") if args.column_channels
+                                else None),
+                       time_column=args.time_column, topic=args.topic,
+                       gyro_units=args.gyro_units or "rad/s",
+                       accel_units=args.accel_units or "m/s^2",
+                       nan_policy="drop" if args.drop_nan else "refuse", **kw)
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
+    if carried:
+        return rec
+    for sensor, flag, given in (("gyro", "--gyro-units", args.gyro_units),
+                                ("accel", "--accel-units", args.accel_units)):
+        if given is None and any(n.startswith(sensor) for n in rec.names):
+            require_units(src, flag, None)
+    try:
+        check_units_plausible(rec, args.gyro_units or "rad/s", args.accel_units or "m/s^2")
+    except GyrodriftError as exc:
+        raise CliError(str(exc)) from exc
+    return rec
 
 
 def add_analysis_args(p: argparse.ArgumentParser) -> None:

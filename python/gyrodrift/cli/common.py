@@ -62,6 +62,7 @@ __all__ = [
     "json_default",
     "progress_enabled",
     "record_from_args",
+    "require_units",
     "self_check_exit",
     "write_csv",
 ]
@@ -97,25 +98,56 @@ def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None
 
 
 def add_gyro_units_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--gyro-units`` (the units of a gyro input column; choices and default from the one
-    units table, :data:`gyrodrift.units.GYRO_INPUT_UNITS` and
-    :data:`gyrodrift.units.DEFAULT_GYRO_UNITS`).
+    """Add ``--gyro-units`` (the units of a gyro input column; choices from the one units
+    table, :data:`gyrodrift.units.GYRO_INPUT_UNITS`; no default: a record whose format does
+    not carry its units needs them stated, :func:`require_units`).
 
     Examples
     --------
     >>> p = argparse.ArgumentParser(); add_gyro_units_arg(p)
     >>> p.parse_args([]).gyro_units, p.parse_args(["--gyro-units", "arcsec"]).gyro_units
-    ('deg/h', 'arcsec')
+    (None, 'arcsec')
     """
     p.add_argument("--gyro-units", choices=GYRO_INPUT_UNITS, default=DEFAULT_GYRO_UNITS,
                    help="units of the gyro data of a .npy or text record: rates deg/h, deg/s, "
-                        "rad/s; per-sample angle increments arcsec, deg, rad (default "
-                        f"{DEFAULT_GYRO_UNITS}; IMU logs and ROS bags carry rad/s, PSINS logs "
+                        "rad/s; per-sample angle increments arcsec, deg, rad (required for "
+                        "those, never guessed; IMU logs and ROS bags carry rad/s, PSINS logs "
                         "angle increments)")
 
 
+def require_units(path: str | Path, flag: str, value: str | None) -> str | None:
+    """The units given for a record, or a :class:`CliError` naming ``flag`` when the record's
+    format does not carry its units and none were given (the command never guesses).
+
+    Examples
+    --------
+    >>> require_units("imu.bin", "--gyro-units", None) is None   # a log carries rad/s
+    True
+    >>> require_units("gyro.npy", "--gyro-units", None)
+    Traceback (most recent call last):
+    ...
+    gyrodrift.cli.CliError: gyro.npy: a .npy record does not say its units: give --gyro-units ...
+    """
+    from gyrodrift.io.imu_data import units_carried
+    from gyrodrift.units import ACCEL_INPUT_UNITS
+
+    if value is not None:
+        return value
+    try:
+        carried = units_carried(path)
+    except GyrodriftError:
+        return None  # an unsupported file: the reader says so
+    if carried:
+        return None
+    choices = GYRO_INPUT_UNITS if flag == "--gyro-units" else ACCEL_INPUT_UNITS
+    suffix = Path(path).suffix.lower() or "text"
+    raise CliError(f"{path}: a {suffix} record does not say its units: give {flag} (one of "
+                   f"{', '.join(choices)})")
+
+
 def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
-    """Load the record the input arguments name; a bad file or value is a :class:`CliError`.
+    """Load the record the input arguments name; a bad file or value, or units neither given
+    nor carried by the file, is a :class:`CliError`.
 
     Examples
     --------
@@ -126,9 +158,11 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
     >>> record_from_args(ns).n
     5
     """
+    units = require_units(args.input, "--gyro-units", args.gyro_units)
     try:
         return load_record(args.input, column=args.column, rate_hz=args.rate_hz,
-                           units=args.gyro_units, nan_policy="drop" if args.drop_nan else "refuse",
+                           units=units or "deg/h",  # the loaders' "not told": the file's own
+                           nan_policy="drop" if args.drop_nan else "refuse",
                            mmap=mmap, can_signals=getattr(args, "can_signals", None),
                            force_rate=bool(getattr(args, "force_rate", False)))
     except (OSError, ValueError, GyrodriftError) as exc:

@@ -170,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    >>> run(p.parse_args(["identify", rec, "--rate-hz", "100"]))
+    >>> run(p.parse_args(["identify", rec, "--rate-hz", "100", "--gyro-units", "deg/h"]))
     # .../gyro.npy: 4096 samples at 100 Hz, rate in deg/h
     ...
     N             0.001663 ... deg/sqrt(h) ...
