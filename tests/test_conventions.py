@@ -52,7 +52,7 @@ OWN_FLAGS: dict[str, set[str]] = {
                "--fault-delay-s"},
     "simulate": {"--samples"},
     "filter": {"--filter", "--core"},
-    "allan": {"--taus-per-decade", "--noise-id", "--deviation"},
+    "allan": {"--taus-per-decade", "--noise-id", "--deviation", "--curve"},
     "fit": {"--criterion"},
     "identify": {"--model", "--max-model", "--bootstrap"},
     "psd": {"--nperseg", "--bins-per-decade"},

@@ -5,6 +5,7 @@ on every coefficient; the 2006 paper's 3-term fit; slope method) and a PNG plot.
 from __future__ import annotations
 
 import argparse
+import math
 from typing import Any
 
 import numpy as np
@@ -27,6 +28,7 @@ from gyrodrift.cli.common import (
 from gyrodrift.io.atomic import atomic_output
 from gyrodrift.stability.deviations import DEVIATIONS
 from gyrodrift.stability.self_check import check_lines, check_summary, fit_check_of
+from gyrodrift.units import ACCEL_INPUT_UNITS, DEFAULT_ACCEL_UNITS, DPH
 
 #: Plot titles of the deviations (NIST SP 1065 names).
 DEVIATION_TITLES = {"oadev": "Overlapping Allan", "mdev": "Modified Allan", "tdev": "Time",
@@ -81,6 +83,17 @@ def register(subparsers: Any) -> None:
                                  "each term inside the fit range")
     p.add_argument("--csv", dest="csv_out", help="write the tau table as CSV (with the fit and "
                    "its self-check per tau)")
+    p.add_argument("--curve", action="store_true",
+                   help="INPUT is a published Allan-deviation curve, not a record: CSV with a "
+                        "header, columns tau_s, adev and optionally edf or count (clusters); "
+                        "its units by --gyro-units or --accel-units; fitted with the IEEE 952 "
+                        "fit and self-checked like a measured curve")
+    p.add_argument("--accel-units", choices=ACCEL_INPUT_UNITS, default=DEFAULT_ACCEL_UNITS,
+                   help="units of the accelerometer data of an Allan-deviation curve "
+                        "(--curve): m/s^2 or g (m/s increments do not apply)")
+    p.add_argument("--duration-s", type=float,
+                   help="--curve without an edf or count column: the length of the record "
+                        "the curve came from, s (count = duration / tau)")
     add_self_check_arg(p)
     add_json_arg(p)
     add_progress_arg(p)
@@ -98,7 +111,7 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    >>> run(p.parse_args(["allan", rec, "--rate-hz", "100"]))
+    >>> run(p.parse_args(["allan", rec, "--rate-hz", "100", "--gyro-units", "deg/h"]))
     # .../gyro.npy: 4096 samples at 100 Hz
          tau (s)   adev (deg/h)       ci_low      ci_high        edf alpha noise_id ...
             0.01        0.99955 ...
@@ -112,6 +125,12 @@ def run(args: argparse.Namespace) -> int:
 
     check_output(args.png, "--png")
     check_output(args.csv_out, "--csv", (".csv",))
+    if args.curve:
+        return _run_curve(args)
+    for flag, given in (("--accel-units", args.accel_units), ("--duration-s", args.duration_s)):
+        if given is not None:
+            raise CliError(f"{flag} applies to --curve (a record's accelerometer is read by "
+                           "characterize)")
     rec = record_from_args(args)
     if rec.n < ALLAN_MIN_SAMPLES:
         raise CliError(f"{rec.source}: record too short for an Allan analysis: {rec.n} "
@@ -244,3 +263,65 @@ def _print_text(rec: Any, res: Any, dev_name: str, afit: Any, paper: Any, slope:
     if slope is not None:
         print("slope method: " + ", ".join(
             f"{k} = {'n/a' if v is None else f'{v:.4g}'}" for k, v in slope.as_dict().items()))
+
+
+def _run_curve(args: argparse.Namespace) -> int:
+    """``allan --curve``: fit a published Allan-deviation curve like a measured one."""
+    from gyrodrift.io.curves import CURVE_UNITS, read_allan_curve
+    from gyrodrift.stability.allan_fit import ALLAN_TERMS, fit_allan
+    from gyrodrift.stability.ieee952 import B_FLOOR_FACTOR
+
+    if args.png:
+        raise CliError("--png plots a record's deviation; with --curve use --csv or --json")
+    if args.rate_hz is not None or args.deviation != "oadev" or args.column is not None:
+        raise CliError("--curve reads an Allan deviation: --rate-hz, --column and --deviation "
+                       "do not apply")
+    given = [u for u in (args.gyro_units, args.accel_units) if u is not None]
+    if len(given) != 1:
+        raise CliError("--curve needs the curve's units: give --gyro-units (deg/h, deg/s, "
+                       "rad/s) or --accel-units (m/s^2, g), one of them")
+    if given[0] not in CURVE_UNITS:
+        raise CliError(f"--curve: an Allan deviation is in a rate or acceleration unit "
+                       f"({', '.join(CURVE_UNITS)}), not {given[0]}")
+    try:
+        curve = read_allan_curve(args.input, units=given[0], duration_s=args.duration_s)
+        afit = fit_allan(curve.tau_s, curve.adev, curve.edf, terms=args.terms,
+                         fit_range=args.fit_range, select=not args.no_select, ci=args.ci)
+    except (OSError, ValueError) as exc:
+        raise CliError(str(exc)) from exc
+    chk = fit_check_of(afit, curve)
+    # every term in the curve's SI unit (U = rad/s or m/s^2): N = sqrt(C_-1) U/sqrt(Hz),
+    # K = sqrt(3 C_1) U/s/sqrt(Hz), B = sqrt(C_0) / 0.664 U (module docstring of allan_fit)
+    to_si = DPH if curve.sensor == "gyro" else 1.0
+    si_unit = "rad/s" if curve.sensor == "gyro" else "m/s^2"
+    si = {"Q": (lambda c: math.sqrt(c / 3.0) * to_si, f"{si_unit} s"),
+          "N": (lambda c: math.sqrt(c) * to_si, f"{si_unit}/sqrt(Hz)"),
+          "B": (lambda c: math.sqrt(c) / B_FLOOR_FACTOR * to_si, si_unit),
+          "K": (lambda c: math.sqrt(3.0 * c) * to_si, f"{si_unit}/s/sqrt(Hz)"),
+          "R": (lambda c: math.sqrt(2.0 * c) * to_si, f"{si_unit}/s")}
+    terms_si = {t.name: {"value": si[t.name][0](t.coeff), "unit": si[t.name][1],
+                         "ci_low": si[t.name][0](t.coeff) * t.ci_low / t.value,
+                         "ci_high": si[t.name][0](t.coeff) * t.ci_high / t.value}
+                for t in afit.terms}
+    assert set(terms_si) <= set(ALLAN_TERMS)
+    if args.csv_out:
+        write_csv(args.csv_out, ["tau_s", "adev", "edf", "fit_adev", "fit_used", "fit_ratio",
+                                 "fit_passed"],
+                  [curve.tau_s, curve.adev, curve.edf, afit.fit_adev,
+                   afit.fit_used.astype(int), chk.ratio, chk.passed.astype(int)])
+    if args.json:
+        emit_json({"curve": curve.as_dict(), "fit": afit.as_dict(), "terms_si": terms_si,
+                   "self_check": chk.as_dict(), "files": {"csv": args.csv_out}})
+        return self_check_exit(args, [("", chk)])
+    print(f"# {curve.source}: Allan-deviation curve of a {curve.sensor}, {curve.tau_s.size} "
+          f"taus {curve.tau_s[0]:.4g}..{curve.tau_s[-1]:.4g} s, in {curve.units_in} "
+          f"(fitted in {curve.unit}); edf from the {curve.edf_from}")
+    print(f"IEEE 952 fit (weighted NNLS, taus {afit.tau_min_s:g}..{afit.tau_max_s:g} s); "
+          f"dropped (no gain in chi2 + 2p): {', '.join(afit.dropped) or 'none'}")
+    print(f"# intervals: {100 * afit.ci:.2f} % two-sided")
+    for name, t in terms_si.items():
+        print(f"{name:<4} {t['value']:12.5g} [{t['ci_low']:.4g}, {t['ci_high']:.4g}] "
+              f"{t['unit']}")
+    print(check_summary(chk))
+    print("\n".join(check_lines(chk)), end="\n" if chk.warnings else "")
+    return self_check_exit(args, [("", chk)])
