@@ -109,7 +109,8 @@ def run(args: argparse.Namespace) -> int:
     >>> x = lfilter([1.0], [1.0, -0.6, -0.2], rng.normal(0, 1, 4000)) + rng.normal(0, 0.5, 4000)
     >>> tmp = tempfile.TemporaryDirectory(); np.save(os.path.join(tmp.name, "gyro.npy"), x)
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> run(p.parse_args(["fit", os.path.join(tmp.name, "gyro.npy"), "--rate-hz", "100"]))
+    >>> run(p.parse_args(["fit", os.path.join(tmp.name, "gyro.npy"), "--rate-hz", "100",
+    ...                   "--gyro-units", "deg/h"]))
     # .../gyro.npy: 4000 samples at 100 Hz, units deg/h (q, r in (deg/h)^2); ...
     model             loglike ...
     ...
@@ -172,8 +173,9 @@ def run(args: argparse.Namespace) -> int:
         else:
             a1, a2, q, _ = best.filter_params
             print(f"drift/white split NOT identified (profile log-likelihood drop {d01:.3g} "
-                  f"at r/q = 0.1, {d10:.3g} at r/q = 10, both < 4, or no BIC gain over the "
-                  "white model): the record cannot tell "
+                  f"at r/q = 0.1, {d10:.3g} at r/q = 10: both < 4 or one zero, no BIC gain "
+                  "over the white model, or a standard error that does not exist): the "
+                  "record cannot tell "
                   f"drift from white noise; filter tuned at q = r (minimax over all splits): "
                   f"a1 {a1:.5g}, a2 {a2:.5g}, q = r = {q:.5g}")
     bw = "none below Nyquist" if resp.bandwidth_hz is None else f"{resp.bandwidth_hz:.4g} Hz"

@@ -159,7 +159,9 @@ class DriftModelFit:
     split_drop: drops of the profile log-likelihood when the split is forced to r/q = 0.1 and
     to r/q = 10 (inf for the white model). identified: False when both are below 4 (neither
     rejected at 99.5 %) or when the model does not beat the white model by BIC: the record
-    cannot tell drift from white noise. tuning: "ml" (the
+    cannot tell drift from white noise; False too when a standard error of a1, a2 (AR(2)),
+    q or r does not exist (NaN) or a drop is zero: the estimate itself is not determined by
+    the record. tuning: "ml" (the
     filter uses the fitted a1, a2, q, r) or "minimax-split" (not identified: the filter uses
     the profile fit at q = r, whose gain minimises the worst-case error over all splits; see
     the README).
@@ -702,12 +704,24 @@ def _split_check(prof: _Profile, model: str, u_ml: np.ndarray
     beats_white = ll_ml - ll_white > 0.5 * (_N_PARAMS[model] - _N_PARAMS["white"]) * math.log(n)
     if beats_white and max(drops) > _SPLIT_DROP_MIN:
         return (drops[0], drops[1]), None
-    # Not identified: the profile fit at q = r on the whole record.
+    return (drops[0], drops[1]), _minimax_tuning(prof, model, a1, a2)
+
+
+def _minimax_tuning(prof: _Profile, model: str, a1: float, a2: float
+                    ) -> tuple[float, float, float, float]:
+    """The tuning of a split that is not identified: the profile fit at q = r on the whole
+    record, (a1, a2, q, r) (see _split_check)."""
     _, u = _profile_split(prof, model, 1.0, [(a1, a2), _yule_walker_at(prof.x - prof.center,
                                                                        model, 0.5)])
     b1, b2, w = prof.natural(u)
     _, scale, _ = prof.concentrated(b1, b2, w)
-    return (drops[0], drops[1]), (b1, b2, scale * w, scale * (1.0 - w))
+    return (b1, b2, scale * w, scale * (1.0 - w))
+
+
+#: The parameters of each model whose standard errors must exist for its drift/white split
+#: to count as identified.
+_FREE_PARAMS = {"ar2+white": ("a1", "a2", "q", "r"), "ar1+white": ("a1", "q", "r"),
+                "white": ()}
 
 
 def ljung_box(e: np.ndarray, lags: int, model_df: int = 0) -> LjungBox:
@@ -745,6 +759,14 @@ def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float
     k = _N_PARAMS[model]
     lags = max(1, min(10, n // 5))
     split_drop, minimax = split
+    # The probes' drops say the split is identified, but a standard error that does not exist
+    # (NaN: the likelihood is flat or singular at the estimate) or a zero drop says the
+    # estimate is not: then the split is not identified either, and the filter is tuned as
+    # for any split that is not (minimax, q = r).
+    if minimax is None and model != "white" and (
+            any(not math.isfinite(stderr[k]) for k in _FREE_PARAMS[model])
+            or min(split_drop) <= 0.0):
+        minimax = _minimax_tuning(prof, model, a1, a2)
     identified = minimax is None
     filter_params = (a1, a2, q, r) if minimax is None else minimax
     return DriftModelFit(
