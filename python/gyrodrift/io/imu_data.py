@@ -788,7 +788,7 @@ def check_units_plausible(rec: ImuData, gyro_units: str, accel_units: str) -> No
     >>> try:
     ...     check_units_plausible(rec, "rad/s", "m/s^2")
     ... except GyrodriftValueError as exc:
-    ...     print(str(exc).split(": ")[-1])
+    ...     print(str(exc).split("): ")[-1])
     the data look like g; give the right units (command line: --accel-units g)
     """
     if not all(f"accel_{k}" in rec.channels for k in "xyz"):
