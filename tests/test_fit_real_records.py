@@ -114,3 +114,10 @@ def test_fit_cli_decimates_a_slow_drift_and_says_so(tmp_path: Path,
     out = capsys.readouterr().out
     assert f"block averages of {dec['factor']} samples" in out
     assert "converted back to 100 Hz" in out
+    # the configuration written from the fit says at which rate it was fitted
+    toml = tmp_path / "fit.toml"
+    assert main(["fit", str(path), "--rate-hz", "100", "--gyro-units", "deg/h", "-o",
+                 str(toml)]) == 0
+    text = toml.read_text()
+    assert f"fit_rate_hz = {100.0 / dec['factor']!r}" in text
+    assert 'identified = "yes"' in text

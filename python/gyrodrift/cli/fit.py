@@ -60,7 +60,8 @@ def _gyro_channel(column: str | None) -> str:
     return f"g{c[-1]}" if c and c[-1] in "xyz" else "gx"
 
 
-def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
+def config_toml(fit: Any, rate_hz: float, channel: str, source: str,
+                fit_rate_hz: float | None = None) -> str:
     """The processor configuration (canonical text) with the fitted steady-state
     AR(2)-Kalman stage on `channel` (values converted from deg/h to rad/s), the other channels
     passed through.
@@ -87,6 +88,9 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
     a1, a2, q, r = fit.filter_params
     meta = (("written_by", "gyrodrift fit"), ("record", os.path.basename(source)),
             ("model", str(fit.model)), ("tuning", str(fit.tuning)),
+            ("identified", "yes" if fit.identified else
+             "no: the record cannot tell drift from white noise (filter tuned at q = r)"),
+            ("fit_rate_hz", float(rate_hz if fit_rate_hz is None else fit_rate_hz)),
             ("loglike", float(fit.loglike)))
     cfg = drift_filter_config(channel, a1=a1, a2=a2, mean=fit.mean * DPH, q=q * DPH * DPH,
                               r=max(r, 1e-12 * (q + r)) * DPH * DPH, sample_rate_hz=rate_hz,
@@ -185,7 +189,8 @@ def run(args: argparse.Namespace) -> int:
     if args.output:
         out = Path(args.output)
         if out.suffix.lower() == ".toml":
-            text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source)
+            text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source,
+                               fit_rate_hz=fit_rate)
         elif out.suffix.lower() == ".json":
 
 
