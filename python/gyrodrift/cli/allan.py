@@ -237,15 +237,18 @@ def _print_text(rec: Any, res: Any, dev_name: str, afit: Any, paper: Any, slope:
     unit = "deg/h s" if dev_name == "tdev" else "deg/h"  # tdev = tau mdev / sqrt(3)
     col = f"{'adev' if dev_name == 'oadev' else dev_name} ({unit})"
     print(f"{'tau (s)':>12} {col:>14} {'ci_low':>12} {'ci_high':>12} {'edf':>10} "
-          f"{'alpha':>5} {'noise_id':>8} {'fit (deg/h)':>12} {'in fit':>6}")
+          f"{'alpha':>5} {'noise_id':>8} {'fit (deg/h)':>12} {'in fit':>6} {'fit/meas':>8} "
+          f"{'passes':>6}")
     noise = res.noise_id if res.noise_id is not None else ["given"] * res.m.size
     for k, (t, a, lo, hi, e, al, how) in enumerate(zip(
             res.tau_s, res.adev, res.ci_low, res.ci_high, res.edf, res.alpha, noise,
             strict=True)):
         fa = "" if afit is None else f"{afit.fit_adev[k]:12.5g}"
         fu = "" if afit is None else ("yes" if afit.fit_used[k] else "no")
+        fr = "" if chk is None else f"{chk.ratio[k]:8.3g}"
+        fp = "" if chk is None else ("yes" if chk.passed[k] else "NO")
         print(f"{t:12.5g} {a:14.5g} {lo:12.5g} {hi:12.5g} {e:10.4g} {int(al):5d} {how:>8} "
-              f"{fa:>12} {fu:>6}")
+              f"{fa:>12} {fu:>6} {fr:>8} {fp:>6}")
     if afit is not None:
         from gyrodrift.cli.identify import format_terms
 
