@@ -528,10 +528,15 @@ can::SignalTable<> parse_signal_table(const std::string& text) {
     pos = end + 1;
     ++line_no;
     can::SignalEntry e;
+    can::PageSet pages;
     const char* error = "";
-    const can::LineResult r = can::parse_signal_line(line.c_str(), e, &error);
+    const can::LineResult r = can::parse_table_line(line.c_str(), e, pages, &error);
     if (r == can::LineResult::kError) {
       throw py::value_error("can signal table line " + std::to_string(line_no) + ": bad " + error);
+    }
+    if (r == can::LineResult::kPages && !table.add_pages(pages)) {
+      throw py::value_error("can signal table line " + std::to_string(line_no) +
+                            ": pages of one message given twice");
     }
     if (r == can::LineResult::kEntry && !table.add(e)) {
       throw py::value_error("can signal table line " + std::to_string(line_no) +
@@ -571,6 +576,7 @@ py::dict signal_stats_dict(const can::SignalRxStats& s) {
   d["frames_dropped"] = s.frames_dropped;
   d["foreign_frames"] = s.foreign_frames;
   d["ignored_frames"] = s.ignored_frames;
+  d["undefined_page_frames"] = s.undefined_page_frames;
   d["bad_dlc"] = s.bad_dlc;
   d["complete_samples"] = s.complete_samples;
   d["incomplete_samples"] = s.incomplete_samples;
@@ -784,7 +790,7 @@ void bind_can_signals(py::module_& m) {
     for (const py::handle& item : frames) {
       const can::CanFrame fr = frame_from_tuple(item, "can_signal_decode");
       py::dict d;
-      for (std::size_t i = 0; i < table.size(); ++i) {
+      for (std::size_t i = 0; i < table.size() && table.page_defined(fr); ++i) {
         double v = 0.0;
         if (can::decode_entry(table[i], fr, v) == can::EntryMatch::kValue) d[role_name(table[i].role)] = v;
       }

@@ -12,6 +12,8 @@ import pytest
 from gyrodrift import _core
 from gyrodrift.codecs import (
     FRAME_SIZE,
+    TYPE_HEALTH_REPORT,
+    TYPE_HEALTH_REQUEST,
     TYPE_INPUT,
     TYPE_OUTPUT,
     FrameError,
@@ -77,7 +79,9 @@ def test_hand_checked_frame_python_and_cpp() -> None:
 def random_frames(rng: np.random.Generator, n: int) -> list[tuple[int, int, int, int, tuple]]:
     out = []
     for _ in range(n):
-        ftype = int(rng.choice([TYPE_INPUT, TYPE_OUTPUT]))
+        # every frame type of the format (the health request/report frames too)
+        ftype = int(rng.choice([TYPE_INPUT, TYPE_OUTPUT, TYPE_HEALTH_REQUEST,
+                                TYPE_HEALTH_REPORT]))
         vals = rng.normal(0, 10, 6).astype(np.float32)
         if rng.random() < 0.1:
             vals[rng.integers(6)] = np.inf
@@ -153,7 +157,7 @@ def test_parser_resyncs_after_garbage_corruption_truncation(rng: np.random.Gener
     garbage = bytes([0x00, 0xA5, 0x00, 0x5A, 0xA5, 0x17])  # contains sync0 but no valid header
     corrupted = bytearray(enc[2])
     corrupted[30] ^= 0x40
-    bad_header = enc[4][:2] + b"\x02\x24" + enc[4][4:]  # unknown type 0x02
+    bad_header = enc[4][:2] + b"\x03\x24" + enc[4][4:]  # unknown type 0x03
     stream = (
         garbage
         + enc[0]

@@ -18,7 +18,7 @@ from pathlib import Path
 import pytest
 from gyrodrift.imu.config import ConfigError, default_config, dumps_config, parse_config
 from gyrodrift.imu.firmware_header import emit_schema_header
-from gyrodrift.imu.schema import FIELDS, Field
+from gyrodrift.imu.schema import FIELDS, FLOAT32_MIN_NORMAL, Field
 
 ROOT = Path(__file__).resolve().parents[1]
 HEADER = ROOT / "include" / "gyrodrift" / "imu" / "config_schema.hpp"
@@ -87,7 +87,12 @@ def corpus() -> Iterator[tuple[str, str, str | None]]:
         for bound, open_, side in ((f.lo, f.lo_open, -1), (f.hi, f.hi_open, +1)):
             if bound is None or (f.name in ("a1", "a2")):
                 continue
-            step = 1 if f.kind == "int" else max(abs(bound) * 1e-9, 1e-300)
+            if f.kind == "int":
+                step: float = 1
+            elif f.float32:  # a step the float32 rounding keeps
+                step = max(abs(bound) * 1e-6, FLOAT32_MIN_NORMAL)
+            else:
+                step = max(abs(bound) * 1e-9, 1e-300)
             inside = bound - side * step if open_ else bound
             outside = bound if open_ else bound + side * step
             if not f.power_of_two:
@@ -96,6 +101,9 @@ def corpus() -> Iterator[tuple[str, str, str | None]]:
             yield (f"{f.section}.{f.name} beyond {bound!r}", *_set(base, f, _literal(f, outside)))
         if f.kind == "float" and f.finite:
             yield (f"{f.section}.{f.name} = nan", *_set(base, f, "nan"))
+        if f.float32:  # valid doubles that are no float32: underflow, overflow
+            for x in ("1e-50", "-1e-45", "1e39", "-3.5e38"):
+                yield (f"{f.section}.{f.name} = {x} (no float32)", *_set(base, f, x))
 
 
 def relations() -> Iterator[tuple[str, str, str | None]]:
@@ -234,3 +242,85 @@ def test_wrong_units_message_reads_as_english() -> None:
                                           r"for an accelerometer channel \(m/s\^2\): use "
                                           r"bias_m_s2$"):
         parse_config(text)
+
+
+# ------------------------------------------------------------------ the hostile corpus
+# tests/data/config_corpus: valid and invalid files (TOML 1.0 forms the format reads, what
+# TOML refuses, what the format refuses, encodings, NUL bytes, nesting, duplicate tables,
+# float32 limits), each with its expected verdict in expected.json: "ok", the key the error
+# must name, or for an error of the whole file its reason ("not valid TOML", "not a UTF-8
+# text file", after the file's name). Both readers must give exactly that.
+CORPUS = ROOT / "tests" / "data" / "config_corpus"
+EXPECTED: dict[str, str] = __import__("json").loads((CORPUS / "expected.json").read_text())
+FILE_ERRORS = ("not valid TOML", "not a UTF-8 text file")
+
+
+def _verdict(path: Path, message: str | None) -> str:
+    """'ok', the key named, or the reason of an error of the whole file."""
+    if message is None:
+        return "ok"
+    prefix = f"{path}: "
+    assert message.startswith(prefix), message
+    rest = message[len(prefix):]
+    for reason in FILE_ERRORS:
+        if rest.startswith(reason):
+            return reason
+    assert "\n" not in rest, message  # one line
+    return rest.split(": ", 1)[0]
+
+
+def test_corpus_is_complete() -> None:
+    files = {p.name for p in CORPUS.glob("*.toml")}
+    assert files == set(EXPECTED)
+    verdicts = list(EXPECTED.values())
+    assert verdicts.count("ok") >= 15 and verdicts.count("not valid TOML") >= 40
+    assert len([v for v in verdicts if v not in ("ok", *FILE_ERRORS)]) >= 30
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_corpus_python_reader(name: str) -> None:
+    from gyrodrift.imu.config import load_config
+
+    path = CORPUS / name
+    try:
+        load_config(path)
+        message = None
+    except ConfigError as exc:
+        message = f"{path}: {exc}" if not str(exc).startswith(str(path)) else str(exc)
+    assert _verdict(path, message) == EXPECTED[name], message
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_corpus_loop_reader(name: str, loop_check: Path) -> None:
+    path = CORPUS / name
+    r = subprocess.run([str(loop_check), "--check-config", str(path)], capture_output=True,
+                       text=True, timeout=20)
+    if r.returncode == 0:
+        assert r.stdout.strip() == f"{path}: ok", r.stdout
+        message = None
+    else:
+        assert r.returncode == 2, r.stderr
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1, r.stderr  # one line, never a trace
+        message = lines[0].removeprefix("gyrodrift-loop: error: ")
+    assert _verdict(path, message) == EXPECTED[name], message
+
+
+@pytest.mark.parametrize("name,needle", [
+    ("toml_deep_array.toml", "not valid TOML: tables or arrays nested deeper than 128"),
+    ("toml_deep_inline_table.toml", "not valid TOML: tables or arrays nested deeper than 128"),
+    ("f32_r_underflow.toml", "channels.gx.stages[1].r: 1e-50 does not fit a float32"),
+])
+def test_config_command_refuses_in_one_line(name: str, needle: str, tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    # `config validate` on 5000-deep arrays raised RecursionError; `emit-cpp` wrote r = 0.0f.
+    from gyrodrift.cli import main
+
+    path = CORPUS / name
+    assert main(["config", "validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("gyrodrift config: error: ") and needle in err
+    assert err.count("\n") == 1, err
+    out = tmp_path / "h.hpp"
+    assert main(["config", "emit-cpp", str(path), "-o", str(out)]) == 2
+    assert needle in capsys.readouterr().err and not out.exists()

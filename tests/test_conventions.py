@@ -40,7 +40,7 @@ SHARED_FLAGS: dict[str, str] = {
     "--no-select": r"term",
     "--can-signals": r"signal map|DBC", "--accel-units": r"units of the accelerometer",
     "--column-channels": r"channel of each data column", "--time-column": r"time column",
-    "--topic": r"topic",
+    "--topic": r"topic", "--time-units": r"units of the time column",
     "--self-check": r"self-check.*does not describe",
 }
 # Flags that name one subcommand's own concept (no other subcommand has the concept).
@@ -49,7 +49,7 @@ OWN_FLAGS: dict[str, set[str]] = {
     "replay": {"--transport", "--device", "--speed", "--fast", "--baud", "--can-bitrate",
                "--no-link-pacing", "--loop-rate-hz", "--loop-binary", "--no-rt", "--fault-drop",
                "--fault-corrupt", "--fault-duplicate", "--fault-reorder", "--fault-delay",
-               "--fault-delay-s"},
+               "--fault-delay-s", "--target"},
     "simulate": {"--samples"},
     "filter": {"--filter", "--core"},
     "allan": {"--taus-per-decade", "--noise-id", "--deviation", "--curve"},

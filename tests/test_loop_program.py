@@ -84,8 +84,8 @@ def _frames(n: int, seq0: int = 0, rate_hz: float = 1000.0) -> tuple[bytes, np.n
 
 
 def test_argument_errors_exit_2(loop_bin: Path, tmp_path: Path) -> None:
-    # A file the reader accepts (its checks are in double) but the float processor refuses:
-    # r = 1e-300 is 0 in float.
+    # A value valid as a double but not as the float processor's float32 (r = 1e-300 is 0 in
+    # float): the reader refuses it, naming the key, before any processor is built.
     from gyrodrift.imu.config import default_config, dumps_config
 
     tiny = tmp_path / "tiny_r.toml"
@@ -94,24 +94,35 @@ def test_argument_errors_exit_2(loop_bin: Path, tmp_path: Path) -> None:
         ([], "exactly one of"),
         (["--serial", "fd:0", "--rate-hz", "1000"], "the rates come from the configuration"),
         (["--serial", "fd:0", "--sample-rate-hz", "400"], "the rates come from the configuration"),
+        (["--serial", "fd:0", "--sample-rate-hz", "1e-300"],
+         "the rates come from the configuration"),
         (["--serial", "fd:0", "--gyro-filter", "pass_through"], "comes from --config FILE"),
         (["--serial", "fd:0", "--stuck-samples", "5"], "comes from --config FILE"),
         (["--serial", "/nonexistent/tty"], "cannot open serial device"),
         (["--serial", "fd:0", "--config", str(tmp_path / "none.toml")],
          "cannot read the configuration"),
-        (["--serial", "fd:0", "--config", str(tiny)], "channels.gx: invalid processor"),
+        (["--serial", "fd:0", "--config", str(tiny)],
+         "channels.gx.stages[1].r: 1e-300 does not fit a float32"),
         (["--serial", "fd:0", "--bogus"], "unknown argument"),
         (["--serial", "fd:0", "--config"], "--config needs a value"),
         (["--serial", "fd:999"], "not open"),
         (["--check-config", str(tiny), "--serial", "fd:0"], "takes no other option"),
+        # every numeric option is range-checked
+        (["--serial", "fd:0", "--duration-s", "1e300"], "bad --duration-s (0..1e9)"),
+        (["--serial", "fd:0", "--duration-s", "-1"], "bad --duration-s (0..1e9)"),
+        (["--serial", "fd:0", "--idle-exit-s", "1e300"], "bad --idle-exit-s (0..1e9)"),
+        (["--serial", "fd:0", "--idle-exit-s", "nan"], "bad --idle-exit-s (0..1e9)"),
+        (["--serial", "fd:0", "--baud", "-9600"], "bad --baud (50..4000000)"),
+        (["--serial", "fd:0", "--baud", "1e300"], "bad --baud (50..4000000)"),
+        (["--serial", "fd:0", "--rt-priority", "1000"], "bad --rt-priority (1..99)"),
+        (["--serial", "fd:0", "--max-bytes-per-cycle", "1e300"], "bad --max-bytes-per-cycle"),
     ):
         r = subprocess.run([str(loop_bin), *args], capture_output=True, timeout=10, text=True)
         assert r.returncode == 2, args
         assert needle in r.stderr and r.stderr.count("\n") == 1, (args, r.stderr)
-    # The reader alone accepts it (--check-config: no processor, no device).
     r = subprocess.run([str(loop_bin), "--check-config", str(tiny)], capture_output=True,
                        timeout=10, text=True)
-    assert (r.returncode, r.stdout) == (0, f"{tiny}: ok\n"), r.stderr
+    assert r.returncode == 2 and "channels.gx.stages[1].r: 1e-300" in r.stderr, r.stderr
 
 
 def test_socketcan_unavailable_is_a_clear_error(loop_bin: Path) -> None:
@@ -184,15 +195,18 @@ def _crc(body: bytes) -> int:
 
 def test_sigterm_prints_statistics(loop_bin: Path, pass_args: list[str]) -> None:
     loop = Loop(loop_bin, "--serial", *pass_args)
-    time.sleep(0.2)
+    t0 = time.monotonic()
+    time.sleep(0.5)
     loop.proc.send_signal(signal.SIGTERM)
     out, _ = loop.proc.communicate(timeout=10)
+    elapsed_s = time.monotonic() - t0
     os.close(loop.fd)
     stats = json.loads(out)
     assert stats["end_reason"] == "signal"
     assert stats["frames_in"] == 0
-    # ~200 cycles at 1 kHz in 0.2 s; loose bound for a shared machine.
-    assert stats["cycles"] >= 50
+    # The loop ran (at least one 1 kHz cycle in 0.5 s, however loaded the machine) and never
+    # more cycles than the time allows: no rate window, which a loaded machine cannot keep.
+    assert 1 <= stats["cycles"] <= 1000.0 * elapsed_s + 2
     for key in ("period_jitter_us", "wake_latency_us", "compute_us", "sample_us"):
         assert set(stats[key]) == {"n", "p50", "p99", "max"}
     assert stats["realtime"]["sched_error"] == "not requested (--no-rt)"

@@ -136,3 +136,56 @@ TEST_CASE("multiplexed assembly, counter unwrap, accounting") {
   CHECK(a.stats().foreign_frames == 20U);
   check_accounting(a);
 }
+
+TEST_CASE("a page the DBC does not define decodes nothing, counted (cantools' rule)") {
+  // Message 0x40: gx..az outside the multiplexer (bytes 1..6), selector byte 0 with pages
+  // 0 and 2 defined; a frame with selector 1 or 7 decodes nothing, even the plain signals.
+  SignalTable<> table;
+  const char* lines[] = {"pages 0x40 0 8 0:8:le:0,2", "gx 0x40 0 8 8 8 le u 1 0 1 -",
+                         "gy 0x40 0 8 16 8 le u 1 0 1 -", "gz 0x40 0 8 24 8 le u 1 0 1 -",
+                         "ax 0x40 0 8 32 8 le u 1 0 1 -", "ay 0x40 0 8 40 8 le u 1 0 1 -",
+                         "az 0x40 0 8 48 8 le u 1 0 1 -"};
+  for (const char* l : lines) {
+    SignalEntry e;
+    PageSet p;
+    const char* err = "";
+    const LineResult r = parse_table_line(l, e, p, &err);
+    REQUIRE(r != LineResult::kError);
+    if (r == LineResult::kPages) REQUIRE(table.add_pages(p));
+    else REQUIRE(table.add(e));
+  }
+  SignalSampleAssembler<> a(table);
+  SignalSample s;
+  int samples = 0;
+  for (std::uint8_t k = 0; k < 110; ++k) {
+    const std::uint8_t page = k < 100 ? static_cast<std::uint8_t>(2U * (k % 2U)) : (k % 2U ? 1U : 7U);
+    if (a.push(frame(0x40, {page, k, 2, 3, 4, 5, 6, 0}), s)) {
+      ++samples;
+      CHECK(s.values[0] == static_cast<float>(k));
+    }
+  }
+  a.finish();
+  CHECK(samples == 100);
+  CHECK(a.stats().undefined_page_frames == 10U);
+  CHECK(a.stats().ignored_frames == 10U);
+  check_accounting(a);
+}
+
+TEST_CASE("table lines whose signal cannot fit the frame are refused") {
+  SignalEntry e;
+  PageSet p;
+  const char* err = "";
+  // 32 bits from bit 0 in a 2-byte message; Motorola 16 bits ending past byte 3 of 4.
+  CHECK(parse_signal_line("gx 0x10 0 2 0 32 le f32 1 0 1 -", e, &err) == LineResult::kError);
+  CHECK(std::string(err).find("does not fit") != std::string::npos);
+  CHECK(parse_signal_line("gx 0x10 0 4 31 16 be s 1 0 1 -", e, &err) == LineResult::kError);
+  CHECK(parse_signal_line("gx 0x10 0 4 23 16 be s 1 0 1 -", e, &err) == LineResult::kEntry);
+  CHECK(parse_signal_line("gx 0x10 0 2 0 8 le u 1 0 1 20:8:le:0", e, &err) == LineResult::kError);
+  CHECK(parse_table_line("pages 0x10 0 2 16:8:le:0,1", e, p, &err) == LineResult::kError);
+  CHECK(parse_table_line("pages 0x10 0 8 0:8:le:0,1 x", e, p, &err) == LineResult::kError);
+  REQUIRE(parse_table_line("pages 0x10 0 8 0:4:be:3,5,9", e, p, &err) == LineResult::kPages);
+  CHECK(p.n == 3U);
+  CHECK(p.values[2] == 9U);
+  // CAN FD lengths are not classic CAN: refused as a DLC.
+  CHECK(parse_signal_line("gx 0x10 0 64 0 8 le u 1 0 1 -", e, &err) == LineResult::kError);
+}

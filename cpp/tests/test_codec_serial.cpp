@@ -165,3 +165,21 @@ TEST_CASE("parser: a frame cut short by any number of bytes loses only itself") 
     }
   }
 }
+
+TEST_CASE("health request and report frames are valid frames; other types are bad headers") {
+  std::vector<std::uint8_t> s;
+  for (const std::uint8_t type : {serial::kTypeHealthRequest, serial::kTypeHealthReport, std::uint8_t{0x03}}) {
+    ImuFrame f = frame(7);
+    f.type = type;
+    const auto b = encode(f);  // any type, with a matching CRC: only 0x03 is refused
+    s.insert(s.end(), b.begin(), b.end());
+  }
+  serial::SerialFrameParser<256> p;
+  const auto frames = parse_all(p, s, 42);
+  REQUIRE(frames.size() == 2);
+  CHECK(frames[0].type == serial::kTypeHealthRequest);
+  CHECK(frames[1].type == serial::kTypeHealthReport);
+  CHECK(frames[1].t_us == frame(7).t_us);
+  CHECK(p.stats().bad_header == 1);
+  check_accounting(p);
+}

@@ -14,6 +14,8 @@ __all__ = [
     "PREFILTER_THRESHOLD",
     "PREFILTER_WAVELET",
     "PREFILTER_WINDOW",
+    "RATE_MAX_HZ",
+    "RATE_MIN_HZ",
 ]
 
 #: The IMU sample rate assumed when none is given, Hz: the shipped processor configuration's,
@@ -28,3 +30,9 @@ PREFILTER_WAVELET = "db4"
 PREFILTER_WINDOW = 256
 PREFILTER_LEVEL = 5
 PREFILTER_THRESHOLD = "forced"
+
+#: The sample rates a record may have, Hz, given (``--rate-hz``) or read from a file (a time
+#: column, a log's timestamps, a header): outside them the analyses' fits overflow, and a
+#: rate read from a file outside them means time in other units than assumed.
+RATE_MIN_HZ = 1e-6
+RATE_MAX_HZ = 1e9

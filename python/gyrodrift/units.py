@@ -28,6 +28,7 @@ __all__ = [
     "ARCSEC",
     "DEFAULT_ACCEL_UNITS",
     "DEFAULT_GYRO_UNITS",
+    "DEFAULT_TIME_UNITS",
     "DEG",
     "DPH",
     "DPSH",
@@ -37,6 +38,7 @@ __all__ = [
     "RAD_TO_DEG",
     "RATE_UNITS",
     "TERM_UNITS",
+    "TIME_UNITS",
     "UG",
     "RateUnit",
     "TermUnit",
@@ -96,6 +98,11 @@ ACCEL_INPUT_UNITS: tuple[str, ...] = (*ACCEL_UNITS, *ACCEL_INCREMENT_UNITS)
 DEFAULT_GYRO_UNITS: str | None = None
 #: The command line's default ``--accel-units``: none, for the same reason.
 DEFAULT_ACCEL_UNITS: str | None = None
+#: Units a text record's time column may be in -> factor to s (the choices of
+#: ``--time-units``; logs and bags carry their own time base).
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+#: The default ``--time-units``: seconds.
+DEFAULT_TIME_UNITS = "s"
 
 
 class TermUnit(NamedTuple):

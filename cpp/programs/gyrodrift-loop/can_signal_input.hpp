@@ -34,10 +34,14 @@ class UserCanInput {
         break;
       }
       can::SignalEntry e;
+      can::PageSet pages;
       const char* what = "";
-      const can::LineResult r = can::parse_signal_line(line, e, &what);
+      const can::LineResult r = can::parse_table_line(line, e, pages, &what);
       if (r == can::LineResult::kError) {
         error = path + ":" + std::to_string(line_no) + ": bad " + what;
+        ok = false;
+      } else if (r == can::LineResult::kPages && !table_.add_pages(pages)) {
+        error = path + ":" + std::to_string(line_no) + ": pages of one message given twice";
         ok = false;
       } else if (r == can::LineResult::kEntry && !table_.add(e)) {
         error = path + ":" + std::to_string(line_no) + ": role mapped twice";

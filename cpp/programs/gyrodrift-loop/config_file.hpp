@@ -2,24 +2,31 @@
 // `gyrodrift-loop --config FILE` and `--check-config FILE`, and the built-in default
 // configuration (config_schema::kDefaultConfigToml) read by the same code.
 //
-// Every field is read through its FieldSpec (include/gyrodrift/imu/config_schema.hpp,
-// generated from python/gyrodrift/imu/schema.py): required or its default (an optional field
-// without a default is derived, as its help says), its kind, its bounds, with the error
-// "<key>: expected <bounds_text>, got <value>" naming the same key as the Python reader
-// (gyrodrift/imu/config.py). The relations between fields (AR(2) stationarity, the wavelet
-// level for the wavelet and window, the stage combinations) and the wrong-units and
-// unknown-key errors follow the Python reader too (tests/test_config_schema.py,
-// tests/test_config_file.py).
+// The TOML is read by toml++ with the rules both readers add (toml_document.hpp). The reader
+// below is the twin of the Python reader (python/gyrodrift/imu/config.py: config_from_dict,
+// then validate), step for step and in the same order, so that both refuse the same files
+// naming the same first key (tests/test_config_schema.py, tests/data/config_corpus): first
+// the structure (schema, version, meta, timing, the channels and their stages, each table's
+// unknown keys in sorted order), then the values: every field through its FieldSpec
+// (include/gyrodrift/imu/config_schema.hpp, generated from python/gyrodrift/imu/schema.py;
+// a float32 field must fit a float32 and its bounds hold for the rounded value), the
+// relations between fields (AR(2) stationarity in double and in float32, the wavelet level
+// for the wavelet and window, the stage combinations), then the timing.
 //
 // Program code (standard library allowed): the header-only core stays free of parsing.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <set>
+#include <vector>
 #include <sstream>
 #include <string>
 
@@ -28,7 +35,7 @@
 #include <gyrodrift/imu/config_schema.hpp>
 #include <gyrodrift/imu/imu_processor.hpp>
 
-#include "toml_subset.hpp"
+#include "toml_document.hpp"
 
 namespace gyrodrift::loop {
 
@@ -96,21 +103,6 @@ inline const char* kind_words(schema::FieldKind kind) {
   }
 }
 
-inline bool kind_ok(schema::FieldKind kind, const toml::Value& v) {
-  using K = toml::Value::Kind;
-  switch (kind) {
-    case schema::FieldKind::integer:
-      return v.kind == K::integer;
-    case schema::FieldKind::boolean:
-      return v.kind == K::boolean;
-    case schema::FieldKind::string:
-      return v.kind == K::string;
-    case schema::FieldKind::number:
-    default:
-      return v.kind == K::integer || v.kind == K::floating;
-  }
-}
-
 inline bool in_choices(const char* choices, const std::string& s) {
   std::string rest = choices;
   for (std::size_t bar = 0; bar != std::string::npos; rest.erase(0, bar + 1)) {
@@ -120,21 +112,24 @@ inline bool in_choices(const char* choices, const std::string& s) {
   return false;
 }
 
-// The field's own bounds (relations between fields are checked apart), as
-// gyrodrift.imu.schema.Field.accepts.
-inline bool accepts(const schema::FieldSpec& f, const toml::Value& v) {
-  if (f.choices[0] != '\0') return in_choices(f.choices, v.s);
-  if (f.kind == schema::FieldKind::boolean || f.kind == schema::FieldKind::string) return true;
-  const double x = v.d;
-  if (std::isnan(x) || (f.finite && std::isinf(x))) return false;
-  if (f.lo_open ? x <= f.lo : x < f.lo) return false;
-  if (f.hi_open ? x >= f.hi : x > f.hi) return false;
-  if (f.power_of_two) return v.i > 0 && (v.i & (v.i - 1)) == 0;
+// x rounded to float32 as the processors hold it; false when a nonzero value does not fit
+// (overflows, or rounds to zero or a subnormal): gyrodrift.imu.schema.to_float32.
+inline bool to_float32(double x, double& out) {
+  if (x == 0.0 || std::isinf(x) || std::isnan(x)) {
+    out = x;
+    return true;
+  }
+  // |x| at or beyond the midpoint between FLT_MAX and 2^128 rounds to infinity.
+  const double overflow = std::ldexp(1.0, 128) - std::ldexp(1.0, 103);
+  if (std::fabs(x) >= overflow) return false;
+  const float y = static_cast<float>(x);
+  if (std::fabs(y) < std::numeric_limits<float>::min()) return false;
+  out = static_cast<double>(y);
   return true;
 }
 
-// A field's value: from the file, or the field's default; `given` false: absent and without a
-// default (derived, as the field's help says).
+// A field's value as read: absent (given false; the default applied later where it has one)
+// or the file's value, already of the field's kind.
 struct FieldValue {
   bool given = false;
   double number = 0.0;    // number and integer fields
@@ -143,374 +138,487 @@ struct FieldValue {
   std::string text;  // string fields
 };
 
-// Reads the document's keys table by table and remembers which it read: what nothing read is
-// an unknown key.
-class Reader {
- public:
-  explicit Reader(const toml::Doc& doc) : doc_(doc) {}
+// The field's own bounds: gyrodrift.imu.schema.Field.accepts (a float32 field: the rounded
+// value).
+inline bool accepts(const schema::FieldSpec& f, const FieldValue& v) {
+  if (f.choices[0] != '\0') return in_choices(f.choices, v.text);
+  if (f.kind == schema::FieldKind::boolean || f.kind == schema::FieldKind::string) return true;
+  double x = v.number;
+  if (std::isnan(x) || (f.finite && std::isinf(x))) return false;
+  double lo = f.lo, hi = f.hi;
+  if (f.float32) {  // the rounded value against the rounded bounds
+    if (!to_float32(v.number, x)) return false;
+    to_float32(f.lo, lo);  // the schema's bounds fit a float32 (or are infinite)
+    to_float32(f.hi, hi);
+  }
+  if (f.lo_open ? x <= lo : x < lo) return false;
+  if (f.hi_open ? x >= hi : x > hi) return false;
+  if (f.power_of_two) return v.integer > 0 && (v.integer & (v.integer - 1)) == 0;
+  return true;
+}
 
-  // Field `f` of `table` ("timing", "channels.gx", "channels.gx.stages[1]"; `channel` names the
-  // channel for the unit suffix, "" outside one). `own_bounds` false: the caller checks the
-  // value (a bound that depends on other fields).
-  bool field(const schema::FieldSpec& f, const std::string& table, const std::string& channel, FieldValue& out,
-             std::string& err, bool own_bounds = true) {
-    out = FieldValue{};
-    const std::string name = std::string(f.name) + (f.channel_unit ? unit_suffix(channel) : "");
-    const std::string key = table + "." + name;
-    if (f.channel_unit && wrong_units(table, f.name, channel, err)) return false;
-    const auto it = doc_.values.find(key);
-    if (it == doc_.values.end()) {
-      if (f.required) {
-        err = key + ": missing value";
-        return false;
-      }
-      if (f.has_default) set_default(f, out);
-      return true;
-    }
-    used_.insert(key);
-    const toml::Value& v = it->second;
-    if (!kind_ok(f.kind, v)) {
-      err = key + ": expected " + kind_words(f.kind) + ", got " + toml::repr(v);
+inline std::string repr(const schema::FieldSpec& f, const FieldValue& v) {
+  switch (f.kind) {
+    case schema::FieldKind::integer:
+      return std::to_string(v.integer);
+    case schema::FieldKind::boolean:
+      return v.boolean ? "True" : "False";
+    case schema::FieldKind::string:
+      return tomldoc::repr_string(v.text);
+    case schema::FieldKind::number:
+    default:
+      return tomldoc::repr_number(v.number);
+  }
+}
+
+// gyrodrift.imu.config._check_field: a field's own bounds, in the words both readers use.
+inline bool check_field(const std::string& key, const schema::FieldSpec& f, const FieldValue& v, std::string& err) {
+  if (!v.given) return true;  // absent: its default, within its bounds, or derived
+  double rounded = 0.0;
+  if (f.float32 && f.kind == schema::FieldKind::number && !to_float32(v.number, rounded)) {
+    err = key + ": " + tomldoc::repr_number(v.number) +
+          " does not fit a float32, the processor's scalar (a magnitude 1.1754944e-38..3.4028235e+38, or 0)";
+    return false;
+  }
+  if (!accepts(f, v)) {
+    err = key + ": expected " + f.bounds_text + ", got " + repr(f, v);
+    return false;
+  }
+  return true;
+}
+
+// A TOML table read key by key (gyrodrift.imu.config._Table): what nothing read is an unknown
+// key, reported in sorted key order.
+class Table {
+ public:
+  // `node` null: the caller reported it missing. False (with err) if it is not a table.
+  bool open(const std::string& key, const toml::node* node, std::string& err) {
+    key_ = key;
+    table_ = node == nullptr ? nullptr : node->as_table();
+    if (table_ == nullptr) {
+      err = key + ": expected a table, got " + (node == nullptr ? "None" : tomldoc::type_name(*node));
       return false;
     }
-    if (own_bounds && !accepts(f, v)) {
-      err = key + ": expected " + f.bounds_text + ", got " + toml::repr(v);
-      return false;
-    }
-    out.given = true;
-    out.number = v.d;
-    out.integer = v.i;
-    out.boolean = v.b;
-    out.text = v.s;
     return true;
   }
 
-  // A required string that is not a schema field (schema, a stage's type).
-  bool text(const std::string& key, std::string& out, std::string& err) {
-    const toml::Value* v = required(key, toml::Value::Kind::string, "a string", err);
-    if (v != nullptr) out = v->s;
-    return v != nullptr;
-  }
+  std::string k(const std::string& name) const { return key_.empty() ? name : key_ + "." + name; }
+  bool has(const std::string& name) const { return table_->contains(name); }
+  const toml::table& data() const { return *table_; }
 
-  // A required integer that is not a schema field (version).
-  bool integer(const std::string& key, long long& out, std::string& err) {
-    const toml::Value* v = required(key, toml::Value::Kind::integer, "an integer", err);
-    if (v != nullptr) out = v->i;
-    return v != nullptr;
-  }
-
-  // Marks every key under `prefix` read (free-form tables such as [meta]).
-  void skip(const std::string& prefix) {
-    for (const auto& kv : doc_.values) {
-      if (kv.first.rfind(prefix, 0) == 0) used_.insert(kv.first);
+  // The node of `name`, marked read; null (and "missing value") if absent.
+  const toml::node* any(const std::string& name, std::string& err) {
+    const toml::node* n = table_->get(name);
+    if (n == nullptr) {
+      err = k(name) + ": missing value";
+      return nullptr;
     }
+    used_.insert(name);
+    return n;
   }
 
-  // The first key directly in `table` that nothing read: unknown, or (in a channel's tables)
-  // a key with another unit's suffix.
-  bool unread_key(const std::string& table, const std::string& channel, std::string& err) const {
-    const std::string prefix = table + ".";
-    for (const auto& kv : doc_.values) {
-      if (kv.first.rfind(prefix, 0) != 0 || used_.count(kv.first) != 0) continue;
-      const std::string name = kv.first.substr(prefix.size());
-      err = kv.first + ": unknown key";
-      if (channel.empty()) return true;
-      for (const char* suffix : kOtherSuffixes) {
-        if (ends_with(name, suffix) && suffix != unit_suffix(channel)) {
-          err = kv.first + ": " + wrong_units_message(name.substr(0, name.size() - std::strlen(suffix)), channel);
-          return true;
+  // A value of `kind`; `required` false: absent gives given = false.
+  bool get(const std::string& name, schema::FieldKind kind, bool required, FieldValue& out, std::string& err) {
+    out = FieldValue{};
+    const toml::node* n = table_->get(name);
+    if (n == nullptr) {
+      if (!required) return true;
+      err = k(name) + ": missing value";
+      return false;
+    }
+    used_.insert(name);
+    const std::string key = k(name);
+    if (n->is_table() || n->is_array()) {
+      err = key + ": expected " + kind_words(kind) + ", got " + tomldoc::repr(*n);
+      return false;
+    }
+    switch (kind) {
+      case schema::FieldKind::number:
+        if (const auto* i = n->as_integer()) out.number = static_cast<double>(i->get());
+        else if (const auto* f = n->as_floating_point()) out.number = f->get();
+        else return err = key + ": expected a number, got " + tomldoc::repr(*n), false;
+        break;
+      case schema::FieldKind::integer:
+        if (const auto* i = n->as_integer()) {
+          out.integer = i->get();
+          out.number = static_cast<double>(out.integer);
+        } else {
+          return err = key + ": expected an integer, got " + tomldoc::repr(*n), false;
+        }
+        break;
+      case schema::FieldKind::boolean:
+        if (const auto* b = n->as_boolean()) out.boolean = b->get();
+        else return err = key + ": expected true or false, got " + tomldoc::repr(*n), false;
+        break;
+      case schema::FieldKind::string:
+      default:
+        if (const auto* s = n->as_string()) out.text = s->get();
+        else return err = key + ": expected a string, got " + tomldoc::repr(*n), false;
+        break;
+    }
+    out.given = true;
+    return true;
+  }
+
+  // The first key (sorted) nothing read: unknown, or in a channel's tables a key with
+  // another unit's suffix.
+  bool finish(const std::string& channel, std::string& err) const {
+    for (const auto& kv : *table_) {
+      const std::string name(kv.first.str());
+      if (used_.count(name) != 0) continue;
+      if (!channel.empty()) {
+        const std::string want = unit_suffix(channel);
+        for (const char* suffix : kOtherSuffixes) {
+          if (ends_with(name, suffix) && want != suffix) {
+            err = k(name) + ": " + wrong_units_message(name.substr(0, name.size() - std::strlen(suffix)), channel);
+            return false;
+          }
         }
       }
-      return true;
+      err = k(name) + ": unknown key";
+      return false;
     }
-    return false;
+    return true;
   }
 
-  // The first key of the whole document that nothing read.
-  bool unread_key(std::string& err) const {
-    for (const auto& kv : doc_.values) {
-      if (used_.count(kv.first) == 0) {
-        err = kv.first + ": unknown key";
-        return true;
-      }
+  // `base` given with another unit's suffix (and not with this channel's): the wrong-units
+  // error for that key, rather than "missing value" (_wrong_unit_key).
+  bool wrong_units(const std::string& base, const std::string& channel, std::string& err) const {
+    const std::string want = unit_suffix(channel);
+    if (table_->contains(base + want)) return false;
+    for (const char* suffix : kOtherSuffixes) {
+      if (want == suffix || !table_->contains(base + suffix)) continue;
+      err = k(base + suffix) + ": " + wrong_units_message(base, channel);
+      return true;
     }
     return false;
   }
 
  private:
-  static void set_default(const schema::FieldSpec& f, FieldValue& out) {
-    out.given = true;
-    out.text = f.default_text;
-    if (f.kind == schema::FieldKind::boolean) out.boolean = f.default_value != 0.0;
-    else out.number = f.default_value;
-    if (f.kind == schema::FieldKind::integer) out.integer = static_cast<long long>(f.default_value);
-  }
-
-  const toml::Value* required(const std::string& key, toml::Value::Kind kind, const char* words, std::string& err) {
-    const auto it = doc_.values.find(key);
-    if (it == doc_.values.end()) {
-      err = key + ": missing value";
-      return nullptr;
-    }
-    used_.insert(key);
-    if (it->second.kind != kind) {
-      err = key + ": expected " + words + ", got " + toml::repr(it->second);
-      return nullptr;
-    }
-    return &it->second;
-  }
-
-  // `base` given with another unit's suffix (and not with this channel's): the wrong-units
-  // error for that key, rather than "missing value".
-  bool wrong_units(const std::string& table, const std::string& base, const std::string& channel,
-                   std::string& err) const {
-    const std::string want = unit_suffix(channel);
-    if (doc_.values.count(table + "." + base + want) != 0) return false;
-    for (const char* suffix : kOtherSuffixes) {
-      const std::string key = table + "." + base + suffix;
-      if (want == suffix || doc_.values.count(key) == 0) continue;
-      err = key + ": " + wrong_units_message(base, channel);
-      return true;
-    }
-    return false;
-  }
-
-  const toml::Doc& doc_;
+  std::string key_;
+  const toml::table* table_ = nullptr;
   std::set<std::string> used_;
 };
 
-inline bool stage_type(const std::string& s, ChannelFilter& f) {
-  if (s == "pass_through") f = ChannelFilter::pass_through;
-  else if (s == "bias_removal") f = ChannelFilter::bias_removal;
-  else if (s == "ar2_kalman") f = ChannelFilter::ar2_kalman;
-  else if (s == "wavelet") f = ChannelFilter::wavelet;
-  else return false;
+// The fields of one section as read (by their FieldSpec), in the schema's order.
+struct Section {
+  std::vector<const schema::FieldSpec*> specs;
+  std::vector<FieldValue> values;
+  const FieldValue& operator[](const schema::FieldSpec& f) const {
+    for (std::size_t i = 0; i < specs.size(); ++i) {
+      if (specs[i] == &f) return values[i];
+    }
+    static const FieldValue kNone{};
+    return kNone;
+  }
+  // The value, or the field's default where it has one (given false: derived).
+  FieldValue value(const schema::FieldSpec& f) const {
+    FieldValue v = (*this)[f];
+    if (v.given || !f.has_default) return v;
+    v.given = true;
+    v.text = f.default_text;
+    v.boolean = f.default_value != 0.0;
+    v.number = f.default_value;
+    v.integer = static_cast<long long>(f.default_value);
+    return v;
+  }
+};
+
+// gyrodrift.imu.config._read_fields: a section's fields from table `t`.
+inline bool read_fields(Table& t, const std::string& section, const std::string& ch, Section& out, std::string& err) {
+  out = Section{};
+  for (const schema::FieldSpec* f : schema::kFields) {
+    if (section != f->section) continue;
+    if (f->channel_unit && t.wrong_units(f->name, ch, err)) return false;
+    const std::string name = std::string(f->name) + (f->channel_unit ? unit_suffix(ch) : "");
+    FieldValue v;
+    if (!t.get(name, f->kind, f->required, v, err)) return false;
+    out.specs.push_back(f);
+    out.values.push_back(v);
+  }
   return true;
 }
 
-inline const char* stage_name(ChannelFilter f) {
-  switch (f) {
-    case ChannelFilter::bias_removal:
-      return "bias_removal";
-    case ChannelFilter::ar2_kalman:
-      return "ar2_kalman";
-    case ChannelFilter::wavelet:
-      return "wavelet";
-    case ChannelFilter::pass_through:
-    default:
-      return "pass_through";
-  }
+inline std::string field_key(const std::string& table, const schema::FieldSpec& f, const std::string& ch) {
+  return table + "." + f.name + (f.channel_unit ? unit_suffix(ch) : "");
 }
 
-// ---------------------------------------------------------------- one section each
+struct StageRead {
+  std::string type;
+  Section fields;
+};
 
-inline bool read_header(Reader& rd, const toml::Doc& doc, std::string& err) {
-  std::string schema_name;
-  long long version = 0;
-  if (!rd.text("schema", schema_name, err)) return false;
-  if (schema_name != schema::kSchema) {
-    err = std::string("schema: expected '") + schema::kSchema + "', got '" + schema_name + "'";
+struct ChannelRead {
+  Section fields;
+  std::vector<StageRead> stages;
+};
+
+inline const char* const kStageTypes[] = {"pass_through", "bias_removal", "wavelet", "ar2_kalman"};
+
+inline bool read_stage(const std::string& key, const std::string& ch, const toml::node& node, StageRead& st,
+                       std::string& err) {
+  Table t;
+  if (!t.open(key, &node, err)) return false;
+  FieldValue type;
+  if (!t.get("type", schema::FieldKind::string, true, type, err)) return false;
+  bool known = false;
+  for (const char* name : kStageTypes) known = known || type.text == name;
+  if (!known) {
+    err = key + ".type: expected one of pass_through, bias_removal, wavelet, ar2_kalman, got " +
+          tomldoc::repr_string(type.text);
     return false;
   }
-  if (!rd.integer("version", version, err)) return false;
-  if (version != schema::kVersion) {
-    err = "version: this gyrodrift-loop reads version " + std::to_string(schema::kVersion) + ", got " +
-          std::to_string(version);
-    return false;
+  st.type = type.text;
+  return read_fields(t, st.type, ch, st.fields, err) && t.finish(ch, err);
+}
+
+inline bool ar2_stationary(double a1, double a2) { return std::fabs(a2) < 1.0 && a1 + a2 < 1.0 && a2 - a1 < 1.0; }
+
+// gyrodrift.imu.config._check_stage.
+inline bool check_stage(const std::string& key, const std::string& ch, const StageRead& s, std::string& err) {
+  for (const schema::FieldSpec* f : schema::kFields) {
+    if (s.type != f->section) continue;
+    const FieldValue v = s.fields.value(*f);
+    if (f == &schema::kWaveletLevel) {
+      const FieldValue wavelet = s.fields.value(schema::kWaveletWavelet);
+      const FieldValue window = s.fields.value(schema::kWaveletWindow);
+      const WaveletKind kind = wavelet.text == "db8" ? WaveletKind::db8 : WaveletKind::db4;
+      const int jmax = realtime_wavelet_max_level(static_cast<std::size_t>(window.integer), kind);
+      if (v.integer < 1 || v.integer > jmax) {
+        err = key + ".level: expected 1.." + std::to_string(jmax) + " for " + wavelet.text + " with window " +
+              std::to_string(window.integer) + ", got " + std::to_string(v.integer);
+        return false;
+      }
+      continue;
+    }
+    if (!check_field(field_key(key, *f, ch), *f, v, err)) return false;
   }
-  if (doc.values.count("meta") != 0) {
-    err = "meta: expected a table";
-    return false;
+  if (s.type == "ar2_kalman") {
+    const double a1 = s.fields.value(schema::kAr2KalmanA1).number;
+    const double a2 = s.fields.value(schema::kAr2KalmanA2).number;
+    if (!ar2_stationary(a1, a2)) {
+      err = key + ".a1: AR(2) model is not stationary (a1=" + tomldoc::repr_number(a1) +
+            ", a2=" + tomldoc::repr_number(a2) + "; needs |a2| < 1, a1 + a2 < 1, a2 - a1 < 1)";
+      return false;
+    }
+    // The float32 processor's own test (ar2_is_stationary<float>), in float arithmetic.
+    const float one = 1.0F - 64.0F * std::numeric_limits<float>::epsilon();
+    const auto x1 = static_cast<float>(a1), x2 = static_cast<float>(a2);  // both fit: checked with the fields
+    if (!(x2 < one && x2 > -one && x1 + x2 < one && x2 - x1 < one)) {
+      err = key + ".a1: AR(2) model is not stationary in float32, the processor's scalar (a1=" +
+            tomldoc::repr_number(a1) + ", a2=" + tomldoc::repr_number(a2) +
+            "; in float32 |a2|, a1 + a2 and a2 - a1 must stay below 1 - 64 eps = " +
+            tomldoc::repr_number(static_cast<double>(one)) + ")";
+      return false;
+    }
   }
-  rd.skip("meta.");  // free-form (who wrote the file, from which record), not read
   return true;
 }
 
-// [timing]: the sample rate (the timestamps' nominal period), the timestamp tolerance
-// (absent: half a period) and the loop rate (absent: the sample rate).
-inline bool read_timing(Reader& rd, const toml::Doc& doc, FileConfig& fc, std::string& err) {
-  if (!doc.has_table("timing")) {
-    err = "timing: missing value";
-    return false;
+inline std::string type_list(const std::vector<StageRead>& stages) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < stages.size(); ++i) out += (i ? ", '" : "'") + stages[i].type + "'";
+  return out + "]";
+}
+
+// gyrodrift.imu.config.validate: channels, then timing, then the loop rate's relation.
+inline bool validate(const std::array<ChannelRead, kImuChannels>& chans, const Section& timing, std::string& err) {
+  for (std::size_t c = 0; c < kImuChannels; ++c) {
+    const std::string ch = schema::kChannelNames[c];
+    const std::string key = "channels." + ch;
+    const auto& stages = chans[c].stages;
+    const auto n = static_cast<int>(stages.size());
+    if (n < 1 || n > schema::kMaxStages) {
+      err = key + ".stages: expected 1.." + std::to_string(schema::kMaxStages) + " stages, got " + std::to_string(n);
+      return false;
+    }
+    bool pass = false;
+    for (const auto& s : stages) pass = pass || s.type == "pass_through";
+    if (pass && n > 1) {
+      err = key + ".stages: pass_through must be the only stage of a chain";
+      return false;
+    }
+    if (n > 1 && stages[0].type == stages[1].type) {
+      err = key + ".stages: at most one stage of each type, got " + type_list(stages);
+      return false;
+    }
+    for (int i = 0; i < n; ++i) {
+      if (!check_stage(key + ".stages[" + std::to_string(i) + "]", ch, stages[static_cast<std::size_t>(i)], err)) {
+        return false;
+      }
+    }
+    for (const schema::FieldSpec* f : schema::kFields) {
+      if (std::string(f->section) != "channel") continue;
+      if (!check_field(field_key(key, *f, ch), *f, chans[c].fields.value(*f), err)) return false;
+    }
   }
-  FieldValue sample_rate, tolerance, loop_rate;
-  if (!rd.field(schema::kTimingSampleRateHz, "timing", "", sample_rate, err) ||
-      !rd.field(schema::kTimingTimeToleranceUs, "timing", "", tolerance, err) ||
-      !rd.field(schema::kTimingLoopRateHz, "timing", "", loop_rate, err)) {
-    return false;
+  for (const schema::FieldSpec* f : schema::kFields) {
+    if (std::string(f->section) != "timing") continue;
+    if (!check_field(field_key("timing", *f, ""), *f, timing.value(*f), err)) return false;
   }
-  fc.sample_rate_hz = sample_rate.number;
-  const double period_us = 1e6 / fc.sample_rate_hz;
-  fc.imu.period_us = static_cast<std::uint32_t>(std::lround(period_us));
-  fc.imu.time_tolerance_us = static_cast<std::uint32_t>(tolerance.given ? tolerance.integer : std::lround(period_us / 2.0));
-  fc.loop_rate_hz = loop_rate.given ? loop_rate.number : fc.sample_rate_hz;
-  if (!loop_rate.given && fc.loop_rate_hz > schema::kTimingLoopRateHz.hi) {
+  const FieldValue loop = timing.value(schema::kTimingLoopRateHz);
+  const FieldValue rate = timing.value(schema::kTimingSampleRateHz);
+  if (!loop.given && !accepts(schema::kTimingLoopRateHz, rate)) {
     // Valid for the format, not for this program: its cycle runs at most at 2000 Hz.
     err = std::string("timing.") + schema::kTimingLoopRateHz.name + ": absent, so the sample rate " +
-          toml::repr_number(fc.loop_rate_hz) + " Hz, outside the loop's " + schema::kTimingLoopRateHz.bounds_text +
+          tomldoc::repr_number(rate.number) + " Hz, outside the loop's " + schema::kTimingLoopRateHz.bounds_text +
           ": give it";
     return false;
   }
-  return !rd.unread_key("timing", "", err);
-}
-
-inline bool read_bias_stage(Reader& rd, const std::string& st, const std::string& ch, ImuChannelConfig<float>& cc,
-                            std::string& err) {
-  FieldValue bias;
-  if (!rd.field(schema::kBiasRemovalBias, st, ch, bias, err)) return false;
-  cc.bias = static_cast<float>(bias.number);
   return true;
 }
 
-inline bool read_wavelet_stage(Reader& rd, const std::string& st, const std::string& ch, WaveletSpec& ws,
-                               std::string& err) {
-  FieldValue wavelet, window, level, threshold;
-  if (!rd.field(schema::kWaveletWavelet, st, ch, wavelet, err) || !rd.field(schema::kWaveletWindow, st, ch, window, err) ||
-      !rd.field(schema::kWaveletLevel, st, ch, level, err, /*own_bounds=*/false)) {
-    return false;
-  }
-  ws.kind = wavelet.text == "db8" ? WaveletKind::db8 : WaveletKind::db4;
-  ws.window = static_cast<std::size_t>(window.integer);
-  // The deepest level of the extended window 2N depends on the wavelet and the window.
-  const int jmax = realtime_wavelet_max_level(ws.window, ws.kind);
-  if (level.integer < 1 || level.integer > jmax) {
-    err = st + "." + schema::kWaveletLevel.name + ": expected 1.." + std::to_string(jmax) + " for " + wavelet.text +
-          " with window " + std::to_string(window.integer) + ", got " + std::to_string(level.integer);
-    return false;
-  }
-  ws.level = static_cast<int>(level.integer);
-  if (!rd.field(schema::kWaveletThreshold, st, ch, threshold, err)) return false;
-  ws.mode = threshold.text == "soft" ? WaveletMode::soft
-                                     : (threshold.text == "hard" ? WaveletMode::hard : WaveletMode::forced);
-  return true;
+inline ChannelFilter filter_of(const std::string& type) {
+  if (type == "bias_removal") return ChannelFilter::bias_removal;
+  if (type == "ar2_kalman") return ChannelFilter::ar2_kalman;
+  if (type == "wavelet") return ChannelFilter::wavelet;
+  return ChannelFilter::pass_through;
 }
 
-inline bool read_ar2_stage(Reader& rd, const std::string& st, const std::string& ch, ImuChannelConfig<float>& cc,
-                           std::string& err) {
-  FieldValue a1, a2, mean, sigma2, q, r, p0, steady_state;
-  if (!rd.field(schema::kAr2KalmanA1, st, ch, a1, err) || !rd.field(schema::kAr2KalmanA2, st, ch, a2, err) ||
-      !rd.field(schema::kAr2KalmanMean, st, ch, mean, err) || !rd.field(schema::kAr2KalmanSigma2, st, ch, sigma2, err) ||
-      !rd.field(schema::kAr2KalmanQ, st, ch, q, err) || !rd.field(schema::kAr2KalmanR, st, ch, r, err) ||
-      !rd.field(schema::kAr2KalmanP0, st, ch, p0, err) ||
-      !rd.field(schema::kAr2KalmanSteadyState, st, ch, steady_state, err)) {
-    return false;
-  }
-  const double x1 = a1.number, x2 = a2.number;
-  if (!(std::fabs(x2) < 1.0 && x1 + x2 < 1.0 && x2 - x1 < 1.0)) {
-    err = st + "." + schema::kAr2KalmanA1.name + ": AR(2) model is not stationary (a1=" + toml::repr_number(x1) +
-          ", a2=" + toml::repr_number(x2) + "; needs |a2| < 1, a1 + a2 < 1, a2 - a1 < 1)";
-    return false;
-  }
-  const double s2 = sigma2.given ? sigma2.number : q.number;  // absent: q
-  cc.model = Ar2Model<float>{static_cast<float>(x1), static_cast<float>(x2), static_cast<float>(s2),
-                             static_cast<float>(mean.number)};
-  cc.q = static_cast<float>(q.number);
-  cc.r = static_cast<float>(r.number);
-  cc.p0 = static_cast<float>(p0.number);
-  cc.steady_state = steady_state.boolean;
-  return true;
-}
-
-// One stage `st` ("channels.gx.stages[k]"): its type and its fields, nothing else.
-inline bool read_stage(Reader& rd, const std::string& st, const std::string& ch, ImuChannelConfig<float>& cc,
-                       WaveletSpec& ws, ChannelFilter& type, std::string& err) {
-  std::string name;
-  if (!rd.text(st + ".type", name, err)) return false;
-  if (!stage_type(name, type)) {
-    err = st + ".type: expected one of pass_through, bias_removal, wavelet, ar2_kalman, got '" + name + "'";
-    return false;
-  }
-  bool ok = true;
-  if (type == ChannelFilter::bias_removal) ok = read_bias_stage(rd, st, ch, cc, err);
-  else if (type == ChannelFilter::wavelet) ok = read_wavelet_stage(rd, st, ch, ws, err);
-  else if (type == ChannelFilter::ar2_kalman) ok = read_ar2_stage(rd, st, ch, cc, err);
-  return ok && !rd.unread_key(st, ch, err);
-}
-
-// A chain: pass_through only alone, at most one stage of each type.
-inline bool check_chain(const std::string& table, const ChannelFilter* types, int n, std::string& err) {
-  const bool pass = types[0] == ChannelFilter::pass_through || (n > 1 && types[1] == ChannelFilter::pass_through);
-  if (pass && n > 1) {
-    err = table + ".stages: pass_through must be the only stage of a chain";
-    return false;
-  }
-  if (n > 1 && types[0] == types[1]) {
-    err = table + ".stages: at most one stage of each type, got ['" + stage_name(types[0]) + "', '" +
-          stage_name(types[1]) + "']";
-    return false;
-  }
-  return true;
-}
-
-// [channels.<ch>] and its [[channels.<ch>.stages]].
-inline bool read_channel(Reader& rd, const toml::Doc& doc, const std::string& ch, ImuChannelConfig<float>& cc,
-                         WaveletSpec& ws, std::string& err) {
-  const std::string table = "channels." + ch;
-  if (!doc.has_table(table)) {
-    err = table + ": missing value";
-    return false;
-  }
-  cc = ImuChannelConfig<float>{};
-  FieldValue saturation, stuck_samples;
-  if (!rd.field(schema::kChannelSaturation, table, ch, saturation, err) ||
-      !rd.field(schema::kChannelStuckSamples, table, ch, stuck_samples, err)) {
-    return false;
-  }
-  cc.saturation = static_cast<float>(saturation.number);
-  cc.stuck_samples = static_cast<std::uint32_t>(stuck_samples.integer);
-  const int n = doc.stages(table);
-  if (n < 1 || n > schema::kMaxStages) {
-    err = table + ".stages: expected 1.." + std::to_string(schema::kMaxStages) + " stages, got " + std::to_string(n);
-    return false;
-  }
-  ChannelFilter types[schema::kMaxStages] = {ChannelFilter::pass_through, ChannelFilter::pass_through};
-  for (int k = 0; k < n; ++k) {
-    if (!read_stage(rd, table + ".stages[" + std::to_string(k) + "]", ch, cc, ws, types[k], err)) return false;
-  }
-  if (!check_chain(table, types, n, err)) return false;
-  cc.filter = types[0];
-  cc.filter2 = types[1];  // pass_through: no second stage
-  return !rd.unread_key(table, ch, err);
-}
-
-// A table header the format does not have ([foo], [channels.qx], [meta.sub]).
-inline bool unknown_table(const toml::Doc& doc, std::string& err) {
-  for (const std::string& t : doc.tables) {
-    bool known = t == "timing" || t == "meta" || t == "channels";
-    for (const char* ch : schema::kChannelNames) known = known || t == std::string("channels.") + ch;
-    if (!known) {
-      err = t.rfind("meta.", 0) == 0 ? t + ": expected a string, number or boolean" : t + ": unknown key";
-      return true;
+// The checked values into the loop's configuration (float32 where the processor holds them).
+inline void build(const std::array<ChannelRead, kImuChannels>& chans, const Section& timing, FileConfig& fc) {
+  fc.sample_rate_hz = timing.value(schema::kTimingSampleRateHz).number;
+  const double period_us = 1e6 / fc.sample_rate_hz;
+  fc.imu.period_us = static_cast<std::uint32_t>(std::lround(period_us));
+  const FieldValue tol = timing.value(schema::kTimingTimeToleranceUs);
+  fc.imu.time_tolerance_us = static_cast<std::uint32_t>(tol.given ? tol.integer : std::lround(period_us / 2.0));
+  const FieldValue loop = timing.value(schema::kTimingLoopRateHz);
+  fc.loop_rate_hz = loop.given ? loop.number : fc.sample_rate_hz;
+  for (std::size_t c = 0; c < kImuChannels; ++c) {
+    ImuChannelConfig<float>& cc = fc.imu.channels[c];
+    cc = ImuChannelConfig<float>{};
+    cc.saturation = static_cast<float>(chans[c].fields.value(schema::kChannelSaturation).number);
+    cc.stuck_samples = static_cast<std::uint32_t>(chans[c].fields.value(schema::kChannelStuckSamples).integer);
+    const auto& stages = chans[c].stages;
+    cc.filter = filter_of(stages[0].type);
+    cc.filter2 = stages.size() > 1 ? filter_of(stages[1].type) : ChannelFilter::pass_through;
+    for (const auto& s : stages) {
+      const Section& v = s.fields;
+      if (s.type == "bias_removal") {
+        cc.bias = static_cast<float>(v.value(schema::kBiasRemovalBias).number);
+      } else if (s.type == "wavelet") {
+        WaveletSpec& ws = fc.wavelets[c];
+        const std::string threshold = v.value(schema::kWaveletThreshold).text;
+        ws.kind = v.value(schema::kWaveletWavelet).text == "db8" ? WaveletKind::db8 : WaveletKind::db4;
+        ws.window = static_cast<std::size_t>(v.value(schema::kWaveletWindow).integer);
+        ws.level = static_cast<int>(v.value(schema::kWaveletLevel).integer);
+        ws.mode = threshold == "soft" ? WaveletMode::soft : (threshold == "hard" ? WaveletMode::hard : WaveletMode::forced);
+      } else if (s.type == "ar2_kalman") {
+        const double q = v.value(schema::kAr2KalmanQ).number;
+        const FieldValue sigma2 = v.value(schema::kAr2KalmanSigma2);
+        const double s2 = sigma2.given ? sigma2.number : q;  // absent: q
+        cc.model = Ar2Model<float>{static_cast<float>(v.value(schema::kAr2KalmanA1).number),
+                                   static_cast<float>(v.value(schema::kAr2KalmanA2).number), static_cast<float>(s2),
+                                   static_cast<float>(v.value(schema::kAr2KalmanMean).number)};
+        cc.q = static_cast<float>(q);
+        cc.r = static_cast<float>(v.value(schema::kAr2KalmanR).number);
+        cc.p0 = static_cast<float>(v.value(schema::kAr2KalmanP0).number);
+        cc.steady_state = v.value(schema::kAr2KalmanSteadyState).boolean;
+      }
     }
   }
-  return false;
 }
 
-// The whole document.
-inline bool read_doc(const toml::Doc& doc, FileConfig& out, std::string& err) {
-  Reader rd(doc);
-  FileConfig fc;
-  if (!read_header(rd, doc, err) || !read_timing(rd, doc, fc, err)) return false;
-  for (std::size_t c = 0; c < kImuChannels; ++c) {
-    if (!read_channel(rd, doc, schema::kChannelNames[c], fc.imu.channels[c], fc.wavelets[c], err)) return false;
+// gyrodrift.imu.config.config_from_dict, then validate.
+inline bool read_doc(const toml::table& doc, FileConfig& out, std::string& err) {
+  Table top;
+  if (!top.open("", &doc, err)) return false;
+  FieldValue v;
+  if (!top.get("schema", schema::FieldKind::string, true, v, err)) return false;
+  if (v.text != schema::kSchema) {
+    err = std::string("schema: expected '") + schema::kSchema + "', got " + tomldoc::repr_string(v.text);
+    return false;
   }
-  if (rd.unread_key(err) || unknown_table(doc, err)) return false;
-  out = fc;
+  if (!top.get("version", schema::FieldKind::integer, true, v, err)) return false;
+  if (v.integer != schema::kVersion) {
+    err = "version: this gyrodrift reads version " + std::to_string(schema::kVersion) + ", got " +
+          std::to_string(v.integer);
+    return false;
+  }
+  if (top.has("meta")) {
+    const toml::node* meta = top.any("meta", err);
+    if (!meta->is_table()) {
+      err = "meta: expected a table";
+      return false;
+    }
+    for (const auto& kv : *meta->as_table()) {  // free-form (who wrote the file), not read
+      const toml::node& n = kv.second;
+      if (!(n.is_string() || n.is_integer() || n.is_floating_point() || n.is_boolean())) {
+        err = "meta." + std::string(kv.first.str()) + ": expected a string, number or boolean";
+        return false;
+      }
+    }
+  }
+  Table tt;
+  const toml::node* node = top.any("timing", err);
+  if (node == nullptr || !tt.open("timing", node, err)) return false;
+  Section timing;
+  if (!read_fields(tt, "timing", "", timing, err) || !tt.finish("", err)) return false;
+  Table ct;
+  node = top.any("channels", err);
+  if (node == nullptr || !ct.open("channels", node, err)) return false;
+  std::array<ChannelRead, kImuChannels> chans{};
+  for (std::size_t c = 0; c < kImuChannels; ++c) {
+    const std::string ch = schema::kChannelNames[c];
+    const std::string key = "channels." + ch;
+    Table t;
+    node = ct.any(ch, err);
+    if (node == nullptr || !t.open(key, node, err)) return false;
+    if (!read_fields(t, "channel", ch, chans[c].fields, err)) return false;
+    const toml::node* raw = t.any("stages", err);
+    if (raw == nullptr) return false;
+    const toml::array* arr = raw->as_array();
+    if (arr == nullptr) {
+      err = key + ".stages: expected an array of tables ([[...stages]])";
+      return false;
+    }
+    for (std::size_t i = 0; i < arr->size(); ++i) {
+      StageRead st;
+      if (!read_stage(key + ".stages[" + std::to_string(i) + "]", ch, *arr->get(i), st, err)) return false;
+      chans[c].stages.push_back(st);
+    }
+    if (!t.finish(ch, err)) return false;
+  }
+  if (!ct.finish("", err) || !top.finish("", err)) return false;
+  if (!validate(chans, timing, err)) return false;
+  build(chans, timing, out);
   return true;
 }
 
 }  // namespace detail
 
+// One line: control characters (of a quoted key, of the parser's message) escaped as \xNN,
+// as the Python reader does.
+inline std::string one_line(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x20U && u != 0x7FU) {
+      out += c;
+      continue;
+    }
+    char b[8];
+    std::snprintf(b, sizeof b, "\\x%02x", static_cast<unsigned>(u));
+    out += b;
+  }
+  return out;
+}
+
 // Reads and checks a configuration's text; false with a one-line `error` "<source>: <key>: ...".
 inline bool read_config_text(const std::string& text, const std::string& source, FileConfig& out,
                              std::string& error) {
-  toml::Doc doc;
-  std::istringstream in(text);
+  toml::table doc;
   std::string err;
-  if (!toml::parse_doc(in, doc, err) || !detail::read_doc(doc, out, err)) {
-    error = source + ": " + err;
+  if (!tomldoc::parse(text, source, doc, err)) {
+    error = one_line(err);
     return false;
   }
+  FileConfig fc;
+  if (!detail::read_doc(doc, fc, err)) {
+    error = one_line(source + ": " + err);
+    return false;
+  }
+  out = fc;
   return true;
 }
 

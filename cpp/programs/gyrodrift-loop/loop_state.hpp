@@ -24,7 +24,7 @@ struct Counters {
   std::uint64_t bytes_out = 0;
   std::uint64_t frames_in = 0;   // IMU samples decoded from the interface
   std::uint64_t frames_out = 0;  // filtered samples written back (see OutQueue for serial/SLCAN)
-  std::uint64_t wrong_type = 0;  // serial frames of type 0x81 (an output frame on the input)
+  std::uint64_t wrong_type = 0;  // valid serial frames that are not input samples (0x81, 0x02, 0x82)
   std::uint64_t output_overflow = 0;  // outputs that did not fit the queue (counted, not hidden)
   std::uint64_t slcan_replies = 0;
   std::uint64_t can_tx_errors = 0;

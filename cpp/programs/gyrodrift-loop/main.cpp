@@ -14,7 +14,7 @@
 // default configuration; --check-config FILE only reads and checks a file.
 //
 // Files, one job each: options.hpp (command line), config_file.hpp (the configuration, read
-// field by field through config_schema.hpp; toml_subset.hpp its TOML),
+// field by field through config_schema.hpp; toml_document.hpp its TOML),
 // processing.hpp (the processor and its counters), transport.hpp (opening the devices),
 // wire_io.hpp (wire <-> ImuSample/ImuOutput), output_queue.hpp (non-blocking output with
 // frame accounting), loop_state.hpp (the static state), stats_json.hpp (the statistics),

@@ -88,6 +88,14 @@ inline bool parse_double(const char* s, double& out) {
   return true;
 }
 
+// A duration in seconds: finite, 0..1e9 (some 30 years; its nanoseconds fit 64 bits).
+inline bool parse_seconds(const char* s, double& out) {
+  double v = 0.0;
+  if (!parse_double(s, v) || !(v >= 0.0 && v <= 1e9)) return false;
+  out = v;
+  return true;
+}
+
 inline bool parse_long(const char* s, long& out) {
   char* end = nullptr;
   errno = 0;
@@ -122,7 +130,8 @@ inline bool set_value_option(const std::string& a, const char* v, Options& o, st
   } else if (a == "--can-signals") {
     o.can_signals_path = v;
   } else if (a == "--baud") {
-    if (!parse_long(v, o.baud)) return err = "bad --baud", false;
+    if (!parse_long(v, n) || n < 50 || n > 4000000) return err = "bad --baud (50..4000000)", false;
+    o.baud = n;
   } else if (a == "--rt-priority") {
     if (!parse_long(v, n) || n < 1 || n > 99) return err = "bad --rt-priority (1..99)", false;
     o.rt_priority = static_cast<int>(n);
@@ -130,9 +139,9 @@ inline bool set_value_option(const std::string& a, const char* v, Options& o, st
     if (!parse_long(v, n) || n < 64 || n > (1L << 20)) return err = "bad --max-bytes-per-cycle (64..1048576)", false;
     o.max_bytes_per_cycle = static_cast<std::size_t>(n);
   } else if (a == "--idle-exit-s") {
-    if (!parse_double(v, o.idle_exit_s) || o.idle_exit_s < 0.0) return err = "bad --idle-exit-s", false;
+    if (!parse_seconds(v, o.idle_exit_s)) return err = "bad --idle-exit-s (0..1e9)", false;
   } else if (a == "--duration-s") {
-    if (!parse_double(v, o.duration_s) || o.duration_s < 0.0) return err = "bad --duration-s", false;
+    if (!parse_seconds(v, o.duration_s)) return err = "bad --duration-s (0..1e9)", false;
   }
   return true;
 }

@@ -93,6 +93,7 @@ inline void write_stats(std::FILE* f, const Options& o, const RunInfo& run, cons
     field("can_bad_dlc", s.bad_dlc);
     field("can_foreign_frames", s.foreign_frames);
     field("can_ignored_frames", s.ignored_frames);
+    field("can_undefined_page_frames", s.undefined_page_frames);
     field("can_frames_dropped", s.frames_dropped);
     if (o.mode == Mode::kSlcan) {
       field("slcan_malformed", st.slcan_parser.stats().malformed);

@@ -16,6 +16,12 @@
 // Physical value = raw * SCALE + OFFSET (cantools' LinearConversion); channel value =
 // physical * FACTOR (unit conversion to rad/s, m/s^2; to microseconds for the time role).
 //
+// A multiplexed message's defined pages come as one more line per message
+//   pages ID EXT START:LENGTH:ORDER V1,V2,...
+// (the multiplexer selector's field and every value the DBC defines for it). A frame whose
+// selector has a value the DBC does not define decodes nothing, as cantools refuses to decode
+// it (DecodeError): it is counted in ignored_frames and in undefined_page_frames.
+//
 // Assembly rules and the accounting identity are those of the Python twin
 // (gyrodrift.codecs.can_signals.SignalSampleAssembler):
 //   frames_in == foreign_frames + frames_used + frames_dropped + ignored_frames
@@ -83,6 +89,41 @@ inline bool extract_bits(const std::uint8_t* data, std::uint8_t dlc, const BitFi
   return true;
 }
 
+// Whether every bit of the field lies within dlc bytes (the positions extract_bits reads).
+inline bool field_fits(const BitField& f, std::uint8_t dlc) noexcept {
+  if (f.length == 0U || f.length > 64U) return false;
+  unsigned pos = f.start;
+  for (unsigned i = 0; i < f.length; ++i) {
+    const unsigned bit = pos % 8U;
+    if (pos / 8U >= dlc) return false;
+    if (f.order == ByteOrder::kIntel) ++pos;
+    else pos = (bit == 0U) ? pos + 15U : pos - 1U;
+  }
+  return true;
+}
+
+// The pages a multiplexed message defines (the values of its selector in the DBC).
+inline constexpr std::size_t kMaxPages = 64U;
+struct PageSet {
+  std::uint32_t id = 0;
+  bool extended = false;
+  std::uint8_t dlc = 8;
+  BitField mux{};
+  std::array<std::uint64_t, kMaxPages> values{};
+  std::size_t n = 0;
+
+  // False when the frame is this message and its selector holds an undefined value.
+  bool defined(const CanFrame& f) const noexcept {
+    if (f.remote || f.extended != extended || f.id != id) return true;
+    std::uint64_t sel = 0;
+    if (!extract_bits(f.data.data(), f.dlc, mux, sel)) return true;  // short frame: bad DLC
+    for (std::size_t i = 0; i < n; ++i) {
+      if (values[i] == sel) return true;
+    }
+    return false;
+  }
+};
+
 // raw * scale + offset, as cantools computes it (LinearConversion.raw_to_scaled). Scalar
 // double (the default, the analysis/loop build) reproduces cantools bit for bit: integers
 // widened to double first, exact for |raw| < 2^53. Scalar float (an MCU without a double FPU)
@@ -142,7 +183,7 @@ inline EntryMatch decode_entry(const SignalEntry& e, const CanFrame& f, Scalar& 
 
 // ---- the table's text form -------------------------------------------------------------
 
-enum class LineResult : std::uint8_t { kEntry, kBlank, kError };
+enum class LineResult : std::uint8_t { kEntry, kBlank, kError, kPages };
 
 namespace detail {
 inline const char* skip_space(const char* p) noexcept {
@@ -235,6 +276,7 @@ inline LineResult parse_signal_line(const char* line, SignalEntry& e,
   e.dlc = static_cast<std::uint8_t>(v);
   if (!d::read_field(p, e.field)) return fail("start/length");
   if (!d::read_order(p, e.field.order)) return fail("order (le or be)");
+  if (!field_fits(e.field, e.dlc)) return fail("start/length (the signal does not fit in DLC bytes)");
   p = d::skip_space(p);
   if (d::word_is(p, "u", &end)) {
     e.type = ValueType::kUnsigned;
@@ -269,6 +311,7 @@ inline LineResult parse_signal_line(const char* line, SignalEntry& e,
     e.mux.start = static_cast<std::uint16_t>(mstart);
     e.mux.length = static_cast<std::uint8_t>(mlen);
     if (!d::read_order(p, e.mux.order) || *p != ':') return fail("mux order");
+    if (!field_fits(e.mux, e.dlc)) return fail("mux start/length (the selector does not fit in DLC bytes)");
     ++p;
     if (!d::read_u64(p, e.mux_value, ~std::uint64_t{0})) return fail("mux value");
   }
@@ -280,6 +323,51 @@ inline LineResult parse_signal_line(const char* line, SignalEntry& e,
     return fail("seq (an unsigned counter of at most 16 bits, scale 1, offset 0)");
   }
   return LineResult::kEntry;
+}
+
+// Parses a `pages ID EXT DLC START:LENGTH:ORDER V1,V2,...` line (kPages), else as
+// parse_signal_line.
+inline LineResult parse_table_line(const char* line, SignalEntry& e, PageSet& pages,
+                                   const char** error) noexcept {
+  namespace d = detail;
+  const char* p = d::skip_space(line);
+  const char* end = nullptr;
+  if (!d::word_is(p, "pages", &end)) return parse_signal_line(line, e, error);
+  auto fail = [error](const char* what) noexcept {
+    if (error != nullptr) *error = what;
+    return LineResult::kError;
+  };
+  p = end;
+  pages = PageSet{};
+  std::uint64_t v = 0;
+  if (!d::read_u64(p, v, 0x1FFFFFFFU)) return fail("id");
+  pages.id = static_cast<std::uint32_t>(v);
+  if (!d::read_u64(p, v, 1U)) return fail("ext (0 or 1)");
+  pages.extended = v == 1U;
+  if (!pages.extended && pages.id > 0x7FFU) return fail("id (a standard id is 11 bits)");
+  if (!d::read_u64(p, v, 8U)) return fail("dlc (0..8)");
+  pages.dlc = static_cast<std::uint8_t>(v);
+  std::uint64_t mstart = 0;
+  std::uint64_t mlen = 0;
+  if (!d::read_u64(p, mstart, 511U) || *p != ':') return fail("mux start");
+  ++p;
+  if (!d::read_u64(p, mlen, 64U) || mlen == 0U || *p != ':') return fail("mux length");
+  ++p;
+  pages.mux.start = static_cast<std::uint16_t>(mstart);
+  pages.mux.length = static_cast<std::uint8_t>(mlen);
+  if (!d::read_order(p, pages.mux.order) || *p != ':') return fail("mux order");
+  ++p;
+  if (!field_fits(pages.mux, pages.dlc)) return fail("mux start/length (the selector does not fit in DLC bytes)");
+  for (;;) {
+    if (pages.n >= kMaxPages) return fail("pages (at most 64 values)");
+    if (!d::read_u64(p, pages.values[pages.n], ~std::uint64_t{0})) return fail("page value");
+    ++pages.n;
+    if (*p != ',') break;
+    ++p;
+  }
+  p = d::skip_space(p);
+  if (*p != '\0' && *p != '#') return fail("trailing text");
+  return LineResult::kPages;
 }
 
 // ---- a table and the sample assembler ----------------------------------------------------
@@ -309,8 +397,27 @@ class SignalTable {
     }
     return nullptr;
   }
+  // A message's defined pages; false if the table holds as many page sets as entries or
+  // the message has one already.
+  bool add_pages(const PageSet& p) noexcept {
+    if (n_pages_ >= MaxEntries) return false;
+    for (std::size_t i = 0; i < n_pages_; ++i) {
+      if (pages_[i].id == p.id && pages_[i].extended == p.extended) return false;
+    }
+    pages_[n_pages_++] = p;
+    return true;
+  }
+  // False when the frame is a multiplexed message whose page the DBC does not define.
+  bool page_defined(const CanFrame& f) const noexcept {
+    for (std::size_t i = 0; i < n_pages_; ++i) {
+      if (!pages_[i].defined(f)) return false;
+    }
+    return true;
+  }
 
  private:
+  std::array<PageSet, MaxEntries> pages_{};
+  std::size_t n_pages_ = 0;
   std::array<SignalEntry, MaxEntries> entries_{};
   std::size_t n_ = 0;
   std::uint32_t present_ = 0;
@@ -322,6 +429,7 @@ struct SignalRxStats {
   std::uint64_t frames_dropped = 0;  // frames of incomplete samples, and bad DLC
   std::uint64_t foreign_frames = 0;  // not a mapped message (or a remote frame)
   std::uint64_t ignored_frames = 0;  // a mapped message carrying no mapped signal (mux page)
+  std::uint64_t undefined_page_frames = 0;  // of those: a page the DBC does not define
   std::uint64_t bad_dlc = 0;
   std::uint64_t complete_samples = 0;
   std::uint64_t incomplete_samples = 0;
@@ -387,6 +495,11 @@ class SignalSampleAssembler {
     if (bad) {
       ++stats_.bad_dlc;
       ++stats_.frames_dropped;
+      return false;
+    }
+    if (!table_.page_defined(f)) {  // cantools decodes nothing of such a frame
+      ++stats_.ignored_frames;
+      ++stats_.undefined_page_frames;
       return false;
     }
     if (got == 0U) {

@@ -3,7 +3,11 @@
 //   off size field
 //   0   1    sync0 = 0xA5
 //   1   1    sync1 = 0x5A
-//   2   1    type  = 0x01 input IMU sample | 0x81 filtered output sample
+//   2   1    type  = 0x01 input IMU sample | 0x81 filtered output sample |
+//                    0x02 health request | 0x82 health report (one counter per frame:
+//                    seq = index, flags = group, t_us = value, the 24 value bytes = the
+//                    counter's name, NUL-padded ASCII; group 0xFF ends the report,
+//                    its t_us = the number of counter frames before it)
 //   3   1    len   = 36 (payload bytes that follow, before the CRC)
 //   4   2    seq   u16 sample counter, wraps at 65536
 //   6   2    flags u16 (input: 0; output: ImuProcessor health bits of that sample)
@@ -30,6 +34,8 @@ inline constexpr std::uint8_t kSync0 = 0xA5U;
 inline constexpr std::uint8_t kSync1 = 0x5AU;
 inline constexpr std::uint8_t kTypeInput = 0x01U;
 inline constexpr std::uint8_t kTypeOutput = 0x81U;
+inline constexpr std::uint8_t kTypeHealthRequest = 0x02U;
+inline constexpr std::uint8_t kTypeHealthReport = 0x82U;
 inline constexpr std::uint8_t kPayloadLen = 36U;
 inline constexpr std::size_t kFrameSize = 42U;
 inline constexpr std::size_t kCrcOffset = 40U;
@@ -80,7 +86,9 @@ inline float bits_float(std::uint32_t u) noexcept {
   return f;
 }
 inline bool valid_header(std::uint8_t type, std::uint8_t len) noexcept {
-  return (type == kTypeInput || type == kTypeOutput) && len == kPayloadLen;
+  return (type == kTypeInput || type == kTypeOutput || type == kTypeHealthRequest ||
+          type == kTypeHealthReport) &&
+         len == kPayloadLen;
 }
 }  // namespace detail
 

@@ -32,6 +32,7 @@ struct FieldSpec {
   bool hi_open;
   bool finite;
   bool power_of_two;
+  bool float32;  // the processors hold it as a float32: it must fit one
   const char* choices;
   const char* bounds_text;
   const char* unit;
@@ -43,109 +44,109 @@ inline constexpr double kInf = std::numeric_limits<double>::infinity();
 inline constexpr FieldSpec kTimingSampleRateHz{
     "timing", "sample_rate_hz", false, FieldKind::number,
     true, false, 0.0, "",
-    1.0, false, 100000.0, false, true, false,
+    1.0, false, 100000.0, false, true, false, false,
     "", "1..100000 Hz", "Hz",
     "IMU sample rate: the nominal period of the timestamps is 1e6 / rate us"};
 inline constexpr FieldSpec kTimingTimeToleranceUs{
     "timing", "time_tolerance_us", false, FieldKind::integer,
     false, false, 0.0, "",
-    0.0, false, 4294967295.0, false, true, false,
+    0.0, false, 4294967295.0, false, true, false, false,
     "", "0..4294967295 us", "us",
     "timestamp check: |dt - k period| above it is a time jump (absent: half a sample period; 0: check off)"};
 inline constexpr FieldSpec kTimingLoopRateHz{
     "timing", "loop_rate_hz", false, FieldKind::number,
     false, false, 0.0, "",
-    1.0, false, 2000.0, false, true, false,
+    1.0, false, 2000.0, false, true, false, false,
     "", "1..2000 Hz", "Hz",
     "rate of the loop program's cycle (absent: the sample rate)"};
 inline constexpr FieldSpec kChannelSaturation{
     "channel", "saturation", true, FieldKind::number,
     false, true, kInf, "",
-    0.0, true, kInf, false, false, false,
+    0.0, true, kInf, false, false, false, true,
     "", "> 0 (or inf: off)", "channel",
     "|x| >= saturation marks a value saturated (inf: off)"};
 inline constexpr FieldSpec kChannelStuckSamples{
     "channel", "stuck_samples", false, FieldKind::integer,
     false, true, 0.0, "",
-    0.0, false, 4294967295.0, false, true, false,
+    0.0, false, 4294967295.0, false, true, false, false,
     "", "0..4294967295", "samples",
     "the N-th identical value in a row marks the channel stuck (0: off)"};
 inline constexpr FieldSpec kBiasRemovalBias{
     "bias_removal", "bias", true, FieldKind::number,
     true, false, 0.0, "",
-    -kInf, false, kInf, false, true, false,
+    -kInf, false, kInf, false, true, false, true,
     "", "finite", "channel",
     "subtracted from every sample"};
 inline constexpr FieldSpec kWaveletWavelet{
     "wavelet", "wavelet", false, FieldKind::string,
     true, false, 0.0, "",
-    -kInf, false, kInf, false, true, false,
+    -kInf, false, kInf, false, true, false, false,
     "db4|db8", "one of db4, db8", "",
     "wavelet of the real-time sliding-window prefilter"};
 inline constexpr FieldSpec kWaveletWindow{
     "wavelet", "window", false, FieldKind::integer,
     true, false, 0.0, "",
-    16.0, false, 4096.0, false, true, true,
+    16.0, false, 4096.0, false, true, true, false,
     "", "a power of two in 16..4096", "samples",
     "sliding window length N"};
 inline constexpr FieldSpec kWaveletLevel{
     "wavelet", "level", false, FieldKind::integer,
     true, false, 0.0, "",
-    1.0, false, 8.0, false, true, false,
+    1.0, false, 8.0, false, true, false, false,
     "", "1..8", "",
     "decomposition level J (at most the deepest level of the extended window 2N)"};
 inline constexpr FieldSpec kWaveletThreshold{
     "wavelet", "threshold", false, FieldKind::string,
     false, true, 0.0, "forced",
-    -kInf, false, kInf, false, true, false,
+    -kInf, false, kInf, false, true, false, false,
     "forced|soft|hard", "one of forced, soft, hard", "",
     "detail handling: forced (all details zeroed), soft or hard"};
 inline constexpr FieldSpec kAr2KalmanA1{
     "ar2_kalman", "a1", false, FieldKind::number,
     true, false, 0.0, "",
-    -kInf, false, kInf, false, true, false,
+    -kInf, false, kInf, false, true, false, true,
     "", "finite", "",
     "AR(2) coefficient of x[k-1] (the model must be stationary)"};
 inline constexpr FieldSpec kAr2KalmanA2{
     "ar2_kalman", "a2", false, FieldKind::number,
     true, false, 0.0, "",
-    -kInf, false, kInf, false, true, false,
+    -kInf, false, kInf, false, true, false, true,
     "", "finite", "",
     "AR(2) coefficient of x[k-2]"};
 inline constexpr FieldSpec kAr2KalmanMean{
     "ar2_kalman", "mean", true, FieldKind::number,
     true, false, 0.0, "",
-    -kInf, false, kInf, false, true, false,
-    "", "finite", "channel",
-    "model mean (constant drift)"};
+    -2.028240839472585e+31, false, 2.028240839472585e+31, false, true, false, true,
+    "", "-2.028240839472585e+31..2.028240839472585e+31", "channel",
+    "model mean (constant drift; within the float32 filters' input range)"};
 inline constexpr FieldSpec kAr2KalmanSigma2{
     "ar2_kalman", "sigma2", false, FieldKind::number,
     false, false, 0.0, "",
-    0.0, false, kInf, false, true, false,
-    "", ">= 0", "channel^2",
+    0.0, false, 1e+30, false, true, false, true,
+    "", "0..1e+30", "channel^2",
     "AR(2) driving-noise variance (absent: q)"};
 inline constexpr FieldSpec kAr2KalmanQ{
     "ar2_kalman", "q", false, FieldKind::number,
     true, false, 0.0, "",
-    0.0, false, kInf, false, true, false,
-    "", ">= 0", "channel^2",
+    0.0, false, 1e+30, false, true, false, true,
+    "", "0..1e+30", "channel^2",
     "Kalman process-noise variance"};
 inline constexpr FieldSpec kAr2KalmanR{
     "ar2_kalman", "r", false, FieldKind::number,
     true, false, 0.0, "",
-    0.0, true, kInf, false, true, false,
-    "", "> 0", "channel^2",
+    0.0, true, 1e+30, false, true, false, true,
+    "", "> 0 and <= 1e+30", "channel^2",
     "Kalman measurement-noise variance"};
 inline constexpr FieldSpec kAr2KalmanP0{
     "ar2_kalman", "p0", false, FieldKind::number,
     false, true, 1.0, "",
-    0.0, false, kInf, false, true, false,
-    "", ">= 0", "channel^2",
+    0.0, false, 1e+30, false, true, false, true,
+    "", "0..1e+30", "channel^2",
     "initial state covariance P_0 = p0 I"};
 inline constexpr FieldSpec kAr2KalmanSteadyState{
     "ar2_kalman", "steady_state", false, FieldKind::boolean,
     false, true, 0.0, "",
-    -kInf, false, kInf, false, true, false,
+    -kInf, false, kInf, false, true, false, false,
     "", "finite", "",
     "constant (DARE steady-state) Kalman gain instead of the time-varying one"};
 

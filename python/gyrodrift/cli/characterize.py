@@ -6,6 +6,7 @@ one plot per sensor type, and the outputs filter users need (--json, --kalibr im
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 from pathlib import Path
 from types import SimpleNamespace
@@ -19,7 +20,11 @@ from gyrodrift.cli.common import (
     add_json_arg,
     add_progress_arg,
     add_self_check_arg,
+    add_time_units_arg,
+    check_out_dir,
+    check_output,
     emit_json,
+    human_stream,
     progress_enabled,
     require_units,
     self_check_exit,
@@ -58,6 +63,7 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
                         "columns)")
     p.add_argument("--time-column", help="text: time column name/index, or 'none' (default: "
                    "detected)")
+    add_time_units_arg(p)
     p.add_argument("--topic", help="ROS bag: the sensor_msgs/msg/Imu topic (listed when absent)")
     add_gyro_units_arg(p)
     p.add_argument("--accel-units", choices=ACCEL_INPUT_UNITS, default=DEFAULT_ACCEL_UNITS,
@@ -95,7 +101,8 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
         rec = load_imu(src, rate_hz=args.rate_hz,
                        columns=(args.column_channels.split(",") if args.column_channels
                                 else None),
-                       time_column=args.time_column, topic=args.topic,
+                       time_column=args.time_column, time_units=args.time_units,
+                       topic=args.topic,
                        gyro_units=args.gyro_units or "rad/s",
                        accel_units=args.accel_units or "m/s^2",
                        nan_policy="drop" if args.drop_nan else "refuse", **kw)
@@ -193,6 +200,9 @@ def run(args: argparse.Namespace) -> int:
     """
     from gyrodrift.workflows import characterize as ch
 
+    check_output(args.kalibr, "--kalibr")  # every output location before the work
+    check_output(args.html, "--html")
+    check_out_dir(args.out_dir)
     if args.input and Path(args.input).suffix.lower() in (".bag", ".db3", ".mcap") \
             and args.topic is None:
         try:
@@ -233,6 +243,14 @@ def run(args: argparse.Namespace) -> int:
                                      if c.check is not None]
     if kalibr_warns:  # a widened band or a random walk the record does not show
         checks.append(("the noise terms (see the warnings)", SimpleNamespace(holds=False)))
+    # An output that is stdout itself (--kalibr /dev/stdout) keeps stdout to itself.
+    with contextlib.redirect_stdout(human_stream(args.kalibr, args.html)):
+        _report(args, ch, res, rec, sc, files, kalibr_warns, refused)
+    return self_check_exit(args, checks)
+
+
+def _report(args: argparse.Namespace, ch: Any, res: Any, rec: ImuData, sc: Any,
+            files: dict[str, Any], kalibr_warns: list[str], refused: str | None) -> None:
     if args.json:
         payload = res.as_dict()
         payload["kalibr"] = {k: {"value": v, "channel": c, "unit": t.unit} for k, (v, c, t)
@@ -241,7 +259,7 @@ def run(args: argparse.Namespace) -> int:
         payload["simulation_check"] = None if sc is None else sc.as_dict()
         payload["files"] = files
         emit_json(payload)
-        return self_check_exit(args, checks)
+        return
     r = res.record
     print(f"# {r['source']} ({r['format']}): {r['n_used']} samples at {r['rate_hz']:g} Hz, "
           f"{r['duration_s']:.6g} s; channels {', '.join(rec.names)}"
@@ -272,5 +290,4 @@ def run(args: argparse.Namespace) -> int:
             print(f"wrote {k}: {v}")
     if refused:
         print(f"# Kalibr export not possible: {refused}")
-    return self_check_exit(args, checks)
 

@@ -1,7 +1,7 @@
 """Input and output helpers shared by every subcommand (the conventions of CONTRIBUTING.md).
 
 - input record: positional ``INPUT``, ``--column``, ``--rate-hz``, ``--gyro-units``,
-  ``--drop-nan``, ``--force-rate``
+  ``--drop-nan``, ``--force-rate``, ``--time-units``
   (:func:`add_input_args`, :func:`record_from_args`);
 - ``--json`` (:func:`add_json_arg`) printed by the one JSON writer :func:`emit_json`;
 - ``--progress auto|always|never`` (:func:`add_progress_arg`, :func:`progress_enabled`): auto
@@ -11,9 +11,11 @@
   ``repr`` (the shortest string that reads back to the same double, at most ``%.17g``
   digits), integers as integers);
 - output files: every location checked before the work (:func:`check_output`,
-  :func:`check_out_dir`), every file written atomically (:func:`atomic_output`: a temporary
-  file in the same directory, renamed over the target only when complete, removed on any
-  failure or Ctrl-C), so a failed or interrupted command leaves no partial output.
+  :func:`check_out_dir`), every file written by the one rule of :mod:`gyrodrift.io.atomic`
+  (:func:`atomic_output`: a file is replaced atomically, a symbolic link is followed, a
+  device or FIFO is written through, a directory is refused), so a failed or interrupted
+  command leaves no partial output; the human-readable lines go to stderr when an output is
+  stdout itself (:func:`human_stream`).
 
 Examples
 --------
@@ -38,11 +40,11 @@ import numpy as np
 
 from gyrodrift.cli import CliError
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
-from gyrodrift.io.atomic import atomic_output
+from gyrodrift.io.atomic import atomic_output, is_stdout, output_target
 from gyrodrift.io.json_text import json_default, json_text
 from gyrodrift.io.records import Record, load_record
 from gyrodrift.stability import IEEE952_TERMS
-from gyrodrift.units import DEFAULT_GYRO_UNITS, GYRO_INPUT_UNITS
+from gyrodrift.units import DEFAULT_GYRO_UNITS, DEFAULT_TIME_UNITS, GYRO_INPUT_UNITS, TIME_UNITS
 
 __all__ = [
     "DEFAULT_FIT_TERMS",
@@ -54,11 +56,13 @@ __all__ = [
     "add_json_arg",
     "add_progress_arg",
     "add_self_check_arg",
+    "add_time_units_arg",
     "check_out_dir",
     "check_output",
     "check_rate_hz",
     "emit_json",
     "format_csv_value",
+    "human_stream",
     "json_default",
     "progress_enabled",
     "record_from_args",
@@ -74,7 +78,7 @@ DEFAULT_FIT_TERMS = ",".join(IEEE952_TERMS)
 
 def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None:
     """Add the input-record arguments: ``INPUT``, ``--column``, ``--rate-hz``, ``--gyro-units``,
-    ``--drop-nan``, ``--force-rate``.
+    ``--drop-nan``, ``--force-rate``, ``--time-units``.
 
     Examples
     --------
@@ -95,6 +99,24 @@ def add_input_args(p: argparse.ArgumentParser, *, required: bool = True) -> None
                    help="drop NaN/Inf samples (their count is reported); default: refuse")
     p.add_argument("--force-rate", action="store_true",
                    help="use --rate-hz even where it contradicts the file's own time column")
+    add_time_units_arg(p)
+
+
+def add_time_units_arg(p: argparse.ArgumentParser) -> None:
+    """Add ``--time-units`` (the units of a text record's time column; choices and default
+    from the one units table, :data:`gyrodrift.units.TIME_UNITS` and
+    :data:`gyrodrift.units.DEFAULT_TIME_UNITS`).
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_time_units_arg(p)
+    >>> p.parse_args([]).time_units, p.parse_args(["--time-units", "ns"]).time_units
+    ('s', 'ns')
+    """
+    p.add_argument("--time-units", choices=tuple(TIME_UNITS), default=DEFAULT_TIME_UNITS,
+                   help="units of the time column of a text record: s, ms, us or ns (default "
+                        f"{DEFAULT_TIME_UNITS}; the rate it gives must lie within 1e-06..1e+09 "
+                        "Hz, like --rate-hz)")
 
 
 def add_gyro_units_arg(p: argparse.ArgumentParser) -> None:
@@ -121,18 +143,22 @@ def require_units(path: str | Path, flag: str, value: str | None) -> str | None:
 
     Examples
     --------
-    >>> require_units("imu.bin", "--gyro-units", None) is None   # a log carries rad/s
-    True
-    >>> require_units("gyro.npy", "--gyro-units", None)
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp(); f = os.path.join(d, "gyro.npy"); np.save(f, np.zeros(3))
+    >>> require_units(f, "--gyro-units", "deg/s")
+    'deg/s'
+    >>> require_units(f, "--gyro-units", None)
     Traceback (most recent call last):
     ...
-    gyrodrift.cli.CliError: gyro.npy: a .npy record does not say its units: give --gyro-units ...
+    gyrodrift.cli.CliError: .../gyro.npy: a .npy record does not say its units: give ...
     """
     from gyrodrift.io.imu_data import units_carried
     from gyrodrift.units import ACCEL_INPUT_UNITS
 
     if value is not None:
         return value
+    if not (Path(path).is_file() or Path(path).is_dir()):
+        return None  # missing, a FIFO or a device: the reader refuses it with its own message
     try:
         carried = units_carried(path)
     except GyrodriftError:
@@ -164,7 +190,8 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
                            units=units or "deg/h",  # the loaders' "not told": the file's own
                            nan_policy="drop" if args.drop_nan else "refuse",
                            mmap=mmap, can_signals=getattr(args, "can_signals", None),
-                           force_rate=bool(getattr(args, "force_rate", False)))
+                           force_rate=bool(getattr(args, "force_rate", False)),
+                           time_units=getattr(args, "time_units", DEFAULT_TIME_UNITS))
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
 
@@ -391,10 +418,11 @@ def _png_suffixes() -> tuple[str, ...]:
 
 def check_output(path: str | Path | None, flag: str, suffixes: Sequence[str] | None = None
                  ) -> Path | None:
-    """Check an output location before any work: its directory exists and is writable, the
-    path is not a directory, its suffix is one the writer knows (``suffixes``; for ``--png``
-    the image formats matplotlib can write). Returns the path (None stays None); raises a
-    :class:`CliError` naming the flag.
+    """Check an output location before any work, by the rule of :mod:`gyrodrift.io.atomic`:
+    its suffix is one the writer knows (``suffixes``; for ``--png`` the image formats
+    matplotlib can write); it is not a directory; a file (or the file a symbolic link leads
+    to) has a writable directory; a device, FIFO or socket is writable. Returns the path (None
+    stays None); raises a :class:`CliError` naming the flag.
 
     Examples
     --------
@@ -411,14 +439,37 @@ def check_output(path: str | Path | None, flag: str, suffixes: Sequence[str] | N
     if suffixes is not None and p.suffix.lower() not in suffixes:
         raise CliError(f"{flag} {p}: unsupported file type {p.suffix or '(none)'!r}; use one "
                        f"of {', '.join(suffixes)}")
-    parent = p.parent if str(p.parent) else Path(".")
+    try:
+        target = output_target(p)
+    except IsADirectoryError:
+        raise CliError(f"{flag} {p}: is a directory") from None
+    except OSError as exc:
+        raise CliError(f"{flag} {p}: {exc.strerror or exc}") from None
+    if target.kind == "stream":  # a device, FIFO or socket: written through, never replaced
+        if not os.access(p, os.W_OK):
+            raise CliError(f"{flag} {p}: not writable (permission denied)")
+        return p
+    parent = target.real.parent
     if not parent.is_dir():
-        raise CliError(f"{flag} {p}: directory {parent} does not exist")
-    if p.is_dir():
-        raise CliError(f"{flag} {p}: is a directory")
-    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        shown = parent if p.is_symlink() else (p.parent if str(p.parent) else Path("."))
+        raise CliError(f"{flag} {p}: directory {shown} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK) or (
+            target.exists and not os.access(target.real, os.W_OK)):
         raise CliError(f"{flag} {p}: not writable (permission denied)")
     return p
+
+
+def human_stream(*outputs: str | Path | None) -> IO[str]:
+    """Where a command prints its human-readable lines: stdout, or stderr when one of its
+    output files is the standard output itself (``-o /dev/stdout``), so that stdout carries
+    the file's bytes and nothing else.
+
+    Examples
+    --------
+    >>> human_stream(None, "result.npy") is sys.stdout
+    True
+    """
+    return sys.stderr if any(o is not None and is_stdout(o) for o in outputs) else sys.stdout
 
 
 def check_out_dir(path: str | Path | None, flag: str = "--out-dir") -> Path | None:

@@ -41,9 +41,10 @@ def register(subparsers: Any) -> None:
 
 
 def _output(args: argparse.Namespace) -> Path:
-    out = Path(args.output)
-    if not out.parent.is_dir():
-        raise CliError(f"{out}: directory {out.parent} does not exist")
+    from gyrodrift.cli.common import check_output
+
+    out = check_output(args.output, "-o")
+    assert out is not None
     return out
 
 
@@ -65,6 +66,7 @@ def run(args: argparse.Namespace) -> int:
     0
     >>> tmp.cleanup()
     """
+    from gyrodrift.cli.common import human_stream
     from gyrodrift.imu.config import ConfigError, default_config, dumps_config, load_config
     from gyrodrift.io.atomic import atomic_write_text
 
@@ -83,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
                 raise CliError("write-default needs -o FILE")
             out = _output(args)
             atomic_write_text(out, dumps_config(default_config()))
-            print(f"wrote {out}")
+            print(f"wrote {out}", file=human_stream(out))
             return 0
         if not args.file:
             raise CliError(f"{action} needs a configuration FILE")
@@ -104,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
                 raise CliError("emit-cpp needs -o FILE.hpp")
             out = _output(args)
             atomic_write_text(out, emit_cpp(cfg, args.namespace, source=Path(args.file).name))
-            print(f"wrote {out}")
+            print(f"wrote {out}", file=human_stream(out))
     except ConfigError as exc:
         raise CliError(str(exc)) from None
     except OSError as exc:

@@ -21,6 +21,7 @@ from gyrodrift.cli.common import (
     add_json_arg,
     check_output,
     emit_json,
+    human_stream,
     record_from_args,
     write_csv,
 )
@@ -158,5 +159,5 @@ def run(args: argparse.Namespace) -> int:
         emit_json(result)
     else:
         print(f"{args.filter} ({args.core}): std {result['std_in_deg_h']:.5g} -> "
-              f"{result['std_out_deg_h']:.5g} deg/h; wrote {out}")
+              f"{result['std_out_deg_h']:.5g} deg/h; wrote {out}", file=human_stream(out))
     return 0

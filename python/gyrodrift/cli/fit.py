@@ -24,7 +24,14 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_input_args, add_json_arg, emit_json, record_from_args
+from gyrodrift.cli.common import (
+    add_input_args,
+    add_json_arg,
+    check_output,
+    emit_json,
+    record_from_args,
+)
+from gyrodrift.io.atomic import atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.units import DPH
 
@@ -153,6 +160,10 @@ def run(args: argparse.Namespace) -> int:
         drift_params_at_rate,
     )
 
+    if args.output and Path(args.output).suffix.lower() not in (".toml", ".json"):
+        raise CliError(f"-o/--output: unknown suffix {Path(args.output).suffix!r}; use .toml "
+                       "or .json")
+    check_output(args.output, "-o")  # before the work
     rec = record_from_args(args, mmap=False)
     x = np.asarray(rec.rate_deg_h, dtype=np.float64)
     factor, tau_min = _decimation(x, rec.rate_hz)
@@ -191,16 +202,9 @@ def run(args: argparse.Namespace) -> int:
         if out.suffix.lower() == ".toml":
             text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source,
                                fit_rate_hz=fit_rate)
-        elif out.suffix.lower() == ".json":
-
-
-            text = json_text(payload) + "\n"
         else:
-            raise CliError(f"-o/--output: unknown suffix {out.suffix!r}; use .toml or .json")
-        try:
-            out.write_text(text)
-        except OSError as exc:
-            raise CliError(f"cannot write {out}: {exc}") from exc
+            text = json_text(payload) + "\n"
+        atomic_write_text(out, text)
         payload["output"] = str(out)
     if args.json:
         emit_json(payload)

@@ -117,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
             rate_hz=args.rate_hz,
             columns=(tuple(args.column_channels.split(",")) if args.column_channels
                      else None),
-            time_column=args.time_column, topic=args.topic,
+            time_column=args.time_column, time_units=args.time_units, topic=args.topic,
             gyro_units=args.gyro_units or "rad/s", accel_units=args.accel_units or "m/s^2",
             ci=args.ci, taus=args.taus,
             terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),

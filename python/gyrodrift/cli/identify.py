@@ -18,6 +18,7 @@ from gyrodrift.cli.common import (
     add_json_arg,
     add_progress_arg,
     add_self_check_arg,
+    check_output,
     emit_json,
     record_from_args,
     self_check_exit,
@@ -180,6 +181,7 @@ def run(args: argparse.Namespace) -> int:
     """
     import numpy as np
 
+    check_output(args.png, "--png")  # before the work
     rec = record_from_args(args, mmap=False)
     x = np.asarray(rec.rate_deg_h, dtype=np.float64)
     head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"

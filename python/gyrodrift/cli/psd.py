@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import math
 from typing import Any
 
 import numpy as np
@@ -62,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     >>> tmp.cleanup()
     """
     from gyrodrift.report.plots import plot_psd
-    from gyrodrift.stability.psd import arw_from_white_level, log_binned, welch_psd
+    from gyrodrift.stability.psd import arw_from_white_level, log_binned
 
     check_output(args.png, "--png")
     check_output(args.csv_out, "--csv", (".csv",))
@@ -72,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
         raise CliError(f"{rec.source}: the record is constant ({x.size} samples of {x[0]:g} "
                        "deg/h): its PSD is zero at every frequency, nothing to plot")
     try:
-        res = welch_psd(np.asarray(rec.rate_deg_h), rec.rate_hz, nperseg=args.nperseg)
+        res = _welch_in_range(x, rec.rate_hz, args.nperseg, rec.source)
     except ValueError as exc:
         raise CliError(str(exc)) from exc
     with atomic_output(args.png) as tmp:
@@ -95,3 +97,28 @@ def run(args: argparse.Namespace) -> int:
     print(f"upper-band level {level:.4g} (deg/h)^2/Hz -> N = "
           f"{out['n_arw_deg_rt_h']:.4g} deg/sqrt(h) if white; PNG: {args.png}")
     return 0
+
+
+def _welch_in_range(x: np.ndarray, rate_hz: float, nperseg: int | None, source: str) -> Any:
+    """The Welch PSD of `x`, refused (one line) where it leaves the range of float64: the PSD
+    is quadratic in the record, so a record of 1e200 deg/h overflows it to inf and one of
+    1e-200 deg/h underflows it to 0 (N = inf or 0, silently). The record is scaled by a power
+    of two for the transform and the PSD scaled back: exact (the same bits) wherever the
+    PSD is representable, and the bins that are not show as inf or lost to zero."""
+    from gyrodrift.stability.psd import welch_psd
+
+    peak = float(np.max(np.abs(x)))
+    scale = math.ldexp(1.0, math.frexp(peak)[1]) if peak > 0 and math.isfinite(peak) else 1.0
+    res = welch_psd(x / scale, rate_hz, nperseg=nperseg)
+    with np.errstate(over="ignore", under="ignore"):
+        psd = res.psd * scale * scale
+    lost = (res.psd > 0) & (psd < np.finfo(np.float64).tiny)
+    if not np.all(np.isfinite(psd)) or np.any(lost):
+        level = float(np.median(res.psd[res.psd > 0])) if np.any(res.psd > 0) else 1.0
+        exponent = round(math.log10(level) + 2.0 * math.log10(scale))
+        raise CliError(
+            f"{source}: the PSD of this record is outside the range of float64 numbers "
+            f"(values up to {peak:.3g} deg/h: its PSD would be near 1e{exponent:+d} "
+            "(deg/h)^2/Hz); rescale the record (--gyro-units)")
+    return dataclasses.replace(res, psd=psd)
+

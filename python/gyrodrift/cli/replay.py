@@ -30,7 +30,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     """
     p = subparsers.add_parser(
         "replay",
-        help="replay an IMU log into gyrodrift-loop (pty) or a target, and verify the outputs",
+        help="replay an IMU log into gyrodrift-loop (pty), the firmware image on QEMU, or a "
+             "target, and verify the outputs",
         description=(
             "Replay an IMU record (binary frame log .bin, .csv, candump .log, Vector .asc, "
             ".blf) over a serial line or CAN into the gyrodrift-loop program on a "
@@ -48,6 +49,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--transport", choices=("serial", "slcan", "socketcan"), default="serial",
                    help="link to the loop: serial frames, SLCAN (CAN over a serial line) or "
                         "SocketCAN (default serial)")
+    p.add_argument("--target", choices=("loop", "qemu"), default="loop",
+                   help="what a replay without --device starts: the gyrodrift-loop program "
+                        "(loop), or the reference firmware image built from the configuration "
+                        "and booted on QEMU's netduinoplus2 board, an STM32F405 (qemu; serial "
+                        "transport; also replays the same input into the host loop and compares "
+                        "outputs and counters) (default loop)")
     p.add_argument("--device", default=None,
                    help="attach to a running target: serial device (/dev/ttyUSB0), SLCAN "
                         "adapter device, or SocketCAN interface (can0); default: start "
@@ -126,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift.imu.config import ConfigError, default_config, load_config
     from gyrodrift.io.imu_log import read_imu_log
     from gyrodrift.replay.faults import FaultSpec
+    from gyrodrift.replay.firmware import FirmwareError
     from gyrodrift.replay.harness import ReplayError, ReplayOptions, run_replay
     from gyrodrift.report.replay import format_table, write_json, write_png
 
@@ -180,12 +188,12 @@ def run(args: argparse.Namespace) -> int:
                             attach=args.device, faults=faults, processor=proc,
                             # CAN replays then speak the user's DBC to the loop as well
                             can_signals=args.can_signals if args.transport != "serial"
-                            else None, progress=progress_enabled(args))
+                            else None, progress=progress_enabled(args), target=args.target)
     except (ConfigError, ValueError) as exc:
         raise CliError(str(exc)) from None
     try:
         result = run_replay(samples, opt)
-    except (ReplayError, OSError, ValueError) as exc:
+    except (ReplayError, FirmwareError, OSError, ValueError) as exc:
         raise CliError(str(exc)) from None
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -12,7 +12,14 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.cli import CliError
-from gyrodrift.cli.common import add_json_arg, check_output, check_rate_hz, emit_json, write_csv
+from gyrodrift.cli.common import (
+    add_json_arg,
+    check_output,
+    check_rate_hz,
+    emit_json,
+    human_stream,
+    write_csv,
+)
 from gyrodrift.defaults import DEFAULT_SAMPLE_RATE_HZ
 from gyrodrift.io.atomic import atomic_output
 
@@ -158,5 +165,6 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         emit_json(info)
     else:
-        print(f"wrote {out} ({kind}, {n} samples at {args.rate_hz:g} Hz, seed {args.seed})")
+        print(f"wrote {out} ({kind}, {n} samples at {args.rate_hz:g} Hz, seed {args.seed})",
+              file=human_stream(out))
     return 0

@@ -20,6 +20,8 @@ from .can_frames import (
 from .serial_frame import (
     FRAME_DTYPE,
     FRAME_SIZE,
+    TYPE_HEALTH_REPORT,
+    TYPE_HEALTH_REQUEST,
     TYPE_INPUT,
     TYPE_OUTPUT,
     FrameError,
@@ -38,6 +40,8 @@ __all__ = [
     "FRAME_SIZE",
     "INPUT_BASE_ID",
     "OUTPUT_BASE_ID",
+    "TYPE_HEALTH_REPORT",
+    "TYPE_HEALTH_REQUEST",
     "TYPE_INPUT",
     "TYPE_OUTPUT",
     "CanRxStats",

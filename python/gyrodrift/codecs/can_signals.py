@@ -24,7 +24,9 @@ the mapped messages fill the sample's roles (six channels, and the sequence and 
 when mapped); the sample is complete when every role is filled. A frame that would fill a
 role already filled drops the partial sample (counted in incomplete_samples, its frames in
 frames_dropped) and starts the next one. A frame of a mapped message that carries none of
-the mapped signals (another multiplexer page) is counted in ignored_frames; a frame shorter
+the mapped signals (another multiplexer page) is counted in ignored_frames, and so is a frame
+whose multiplexer value the DBC does not define (cantools decodes nothing of it, even its
+signals outside the multiplexer; also counted in undefined_page_frames); a frame shorter
 than its message is counted in bad_dlc (and dropped). A sequence counter narrower than 16
 bits is unwrapped into the 16-bit sample sequence (steps modulo 2**width). Accounting:
 frames_in == foreign_frames + frames_used + frames_dropped + ignored_frames + pending_frames.
@@ -50,6 +52,8 @@ else:  # pragma: no cover - Python 3.10
 
 __all__ = [
     "CHANNEL_ROLES",
+    "MAX_DLC",
+    "MAX_PAGES",
     "ROLES",
     "TABLE_HEADER",
     "TIME_UNITS",
@@ -70,6 +74,10 @@ ROLES: tuple[str, ...] = (*CHANNEL_ROLES, "seq", "time")
 #: timestamp unit -> factor to microseconds
 TIME_UNITS: dict[str, float] = {"us": 1.0, "ms": 1e3, "s": 1e6}
 TABLE_HEADER = "gyrodrift-can-signals 1"
+#: The most multiplexer pages the decode table holds for one message.
+MAX_PAGES = 64
+#: Classic CAN: the decoders read frames of at most 8 data bytes.
+MAX_DLC = 8
 SCHEMA = "gyrodrift.can_signals"
 
 
@@ -124,6 +132,11 @@ class SignalMap:
             if role not in ROLES:
                 raise MapError(f"{self.source}: unknown role {role!r}")
             sig = self._signal(role, ref)
+            msg = self.db.get_message_by_name(ref.message)
+            if msg.length > MAX_DLC or getattr(msg, "is_fd", False):
+                raise MapError(f"{self.source}: {role}: {ref.message} is a CAN FD message "
+                               f"({msg.length} bytes); the decoders read classic CAN frames "
+                               f"(at most {MAX_DLC} data bytes)")
             if sig.multiplexer_ids is not None and len(sig.multiplexer_ids) != 1:
                 raise MapError(f"{self.source}: {role}: {ref.message}.{ref.signal} belongs to "
                                  f"{len(sig.multiplexer_ids)} multiplexer values; map a "
@@ -290,6 +303,27 @@ def decode_table(smap: SignalMap) -> list[dict[str, Any]]:
     return rows
 
 
+def _multiplexed_messages(smap: SignalMap) -> list[dict[str, Any]]:
+    """Each mapped message that has a multiplexer: its selector's field and the values the
+    DBC defines (a frame with another value decodes nothing, as in cantools)."""
+    out = []
+    for m in sorted(smap.messages.values(), key=lambda m: (m.frame_id, m.is_extended_frame)):
+        muxes = [s for s in m.signals if s.is_multiplexer and s.multiplexer_signal is None]
+        if not muxes:
+            continue
+        ms = muxes[0]
+        values = sorted({int(v) for s in m.signals if s.multiplexer_signal == ms.name
+                         for v in (s.multiplexer_ids or ())})
+        if len(values) > MAX_PAGES:
+            raise MapError(f"{smap.source}: {m.name}: {len(values)} multiplexer pages; the decode "
+                           f"table holds at most {MAX_PAGES}")
+        out.append({"id": int(m.frame_id), "extended": bool(m.is_extended_frame),
+                    "dlc": int(m.length), "start": int(ms.start), "length": int(ms.length),
+                    "order": "le" if ms.byte_order == "little_endian" else "be",
+                    "values": values, "message": m.name})
+    return out
+
+
 def decode_table_text(smap: SignalMap) -> str:
     """The decode table as the text file `gyrodrift-loop --can-signals FILE` reads (and
     codecs/can_signal_decode.hpp's parse_signal_line parses): one entry per line,
@@ -297,7 +331,9 @@ def decode_table_text(smap: SignalMap) -> str:
         ROLE ID EXT DLC START LENGTH ORDER TYPE SCALE OFFSET FACTOR MUX
 
     ID hex, EXT 0/1, ORDER le|be, TYPE u|s|f32|f64, numbers in repr() form (they round-trip
-    exactly through strtod), MUX '-' or START:LENGTH:ORDER:VALUE. '#' starts a comment.
+    exactly through strtod), MUX '-' or START:LENGTH:ORDER:VALUE. '#' starts a comment. Each
+    mapped message with a multiplexer also gets ``pages ID EXT DLC START:LENGTH:ORDER
+    V1,V2,...``: the values its DBC defines (a frame with another value decodes nothing).
 
     Examples
     --------
@@ -314,6 +350,10 @@ def decode_table_text(smap: SignalMap) -> str:
              f"# generated from {Path(smap.source).name or 'a signal map'} by "
              "gyrodrift.codecs.can_signals.decode_table_text",
              "# role id ext dlc start length order type scale offset factor mux"]
+    for m in _multiplexed_messages(smap):
+        values = ",".join(str(v) for v in m["values"])
+        lines.append(f"pages {m['id']:#x} {int(m['extended'])} {m['dlc']} "
+                     f"{m['start']}:{m['length']}:{m['order']}:{values}  # {m['message']}")
     for e in decode_table(smap):
         mux = "-" if e["mux"] is None else \
             f"{e['mux']['start']}:{e['mux']['length']}:{e['mux']['order']}:{e['mux']['value']}"
@@ -441,6 +481,7 @@ class SignalRxStats:
     frames_dropped: int = 0
     foreign_frames: int = 0
     ignored_frames: int = 0
+    undefined_page_frames: int = 0
     bad_dlc: int = 0
     complete_samples: int = 0
     incomplete_samples: int = 0
@@ -504,7 +545,10 @@ class SignalSampleAssembler:
         try:
             sig = m.decode(data, decode_choices=False, scaling=True)
         except cantools.database.DecodeError:
-            sig = {}  # a multiplexer value the DBC does not define: nothing mapped in it
+            # a multiplexer value the DBC does not define: cantools decodes nothing of it
+            st.ignored_frames += 1
+            st.undefined_page_frames += 1
+            return None
         got = {role: float(sig[ref.signal]) * ref.factor
                for role, ref in self._by_message[m.name] if ref.signal in sig}
         if not got:

@@ -2,8 +2,12 @@
 
 Twin of include/gyrodrift/codecs/serial_frame.hpp (same layout, same resync rules, same counters).
 Layout (offset size field): 0 1 sync0=0xA5 | 1 1 sync1=0x5A | 2 1 type (0x01 input,
-0x81 output) | 3 1 len=36 | 4 2 seq u16 | 6 2 flags u16 | 8 8 t_us u64 | 16 24 6 x float32
+0x81 output, 0x02 health request, 0x82 health report) | 3 1 len=36 | 4 2 seq u16 |
+6 2 flags u16 | 8 8 t_us u64 | 16 24 6 x float32
 (gyro x y z rad/s, accel x y z m/s^2) | 40 2 CRC-16/CCITT-FALSE over bytes 2..39.
+A health report is one frame per counter: seq = index, flags = group, t_us = value, the 24
+value bytes = the counter's name (NUL-padded ASCII); group 0xFF ends it (t_us = the number of
+counter frames before it).
 The CRC comes from the standard library (binascii.crc_hqx: poly 0x1021, no reflection;
 init 0xFFFF gives CCITT-FALSE), independent of the C++ table implementation.
 """
@@ -23,9 +27,12 @@ __all__ = [
     "CRC_OFFSET",
     "FRAME_DTYPE",
     "FRAME_SIZE",
+    "FRAME_TYPES",
     "PAYLOAD_LEN",
     "SYNC0",
     "SYNC1",
+    "TYPE_HEALTH_REPORT",
+    "TYPE_HEALTH_REQUEST",
     "TYPE_INPUT",
     "TYPE_OUTPUT",
     "FrameError",
@@ -42,6 +49,9 @@ SYNC0 = 0xA5
 SYNC1 = 0x5A
 TYPE_INPUT = 0x01
 TYPE_OUTPUT = 0x81
+TYPE_HEALTH_REQUEST = 0x02  # asks a target for its health counters
+TYPE_HEALTH_REPORT = 0x82  # one counter of the target's answer
+FRAME_TYPES = (TYPE_INPUT, TYPE_OUTPUT, TYPE_HEALTH_REQUEST, TYPE_HEALTH_REPORT)
 PAYLOAD_LEN = 36
 FRAME_SIZE = 42
 CRC_OFFSET = 40
@@ -110,8 +120,9 @@ def encode_frame(
     v = np.asarray(values, dtype=np.float64).reshape(-1)
     if v.size != 6:
         raise GyrodriftValueError(f"values: expected 6 channels, got {v.size}")
-    if frame_type not in (TYPE_INPUT, TYPE_OUTPUT):
-        raise GyrodriftValueError(f"type: expected 0x01 or 0x81, got {frame_type:#x}")
+    if frame_type not in FRAME_TYPES:
+        raise GyrodriftValueError(f"type: expected 0x01, 0x81, 0x02 or 0x82, got "
+                                  f"{frame_type:#x}")
     body = _BODY.pack(
         SYNC0, SYNC1, frame_type, PAYLOAD_LEN, seq & 0xFFFF, flags & 0xFFFF, int(t_us), *v.tolist()
     )
@@ -180,7 +191,7 @@ def decode_frame(frame: bytes | bytearray | memoryview) -> ImuFrame:
     s0, s1, typ, ln, seq, flags, t_us, *vals = _BODY.unpack_from(b)
     if (s0, s1) != (SYNC0, SYNC1):
         raise FrameError(f"bad sync {s0:#04x} {s1:#04x}")
-    if typ not in (TYPE_INPUT, TYPE_OUTPUT) or ln != PAYLOAD_LEN:
+    if typ not in FRAME_TYPES or ln != PAYLOAD_LEN:
         raise FrameError(f"bad header type={typ:#04x} len={ln}")
     (crc,) = _CRC.unpack_from(b, CRC_OFFSET)
     if crc != crc16_ccitt_false(b[2:CRC_OFFSET]):
@@ -189,7 +200,7 @@ def decode_frame(frame: bytes | bytearray | memoryview) -> ImuFrame:
 
 
 def _valid_header(typ: int, ln: int) -> bool:
-    return typ in (TYPE_INPUT, TYPE_OUTPUT) and ln == PAYLOAD_LEN
+    return typ in FRAME_TYPES and ln == PAYLOAD_LEN
 
 
 def _header_inside(b: bytes | bytearray, avail: int) -> int:

@@ -20,13 +20,16 @@ True
 
 from __future__ import annotations
 
+import datetime
 import math
 import os
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Union
+
+import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.imu.schema import (
@@ -50,6 +53,7 @@ from gyrodrift.imu.schema import (
     default_time_tolerance_us,
     field_spec,
     max_wavelet_level,
+    to_float32,
 )
 from gyrodrift.io.atomic import atomic_write_text
 
@@ -103,7 +107,10 @@ class ConfigError(GyrodriftValueError):
 
     def __init__(self, key: str, message: str) -> None:
         self.key = key
-        super().__init__(f"{key}: {message}" if key else message)
+        text = f"{key}: {message}" if key else message
+        # one line: control characters (of a quoted key, of a parser's message) escaped
+        super().__init__("".join(c if c >= " " and c != "\x7f" else f"\\x{ord(c):02x}"
+                                 for c in text))
 
 
 @dataclass(frozen=True)
@@ -300,10 +307,25 @@ def ar2_is_stationary(a1: float, a2: float) -> bool:
     return abs(a2) < 1.0 and a1 + a2 < 1.0 and a2 - a1 < 1.0
 
 
+#: The float32 processor's stationarity bound (include/gyrodrift/filters/ar2_model.hpp:
+#: ar2_is_stationary, 1 - 64 machine epsilons).
+_F32_ONE = np.float32(1.0) - np.float32(64.0) * np.finfo(np.float32).eps
+
+
+def _ar2_is_stationary_f32(a1: float, a2: float) -> bool:
+    """The float32 processor's own stationarity test, in float32 arithmetic as it runs it."""
+    x1, x2 = np.float32(a1), np.float32(a2)
+    return bool(-_F32_ONE < x2 < _F32_ONE and x1 + x2 < _F32_ONE and x2 - x1 < _F32_ONE)
+
+
 def _check_field(key: str, spec: Field, value: Any) -> None:
     """The field's own bounds (gyrodrift.imu.schema), in the words both readers use."""
     if value is None and spec.default is None:
         return
+    if (spec.float32 and isinstance(value, (int, float)) and not isinstance(value, bool)
+            and to_float32(float(value)) is None):
+        raise ConfigError(key, f"{float(value)!r} does not fit a float32, the processor's "
+                               f"scalar (a magnitude {FLOAT32_RANGE_TEXT}, or 0)")
     if not spec.accepts(value):
         raise ConfigError(key, f"expected {spec.bounds_text()}, got {value!r}")
 
@@ -334,6 +356,13 @@ def _check_stage(key: str, ch: str, s: Stage) -> None:
             f"{key}.a1",
             f"AR(2) model is not stationary (a1={s.a1!r}, a2={s.a2!r}; needs |a2| < 1, "
             "a1 + a2 < 1, a2 - a1 < 1)",
+        )
+    if isinstance(s, Ar2KalmanStage) and not _ar2_is_stationary_f32(s.a1, s.a2):
+        raise ConfigError(
+            f"{key}.a1",
+            f"AR(2) model is not stationary in float32, the processor's scalar (a1={s.a1!r}, "
+            f"a2={s.a2!r}; in float32 |a2|, a1 + a2 and a2 - a1 must stay below "
+            f"1 - 64 eps = {float(_F32_ONE)!r})",
         )
 
 
@@ -402,6 +431,10 @@ class _Table:
             return default
         self.used.add(name)
         v = self.data[name]
+        if kind != "any" and isinstance(v, (Mapping, list)):
+            words = {"float": "a number", "int": "an integer", "bool": "true or false",
+                     "str": "a string"}[kind]
+            raise ConfigError(key, f"expected {words}, got {_kind_words(v)}")
         if kind == "float":
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise ConfigError(key, f"expected a number, got {v!r}")
@@ -421,7 +454,7 @@ class _Table:
         return v
 
     def finish(self, channel: str | None = None) -> None:
-        for name in self.data:
+        for name in sorted(self.data):  # key order: both readers name the same first key
             if name in self.used:
                 continue
             key = self._k(name)
@@ -505,7 +538,7 @@ def config_from_dict(data: Mapping[str, Any]) -> ProcessorConfig:
         meta = top.get("meta", "any")
         if not isinstance(meta, Mapping):
             raise ConfigError("meta", "expected a table")
-        for k, v in meta.items():
+        for k, v in sorted(meta.items()):
             if not isinstance(v, (str, int, float, bool)):
                 raise ConfigError(f"meta.{k}", "expected a string, number or boolean")
         meta_items = tuple(meta.items())
@@ -529,6 +562,84 @@ def config_from_dict(data: Mapping[str, Any]) -> ProcessorConfig:
     return ProcessorConfig(channels=tuple(channels), timing=timing, meta=meta_items)
 
 
+#: Tables and arrays nested deeper than this are refused (both readers; the document is depth
+#: 0, [timing] 1, a stage's table 3).
+MAX_NESTING = 128
+_TOO_DEEP = f"tables or arrays nested deeper than {MAX_NESTING}"
+_INT64 = (-(2**63), 2**63 - 1)
+_DOUBLE_MIN_NORMAL = 2.2250738585072014e-308
+FLOAT32_RANGE_TEXT = "1.1754944e-38..3.4028235e+38"
+
+
+class _LiteralError(GyrodriftValueError):
+    """A float literal outside the normal range of a double (raised while parsing)."""
+
+
+def _parse_float(literal: str) -> float:
+    """tomllib's float hook: the literal's double, refusing one that overflows or whose
+    nonzero value rounds to zero or to a subnormal number (the rule of both readers: every
+    number read is a normal double, or zero written as zero)."""
+    x = float(literal)
+    body = literal.lower().lstrip("+-")
+    if body in ("inf", "nan"):
+        return x
+    mantissa = body.split("e")[0]
+    nonzero = any(c in "123456789" for c in mantissa)
+    if math.isinf(x) or (nonzero and abs(x) < _DOUBLE_MIN_NORMAL):
+        raise _LiteralError(f"float {literal} is outside the range of a double (normal "
+                            "magnitudes 2.2250738585072014e-308..1.7976931348623157e+308, or 0)")
+    return x
+
+
+def _kind_words(v: Any) -> str:
+    return "a table" if isinstance(v, Mapping) else "an array"
+
+
+def _walk(data: Any, key: str, depth: int) -> Iterator[tuple[str, Any, int]]:
+    """(key, value, nesting depth) of every value under `data`, keys sorted; an array of
+    tables is walked as tables (key[i]), any other array is a leaf."""
+    if isinstance(data, Mapping):
+        for k in sorted(data):
+            yield from _walk(data[k], f"{key}.{k}" if key else str(k), depth)
+        return
+    if isinstance(data, list) and all(isinstance(d, Mapping) for d in data):
+        for i, d in enumerate(data):
+            yield from _walk(d, f"{key}[{i}]", depth)
+        return
+    yield key, data, depth
+
+
+def _depth(v: Any) -> int:
+    """Nesting depth of tables and arrays under `v` (0 for a scalar), iteratively."""
+    best, stack = 0, [(v, 0)]
+    while stack:
+        x, d = stack.pop()
+        best = max(best, d)
+        if isinstance(x, Mapping):
+            stack += [(y, d + 1) for y in x.values()]
+        elif isinstance(x, list):
+            stack += [(y, d + 1) for y in x]
+    return best
+
+
+def _check_document(data: Mapping[str, Any], source: str) -> None:
+    """What TOML allows but the format does not, the same rules as the loop's reader: integers
+    beyond 64 bits and nesting deeper than MAX_NESTING (the file is not valid TOML for either
+    reader), then, by key, a value that is not a string, number, boolean or table (arrays,
+    dates and times)."""
+    if _depth(data) > MAX_NESTING:
+        raise ConfigError(source, f"not valid TOML: {_TOO_DEEP}")
+    leaves = list(_walk(data, "", 0))
+    for _, v, _ in leaves:
+        if isinstance(v, int) and not isinstance(v, bool) and not _INT64[0] <= v <= _INT64[1]:
+            raise ConfigError(source, f"not valid TOML: integer {v} is not representable in "
+                                      "64 bits")
+    for key, v, _ in leaves:
+        if isinstance(v, (list, datetime.date, datetime.time)):
+            raise ConfigError(key, "value not in the supported TOML subset (string, integer, "
+                                   "float, inf, nan, true/false, tables)")
+
+
 def parse_config(text: str, source: str = "<string>") -> ProcessorConfig:
     """Parse TOML text. A TOML syntax error is a ConfigError naming `source`.
 
@@ -543,9 +654,14 @@ def parse_config(text: str, source: str = "<string>") -> ProcessorConfig:
     gyrodrift.imu.config.ConfigError: timing: missing value
     """
     try:
-        data = tomllib.loads(text)
+        data = tomllib.loads(text, parse_float=_parse_float)
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(source, f"not valid TOML: {exc}") from None
+    except _LiteralError as exc:
+        raise ConfigError(source, f"not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(source, f"not valid TOML: {_TOO_DEEP}") from None
+    _check_document(data, source)
     return config_from_dict(data)
 
 

@@ -46,6 +46,7 @@ from gyrodrift.imu.schema import (
     default_period_us,
     default_time_tolerance_us,
     field_spec,
+    to_float32,
 )
 
 __all__ = ["emit_cpp", "emit_schema_header", "float_literal"]
@@ -65,7 +66,14 @@ def float_literal(x: float) -> str:
     --------
     >>> float_literal(0.1), float_literal(1e-10), float_literal(float("inf"))
     ('1.0e-01f', '1.0e-10f', 'std::numeric_limits<float>::infinity()')
+    >>> float_literal(1e-50)  # would be 0.0f: refused
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: 1e-50 does not fit a float32 (a magnitude ...
     """
+    if to_float32(float(x)) is None:
+        raise GyrodriftValueError(f"{float(x)!r} does not fit a float32 (a magnitude "
+                                  "1.1754944e-38..3.4028235e+38, or 0)")
     v = np.float32(x)
     if np.isinf(v):
         return ("-" if v < 0 else "") + "std::numeric_limits<float>::infinity()"
@@ -279,6 +287,7 @@ _FIELD_SPEC_STRUCT = (
     "  bool hi_open;",
     "  bool finite;",
     "  bool power_of_two;",
+    "  bool float32;  // the processors hold it as a float32: it must fit one",
     "  const char* choices;",
     "  const char* bounds_text;",
     "  const char* unit;",
@@ -318,7 +327,8 @@ def emit_schema_header() -> str:
             f"{_cpp_double(float(dflt), 0.0)}, {_cpp_string(text_default)},\n"
             f"    {_cpp_double(f.lo, -math.inf)}, {'true' if f.lo_open else 'false'}, "
             f"{_cpp_double(f.hi, math.inf)}, {'true' if f.hi_open else 'false'}, "
-            f"{'true' if f.finite else 'false'}, {'true' if f.power_of_two else 'false'},\n"
+            f"{'true' if f.finite else 'false'}, {'true' if f.power_of_two else 'false'}, "
+            f"{'true' if f.float32 else 'false'},\n"
             f"    {_cpp_string('|'.join(f.choices))}, {_cpp_string(f.bounds_text())}, "
             f"{_cpp_string(f.unit)},\n    {_cpp_string(f.help)}}};")
     rate = DEFAULT_SAMPLE_RATE_HZ

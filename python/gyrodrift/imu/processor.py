@@ -17,7 +17,7 @@ import numpy.typing as npt
 from gyrodrift._native import core
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.imu.contract import CHANNELS, contract
-from gyrodrift.imu.schema import PAPER_WAVELET, field_spec
+from gyrodrift.imu.schema import CHANNEL_NAMES, PAPER_WAVELET, field_spec
 
 if TYPE_CHECKING:
     from gyrodrift.imu.config import ProcessorConfig
@@ -297,9 +297,10 @@ class ImuProcessor:
         cls = lib.ImuProcessor if self.dtype == np.float64 else lib.ImuProcessorF32
         self._proc = cls(settings=self._settings(lib, config, wavelet))
         if self._proc.status != "ok":
-            where = f" (channel {self._proc.bad_channel})" if self._proc.bad_channel >= 0 else ""
-            raise GyrodriftValueError(f"invalid IMU processor configuration: "
-                                      f"{self._proc.status}{where}")
+            bad = self._proc.bad_channel
+            where = f"channels.{CHANNEL_NAMES[bad]}: " if 0 <= bad < len(CHANNEL_NAMES) else ""
+            raise GyrodriftValueError(f"{where}invalid IMU processor configuration in "
+                                      f"{self.dtype.name}: {self._proc.status}")
         self.config = config
 
     @staticmethod

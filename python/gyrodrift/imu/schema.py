@@ -31,6 +31,7 @@ Examples
 from __future__ import annotations
 
 import math
+import struct
 from dataclasses import dataclass
 from typing import Any
 
@@ -50,7 +51,11 @@ __all__ = [
     "DEFAULT_SAMPLE_RATE_HZ",
     "DEMO_AR2",
     "FIELDS",
+    "FLOAT32_INPUT_LIMIT",
+    "FLOAT32_MAX",
+    "FLOAT32_MIN_NORMAL",
     "MAX_STAGES",
+    "MAX_VARIANCE",
     "PAPER_WAVELET",
     "REQUIRED",
     "SCHEMA",
@@ -66,6 +71,7 @@ __all__ = [
     "default_time_tolerance_us",
     "field_spec",
     "max_wavelet_level",
+    "to_float32",
 ]
 
 SCHEMA = "gyrodrift.processor"
@@ -91,6 +97,38 @@ class _Required:
 REQUIRED: Any = _Required()
 
 U32_MAX = 2**32 - 1
+#: The largest finite and the smallest normal float32 magnitudes.
+FLOAT32_MAX = 3.4028234663852886e38
+FLOAT32_MIN_NORMAL = 1.1754943508222875e-38
+#: The float32 filters' input limit (include/gyrodrift/filters/input_range.hpp: max / 2^24):
+#: the bound of a model mean.
+FLOAT32_INPUT_LIMIT = FLOAT32_MAX / 2.0**24
+#: The largest variance (q, r, sigma2, p0) a float32 filter's covariance recursion holds
+#: without overflow for every stationary model (a standard deviation of 1e15 channel units).
+MAX_VARIANCE = 1e30
+
+
+def to_float32(x: float) -> float | None:
+    """`x` rounded to the nearest float32 (as the C++ cast does), or None when a nonzero
+    value does not fit one: it overflows, or it rounds to zero or to a subnormal number (the
+    processors built on float32 flush those, and a variance of 0 is not the one written).
+
+    Examples
+    --------
+    >>> to_float32(0.1), to_float32(0.0), to_float32(float("inf"))
+    (0.10000000149011612, 0.0, inf)
+    >>> to_float32(1e-50), to_float32(1e39), to_float32(0.999999999)
+    (None, None, 1.0)
+    """
+    if x == 0.0 or math.isinf(x) or math.isnan(x):
+        return float(x)
+    try:
+        y = float(struct.unpack("f", struct.pack("f", x))[0])
+    except OverflowError:
+        return None
+    if math.isinf(y) or abs(y) < FLOAT32_MIN_NORMAL:
+        return None
+    return y
 
 
 @dataclass(frozen=True)
@@ -100,12 +138,15 @@ class Field:
     ``lo``/``hi`` bound the value (None: unbounded); ``lo_open``/``hi_open`` make a bound
     strict. ``choices`` lists the accepted strings. ``finite`` refuses NaN and +-inf (a float
     field that is not finite-only says so by its bounds, e.g. saturation accepts inf).
+    ``float32``: the processors hold the value as a float32 (the firmware's scalar), so the
+    value must fit one (:func:`to_float32`) and its bounds hold for the rounded value
+    (against the bounds rounded to float32).
 
     Examples
     --------
     >>> f = field_spec("ar2_kalman", "r")
     >>> f.kind, f.unit, f.lo, f.lo_open, f.bounds_text()
-    ('float', 'channel^2', 0.0, True, '> 0')
+    ('float', 'channel^2', 0.0, True, '> 0 and <= 1e+30')
     """
 
     section: str
@@ -121,6 +162,7 @@ class Field:
     finite: bool = True
     choices: tuple[str, ...] = ()
     power_of_two: bool = False
+    float32: bool = False
 
     @property
     def required(self) -> bool:
@@ -178,9 +220,17 @@ class Field:
         v = float(value)
         if math.isnan(v) or (self.finite and math.isinf(v)):
             return False
-        if self.lo is not None and (v <= self.lo if self.lo_open else v < self.lo):
+        lo, hi = self.lo, self.hi
+        if self.float32:  # the bounds hold for the values the processor holds
+            rounded = to_float32(v)
+            if rounded is None:
+                return False
+            v = rounded
+            lo = None if lo is None else to_float32(lo)
+            hi = None if hi is None else to_float32(hi)
+        if lo is not None and (v <= lo if self.lo_open else v < lo):
             return False
-        if self.hi is not None and (v >= self.hi if self.hi_open else v > self.hi):
+        if hi is not None and (v >= hi if self.hi_open else v > hi):
             return False
         if self.power_of_two:
             n = int(value)
@@ -228,12 +278,12 @@ FIELDS: tuple[Field, ...] = (
           "rate of the loop program's cycle (absent: the sample rate)", lo=1.0, hi=2000.0),
     Field("channel", "saturation", "float", "channel", math.inf,
           "|x| >= saturation marks a value saturated (inf: off)", lo=0.0, lo_open=True,
-          finite=False),
+          finite=False, float32=True),
     Field("channel", "stuck_samples", "int", "samples", 0,
           "the N-th identical value in a row marks the channel stuck (0: off)",
           lo=0, hi=U32_MAX),
     Field("bias_removal", "bias", "float", "channel", REQUIRED,
-          "subtracted from every sample"),
+          "subtracted from every sample", float32=True),
     Field("wavelet", "wavelet", "str", "", REQUIRED,
           "wavelet of the real-time sliding-window prefilter", choices=tuple(WAVELETS)),
     Field("wavelet", "window", "int", "samples", REQUIRED,
@@ -244,17 +294,20 @@ FIELDS: tuple[Field, ...] = (
     Field("wavelet", "threshold", "str", "", PREFILTER_THRESHOLD,
           "detail handling: forced (all details zeroed), soft or hard", choices=THRESHOLDS),
     Field("ar2_kalman", "a1", "float", "", REQUIRED,
-          "AR(2) coefficient of x[k-1] (the model must be stationary)"),
-    Field("ar2_kalman", "a2", "float", "", REQUIRED, "AR(2) coefficient of x[k-2]"),
-    Field("ar2_kalman", "mean", "float", "channel", REQUIRED, "model mean (constant drift)"),
+          "AR(2) coefficient of x[k-1] (the model must be stationary)", float32=True),
+    Field("ar2_kalman", "a2", "float", "", REQUIRED, "AR(2) coefficient of x[k-2]",
+          float32=True),
+    Field("ar2_kalman", "mean", "float", "channel", REQUIRED,
+          "model mean (constant drift; within the float32 filters' input range)",
+          lo=-FLOAT32_INPUT_LIMIT, hi=FLOAT32_INPUT_LIMIT, float32=True),
     Field("ar2_kalman", "sigma2", "float", "channel^2", None,
-          "AR(2) driving-noise variance (absent: q)", lo=0.0),
+          "AR(2) driving-noise variance (absent: q)", lo=0.0, hi=MAX_VARIANCE, float32=True),
     Field("ar2_kalman", "q", "float", "channel^2", REQUIRED,
-          "Kalman process-noise variance", lo=0.0),
+          "Kalman process-noise variance", lo=0.0, hi=MAX_VARIANCE, float32=True),
     Field("ar2_kalman", "r", "float", "channel^2", REQUIRED,
-          "Kalman measurement-noise variance", lo=0.0, lo_open=True),
+          "Kalman measurement-noise variance", lo=0.0, lo_open=True, hi=MAX_VARIANCE, float32=True),
     Field("ar2_kalman", "p0", "float", "channel^2", 1.0,
-          "initial state covariance P_0 = p0 I", lo=0.0),
+          "initial state covariance P_0 = p0 I", lo=0.0, hi=MAX_VARIANCE, float32=True),
     Field("ar2_kalman", "steady_state", "bool", "", False,
           "constant (DARE steady-state) Kalman gain instead of the time-varying one"),
 )

@@ -25,6 +25,7 @@ from gyrodrift.codecs.wire import (
     make_samples,
 )
 from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.io.atomic import atomic_output
 
 __all__ = [
     "CAN_FORMATS",
@@ -171,6 +172,12 @@ def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) ->
     """
     path = Path(path)
     kind = log_format(path, fmt)
+    with atomic_output(path) as tmp:  # the one output rule (gyrodrift.io.atomic)
+        _write_samples(path.name, tmp, samples, kind)
+    return path
+
+
+def _write_samples(name: str, path: Path, samples: Samples, kind: str) -> None:
     if kind == "bin":
         path.write_bytes(encode_frames(samples, TYPE_INPUT).tobytes())
     elif kind == "csv":
@@ -186,7 +193,7 @@ def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) ->
         # python-can picks the writer (CanutilsLogWriter, ASCWriter, BLFWriter) from the suffix.
         suffix = {"candump": ".log", "asc": ".asc", "blf": ".blf"}[kind]
         if path.suffix.lower() != suffix:
-            raise GyrodriftValueError(f"{kind} logs must end in {suffix}, got {path.name}")
+            raise GyrodriftValueError(f"{kind} logs must end in {suffix}, got {name}")
         t_s = samples.t_s
         with can.Logger(str(path)) as writer:
             for k in range(len(samples)):
@@ -196,7 +203,6 @@ def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) ->
                     m.timestamp = float(t_s[k])
                     m.channel = 0
                     writer.on_message_received(m)
-    return path
 
 
 def read_imu_log(path: str | Path, fmt: str | None = None, *,

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from gyrodrift.defaults import RATE_MAX_HZ, RATE_MIN_HZ
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.units import ARCSEC, DEG, UG
 
@@ -70,23 +71,27 @@ def read_psins_imu(path: str | Path) -> PsinsRecord:
         raise FileNotFoundError(f"{path}: no such file")
     header: list[np.ndarray] = []
     rows: list[str] = []
-    with path.open() as fh:
-        for lineno, line in enumerate(fh, 1):
-            s = line.strip()
-            if not s or s.startswith("%"):
-                continue
-            if len(header) < 3:
-                try:
-                    vals = np.array([float(v) for v in s.split()])
-                except ValueError:
-                    raise GyrodriftValueError(
-                        f"{path}:{lineno}: header line is not numeric") from None
-                if vals.size != 6:
-                    raise GyrodriftValueError(
-                        f"{path}:{lineno}: header line needs 6 values, got {vals.size}")
-                header.append(vals)
-                continue
-            rows.append(s)
+    try:
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark is no header value
+    except UnicodeDecodeError as exc:
+        raise GyrodriftValueError(f"{path}: not a PSINS text log (byte {exc.start} is not "
+                                  "UTF-8; a binary file?)") from None
+    for lineno, line in enumerate(text.splitlines(), 1):
+        s = line.strip()
+        if not s or s.startswith("%"):
+            continue
+        if len(header) < 3:
+            try:
+                vals = np.array([float(v) for v in s.split()])
+            except ValueError:
+                raise GyrodriftValueError(
+                    f"{path}:{lineno}: header line is not numeric") from None
+            if vals.size != 6:
+                raise GyrodriftValueError(
+                    f"{path}:{lineno}: header line needs 6 values, got {vals.size}")
+            header.append(vals)
+            continue
+        rows.append(s)
     if len(header) < 3:
         raise GyrodriftValueError(f"{path}: missing the three PSINS header lines")
     if not rows:
@@ -103,6 +108,10 @@ def read_psins_imu(path: str | Path) -> PsinsRecord:
     dt_s = l2[4] / 1000.0
     if not dt_s > 0:
         raise GyrodriftValueError(f"{path}: sampling interval must be > 0 ms, got {l2[4]}")
+    if not RATE_MIN_HZ <= 1.0 / dt_s <= RATE_MAX_HZ:  # the range a given --rate-hz has
+        raise GyrodriftValueError(
+            f"{path}: sampling interval {l2[4]:g} ms gives a sample rate of {1.0 / dt_s:.3g} "
+            f"Hz, outside {RATE_MIN_HZ:g}..{RATE_MAX_HZ:g} Hz")
     return PsinsRecord(
         att0_deg=l1[:3], vn0_m_s=l1[3:], lat_rad=l2[0] * DEG, lon_rad=l2[1] * DEG, h_m=l2[2],
         t0_s=l2[3], dt_s=dt_s, g_m_s2=l2[5],

@@ -21,10 +21,19 @@ from pathlib import Path
 
 import numpy as np
 
+from gyrodrift.defaults import RATE_MAX_HZ as _RATE_MAX_HZ
+from gyrodrift.defaults import RATE_MIN_HZ as _RATE_MIN_HZ
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.units import GYRO_INPUT_UNITS, INCREMENT_UNITS, RATE_UNITS
+from gyrodrift.units import (
+    DEFAULT_TIME_UNITS,
+    GYRO_INPUT_UNITS,
+    INCREMENT_UNITS,
+    RATE_UNITS,
+    TIME_UNITS,
+)
 
-__all__ = ["UNITS", "Record", "is_number", "load_record", "rate_from_time", "to_deg_h"]
+__all__ = ["UNITS", "Record", "is_number", "load_npy", "load_record", "rate_from_time",
+           "to_deg_h"]
 
 #: The input units a gyro record may be in (gyrodrift.units: rates, then angle increments).
 UNITS: tuple[str, ...] = GYRO_INPUT_UNITS
@@ -120,22 +129,36 @@ def _pick_column(names: list[str], column: str | int | None, source: str) -> int
     return names.index(column)
 
 
-def rate_from_time(t: np.ndarray, source: str) -> float:
+def rate_from_time(t: np.ndarray, source: str, *, time_units: str | None = None) -> float:
     """Sample rate from a time column; gaps (missing samples) or steps back are an error,
     because Allan/PSD analysis assumes uniform sampling and would silently mis-time them.
+    ``time_units``: the units of ``t`` ("s", "ms", "us", "ns"; seconds when None), given by
+    the text readers so that an error can name the units the column's step suggests. The
+    rate must lie within RATE_MIN_HZ..RATE_MAX_HZ (the range a given --rate-hz has) and the
+    times within MAX_TIME_S: a time column in other units than the reader assumed fails one
+    of them. The steps are taken from the first time (exact for integer counts of ms, us or
+    ns since an epoch) before they are scaled to seconds.
 
     Examples
     --------
     >>> rate_from_time(np.arange(5) * 0.01, "log.csv")  # seconds in, Hz out
     100.0
+    >>> rate_from_time(np.arange(5) * 1e7, "log.csv", time_units="s")  # nanoseconds
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: log.csv: time step 1e+07 s gives ... looks like
+    nanoseconds (100 Hz): give --time-units ns (time_units='ns')
     """
+    t = np.asarray(t, dtype=np.float64)
     t = t[np.isfinite(t)]
     if t.size < 2:
         raise GyrodriftValueError(f"{source}: cannot infer the sample rate from the time column")
-    dt = np.diff(t)
+    f = TIME_UNITS[time_units or "s"]
+    dt = np.diff(t - t[0]) * f
     dt_med = float(np.median(dt))
     if not dt_med > 0:
         raise GyrodriftValueError(f"{source}: time column is not increasing")
+    _check_time_scale(dt_med, float(np.max(np.abs(t[[0, -1]]))) * f, source, time_units)
     # 25 % slack covers timestamp rounding (e.g. 6-decimal CSV times, CAN log clocks).
     gaps = int(np.count_nonzero(dt > 1.25 * dt_med))
     backs = int(np.count_nonzero(dt < 0.75 * dt_med))
@@ -145,6 +168,44 @@ def rate_from_time(t: np.ndarray, source: str) -> float:
             f"and {backs} short or backward steps against the median step "
             f"{dt_med:.6g} s; Allan/PSD analysis needs uniform sampling")
     return 1.0 / dt_med
+
+
+#: Times beyond this (about 3000 years) are no record's: a time column in ms, us or ns (an
+#: epoch count, or a long record from zero) read as seconds.
+MAX_TIME_S = 1e11
+_TIME_UNIT_NAMES = {"s": "seconds", "ms": "milliseconds", "us": "microseconds",
+                    "ns": "nanoseconds"}
+#: The rates a hint about the time column's units considers plausible for an IMU record.
+_HINT_RATE_HZ = (1e-2, 1e6)
+
+
+def _check_time_scale(dt_s: float, t_max_s: float, source: str, time_units: str | None) -> None:
+    """Refuse a time column whose step or values no record has (module docstring)."""
+    rate = 1.0 / dt_s
+    if RATE_MIN_HZ <= rate <= RATE_MAX_HZ and t_max_s <= MAX_TIME_S:
+        return
+    if not RATE_MIN_HZ <= rate <= RATE_MAX_HZ:
+        what = (f"time step {dt_s:.6g} s gives a sample rate of {rate:.3g} Hz, outside "
+                f"{RATE_MIN_HZ:g}..{RATE_MAX_HZ:g} Hz")
+    else:
+        what = f"times up to {t_max_s:.6g} s ({t_max_s / 3.15576e7:.3g} years)"
+    hint = ""
+    if time_units is not None:
+        raw_dt, raw_max = dt_s / TIME_UNITS[time_units], t_max_s / TIME_UNITS[time_units]
+        best: tuple[float, str, float] | None = None
+        for u, f in TIME_UNITS.items():
+            r = 1.0 / (raw_dt * f)
+            if (u != time_units and _HINT_RATE_HZ[0] <= r <= _HINT_RATE_HZ[1]
+                    and raw_max * f <= MAX_TIME_S):
+                score = abs(math.log10(r / 300.0))  # typical IMU rates: 100 Hz .. 1 kHz
+                if best is None or score < best[0]:
+                    best = (score, u, r)
+        if best is not None:
+            hint = (f"; the time column looks like {_TIME_UNIT_NAMES[best[1]]} "
+                    f"({best[2]:.3g} Hz): give --time-units {best[1]} (time_units={best[1]!r})")
+        else:
+            hint = "; check the units of the time column (--time-units, time_units=)"
+    raise GyrodriftValueError(f"{source}: {what}{hint}")
 
 
 def load_record(
@@ -157,6 +218,7 @@ def load_record(
     mmap: bool = True,
     can_signals: str | Path | None = None,
     force_rate: bool = False,
+    time_units: str = DEFAULT_TIME_UNITS,
 ) -> Record:
     """Load one gyro channel as a rate in deg/h (module docstring).
 
@@ -165,7 +227,10 @@ def load_record(
     from a t_s/time column when not given; for logs from the timestamps. can_signals: a CAN
     log in a user's own DBC, read through this signal map (gyrodrift.codecs.can_signals).
     A rate_hz that contradicts the file's own time column (by more than 1 %) is refused
-    unless force_rate. Only regular files are read (a FIFO or device would block or never end).
+    unless force_rate. time_units: the units of a .csv record's time column ("s", "ms", "us",
+    "ns"; gyrodrift.units.TIME_UNITS); the rate it gives is checked like a given rate_hz, so
+    nanoseconds read as seconds are refused, naming the units the step suggests. Only
+    regular files are read (a FIFO or device would block or never end).
 
     Examples
     --------
@@ -178,12 +243,18 @@ def load_record(
     """
     p = Path(path)
     _check_load_args(p, units, nan_policy, rate_hz)
+    if time_units not in TIME_UNITS:
+        raise GyrodriftValueError(f"unknown time units {time_units!r}; choose one of "
+                                  f"{', '.join(TIME_UNITS)}")
     suffix = p.suffix.lower()
     header_names, delimiter = _read_csv_header(p) if suffix == ".csv" else (None, ",")
     is_replay_csv = header_names is not None and "gyro_z_rad_s" in header_names
     if can_signals is not None and suffix not in (".log", ".asc", ".blf"):
         raise GyrodriftValueError(f"{p}: a DBC signal map applies to CAN logs "
                                   "(.log, .asc, .blf)")
+    if time_units != DEFAULT_TIME_UNITS and (suffix != ".csv" or is_replay_csv):
+        raise GyrodriftValueError(f"{p}: --time-units (time_units=) applies to the time column "
+                                  "of a text record; this file carries its own time base")
     if suffix in LOG_SUFFIXES or is_replay_csv:
         return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate)
     if suffix == ".imu":
@@ -193,7 +264,7 @@ def load_record(
     if suffix == ".csv":
         assert header_names is not None
         return _load_csv_record(p, header_names, delimiter, column, rate_hz, units, nan_policy,
-                                force_rate)
+                                force_rate, time_units)
     raise GyrodriftValueError(
         f"{p}: unsupported file type {suffix!r} (use .npy, .csv, PSINS .imu, "
         f"or an IMU log {', '.join(LOG_SUFFIXES)})")
@@ -223,7 +294,7 @@ def _read_csv_header(p: Path) -> tuple[list[str], str]:
     """The first line of a .csv split into cells, and the delimiter: ',' or, for the
     spreadsheet export of locales with a decimal comma, ';'."""
     try:
-        with p.open(newline="", encoding="utf-8") as fh:
+        with p.open(newline="", encoding="utf-8-sig") as fh:  # a byte-order mark is no name
             first_line = fh.readline()
     except UnicodeDecodeError as exc:
         raise GyrodriftValueError(
@@ -240,7 +311,7 @@ def _load_npy_record(p: Path, column: str | int | None, rate_hz: float | None, u
     """One column of a 1-D or 2-D .npy array. A float64 deg/h column without NaN stays
     memory-mapped (read in chunks by the Allan code); anything else is converted in memory."""
     source = str(p)
-    arr = _load_npy(p, mmap)
+    arr = load_npy(p, mmap)
     if arr.ndim == 2:
         idx = 0 if column is None and arr.shape[1] == 1 else None
         if idx is None:
@@ -278,9 +349,9 @@ def _load_npy_record(p: Path, column: str | int | None, rate_hz: float | None, u
 
 def _load_csv_record(p: Path, header_names: list[str], delimiter: str,
                      column: str | int | None, rate_hz: float | None, units: str,
-                     nan_policy: str, force_rate: bool) -> Record:
-    """One column of a .csv (header optional); the rate from its t_s/time/t column unless
-    given (and checked against it, _resolve_rate)."""
+                     nan_policy: str, force_rate: bool, time_units: str) -> Record:
+    """One column of a .csv (header optional); the rate from its t_s/time/t column (in
+    `time_units`) unless given (and checked against it, _resolve_rate)."""
     source = str(p)
     has_header = not all(is_number(c) for c in header_names)
     names = header_names if has_header else [str(i) for i in range(len(header_names))]
@@ -298,7 +369,7 @@ def _load_csv_record(p: Path, header_names: list[str], delimiter: str,
             raise GyrodriftValueError(f"{source}: no t_s/time column to infer the rate; "
                                       "give --rate-hz (rate_hz=)")
     else:
-        rate_hz = _resolve_rate(rate_hz, table[:, t_idx], source, force_rate)
+        rate_hz = _resolve_rate(rate_hz, table[:, t_idx], source, force_rate, time_units)
     x = to_deg_h(values, units, rate_hz)
     x, dropped = _apply_nan_policy(x, nan_policy, source)
     return Record(x, float(rate_hz), source, names[idx], units, int(values.size), dropped)
@@ -312,7 +383,7 @@ def _read_csv_table(p: Path, delimiter: str, skip: int) -> np.ndarray:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # "Empty input file": reported below
             table = np.genfromtxt(p, delimiter=delimiter, skip_header=skip, dtype=np.float64,
-                                  invalid_raise=True, ndmin=2, encoding="utf-8")
+                                  invalid_raise=True, ndmin=2, encoding="utf-8-sig")
     except UnicodeDecodeError as exc:
         raise GyrodriftValueError(
             f"{p}: not a text CSV file (byte {exc.start} of a line is "
@@ -325,18 +396,21 @@ def _read_csv_table(p: Path, delimiter: str, skip: int) -> np.ndarray:
     return table
 
 
-#: sample rates accepted from the user (outside them the analyses' fits overflow)
-RATE_MIN_HZ = 1e-6
-RATE_MAX_HZ = 1e9
+#: sample rates accepted from the user or a file (gyrodrift.defaults: outside them the
+#: analyses' fits overflow)
+RATE_MIN_HZ = _RATE_MIN_HZ
+RATE_MAX_HZ = _RATE_MAX_HZ
 
 
-def _resolve_rate(given: float | None, t: np.ndarray, source: str, force: bool) -> float:
-    """The rate to use: the time column's, or the user's if it agrees within 1 % (or force;
-    or when the time column gives no rate at all, e.g. it has gaps)."""
+def _resolve_rate(given: float | None, t: np.ndarray, source: str, force: bool,
+                  time_units: str | None = None) -> float:
+    """The rate to use: the time column's (in time_units; s when None), or the user's if it
+    agrees within 1 % (or force; or when the time column gives no rate at all, e.g. it has
+    gaps)."""
     if given is not None and force:
         return float(given)
     try:
-        from_time = rate_from_time(t, source)
+        from_time = rate_from_time(t, source, time_units=time_units)
     except ValueError:
         if given is not None:
             return float(given)
@@ -350,11 +424,27 @@ def _resolve_rate(given: float | None, t: np.ndarray, source: str, force: bool) 
                      "to use it anyway")
 
 
-def _load_npy(p: Path, mmap: bool) -> np.ndarray:
-    """np.load with one clear message for a file that is not a .npy array."""
+def load_npy(path: str | Path, mmap: bool = True) -> np.ndarray:
+    """``numpy.load`` of a .npy array (memory-mapped unless ``mmap`` is False; never pickled
+    objects) with one clear message naming the file for what is not one: an empty file, a
+    text or other file named .npy, a damaged header.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> bad = Path(tempfile.mkdtemp()) / "notes.npy"
+    >>> _ = bad.write_text("1.0, 2.0\\n")
+    >>> load_npy(bad)
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: .../notes.npy: not a NumPy .npy file ...
+    """
+    p = Path(path)
     try:
         return np.load(p, mmap_mode="r" if mmap else None, allow_pickle=False)
     except (EOFError, ValueError, OSError) as exc:
+        if isinstance(exc, OSError) and not p.is_file():
+            raise
         size = p.stat().st_size
         if size == 0:
             raise GyrodriftValueError(f"{p}: empty file (0 bytes), not a .npy array") from None
@@ -375,7 +465,7 @@ def _check_text_cells(p: Path, table: np.ndarray, cols: list[int], names: list[s
     if nan_rows.size == 0:
         return
     want = set(nan_rows.tolist())
-    with p.open(newline="", encoding="utf-8") as fh:
+    with p.open(newline="", encoding="utf-8-sig") as fh:
         for k, row in enumerate(csv.reader(fh, delimiter=delimiter)):
             r = k - skip
             if r < 0 or r not in want:

@@ -179,7 +179,9 @@ class CompareReport:
         return "\n".join(lines) + "\n"
 
     def write_csv(self, path: Path) -> None:
-        with path.open("w", newline="") as fh:
+        from gyrodrift.io.atomic import atomic_output
+
+        with atomic_output(path) as tmp, tmp.open("w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["signal", "source", "q_paper_arcsec", "n_deg_rt_h", "b_deg_h",
                         "std_deg_h"])

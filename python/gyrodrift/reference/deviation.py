@@ -51,8 +51,9 @@ def mdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
     Examples
     --------
-    >>> mdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)  # (deviation, number of terms)
-    (1.4142135623730951, 6)
+    >>> dev, terms = mdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)  # (deviation, number of terms)
+    >>> round(dev, 6), terms
+    (1.414214, 6)
     """
     x = _check(x, m, 3 * m + 1)
     d2 = x[2 * m:] - 2.0 * x[m:-m] + x[: -2 * m]  # i = 0 .. N-2m-1
@@ -67,8 +68,9 @@ def tdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
     Examples
     --------
-    >>> tdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)  # tau / sqrt(3) mdev
-    (0.8164965809277261, 6)
+    >>> dev, terms = tdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)  # tau / sqrt(3) mdev
+    >>> round(dev, 6), terms
+    (0.816497, 6)
     """
     md, n = mdev_phase(x, m, tau0_s)
     return m * tau0_s * md / math.sqrt(3.0), n
@@ -83,8 +85,9 @@ def ohdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
     Examples
     --------
-    >>> ohdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
-    (1.632993161855452, 5)
+    >>> dev, terms = ohdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
+    >>> round(dev, 6), terms
+    (1.632993, 5)
     """
     x = _check(x, m, 3 * m + 1)
     d3 = _third(x, m)
@@ -97,8 +100,9 @@ def hdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
     Examples
     --------
-    >>> hdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
-    (1.632993161855452, 5)
+    >>> dev, terms = hdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
+    >>> round(dev, 6), terms
+    (1.632993, 5)
     """
     x = _check(x, m, 3 * m + 1)
     d3 = _third(x, m)[::m]
@@ -111,8 +115,9 @@ def totdev_phase(x: np.ndarray, m: int, tau0_s: float) -> tuple[float, int]:
 
     Examples
     --------
-    >>> totdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
-    (1.4142135623730951, 6)
+    >>> dev, terms = totdev_phase(np.array([0.0, 1.0] * 4), 1, 1.0)
+    >>> round(dev, 6), terms
+    (1.414214, 6)
     """
     x = _check(x, m, 3)
     n = x.size

@@ -54,6 +54,7 @@ from gyrodrift.replay.faults import (
     corrupt_slcan_line,
     plan_transmission,
 )
+from gyrodrift.replay.firmware import QEMU_MACHINE, FirmwareImage, QemuTarget, cached_firmware
 from gyrodrift.replay.transport import (
     CAN_FRAME_BITS,
     UART_BITS_PER_BYTE,
@@ -68,6 +69,7 @@ from gyrodrift.replay.transport import (
 __all__ = [
     "LOOP_RELATIVE",
     "SLCAN_LINE_BYTES",
+    "TARGETS",
     "TRANSPORTS",
     "ReplayError",
     "ReplayOptions",
@@ -77,6 +79,17 @@ __all__ = [
 ]
 
 TRANSPORTS = ("serial", "slcan", "socketcan")
+# What a started replay runs: the host loop program, or the firmware image on QEMU's
+# netduinoplus2 board (STM32F405).
+TARGETS = ("loop", "qemu")
+# Image outputs vs the host loop's, per channel, relative to the channel's largest |input|:
+# both run the same float processor, but the host loop computes the wavelet prefilter's FIR
+# taps itself in float while the image takes the generated header's taps (computed in
+# double, rounded once), so taps may differ by an ulp (6e-8 relative). The 256-tap sum then
+# differs by at most 6e-8 x sum|taps| (about 2) x max|input|; the steady-state Kalman stage
+# does not amplify it. 1e-6 leaves a margin of 8; channels without a wavelet stage are
+# bit-identical.
+HOST_LOOP_RELATIVE_TOLERANCE = 1e-6
 LOOP_RELATIVE = Path("cpp") / "programs" / "gyrodrift-loop" / "gyrodrift-loop"
 # SCHED_FIFO priority of the harness's sender and receiver threads: below the loop's 80
 # (cpp/programs/gyrodrift-loop), above everything SCHED_OTHER (a CPU hog like stress-ng).
@@ -180,6 +193,16 @@ class ReplayOptions:
     # A progress bar of the units sent (tqdm, on stderr), drawn by its own thread so the
     # sender only stores a count; the command line sets it from --progress.
     progress: bool = False
+    # "loop" (gyrodrift-loop on a pty) or "qemu" (the firmware image on the emulated board,
+    # built from `processor` unless `firmware_image` names a built one).
+    target: str = "loop"
+    firmware_image: FirmwareImage | None = None
+    # qemu: replay the same transmission into the host loop too and compare (outputs and
+    # counters).
+    compare_host_loop: bool = True
+    # qemu: count instructions (-icount; the emulated clock then runs on the instruction
+    # count and may fall behind real time on a loaded host) or run on the host's clock.
+    qemu_icount: bool = True
 
     def __post_init__(self) -> None:
         if self.transport not in TRANSPORTS:
@@ -207,6 +230,12 @@ class ReplayOptions:
                                           "user's DBC layout (can_signals) runs clean")
         if self.baud <= 0 or self.can_bitrate <= 0:
             raise GyrodriftValueError("baud and can_bitrate must be > 0")
+        if self.target not in TARGETS:
+            raise GyrodriftValueError(f"target must be one of {TARGETS}, got {self.target!r}")
+        if self.target == "qemu" and (self.transport != "serial" or self.attach is not None
+                                      or self.local_link != "pty"):
+            raise GyrodriftValueError("the firmware image on QEMU speaks serial frames on its "
+                                      "own pty: transport 'serial', no attach")
 
     @property
     def can(self) -> bool:
@@ -231,6 +260,7 @@ class ReplayResult:
     latency_us: np.ndarray  # per received output, in output order
     output_arrival_s: np.ndarray  # arrival time of each output, from the first write
     loop_stats: dict[str, Any] | None
+    outputs: Samples | None = None  # the output frames received, in arrival order
 
     @property
     def ok(self) -> bool:
@@ -574,7 +604,11 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     exp = _expected_outputs(samples, plan, opt, smap)
     payload = _payloads(samples, plan, opt, smap, rng)
 
-    target = _Target(opt)
+    image = None
+    if opt.target == "qemu":
+        image = opt.firmware_image or cached_firmware(opt.processor)
+    target: _Target | QemuTarget = _Target(opt) if image is None else \
+        QemuTarget(image, opt.processor.timing.loop_hz, icount=opt.qemu_icount)
     link: SerialLink | CanLink | None = None
     write_ns = np.zeros(plan.sent_units, dtype=np.int64)
     # Sender and receiver run SCHED_FIFO just below the loop (80): each thread asks for
@@ -620,13 +654,73 @@ def run_replay(samples: Samples, opt: ReplayOptions) -> ReplayResult:
     report = _build_report(samples, plan, opt, exp, got, got_arrival, write_ns, start_ns,
                            end_write_ns, loop_stats, link_issues, capture_error, target)
     report["harness_realtime"] = harness_rt
+    if image is not None:
+        report["target"] = f"qemu {QEMU_MACHINE}: firmware image {image.elf}"
+        report["firmware"] = {"image": image.as_dict(),
+                              "step_cost": (loop_stats or {}).get("step_cost")}
+        if opt.compare_host_loop:
+            _compare_host_loop(samples, opt, got, loop_stats, report)
+        report["ok"] = all(report["checks"].values())
     report["output_jitter_us"] = _output_jitter_us(got_arrival, exp.positions, plan, opt)
     if samples.log_report is not None:  # a CAN log: where every frame of it went
         report["input_log"] = samples.log_report.as_dict()
     n_cmp = min(got.seq.size, exp.positions.size)
     lat = (got_arrival[:n_cmp] - write_ns[exp.positions[:n_cmp]]) * 1e-3
     arrival_s = (got_arrival - start_ns) * 1e-9
-    return ReplayResult(report, lat, arrival_s, loop_stats)
+    return ReplayResult(report, lat, arrival_s, loop_stats, got)
+
+
+def _compare_host_loop(samples: Samples, opt: ReplayOptions, got: Samples,
+                       image_stats: dict[str, Any] | None, report: dict[str, Any]) -> None:
+    """The same transmission (same faults, same order) into the host loop, as fast as
+    possible: its outputs and counters against the image's."""
+    from dataclasses import replace
+
+    host = run_replay(samples, replace(opt, target="loop", speed=0.0, loop_realtime=False,
+                                       harness_realtime=False, progress=False,
+                                       firmware_image=None))
+    h = host.outputs
+    assert h is not None
+    n = min(h.seq.size, got.seq.size)
+    seq_equal = bool(h.seq.size == got.seq.size and np.array_equal(h.seq, got.seq))
+    flags_equal = bool(seq_equal and np.array_equal(h.flags, got.flags))
+    a = got.channels[:n].astype(np.float64)
+    b = h.channels[:n].astype(np.float64)
+    both_nan = np.isnan(a) & np.isnan(b)
+    diff = np.where(both_nan, 0.0, np.abs(a - b))
+    identical = (a == b) | both_nan
+    max_diff = [float(np.max(diff[:, c])) if n else float("nan") for c in range(6)]
+    inputs = samples.channels.astype(np.float64)
+    scale = [float(np.max(np.abs(inputs[:, c][np.isfinite(inputs[:, c])]), initial=0.0))
+             for c in range(6)]
+    tol = [HOST_LOOP_RELATIVE_TOLERANCE * max(sc, float(np.finfo(np.float32).tiny))
+           for sc in scale]
+    hs, fs = host.loop_stats or {}, image_stats or {}
+    counters: dict[str, list[int]] = {}
+    for k in ("frames_in", "frames_out"):
+        counters[k] = [int(hs.get(k, -1)), int(fs.get(k, -2))]
+    for group in ("rejected", "health"):
+        for k, v in hs.get(group, {}).items():
+            if k in fs.get(group, {}) or group == "health":
+                counters[f"{group}.{k}"] = [int(v), int(fs.get(group, {}).get(k, -1))]
+    unequal = {k: v for k, v in counters.items() if v[0] != v[1]}
+    report["host_loop"] = {
+        "outputs": int(h.seq.size),
+        "seq_equal": seq_equal,
+        "flags_equal": flags_equal,
+        "values_bit_identical": int(np.count_nonzero(np.all(identical, axis=1))),
+        "max_abs_difference": max_diff,
+        "tolerance": tol,
+        "relative_tolerance": HOST_LOOP_RELATIVE_TOLERANCE,
+        "counters_compared": len(counters),
+        "counters_unequal": unequal,
+        "host_loop_ok": host.ok,
+    }
+    checks = report["checks"]
+    checks["host_loop_outputs_equal"] = bool(
+        seq_equal and flags_equal and n == got.seq.size
+        and all(d <= t for d, t in zip(max_diff, tol, strict=True)))
+    checks["host_loop_counters_equal"] = not unequal
 
 
 class _ProgressThread:
@@ -734,7 +828,7 @@ def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions,
                   exp: _Expected, got: Samples, got_arrival: np.ndarray, write_ns: np.ndarray,
                   start_ns: int, end_write_ns: int, loop: dict[str, Any] | None,
                   link_issues: dict[str, int], capture_error: str,
-                  target: _Target) -> dict[str, Any]:
+                  target: _Target | QemuTarget) -> dict[str, Any]:
     ref, exp_seq, expected_pos = exp.ref, exp.seq, exp.positions
     corrupted = sum(1 for u in plan.units if u.corrupt)
     rej_flags = ref.flags[(ref.flags & FLAG_REJECTED) != 0]
@@ -783,6 +877,7 @@ def _build_report(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions,
         checks["loop_stats_available"] = opt.attach is not None  # attached: none expected
     report: dict[str, Any] = {
         "ok": all(checks.values()),
+        "target": f"attached {opt.attach}" if opt.attach else "gyrodrift-loop",
         "transport": opt.transport,
         "device": target.device if opt.attach else f"{opt.local_link} {target.device}",
         "speed": "as fast as possible" if opt.speed == 0 else f"{opt.speed:g}x",

@@ -12,6 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from gyrodrift.io.atomic import atomic_output
 from gyrodrift.stability.allan import AllanResult
 from gyrodrift.stability.allan_fit import ALLAN_TERMS, AllanFit
 from gyrodrift.stability.gmwm import GmwmResult
@@ -97,8 +98,11 @@ def _save(fig: Figure, ax: Axes, path: str | Path, title: str, *, legend_fontsiz
     ax.legend(fontsize=legend_fontsize)
     out = Path(path)
     fig.tight_layout()
-    fig.savefig(out)
-    plt.close(fig)
+    try:
+        with atomic_output(out) as tmp:  # the output rule of gyrodrift.io.atomic
+            fig.savefig(tmp)
+    finally:
+        plt.close(fig)
     return out
 
 

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.replay.harness import ReplayResult
 
@@ -83,7 +84,9 @@ def format_table(result: ReplayResult) -> str:
     if isinstance(hrt, dict):
         rows.append(("harness realtime", f"sender {hrt['sender']}, receiver {hrt['receiver']}"))
     loop = r.get("loop")
-    if loop:
+    if r.get("firmware"):
+        rows += _firmware_rows(r)
+    elif loop:
         rt = loop["realtime"]
         rows.append(("loop realtime", f"SCHED_FIFO {'yes' if rt['sched_fifo'] else 'no'}"
                      f", mlockall {'yes' if rt['mlockall'] else 'no'}"))
@@ -101,6 +104,42 @@ def format_table(result: ReplayResult) -> str:
     return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
 
 
+def _firmware_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
+    """The firmware target's rows: image size against the budget, instructions per step and
+    the CPU load they mean, the comparison with the host loop."""
+    fw = r["firmware"]
+    img = fw["image"]
+    rows = [("target", str(r.get("target", ""))),
+            ("image flash / RAM",
+             f"{img['flash_bytes']} / {img['ram_bytes']} B (budget {img['flash_budget_bytes']}"
+             f" / {img['ram_budget_bytes']} B)")]
+    cost = fw.get("step_cost")
+    if cost:
+        rows.append(("instructions per step",
+                     f"median {cost['instructions_median']:.0f}, max "
+                     f"{cost['instructions_max']:.0f} over {cost['steps']} steps (QEMU -icount)"))
+        rows.append((f"CPU load at {cost['loop_rate_hz']:g} Hz",
+                     f"median {100 * cost['cpu_load_median']:.2f} %, max "
+                     f"{100 * cost['cpu_load_max']:.2f} % of a 168 MHz M4F at CPI "
+                     f"{cost['assumed_cpi']:g} (goal < {100 * cost['cpu_load_goal']:g} %)"))
+    loop = r.get("loop")
+    if loop:
+        rows.append(("image cycles / overruns", f"{loop['cycles']} / {loop['overruns']}"))
+        nz = {k: v for k, v in loop["rejected"].items() if v}
+        rows.append(("image rejected", ", ".join(f"{k} {v}" for k, v in nz.items()) or "none"))
+    h = r.get("host_loop")
+    if h:
+        rows.append(("image vs host loop",
+                     f"{h['outputs']} outputs, seq {'equal' if h['seq_equal'] else 'DIFFER'}, "
+                     f"flags {'equal' if h['flags_equal'] else 'DIFFER'}, "
+                     f"{h['values_bit_identical']} bit-identical, max |diff| "
+                     + " ".join(_fmt(e, 2) for e in h["max_abs_difference"])))
+        rows.append(("image vs host loop counters",
+                     f"{h['counters_compared']} compared, "
+                     + (", ".join(h["counters_unequal"]) or "all equal")))
+    return rows
+
+
 def write_json(result: ReplayResult, path: str | Path) -> Path:
     """Write the replay's report as JSON to `path` (what `gyrodrift replay` saves as report.json).
 
@@ -114,9 +153,7 @@ def write_json(result: ReplayResult, path: str | Path) -> Path:
     ...     print(json.loads(write_json(res, Path(d) / "report.json").read_text())["ok"])
     True
     """
-    path = Path(path)
-    path.write_text(json_text(result.report) + "\n")
-    return path
+    return atomic_write_text(path, json_text(result.report) + "\n")
 
 
 def _hist(ax: Any, values: np.ndarray, bins: int, **kw: Any) -> None:
@@ -169,7 +206,7 @@ def write_png(result: ReplayResult, path: str | Path) -> Path:
     if arr.size > 2:
         _hist(ax[2], np.diff(arr) * 1e6, 100, log=True, label="output inter-arrival")
     loop = result.loop_stats
-    if loop:
+    if loop and "period_jitter_us" in loop:  # the host loop's (the firmware has no such clock)
         for key, style in (("p50", ":"), ("p99", "--"), ("max", "-")):
             ax[2].axvline(loop["period_jitter_us"][key], color="k", ls=style,
                           label=f"loop period jitter {key}")
@@ -178,6 +215,9 @@ def write_png(result: ReplayResult, path: str | Path) -> Path:
     fig.suptitle(f"gyrodrift replay: {result.report['transport']}, {result.report['speed']}, "
                  f"{'PASS' if result.ok else 'FAIL'}")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        with atomic_output(path) as tmp:  # the output rule of gyrodrift.io.atomic
+            fig.savefig(tmp, dpi=100)
+    finally:
+        plt.close(fig)
     return path

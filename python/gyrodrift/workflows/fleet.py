@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.io.atomic import atomic_write_text
+from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.stability import DEFAULT_IDENTIFIER
 
@@ -71,6 +71,7 @@ class FleetOptions:
     rate_hz: float | None = None
     columns: tuple[str, ...] | None = None
     time_column: str | None = None
+    time_units: str = "s"
     topic: str | None = None
     gyro_units: str = "rad/s"
     accel_units: str = "m/s^2"
@@ -214,7 +215,7 @@ def characterize_log(path: str, unit_dir: str, opts: FleetOptions) -> dict[str, 
         if opts.plots:
             ch.write_outputs(res, kalibr=None, kalibr_path=None, html_path=None, out_dir=str(d))
         kal = ch.kalibr_yaml(res)
-        (d / "imu.yaml").write_text(kal)
+        atomic_write_text(d / "imu.yaml", kal)
         summary = {"unit": d.name, "path": str(path), "status": "done",
                    "params": _params(res), "record": res.record,
                    "peak_rss_mib": _peak_rss_mib(rss_scope), "rss_start_mib": rss_start,
@@ -256,8 +257,8 @@ def _characterize_record(path: str, d: Path, opts: FleetOptions) -> tuple[Any, s
             del rec
         return res, "spool"
     rec = load_imu(path, rate_hz=opts.rate_hz, columns=opts.columns,
-                   time_column=opts.time_column, topic=opts.topic, gyro_units=opts.gyro_units,
-                   accel_units=opts.accel_units)
+                   time_column=opts.time_column, time_units=opts.time_units, topic=opts.topic,
+                   gyro_units=opts.gyro_units, accel_units=opts.accel_units)
     return ch.characterize(rec, **kw), "whole"
 
 
@@ -664,7 +665,8 @@ def write_summary(units: Sequence[dict[str, Any]], out: Path,
     images = []
     if series:
         png = _boxplot(series)
-        (out / "boxplot.png").write_bytes(png)
+        with atomic_output(out / "boxplot.png") as tmp:
+            tmp.write_bytes(png)
         images.append(("Distribution over units per parameter and axis", png_data_uri(png)))
     atomic_write_text(out / "summary.json", json_text(summary, indent=1))
     dist_head = ["parameter", "channel", "unit", "n", "min", "q1", "median", "q3", "max"]

@@ -1,0 +1,71 @@
+"""The firmware image held to the whole MCU budget: flash and RAM from the build, and the
+instructions per loop step measured by a short replay on QEMU (scripts/build-firmware).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gyrodrift.codecs.wire import make_samples
+from gyrodrift.imu.config import ProcessorConfig
+from gyrodrift.replay.firmware import (
+    ASSUMED_CPI,
+    CORE_CLOCK_HZ,
+    CPU_LOAD_GOAL,
+    QEMU_MACHINE,
+    FirmwareError,
+    FirmwareImage,
+    build_firmware,
+    instruction_budget,
+)
+from gyrodrift.replay.harness import ReplayOptions, run_replay
+from gyrodrift.simulation.records import NoiseTerms, simulate_imu
+
+__all__ = ["check_firmware", "measure_step_cost"]
+
+
+def measure_step_cost(image: FirmwareImage, config: ProcessorConfig, *,
+                      duration_s: float = 2.0, seed: int = 0) -> dict[str, Any]:
+    """Instructions per step of `image` on QEMU over `duration_s` of simulated IMU data at
+    the configuration's sample rate, replayed at 1x (the receive interrupts that land inside
+    a step count with it, as on the MCU); raises FirmwareError if the replay itself fails.
+    """
+    rate = config.timing.sample_rate_hz
+    rec = simulate_imu(duration_s, rate_hz=rate, seed=seed,
+                       gyro=NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)),
+                       vrw_m_s_rt_h=0.02)
+    n = rec.gyro_rad_s.shape[0]
+    samples = make_samples(np.arange(n) / rate, rec.gyro_rad_s, rec.accel_m_s2)
+    res = run_replay(samples, ReplayOptions(speed=1.0, target="qemu", firmware_image=image,
+                                            processor=config, compare_host_loop=False,
+                                            loop_realtime=False, harness_realtime=False))
+    cost = (res.loop_stats or {}).get("step_cost")
+    if not res.ok or not cost:
+        failed = [k for k, v in res.report["checks"].items() if not v]
+        raise FirmwareError(f"the image failed its measuring replay on {QEMU_MACHINE}: "
+                            f"failed checks {failed}")
+    return dict(cost)
+
+
+def check_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
+                   defines: tuple[str, ...] = ()) -> dict[str, Any]:
+    """Build the image for `config` in `out_dir` and hold it to the whole budget: flash, RAM,
+    and instructions per step (worst case of a measuring replay on QEMU) within
+    `instruction_budget` at the configuration's loop rate. Returns the image's sizes and its
+    step cost; raises FirmwareError with the reason otherwise (scripts/build-firmware)."""
+    image = build_firmware(config, out_dir, defines=defines)
+    cost = measure_step_cost(image, config)
+    budget = instruction_budget(config.timing.loop_hz)
+    summary = {"image": image.as_dict(), "step_cost": cost}
+    (Path(out_dir) / "budget.json").write_text(json.dumps(summary, indent=1) + "\n")
+    if cost["instructions_max"] > budget:
+        raise FirmwareError(
+            f"the configuration does not fit the MCU budget: {cost['instructions_max']:.0f} "
+            f"instructions per step (worst case) > {budget:.0f} (= {100 * CPU_LOAD_GOAL:g} % of "
+            f"{CORE_CLOCK_HZ / 1e6:g} MHz at {config.timing.loop_hz:g} Hz, CPI {ASSUMED_CPI:g})")
+    return summary

@@ -1,0 +1,193 @@
+"""The reference firmware image (cpp/firmware) on QEMU's netduinoplus2 board (STM32F405),
+driven by the replay harness exactly as the host loop: built from the default and from a
+second, non-default configuration; 10 s of simulated IMU data at 1x with every fault kind;
+outputs equal to the host loop's (seq and flags exactly, values within the stated relative
+bound, see harness.HOST_LOOP_RELATIVE_TOLERANCE) and to the reference; the image's counters
+equal to the host loop's; every injected fault accounted for, 0 unaccounted. Images with a
+deliberate defect (a byte dropped by the receive interrupt, a sample never stepped) must fail
+the same checks: the test of the test.
+
+Nothing here measures time: on a loaded machine QEMU's loop ticks may come late, which
+changes how many frames a cycle handles but not what comes out. A missing toolchain or QEMU
+is a failure, not a skip.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gyrodrift.cli import replay as replay_cli
+from gyrodrift.codecs.wire import Samples, make_samples
+from gyrodrift.imu.config import (
+    Ar2KalmanStage,
+    ProcessorConfig,
+    WaveletStage,
+    default_config,
+)
+from gyrodrift.replay.faults import FaultSpec
+from gyrodrift.replay.firmware import (
+    FLASH_BUDGET_BYTES,
+    RAM_BUDGET_BYTES,
+    FirmwareError,
+    FirmwareImage,
+    build_firmware,
+    cached_firmware,
+    instruction_budget,
+)
+from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, ReplayResult, run_replay
+from gyrodrift.simulation.records import NoiseTerms, simulate_imu
+
+# Every fault kind, a few percent each: over 4000 samples each kind happens dozens of times.
+ALL_FAULTS = FaultSpec(drop=0.01, corrupt=0.01, duplicate=0.01, reorder=0.01, delay=0.01,
+                       delay_s=0.02, seed=11)
+
+
+def second_config() -> ProcessorConfig:
+    """Not the default in every part the image is built from: 200 Hz samples and loop, a
+    db8 window of 128 at level 4, another AR(2) model, a wider saturation."""
+    base = default_config((0.6868, -0.0213, 0.5, 0.01, 0.02), sample_rate_hz=200.0)
+    for name in ("gx", "gy", "gz"):
+        ch = base.channel(name)
+        stages = (WaveletStage(wavelet="db8", window=128, level=4),
+                  *(s for s in ch.stages if isinstance(s, Ar2KalmanStage)))
+        base = base.with_channel(name, replace(ch, stages=stages, saturation=10.0))
+    return base
+
+
+def record(duration_s: float, rate_hz: float, seed: int) -> Samples:
+    rec = simulate_imu(duration_s, rate_hz=rate_hz, seed=seed,
+                       gyro=NoiseTerms(n_deg_rt_h=0.01, b_deg_h=0.01, ar2=(1.0, -0.25, 0.5)),
+                       vrw_m_s_rt_h=0.02)
+    n = rec.gyro_rad_s.shape[0]
+    return make_samples(np.arange(n) / rate_hz, rec.gyro_rad_s, rec.accel_m_s2)
+
+
+def replay(image: FirmwareImage, cfg: ProcessorConfig, samples: Samples,
+           faults: FaultSpec = ALL_FAULTS) -> ReplayResult:
+    return run_replay(samples, ReplayOptions(speed=1.0, target="qemu", firmware_image=image,
+                                             processor=cfg, faults=faults,
+                                             loop_realtime=False, harness_realtime=False))
+
+
+@pytest.fixture(scope="session")
+def default_image() -> FirmwareImage:
+    return cached_firmware(default_config())
+
+
+@pytest.fixture(scope="session")
+def default_run(default_image: FirmwareImage) -> ReplayResult:
+    return replay(default_image, default_config(), record(10.0, 400.0, seed=3))
+
+
+def assert_equal_to_host_loop(res: ReplayResult) -> None:
+    r = res.report
+    failed = [k for k, v in r["checks"].items() if not v]
+    assert r["ok"], f"failed checks: {failed}"
+    acc = r["accounting"]
+    assert acc["unaccounted"] == 0
+    assert acc["outputs_received"] == acc["outputs_expected"] > 0
+    h = r["host_loop"]
+    assert h["seq_equal"] and h["flags_equal"] and h["outputs"] == acc["outputs_received"]
+    assert not h["counters_unequal"] and h["counters_compared"] >= 20
+    assert all(d <= t for d, t in zip(h["max_abs_difference"], h["tolerance"], strict=True))
+    assert h["host_loop_ok"]
+
+
+def test_default_image_fits_the_budget(default_image: FirmwareImage) -> None:
+    assert default_image.flash_bytes <= FLASH_BUDGET_BYTES
+    assert default_image.ram_bytes <= RAM_BUDGET_BYTES
+    # the three gyro windows (3 x 256 floats) are in .bss: the image is the default chain
+    assert default_image.bss >= 3 * 256 * 4
+
+
+def test_default_image_10s_every_fault_equals_host_loop(default_run: ReplayResult,
+                                                        default_image: FirmwareImage) -> None:
+    assert_equal_to_host_loop(default_run)
+    r = default_run.report
+    injected = r["accounting"]["injected"]
+    assert all(injected[k] > 0 for k in ("drop", "corrupt", "duplicate", "reorder", "delay"))
+    assert r["accounting"]["samples_in_record"] == 4000
+    assert r["target"].startswith("qemu netduinoplus2")
+    loop = default_run.loop_stats
+    assert loop is not None and loop["program"] == "gyrodrift-firmware"
+    # every corrupted frame is a CRC rejection on the image, nothing lost in the driver
+    assert loop["rejected"]["crc"] == r["accounting"]["rejected_on_link"]["crc"] > 0
+    assert loop["rejected"]["rx_overrun"] == loop["rejected"]["rx_ring_overflow"] == 0
+    # the measured stack (painted-RAM high-water mark) fits the stack the budget reserves
+    assert 0 < loop["firmware"]["stack_bytes"] <= default_image.stack_reserved
+
+
+def test_default_image_cost_is_reported(default_run: ReplayResult) -> None:
+    cost = default_run.report["firmware"]["step_cost"]
+    assert cost["steps"] == default_run.loop_stats["frames_in"]  # type: ignore[index]
+    # The count is the emulator's instruction count (deterministic per path): the default
+    # chain is thousands of instructions, within the 5 % budget at 400 Hz.
+    assert 1000 < cost["instructions_median"] <= cost["instructions_max"]
+    assert cost["instructions_max"] <= instruction_budget(400.0)
+    # The counter is checked in the image: a start-up loop of 4000 instructions, timed the
+    # same way, reads back as 4000 (within the 6-instruction count step and the few
+    # instructions of reading the timer: 1 %).
+    assert cost["calibration_ratio"] == pytest.approx(1.0, abs=0.01)
+
+
+def test_second_configuration_equals_host_loop() -> None:
+    cfg = second_config()
+    image = cached_firmware(cfg)
+    res = replay(image, cfg, record(4.0, 200.0, seed=8))
+    assert_equal_to_host_loop(res)
+    assert res.report["loop_rate_hz"] == 200.0
+
+
+@pytest.mark.parametrize("defect", ["GYRODRIFT_FW_INJECT_DROPPED_BYTE",
+                                    "GYRODRIFT_FW_INJECT_SKIPPED_STEP"])
+def test_broken_image_fails_the_replay(defect: str) -> None:
+    """The test of the test: the receive interrupt loses the 4000th byte without a count, or
+    the 1500th sample is never stepped; the same replay must then fail."""
+    image = cached_firmware(default_config(), (defect,))
+    res = replay(image, default_config(), record(5.0, 400.0, seed=3))
+    r = res.report
+    assert not r["ok"]
+    assert not r["checks"]["accounting_balances"]
+    assert r["accounting"]["unaccounted"] != 0
+    assert not r["checks"]["host_loop_outputs_equal"]
+    assert not r["checks"]["host_loop_counters_equal"]
+
+
+def test_build_refuses_what_does_not_fit(tmp_path: Path) -> None:
+    cfg = default_config()
+    big = cfg
+    for name in ("gx", "gy", "gz"):
+        ch = big.channel(name)
+        big = big.with_channel(name, replace(ch, stages=(replace(ch.stages[0], window=1024),
+                                                         ch.stages[1])))
+    with pytest.raises(FirmwareError, match=r"does not fit the MCU budget: RAM \d+ B"):
+        build_firmware(big, tmp_path / "big")
+    soft = cfg.with_channel("gx", replace(cfg.channel("gx"), stages=(
+        replace(cfg.channel("gx").stages[0], threshold="soft"), cfg.channel("gx").stages[1])))
+    with pytest.raises(FirmwareError, match="forced wavelet stages only"):
+        build_firmware(soft, tmp_path / "soft")
+
+
+def test_command_line_target_qemu(tmp_path: Path, cpp_build_dir: Path,
+                                  capsys: pytest.CaptureFixture[str]) -> None:
+    """`gyrodrift replay --target qemu`: the table, report.json and report.png name the target
+    and carry the image's cost (the plot used to expect the host loop's clock statistics)."""
+    parser = argparse.ArgumentParser(prog="gyrodrift")
+    replay_cli.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["replay", "--target", "qemu", "--duration-s", "1", "--no-rt",
+                              "--fault-corrupt", "0.02", "--seed", "2",
+                              "--loop-binary", str(cpp_build_dir / LOOP_RELATIVE),
+                              "--out-dir", str(tmp_path)])
+    rc = args.func(args)
+    out = capsys.readouterr().out
+    assert rc == 0, out
+    assert "qemu netduinoplus2" in out and "instructions per step" in out
+    rep = json.loads((tmp_path / "report.json").read_text())
+    assert rep["ok"] and rep["target"].startswith("qemu netduinoplus2")
+    assert rep["firmware"]["step_cost"]["steps"] == rep["loop"]["frames_in"] > 0
+    assert (tmp_path / "report.png").stat().st_size > 10_000
