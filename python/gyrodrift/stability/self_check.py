@@ -31,7 +31,6 @@ import math
 from typing import Any
 
 import numpy as np
-import scipy.stats
 
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.stability.allan import chi2_interval
@@ -92,6 +91,8 @@ def _allan_fit_check(fit: Any, curve: Any) -> FitCheck:
 
 
 def _gmwm_check(res: Any) -> FitCheck:
+    import scipy.stats  # heavy: only where a GMWM result is checked
+
     nu2 = np.asarray(res.wv, dtype=float)
     n = nu2.size
     # eta_j = max(M_j / 2^j, 1), M_j = N - 2^j + 1 (gyrodrift.stability.gmwm's interval)
