@@ -123,7 +123,8 @@ def test_characterize_cli_outputs(tmp_path: Path, capsys: pytest.CaptureFixture[
     x = rng.standard_normal((20000, 6)) * [1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2]
     np.save(tmp_path / "imu.npy", x)
     code = main(["characterize", str(tmp_path / "imu.npy"), "--rate-hz", "100",
-                 "--gyro-units", "rad/s", "--kalibr", str(tmp_path / "imu.yaml"),
+                 "--gyro-units", "rad/s", "--accel-units", "m/s^2",
+                 "--kalibr", str(tmp_path / "imu.yaml"),
                  "--html", str(tmp_path / "r.html"),
                  "--out-dir", str(tmp_path / "plots"), "--self-check", "--json"])
     assert code == 0
@@ -135,10 +136,11 @@ def test_characterize_cli_outputs(tmp_path: Path, capsys: pytest.CaptureFixture[
     # White noise of std s at rate f: N = s / sqrt(f).
     assert n_gyro["value"] == pytest.approx(1e-3 / 10.0, rel=0.03)
     assert n_gyro["ci_low"] <= n_gyro["value"] <= n_gyro["ci_high"]
-    assert len(doc["self_check"]["rows"]) == 6 * 5
+    assert len(doc["simulation_check"]["rows"]) == 6 * 5
     assert doc["kalibr"]["gyroscope_noise_density"]["unit"] == "rad/s/sqrt(Hz)"
     html = (tmp_path / "r.html").read_text()
-    assert "Self-check" in html and html.count("data:image/png;base64,") == 2
+    assert "Simulation check" in html and "Fit self-check" in html
+    assert html.count("data:image/png;base64,") == 2
     assert (tmp_path / "plots" / "gyro.png").stat().st_size > 1000
     assert (tmp_path / "plots" / "accel.png").stat().st_size > 1000
     assert (tmp_path / "imu.yaml").read_text().count("_density:") == 2
@@ -230,7 +232,10 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
 
     def fake(xd, rate_hz, *, ci):
         seen["x"] = xd
-        return type("R", (), {"model": "N+K", "params": (P("N", 0.3), P("K", 12.0))})()
+        tau = np.array([0.02, 0.04, 0.08])  # a wavelet variance the model describes exactly
+        return type("R", (), {"model": "N+K", "params": (P("N", 0.3), P("K", 12.0)),
+                              "tau_s": tau, "wv": 1.0 / tau, "wv_fit": 1.0 / tau,
+                              "rate_hz": rate_hz, "n_samples": xd.size, "objective": 0.5})()
 
     monkeypatch.setattr(gyrodrift.stability.gmwm, "identify_gmwm", fake)
     c = characterize_channel(x, 100.0, "gyro_x", method="gmwm")
@@ -245,6 +250,7 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
     a = characterize_channel(x, 100.0, "accel_x", method="gmwm")
     np.testing.assert_allclose(seen["x"], x, rtol=0)
     assert a.terms["N"].value == pytest.approx(0.3 * 60.0, rel=1e-12)
+    assert a.check is not None and a.check.holds and a.check.what == "wavelet variance"
 
 
 def test_gmwm_method_with_the_real_identify_gmwm() -> None:

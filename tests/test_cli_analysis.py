@@ -11,6 +11,7 @@ import gyrodrift
 import gyrodrift.cli as cli
 import numpy as np
 import pytest
+from cli_units import with_units
 from gyrodrift.stability import allan
 
 MINE = ["simulate", "filter", "allan", "psd", "compare"]
@@ -24,7 +25,7 @@ def only_analysis_subcommands(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = cli.main([str(a) for a in argv])
+    code = cli.main(with_units(argv))
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -196,7 +197,8 @@ def test_csv_outputs_carry_every_digit(tmp_path: Path, capsys) -> None:
     out = run_json(["allan", tmp_path / "r.npy", "--rate-hz", 3, "--csv", tmp_path / "a.csv"],
                    capsys)
     lines = (tmp_path / "a.csv").read_text().splitlines()
-    assert lines[0] == "tau_s,m,adev_deg_h,ci_low_deg_h,ci_high_deg_h,edf,terms"
+    assert lines[0] == ("tau_s,m,adev_deg_h,ci_low_deg_h,ci_high_deg_h,edf,terms,"
+                        "fit_adev_deg_h,fit_used,fit_ratio,fit_passed")
     first = lines[1].split(",")
     assert first[1] == "1" and first[6] == str(out["allan"]["terms"][0])  # integers
     table = np.loadtxt(tmp_path / "a.csv", delimiter=",", skiprows=1)

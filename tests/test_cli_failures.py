@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_units import with_units
 from gyrodrift.cli import main
 from gyrodrift.io.atomic import atomic_output
 
@@ -24,7 +25,7 @@ RATE_HZ = 100.0
 
 
 def run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
-    code = main([str(a) for a in argv])
+    code = main(with_units(argv))
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -224,7 +225,7 @@ def test_failing_align_leaves_no_output_dir(tmp_path: Path, capsys) -> None:
 
 def _cli(*argv: object, **kw: object) -> subprocess.Popen[bytes]:
     env = dict(os.environ)
-    return subprocess.Popen([sys.executable, "-m", "gyrodrift", *map(str, argv)], env=env,
+    return subprocess.Popen([sys.executable, "-m", "gyrodrift", *with_units(argv)], env=env,
                             **kw)  # type: ignore[call-overload]
 
 

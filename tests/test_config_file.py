@@ -359,7 +359,8 @@ def test_fit_output_is_read_by_both_readers(loop_bin: Path, tmp_path: Path) -> N
     rec = tmp_path / "drift.npy"
     np.save(rec, 9.7 + drift + rng.normal(0, 0.3, 3000))
     path = tmp_path / "fit.toml"
-    assert main(["fit", str(rec), "--rate-hz", "100", "-o", str(path)]) == 0
+    assert main(["fit", str(rec), "--rate-hz", "100", "--gyro-units", "deg/h", "-o",
+                 str(path)]) == 0
     cfg = load_config(path)
     assert [c.stages[0].type for c in cfg.channels] == ["ar2_kalman"] + ["pass_through"] * 5
     assert parse_config(dumps_config(cfg)) == cfg

@@ -41,6 +41,7 @@ SHARED_FLAGS: dict[str, str] = {
     "--can-signals": r"signal map|DBC", "--accel-units": r"units of the accelerometer",
     "--column-channels": r"channel of each data column", "--time-column": r"time column",
     "--topic": r"topic", "--time-units": r"units of the time column",
+    "--self-check": r"self-check.*does not describe",
 }
 # Flags that name one subcommand's own concept (no other subcommand has the concept).
 OWN_FLAGS: dict[str, set[str]] = {
@@ -51,14 +52,14 @@ OWN_FLAGS: dict[str, set[str]] = {
                "--fault-delay-s", "--target"},
     "simulate": {"--samples"},
     "filter": {"--filter", "--core"},
-    "allan": {"--taus-per-decade", "--noise-id", "--deviation"},
+    "allan": {"--taus-per-decade", "--noise-id", "--deviation", "--curve"},
     "fit": {"--criterion"},
     "identify": {"--model", "--max-model", "--bootstrap"},
     "psd": {"--nperseg", "--bins-per-decade"},
     "compare": set(),
     "wavelet-response": {"--n-freqs"},
     "config": {"--emit-cpp", "--namespace"},
-    "characterize": {"--kalibr", "--kalibr-axis", "--html", "--self-check"},
+    "characterize": {"--kalibr", "--kalibr-axis", "--html"},
     "fleet": {"--workers", "--scheduler", "--redo", "--spec", "--memory-budget-mib"},
     "align": {"--scenario", "--runs", "--coarse-s", "--states", "--kf-noise", "--gyro-lsb-arcsec",
               "--dither-arcsec", "--mechanism", "--real", "--segment-s", "--no-plots"},

@@ -9,6 +9,7 @@ import allantools
 import gyrodrift.cli as cli
 import numpy as np
 import pytest
+from cli_units import with_units
 
 
 @pytest.fixture(autouse=True)
@@ -19,7 +20,7 @@ def only_allan(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = cli.main([str(a) for a in argv])
+    code = cli.main(with_units(argv))
     out, err = capsys.readouterr()
     return code, out, err
 

@@ -27,7 +27,8 @@ def record(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def test_fit_json_and_toml(record: Path, tmp_path: Path,
                            capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "gyro.toml"
-    assert main(["fit", str(record), "--rate-hz", "100", "--json", "-o", str(out)]) == 0
+    assert main(["fit", str(record), "--rate-hz", "100", "--json", "-o", str(out),
+                 "--gyro-units", "deg/h"]) == 0
     payload = json.loads(capsys.readouterr().out)
     ref = compare_drift_models(np.load(record), 100.0)
     assert payload["chosen"] == ref.chosen and payload["criterion"] == "aic"
@@ -49,7 +50,8 @@ def test_fit_json_and_toml(record: Path, tmp_path: Path,
 
 
 def test_fit_table_and_bic(record: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["fit", str(record), "--rate-hz", "100", "--criterion", "bic"]) == 0
+    assert main(["fit", str(record), "--rate-hz", "100", "--criterion", "bic",
+                 "--gyro-units", "deg/h"]) == 0
     text = capsys.readouterr().out
     assert "chosen:" in text and "(lowest BIC)" in text and "-3 dB bandwidth" in text
     for model in ("ar2+white", "ar1+white", "white"):
@@ -59,12 +61,13 @@ def test_fit_table_and_bic(record: Path, capsys: pytest.CaptureFixture[str]) -> 
 def test_fit_errors_are_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     const = tmp_path / "const.npy"
     np.save(const, np.full(100, 3.0))
-    assert main(["fit", str(const), "--rate-hz", "10"]) == 2
+    assert main(["fit", str(const), "--rate-hz", "10", "--gyro-units", "deg/h"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "constant" in err
     rec = tmp_path / "ok.npy"
     np.save(rec, np.random.default_rng(0).normal(size=200))
-    assert main(["fit", str(rec), "--rate-hz", "10", "-o", str(tmp_path / "x.yaml")]) == 2
+    assert main(["fit", str(rec), "--rate-hz", "10", "-o", str(tmp_path / "x.yaml"),
+                 "--gyro-units", "deg/h"]) == 2
     assert "suffix" in capsys.readouterr().err
 
 
@@ -80,7 +83,7 @@ def test_fit_filter_failure_is_one_line(tmp_path: Path, capsys: pytest.CaptureFi
     monkeypatch.setattr(DriftModelFit, "response", no_filter)
     rec = tmp_path / "white.npy"
     np.save(rec, np.random.default_rng(2).normal(size=2000))
-    assert main(["fit", str(rec), "--rate-hz", "100"]) == 2
+    assert main(["fit", str(rec), "--rate-hz", "100", "--gyro-units", "deg/h"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "not converged" in err
 

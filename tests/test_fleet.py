@@ -11,6 +11,9 @@ import numpy as np
 import pytest
 from gyrodrift.workflows.fleet import FleetOptions, load_spec, run_fleet
 
+#: The logs' units (rad/s, m/s^2), stated: a .npy record does not carry them.
+UNITS = ("--gyro-units", "rad/s", "--accel-units", "m/s^2")
+
 
 @pytest.fixture(scope="module")
 def client():
@@ -112,7 +115,7 @@ def test_cli_on_an_existing_scheduler(client, logs: list[Path], tmp_path: Path,
 
     code = main(["fleet", str(logs[0].parent / "unit[05].npy"), "--out-dir",
                  str(tmp_path / "out"), "--rate-hz", "100", "--scheduler",
-                 client.scheduler.address, "--progress", "never"])
+                 client.scheduler.address, "--progress", "never", *UNITS])
     assert code == 1  # one failed log
     out = capsys.readouterr().out
     assert "1 done" in out and "1 failed" in out
@@ -134,7 +137,7 @@ def test_existing_scheduler_workers_with_malloc_trim_threshold_are_reported(
         "/proc/self/environ", "rb").read().split(b"\0"))
     assert all(seen.values())  # the premise: dask's default nanny environment
     base = ["fleet", str(logs[0].parent / "unit[01].npy"), "--rate-hz", "100", "--scheduler",
-            client.scheduler.address, "--progress", "never"]
+            client.scheduler.address, "--progress", "never", *UNITS]
     assert main([*base, "--out-dir", str(tmp_path / "spool"), "--memory-budget-mib", "0"]) == 0
     err = capsys.readouterr().err
     assert "warning: 2 spooled log(s) (unit0, unit1) ran in workers started with " \
@@ -434,7 +437,8 @@ def test_cli_memory_budget(logs: list[Path], tmp_path: Path,
                            capsys: pytest.CaptureFixture[str]) -> None:
     from gyrodrift.cli import main
 
-    base = ["fleet", str(logs[0]), "--rate-hz", "100", "--workers", "0", "--progress", "never"]
+    base = ["fleet", str(logs[0]), "--rate-hz", "100", "--workers", "0", "--progress", "never",
+            *UNITS]
     for budget, reader in (("0", "spool"), ("1", "memory")):  # a channel: 6000 x 8 bytes
         out = tmp_path / f"b{budget}"
         assert main([*base, "--out-dir", str(out), "--memory-budget-mib", budget]) == 0
@@ -483,7 +487,8 @@ def test_cli_with_its_own_cluster_in_a_fresh_process(logs: list[Path], tmp_path:
 
     out = tmp_path / "out"
     run = subprocess.run([sys.executable, "-m", "gyrodrift", "fleet", str(logs[0]), "--out-dir",
-                          str(out), "--rate-hz", "100", "--workers", "1", "--progress", "never"],
+                          str(out), "--rate-hz", "100", "--workers", "1", "--progress", "never",
+                          *UNITS],
                          capture_output=True, text=True, env=os.environ.copy(), timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "1 done" in run.stdout

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import pytest
 import tomllib
+from cli_units import with_units
 from gyrodrift.cli import main
 from gyrodrift.errors import GyrodriftError
 from gyrodrift.io.imu_data import load_imu
@@ -73,7 +74,7 @@ def test_corpus_verdicts(case: dict[str, Any], capsys: pytest.CaptureFixture[str
     for m in case["match"]:
         assert m in msg, (m, msg)
     # The command line: one line, exit code 2, the same message.
-    code = main(_cli(case["reader"], path, kwargs))
+    code = main(with_units(_cli(case["reader"], path, kwargs)))
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert case["match"][-1] in err
@@ -155,7 +156,7 @@ def test_damaged_bags_are_one_line_errors(tmp_path: Path, kind: str, cut: int | 
     assert f.name in str(exc.value)
     if kind == "sqlite3" and isinstance(cut, int):
         assert "truncated rosbag2 storage" in str(exc.value)
-    code = main(["characterize", str(f)])
+    code = main(with_units(["characterize", str(f)]))
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
 

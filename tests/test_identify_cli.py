@@ -11,6 +11,7 @@ import gyrodrift
 import gyrodrift.cli as cli
 import numpy as np
 import pytest
+from cli_units import with_units
 
 
 @pytest.fixture(autouse=True)
@@ -19,7 +20,7 @@ def only_these_subcommands(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def run(argv: list, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
-    code = cli.main([str(a) for a in argv])
+    code = cli.main(with_units(argv))
     out, err = capsys.readouterr()
     return code, out, err
 
@@ -92,7 +93,8 @@ def test_allan_fit_options_json_taus(record: Path, tmp_path: Path, capsys) -> No
     d = json.loads(out)
     taus = d["taus"]
     assert [t["tau_s"] for t in taus] == d["allan"]["tau_s"]
-    assert set(taus[0]) == {"tau_s", "adev", "ci_low", "ci_high", "fit_adev", "fit_used"}
+    assert set(taus[0]) == {"tau_s", "adev", "ci_low", "ci_high", "fit_adev", "fit_used",
+                            "fit_ratio", "fit_passed"}
     assert [t["fit_used"] for t in taus] == [t["tau_s"] >= 0.1 for t in taus]
     assert d["fit"]["requested"] == ["N", "B", "K"] and "B" in d["fit"]["dropped"]
     terms = {t["name"]: t for t in d["fit"]["terms"]}

@@ -43,8 +43,12 @@ def test_fleet_result_and_summary_files_are_strict(tmp_path, monkeypatch) -> Non
                 name, value, 0.5 * value, hi, "")
 
     def fake(xd, rate_hz, *, ci):
+        tau = np.array([0.02, 0.04, 0.08])  # a wavelet variance the model describes (the
+        # fit's self-check needs one)
         return type("R", (), {"model": "N+K",
-                              "params": (P("N", 0.3, 0.6), P("K", 12.0, np.inf))})()
+                              "params": (P("N", 0.3, 0.6), P("K", 12.0, np.inf)),
+                              "tau_s": tau, "wv": 1.0 / tau, "wv_fit": 1.0 / tau,
+                              "rate_hz": rate_hz, "n_samples": xd.size, "objective": 0.5})()
 
     import gyrodrift.stability.gmwm
 

@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 import tomllib
 import yaml
+from cli_units import with_units
 from gyrodrift.cli import main
 from gyrodrift.io.atomic import atomic_output, atomic_write_text, output_target
 
@@ -70,7 +71,7 @@ CHEAP = [c for c in COMMANDS if not c.startswith(("characterize", "fit"))]
 def run(inputs: dict[str, Path], command: str, out: Path,
         capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
     argv, _ = COMMANDS[command]
-    code = main([a.format(out=out, **inputs) for a in argv])
+    code = main(with_units([a.format(out=out, **inputs) for a in argv]))
     o, e = capsys.readouterr()
     return code, o, e
 
@@ -249,7 +250,7 @@ def test_output_checked_before_the_work(tmp_path: Path, inputs: dict[str, Path],
                  ("identify", str(inputs["rec"]), "--rate-hz", RATE_HZ, "--png",
                   str(tmp_path / "no" / "i.png"))):
         t0 = time.process_time()
-        code = main(list(argv))
+        code = main(with_units(argv))
         one_line_error(code, capsys.readouterr().err)
         # The analysis costs a second or more of CPU; refusing the path costs milliseconds.
         # (CPU time, not wall time: the check holds on a loaded machine.)

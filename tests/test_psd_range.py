@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_units import with_units
 from gyrodrift.cli import main
 from gyrodrift.stability.psd import welch_psd
 
@@ -25,7 +26,8 @@ def _record(tmp_path: Path, scale: float) -> tuple[Path, np.ndarray]:
 @pytest.mark.parametrize("scale", [1e200, 1e-200, 1e-155])  # 1e-155: a subnormal PSD
 def test_psd_out_of_range_is_one_line(tmp_path: Path, scale: float, capsys) -> None:
     p, _ = _record(tmp_path, scale)
-    code = main(["psd", str(p), "--rate-hz", str(RATE_HZ), "--png", str(tmp_path / "p.png")])
+    code = main(with_units(["psd", str(p), "--rate-hz", str(RATE_HZ), "--png",
+                            str(tmp_path / "p.png")]))
     err = capsys.readouterr().err
     assert code == 2, err
     assert len(err.strip().splitlines()) == 1 and "outside the range of float64" in err
@@ -33,8 +35,8 @@ def test_psd_out_of_range_is_one_line(tmp_path: Path, scale: float, capsys) -> N
 
 
 def _psd_json(tmp_path: Path, p: Path, capsys) -> dict:
-    code = main(["psd", str(p), "--rate-hz", str(RATE_HZ), "--png", str(tmp_path / "p.png"),
-                 "--json", "--csv", str(tmp_path / "p.csv")])
+    code = main(with_units(["psd", str(p), "--rate-hz", str(RATE_HZ), "--png",
+                            str(tmp_path / "p.png"), "--json", "--csv", str(tmp_path / "p.csv")]))
     out = capsys.readouterr().out
     assert code == 0
     return json.loads(out)

@@ -12,7 +12,7 @@ Examples
 >>> TERM_UNITS["gyro"]["N"].si, TERM_UNITS["gyro"]["N"].ieee
 ('rad/s/sqrt(Hz)', 'deg/sqrt(h)')
 >>> GYRO_INPUT_UNITS, DEFAULT_GYRO_UNITS
-(('deg/h', 'deg/s', 'rad/s', 'arcsec', 'deg', 'rad'), 'deg/h')
+(('deg/h', 'deg/s', 'rad/s', 'arcsec', 'deg', 'rad'), None)
 """
 
 from __future__ import annotations
@@ -91,11 +91,13 @@ GYRO_INPUT_UNITS: tuple[str, ...] = (*RATE_UNITS, *INCREMENT_UNITS)
 #: Every unit an accelerometer input column may be in: accelerations, then per-sample velocity
 #: increments (the choices of ``--accel-units``).
 ACCEL_INPUT_UNITS: tuple[str, ...] = (*ACCEL_UNITS, *ACCEL_INCREMENT_UNITS)
-#: The command line's default ``--gyro-units`` for a .npy or text record that does not say
-#: (IMU logs and ROS bags carry rad/s, PSINS logs angle increments, whatever this says).
-DEFAULT_GYRO_UNITS = "deg/h"
-#: The command line's default ``--accel-units`` for a .npy or text record.
-DEFAULT_ACCEL_UNITS = "m/s^2"
+#: The command line's default ``--gyro-units``: none. A .npy or text record does not say its
+#: units, and the commands never guess them (a wrong guess scales every noise term silently):
+#: the flag is required for those; IMU logs and ROS bags carry rad/s, PSINS logs angle
+#: increments.
+DEFAULT_GYRO_UNITS: str | None = None
+#: The command line's default ``--accel-units``: none, for the same reason.
+DEFAULT_ACCEL_UNITS: str | None = None
 #: Units a text record's time column may be in -> factor to s (the choices of
 #: ``--time-units``; logs and bags carry their own time base).
 TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}

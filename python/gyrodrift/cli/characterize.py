@@ -9,6 +9,7 @@ import argparse
 import contextlib
 import sys
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 from gyrodrift.cli import CliError
@@ -18,16 +19,26 @@ from gyrodrift.cli.common import (
     add_gyro_units_arg,
     add_json_arg,
     add_progress_arg,
+    add_self_check_arg,
     add_time_units_arg,
     check_out_dir,
     check_output,
     emit_json,
     human_stream,
     progress_enabled,
+    require_units,
+    self_check_exit,
 )
 from gyrodrift.errors import GyrodriftError
-from gyrodrift.io.imu_data import ImuData, bag_imu_topics, load_imu
+from gyrodrift.io.imu_data import (
+    ImuData,
+    bag_imu_topics,
+    check_units_plausible,
+    load_imu,
+    units_carried,
+)
 from gyrodrift.stability import DEFAULT_IDENTIFIER, MODEL_IDENTIFIERS
+from gyrodrift.stability.self_check import check_summary
 from gyrodrift.units import ACCEL_INPUT_UNITS, DEFAULT_ACCEL_UNITS
 
 __all__ = ["add_analysis_args", "add_imu_input_args", "imu_from_args", "register", "run"]
@@ -41,7 +52,7 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
     >>> p = argparse.ArgumentParser(); add_imu_input_args(p)
     >>> args = p.parse_args(["--rate-hz", "200", "--column-channels", "gyro_x,-,gyro_z"])
     >>> args.rate_hz, args.column_channels, args.gyro_units, args.drop_nan
-    (200.0, 'gyro_x,-,gyro_z', 'deg/h', False)
+    (200.0, 'gyro_x,-,gyro_z', None, False)
     """
     p.add_argument("--rate-hz", type=float, help="sample rate, Hz (required for .npy and for "
                    "text without a time column)")
@@ -57,7 +68,9 @@ def add_imu_input_args(p: argparse.ArgumentParser) -> None:
     add_gyro_units_arg(p)
     p.add_argument("--accel-units", choices=ACCEL_INPUT_UNITS, default=DEFAULT_ACCEL_UNITS,
                    help="units of the accelerometer data of a .npy or text record: m/s^2, g, "
-                        f"or m/s (per-sample velocity increments) (default {DEFAULT_ACCEL_UNITS})")
+                        "or m/s (per-sample velocity increments) (required for those when "
+                        "they hold accelerometer columns, never guessed; logs and bags carry "
+                        "m/s^2)")
     p.add_argument("--drop-nan", action="store_true",
                    help="drop rows with NaN/Inf (their count is reported); default: refuse")
 
@@ -78,16 +91,34 @@ def imu_from_args(args: argparse.Namespace, path: str | None = None, **kw: Any) 
     >>> rec.names, rec.rate_hz
     (('gyro_x', 'gyro_y', 'gyro_z'), 100.0)
     """
+    src = path or args.input
     try:
-        return load_imu(path or args.input, rate_hz=args.rate_hz,
-                        columns=(args.column_channels.split(",") if args.column_channels
-                                 else None),
-                        time_column=args.time_column, time_units=args.time_units,
-                        topic=args.topic,
-                        gyro_units=args.gyro_units, accel_units=args.accel_units,
-                        nan_policy="drop" if args.drop_nan else "refuse", **kw)
+        carried = units_carried(src)
+    except GyrodriftError:
+        carried = True  # an unsupported input: load_imu says so
+    try:
+        # placeholders where the file carries its units or the sensor is absent (checked below)
+        rec = load_imu(src, rate_hz=args.rate_hz,
+                       columns=(args.column_channels.split(",") if args.column_channels
+                                else None),
+                       time_column=args.time_column, time_units=args.time_units,
+                       topic=args.topic,
+                       gyro_units=args.gyro_units or "rad/s",
+                       accel_units=args.accel_units or "m/s^2",
+                       nan_policy="drop" if args.drop_nan else "refuse", **kw)
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
+    if carried:
+        return rec
+    for sensor, flag, given in (("gyro", "--gyro-units", args.gyro_units),
+                                ("accel", "--accel-units", args.accel_units)):
+        if given is None and any(n.startswith(sensor) for n in rec.names):
+            require_units(src, flag, None)
+    try:
+        check_units_plausible(rec, args.gyro_units or "rad/s", args.accel_units or "m/s^2")
+    except GyrodriftError as exc:
+        raise CliError(str(exc)) from exc
+    return rec
 
 
 def add_analysis_args(p: argparse.ArgumentParser) -> None:
@@ -134,9 +165,9 @@ def register(subparsers: Any) -> None:
                    help="axis exported to Kalibr (default: the worst per parameter)")
     p.add_argument("--html", metavar="FILE", help="write a self-contained HTML report")
     p.add_argument("--out-dir", help="output directory of the plots (gyro.png, accel.png)")
-    p.add_argument("--self-check", action="store_true",
-                   help="simulate the identified model (same length and rate), identify it "
-                        "again, report whether each term is recovered inside its interval")
+    add_self_check_arg(p, "; characterize also simulates the identified model (same length "
+                          "and rate), identifies it again and reports whether each term is "
+                          "recovered inside its interval")
     p.add_argument("--seed", type=int, default=0, help="seed of the self-check simulation")
     add_json_arg(p)
     add_progress_arg(p)
@@ -212,26 +243,40 @@ def _run(args: argparse.Namespace, spool_dir: str | None) -> int:
     try:
         res = ch.characterize(rec, ci=args.ci, taus=args.taus, terms=_terms(args.terms),
                               method=args.identifier, progress=progress)
-        kalibr = ch.kalibr_yaml(res, args.kalibr_axis) if (args.kalibr or args.html) else None
+        kalibr, refused = None, None
+        if args.kalibr:  # a refused export is an error: nothing is written
+            kalibr = ch.kalibr_yaml(res, args.kalibr_axis)
+        elif args.html:  # the report says why there is no Kalibr file
+            try:
+                kalibr = ch.kalibr_yaml(res, args.kalibr_axis)
+            except GyrodriftError as exc:
+                refused = str(exc)
         sc = (ch.self_check(res, seed=args.seed, taus=args.taus, terms=_terms(args.terms))
               if args.self_check else None)
+        kalibr_warns = ch.kalibr_warnings(res, args.kalibr_axis)
     except (ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
     files = ch.write_outputs(res, kalibr=kalibr, kalibr_path=args.kalibr, html_path=args.html,
-                          out_dir=args.out_dir, self_check=sc)
+                             out_dir=args.out_dir, self_check=sc, kalibr_axis=args.kalibr_axis,
+                             kalibr_refused=refused)
+    checks: list[tuple[str, Any]] = [(c.channel, c.check) for c in res.channels
+                                     if c.check is not None]
+    if kalibr_warns:  # a widened band or a random walk the record does not show
+        checks.append(("the noise terms (see the warnings)", SimpleNamespace(holds=False)))
     # An output that is stdout itself (--kalibr /dev/stdout) keeps stdout to itself.
     with contextlib.redirect_stdout(human_stream(args.kalibr, args.html)):
-        _report(args, ch, res, rec, sc, files)
-    return 0
+        _report(args, ch, res, rec, sc, files, kalibr_warns, refused)
+    return self_check_exit(args, checks)
 
 
 def _report(args: argparse.Namespace, ch: Any, res: Any, rec: ImuData, sc: Any,
-            files: dict[str, Any]) -> None:
+            files: dict[str, Any], kalibr_warns: list[str], refused: str | None) -> None:
     if args.json:
         payload = res.as_dict()
         payload["kalibr"] = {k: {"value": v, "channel": c, "unit": t.unit} for k, (v, c, t)
                              in ch.kalibr_values(res, args.kalibr_axis).items()}
-        payload["self_check"] = None if sc is None else sc.as_dict()
+        payload["kalibr_warnings"] = kalibr_warns
+        payload["simulation_check"] = None if sc is None else sc.as_dict()
         payload["files"] = files
         emit_json(payload)
         return
@@ -251,6 +296,10 @@ def _report(args: argparse.Namespace, ch: Any, res: Any, rec: ImuData, sc: Any,
         if isinstance(scale, float) and scale > 1.0:
             print(f"# {c.channel}: no model of the chosen terms fits inside the Allan interval "
                   f"band; band widened x{scale:.3g} for the term intervals (misfit)")
+        if c.check is not None:
+            print(f"# {c.channel} {check_summary(c.check)}")
+    for w in kalibr_warns:
+        print(f"WARNING: {w}")
     if sc is not None:
         n_in = sum(bool(row["inside"]) for row in sc.rows)
         print(f"self-check (seed {sc.seed}): {n_in} of {len(sc.rows)} terms recovered inside "
@@ -259,4 +308,6 @@ def _report(args: argparse.Namespace, ch: Any, res: Any, rec: ImuData, sc: Any,
     for k, v in files.items():
         if v:
             print(f"wrote {k}: {v}")
+    if refused:
+        print(f"# Kalibr export not possible: {refused}")
 

@@ -55,6 +55,7 @@ __all__ = [
     "add_input_args",
     "add_json_arg",
     "add_progress_arg",
+    "add_self_check_arg",
     "add_time_units_arg",
     "check_out_dir",
     "check_output",
@@ -65,6 +66,8 @@ __all__ = [
     "json_default",
     "progress_enabled",
     "record_from_args",
+    "require_units",
+    "self_check_exit",
     "write_csv",
 ]
 
@@ -117,25 +120,60 @@ def add_time_units_arg(p: argparse.ArgumentParser) -> None:
 
 
 def add_gyro_units_arg(p: argparse.ArgumentParser) -> None:
-    """Add ``--gyro-units`` (the units of a gyro input column; choices and default from the one
-    units table, :data:`gyrodrift.units.GYRO_INPUT_UNITS` and
-    :data:`gyrodrift.units.DEFAULT_GYRO_UNITS`).
+    """Add ``--gyro-units`` (the units of a gyro input column; choices from the one units
+    table, :data:`gyrodrift.units.GYRO_INPUT_UNITS`; no default: a record whose format does
+    not carry its units needs them stated, :func:`require_units`).
 
     Examples
     --------
     >>> p = argparse.ArgumentParser(); add_gyro_units_arg(p)
     >>> p.parse_args([]).gyro_units, p.parse_args(["--gyro-units", "arcsec"]).gyro_units
-    ('deg/h', 'arcsec')
+    (None, 'arcsec')
     """
     p.add_argument("--gyro-units", choices=GYRO_INPUT_UNITS, default=DEFAULT_GYRO_UNITS,
                    help="units of the gyro data of a .npy or text record: rates deg/h, deg/s, "
-                        "rad/s; per-sample angle increments arcsec, deg, rad (default "
-                        f"{DEFAULT_GYRO_UNITS}; IMU logs and ROS bags carry rad/s, PSINS logs "
+                        "rad/s; per-sample angle increments arcsec, deg, rad (required for "
+                        "those, never guessed; IMU logs and ROS bags carry rad/s, PSINS logs "
                         "angle increments)")
 
 
+def require_units(path: str | Path, flag: str, value: str | None) -> str | None:
+    """The units given for a record, or a :class:`CliError` naming ``flag`` when the record's
+    format does not carry its units and none were given (the command never guesses).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> d = tempfile.mkdtemp(); f = os.path.join(d, "gyro.npy"); np.save(f, np.zeros(3))
+    >>> require_units(f, "--gyro-units", "deg/s")
+    'deg/s'
+    >>> require_units(f, "--gyro-units", None)
+    Traceback (most recent call last):
+    ...
+    gyrodrift.cli.CliError: .../gyro.npy: a .npy record does not say its units: give ...
+    """
+    from gyrodrift.io.imu_data import units_carried
+    from gyrodrift.units import ACCEL_INPUT_UNITS
+
+    if value is not None:
+        return value
+    if not (Path(path).is_file() or Path(path).is_dir()):
+        return None  # missing, a FIFO or a device: the reader refuses it with its own message
+    try:
+        carried = units_carried(path)
+    except GyrodriftError:
+        return None  # an unsupported file: the reader says so
+    if carried:
+        return None
+    choices = GYRO_INPUT_UNITS if flag == "--gyro-units" else ACCEL_INPUT_UNITS
+    suffix = Path(path).suffix.lower() or "text"
+    raise CliError(f"{path}: a {suffix} record does not say its units: give {flag} (one of "
+                   f"{', '.join(choices)})")
+
+
 def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
-    """Load the record the input arguments name; a bad file or value is a :class:`CliError`.
+    """Load the record the input arguments name; a bad file or value, or units neither given
+    nor carried by the file, is a :class:`CliError`.
 
     Examples
     --------
@@ -146,14 +184,56 @@ def record_from_args(args: argparse.Namespace, *, mmap: bool = True) -> Record:
     >>> record_from_args(ns).n
     5
     """
+    units = require_units(args.input, "--gyro-units", args.gyro_units)
     try:
         return load_record(args.input, column=args.column, rate_hz=args.rate_hz,
-                           units=args.gyro_units, nan_policy="drop" if args.drop_nan else "refuse",
+                           units=units or "deg/h",  # the loaders' "not told": the file's own
+                           nan_policy="drop" if args.drop_nan else "refuse",
                            mmap=mmap, can_signals=getattr(args, "can_signals", None),
                            force_rate=bool(getattr(args, "force_rate", False)),
                            time_units=getattr(args, "time_units", DEFAULT_TIME_UNITS))
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
+
+
+def add_self_check_arg(p: argparse.ArgumentParser, extra: str = "") -> None:
+    """Add ``--self-check``: exit with :data:`~gyrodrift.stability.self_check.SELF_CHECK_EXIT`
+    when a fitted model does not describe its measured curve (every output carries the check
+    whether or not the flag is given). ``extra``: what the command does besides.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser(); add_self_check_arg(p)
+    >>> p.parse_args([]).self_check, p.parse_args(["--self-check"]).self_check
+    (False, True)
+    """
+    from gyrodrift.stability.self_check import SELF_CHECK_EXIT
+
+    p.add_argument("--self-check", action="store_true",
+                   help=f"self-check: exit with code {SELF_CHECK_EXIT} (after writing every "
+                        "output) when a fitted noise model does not describe its measured curve "
+                        "(the check and its warning lines are in every output anyway)" + extra)
+
+
+def self_check_exit(args: argparse.Namespace, checks: Sequence[tuple[str, Any]]) -> int:
+    """The exit code of a command that fitted noise models: 0, or
+    :data:`~gyrodrift.stability.self_check.SELF_CHECK_EXIT` with one line on stderr naming
+    the channels whose model does not hold when ``--self-check`` was given. ``checks``:
+    (channel or "", FitCheck) pairs.
+
+    Examples
+    --------
+    >>> self_check_exit(argparse.Namespace(self_check=True), [])
+    0
+    """
+    from gyrodrift.stability.self_check import SELF_CHECK_EXIT
+
+    failed = [label or "the record" for label, chk in checks if not chk.holds]
+    if not getattr(args, "self_check", False) or not failed:
+        return 0
+    print(f"gyrodrift: self-check failed: the fitted model does not hold for "
+          f"{', '.join(failed)}", file=sys.stderr)
+    return SELF_CHECK_EXIT
 
 
 def add_ar_method_arg(p: argparse.ArgumentParser) -> None:

@@ -58,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    >>> run(p.parse_args(["compare", rec, "--rate-hz", "100", "--out-dir", tmp.name]))
+    >>> run(p.parse_args(["compare", rec, "--rate-hz", "100", "--gyro-units", "deg/h",
+    ...                   "--out-dir", tmp.name]))
     Record: .../gyro.npy, 4096 samples at 100 Hz. AR(2) of the raw record: ...
     ...
     | original | ours (measured) | 0.0001574 | 0.001614 | 0.007557 | 0.9976 |

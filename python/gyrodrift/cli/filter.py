@@ -131,7 +131,8 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    >>> run(p.parse_args(["filter", rec, "--rate-hz", "100", "-o", rec.replace("gyro", "f")]))
+    >>> run(p.parse_args(["filter", rec, "--rate-hz", "100", "--gyro-units", "deg/h",
+    ...                   "-o", rec.replace("gyro", "f")]))
     kalman (double): std 0.99756 -> 0.49867 deg/h; wrote .../f.npy
     0
     >>> tmp.cleanup()

@@ -1,6 +1,9 @@
 """`gyrodrift fit`: maximum-likelihood identification of the drift model of a record
 (AR(2) + white, AR(1) + white, white), the chosen model, and its steady-state Kalman filter.
 
+When the drift lives at times much longer than a sample (the Allan minimum lies far out),
+the models are fitted to block averages of the record at a lower rate (the block length
+chosen automatically and stated) and the filter is converted back to the record's rate.
 Prints one row per model (log-likelihood, AIC, BIC, parameters with standard errors, the
 Ljung-Box p-value of the innovations), the model chosen by the lowest AIC (or BIC with
 --criterion bic), the filter's steady-state gain, DC gain and -3 dB bandwidth. -o FILE writes
@@ -12,6 +15,7 @@ record, in rad/s; pass_through elsewhere), or .json with the fields of --json.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import os
 from pathlib import Path
@@ -63,7 +67,8 @@ def _gyro_channel(column: str | None) -> str:
     return f"g{c[-1]}" if c and c[-1] in "xyz" else "gx"
 
 
-def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
+def config_toml(fit: Any, rate_hz: float, channel: str, source: str,
+                fit_rate_hz: float | None = None) -> str:
     """The processor configuration (canonical text) with the fitted steady-state
     AR(2)-Kalman stage on `channel` (values converted from deg/h to rad/s), the other channels
     passed through.
@@ -90,11 +95,33 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str) -> str:
     a1, a2, q, r = fit.filter_params
     meta = (("written_by", "gyrodrift fit"), ("record", os.path.basename(source)),
             ("model", str(fit.model)), ("tuning", str(fit.tuning)),
+            ("identified", "yes" if fit.identified else
+             "no: the record cannot tell drift from white noise (filter tuned at q = r)"),
+            ("fit_rate_hz", float(rate_hz if fit_rate_hz is None else fit_rate_hz)),
             ("loglike", float(fit.loglike)))
     cfg = drift_filter_config(channel, a1=a1, a2=a2, mean=fit.mean * DPH, q=q * DPH * DPH,
                               r=max(r, 1e-12 * (q + r)) * DPH * DPH, sample_rate_hz=rate_hz,
                               meta=meta)
     return dumps_config(cfg)
+
+
+def _decimation(x: np.ndarray, rate_hz: float) -> tuple[int, float]:
+    """(block length, tau of the Allan minimum in s) for the drift fit
+    (gyrodrift.filters.drift_model.choose_decimation on the octave Allan deviation)."""
+    from gyrodrift.filters.drift_model import choose_decimation
+    from gyrodrift.stability.allan import oadev
+
+    if x.size < 64:
+        return 1, math.nan
+    try:
+        a = oadev(x, rate_hz, taus="octave", progress=False)
+    except ValueError:
+        return 1, math.nan
+    ok = a.adev > 0
+    if not np.any(ok):
+        return 1, math.nan
+    tau_min = float(a.tau_s[ok][np.argmin(a.adev[ok])])
+    return choose_decimation(a.tau_s, a.adev, rate_hz, int(x.size)), tau_min
 
 
 def _fmt(v: float, se: float) -> str:
@@ -116,7 +143,8 @@ def run(args: argparse.Namespace) -> int:
     >>> x = lfilter([1.0], [1.0, -0.6, -0.2], rng.normal(0, 1, 4000)) + rng.normal(0, 0.5, 4000)
     >>> tmp = tempfile.TemporaryDirectory(); np.save(os.path.join(tmp.name, "gyro.npy"), x)
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
-    >>> run(p.parse_args(["fit", os.path.join(tmp.name, "gyro.npy"), "--rate-hz", "100"]))
+    >>> run(p.parse_args(["fit", os.path.join(tmp.name, "gyro.npy"), "--rate-hz", "100",
+    ...                   "--gyro-units", "deg/h"]))
     # .../gyro.npy: 4000 samples at 100 Hz, units deg/h (q, r in (deg/h)^2); ...
     model             loglike ...
     ...
@@ -126,7 +154,11 @@ def run(args: argparse.Namespace) -> int:
     >>> tmp.cleanup()
     """
     from gyrodrift.filters.ar2 import Ar2FitError
-    from gyrodrift.filters.drift_model import compare_drift_models
+    from gyrodrift.filters.drift_model import (
+        block_average,
+        compare_drift_models,
+        drift_params_at_rate,
+    )
 
     if args.output and Path(args.output).suffix.lower() not in (".toml", ".json"):
         raise CliError(f"-o/--output: unknown suffix {Path(args.output).suffix!r}; use .toml "
@@ -134,22 +166,42 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output, "-o")  # before the work
     rec = record_from_args(args, mmap=False)
     x = np.asarray(rec.rate_deg_h, dtype=np.float64)
+    factor, tau_min = _decimation(x, rec.rate_hz)
+    fit_rate = rec.rate_hz / factor
     try:
-        cmp_ = compare_drift_models(x, rec.rate_hz, criterion=args.criterion)
+        cmp_ = compare_drift_models(block_average(x, factor) if factor > 1 else x, fit_rate,
+                                    criterion=args.criterion)
     except (Ar2FitError, ValueError) as exc:
         raise CliError(str(exc)) from exc
     best = cmp_.best
+    note = ""
+    if factor > 1:
+        try:
+            mapped = drift_params_at_rate(*best.filter_params, factor)
+            best = dataclasses.replace(best, filter_params=mapped, rate_hz=rec.rate_hz)
+        except ValueError as exc:  # no slower model at the original rate: fit it there
+            note = f"not decimated: {exc}"
+            factor, fit_rate = 1, rec.rate_hz
+            try:
+                cmp_ = compare_drift_models(x, fit_rate, criterion=args.criterion)
+            except (Ar2FitError, ValueError) as exc2:
+                raise CliError(str(exc2)) from exc2
+            best = cmp_.best
+    decimation = {"factor": factor, "fit_rate_hz": fit_rate, "tau_allan_min_s": tau_min,
+                  "filter_params_at_rate_hz": rec.rate_hz, "note": note}
     try:
         resp = best.response()
     except ValueError as exc:  # e.g. the steady-state Riccati recursion did not converge
         raise CliError(f"the {best.model} filter of this record: {exc}") from exc
     payload = {"record": rec.summary(), "units": {"rate": "deg/h", "q": "(deg/h)^2",
                                                    "r": "(deg/h)^2", "mean": "deg/h"},
-               **cmp_.as_dict(), "filter": resp.as_dict()}
+               **cmp_.as_dict(), "decimation": decimation,
+               "filter_params": list(best.filter_params), "filter": resp.as_dict()}
     if args.output:
         out = Path(args.output)
         if out.suffix.lower() == ".toml":
-            text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source)
+            text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source,
+                               fit_rate_hz=fit_rate)
         else:
             text = json_text(payload) + "\n"
         atomic_write_text(out, text)
@@ -159,6 +211,13 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, units deg/h "
           "(q, r in (deg/h)^2); ± = standard error (observed information)")
+    if factor > 1:
+        print(f"# fitted at {fit_rate:g} Hz: block averages of {factor} samples, chosen from "
+              f"the Allan minimum at tau = {tau_min:.4g} s (the drift lives at times much "
+              f"longer than a sample); the table is at {fit_rate:g} Hz, the filter below is "
+              f"converted back to {rec.rate_hz:g} Hz")
+    elif note:
+        print(f"# {note}")
     print(f"{'model':<10} {'loglike':>14} {'AIC':>14} {'BIC':>14} {'a1':>16} {'a2':>16} "
           f"{'q':>18} {'r':>18} {'mean deg/h':>18} {'LB p':>8}")
     for f in cmp_.fits:
@@ -176,10 +235,16 @@ def run(args: argparse.Namespace) -> int:
         else:
             a1, a2, q, _ = best.filter_params
             print(f"drift/white split NOT identified (profile log-likelihood drop {d01:.3g} "
-                  f"at r/q = 0.1, {d10:.3g} at r/q = 10, both < 4, or no BIC gain over the "
-                  "white model): the record cannot tell "
+                  f"at r/q = 0.1, {d10:.3g} at r/q = 10: both < 4 or one zero, no BIC gain "
+                  "over the white model, or a standard error that does not exist): the "
+                  "record cannot tell "
                   f"drift from white noise; filter tuned at q = r (minimax over all splits): "
                   f"a1 {a1:.5g}, a2 {a2:.5g}, q = r = {q:.5g}")
+    if factor > 1:
+        a1, a2, q, r = best.filter_params
+        print(f"filter at {rec.rate_hz:g} Hz: a1 {a1:.6g}, a2 {a2:.6g}, q {q:.5g}, r {r:.5g} "
+              f"(from the {fit_rate:g} Hz fit: poles to the power 1/{factor}, drift variance "
+              f"kept, r x {factor})")
     bw = "none below Nyquist" if resp.bandwidth_hz is None else f"{resp.bandwidth_hz:.4g} Hz"
     print(f"steady-state gain K = ({resp.gain[0]:.6g}, {resp.gain[1]:.6g}), "
           f"DC gain {resp.dc_gain:.4g}, -3 dB bandwidth {bw}")

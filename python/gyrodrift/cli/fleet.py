@@ -13,7 +13,13 @@ from typing import Any
 
 from gyrodrift.cli import CliError
 from gyrodrift.cli.characterize import add_analysis_args, add_imu_input_args
-from gyrodrift.cli.common import add_json_arg, add_progress_arg, emit_json, progress_enabled
+from gyrodrift.cli.common import (
+    add_json_arg,
+    add_progress_arg,
+    emit_json,
+    progress_enabled,
+    require_units,
+)
 from gyrodrift.errors import GyrodriftError
 from gyrodrift.workflows.fleet import DEFAULT_MEMORY_BUDGET_MIB
 
@@ -58,6 +64,15 @@ def register(subparsers: Any) -> None:
     p.set_defaults(func=run)
 
 
+def _carried(path: str) -> bool:
+    from gyrodrift.io.imu_data import units_carried
+
+    try:
+        return units_carried(path)
+    except GyrodriftError:
+        return True  # an unsupported input: the worker reports it
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift fleet``; returns the exit code.
 
@@ -71,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1e-4, (4096, 3)))
     >>> out = os.path.join(tmp.name, "fleet")
     >>> run(p.parse_args(["fleet", rec, "--rate-hz", "100", "--gyro-units", "rad/s",
-    ...                   "--workers", "0", "--out-dir", out]))
+    ...                   "--column-channels", "gyro_x,gyro_y,gyro_z", "--workers", "0",
+    ...                   "--out-dir", out]))
     fleet: 1 done (0 already done, skipped), 0 failed, 0 outside the spec; summary: .../summary.html
     0
     >>> tmp.cleanup()
@@ -91,14 +107,20 @@ def run(args: argparse.Namespace) -> int:
         spec = load_spec(args.spec) if args.spec else None
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
+    # the units of records that do not carry them are never guessed (gyrodrift.units)
+    need = [p for p in paths if not _carried(p)]
+    if need:
+        require_units(need[0], "--gyro-units", args.gyro_units)
+        if args.column_channels is None or "accel" in args.column_channels:
+            require_units(need[0], "--accel-units", args.accel_units)
     try:
         opts = FleetOptions(
             rate_hz=args.rate_hz,
             columns=(tuple(args.column_channels.split(",")) if args.column_channels
                      else None),
             time_column=args.time_column, time_units=args.time_units, topic=args.topic,
-            gyro_units=args.gyro_units,
-            accel_units=args.accel_units, ci=args.ci, taus=args.taus,
+            gyro_units=args.gyro_units or "rad/s", accel_units=args.accel_units or "m/s^2",
+            ci=args.ci, taus=args.taus,
             terms=tuple(t.strip().upper() for t in args.terms.split(",") if t.strip()),
             method=args.identifier, memory_budget_mib=args.memory_budget_mib)
     except GyrodriftError as exc:

@@ -17,11 +17,14 @@ from gyrodrift.cli.common import (
     add_input_args,
     add_json_arg,
     add_progress_arg,
+    add_self_check_arg,
     check_output,
     emit_json,
     record_from_args,
+    self_check_exit,
 )
 from gyrodrift.stability import DEFAULT_IDENTIFIER, NOISE_IDENTIFIERS
+from gyrodrift.stability.self_check import check_lines, check_summary, fit_check_of
 
 if TYPE_CHECKING:
     from gyrodrift.stability.gmwm import GmwmResult
@@ -98,6 +101,7 @@ def register(subparsers: Any) -> None:
                    help="allan-nnls: keep every term the NNLS gives a non-zero value")
     add_ci_arg(p)
     p.add_argument("--png", help="plot: wavelet variance (gmwm) or Allan deviation with the fit")
+    add_self_check_arg(p)
     add_json_arg(p)
     add_progress_arg(p)
     p.set_defaults(func=run)
@@ -150,6 +154,12 @@ def gm_resolution_notes(res: GmwmResult) -> list[str]:
             for k in (1, 2, 3) if f"GM{k}_tau" in names and res.value(f"GM{k}_tau") < lo]
 
 
+def _print_check(chk: Any) -> None:
+    print(check_summary(chk))
+    for line in check_lines(chk):
+        print(line)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift identify``; returns the exit code.
 
@@ -161,7 +171,7 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    >>> run(p.parse_args(["identify", rec, "--rate-hz", "100"]))
+    >>> run(p.parse_args(["identify", rec, "--rate-hz", "100", "--gyro-units", "deg/h"]))
     # .../gyro.npy: 4096 samples at 100 Hz, rate in deg/h
     ...
     N             0.001666 ... deg/sqrt(h) ...
@@ -181,6 +191,9 @@ def run(args: argparse.Namespace) -> int:
             + (f", {rec.n_dropped} NaN/Inf samples dropped" if rec.n_dropped else ""))
     # the slope method reads its lines off the whole curve: a range would be ignored
     _check_identifier_options(args)
+    if args.identifier == "slope" and args.self_check:
+        raise CliError("--self-check applies to --identifier allan-nnls and gmwm (the slope "
+                       "read-offs fit no model to check)")
     if args.identifier == "gmwm":
         from gyrodrift.stability.allan_fit import parse_fit_range
         from gyrodrift.stability.gmwm import identify_gmwm
@@ -197,10 +210,12 @@ def run(args: argparse.Namespace) -> int:
 
             plot_gmwm(res, args.png, label=rec.source)
         notes = gm_resolution_notes(res)
+        chk = fit_check_of(res)
         if args.json:
             emit_json({"record": rec.summary(), "method": "gmwm", "gmwm": res.as_dict(),
-                       "notes": notes, "files": {"png": args.png}})
-            return 0
+                       "self_check": chk.as_dict(), "notes": notes,
+                       "files": {"png": args.png}})
+            return self_check_exit(args, [("", chk)])
         print(head)
         print(f"GMWM model {res.model} ({res.ci_method} intervals; J = {res.objective:.4g}"
               + ("" if res.wic is None else f", WIC = {res.wic:.4g}") + ")")
@@ -212,7 +227,8 @@ def run(args: argparse.Namespace) -> int:
             print("candidates (WIC): " + ", ".join(f"{m} {w:.4g}" for m, w in
                                                     res.candidates[:6]))
         print("".join(f"# note: {n}\n" for n in notes), end="")
-        return 0
+        _print_check(chk)
+        return self_check_exit(args, [("", chk)])
     from gyrodrift.stability.allan import oadev
 
     try:
@@ -231,10 +247,11 @@ def run(args: argparse.Namespace) -> int:
             from gyrodrift.report.plots import plot_allan_fit
 
             plot_allan_fit(allan, fit, args.png, label=rec.source)
+        chk = fit_check_of(fit, allan)
         if args.json:
             emit_json({"record": rec.summary(), "method": "allan-nnls", "fit": fit.as_dict(),
-                       "files": {"png": args.png}})
-            return 0
+                       "self_check": chk.as_dict(), "files": {"png": args.png}})
+            return self_check_exit(args, [("", chk)])
         print(head)
         print(f"IEEE 952 Allan fit, taus {fit.tau_min_s:g}..{fit.tau_max_s:g} s; dropped "
               f"(no IC gain): {', '.join(fit.dropped) or 'none'}")
@@ -242,7 +259,8 @@ def run(args: argparse.Namespace) -> int:
                  t.density_ci_low, t.density_ci_high) for t in fit.terms]
         print("\n".join(format_terms(rows, fit.ci)))
         print("\n".join(f"# {line}" for line in fit.notes()))
-        return 0
+        _print_check(chk)
+        return self_check_exit(args, [("", chk)])
     # slope method: read-offs with the interval of the Allan deviation at the read tau
     from gyrodrift.stability.allan_fit import slope_readouts
 

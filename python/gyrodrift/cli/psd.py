@@ -56,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 1.0, 4096))
-    >>> run(p.parse_args(["psd", rec, "--rate-hz", "100", "--png", rec.replace(".npy", ".png")]))
+    >>> run(p.parse_args(["psd", rec, "--rate-hz", "100", "--gyro-units", "deg/h",
+    ...                   "--png", rec.replace(".npy", ".png")]))
     # .../gyro.npy: 4096 samples at 100 Hz, Welch nperseg 512
     upper-band level 0.02068 (deg/h)^2/Hz -> N = 0.001695 deg/sqrt(h) if white; PNG: .../gyro.png
     0

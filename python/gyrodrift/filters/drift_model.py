@@ -59,13 +59,19 @@ from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.filters.ar2 import Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
 
 __all__ = [
+    "DECIMATION_MIN_BLOCKS",
+    "DECIMATION_MIN_FACTOR",
+    "DECIMATION_TAU_FRACTION",
     "DRIFT_MODELS",
     "DriftModelComparison",
     "DriftModelFit",
     "FilterResponse",
     "LjungBox",
+    "block_average",
+    "choose_decimation",
     "compare_drift_models",
     "drift_fisher_information",
+    "drift_params_at_rate",
     "fit_drift_model",
     "steady_state_response",
 ]
@@ -160,7 +166,9 @@ class DriftModelFit:
     split_drop: drops of the profile log-likelihood when the split is forced to r/q = 0.1 and
     to r/q = 10 (inf for the white model). identified: False when both are below 4 (neither
     rejected at 99.5 %) or when the model does not beat the white model by BIC: the record
-    cannot tell drift from white noise. tuning: "ml" (the
+    cannot tell drift from white noise; False too when a standard error of a1, a2 (AR(2)),
+    q or r does not exist (NaN) or a drop is zero: the estimate itself is not determined by
+    the record. tuning: "ml" (the
     filter uses the fitted a1, a2, q, r) or "minimax-split" (not identified: the filter uses
     the profile fit at q = r, whose gain minimises the worst-case error over all splits; see
     the drift model validation page).
@@ -704,12 +712,24 @@ def _split_check(prof: _Profile, model: str, u_ml: np.ndarray
     beats_white = ll_ml - ll_white > 0.5 * (_N_PARAMS[model] - _N_PARAMS["white"]) * math.log(n)
     if beats_white and max(drops) > _SPLIT_DROP_MIN:
         return (drops[0], drops[1]), None
-    # Not identified: the profile fit at q = r on the whole record.
+    return (drops[0], drops[1]), _minimax_tuning(prof, model, a1, a2)
+
+
+def _minimax_tuning(prof: _Profile, model: str, a1: float, a2: float
+                    ) -> tuple[float, float, float, float]:
+    """The tuning of a split that is not identified: the profile fit at q = r on the whole
+    record, (a1, a2, q, r) (see _split_check)."""
     _, u = _profile_split(prof, model, 1.0, [(a1, a2), _yule_walker_at(prof.x - prof.center,
                                                                        model, 0.5)])
     b1, b2, w = prof.natural(u)
     _, scale, _ = prof.concentrated(b1, b2, w)
-    return (drops[0], drops[1]), (b1, b2, scale * w, scale * (1.0 - w))
+    return (b1, b2, scale * w, scale * (1.0 - w))
+
+
+#: The parameters of each model whose standard errors must exist for its drift/white split
+#: to count as identified.
+_FREE_PARAMS = {"ar2+white": ("a1", "a2", "q", "r"), "ar1+white": ("a1", "q", "r"),
+                "white": ()}
 
 
 def ljung_box(e: np.ndarray, lags: int, model_df: int = 0) -> LjungBox:
@@ -747,6 +767,14 @@ def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float
     k = _N_PARAMS[model]
     lags = max(1, min(10, n // 5))
     split_drop, minimax = split
+    # The probes' drops say the split is identified, but a standard error that does not exist
+    # (NaN: the likelihood is flat or singular at the estimate) or a zero drop says the
+    # estimate is not: then the split is not identified either, and the filter is tuned as
+    # for any split that is not (minimax, q = r).
+    if minimax is None and model != "white" and (
+            any(not math.isfinite(stderr[k]) for k in _FREE_PARAMS[model])
+            or min(split_drop) <= 0.0):
+        minimax = _minimax_tuning(prof, model, a1, a2)
     identified = minimax is None
     filter_params = (a1, a2, q, r) if minimax is None else minimax
     return DriftModelFit(
@@ -943,3 +971,107 @@ def steady_state_response(a1: float, a2: float, q: float, r: float, rate_hz: flo
             i = int(below[0])
             bw = float(scipy.optimize.brentq(lambda f: mag(f) - target, grid[i - 1], grid[i]))
     return FilterResponse(gain=(float(k0), float(k1)), dc_gain=dc, bandwidth_hz=bw)
+
+
+# ---------------------------------------------------------------------- fits at a lower rate
+
+#: choose_decimation: the block length is at most this fraction of the Allan-minimum tau
+#: (the drift then spans many blocks), and leaves at least DECIMATION_MIN_BLOCKS blocks.
+DECIMATION_TAU_FRACTION = 1.0 / 20.0
+DECIMATION_MIN_BLOCKS = 2000
+#: Below this factor the record is fitted at its own rate.
+DECIMATION_MIN_FACTOR = 4
+
+
+def choose_decimation(tau_s: np.ndarray, adev: np.ndarray, rate_hz: float, n: int) -> int:
+    """The block length (samples) to average a record over before fitting its drift model:
+    the largest power of two whose duration is at most DECIMATION_TAU_FRACTION of the tau of
+    the Allan minimum (where averaging the white noise stops paying and the drift takes over)
+    and that leaves at least DECIMATION_MIN_BLOCKS blocks; 1 (no decimation) below
+    DECIMATION_MIN_FACTOR.
+
+    Examples
+    --------
+    >>> tau = np.logspace(-2, 3, 30); adev = np.sqrt(1e-2 / tau + 1e-5 * tau)  # minimum at 32 s
+    >>> choose_decimation(tau, adev, 100.0, 10**6)
+    128
+    >>> choose_decimation(tau, adev, 100.0, 10**5)   # 2000 blocks at most
+    32
+    """
+    tau = np.asarray(tau_s, dtype=np.float64)
+    dev = np.asarray(adev, dtype=np.float64)
+    ok = np.isfinite(dev) & (dev > 0)
+    if not np.any(ok) or not (math.isfinite(rate_hz) and rate_hz > 0):
+        return 1
+    tau_min = float(tau[ok][np.argmin(dev[ok])])
+    limit = min(tau_min * DECIMATION_TAU_FRACTION * rate_hz, n / DECIMATION_MIN_BLOCKS)
+    if limit < DECIMATION_MIN_FACTOR:
+        return 1
+    return int(2 ** math.floor(math.log2(limit)))
+
+
+def block_average(x: np.ndarray, factor: int) -> np.ndarray:
+    """Means of consecutive blocks of `factor` samples (a trailing partial block dropped).
+
+    Examples
+    --------
+    >>> block_average(np.arange(7.0), 3).tolist()
+    [1.0, 4.0]
+    """
+    a = np.asarray(x, dtype=np.float64)
+    if factor < 1:
+        raise GyrodriftValueError(f"factor must be >= 1, got {factor!r}")
+    m = a.size // factor
+    return a[:m * factor].reshape(m, factor).mean(axis=1)
+
+
+def drift_params_at_rate(a1: float, a2: float, q: float, r: float, factor: int
+                         ) -> tuple[float, float, float, float]:
+    """Map an AR(2) + white model fitted on block averages of `factor` samples back to the
+    original sample period: (a1, a2, q, r) there.
+
+    Derivation (valid when the drift's correlation time is long against a block, the case
+    decimation is for): the AR(2) recursion x_k = a1 x_{k-1} + a2 x_{k-2} + w_k has poles
+    z_1, z_2, the roots of z^2 - a1 z - a2, and decays as z_i^k; one block step of `factor`
+    samples multiplies by z_i^factor, so the original period's poles are the principal
+    roots z_i^(1/factor) (a complex pair rho e^(+-i theta) -> rho^(1/factor)
+    e^(+-i theta / factor)), and a1 = z_1 + z_2, a2 = -z_1 z_2. Averaging over a block hardly
+    changes a slow drift, so its stationary variance
+    gamma_0 = q (1 - a2) / ((1 + a2) ((1 - a2)^2 - a1^2)) is kept, which gives q at the
+    original poles. The average of `factor` white samples of variance r has variance
+    r / factor, so r = factor r_block.
+
+    Raises
+    ------
+    GyrodriftValueError
+        a negative real pole (an oscillation at the block rate's Nyquist frequency has no
+        slow original), a non-stationary model, or factor < 1.
+
+    Examples
+    --------
+    >>> a1, a2, q, r = drift_params_at_rate(0.9**4 + 0.5**4, -(0.9 * 0.5)**4, 1.0, 0.1, 4)
+    >>> round(a1, 12), round(a2, 12), round(r, 12)   # poles 0.9, 0.5 at the original rate
+    (1.4, -0.45, 0.4)
+    """
+    if factor < 1:
+        raise GyrodriftValueError(f"factor must be >= 1, got {factor!r}")
+    if factor == 1:
+        return a1, a2, q, r
+    roots = np.roots([1.0, -a1, -a2])
+    if np.any(np.abs(roots) >= 1.0):
+        raise GyrodriftValueError(f"AR(2) ({a1:g}, {a2:g}) is not stationary")
+    real = np.abs(roots.imag) <= 1e-12 * np.maximum(np.abs(roots), 1e-300)
+    if np.any(real & (roots.real < 0)):
+        raise GyrodriftValueError(
+            f"AR(2) ({a1:g}, {a2:g}) has a negative real pole: no slower model at the "
+            f"original rate (fit it there)")
+    orig = np.where(real, np.abs(roots.real) ** (1.0 / factor) + 0j,
+                    np.abs(roots) ** (1.0 / factor) * np.exp(1j * np.angle(roots) / factor))
+    b1 = float(np.real(orig[0] + orig[1]))
+    b2 = float(-np.real(orig[0] * orig[1])) + 0.0  # no -0.0
+
+    def gamma0_per_q(c1: float, c2: float) -> float:
+        return (1.0 - c2) / ((1.0 + c2) * ((1.0 - c2) ** 2 - c1 * c1))
+
+    q_orig = q * gamma0_per_q(a1, a2) / gamma0_per_q(b1, b2)
+    return b1, b2, q_orig, r * factor

@@ -70,11 +70,14 @@ __all__ = [
     "ACCEL_UNITS",
     "CHANNELS",
     "GYRO_UNITS",
+    "UNITS_CARRIED_KINDS",
     "ImuData",
     "NpyChannels",
     "bag_imu_topics",
+    "check_units_plausible",
     "input_kind",
     "load_imu",
+    "units_carried",
 ]
 
 #: Channel names in their canonical order (SI units inside: rad/s and m/s^2).
@@ -841,3 +844,134 @@ def _read_bag_imu(bag: Path, source: str, topic: str | None
     if i != n:
         raise GyrodriftValueError(f"{source}: {topic}: read {i} messages, the bag index says {n}")
     return topic, n, vals, t_ns
+
+
+# ------------------------------------------------------------------------ units plausibility
+
+#: Kinds of input (:func:`input_kind`) whose format carries its units (logs and bags: rad/s
+#: and m/s^2, sensor_msgs/Imu by definition; PSINS: angle and velocity increments); a .npy
+#: or text record does not, and its units must be stated.
+UNITS_CARRIED_KINDS: tuple[str, ...] = ("psins", "replay-log", "rosbag1", "rosbag2")
+#: A static accelerometer triad reads 1 g; its median magnitude is taken to contradict the
+#: declared unit when it lies outside this band (in g) while another unit puts it inside
+#: STATIC_G_LIKELY.
+STATIC_G_BAND = (0.5, 2.0)
+STATIC_G_LIKELY = (0.8, 1.25)
+#: A record is static when the accelerometer magnitude varies by less than this fraction of
+#: its median (10th to 90th percentile) and the mean vector keeps 95 % of that magnitude.
+STATIC_SPREAD = 0.2
+#: Largest gyro-triad mean magnitude at rest taken as plausible, deg/h: Earth rate
+#: (15.04 deg/h) plus the bias of a consumer MEMS gyro (up to about 5 deg/s).
+STATIC_GYRO_MAX_DEG_H = 2.0e4
+#: Below this white-noise level (deg/sqrt(h), from the per-sample standard deviation) no gyro
+#: built is that quiet (the best ring-laser gyros: about 1e-4 deg/sqrt(h)).
+QUIETEST_GYRO_DEG_RT_H = 1.0e-5
+_SAMPLE_ROWS = 200_000
+
+
+def units_carried(path: str | Path) -> bool:
+    """Whether the file format at `path` carries its units (:data:`UNITS_CARRIED_KINDS`;
+    the single-channel reader's IMU CSV of the replay harness is a replay log too).
+
+    Examples
+    --------
+    >>> units_carried("imu.bin"), units_carried("imu.npy"), units_carried("imu.imu")
+    (True, False, True)
+    """
+    return input_kind(path) in UNITS_CARRIED_KINDS
+
+
+def _sample(x: np.ndarray) -> np.ndarray:
+    step = max(1, int(x.shape[0]) // _SAMPLE_ROWS)
+    v = np.asarray(x[::step], dtype=np.float64)
+    return v[np.isfinite(v)] if v.ndim == 1 else v
+
+
+def _unit_factor(unit: str, table: dict[str, float], rate_hz: float) -> float:
+    return table[unit] * (rate_hz if unit in _INCREMENT_UNITS else 1.0)
+
+
+def check_units_plausible(rec: ImuData, gyro_units: str, accel_units: str) -> None:
+    """Refuse a static record whose values contradict the declared units by a large factor,
+    naming the likely unit (docs: guides/units.md). Only clear contradictions are refused:
+
+    - the record is static when it has all three accelerometer axes, their magnitude varies
+      by less than STATIC_SPREAD of its median and the mean vector keeps 95 % of it;
+    - accelerometer: a median magnitude outside STATIC_G_BAND (in g) while another unit puts
+      it inside STATIC_G_LIKELY ("1.0 m/s^2 looks like g");
+    - gyro triad (static only): a mean magnitude above STATIC_GYRO_MAX_DEG_H while deg/h puts
+      it at or below that; or, declared deg/h, a mean magnitude below 1 deg/h (a triad at
+      rest measures Earth rate, 15 deg/h, plus its bias) with a white-noise level below
+      QUIETEST_GYRO_DEG_RT_H while rad/s or deg/s puts the mean between 1 deg/h and
+      STATIC_GYRO_MAX_DEG_H.
+
+    `rec` holds the channels converted with the declared units (rad/s, m/s^2).
+
+    Raises
+    ------
+    GyrodriftValueError
+        naming the record, the declared unit, what was measured and the likely unit.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> a = {f"accel_{k}": rng.normal(v, 1e-3, 1000) for k, v in zip("xyz", (0.0, 0.0, 1.0))}
+    >>> rec = ImuData(a, 100.0, "imu.npy", "npy", 1000)   # g values read as m/s^2
+    >>> try:
+    ...     check_units_plausible(rec, "rad/s", "m/s^2")
+    ... except GyrodriftValueError as exc:
+    ...     print(str(exc).split("): ")[-1])
+    the data look like g; give the right units (command line: --accel-units g)
+    """
+    if not all(f"accel_{k}" in rec.channels for k in "xyz"):
+        return
+    acc = np.column_stack([_sample(rec.channels[f"accel_{k}"]) for k in "xyz"])
+    acc = acc[np.all(np.isfinite(acc), axis=1)]
+    if acc.shape[0] < 3:
+        return
+    norm = np.linalg.norm(acc, axis=1)
+    med = float(np.median(norm))
+    if not med > 0.0:
+        return
+    p10, p90 = np.percentile(norm, [10.0, 90.0])
+    if (p90 - p10) / med > STATIC_SPREAD or np.linalg.norm(acc.mean(axis=0)) < 0.95 * med:
+        return  # not static: the magnitude says nothing about the unit
+    g0 = units.G0_M_S2
+    rate = rec.rate_hz
+    raw = med / _unit_factor(accel_units, ACCEL_UNITS, rate)
+    if not STATIC_G_BAND[0] <= med / g0 <= STATIC_G_BAND[1]:
+        likely = [u for u in ACCEL_UNITS if u != accel_units and STATIC_G_LIKELY[0]
+                  <= raw * _unit_factor(u, ACCEL_UNITS, rate) / g0 <= STATIC_G_LIKELY[1]]
+        if likely:
+            raise GyrodriftValueError(
+                f"{rec.source}: the accelerometer magnitude at rest is {med:.3g} m/s^2 with "
+                f"accelerometer units {accel_units} (1 g = {g0} m/s^2 expected): the data look "
+                f"like {likely[0]}; give the right units (command line: --accel-units "
+                f"{likely[0]})")
+    if not all(f"gyro_{k}" in rec.channels for k in "xyz"):
+        return
+    gyr = np.column_stack([_sample(rec.channels[f"gyro_{k}"]) for k in "xyz"])
+    gyr = gyr[np.all(np.isfinite(gyr), axis=1)]
+    if gyr.shape[0] < 3:
+        return
+    to_deg_h = RATE_UNITS["deg/h"].to_rad_s
+    mean_deg_h = float(np.linalg.norm(gyr.mean(axis=0))) / to_deg_h
+    raw_w = mean_deg_h * to_deg_h / _unit_factor(gyro_units, GYRO_UNITS, rate)
+
+    def as_deg_h(u: str) -> float:
+        return raw_w * _unit_factor(u, GYRO_UNITS, rate) / to_deg_h
+
+    def refuse(what: str, likely: str) -> None:
+        raise GyrodriftValueError(
+            f"{rec.source}: the gyro triad reads {mean_deg_h:.3g} deg/h at rest with gyro "
+            f"units {gyro_units} ({what}): the data look like {likely}; give the right units "
+            f"(command line: --gyro-units)")
+
+    if mean_deg_h > STATIC_GYRO_MAX_DEG_H and as_deg_h("deg/h") <= STATIC_GYRO_MAX_DEG_H:
+        refuse("Earth rate 15 deg/h plus any gyro bias is far less", "deg/h")
+    if gyro_units == "deg/h" and mean_deg_h < 1.0:
+        n_deg_rt_h = float(np.median(gyr.std(axis=0))) / to_deg_h / math.sqrt(rate) / 60.0
+        likely = [u for u in ("rad/s", "deg/s") if 1.0 <= as_deg_h(u) <= STATIC_GYRO_MAX_DEG_H]
+        if 0.0 < n_deg_rt_h < QUIETEST_GYRO_DEG_RT_H and likely:
+            refuse(f"Earth rate is 15 deg/h, and a white-noise level of {n_deg_rt_h:.2g} "
+                   "deg/sqrt(h) is below any gyro built", " or ".join(likely))

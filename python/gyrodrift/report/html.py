@@ -20,7 +20,8 @@ body { font-family: sans-serif; margin: 1.5em; color: #222; }
 table { border-collapse: collapse; margin: 0.8em 0; font-size: 0.9em; }
 th, td { border: 1px solid #bbb; padding: 0.25em 0.6em; text-align: right; }
 th { background: #eee; } td.l, th.l { text-align: left; }
-tr.bad td { background: #fdd; } img { max-width: 100%; border: 1px solid #ddd; }
+tr.bad td { background: #fdd; }
+p.warn { color: #a00; } img { max-width: 100%; border: 1px solid #ddd; }
 code { background: #f4f4f4; }
 """
 
@@ -46,8 +47,28 @@ _CHAR_TEMPLATE = """<!DOCTYPE html>
 <td>[{{ "%.3g"|format(r.ieee_low) }}, {{ "%.3g"|format(r.ieee_high) }}]</td>
 <td class="l">{{ r.ieee_unit }}</td></tr>
 {% endfor %}</table>
+{% if fit_checks %}<h2>Fit self-check</h2>
+<p>Does each fitted model describe the measured curve? A point passes when the fitted value lies
+inside the measured interval or within the tolerance of it as a ratio; the model holds when
+every point used in the fit passes. Where it does not, the values are approximate.</p>
+{% for w in kalibr_warnings %}<p class="warn"><b>WARNING:</b> {{ w }}</p>
+{% endfor %}<table id="fitcheck"><tr><th class="l">channel</th><th class="l">curve</th>
+<th class="l">model holds</th><th>chi2/dof</th><th>points failed / used</th>
+<th>worst fitted/measured</th><th class="l">per point: x (s) ratio</th></tr>
+{% for c in fit_checks %}<tr class="{{ '' if c.holds else 'bad' }}">
+<td class="l">{{ c.channel }}</td><td class="l">{{ c.what }}</td>
+<td class="l">{{ "yes" if c.holds else "NO" }}</td>
+<td>{{ "%.3g"|format(c.statistic) if c.statistic is not none else "n/a" }}</td>
+<td>{{ c.n_failed }} / {{ c.n_used }}</td>
+<td>{{ "%.3g"|format(c.worst_ratio) if c.worst_ratio is not none else "n/a" }}</td>
+<td class="l">{% for x, r, u, ok in c.points %}{{ "%.3g"|format(x) }}: {% if r is not none
+%}{{ "%.3g"|format(r) }}{% else %}n/a{% endif %}{{ "" if ok else " (fails)" }}{{
+"" if u else " (not fitted)" }}{{ "; " if not loop.last else "" }}{% endfor %}</td></tr>
+{% endfor %}</table>{% endif %}
+{% if kalibr_refused %}<h2>Kalibr imu.yaml</h2>
+<p><b>Not written:</b> {{ kalibr_refused }}</p>{% endif %}
 {% if kalibr %}<h2>Kalibr imu.yaml</h2><pre>{{ kalibr }}</pre>{% endif %}
-{% if self_check %}<h2>Self-check</h2>
+{% if self_check %}<h2>Simulation check</h2>
 <p>A record simulated with the identified terms (same length and rate, seed {{ self_check.seed }})
 was identified again: {{ "every term recovered inside its interval" if self_check.all_inside
 else "some terms NOT recovered inside their intervals" }}.</p>
@@ -114,8 +135,16 @@ def _env() -> Any:
 def characterize_html(*, name: str, version: str, method: str, ci: float,
                       record: dict[str, object], rows: Sequence[dict[str, Any]],
                       images: Sequence[tuple[str, str]], kalibr: str | None,
-                      self_check: dict[str, Any] | None) -> str:
+                      self_check: dict[str, Any] | None,
+                      fit_checks: Sequence[dict[str, Any]] = (),
+                      kalibr_warnings: Sequence[str] = (),
+                      kalibr_refused: str | None = None) -> str:
     """The characterize report (one file: tables, inline PNG plots, inputs, version).
+
+    ``fit_checks``: one dict per channel (channel, what, holds, statistic, n_failed, n_used,
+    worst_ratio, points: (x, ratio, used, passed) tuples; None for a value not defined);
+    ``kalibr_warnings``: the warning lines of the Kalibr export; ``kalibr_refused``: why no
+    Kalibr file could be written.
 
     Examples
     --------
@@ -127,7 +156,8 @@ def characterize_html(*, name: str, version: str, method: str, ci: float,
     """
     return _env().from_string(_CHAR_TEMPLATE).render(
         css=_CSS, name=name, version=version, method=method, ci=ci, record=record, rows=rows,
-        images=images, kalibr=kalibr, self_check=self_check)
+        images=images, kalibr=kalibr, self_check=self_check, fit_checks=list(fit_checks),
+        kalibr_warnings=list(kalibr_warnings), kalibr_refused=kalibr_refused)
 
 
 def fleet_html(**kw: Any) -> str:

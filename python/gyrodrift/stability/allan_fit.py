@@ -31,10 +31,12 @@ Fit range. Unless the caller gives `fit_range`, the range is chosen automaticall
 (`AllanFit.range_note`): taus with a positive deviation and edf >= MIN_FIT_EDF, then, one at a
 time, the end tau (shortest or longest) whose standardised residual
 |log sigma_hat^2 - log sigma_model^2| sqrt(w) exceeds TRIM_SIGMAS is removed and the model
-refitted, while more than max(5, terms + 1) taus remain: a sensor's output filter bends the
+refitted, while more than max(5, terms + 1) taus and at least 1 - MAX_TRIM_SHARE of the
+eligible taus remain: a sensor's output filter bends the
 first taus below the N line, a warm-up or the record's end bends the last ones; both are outside
 the five-term model. Taus inside the range are never removed: where the model leaves them, the
-self-check says so.
+self-check says so; and where the model leaves a left-out tau (edf >= MIN_FIT_EDF) by more than
+EXTRAPOLATION_FACTOR, the model fails its self-check too.
 
 Model selection: IC = chi2 + 2 p (Akaike, chi2 playing -2 log-likelihood) with p the number of
 non-zero terms; terms at zero are dropped; then, while removing a remaining term does not
@@ -97,9 +99,9 @@ from gyrodrift.stability import IEEE952_TERMS, ieee952
 from gyrodrift.stability.fit_check import FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
 
-__all__ = ["ALLAN_TERMS", "MIN_FIT_EDF", "MODEL_DISCREPANCY", "READOFF_MIN_EDF", "TRIM_SIGMAS",
-           "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range", "parse_terms",
-           "slope_readouts"]
+__all__ = ["ALLAN_TERMS", "EXTRAPOLATION_FACTOR", "MAX_TRIM_SHARE", "MIN_FIT_EDF",
+           "MODEL_DISCREPANCY", "READOFF_MIN_EDF", "TRIM_SIGMAS", "AllanFit", "AllanTerm",
+           "fit_allan", "parse_fit_range", "parse_terms", "slope_readouts"]
 
 #: Relative error of sigma^2 the five-term model is allowed at any tau (module docstring).
 MODEL_DISCREPANCY = 0.1
@@ -107,6 +109,12 @@ MODEL_DISCREPANCY = 0.1
 MIN_FIT_EDF = 3.0
 #: An end tau whose standardised log residual exceeds this leaves an automatic range.
 TRIM_SIGMAS = 2.0
+#: The largest share of the eligible taus the automatic range may leave out (beyond it, a
+#: model that misses the curve is flagged rather than fitted to a narrower window).
+MAX_TRIM_SHARE = 0.5
+#: A tau left out of an automatic range where the model differs from the measured deviation
+#: by more than this factor makes the model fail its self-check.
+EXTRAPOLATION_FACTOR = 3.0
 #: The datasheet read-off of B looks for the minimum over taus with at least these edf.
 READOFF_MIN_EDF = 10.0
 #: Probability of the measured interval the self-check compares against.
@@ -438,10 +446,14 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     var_all = np.where(used, dev, 1.0) ** 2
     wt_all = 1.0 / (2.0 / np.where(used, e, 1.0) + MODEL_DISCREPANCY**2)
     trimmed_short = trimmed_long = 0
+    # Never more than MAX_TRIM_SHARE of the eligible taus: trimming is for the ends a sensor's
+    # output filter or a warm-up bends, not a way to shrink the range until any model fits.
+    min_kept = max(5, len(names) + 1,
+                   math.ceil((1.0 - MAX_TRIM_SHARE) * np.count_nonzero(used)))
     while True:
         idx = np.flatnonzero(used)
         kept, c, model, chi2 = _select(tau[idx], var_all[idx], wt_all[idx], names, select)
-        if user_range or idx.size <= max(5, len(names) + 1):
+        if user_range or idx.size <= min_kept:
             break
         z = np.abs(np.log(var_all[idx] / model)) * np.sqrt(wt_all[idx])
         end = 0 if z[0] >= z[-1] else -1
@@ -507,6 +519,20 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     m_lo, m_hi = chi2_interval(np.where(ok, dev, np.nan), np.where(ok, e, 1.0), CHECK_CI)
     check = check_fit(tau, dev, np.where(ok, m_lo, np.nan), np.where(ok, m_hi, np.nan), total,
                       used, statistic=chi2 / dof if dof > 0 else math.nan, dof=dof)
+    if not user_range:
+        # taus the automatic range left out still have to be near the model: a model that
+        # leaves the curve by a large factor just outside its range (an R or K line fitted to
+        # a hump, a flat B) does not describe the record, whatever it does inside the range
+        elig = ok & (e >= MIN_FIT_EDF) & ~used
+        with np.errstate(divide="ignore", invalid="ignore"):
+            far = elig & ~(np.abs(np.log(total / dev)) <= math.log(EXTRAPOLATION_FACTOR))
+        if np.any(far):
+            j = int(np.flatnonzero(far)[np.argmax(np.abs(np.log(total[far] / dev[far])))])
+            check = dataclasses.replace(check, holds=False, warnings=(*check.warnings, (
+                f"model does not hold: outside the fitted range it leaves the measured Allan "
+                f"deviation by more than {EXTRAPOLATION_FACTOR:g}x at {int(far.sum())} tau "
+                f"(worst {total[j] / dev[j]:.3g}x at tau = {tau[j]:.3g} s); the values are "
+                f"approximate")))
     approximate = (not check.holds) or (
         dof > 0 and chi2 > float(scipy.stats.chi2.ppf(0.99, dof)))
     # datasheet read-off of B

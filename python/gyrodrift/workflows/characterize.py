@@ -64,7 +64,9 @@ from gyrodrift.io.imu_data import CHANNELS, ImuData
 from gyrodrift.io.json_text import json_text
 from gyrodrift.stability import DEFAULT_IDENTIFIER, IEEE952_TERMS, MODEL_IDENTIFIERS
 from gyrodrift.stability.allan import ONE_SIGMA_CI, AllanResult, oadev
+from gyrodrift.stability.fit_check import FitCheck
 from gyrodrift.stability.ieee952 import B_FLOOR_FACTOR
+from gyrodrift.stability.self_check import check_summary, fit_check_of
 from gyrodrift.units import TERM_UNITS
 
 __all__ = [
@@ -75,7 +77,9 @@ __all__ = [
     "TermEstimate",
     "characterize",
     "characterize_channels",
+    "check_rows",
     "kalibr_values",
+    "kalibr_warnings",
     "kalibr_yaml",
     "plot_sensor",
     "self_check",
@@ -159,10 +163,14 @@ class ChannelResult:
     fit_adev: np.ndarray
     method: str
     extra: dict[str, object] = field(default_factory=dict)
+    #: whether the fitted model describes the measured curve (Allan deviation, or the
+    #: wavelet variance of a GMWM fit), point by point; None where no model was fitted
+    check: FitCheck | None = None
 
     def as_dict(self) -> dict[str, object]:
         a = self.allan
         return {
+            "self_check": None if self.check is None else self.check.as_dict(),
             "channel": self.channel, "sensor": self.sensor, "unit": self.unit,
             "method": self.method,
             "taus": [{"tau_s": float(t), "adev": float(d), "ci_low": float(lo),
@@ -188,7 +196,7 @@ class CharacterizeResult:
     ...               fmt="npy", n_total=4096)
     >>> res = characterize(rec)
     >>> res.method, list(res.as_dict())
-    ('allan-nnls', ['version', 'method', 'ci', 'record', 'channels'])
+    ('allan-nnls', ['version', 'method', 'ci', 'record', 'holds', 'channels'])
     """
 
     record: dict[str, object]
@@ -203,9 +211,14 @@ class CharacterizeResult:
                 return c
         raise KeyError(name)
 
+    @property
+    def holds(self) -> bool:
+        """Every channel's fitted model describes its measured curve."""
+        return all(c.check is None or c.check.holds for c in self.channels)
+
     def as_dict(self) -> dict[str, object]:
         return {"version": self.version, "method": self.method, "ci": self.ci,
-                "record": self.record,
+                "record": self.record, "holds": self.holds,
                 "channels": {c.channel: c.as_dict() for c in self.channels}}
 
 
@@ -346,7 +359,8 @@ def characterize_channel(x: np.ndarray, rate_hz: float, channel: str, *, ci: flo
                                         "unit": unit},
                           "k_upper_limit": (None if "K" not in afit.upper_limits
                                             else afit.upper_limits["K"] / 60.0),
-                          "check": afit.check.as_dict()})
+                          "check": afit.check.as_dict()},
+                         afit.check)
 
 
 def _gmwm_channel(x: np.ndarray, rate_hz: float, channel: str, a: AllanResult,
@@ -374,7 +388,8 @@ def _gmwm_channel(x: np.ndarray, rate_hz: float, channel: str, a: AllanResult,
         est.setdefault(name, TermEstimate(name, 0.0, 0.0, 0.0, TERM_UNITS[sensor][name].si))
     fit_adev = np.full(a.tau_s.shape, np.nan)
     unit = "rad/s" if sensor == "gyro" else "m/s^2"
-    return ChannelResult(channel, sensor, unit, a, est, fit_adev, "gmwm", extra)
+    return ChannelResult(channel, sensor, unit, a, est, fit_adev, "gmwm", extra,
+                         fit_check_of(res))
 
 
 def characterize(rec: ImuData, *, ci: float = ONE_SIGMA_CI, taus: str = "octave",
@@ -491,9 +506,69 @@ def kalibr_values(res: CharacterizeResult, axis: str = "worst"
     return out
 
 
+#: The Kalibr file warns when the Allan interval band had to be widened more than this for
+#: any model of the chosen terms to fit (ChannelResult.extra["band_scale"]): the fit then
+#: describes a curve far from the measured one.
+BAND_SCALE_WARN = 3.0
+#: ... and when a random walk alone implies an Allan deviation more than this many times the
+#: measured one at the longest averaging time (a random walk no record of this length shows).
+RANDOM_WALK_EXCESS_WARN = 2.0
+
+
+def kalibr_warnings(res: CharacterizeResult, axis: str = "worst") -> list[str]:
+    """The warning lines a Kalibr export of `res` carries: every channel whose fitted model
+    does not hold (its self-check), whose interval band was widened more than
+    BAND_SCALE_WARN, and an exported random walk that alone exceeds the measured Allan
+    deviation at the longest averaging time by more than RANDOM_WALK_EXCESS_WARN. Empty when
+    the export can be trusted as far as the record tells.
+
+    Examples
+    --------
+    >>> from gyrodrift.io.imu_data import ImuData
+    >>> rec = ImuData({"gyro_x": np.random.default_rng(0).normal(0, 1e-4, 4096)}, rate_hz=100.0,
+    ...               source="bench", fmt="npy", n_total=4096)
+    >>> kalibr_warnings(characterize(rec))
+    []
+    """
+    out: list[str] = []
+    for c in res.channels:
+        if c.check is not None:
+            out += [f"{c.channel}: {w}" for w in c.check.warnings]
+        scale = c.extra.get("band_scale")
+        if isinstance(scale, float) and scale > BAND_SCALE_WARN:
+            out.append(f"{c.channel}: no model of the chosen terms fits inside the Allan "
+                       f"interval band; it was widened {scale:.3g}x (far beyond the measured "
+                       "curve's interval): the terms are approximate")
+    for (_sensor, term), key in KALIBR_KEYS.items():
+        if term != "K":
+            continue
+        vals = kalibr_values(res, axis)
+        if key not in vals:
+            continue
+        k, ch_name, _ = vals[key]
+        a = res.channel(ch_name).allan
+        pos = a.adev > 0
+        if k > 0 and np.any(pos):
+            t_max, dev = float(a.tau_s[pos][-1]), float(a.adev[pos][-1])
+            excess = k * math.sqrt(t_max / 3.0) / dev
+            if excess > RANDOM_WALK_EXCESS_WARN:
+                out.append(f"{key} {k:.4g} (from {ch_name}) alone implies an Allan deviation "
+                           f"{excess:.3g}x the measured one at tau = {t_max:.4g} s: not "
+                           "credible")
+    return out
+
+
 def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | None = None) -> str:
     """Kalibr imu.yaml text (continuous-time densities, SI units), with comments stating the
-    source, the axis choice, every axis's value and the discrete-time relations.
+    source, the axis choice, every axis's value, the discrete-time relations, and a leading
+    block with the fit self-check of every channel and a WARNING line for each
+    :func:`kalibr_warnings` (comments: Kalibr reads none of them).
+
+    Raises
+    ------
+    GyrodriftValueError
+        when a sensor present has no white-noise density or one fitted as zero: Kalibr
+        would trust that sensor blindly (nothing is written).
 
     Examples
     --------
@@ -515,14 +590,36 @@ def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | No
     >>> value, comment = line.split(":", 1)[1].split("#")
     >>> f"{float(value):.4g}", comment.strip()
     ('9.996e-06', 'rad/s/sqrt(Hz), from gyro_x')
+    >>> print([line for line in text.splitlines() if "self-check" in line][0])
+    # fit self-check: every channel's model holds
     """
     vals = kalibr_values(res, axis)
     if not vals:
         raise GyrodriftValueError("no gyro or accelerometer channel to export")
+    for sensor in sensors_present(res):
+        key = KALIBR_KEYS[(sensor, "N")]
+        got_n = vals.get(key)
+        if got_n is None or not (math.isfinite(got_n[0]) and got_n[0] > 0.0):
+            got = ("no white-noise term" if got_n is None
+                   else f"{got_n[0]!r} (from {got_n[1]})")
+            raise GyrodriftValueError(
+                f"Kalibr export refused: {key} is {got}; a filter given that value trusts "
+                f"the {sensor} blindly. Fit a model with a white-noise term (--terms with N, "
+                "or another --identifier) or choose another --kalibr-axis")
     rate = float(res.record["rate_hz"])  # type: ignore[arg-type]
     topic = rostopic or str(res.record.get("topic") or "/imu0")
-    lines = [
-        f"# Kalibr IMU noise model written by gyrodrift {res.version} (characterize)",
+    warns = kalibr_warnings(res, axis)
+    lines = [f"# Kalibr IMU noise model written by gyrodrift {res.version} (characterize)"]
+    if warns:
+        lines.append("# WARNING: the noise model below is approximate or wrong; read these "
+                     "lines before using it:")
+        lines += [f"# WARNING: {w}" for w in warns]
+    else:
+        lines.append("# fit self-check: every channel's model holds")
+    for c in res.channels:
+        if c.check is not None:
+            lines.append(f"# {c.channel} {check_summary(c.check)}")
+    lines += [
         f"# source: {res.record['source']} ({res.record['n_used']} samples at {rate:g} Hz)",
         f"# method: {res.method}; intervals at probability {res.ci:.4g}",
         "# axis: " + ("worst (largest value over the axes present, per parameter)"
@@ -543,7 +640,7 @@ def kalibr_yaml(res: CharacterizeResult, axis: str = "worst", rostopic: str | No
         if key in vals:
             v, ch, t = vals[key]
             if v == 0.0:
-                # A zero density makes a filter trust that sensor blindly: say so in the file.
+                # A zero random walk makes a filter trust the bias forever: say so in the file.
                 lines.append(f"# WARNING: {key} was fitted as 0 (term not identified; upper "
                              f"limit {t.ci_high:.4g}): do not use 0 in a filter")
             lines.append(f"{key}: {v!r}  # {TERM_UNITS[sensor][term].si}, from {ch}")
@@ -703,6 +800,38 @@ def table_rows(res: CharacterizeResult) -> list[dict[str, Any]]:
     return rows
 
 
+def _finite_or_none(v: float) -> float | None:
+    return v if math.isfinite(v) else None
+
+
+def check_rows(res: CharacterizeResult) -> list[dict[str, Any]]:
+    """One row per channel with a fitted model: its self-check for the HTML report.
+
+    Examples
+    --------
+    >>> from gyrodrift.io.imu_data import ImuData
+    >>> rec = ImuData({"gyro_x": np.random.default_rng(0).normal(0, 1e-4, 4096)}, rate_hz=100.0,
+    ...               source="bench", fmt="npy", n_total=4096)
+    >>> row = check_rows(characterize(rec))[0]
+    >>> row["channel"], row["holds"], len(row["points"]) == row["n_used"]
+    ('gyro_x', True, True)
+    """
+    rows = []
+    for c in res.channels:
+        chk = c.check
+        if chk is None:
+            continue
+        rows.append({
+            "channel": c.channel, "what": chk.what, "holds": chk.holds,
+            "statistic": _finite_or_none(chk.statistic), "n_failed": chk.n_failed,
+            "n_used": int(np.count_nonzero(chk.used)),
+            "worst_ratio": _finite_or_none(chk.worst_ratio),
+            "points": [(float(x), _finite_or_none(float(r)), bool(u), bool(ok))
+                       for x, r, u, ok in zip(chk.x, chk.ratio, chk.used, chk.passed,
+                                              strict=True)]})
+    return rows
+
+
 def sensors_present(res: CharacterizeResult) -> list[str]:
     return [s for s in ("gyro", "accel") if any(c.sensor == s for c in res.channels)]
 
@@ -712,7 +841,8 @@ assert CHANNELS[0] == "gyro_x"  # channel order the plots' colours follow
 
 def write_outputs(res: Any, *, kalibr: str | None, kalibr_path: str | None,
                   html_path: str | None, out_dir: str | None, self_check: Any = None,
-                  json_path: str | None = None) -> dict[str, Any]:
+                  json_path: str | None = None, kalibr_axis: str = "worst",
+                  kalibr_refused: str | None = None) -> dict[str, Any]:
     """Write the plots (``out_dir``/gyro.png, accel.png), the Kalibr yaml, the HTML report and
     the JSON of one characterization, each atomically; returns the paths written.
 
@@ -750,7 +880,9 @@ def write_outputs(res: Any, *, kalibr: str | None, kalibr_path: str | None,
             ci=res.ci, record=res.record, rows=table_rows(res),
             images=[(f"{'Gyroscopes' if s == 'gyro' else 'Accelerometers'}",
                      png_data_uri(data)) for s, data in pngs.items()],
-            kalibr=kalibr, self_check=None if self_check is None else self_check.as_dict())
+            kalibr=kalibr, self_check=None if self_check is None else self_check.as_dict(),
+            fit_checks=check_rows(res), kalibr_warnings=kalibr_warnings(res, kalibr_axis),
+            kalibr_refused=kalibr_refused)
         atomic_write_text(html_path, text)
         files["html"] = html_path
     if json_path:
