@@ -7,9 +7,9 @@ gyrodrift.simulation.records (100 Hz, deg/h).
         [--select-reps K] [--n 16384] [--workers 1] [--max-model Q+N+K+R+GM+GM] [--case C]
         [--lengths 14,15,16,17] [--progress]
 
-The README's evidence is at --n 32768 (328 s, 66 correlation times of case 3's slowest
-Gauss-Markov term), 200 replicates, selection on all; --n 16384 (the default, which
-tests/test_gmwm.py uses) is its short-record row.
+The validation evidence in the documentation is at --n 32768 (328 s, 66 correlation
+times of case 3's slowest Gauss-Markov term), 200 replicates, selection on all; --n 16384
+(the default, which tests/test_gmwm.py uses) is its short-record row.
 
 Per replicate (seed = case seed + replicate): the true model is fitted by GMWM (model=<true>,
 asymptotic 95 % intervals), model="auto" selects among the sub-models of --max-model by WIC

@@ -1,4 +1,4 @@
-// The processor configuration file (version 1, README "Processor configuration file") read by
+// The processor configuration file (version 1; the documentation's configuration file guide), read by
 // `gyrodrift-loop --config FILE` and `--check-config FILE`, and the built-in default
 // configuration (config_schema::kDefaultConfigToml) read by the same code.
 //

@@ -39,9 +39,10 @@ inline void usage(std::FILE* f) {
       "usage: gyrodrift-loop (--serial DEV | --slcan DEV | --socketcan IFACE) [--config FILE] [options]\n"
       "       gyrodrift-loop --check-config FILE\n"
       "  DEV is a device path (/dev/ttyUSB0, /dev/pts/N) or fd:N (inherited descriptor)\n"
-      "  --config FILE         the processor configuration (TOML, version 1; README \"Processor\n"
-      "                        configuration file\"): per-channel chains incl. the wavelet stage,\n"
-      "                        saturation and stuck detection, and [timing]: sample_rate_hz (the\n"
+      "  --config FILE         the processor configuration (TOML, version 1; the configuration\n"
+      "                        file guide in the documentation): per-channel chains incl. the\n"
+      "                        wavelet stage, saturation and stuck detection, and [timing]:\n"
+      "                        sample_rate_hz (the\n"
       "                        timestamps' period, CAN timestamps), time_tolerance_us, loop_rate_hz\n"
       "                        (this loop's cycle, 1..2000 Hz; absent: the sample rate)\n",
       f);

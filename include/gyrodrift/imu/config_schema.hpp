@@ -199,7 +199,7 @@ struct DemoAr2 {
 };
 
 // The shipped default configuration (`gyrodrift config write-default`), canonical text.
-inline constexpr const char kDefaultConfigToml[] = R"gyrodrift(# gyrodrift processor configuration (README: Processor configuration file)
+inline constexpr const char kDefaultConfigToml[] = R"gyrodrift(# gyrodrift processor configuration (see the configuration file guide in the documentation)
 schema = "gyrodrift.processor"
 version = 1
 

@@ -746,7 +746,8 @@ def dumps_config(cfg: ProcessorConfig) -> str:
     <BLANKLINE>
     """
     validate(cfg)
-    lines = ["# gyrodrift processor configuration (README: Processor configuration file)",
+    lines = ["# gyrodrift processor configuration "
+             "(see the configuration file guide in the documentation)",
              f"schema = {_str(SCHEMA)}", f"version = {VERSION}", ""]
     if cfg.meta:
         lines.append("[meta]")
