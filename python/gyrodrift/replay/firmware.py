@@ -53,6 +53,7 @@ __all__ = [
     "RAM_BUDGET_BYTES",
     "FirmwareError",
     "FirmwareImage",
+    "HealthReport",
     "QemuTarget",
     "budget_violations",
     "build_firmware",
@@ -96,15 +97,21 @@ class FirmwareError(GyrodriftError, RuntimeError):
 
 
 def _repo_root() -> Path:
-    return Path(__file__).resolve().parents[3]
+    """Where cpp/firmware and include/ are: the copy an installed package carries
+    (gyrodrift/_firmware), else the source tree this package runs from."""
+    here = Path(__file__).resolve()
+    packaged = here.parents[1] / "_firmware"
+    if (packaged / "cpp" / "firmware" / "CMakeLists.txt").is_file():
+        return packaged
+    return here.parents[3]
 
 
 def firmware_source_dir() -> Path:
-    """``cpp/firmware`` of the source tree this package runs from."""
+    """``cpp/firmware``: the installed package's copy, else the source tree's."""
     d = _repo_root() / "cpp" / "firmware"
     if not (d / "CMakeLists.txt").is_file():
-        raise FirmwareError(f"firmware sources not found in {d}: building the image needs a "
-                            "source checkout of gyrodrift")
+        raise FirmwareError(f"firmware sources not found in {d}: reinstall gyrodrift "
+                            "(pip install .) or run from a source checkout")
     return d
 
 
@@ -336,7 +343,14 @@ def cached_firmware(config: ProcessorConfig, defines: tuple[str, ...] = (), *,
 
 @dataclass
 class HealthReport:
-    """A target's health counters by group: top level, rejected, health, firmware."""
+    """A target's health counters by group: top level, rejected, health, firmware.
+
+    Examples
+    --------
+    >>> rep = HealthReport(top={"frames_in": 7}, complete=True)
+    >>> rep.top["frames_in"], rep.rejected, rep.complete
+    (7, {}, True)
+    """
 
     top: dict[str, int] = field(default_factory=dict)
     rejected: dict[str, int] = field(default_factory=dict)
