@@ -11,7 +11,9 @@ under test.
 
 from __future__ import annotations
 
+import json
 import math
+import re
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
@@ -372,3 +374,23 @@ def test_fit_output_is_read_by_both_readers(loop_bin: Path, tmp_path: Path) -> N
     assert stats["frames_out"] == acc.sum()
     np.testing.assert_array_equal(out, res.values[acc].astype(np.float64))
     assert np.nanmax(np.abs(out[:, 0] - v[acc][:, 0])) > 1e-5  # the Kalman stage ran on gx
+
+
+def test_config_show_json_round_trips_an_unlimited_value(tmp_path: Path,
+                                                          capsys: pytest.CaptureFixture[str]
+                                                          ) -> None:
+    # JSON has no infinity: `config show --json` writes saturation_rad_s = inf as null, and
+    # config_from_dict refused that document ("expected a number, got None")
+    from gyrodrift.cli import main as cli_main
+    from gyrodrift.imu.config import config_from_dict, default_config, dumps_config
+
+    text = re.sub(r"(?m)^saturation_rad_s = .*$", "saturation_rad_s = inf",
+                  dumps_config(default_config()))
+    path = tmp_path / "c.toml"
+    path.write_text(text)
+    assert cli_main(["config", "show", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["channels"]["gx"]["saturation_rad_s"] is None
+    cfg = config_from_dict(doc)
+    assert math.isinf(cfg.channel("gx").saturation)
+    assert dumps_config(cfg) == text

@@ -437,6 +437,10 @@ class _Table:
                      "str": "a string"}[kind]
             raise ConfigError(key, f"expected {words}, got {_kind_words(v)}")
         if kind == "float":
+            if v is None and isinstance(default, float) and math.isinf(default):
+                # JSON has no infinity: `config show --json` writes an unlimited value (the
+                # field's default, inf) as null, and reading that document back restores it
+                return default
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise ConfigError(key, f"expected a number, got {v!r}")
             return float(v)
