@@ -68,7 +68,8 @@ def _interrupt(argv: list[str], delay_s: float) -> tuple[int, str]:
 
 @pytest.mark.parametrize("command", ["allan", "characterize"])
 def test_ctrl_c_during_start_up_is_one_line(record: Path, tmp_path: Path, command: str) -> None:
-    argv = {"allan": ["allan", str(record), "--rate-hz", "100", "--json"],
+    argv = {"allan": ["allan", str(record), "--rate-hz", "100", "--gyro-units", "deg/h",
+                      "--json"],
             "characterize": ["characterize", str(record), "--rate-hz", "100", "--gyro-units",
                              "rad/s", "--out-dir", str(tmp_path / "ch")]}[command]
     handled = 0
