@@ -40,7 +40,7 @@ RATE_HZ = 400.0
 
 def command_args(command: str, record: Path, out: Path) -> list[str]:
     """The command line run for `command` (its JSON output, no plots or reports)."""
-    rate = ["--rate-hz", f"{RATE_HZ:g}"]
+    rate = ["--rate-hz", f"{RATE_HZ:g}", "--gyro-units", "deg/h"]
     return {
         "allan": ["allan", str(record), *rate, "--json"],
         "identify": ["identify", str(record), *rate, "--json"],
