@@ -582,7 +582,7 @@ def test_cli_says_what_was_redone(logs: list[Path], tmp_path: Path,
 
     mine = _copy_logs(logs, tmp_path / "logs", k=1)
     base = ["fleet", str(mine[0]), "--out-dir", str(tmp_path / "out"), "--workers", "0",
-            "--progress", "never"]
+            "--progress", "never", *UNITS]
     assert main([*base, "--rate-hz", "100"]) == 0
     capsys.readouterr()
     assert main([*base, "--rate-hz", "50"]) == 0
@@ -646,7 +646,7 @@ def test_resumed_cli_run_closes_its_cluster_without_a_trace(logs: list[Path],
     for k in range(3):
         out = tmp_path / f"out{k}"
         base = [sys.executable, "-m", "gyrodrift", "fleet", "--out-dir", str(out), "--rate-hz",
-                "100", "--workers", "2", "--progress", "never"]
+                "100", "--workers", "2", "--progress", "never", *UNITS]
         first = subprocess.run([*base, str(mine[0]), str(mine[1])], capture_output=True,
                                text=True, env=os.environ.copy(), timeout=300)
         assert first.returncode == 0, first.stderr[-2000:]
