@@ -35,8 +35,9 @@ refitted, while more than max(5, terms + 1) taus and at least 1 - MAX_TRIM_SHARE
 eligible taus remain: a sensor's output filter bends the
 first taus below the N line, a warm-up or the record's end bends the last ones; both are outside
 the five-term model. Taus inside the range are never removed: where the model leaves them, the
-self-check says so; and where the model leaves a left-out tau (edf >= MIN_FIT_EDF) by more than
-EXTRAPOLATION_FACTOR, the model fails its self-check too.
+self-check says so; and where the model falls below a left-out tau (edf >= MIN_FIT_EDF), or
+rises above one beyond the longest fitted tau, by more than EXTRAPOLATION_FACTOR, the model fails
+its self-check too (a model above the curve at the short end is the output filter's bend).
 
 Model selection: IC = chi2 + 2 p (Akaike, chi2 playing -2 log-likelihood) with p the number of
 non-zero terms; terms at zero are dropped; then, while removing a remaining term does not
@@ -523,9 +524,13 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
         # taus the automatic range left out still have to be near the model: a model that
         # leaves the curve by a large factor just outside its range (an R or K line fitted to
         # a hump, a flat B) does not describe the record, whatever it does inside the range
+        # (a model above the curve at the short end is a sensor's output filter, which the
+        # automatic range leaves out by design: not a misfit)
         elig = ok & (e >= MIN_FIT_EDF) & ~used
         with np.errstate(divide="ignore", invalid="ignore"):
-            far = elig & ~(np.abs(np.log(total / dev)) <= math.log(EXTRAPOLATION_FACTOR))
+            ratio = total / dev
+        far = elig & ((ratio < 1.0 / EXTRAPOLATION_FACTOR)
+                      | ((ratio > EXTRAPOLATION_FACTOR) & (tau > float(t_u.max()))))
         if np.any(far):
             j = int(np.flatnonzero(far)[np.argmax(np.abs(np.log(total[far] / dev[far])))])
             check = dataclasses.replace(check, holds=False, warnings=(*check.warnings, (
