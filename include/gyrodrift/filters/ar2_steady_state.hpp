@@ -62,6 +62,26 @@ class Ar2SteadyStateKalman {
     faults_ = 0;
   }
 
+  // Takes a model and its steady-state gain computed elsewhere (an online re-identification
+  // that solved the Riccati equation itself), without solving it here. The state is carried
+  // over: the filtered rate (x0 + mean) and the previous one stay where they are, re-expressed
+  // as deviations from the new mean. False (nothing changed) for a filter that is not ok, a
+  // non-stationary model, or a gain or mean that is not finite. predicted_covariance() and
+  // iterations() keep describing the constructed model.
+  bool retune(Scalar a1, Scalar a2, Scalar mean, Scalar k0, Scalar k1) noexcept {
+    if (status_ != Ar2Status::ok || !ar2_is_stationary(a1, a2) || !std::isfinite(mean) || !std::isfinite(k0) ||
+        !std::isfinite(k1)) {
+      return false;
+    }
+    const Scalar shift = mean_ - mean;
+    x_ << x_(0) + shift, x_(1) + shift;
+    a1_ = a1;
+    a2_ = a2;
+    mean_ = mean;
+    k_ << k0, k1;
+    return true;
+  }
+
   std::uint32_t fault_count() const noexcept { return faults_; }
   Ar2Status status() const noexcept { return status_; }
   const Vector2& gain() const noexcept { return k_; }

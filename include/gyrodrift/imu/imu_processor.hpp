@@ -53,6 +53,7 @@
 #include "../filters/ar2_model.hpp"
 #include "../filters/ar2_steady_state.hpp"
 #include "config_schema.hpp"
+#include "gyro_monitor.hpp"
 
 namespace gyrodrift {
 
@@ -70,6 +71,7 @@ inline constexpr std::uint16_t kFlagOutOfOrder = 1U << 5;  // seq went backwards
 inline constexpr std::uint16_t kFlagTimeJump = 1U << 6;    // timestamp off the nominal grid
 inline constexpr std::uint16_t kFlagFilterFault = 1U << 7; // a filter rejected its update
 inline constexpr std::uint16_t kFlagResync = 1U << 8;      // accepted after kResyncAfter rejections
+inline constexpr std::uint16_t kFlagHealthAlarm = 1U << 9; // a gyro monitor's alarm is latched
 inline constexpr std::uint16_t kFlagConfigError = 1U << 14; // processor not configured (rejected)
 inline constexpr std::uint16_t kFlagRejected = 1U << 15;   // no output for this input
 
@@ -85,7 +87,8 @@ inline constexpr ImuFlagName kImuFlagNames[] = {
     {kFlagStuck, "stuck"},              {kFlagSeqGap, "seq_gap"},
     {kFlagDuplicate, "duplicate"},      {kFlagOutOfOrder, "out_of_order"},
     {kFlagTimeJump, "time_jump"},       {kFlagFilterFault, "filter_fault"},
-    {kFlagResync, "resync"},            {kFlagConfigError, "config_error"},
+    {kFlagResync, "resync"},            {kFlagHealthAlarm, "health_alarm"},
+    {kFlagConfigError, "config_error"},
     {kFlagRejected, "rejected"},
 };
 // Every default below comes from the configuration schema (config_schema.hpp, generated from
@@ -171,7 +174,25 @@ struct ImuHealth {
   std::uint64_t saturated_values = 0;
   std::uint64_t stuck_values = 0;
   std::uint64_t filter_faults = 0;
+  // The gyro monitor (zero while it is off): alarms raised per kind (health_alarms.hpp), gain
+  // retunes taken by a steady-state AR(2)-Kalman stage, and retunes the re-identification
+  // refused (its guards).
+  std::uint64_t monitor_arw_high = 0;
+  std::uint64_t monitor_bias_instability_high = 0;
+  std::uint64_t monitor_rate_random_walk_high = 0;
+  std::uint64_t monitor_stuck = 0;
+  std::uint64_t monitor_saturated = 0;
+  std::uint64_t monitor_retunes = 0;
+  std::uint64_t monitor_refused_retunes = 0;
 };
+
+// The monitor's alarm counters in the order of kHealthAlarmNames.
+inline std::uint64_t* monitor_alarm_counter(ImuHealth& h, std::size_t i) noexcept {
+  std::uint64_t* counters[kHealthAlarmCount] = {&h.monitor_arw_high, &h.monitor_bias_instability_high,
+                                                &h.monitor_rate_random_walk_high, &h.monitor_stuck,
+                                                &h.monitor_saturated};
+  return counters[i < kHealthAlarmCount ? i : 0];
+}
 
 // Every health counter with its name, in the order of ImuHealth (the one list of names).
 template <class H, class F>
@@ -190,6 +211,13 @@ void for_each_health_field(H& h, F&& field) {
   field("saturated_values", h.saturated_values);
   field("stuck_values", h.stuck_values);
   field("filter_faults", h.filter_faults);
+  field("monitor_arw_high", h.monitor_arw_high);
+  field("monitor_bias_instability_high", h.monitor_bias_instability_high);
+  field("monitor_rate_random_walk_high", h.monitor_rate_random_walk_high);
+  field("monitor_stuck", h.monitor_stuck);
+  field("monitor_saturated", h.monitor_saturated);
+  field("monitor_retunes", h.monitor_retunes);
+  field("monitor_refused_retunes", h.monitor_refused_retunes);
 }
 
 // The rejection reasons (samples that produced no output) under the names the loop's JSON
@@ -220,16 +248,45 @@ struct NoWavelet {
   Status status() const noexcept { return Status::unavailable; }
 };
 
+inline constexpr std::size_t kImuGyroChannels = 3;  // gx gy gz: the channels a monitor can watch
+
+namespace detail {
+
+// The gyro monitors of a processor built with MonitorOctaves > 0; an empty base otherwise, so a
+// build without the monitor pays no RAM for it (empty base optimisation).
+template <class Scalar, std::size_t MonitorOctaves>
+struct ImuMonitorBank {
+  std::array<GyroMonitor<Scalar, MonitorOctaves>, kImuGyroChannels> monitors{};
+  std::array<bool, kImuGyroChannels> active{};
+  std::array<bool, kImuGyroChannels> retune_stage{};  // the channel's steady-state stage takes retunes
+  std::array<std::uint16_t, kImuGyroChannels> latched{};
+  std::array<std::uint32_t, kImuGyroChannels> refused{};
+};
+template <class Scalar>
+struct ImuMonitorBank<Scalar, 0> {};
+
+}  // namespace detail
+
 // Wavelet: copyable, `Scalar step(Scalar)` (NaN/Inf input = skip and hold, as
 // RealtimeWavelet does), `void reset()`, `status()` whose value 0 means ok, and
 // `std::uint32_t fault_count()` (inputs it refused: counted in filter_faults). Example:
 //   ImuProcessor<float, RealtimeWavelet<float, 256>> p(config, RealtimeWavelet<float, 256>(WaveletKind::db8, 5));
 //   ImuProcessor<float, FirPrefilter<float, 256>, 3> p(config, {FirPrefilter<float, 256>(kTaps), ...});
-template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels>
-class ImuProcessor {
+//
+// MonitorOctaves > 0 builds a GyroMonitor (imu/gyro_monitor.hpp, that many octaves at most) for
+// each gyro channel, started by configure_monitor(); 0 (the default) builds none and the
+// processor is the same as without the monitor, bit for bit and byte for byte.
+template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels,
+          std::size_t MonitorOctaves = 0>
+class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves> {
   static_assert(WaveletChannels >= 1 && WaveletChannels <= kImuChannels, "WaveletChannels in 1..6");
+  using Bank = detail::ImuMonitorBank<Scalar, MonitorOctaves>;
 
  public:
+  static constexpr std::size_t kMonitorOctaves = MonitorOctaves;
+  using Monitor = GyroMonitor<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
+  using MonitorReference = HealthReference<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
+
   static constexpr std::uint32_t kResyncAfter = kImuResyncAfter;
   using WaveletArray = std::array<Wavelet, WaveletChannels>;
 
@@ -302,6 +359,8 @@ class ImuProcessor {
       const ImuChannelConfig<Scalar>& cc = config_.channels[c];
       const Scalar x = in.values[c];
       bool good = true;
+      [[maybe_unused]] bool stuck_now = false;
+      [[maybe_unused]] bool saturated_now = false;
       if (!std::isfinite(x)) {
         any_non_finite = true;
         ++health_.non_finite_values;
@@ -315,12 +374,17 @@ class ImuProcessor {
           ++health_.saturated_values;
           flags = static_cast<std::uint16_t>(flags | kFlagSaturated);
           good = false;
+          saturated_now = true;
         }
         if (cc.stuck_samples != 0 && run_[c] >= cc.stuck_samples) {
           ++health_.stuck_values;
           flags = static_cast<std::uint16_t>(flags | kFlagStuck);
           good = false;
+          stuck_now = true;
         }
+      }
+      if constexpr (MonitorOctaves > 0) {
+        if (c < kImuGyroChannels && this->active[c]) monitor_step(c, x, stuck_now, saturated_now);
       }
       // A stage that refuses a good value makes it missing for the rest of the chain.
       Scalar y = run_stage(c, 0, cc.filter, x, good, flags);
@@ -336,6 +400,11 @@ class ImuProcessor {
     if (any_non_finite) {
       ++health_.non_finite_samples;
       flags = static_cast<std::uint16_t>(flags | kFlagNonFinite);
+    }
+    if constexpr (MonitorOctaves > 0) {
+      for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
+        if (this->latched[c] != 0) flags = static_cast<std::uint16_t>(flags | kFlagHealthAlarm);
+      }
     }
     out.seq = in.seq;
     out.t_us = in.t_us;
@@ -360,6 +429,52 @@ class ImuProcessor {
     last_t_us_ = 0;
     consecutive_rejects_ = 0;
     health_ = ImuHealth{};
+    if constexpr (MonitorOctaves > 0) {
+      for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
+        this->monitors[c].reset();
+        this->latched[c] = 0;
+        this->refused[c] = 0;
+      }
+    }
+  }
+
+  // Starts the gyro monitor on the gyro channels c with channels[c] true (only in a build
+  // with MonitorOctaves > 0): each channel's drift model is its first stage's ar2_kalman model
+  // (a1, a2, q, r, mean), which must exist; references[c] is the expected Allan variance the
+  // alarms compare against. When settings.reidentify is on and the channel's first stage is a
+  // steady-state ar2_kalman, a retune of the re-identification replaces that stage's model and
+  // gain. Returns ok, or the first channel's failure (no monitor is started then). Call it
+  // after construction, before the first step() (it resets the monitors, not the filters).
+  template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
+  GyroMonitorStatus configure_monitor(const GyroMonitorSettings<Scalar>& settings,
+                                      const std::array<MonitorReference, kImuGyroChannels>& references,
+                                      const std::array<bool, kImuGyroChannels>& channels) noexcept {
+    for (std::size_t c = 0; c < kImuGyroChannels; ++c) this->active[c] = false;
+    if (status_ != ImuStatus::ok) return GyroMonitorStatus::bad_settings;
+    for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
+      if (!channels[c]) continue;
+      const ImuChannelConfig<Scalar>& cc = config_.channels[c];
+      if (cc.filter != ChannelFilter::ar2_kalman) return GyroMonitorStatus::bad_model;
+      const DriftModelParams<Scalar> model{cc.model.a1, cc.model.a2, cc.q, cc.r, cc.model.mean};
+      const GyroMonitorStatus st = this->monitors[c].configure(settings, model, references[c]);
+      if (st != GyroMonitorStatus::ok) return st;
+    }
+    for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
+      this->active[c] = channels[c];
+      this->retune_stage[c] = channels[c] && settings.reidentify && config_.channels[c].steady_state;
+      this->latched[c] = 0;
+      this->refused[c] = 0;
+    }
+    return GyroMonitorStatus::ok;
+  }
+
+  template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
+  const Monitor& monitor(std::size_t c) const noexcept {
+    return this->monitors[c < kImuGyroChannels ? c : 0];
+  }
+  template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
+  bool monitor_active(std::size_t c) const noexcept {
+    return c < kImuGyroChannels && this->active[c];
   }
 
   ImuStatus status() const noexcept { return status_; }
@@ -436,6 +551,38 @@ class ImuProcessor {
     }
     hold_[k][c] = y;
     return y;
+  }
+
+  // One value of gyro channel c into its monitor; new alarms and retunes counted, a retune
+  // taken by the channel's steady-state stage.
+  void monitor_step(std::size_t c, Scalar x, bool stuck, bool saturated) noexcept {
+    if constexpr (MonitorOctaves > 0) {
+      Monitor& m = this->monitors[c];
+      const std::uint16_t now = m.push(x, stuck, saturated);
+      const auto raised = static_cast<std::uint16_t>(now & ~this->latched[c]);
+      if (raised != 0) {
+        for (std::size_t i = 0; i < kHealthAlarmCount; ++i) {
+          if ((raised & kHealthAlarmNames[i].bit) != 0) ++*monitor_alarm_counter(health_, i);
+        }
+      }
+      this->latched[c] = now;
+      if (m.reidentifying()) {
+        const OnlineDriftIdentifier<Scalar>& id = m.identifier();
+        if (id.refused_retunes() != this->refused[c]) {
+          health_.monitor_refused_retunes += id.refused_retunes() - this->refused[c];
+          this->refused[c] = id.refused_retunes();
+        }
+        if (m.retuned() && this->retune_stage[c]) {
+          const DriftModelParams<Scalar>& p = id.in_use();
+          if (steady_[c].retune(p.a1, p.a2, p.mean, id.gain0(), id.gain1())) ++health_.monitor_retunes;
+        }
+      }
+    } else {
+      (void)c;
+      (void)x;
+      (void)stuck;
+      (void)saturated;
+    }
   }
 
   void count_filter_fault(std::uint16_t& flags) noexcept {

@@ -22,6 +22,7 @@ __all__ = [
     "FLAG_CONFIG_ERROR",
     "FLAG_DUPLICATE",
     "FLAG_FILTER_FAULT",
+    "FLAG_HEALTH_ALARM",
     "FLAG_NAMES",
     "FLAG_NON_FINITE",
     "FLAG_OUT_OF_ORDER",
@@ -54,6 +55,7 @@ _FLAG_CONSTANTS = {
     "FLAG_TIME_JUMP": "time_jump",
     "FLAG_FILTER_FAULT": "filter_fault",
     "FLAG_RESYNC": "resync",
+    "FLAG_HEALTH_ALARM": "health_alarm",
     "FLAG_CONFIG_ERROR": "config_error",
     "FLAG_REJECTED": "rejected",
 }
@@ -68,6 +70,7 @@ FLAG_OUT_OF_ORDER: int
 FLAG_TIME_JUMP: int
 FLAG_FILTER_FAULT: int
 FLAG_RESYNC: int
+FLAG_HEALTH_ALARM: int
 FLAG_CONFIG_ERROR: int
 FLAG_REJECTED: int
 FLAG_NAMES: dict[int, str]

@@ -1,0 +1,208 @@
+// The gyro monitor (include/gyrodrift/imu/gyro_monitor.hpp) and its place in the processor:
+// its streaming curve is StreamingAllan over the good samples only, it allocates nothing, a
+// processor built without it is unchanged, a processor with it (re-identification off) gives
+// the same outputs bit for bit, and a steady-state stage's retune carries its state.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <gyrodrift/imu/gyro_monitor.hpp>
+#include <gyrodrift/imu/imu_processor.hpp>
+#include <type_traits>
+#include <vector>
+
+#include "alloc_counter.hpp"
+
+namespace {
+
+// Deterministic white noise uniform(-a, a) around a bias, from an LCG.
+struct Noise {
+  std::uint64_t s;
+  double bias;
+  double a;
+  double next() noexcept {
+    s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+    const double u = static_cast<double>(s >> 11) * 0x1.0p-53 * 2.0 - 1.0;
+    return bias + a * u;
+  }
+};
+
+template <class Scalar, std::size_t O>
+gyrodrift::HealthReference<Scalar, O> white_reference(Scalar r, std::size_t octaves) {
+  gyrodrift::HealthReference<Scalar, O> ref{};
+  ref.octaves = octaves;
+  for (std::size_t k = 0; k < octaves; ++k) ref.avar[k] = r / static_cast<Scalar>(std::uint64_t{1} << k);
+  return ref;
+}
+
+template <class Scalar>
+gyrodrift::GyroMonitorSettings<Scalar> settings(std::size_t octaves, bool reidentify) {
+  gyrodrift::GyroMonitorSettings<Scalar> s;
+  s.sample_rate_hz = Scalar(400);
+  s.octaves = octaves;
+  s.alarms.stuck_samples = 200;
+  s.alarms.saturated_samples = 200;
+  s.reidentify = reidentify;
+  return s;
+}
+
+}  // namespace
+
+TEST_CASE("the curve is the streaming Allan variance of the good samples") {
+  constexpr std::size_t kOct = 12;
+  gyrodrift::GyroMonitor<double, kOct> mon;
+  const gyrodrift::DriftModelParams<double> model{0.0, 0.0, 0.0, 1e-8, 0.0};
+  REQUIRE(mon.configure(settings<double>(kOct, false), model, white_reference<double, kOct>(1e-8, kOct)) ==
+          gyrodrift::GyroMonitorStatus::ok);
+  gyrodrift::StreamingAllan<double, kOct> sa;
+  REQUIRE(sa.configure(400.0, kOct));
+  Noise n{7, 1e-3, 1e-4};
+  for (std::size_t i = 0; i < 40000; ++i) {
+    double y = n.next();
+    const bool stuck = i % 1000 < 3;
+    const bool saturated = i % 777 == 5;
+    if (i % 5000 == 17) y = std::nan("");
+    mon.push(y, stuck, saturated);
+    if (!stuck && !saturated && std::isfinite(y)) sa.push(y);
+  }
+  CHECK(mon.samples() == 40000);
+  CHECK(mon.used() == sa.samples());
+  for (std::size_t k = 0; k < kOct; ++k) {
+    double a = 0.0, b = 0.0;
+    REQUIRE(mon.allan().avar(k, a));
+    REQUIRE(sa.avar(k, b));
+    CHECK(a == b);  // the same object fed the same samples: bit-identical
+  }
+}
+
+TEST_CASE("configure refuses bad settings, references and models") {
+  constexpr std::size_t kOct = 8;
+  gyrodrift::GyroMonitor<float, kOct> mon;
+  const gyrodrift::DriftModelParams<float> ok{0.5F, 0.0F, 1e-10F, 1e-8F, 0.0F};
+  const auto ref = white_reference<float, kOct>(1e-8F, kOct);
+  CHECK(mon.configure(settings<float>(kOct + 1, false), ok, ref) == gyrodrift::GyroMonitorStatus::bad_settings);
+  auto zero = ref;
+  zero.avar[3] = 0.0F;
+  CHECK(mon.configure(settings<float>(kOct, false), ok, zero) == gyrodrift::GyroMonitorStatus::bad_settings);
+  const gyrodrift::DriftModelParams<float> unit_root{1.0F, 0.0F, 1e-10F, 1e-8F, 0.0F};
+  CHECK(mon.configure(settings<float>(kOct, false), unit_root, ref) == gyrodrift::GyroMonitorStatus::bad_model);
+  CHECK(mon.push(1.0F, false, false) == 0);  // unconfigured: nothing happens
+  CHECK(mon.samples() == 0);
+  CHECK(mon.configure(settings<float>(kOct, true), ok, ref) == gyrodrift::GyroMonitorStatus::ok);
+}
+
+TEST_CASE("no allocation: monitor and monitored processor") {
+  constexpr std::size_t kOct = 16;
+  std::vector<float> y(50000);
+  Noise n{9, 0.0, 1e-4};
+  for (auto& v : y) v = static_cast<float>(n.next());
+  using Proc = gyrodrift::ImuProcessor<float, gyrodrift::NoWavelet<float>, gyrodrift::kImuChannels, kOct>;
+  gyrodrift::ImuConfig<float> cfg;
+  for (std::size_t c = 0; c < 3; ++c) {
+    cfg.channels[c].filter = gyrodrift::ChannelFilter::ar2_kalman;
+    cfg.channels[c].steady_state = true;
+    cfg.channels[c].model = gyrodrift::Ar2Model<float>{0.5F, 0.0F, 1e-10F, 0.0F};
+    cfg.channels[c].q = 1e-10F;
+    cfg.channels[c].r = 1e-8F;
+  }
+  static Proc proc(cfg);  // static: a firmware-sized object, off the test's stack
+  static gyrodrift::GyroMonitor<float, kOct> mon;
+  std::array<Proc::MonitorReference, 3> refs{};
+  for (auto& r : refs) r = white_reference<float, kOct>(1e-8F, kOct);
+  gyrodrift::test::AllocationScope scope;
+  const bool ok1 = mon.configure(settings<float>(kOct, true), {0.5F, 0.0F, 1e-10F, 1e-8F, 0.0F}, refs[0]) ==
+                   gyrodrift::GyroMonitorStatus::ok;
+  for (float v : y) mon.push(v, false, false);
+  gyrodrift::NoiseEstimates<float> est{};
+  mon.noise(0.95F, est);
+  const bool ok2 = proc.configure_monitor(settings<float>(kOct, true), refs, {true, true, true}) ==
+                   gyrodrift::GyroMonitorStatus::ok;
+  gyrodrift::ImuSample<float> in{};
+  gyrodrift::ImuOutput<float> out{};
+  for (std::size_t i = 0; i < y.size(); ++i) {
+    in.seq = static_cast<std::uint16_t>(i);
+    in.t_us = 2500ULL * i;
+    for (std::size_t c = 0; c < 3; ++c) in.values[c] = y[(i + 1000 * c) % y.size()];
+    proc.step(in, out);
+  }
+  const long allocations = scope.allocations();
+  CHECK(ok1);
+  CHECK(ok2);
+  CHECK(proc.status() == gyrodrift::ImuStatus::ok);
+  CHECK(allocations == 0);
+}
+
+TEST_CASE("without the monitor the processor pays nothing; with it (no retune) outputs are unchanged") {
+  static_assert(std::is_empty_v<gyrodrift::detail::ImuMonitorBank<float, 0>>, "no monitor: no bytes");
+  static_assert(sizeof(gyrodrift::ImuProcessor<float>) ==
+                    sizeof(gyrodrift::ImuProcessor<float, gyrodrift::NoWavelet<float>, gyrodrift::kImuChannels, 0>),
+                "the default is the build without the monitor");
+  constexpr std::size_t kOct = 10;
+  using Plain = gyrodrift::ImuProcessor<float>;
+  using Watched = gyrodrift::ImuProcessor<float, gyrodrift::NoWavelet<float>, gyrodrift::kImuChannels, kOct>;
+  gyrodrift::ImuConfig<float> cfg;
+  for (std::size_t c = 0; c < 3; ++c) {
+    cfg.channels[c].filter = gyrodrift::ChannelFilter::ar2_kalman;
+    cfg.channels[c].steady_state = c != 1;
+    cfg.channels[c].model = gyrodrift::Ar2Model<float>{1.2F, -0.3F, 1e-10F, 1e-3F};
+    cfg.channels[c].q = 1e-10F;
+    cfg.channels[c].r = 1e-8F;
+    cfg.channels[c].stuck_samples = 5;
+    cfg.channels[c].saturation = 0.5F;
+  }
+  Plain plain(cfg);
+  static Watched watched(cfg);
+  std::array<Watched::MonitorReference, 3> refs{};
+  for (auto& r : refs) r = white_reference<float, kOct>(1e-8F, kOct);
+  REQUIRE(watched.configure_monitor(settings<float>(kOct, false), refs, {true, false, true}) ==
+          gyrodrift::GyroMonitorStatus::ok);
+  Noise n{3, 1e-3, 1e-4};
+  gyrodrift::ImuSample<float> in{};
+  gyrodrift::ImuOutput<float> a{}, b{};
+  for (std::size_t i = 0; i < 20000; ++i) {
+    in.seq = static_cast<std::uint16_t>(i);
+    in.t_us = 2500ULL * i;
+    for (std::size_t c = 0; c < 6; ++c) in.values[c] = static_cast<float>(n.next());
+    if (i >= 5000 && i < 5300) in.values[0] = 0.25F;  // gx stuck
+    if (i % 3000 == 7) in.values[2] = 1.0F;          // gz saturated
+    const std::uint16_t fa = plain.step(in, a);
+    const std::uint16_t fb = watched.step(in, b);
+    CHECK((fb & ~gyrodrift::kFlagHealthAlarm) == fa);
+    for (std::size_t c = 0; c < 6; ++c) CHECK(a.values[c] == b.values[c]);
+  }
+  CHECK(watched.monitor_active(0));
+  CHECK(!watched.monitor_active(1));
+  CHECK(watched.monitor(0).samples() == 20000);
+  CHECK(watched.monitor(0).used() == 20000 - 296);  // the 5th to the 300th stuck value left out
+  CHECK(watched.health().monitor_retunes == 0);
+}
+
+TEST_CASE("a steady-state retune carries the filtered rate and refuses bad models") {
+  const gyrodrift::Ar2Model<double> m{1.2, -0.3, 1e-10, 1e-3};
+  gyrodrift::Ar2SteadyStateKalman<double> f(m, 1e-10, 1e-8), g(m, 1e-10, 1e-8);
+  Noise n{5, 1e-3, 1e-4};
+  for (int i = 0; i < 1000; ++i) {
+    const double y = n.next();
+    f.step(y);
+    g.step(y);
+  }
+  // the same model and gain: nothing changes, bit for bit
+  REQUIRE(g.retune(1.2, -0.3, 1e-3, f.gain()(0), f.gain()(1)));
+  for (int i = 0; i < 100; ++i) {
+    const double y = n.next();
+    CHECK(f.step(y) == g.step(y));
+  }
+  // a new mean: the filtered rate (state + mean) stays where it was
+  const double before0 = g.state()(0) + 1e-3, before1 = g.state()(1) + 1e-3;
+  REQUIRE(g.retune(1.2, -0.3, 2e-3, 0.1, 0.05));
+  CHECK(g.state()(0) + 2e-3 == doctest::Approx(before0).epsilon(1e-12));
+  CHECK(g.state()(1) + 2e-3 == doctest::Approx(before1).epsilon(1e-12));
+  CHECK(g.gain()(0) == 0.1);
+  CHECK(!g.retune(1.0, 0.0, 0.0, 0.1, 0.05));           // unit root
+  CHECK(!g.retune(1.2, -0.3, std::nan(""), 0.1, 0.05));  // mean not finite
+  CHECK(!g.retune(1.2, -0.3, 0.0, INFINITY, 0.05));      // gain not finite
+  CHECK(g.gain()(0) == 0.1);                             // refused: unchanged
+}

@@ -1,0 +1,403 @@
+"""The gyro monitor (include/gyrodrift/imu/gyro_monitor.hpp) through its binding
+(gyrodrift.imu.monitor.run_monitor), its configuration table ([monitor], off by default), and
+its place in the processor and the loop program (counters, the health_alarm flag, retunes).
+
+Expected values come from independent computations: the drift model's Allan variance as a
+quadratic form of the model's covariance matrix (scipy.linalg.toeplitz), the streaming Allan
+curve from gyrodrift.stability.StreamingAllan over the samples the monitor must use, the
+stuck/saturated rules written out sample by sample, and faults we put into the records.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.imu.config import (
+    ConfigError,
+    MonitorConfig,
+    default_config,
+    drift_filter_config,
+    dumps_config,
+    parse_config,
+    write_config,
+)
+from gyrodrift.imu.monitor import (
+    MonitorReference,
+    model_avar,
+    reference_from_config,
+    reference_from_model,
+    reference_from_record,
+    run_monitor,
+)
+from gyrodrift.stability.streaming import StreamingAllan
+from scipy.linalg import toeplitz
+from scipy.signal import lfilter
+
+RATE_HZ = 400.0
+WHITE = (0.0, 0.0, 0.0, 1e-8, 0.0)  # white noise of 1e-4 rad/s (one sigma)
+
+
+def _ar2_record(rng: np.random.Generator, n: int, a1: float, a2: float, q: float, r: float,
+                mean: float = 0.0) -> np.ndarray:
+    """AR(2) drift (stationary start: a burn-in of 5000 samples) + white noise + mean."""
+    w = rng.normal(0.0, math.sqrt(q), n + 5000)
+    x = lfilter([1.0], [1.0, -a1, -a2], w)[5000:]
+    return mean + x + rng.normal(0.0, math.sqrt(r), n)
+
+
+# ----------------------------------------------------------------------------- references
+
+
+def _avar_quadratic_form(drift: tuple[float, float, float, float, float], m: int) -> float:
+    """1/2 E[(ybar2 - ybar1)^2] = 1/2 w^T Sigma w over 2m samples, Sigma from the AR(2)
+    autocovariance (Yule-Walker g0, g1 and the recursion) plus r I."""
+    a1, a2, q, r, _ = drift
+    d = (1.0 + a2) * ((1.0 - a2) ** 2 - a1 * a1)
+    g = np.zeros(2 * m)
+    g[0] = q * (1.0 - a2) / d
+    if 2 * m > 1:
+        g[1] = a1 * g[0] / (1.0 - a2)
+    for k in range(2, 2 * m):
+        g[k] = a1 * g[k - 1] + a2 * g[k - 2]
+    sigma = toeplitz(g) + r * np.eye(2 * m)
+    w = np.concatenate((-np.ones(m), np.ones(m))) / m
+    return 0.5 * float(w @ sigma @ w)
+
+
+@pytest.mark.parametrize("drift", [
+    (1.2, -0.3, 1e-10, 1e-8, 0.0),     # real roots 0.86, 0.35
+    (1.6, -0.8, 1e-10, 1e-9, 0.0),     # complex roots (an oscillating drift)
+    (0.999, 0.0, 1e-12, 1e-8, 0.01),   # AR(1) near a random walk
+    WHITE,
+], ids=["real-roots", "complex-roots", "near-random-walk", "white"])
+def test_model_avar_equals_the_quadratic_form(drift: tuple[float, float, float, float, float]
+                                              ) -> None:
+    # double, sums of <= 256 terms: 1e-10 relative leaves room for the cancellation of
+    # Var(mean) - Cov(means) near a random walk (both ~ g0, their difference ~ g0 (1 - a1) m)
+    got = model_avar(drift, 8)
+    want = [_avar_quadratic_form(drift, 1 << k) for k in range(8)]
+    np.testing.assert_allclose(got, want, rtol=1e-10)
+
+
+def test_model_avar_chunked_autocovariance_is_the_recursion() -> None:
+    # beyond 4096 lags the autocovariance is advanced a chunk at a time by a matrix power:
+    # octave 13 (m = 8192) needs lags up to 16383; compare with the plain recursion's sums
+    drift = (1.9, -0.905, 1e-10, 1e-8, 0.0)
+    m = 1 << 13
+    a1, a2, q, r, _ = drift
+    d = (1.0 + a2) * ((1.0 - a2) ** 2 - a1 * a1)
+    g = np.zeros(2 * m)
+    g[0] = q * (1.0 - a2) / d
+    g[1] = a1 * g[0] / (1.0 - a2)
+    for k in range(2, 2 * m):
+        g[k] = a1 * g[k - 1] + a2 * g[k - 2]
+    lag = np.arange(1, 2 * m)
+    var = m * g[0] + 2.0 * np.dot(m - lag[: m - 1], g[1:m])
+    cov = np.dot(np.minimum(lag, 2 * m - lag), g[1:])
+    want = r / m + (var - cov) / (m * m)
+    assert model_avar(drift, 14)[13] == pytest.approx(want, rel=1e-9)
+
+
+def test_model_avar_matches_a_simulated_record(rng: np.random.Generator) -> None:
+    # a statistical check of the formula's meaning: 2e6 samples, octaves 0..7 have >= 15600
+    # differences each, so the relative standard error is <= sqrt(2 / 15600) = 1.1 %: 5 %
+    drift = (1.2, -0.3, 1.0, 4.0, 0.0)
+    y = _ar2_record(rng, 2_000_000, *drift[:4])
+    sa = StreamingAllan(1.0, 8)
+    sa.push(y)
+    np.testing.assert_allclose(sa.avar, model_avar(drift, 8), rtol=0.05)
+
+
+def test_reference_from_config_and_record(rng: np.random.Generator) -> None:
+    cfg = drift_filter_config("gy", a1=1.2, a2=-0.3, mean=1e-3, q=1e-10, r=1e-8,
+                              sample_rate_hz=RATE_HZ).with_monitor(enabled=True, octaves=10)
+    ref = reference_from_config(cfg, "gy")
+    assert ref.drift == (1.2, -0.3, 1e-10, 1e-8, 1e-3) and ref.source == "config"
+    np.testing.assert_array_equal(ref.avar, model_avar(ref.drift, 10))
+    with pytest.raises(GyrodriftValueError, match="'gx' is not monitored"):
+        reference_from_config(cfg, "gx")
+    y = _ar2_record(rng, 40_000, 1.2, -0.3, 1e-10, 1e-8, 1e-3)
+    learned = reference_from_record(y, RATE_HZ, 60.0, 16)  # 24000 samples
+    sa = StreamingAllan(RATE_HZ, 16)
+    sa.push(y[:24000])
+    keep = sa.counts >= 8
+    np.testing.assert_array_equal(learned.avar, sa.avar[keep])
+    assert learned.source == "learned" and learned.learn_s == 60.0
+    assert learned.avar.size == 12  # floor(24000 / 2^k) - 1 >= 8 for k <= 11
+    with pytest.raises(GyrodriftValueError, match="too few"):
+        reference_from_record(y, RATE_HZ, 0.01, 16)
+
+
+# ----------------------------------------------------------------------------- the run
+
+
+def _stuck_saturated_by_hand(y: np.ndarray, saturation: float,
+                             stuck_samples: int) -> tuple[np.ndarray, np.ndarray]:
+    """The processor's rules (imu_processor.hpp), one sample at a time."""
+    stuck = np.zeros(y.size, bool)
+    sat = np.zeros(y.size, bool)
+    last, run = None, 0
+    for i, x in enumerate(y):
+        if not math.isfinite(x):
+            continue
+        run = run + 1 if last is not None and x == last else 1
+        last = x
+        sat[i] = abs(x) >= saturation
+        stuck[i] = stuck_samples != 0 and run >= stuck_samples
+    return stuck, sat
+
+
+def _faulty_record(rng: np.random.Generator, n: int = 48_000) -> np.ndarray:
+    y = _ar2_record(rng, n, 1.2, -0.3, 1e-10, 1e-8, 2e-3)
+    y[1000:1003] = np.nan
+    y[5000] = np.inf
+    y[9000:9400] = y[9000]  # stuck for 1 s
+    y[20_000:20_050] = 0.5  # saturated (and stuck)
+    y[30_000:30_004] = y[29_999]  # a short repeat: stuck only from the 5th equal value on
+    return y
+
+
+def test_run_monitor_curve_is_the_streaming_allan_of_the_good_samples(
+        rng: np.random.Generator) -> None:
+    y = _faulty_record(rng)
+    ref = reference_from_model((1.2, -0.3, 1e-10, 1e-8, 2e-3), RATE_HZ, 12)
+    settings = MonitorConfig(octaves=14)
+    tr = run_monitor(y, RATE_HZ, ref, settings=settings, report_every_s=20.0, saturation=0.1,
+                     stuck_samples=5)
+    stuck, sat = _stuck_saturated_by_hand(y, 0.1, 5)
+    good = np.isfinite(y) & ~stuck & ~sat
+    every = 8000
+    assert tr.t_s.tolist() == [20.0 * (i + 1) for i in range(6)]
+    assert tr.avar.shape == (6, 14) and tr.tau_s[0] == 1.0 / RATE_HZ
+    for row in range(6):
+        sa = StreamingAllan(RATE_HZ, 14)
+        upto = (row + 1) * every
+        sa.push(y[:upto][good[:upto]])
+        # double, the same cascaded sums on the same samples: 1e-12 relative
+        np.testing.assert_allclose(tr.avar[row], sa.avar, rtol=1e-12, equal_nan=True)
+    # the same with the flags given instead of computed
+    tr2 = run_monitor(y, RATE_HZ, ref, settings=settings, report_every_s=20.0, stuck=stuck,
+                      saturated=sat)
+    np.testing.assert_array_equal(tr2.avar, tr.avar)
+    assert tr.status == ("off",) * 6 and np.all(np.isnan(tr.gain0))
+
+
+def test_run_monitor_float_state_within_bound(rng: np.random.Generator) -> None:
+    # 30 min at 400 Hz of a float32 record: the float monitor's curve against the double
+    # monitor's on the same (float32) samples; bound 1e-5 relative (the streaming curve's
+    # float error is ~1e-6 after 10 h, docs/validation/streaming-allan.md)
+    y = _ar2_record(rng, 720_000, 1.2, -0.3, 1e-10, 1e-8, 1e-3).astype(np.float32)
+    ref = reference_from_model((1.2, -0.3, 1e-10, 1e-8, 1e-3), RATE_HZ, 16)
+    t64 = run_monitor(y, RATE_HZ, ref, report_every_s=600.0)
+    t32 = run_monitor(y, RATE_HZ, ref, report_every_s=600.0, dtype=np.float32)
+    np.testing.assert_allclose(t32.avar, t64.avar, rtol=1e-5, equal_nan=True)
+    assert np.array_equal(t32.health, t64.health)
+
+
+def test_run_monitor_refuses_bad_input() -> None:
+    ref = reference_from_model(WHITE, RATE_HZ, 8)
+    y = np.zeros(100)
+    with pytest.raises(GyrodriftValueError, match="1-D"):
+        run_monitor(np.zeros((10, 3)), RATE_HZ, ref)
+    with pytest.raises(GyrodriftValueError, match="rate_hz"):
+        run_monitor(y, 0.0, ref)
+    with pytest.raises(GyrodriftValueError, match="one flag per sample"):
+        run_monitor(y, RATE_HZ, ref, stuck=np.zeros(99, bool))
+    bad = MonitorReference(drift=(1.5, 0.0, 1e-10, 1e-8, 0.0), avar=ref.avar)
+    with pytest.raises(GyrodriftValueError, match="stationary"):
+        run_monitor(y, RATE_HZ, bad)
+    zero = MonitorReference(drift=WHITE, avar=np.zeros(8))
+    with pytest.raises(GyrodriftValueError, match="positive and finite"):
+        run_monitor(y, RATE_HZ, zero)
+
+
+def test_stuck_channel_raises_the_stuck_alarm_with_its_duration(
+        rng: np.random.Generator) -> None:
+    # 0.5 s allowed; a stuck run of 1 s from sample 9000 (stuck from its 5th equal value)
+    y = _faulty_record(rng)
+    ref = reference_from_model((1.2, -0.3, 1e-10, 1e-8, 2e-3), RATE_HZ, 12)
+    tr = run_monitor(y, RATE_HZ, ref, settings=MonitorConfig(stuck_alarm_s=0.5,
+                                                             saturated_alarm_s=0.0),
+                     report_every_s=10.0, saturation=0.1, stuck_samples=5)
+    assert "stuck" in tr.flags(len(tr.t_s) - 1)  # latched to the end
+    assert tr.flags(0) == []  # the first 10 s are clean
+    trip = tr.trips["stuck"]
+    # the 200th stuck sample in a row is sample 9000 + 4 + 199
+    assert trip["t_s"] == pytest.approx((9000 + 4 + 200) / RATE_HZ)
+    assert "saturated" not in tr.trips  # off
+
+
+def test_arw_increase_raises_the_arw_alarm(rng: np.random.Generator) -> None:
+    # white noise whose variance goes up 9x (ARW 3x) after 10 minutes: the arw_high alarm
+    # (factor 2) is raised, not before the change, and within 10 minutes after it
+    n = 480_000
+    y = rng.normal(0.0, 1e-4, n)
+    y[240_000:] *= 3.0
+    ref = reference_from_model(WHITE, RATE_HZ, 12)
+    tr = run_monitor(y, RATE_HZ, ref, settings=MonitorConfig(octaves=12), report_every_s=60.0)
+    first = next(i for i in range(len(tr.t_s)) if "arw_high" in tr.flags(i))
+    assert 600.0 < tr.t_s[first] <= 1200.0
+    assert 600.0 < tr.trips["arw_high"]["t_s"] <= 1200.0
+    assert tr.trips["arw_high"]["statistic"] > tr.trips["arw_high"]["threshold"]
+
+
+def test_stationary_record_raises_no_alarm(rng: np.random.Generator) -> None:
+    drift = (1.2, -0.3, 1e-10, 1e-8, 1e-3)
+    y = _ar2_record(rng, 720_000, *drift[:4], mean=1e-3)
+    tr = run_monitor(y, RATE_HZ, reference_from_model(drift, RATE_HZ, 14),
+                     settings=MonitorConfig(octaves=14), report_every_s=60.0)
+    assert not np.any(tr.health), tr.trips
+
+
+def test_reidentification_retunes_on_a_long_record(rng: np.random.Generator) -> None:
+    # the configured model is off by 4x in q; after the learning time the re-identification
+    # tracks and retunes the gain towards the record's model
+    true = (1.2, -0.3, 4e-10, 1e-8, 0.0)
+    y = _ar2_record(rng, 400_000, *true[:4])
+    ref = reference_from_model((1.2, -0.3, 1e-10, 1e-8, 0.0), RATE_HZ, 12)
+    cfg = MonitorConfig(octaves=12, reidentify=True, min_learn_s=300.0, retune_s=60.0)
+    tr = run_monitor(y, RATE_HZ, ref, settings=cfg, report_every_s=60.0)
+    assert tr.status[0] == "learning"
+    assert tr.status[-1] == "tracking" and tr.retunes[-1] >= 1
+    assert tr.q[-1] == pytest.approx(4e-10, rel=0.5)
+    assert np.all(np.isfinite(tr.gain0))
+
+
+# ----------------------------------------------------------------------------- configuration
+
+
+def test_monitor_is_off_by_default_and_absent_from_the_default_file() -> None:
+    cfg = default_config()
+    assert cfg.monitor == MonitorConfig() and not cfg.monitor.enabled
+    assert "[monitor]" not in dumps_config(cfg)
+
+
+def test_monitor_section_round_trips() -> None:
+    cfg = drift_filter_config("gz", a1=0.6, a2=0.2, mean=0.0, q=1e-10, r=1e-8,
+                              sample_rate_hz=RATE_HZ).with_monitor(
+        enabled=True, octaves=14, reidentify=True, block_s=0.5, retune_s=30.0,
+        stuck_alarm_s=0.25, memory_s=3600.0, identified_max_rel_stderr=0.3)
+    text = dumps_config(cfg)
+    assert "[monitor]\nenabled = true\noctaves = 14\n" in text
+    back = parse_config(text)
+    assert back == cfg and back.monitor.samples(RATE_HZ) == {
+        "stuck_samples": 100, "saturated_samples": 400, "block_samples": 200,
+        "retune_blocks": 60, "min_samples": 240_000, "memory_blocks": 7200.0,
+        "report_samples": 4000}
+    assert cfg.monitored_channels() == ("gz",)
+
+
+@pytest.mark.parametrize("table,key", [
+    ("[monitor]\nenabled = true\n", "monitor.enabled"),  # the default chain: wavelet first
+    ("[monitor]\noctaves = 1\n", "monitor.octaves"),
+    ("[monitor]\narw_factor = 1.0\n", "monitor.arw_factor"),
+    ("[monitor]\nfalse_alarm_probability = 1e-50\n", "monitor.false_alarm_probability"),
+    ("[monitor]\nbogus = 1\n", "monitor.bogus"),
+    ("[monitor]\nreidentify = 1\n", "monitor.reidentify"),
+    ("monitor = 3\n", "monitor"),
+])
+def test_monitor_section_errors_name_the_key(table: str, key: str) -> None:
+    text = dumps_config(default_config())
+    at = (text.index("[channels.gx]") if table.startswith("[")
+          else text.index("version = 1\n") + len("version = 1\n"))  # a top-level key
+    with pytest.raises(ConfigError) as info:
+        parse_config(text[:at] + table + "\n" + text[at:])
+    assert str(info.value).startswith(key + ":"), str(info.value)
+
+
+# ----------------------------------------------------------------------------- the loop
+
+
+@pytest.fixture(scope="module")
+def loop_bin(cpp_build_dir: Path) -> Path:
+    from gyrodrift.replay.harness import LOOP_RELATIVE
+
+    path = cpp_build_dir / LOOP_RELATIVE
+    assert path.is_file(), path
+    return path
+
+
+def _run_loop(loop_bin: Path, config: Path, frames: bytes, n: int) -> tuple[bytes, dict]:
+    from test_loop_program import Loop
+
+    loop = Loop(loop_bin, "--serial", "--config", str(config), "--no-rt")
+    loop.write(frames)
+    got = loop.read_until(n * 42, timeout_s=30.0)
+    return got, loop.finish()
+
+
+def _monitor_records(rng: np.random.Generator, n: int) -> tuple[bytes, np.ndarray]:
+    from gyrodrift.codecs.wire import encode_frames, make_samples
+
+    t = np.arange(n) / RATE_HZ
+    gyro = rng.normal(0.0, 1e-4, (n, 3))
+    if n > 2400:
+        gyro[2000:2400, 2] = gyro[2000, 2]  # gz stuck for 1 s
+    s = make_samples(t, gyro, rng.normal(0.0, 1.0, (n, 3)))
+    return encode_frames(s).tobytes(), s.channels
+
+
+def _configs(tmp_path: Path) -> tuple[Path, Path]:
+    from gyrodrift.imu.config import ChannelConfig
+
+    base = drift_filter_config("gz", a1=0.0, a2=0.0, mean=0.0, q=0.0, r=1e-8,
+                               sample_rate_hz=RATE_HZ)
+    gz = base.channel("gz")
+    base = base.with_channel("gz", ChannelConfig("gz", gz.stages, stuck_samples=5))
+    on = base.with_monitor(enabled=True, octaves=10, stuck_alarm_s=0.5)
+    return write_config(base, tmp_path / "off.toml"), write_config(on, tmp_path / "on.toml")
+
+
+def test_loop_with_monitor_counts_alarms_and_keeps_outputs(loop_bin: Path, tmp_path: Path,
+                                                           rng: np.random.Generator) -> None:
+    from gyrodrift.codecs.wire import decode_stream
+    from gyrodrift.imu import contract
+
+    off, on = _configs(tmp_path)
+    n = 4000
+    frames, _ = _monitor_records(rng, n)
+    out_off, stats_off = _run_loop(loop_bin, off, frames, n)
+    out_on, stats_on = _run_loop(loop_bin, on, frames, n)
+    d_off, d_on = decode_stream(out_off), decode_stream(out_on)
+    assert len(d_off.samples.seq) == len(d_on.samples.seq) == n
+    # without re-identification the monitor only watches: the same values, bit for bit
+    np.testing.assert_array_equal(d_on.samples.channels, d_off.samples.channels)
+    alarm = contract.FLAG_HEALTH_ALARM
+    assert not np.any(d_off.samples.flags & alarm)
+    # the stuck alarm: 200 stuck samples in a row (0.5 s) from the 5th equal value at 2004
+    raised = np.flatnonzero(d_on.samples.flags & alarm)
+    assert raised.size and raised[0] == 2004 + 199 and raised[-1] == n - 1
+    assert np.array_equal(d_on.samples.flags & ~alarm, d_off.samples.flags)
+    keys = [k for k in stats_on["health"] if k.startswith("monitor_")]
+    assert keys == ["monitor_arw_high", "monitor_bias_instability_high",
+                    "monitor_rate_random_walk_high", "monitor_stuck", "monitor_saturated",
+                    "monitor_retunes", "monitor_refused_retunes"]
+    assert stats_on["health"]["monitor_stuck"] == 1
+    assert all(stats_off["health"][k] == 0 for k in keys)
+
+
+def test_loop_check_config_reads_the_monitor_section(loop_bin: Path, tmp_path: Path) -> None:
+    _, on = _configs(tmp_path)
+    r = subprocess.run([str(loop_bin), "--check-config", str(on)], capture_output=True,
+                       text=True, timeout=20)
+    assert r.returncode == 0, r.stderr
+    bad = tmp_path / "bad.toml"
+    bad.write_text(on.read_text().replace("octaves = 10", "octaves = 25"))
+    r = subprocess.run([str(loop_bin), "--check-config", str(bad)], capture_output=True,
+                       text=True, timeout=20)
+    assert r.returncode == 2 and "monitor.octaves: expected 2..24, got 25" in r.stderr
+    with pytest.raises(ConfigError, match=r"^monitor\.octaves: expected 2\.\.24, got 25$"):
+        parse_config(bad.read_text())
+
+
+def test_loop_json_is_strict(loop_bin: Path, tmp_path: Path, rng: np.random.Generator) -> None:
+    _, on = _configs(tmp_path)
+    frames, _ = _monitor_records(rng, 500)
+    _, stats = _run_loop(loop_bin, on, frames, 500)
+    json.dumps(stats, allow_nan=False)
