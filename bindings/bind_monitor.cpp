@@ -8,6 +8,7 @@
 //   GyroMonitorRunF32(settings, model, reference_avar)   float state, as on the target
 //     model: (a1, a2, q, r, mean); reference_avar: expected Allan variance per octave
 //     .run(y, stuck, saturated, report_every, coverage) -> dict of per-report arrays
+//     .latched(y, stuck, saturated) -> u16 latched alarm bits after each sample
 //     .trips() -> {alarm name: {statistic, threshold, tau_s, sample}} for the raised alarms
 //     .reset()
 // run() releases the GIL and takes the object's lock; it continues from the state the last
@@ -62,10 +63,12 @@ struct MonitorSettingsPy {
     const auto u32 = static_cast<std::int64_t>(std::numeric_limits<std::uint32_t>::max());
     if (stuck_samples < 0 || stuck_samples > u32) bad("stuck_samples: expected 0..2^32-1");
     if (saturated_samples < 0 || saturated_samples > u32) bad("saturated_samples: expected 0..2^32-1");
-    if (block_samples < 1 || block_samples > u32) bad("block_samples: expected 1..2^32-1");
+    if (block_samples < 8 || block_samples > u32) bad("block_samples: expected 8..2^32-1");
     if (retune_blocks < 1 || retune_blocks > u32) bad("retune_blocks: expected 1..2^32-1");
     if (min_samples < 0) bad("min_samples: expected >= 0");
-    if (!(memory_blocks >= 0.0) || !std::isfinite(memory_blocks)) bad("memory_blocks: expected a finite number >= 0");
+    if (!(memory_blocks == 0.0 || memory_blocks >= 1.0) || !std::isfinite(memory_blocks)) {
+      bad("memory_blocks: expected 0 or a finite number >= 1");
+    }
     if (!(max_step > 0.0) || !std::isfinite(max_step)) bad("max_step: expected a finite number > 0");
     if (!(max_rel_stderr > 0.0) || !std::isfinite(max_rel_stderr)) bad("max_rel_stderr: expected a finite number > 0");
   }
@@ -119,7 +122,8 @@ class GyroMonitorRunPy {
       throw py::value_error("model: not a valid stationary drift model (a1, a2, q >= 0, r >= 0, q + r > 0, mean)");
     }
     if (st != GyroMonitorStatus::ok) {
-      throw py::value_error("reference_avar: every value must be positive and finite (in this precision)");
+      throw py::value_error("reference_avar: every value must be positive and finite (in this precision), at "
+                            "most octaves of them; or the re-identification refuses the settings");
     }
   }
 
@@ -168,6 +172,26 @@ class GyroMonitorRunPy {
     double* o = av.mutable_data();
     for (std::size_t i = 0; i < avar.size(); ++i) o[i] = avar[i];
     out["avar"] = av;
+    return out;
+  }
+
+  // The latched alarm bits after each sample (what the processor's health_alarm flag follows).
+  py::array_t<std::uint16_t> latched(const CArray<Scalar>& y, const CArray<bool>& stuck, const CArray<bool>& saturated) {
+    if (y.ndim() != 1) throw py::value_error("y: expected a 1-D array");
+    const auto n = static_cast<std::size_t>(y.shape(0));
+    if (stuck.ndim() != 1 || static_cast<std::size_t>(stuck.shape(0)) != n || saturated.ndim() != 1 ||
+        static_cast<std::size_t>(saturated.shape(0)) != n) {
+      throw py::value_error("stuck, saturated: expected 1-D bool arrays as long as y");
+    }
+    py::array_t<std::uint16_t> out(static_cast<py::ssize_t>(n));
+    std::uint16_t* o = out.mutable_data();
+    const Scalar* yd = y.data();
+    const bool* sd = stuck.data();
+    const bool* td = saturated.data();
+    {
+      ReleasedAndLocked guard(this);
+      for (std::size_t i = 0; i < n; ++i) o[i] = monitor_.push(yd[i], sd[i], td[i]);
+    }
     return out;
   }
 
@@ -258,6 +282,9 @@ void bind_run(py::module_& m, const char* name, const char* doc) {
            py::arg("saturated").noconvert(), py::arg("report_every"), py::arg("coverage"),
            "Push the samples (1-D, C-contiguous) with their stuck/saturated flags; returns the "
            "per-report arrays (one row every `report_every` samples). GIL released.")
+      .def("latched", &T::latched, py::arg("y").noconvert(), py::arg("stuck").noconvert(),
+           py::arg("saturated").noconvert(),
+           "Push the samples; returns the latched alarm bits after each one (u16). GIL released.")
       .def("trips", &T::trips, "The statistic that tripped each alarm raised so far.")
       .def("reset", &T::reset, "Forget every sample and clear the alarms (keeps the configuration).")
       .def_property_readonly("samples", &T::samples);

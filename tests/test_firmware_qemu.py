@@ -28,10 +28,12 @@ from gyrodrift.imu.config import (
     ProcessorConfig,
     WaveletStage,
     default_config,
+    drift_filter_config,
 )
 from gyrodrift.replay.faults import FaultSpec
 from gyrodrift.replay.firmware import (
     FLASH_BUDGET_BYTES,
+    MONITOR_RAM_BUDGET_BYTES,
     RAM_BUDGET_BYTES,
     FirmwareError,
     FirmwareImage,
@@ -141,6 +143,34 @@ def test_second_configuration_equals_host_loop() -> None:
     res = replay(image, cfg, record(4.0, 200.0, seed=8))
     assert_equal_to_host_loop(res)
     assert res.report["loop_rate_hz"] == 200.0
+
+
+def monitor_config(enabled: bool = True) -> ProcessorConfig:
+    """One identified gyro (gz: steady-state AR(2)-Kalman as its first stage, stuck detection)
+    watched by the gyro monitor: 16 octaves, re-identification on, a stuck alarm after 0.5 s."""
+    cfg = drift_filter_config("gz", a1=1.0, a2=-0.25, mean=0.0, q=1e-10, r=1e-8,
+                              sample_rate_hz=400.0)
+    gz = cfg.channel("gz")
+    cfg = cfg.with_channel("gz", replace(gz, saturation=8.0, stuck_samples=5))
+    return cfg.with_monitor(enabled=enabled, octaves=16, reidentify=True, stuck_alarm_s=0.5)
+
+
+def test_monitor_configuration_equals_host_loop() -> None:
+    """MCU = host with the gyro monitor running: the same outputs, flags (the health_alarm bit
+    of the stuck alarm included) and counters (the monitor's among them) as the host loop; and
+    the monitor's RAM within its budget against the same image without it."""
+    cfg = monitor_config()
+    image = cached_firmware(cfg)
+    plain = cached_firmware(monitor_config(enabled=False))
+    assert 0 < image.ram_bytes - plain.ram_bytes <= MONITOR_RAM_BUDGET_BYTES
+    samples = record(4.0, 400.0, seed=5)
+    values = samples.channels.copy()
+    values[800:1200, 2] = values[800, 2]  # gz stuck for 1 s: the stuck alarm after 0.5 s
+    samples = make_samples(np.arange(len(values)) / 400.0, values[:, :3], values[:, 3:])
+    res = replay(image, cfg, samples, faults=FaultSpec(seed=1))
+    assert_equal_to_host_loop(res)
+    loop = res.loop_stats
+    assert loop is not None and loop["health"]["stuck_alarms"] == 1
 
 
 @pytest.mark.parametrize("defect", ["GYRODRIFT_FW_INJECT_DROPPED_BYTE",

@@ -136,7 +136,7 @@ TEST_CASE("no allocation: monitor and monitored processor") {
 }
 
 TEST_CASE("without the monitor the processor pays nothing; with it (no retune) outputs are unchanged") {
-  static_assert(std::is_empty_v<gyrodrift::detail::ImuMonitorBank<float, 0>>, "no monitor: no bytes");
+  static_assert(std::is_empty_v<gyrodrift::detail::ImuMonitorBank<float, 0, 3>>, "no monitor: no bytes");
   static_assert(sizeof(gyrodrift::ImuProcessor<float>) ==
                     sizeof(gyrodrift::ImuProcessor<float, gyrodrift::NoWavelet<float>, gyrodrift::kImuChannels, 0>),
                 "the default is the build without the monitor");
@@ -178,6 +178,23 @@ TEST_CASE("without the monitor the processor pays nothing; with it (no retune) o
   CHECK(watched.monitor(0).samples() == 20000);
   CHECK(watched.monitor(0).used() == 20000 - 296);  // the 5th to the 300th stuck value left out
   CHECK(watched.health().monitor_retunes == 0);
+  // one slot: the image pays for one monitor, and it serves the channel it was given
+  using One = gyrodrift::ImuProcessor<float, gyrodrift::NoWavelet<float>, gyrodrift::kImuChannels, kOct, 1>;
+  static_assert(sizeof(One) < sizeof(Watched), "fewer slots, fewer bytes");
+  static One one(cfg);
+  CHECK(one.configure_monitor(settings<float>(kOct, false), refs, {true, false, true}) ==
+        gyrodrift::GyroMonitorStatus::bad_settings);  // two channels, one slot
+  REQUIRE(one.configure_monitor(settings<float>(kOct, false), refs, {false, false, true}) ==
+          gyrodrift::GyroMonitorStatus::ok);
+  CHECK(!one.monitor_active(0));
+  CHECK(one.monitor_active(2));
+  for (std::size_t i = 0; i < 1000; ++i) {
+    in.seq = static_cast<std::uint16_t>(i);
+    in.t_us = 2500ULL * i;
+    for (std::size_t c = 0; c < 6; ++c) in.values[c] = static_cast<float>(n.next());
+    one.step(in, b);
+  }
+  CHECK(one.monitor(2).samples() == 1000);
 }
 
 TEST_CASE("a steady-state retune carries the filtered rate and refuses bad models") {

@@ -91,6 +91,7 @@ inline constexpr gyrodrift::ImuConfig<float> kImuConfig{
     1250U,  // time_tolerance_us
 };
 
+inline constexpr std::size_t kMonitorOctaves = 0;
 inline constexpr std::size_t kWaveletWindow = 256;
 // the wavelet stage exists on channels 0..2 only
 inline constexpr std::size_t kWaveletChannels = 3;
@@ -103,5 +104,9 @@ inline constexpr const float* kWaveletTaps[kWaveletChannels] = {kTaps_db4_n256_j
 inline Wavelet make_wavelet(std::size_t c) noexcept {
   return Wavelet(kWaveletTaps[c]);
 }
+
+// The gyro monitor is off ([monitor] enabled = false): the image has none.
+inline constexpr bool kMonitorEnabled = false;
+inline bool start_monitor(Processor&) noexcept { return true; }
 
 }  // namespace budget_config

@@ -226,10 +226,12 @@ extern "C" [[noreturn]] void firmware_main(void) {
   static_assert(fw_config::kLoopRateHz >= 1.0F, "loop rate below 1 Hz");
   board::init(static_cast<std::uint32_t>(fw_config::kLoopRateHz + 0.5F), GYRODRIFT_FW_BAUD);
   calibrate_timer();
+  // The gyro monitor, when the configuration has one ([monitor] enabled; else a no-op).
+  const bool monitor_ok = fw_config::start_monitor(g_proc);
   send_health();  // start-up announcement
   // A configuration the processor refuses is refused by the build already; should one get
   // here, the loop stops after the announcement (its health shows every sample rejected).
-  while (g_proc.status() != gyrodrift::ImuStatus::ok) board::wait_for_tick();
+  while (g_proc.status() != gyrodrift::ImuStatus::ok || !monitor_ok) board::wait_for_tick();
   std::uint32_t last_tick = board::wait_for_tick();
   for (;;) {
     const std::uint32_t tick = board::wait_for_tick();

@@ -552,10 +552,11 @@ inline void build(const std::array<ChannelRead, kImuChannels>& chans, const Sect
     m.saturated_samples = static_cast<std::uint32_t>(lround_nonneg(num(schema::kMonitorSaturatedAlarmS) * rate));
     m.reidentify = monitor.value(schema::kMonitorReidentify).boolean;
     const double block_s = num(schema::kMonitorBlockS);
-    m.block_samples = static_cast<std::uint32_t>(std::max(1LL, lround_nonneg(block_s * rate)));
+    m.block_samples = static_cast<std::uint32_t>(std::max(8LL, lround_nonneg(block_s * rate)));  // MIN_BLOCK_SAMPLES
     m.retune_blocks = static_cast<std::uint32_t>(std::max(1LL, lround_nonneg(num(schema::kMonitorRetuneS) / block_s)));
     m.min_samples = static_cast<std::uint64_t>(lround_nonneg(num(schema::kMonitorMinLearnS) * rate));
-    m.memory_blocks = num(schema::kMonitorMemoryS) / block_s;
+    const double memory = num(schema::kMonitorMemoryS) / block_s;
+    m.memory_blocks = memory > 0.0 ? std::max(1.0, memory) : 0.0;  // 0, or at least one block
     m.max_step = num(schema::kMonitorMaxStep);
     m.max_rel_stderr = num(schema::kMonitorIdentifiedMaxRelStderr);
     for (std::size_t c = 0; c < kImuChannels; ++c) {

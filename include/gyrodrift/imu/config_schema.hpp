@@ -220,7 +220,7 @@ inline constexpr FieldSpec kMonitorBlockS{
     false, true, 1.0, "",
     0.0, true, 3600.0, false, true, false, false,
     "", "> 0 and <= 3600", "s",
-    "samples per update of the re-identified parameters, in seconds (at least one sample)"};
+    "samples per update of the re-identified parameters, in seconds (at least 8 samples)"};
 inline constexpr FieldSpec kMonitorRetuneS{
     "monitor", "retune_s", false, FieldKind::number,
     false, true, 60.0, "",
@@ -238,7 +238,7 @@ inline constexpr FieldSpec kMonitorMemoryS{
     false, true, 0.0, "",
     0.0, false, 10000000.0, false, true, false, false,
     "", "0..10000000", "s",
-    "forgetting horizon of the re-identification (0: none, converges to the maximum-likelihood fit of everything seen)"};
+    "forgetting horizon of the re-identification (0: none, converges to the maximum-likelihood fit of everything seen; else at least one block)"};
 inline constexpr FieldSpec kMonitorMaxStep{
     "monitor", "max_step", false, FieldKind::number,
     false, true, 0.1, "",

@@ -57,7 +57,7 @@ class GyroMonitor {
   // the alarms compare against (reference.octaves >= 1, at most settings.octaves).
   GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const DriftModelParams<Scalar>& model,
                               const Reference& reference) noexcept {
-    settings_ = settings;
+    reidentify_ = settings.reidentify;
     status_ = GyroMonitorStatus::bad_settings;
     if (settings.octaves < 1 || settings.octaves > Octaves || reference.octaves < 1 ||
         reference.octaves > settings.octaves) {
@@ -73,7 +73,8 @@ class GyroMonitor {
     }
     if (!alarms_.configure(reference, settings.alarms)) return status_;
     if (settings.reidentify && !identifier_.configure(model, settings.drift)) {
-      status_ = GyroMonitorStatus::bad_model;
+      // the identifier's own rules: a model with white noise (r > 0), its block and memory
+      status_ = model.r > Scalar(0) ? GyroMonitorStatus::bad_settings : GyroMonitorStatus::bad_model;
       return status_;
     }
     status_ = GyroMonitorStatus::ok;
@@ -85,7 +86,7 @@ class GyroMonitor {
   void reset() noexcept {
     allan_.reset();
     alarms_.reset();
-    if (settings_.reidentify) identifier_.reset();
+    if (reidentify_) identifier_.reset();
     samples_ = 0;
     used_ = 0;
     retuned_ = false;
@@ -101,7 +102,7 @@ class GyroMonitor {
     if (!bad && !std::isfinite(y)) return alarms_.latched();  // not a sample of anything
     if (!bad && allan_.push(y)) {
       ++used_;
-      if (settings_.reidentify) {
+      if (reidentify_) {
         identifier_.push(y);
         retuned_ = identifier_.retuned();
       }
@@ -119,19 +120,17 @@ class GyroMonitor {
   }
 
   GyroMonitorStatus status() const noexcept { return status_; }
-  const GyroMonitorSettings<Scalar>& settings() const noexcept { return settings_; }
   const StreamingAllan<Scalar, Octaves>& allan() const noexcept { return allan_; }
   const HealthAlarms<Scalar, Octaves>& alarms() const noexcept { return alarms_; }
   const OnlineDriftIdentifier<Scalar>& identifier() const noexcept { return identifier_; }
   std::uint16_t latched() const noexcept { return alarms_.latched(); }
   // True after the push() whose sample made the identifier retune the gain.
   bool retuned() const noexcept { return retuned_; }
-  bool reidentifying() const noexcept { return settings_.reidentify && status_ == GyroMonitorStatus::ok; }
+  bool reidentifying() const noexcept { return reidentify_ && status_ == GyroMonitorStatus::ok; }
   std::uint64_t samples() const noexcept { return samples_; }  // pushed (all)
   std::uint64_t used() const noexcept { return used_; }        // used by the statistics
 
  private:
-  GyroMonitorSettings<Scalar> settings_{};
   StreamingAllan<Scalar, Octaves> allan_{};
   HealthAlarms<Scalar, Octaves> alarms_{};
   OnlineDriftIdentifier<Scalar> identifier_{};
@@ -139,6 +138,7 @@ class GyroMonitor {
   std::uint64_t samples_ = 0;
   std::uint64_t used_ = 0;
   bool retuned_ = false;
+  bool reidentify_ = false;  // the settings are kept by the parts that use them
 };
 
 }  // namespace gyrodrift

@@ -177,20 +177,20 @@ struct ImuHealth {
   // The gyro monitor (zero while it is off): alarms raised per kind (health_alarms.hpp), gain
   // retunes taken by a steady-state AR(2)-Kalman stage, and retunes the re-identification
   // refused (its guards).
-  std::uint64_t monitor_arw_high = 0;
-  std::uint64_t monitor_bias_instability_high = 0;
-  std::uint64_t monitor_rate_random_walk_high = 0;
-  std::uint64_t monitor_stuck = 0;
-  std::uint64_t monitor_saturated = 0;
+  std::uint64_t arw_high_alarms = 0;
+  std::uint64_t bias_instability_alarms = 0;
+  std::uint64_t rate_random_walk_alarms = 0;
+  std::uint64_t stuck_alarms = 0;
+  std::uint64_t saturated_alarms = 0;
   std::uint64_t monitor_retunes = 0;
   std::uint64_t monitor_refused_retunes = 0;
 };
 
 // The monitor's alarm counters in the order of kHealthAlarmNames.
 inline std::uint64_t* monitor_alarm_counter(ImuHealth& h, std::size_t i) noexcept {
-  std::uint64_t* counters[kHealthAlarmCount] = {&h.monitor_arw_high, &h.monitor_bias_instability_high,
-                                                &h.monitor_rate_random_walk_high, &h.monitor_stuck,
-                                                &h.monitor_saturated};
+  std::uint64_t* counters[kHealthAlarmCount] = {&h.arw_high_alarms, &h.bias_instability_alarms,
+                                                &h.rate_random_walk_alarms, &h.stuck_alarms,
+                                                &h.saturated_alarms};
   return counters[i < kHealthAlarmCount ? i : 0];
 }
 
@@ -211,11 +211,11 @@ void for_each_health_field(H& h, F&& field) {
   field("saturated_values", h.saturated_values);
   field("stuck_values", h.stuck_values);
   field("filter_faults", h.filter_faults);
-  field("monitor_arw_high", h.monitor_arw_high);
-  field("monitor_bias_instability_high", h.monitor_bias_instability_high);
-  field("monitor_rate_random_walk_high", h.monitor_rate_random_walk_high);
-  field("monitor_stuck", h.monitor_stuck);
-  field("monitor_saturated", h.monitor_saturated);
+  field("arw_high_alarms", h.arw_high_alarms);
+  field("bias_instability_alarms", h.bias_instability_alarms);
+  field("rate_random_walk_alarms", h.rate_random_walk_alarms);
+  field("stuck_alarms", h.stuck_alarms);
+  field("saturated_alarms", h.saturated_alarms);
   field("monitor_retunes", h.monitor_retunes);
   field("monitor_refused_retunes", h.monitor_refused_retunes);
 }
@@ -252,18 +252,19 @@ inline constexpr std::size_t kImuGyroChannels = 3;  // gx gy gz: the channels a 
 
 namespace detail {
 
-// The gyro monitors of a processor built with MonitorOctaves > 0; an empty base otherwise, so a
-// build without the monitor pays no RAM for it (empty base optimisation).
-template <class Scalar, std::size_t MonitorOctaves>
+// The gyro monitors of a processor built with MonitorOctaves > 0: MonitorSlots monitors, each
+// serving the gyro channel configure_monitor() gave it (slot[c], -1: none); an empty base
+// otherwise, so a build without the monitor pays no RAM for it (empty base optimisation).
+template <class Scalar, std::size_t MonitorOctaves, std::size_t MonitorSlots>
 struct ImuMonitorBank {
-  std::array<GyroMonitor<Scalar, MonitorOctaves>, kImuGyroChannels> monitors{};
-  std::array<bool, kImuGyroChannels> active{};
-  std::array<bool, kImuGyroChannels> retune_stage{};  // the channel's steady-state stage takes retunes
-  std::array<std::uint16_t, kImuGyroChannels> latched{};
-  std::array<std::uint32_t, kImuGyroChannels> refused{};
+  std::array<GyroMonitor<Scalar, MonitorOctaves>, MonitorSlots> monitors{};
+  std::array<std::int8_t, kImuGyroChannels> slot{{-1, -1, -1}};
+  std::array<bool, MonitorSlots> retune_stage{};  // the channel's steady-state stage takes retunes
+  std::array<std::uint16_t, MonitorSlots> latched{};
+  std::array<std::uint32_t, MonitorSlots> refused{};
 };
-template <class Scalar>
-struct ImuMonitorBank<Scalar, 0> {};
+template <class Scalar, std::size_t MonitorSlots>
+struct ImuMonitorBank<Scalar, 0, MonitorSlots> {};
 
 }  // namespace detail
 
@@ -273,17 +274,19 @@ struct ImuMonitorBank<Scalar, 0> {};
 //   ImuProcessor<float, RealtimeWavelet<float, 256>> p(config, RealtimeWavelet<float, 256>(WaveletKind::db8, 5));
 //   ImuProcessor<float, FirPrefilter<float, 256>, 3> p(config, {FirPrefilter<float, 256>(kTaps), ...});
 //
-// MonitorOctaves > 0 builds a GyroMonitor (imu/gyro_monitor.hpp, that many octaves at most) for
-// each gyro channel, started by configure_monitor(); 0 (the default) builds none and the
-// processor is the same as without the monitor, bit for bit and byte for byte.
+// MonitorOctaves > 0 builds MonitorSlots GyroMonitors (imu/gyro_monitor.hpp, that many octaves
+// at most) for the gyro channels configure_monitor() names (a firmware build watching one gyro
+// pays for one); 0 (the default) builds none and the processor is the same as without the
+// monitor, bit for bit.
 template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels,
-          std::size_t MonitorOctaves = 0>
-class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves> {
+          std::size_t MonitorOctaves = 0, std::size_t MonitorSlots = kImuGyroChannels>
+class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, MonitorSlots> {
   static_assert(WaveletChannels >= 1 && WaveletChannels <= kImuChannels, "WaveletChannels in 1..6");
-  using Bank = detail::ImuMonitorBank<Scalar, MonitorOctaves>;
+  static_assert(MonitorSlots >= 1 && MonitorSlots <= kImuGyroChannels, "MonitorSlots in 1..3");
 
  public:
   static constexpr std::size_t kMonitorOctaves = MonitorOctaves;
+  static constexpr std::size_t kMonitorSlots = MonitorOctaves > 0 ? MonitorSlots : 0;
   using Monitor = GyroMonitor<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
   using MonitorReference = HealthReference<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
 
@@ -384,7 +387,9 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves> {
         }
       }
       if constexpr (MonitorOctaves > 0) {
-        if (c < kImuGyroChannels && this->active[c]) monitor_step(c, x, stuck_now, saturated_now);
+        if (c < kImuGyroChannels && this->slot[c] >= 0) {
+          monitor_step(static_cast<std::size_t>(this->slot[c]), x, stuck_now, saturated_now);
+        }
       }
       // A stage that refuses a good value makes it missing for the rest of the chain.
       Scalar y = run_stage(c, 0, cc.filter, x, good, flags);
@@ -402,8 +407,8 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves> {
       flags = static_cast<std::uint16_t>(flags | kFlagNonFinite);
     }
     if constexpr (MonitorOctaves > 0) {
-      for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
-        if (this->latched[c] != 0) flags = static_cast<std::uint16_t>(flags | kFlagHealthAlarm);
+      for (std::size_t i = 0; i < MonitorSlots; ++i) {
+        if (this->latched[i] != 0) flags = static_cast<std::uint16_t>(flags | kFlagHealthAlarm);
       }
     }
     out.seq = in.seq;
@@ -430,53 +435,56 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves> {
     consecutive_rejects_ = 0;
     health_ = ImuHealth{};
     if constexpr (MonitorOctaves > 0) {
-      for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
-        this->monitors[c].reset();
-        this->latched[c] = 0;
-        this->refused[c] = 0;
+      for (std::size_t i = 0; i < MonitorSlots; ++i) {
+        this->monitors[i].reset();
+        this->latched[i] = 0;
+        this->refused[i] = 0;
       }
     }
   }
 
   // Starts the gyro monitor on the gyro channels c with channels[c] true (only in a build
-  // with MonitorOctaves > 0): each channel's drift model is its first stage's ar2_kalman model
-  // (a1, a2, q, r, mean), which must exist; references[c] is the expected Allan variance the
-  // alarms compare against. When settings.reidentify is on and the channel's first stage is a
-  // steady-state ar2_kalman, a retune of the re-identification replaces that stage's model and
-  // gain. Returns ok, or the first channel's failure (no monitor is started then). Call it
-  // after construction, before the first step() (it resets the monitors, not the filters).
+  // with MonitorOctaves > 0; at most MonitorSlots of them, given slots in channel order): each
+  // channel's drift model is its first stage's ar2_kalman model (a1, a2, q, r, mean), which
+  // must exist; references[c] is the expected Allan variance the alarms compare against. When
+  // settings.reidentify is on and the channel's first stage is a steady-state ar2_kalman, a
+  // retune of the re-identification replaces that stage's model and gain. Returns ok, or the
+  // first channel's failure (no monitor is started then). Call it after construction, before
+  // the first step() (it resets the monitors, not the filters).
   template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
   GyroMonitorStatus configure_monitor(const GyroMonitorSettings<Scalar>& settings,
                                       const std::array<MonitorReference, kImuGyroChannels>& references,
                                       const std::array<bool, kImuGyroChannels>& channels) noexcept {
-    for (std::size_t c = 0; c < kImuGyroChannels; ++c) this->active[c] = false;
+    for (std::size_t c = 0; c < kImuGyroChannels; ++c) this->slot[c] = -1;
     if (status_ != ImuStatus::ok) return GyroMonitorStatus::bad_settings;
+    std::array<std::int8_t, kImuGyroChannels> slots{{-1, -1, -1}};
+    std::size_t used = 0;
     for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
       if (!channels[c]) continue;
+      if (used == MonitorSlots) return GyroMonitorStatus::bad_settings;
       const ImuChannelConfig<Scalar>& cc = config_.channels[c];
       if (cc.filter != ChannelFilter::ar2_kalman) return GyroMonitorStatus::bad_model;
       const DriftModelParams<Scalar> model{cc.model.a1, cc.model.a2, cc.q, cc.r, cc.model.mean};
-      const GyroMonitorStatus st = this->monitors[c].configure(settings, model, references[c]);
+      const GyroMonitorStatus st = this->monitors[used].configure(settings, model, references[c]);
       if (st != GyroMonitorStatus::ok) return st;
+      this->retune_stage[used] = settings.reidentify && cc.steady_state;
+      this->latched[used] = 0;
+      this->refused[used] = 0;
+      slots[c] = static_cast<std::int8_t>(used++);
     }
-    for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
-      this->active[c] = channels[c];
-      this->retune_stage[c] = channels[c] && settings.reidentify && config_.channels[c].steady_state;
-      this->latched[c] = 0;
-      this->refused[c] = 0;
-    }
+    this->slot = slots;
     return GyroMonitorStatus::ok;
   }
 
+  // The monitor of gyro channel c (monitor_active(c) must be true).
   template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
   const Monitor& monitor(std::size_t c) const noexcept {
-    return this->monitors[c < kImuGyroChannels ? c : 0];
+    return this->monitors[monitor_active(c) ? static_cast<std::size_t>(this->slot[c]) : 0];
   }
   template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
   bool monitor_active(std::size_t c) const noexcept {
-    return c < kImuGyroChannels && this->active[c];
+    return c < kImuGyroChannels && this->slot[c] >= 0;
   }
-
   ImuStatus status() const noexcept { return status_; }
   // Index of the first bad channel when status() != ok (else -1).
   int bad_channel() const noexcept { return bad_channel_; }
@@ -553,32 +561,35 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves> {
     return y;
   }
 
-  // One value of gyro channel c into its monitor; new alarms and retunes counted, a retune
-  // taken by the channel's steady-state stage.
-  void monitor_step(std::size_t c, Scalar x, bool stuck, bool saturated) noexcept {
+  // One value of a gyro channel into its monitor (slot i); new alarms and retunes counted, a
+  // retune taken by the channel's steady-state stage.
+  void monitor_step(std::size_t slot_index, Scalar x, bool stuck, bool saturated) noexcept {
     if constexpr (MonitorOctaves > 0) {
-      Monitor& m = this->monitors[c];
+      const std::size_t i = slot_index;
+      Monitor& m = this->monitors[i];
       const std::uint16_t now = m.push(x, stuck, saturated);
-      const auto raised = static_cast<std::uint16_t>(now & ~this->latched[c]);
+      const auto raised = static_cast<std::uint16_t>(now & ~this->latched[i]);
       if (raised != 0) {
-        for (std::size_t i = 0; i < kHealthAlarmCount; ++i) {
-          if ((raised & kHealthAlarmNames[i].bit) != 0) ++*monitor_alarm_counter(health_, i);
+        for (std::size_t a = 0; a < kHealthAlarmCount; ++a) {
+          if ((raised & kHealthAlarmNames[a].bit) != 0) ++*monitor_alarm_counter(health_, a);
         }
       }
-      this->latched[c] = now;
+      this->latched[i] = now;
       if (m.reidentifying()) {
         const OnlineDriftIdentifier<Scalar>& id = m.identifier();
-        if (id.refused_retunes() != this->refused[c]) {
-          health_.monitor_refused_retunes += id.refused_retunes() - this->refused[c];
-          this->refused[c] = id.refused_retunes();
+        if (id.refused_retunes() != this->refused[i]) {
+          health_.monitor_refused_retunes += id.refused_retunes() - this->refused[i];
+          this->refused[i] = id.refused_retunes();
         }
-        if (m.retuned() && this->retune_stage[c]) {
+        if (m.retuned() && this->retune_stage[i]) {
+          std::size_t c = 0;  // the channel of slot i
+          while (c + 1 < kImuGyroChannels && this->slot[c] != static_cast<std::int8_t>(i)) ++c;
           const DriftModelParams<Scalar>& p = id.in_use();
           if (steady_[c].retune(p.a1, p.a2, p.mean, id.gain0(), id.gain1())) ++health_.monitor_retunes;
         }
       }
     } else {
-      (void)c;
+      (void)slot_index;
       (void)x;
       (void)stuck;
       (void)saturated;

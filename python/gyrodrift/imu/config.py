@@ -284,8 +284,8 @@ class MonitorConfig:
     def samples(self, sample_rate_hz: float) -> dict[str, int | float]:
         """The durations at `sample_rate_hz` as the processor holds them (the C++ reader's
         rounding: lround of seconds times rate): stuck_samples, saturated_samples,
-        block_samples (at least one), retune_blocks (whole blocks, at least one), min_samples,
-        memory_blocks (a float), report_samples.
+        block_samples (at least MIN_BLOCK_SAMPLES), retune_blocks (whole blocks, at least
+        one), min_samples, memory_blocks (a float: 0, or at least one block), report_samples.
 
         Examples
         --------
@@ -293,16 +293,21 @@ class MonitorConfig:
         >>> d["block_samples"], d["retune_blocks"], d["report_samples"]
         (200, 60, 4000)
         """
-        block = max(1, _lround(self.block_s * sample_rate_hz))
+        block = max(MIN_BLOCK_SAMPLES, _lround(self.block_s * sample_rate_hz))
+        memory = self.memory_s / self.block_s
         return {
             "stuck_samples": _lround(self.stuck_alarm_s * sample_rate_hz),
             "saturated_samples": _lround(self.saturated_alarm_s * sample_rate_hz),
             "block_samples": block,
             "retune_blocks": max(1, _lround(self.retune_s / self.block_s)),
             "min_samples": _lround(self.min_learn_s * sample_rate_hz),
-            "memory_blocks": self.memory_s / self.block_s,
+            "memory_blocks": max(1.0, memory) if memory > 0.0 else 0.0,
             "report_samples": max(1, _lround(self.report_interval_s * sample_rate_hz)),
         }
+
+
+#: The fewest samples in one update block of the re-identification.
+MIN_BLOCK_SAMPLES = 8
 
 
 def _lround(x: float) -> int:

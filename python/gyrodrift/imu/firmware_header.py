@@ -165,21 +165,112 @@ def _channel_initializer(cc: ChannelConfig) -> str:
     )
 
 
-def _processor_type_lines(window: int, wavelet_channels: int, chan_taps: list[str]) -> list[str]:
-    """The Processor type and make_wavelet: the FIR stage on channels 0..k-1, or none."""
+def _monitor_octaves(cfg: ProcessorConfig) -> int:
+    """The processor's monitor capacity: the configured octaves when the monitor is on, else 0
+    (no monitor in the image)."""
+    return int(cfg.monitor.octaves) if cfg.monitor.enabled else 0
+
+
+def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
+    """start_monitor(p): the gyro monitor of the [monitor] table started on the processor
+    (durations in samples, each monitored channel's reference Allan curve from its model as a
+    flash table), or nothing when the monitor is off."""
+    if not cfg.monitor.enabled:
+        return [
+            "// The gyro monitor is off ([monitor] enabled = false): the image has none.",
+            "inline constexpr bool kMonitorEnabled = false;",
+            "inline bool start_monitor(Processor&) noexcept { return true; }",
+        ]
+    from gyrodrift.imu.monitor import reference_from_config
+
+    m = cfg.monitor
+    rate = cfg.timing.sample_rate_hz
+    n = m.samples(rate)
+    octaves = int(m.octaves)
+    monitored = cfg.monitored_channels()
+    table = []
+    for ch in CHANNEL_NAMES[:3]:
+        if ch in monitored:
+            avar = reference_from_config(cfg, ch).avar
+            try:
+                lits = [float_literal(float(v)) for v in avar]
+            except GyrodriftValueError as exc:
+                raise ConfigError(f"channels.{ch}", f"the monitor's reference Allan variance "
+                                                    f"of this channel's model: {exc}") from None
+        else:
+            lits = ["0.0f"] * octaves
+        table.append(f"    {{{', '.join(lits)}}},  // {ch}")
+    flags = ", ".join("true" if ch in monitored else "false" for ch in CHANNEL_NAMES[:3])
+    return [
+        "// The gyro monitor ([monitor] table): durations in samples at the sample rate, and each",
+        "// monitored gyro's reference (its ar2_kalman model's Allan variance per octave).",
+        "inline constexpr bool kMonitorEnabled = true;",
+        f"inline constexpr bool kMonitorChannels[3] = {{{flags}}};",
+        "inline constexpr float kMonitorReferenceAvar[3][kMonitorOctaves] = {",
+        *table,
+        "};",
+        "inline gyrodrift::GyroMonitorSettings<float> monitor_settings() noexcept {",
+        "  gyrodrift::GyroMonitorSettings<float> s;",
+        f"  s.sample_rate_hz = {float_literal(rate)};",
+        "  s.octaves = kMonitorOctaves;",
+        f"  s.alarms.arw_factor = {float_literal(m.arw_factor)};",
+        f"  s.alarms.bias_instability_factor = {float_literal(m.bias_instability_factor)};",
+        f"  s.alarms.rate_random_walk_factor = {float_literal(m.rate_random_walk_factor)};",
+        f"  s.alarms.false_alarm_probability = {float_literal(m.false_alarm_probability)};",
+        f"  s.alarms.stuck_samples = {n['stuck_samples']}U;",
+        f"  s.alarms.saturated_samples = {n['saturated_samples']}U;",
+        f"  s.reidentify = {'true' if m.reidentify else 'false'};",
+        f"  s.drift.block_samples = {n['block_samples']}U;",
+        f"  s.drift.retune_blocks = {n['retune_blocks']}U;",
+        f"  s.drift.min_samples = {n['min_samples']}ULL;",
+        f"  s.drift.memory_blocks = {float_literal(n['memory_blocks'])};",
+        f"  s.drift.max_step = {float_literal(m.max_step)};",
+        f"  s.drift.max_rel_stderr = {float_literal(m.identified_max_rel_stderr)};",
+        "  return s;",
+        "}",
+        "// Starts the monitor on the processor (after construction, before the first step).",
+        "inline bool start_monitor(Processor& p) noexcept {",
+        "  std::array<Processor::MonitorReference, 3> refs{};",
+        "  for (std::size_t c = 0; c < 3; ++c) {",
+        "    refs[c].octaves = kMonitorChannels[c] ? kMonitorOctaves : 0U;",
+        "    for (std::size_t k = 0; k < kMonitorOctaves; ++k) refs[c].avar[k] = "
+        "kMonitorReferenceAvar[c][k];",
+        "  }",
+        "  const std::array<bool, 3> on{kMonitorChannels[0], kMonitorChannels[1], "
+        "kMonitorChannels[2]};",
+        "  return p.configure_monitor(monitor_settings(), refs, on) == "
+        "gyrodrift::GyroMonitorStatus::ok;",
+        "}",
+    ]
+
+
+def _processor_type_lines(window: int, wavelet_channels: int, chan_taps: list[str],
+                          monitor_octaves: int = 0, monitor_slots: int = 0) -> list[str]:
+    """The Processor type and make_wavelet: the FIR stage on channels 0..k-1, or none; the
+    gyro monitor's capacity (octaves 0: none) and its monitors (one per monitored gyro)."""
+    octaves = [f"inline constexpr std::size_t kMonitorOctaves = {monitor_octaves};"]
+    if monitor_octaves:
+        octaves.append(f"inline constexpr std::size_t kMonitorSlots = {monitor_slots};")
     if not wavelet_channels:
         return [
+            *octaves,
             "inline constexpr std::size_t kWaveletChannels = 1;",
             "using Wavelet = gyrodrift::NoWavelet<float>;",
+            "using Processor = gyrodrift::ImuProcessor<float, Wavelet, gyrodrift::kImuChannels, "
+            "kMonitorOctaves, kMonitorSlots>;" if monitor_octaves else
             "using Processor = gyrodrift::ImuProcessor<float>;",
             "inline Wavelet make_wavelet(std::size_t) noexcept { return Wavelet{}; }",
         ]
+    processor = ("using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels, "
+                 "kMonitorOctaves, kMonitorSlots>;" if monitor_octaves else
+                 "using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels>;")
     return [
+        *octaves,
         f"inline constexpr std::size_t kWaveletWindow = {window};",
         f"// the wavelet stage exists on channels 0..{wavelet_channels - 1} only",
         f"inline constexpr std::size_t kWaveletChannels = {wavelet_channels};",
         "using Wavelet = gyrodrift::FirPrefilter<float, kWaveletWindow>;",
-        "using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels>;",
+        processor,
         "",
         "// Each wavelet channel's taps in flash (nullptr: the channel has no wavelet stage).",
         "inline constexpr const float* kWaveletTaps[kWaveletChannels] = {"
@@ -238,7 +329,10 @@ def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: 
         f"    {cfg.timing.tolerance_us}U,  // time_tolerance_us",
         "};",
         "",
-        *_processor_type_lines(window, wavelet_channels, chan_taps),
+        *_processor_type_lines(window, wavelet_channels, chan_taps, _monitor_octaves(cfg),
+                               len(cfg.monitored_channels())),
+        "",
+        *_monitor_lines(cfg),
         "",
         f"}}  // namespace {ns}",
         "",

@@ -31,6 +31,7 @@ __all__ = [
     "MonitorReference",
     "MonitorTrace",
     "model_avar",
+    "monitor_alarm_bits",
     "monitor_flags",
     "reference_from_config",
     "reference_from_model",
@@ -333,6 +334,44 @@ def _stuck_saturated(y: np.ndarray, saturation: float,
         run_len = np.arange(v.size) - starts[run_id] + 1
         stuck[idx[run_len >= stuck_samples]] = True
     return stuck, saturated
+
+
+def monitor_alarm_bits(cfg: ProcessorConfig, values: ArrayLike) -> np.ndarray:
+    """The gyro monitors of configuration `cfg` ([monitor] enabled) over the accepted samples
+    of a record, as the float32 processor runs them: per sample, the OR of the monitored
+    channels' latched alarm bits (nonzero: the processor sets its health_alarm flag).
+
+    values: (n, 6) accepted input samples in the processor's order (gx gy gz in rad/s, ...);
+    each monitored channel's stuck and saturated flags follow the channel's own checks.
+    Zeros when the monitor is off.
+
+    Examples
+    --------
+    >>> from gyrodrift.imu.config import drift_filter_config
+    >>> cfg = drift_filter_config("gz", a1=0.5, a2=0.0, mean=0.0, q=1e-10, r=1e-8,
+    ...                           sample_rate_hz=100.0).with_monitor(enabled=True, octaves=6)
+    >>> monitor_alarm_bits(cfg, np.zeros((3, 6))).tolist()  # no stuck detection configured
+    [0, 0, 0]
+    """
+    v = np.asarray(values, dtype=np.float32)
+    if v.ndim != 2 or v.shape[1] != 6:
+        raise GyrodriftValueError(f"values: expected shape (n, 6), got {v.shape}")
+    out = np.zeros(v.shape[0], dtype=np.uint16)
+    if not cfg.monitor.enabled:
+        return out
+    native = core("imu")
+    rate = cfg.timing.sample_rate_hz
+    s = _settings(native, cfg.monitor, rate, int(cfg.monitor.octaves))
+    for ch in cfg.monitored_channels():
+        c = ("gx", "gy", "gz").index(ch)
+        cc = cfg.channel(ch)
+        ref = reference_from_config(cfg, ch)
+        y = np.ascontiguousarray(v[:, c])
+        stuck, sat = _stuck_saturated(y, float(np.float32(cc.saturation)), int(cc.stuck_samples))
+        mon = native.GyroMonitorRunF32(s, tuple(float(x) for x in ref.drift),
+                                       np.ascontiguousarray(ref.avar, dtype=np.float64))
+        out |= np.asarray(mon.latched(y, stuck, sat), dtype=np.uint16)
+    return out
 
 
 def _settings(native: Any, cfg: MonitorConfig, rate_hz: float, octaves: int) -> Any:

@@ -350,7 +350,7 @@ FIELDS: tuple[Field, ...] = (
     Field("monitor", "reidentify", "bool", "", False,
           "re-identify the drift model online and retune the steady-state AR(2)-Kalman gain"),
     Field("monitor", "block_s", "float", "s", 1.0,
-          "samples per update of the re-identified parameters, in seconds (at least one sample)",
+          "samples per update of the re-identified parameters, in seconds (at least 8 samples)",
           lo=0.0, lo_open=True, hi=3600.0),
     Field("monitor", "retune_s", "float", "s", 60.0,
           "time between gain retunes (rounded to whole blocks, at least one)",
@@ -359,7 +359,7 @@ FIELDS: tuple[Field, ...] = (
           "no retune before this much accepted data", lo=0.0, hi=1e7),
     Field("monitor", "memory_s", "float", "s", 0.0,
           "forgetting horizon of the re-identification (0: none, converges to the "
-          "maximum-likelihood fit of everything seen)", lo=0.0, hi=1e7),
+          "maximum-likelihood fit of everything seen; else at least one block)", lo=0.0, hi=1e7),
     Field("monitor", "max_step", "float", "", 0.1,
           "largest change of one parameter per update (log q, log r; the AR part)",
           lo=0.0, lo_open=True, hi=10.0, float32=True),

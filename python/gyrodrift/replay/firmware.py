@@ -49,6 +49,7 @@ __all__ = [
     "CORE_CLOCK_HZ",
     "CPU_LOAD_GOAL",
     "FLASH_BUDGET_BYTES",
+    "MONITOR_RAM_BUDGET_BYTES",
     "QEMU_MACHINE",
     "RAM_BUDGET_BYTES",
     "FirmwareError",
@@ -65,6 +66,9 @@ __all__ = [
 
 FLASH_BUDGET_BYTES = 16 * 1024  # code + constants + initial data
 RAM_BUDGET_BYTES = 8 * 1024  # data + bss + the stack reserved by the linker script
+# The gyro monitor ([monitor] enabled) may add at most this much RAM to the image of the same
+# configuration without it.
+MONITOR_RAM_BUDGET_BYTES = 2 * 1024
 CORE_CLOCK_HZ = 168_000_000  # STM32F405 at full speed (and QEMU's netduinoplus2 clock)
 # Assumed cycles per instruction of the M4F running this code from flash (5 wait states with
 # the ART accelerator, FPU loads of 2 cycles): an assumption, not a measurement.

@@ -17,6 +17,7 @@ from gyrodrift.replay.firmware import (
     ASSUMED_CPI,
     CORE_CLOCK_HZ,
     CPU_LOAD_GOAL,
+    MONITOR_RAM_BUDGET_BYTES,
     QEMU_MACHINE,
     FirmwareError,
     FirmwareImage,
@@ -89,10 +90,27 @@ def check_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
     configuration refused for the firmware
     """
     image = build_firmware(config, out_dir, defines=defines)
+    monitor: dict[str, Any] | None = None
+    if config.monitor.enabled:
+        # the gyro monitor's share: the same configuration's image without it
+        plain = build_firmware(config.with_monitor(enabled=False),
+                               Path(out_dir) / "without_monitor", defines=defines)
+        monitor = {"ram_bytes_without": plain.ram_bytes,
+                   "flash_bytes_without": plain.flash_bytes,
+                   "ram_delta_bytes": image.ram_bytes - plain.ram_bytes,
+                   "flash_delta_bytes": image.flash_bytes - plain.flash_bytes,
+                   "ram_budget_bytes": MONITOR_RAM_BUDGET_BYTES}
     cost = measure_step_cost(image, config)
     budget = instruction_budget(config.timing.loop_hz)
-    summary = {"image": image.as_dict(), "step_cost": cost}
+    summary: dict[str, Any] = {"image": image.as_dict(), "step_cost": cost}
+    if monitor is not None:
+        summary["monitor"] = monitor
     (Path(out_dir) / "budget.json").write_text(json.dumps(summary, indent=1) + "\n")
+    if monitor is not None and monitor["ram_delta_bytes"] > MONITOR_RAM_BUDGET_BYTES:
+        raise FirmwareError(
+            f"the gyro monitor does not fit its RAM budget: {monitor['ram_delta_bytes']} B more "
+            f"than the image without it ({monitor['ram_bytes_without']} B) > "
+            f"{MONITOR_RAM_BUDGET_BYTES} B (fewer [monitor] octaves or fewer monitored gyros)")
     if cost["instructions_max"] > budget:
         raise FirmwareError(
             f"the configuration does not fit the MCU budget: {cost['instructions_max']:.0f} "

@@ -449,8 +449,16 @@ def _expected_outputs(samples: Samples, plan: TransmissionPlan, opt: ReplayOptio
     ref = process_imu(d_seq, d_t_us, d_values,
                       ImuConfig.from_processor_config(opt.processor, float32=True))
     accepted = (ref.flags & FLAG_REJECTED) == 0
-    return _Expected(ref, pos[accepted], d_seq[accepted], ref.flags[accepted],
-                     ref.values[accepted])
+    flags = ref.flags[accepted]
+    if opt.processor.monitor.enabled:
+        # the gyro monitor's latched alarms (the target's health_alarm flag), over the samples
+        # the processor accepted; its retunes are not modelled (values as without them)
+        from gyrodrift.imu.contract import FLAG_HEALTH_ALARM
+        from gyrodrift.imu.monitor import monitor_alarm_bits
+
+        alarms = monitor_alarm_bits(opt.processor, d_values[accepted])
+        flags = np.where(alarms != 0, flags | FLAG_HEALTH_ALARM, flags).astype(flags.dtype)
+    return _Expected(ref, pos[accepted], d_seq[accepted], flags, ref.values[accepted])
 
 
 def _payloads(samples: Samples, plan: TransmissionPlan, opt: ReplayOptions, smap: Any,
