@@ -223,3 +223,40 @@ TEST_CASE("a steady-state retune carries the filtered rate and refuses bad model
   CHECK(!g.retune(1.2, -0.3, 0.0, INFINITY, 0.05));      // gain not finite
   CHECK(g.gain()(0) == 0.1);                             // refused: unchanged
 }
+
+TEST_CASE("a retune of the re-identification reaches the steady-state stage") {
+  // gz: AR(1) drift a1 = 0.99, q four times the configured one; re-identification from 60 s on,
+  // retunes every 10 s: the processor counts each retune its stage took
+  constexpr std::size_t kOct = 12;
+  using Watched = gyrodrift::ImuProcessor<float, gyrodrift::NoWavelet<float>, gyrodrift::kImuChannels, kOct, 1>;
+  gyrodrift::ImuConfig<float> cfg;
+  cfg.channels[0].filter = cfg.channels[1].filter = gyrodrift::ChannelFilter::pass_through;
+  cfg.channels[2].filter = gyrodrift::ChannelFilter::ar2_kalman;
+  cfg.channels[2].steady_state = true;
+  cfg.channels[2].model = gyrodrift::Ar2Model<float>{0.99F, 0.0F, 1e-10F, 0.0F};
+  cfg.channels[2].q = 1e-10F;
+  cfg.channels[2].r = 1e-8F;
+  static Watched proc(cfg);
+  std::array<Watched::MonitorReference, 3> refs{};
+  refs[2] = white_reference<float, kOct>(1e-8F, kOct);
+  auto s = settings<float>(kOct, true);
+  s.drift.block_samples = 400;
+  s.drift.retune_blocks = 10;
+  s.drift.min_samples = 24000;
+  REQUIRE(proc.configure_monitor(s, refs, {false, false, true}) == gyrodrift::GyroMonitorStatus::ok);
+  Noise w{11, 0.0, 1.0};
+  double x = 0.0;
+  gyrodrift::ImuSample<float> in{};
+  gyrodrift::ImuOutput<float> out{};
+  for (std::size_t i = 0; i < 160000; ++i) {  // 400 s
+    x = 0.99 * x + 2e-5 * std::sqrt(3.0) * w.next();  // q = 4e-10 (uniform: variance a^2 / 3)
+    in.seq = static_cast<std::uint16_t>(i);
+    in.t_us = 2500ULL * i;
+    in.values[2] = static_cast<float>(x + 1e-4 * std::sqrt(3.0) * w.next());  // r = 1e-8
+    proc.step(in, out);
+  }
+  const auto& id = proc.monitor(2).identifier();
+  CHECK(id.retunes() >= 1);
+  CHECK(proc.health().monitor_retunes == id.retunes());
+  CHECK(proc.health().monitor_refused_retunes == id.refused_retunes());
+}
