@@ -98,9 +98,10 @@ class GyroMonitor {
     retuned_ = false;
     if (status_ != GyroMonitorStatus::ok) return 0;
     ++samples_;
+    // Every sample updates the alarms (their sample count, and the time of a trip, are the
+    // monitor's); a non-finite value feeds no statistic and ends a stuck or saturated run.
     const bool bad = stuck || saturated;
-    if (!bad && !std::isfinite(y)) return alarms_.latched();  // not a sample of anything
-    if (!bad && allan_.push(y)) {
+    if (!bad && std::isfinite(y) && allan_.push(y)) {
       ++used_;
       if (reidentify_) {
         identifier_.push(y);
