@@ -375,7 +375,7 @@ def test_loop_with_monitor_counts_alarms_and_keeps_outputs(loop_bin: Path, tmp_p
     # the stuck alarm: 200 stuck samples in a row (0.5 s) from the 5th equal value at 2004
     raised = np.flatnonzero(d_on.samples.flags & alarm)
     assert raised.size and raised[0] == 2004 + 199 and raised[-1] == n - 1
-    assert np.array_equal(d_on.samples.flags & ~alarm, d_off.samples.flags)
+    assert np.array_equal(d_on.samples.flags & (0xFFFF ^ alarm), d_off.samples.flags)
     keys = list(stats_on["health"])[-7:]
     assert keys == ["arw_high_alarms", "bias_instability_alarms",
                     "rate_random_walk_alarms", "stuck_alarms", "saturated_alarms",
