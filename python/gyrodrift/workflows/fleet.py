@@ -19,8 +19,8 @@ the distribution over units (count, min, quartiles, max) and flags units outside
 JSON ``{"gyroscope_noise_density": {"max": 2e-4}, "gyro_B": {"min": 0, "max": 1e-5}}``, keys
 either the Kalibr names (checked on every axis) or ``<sensor>_<term>`` (gyro_N, accel_K, ...).
 
-Example
--------
+Examples
+--------
 >>> unit_name("/data/unit 7/imu.npy", "/data")
 'unit_7__imu'
 """
