@@ -66,6 +66,10 @@ def public_names() -> dict[str, list[tuple[str, str, str]]]:
     object.
     """
     modules = {m: importlib.import_module(m) for m in public_modules()}
+    missing = sorted(m for m, mod in modules.items() if not hasattr(mod, "__all__"))
+    if missing:
+        raise RuntimeError(f"public modules without __all__ (the API reference lists what "
+                           f"__all__ names): {', '.join(missing)}")
     # Objects fetched once (a module may build an attribute on each access).
     objects = {m: {name: getattr(mod, name) for name in mod.__all__}
                for m, mod in modules.items()}
