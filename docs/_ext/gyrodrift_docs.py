@@ -290,9 +290,18 @@ def run_doxygen() -> None:
     stamp.write_text(digest.hexdigest())
 
 
+def cpp_areas() -> dict[str, str]:
+    """Every header area (a folder of include/gyrodrift) -> its page title: a new area gets a
+    page without an edit here (titled by its name until CPP_AREAS gives it one)."""
+    inc = ROOT / "include" / "gyrodrift"
+    return {d.name: CPP_AREAS.get(d.name, f"{d.name.capitalize()} headers")
+            for d in sorted(inc.iterdir()) if d.is_dir() and any(d.glob("*.hpp"))}
+
+
 def generate_cpp_pages() -> None:
     inc = ROOT / "include" / "gyrodrift"
-    for area, title in CPP_AREAS.items():
+    areas = cpp_areas()
+    for area, title in areas.items():
         lines = [".. Generated from include/gyrodrift by docs/_ext/gyrodrift_docs.py.\n",
                  _title(title),
                  f"Umbrella header: ``#include <gyrodrift/{area}.hpp>``.\n"]
@@ -302,6 +311,9 @@ def generate_cpp_pages() -> None:
             lines += [_title(f"<gyrodrift/{area}/{h.name}>", "-"),
                       f".. doxygenfile:: {h.name}\n   :project: gyrodrift\n"]
         write_if_changed(CPP / f"{area}.rst", "\n".join(lines))
+    for old in CPP.glob("*.rst"):
+        if old.stem not in areas:
+            old.unlink()
 
 
 # ------------------------------------------------------------------ Sphinx hooks
