@@ -267,6 +267,27 @@ def test_every_subcommand_and_flag_is_in_the_cli_reference(site: Path) -> None:
     assert not problems, f"not in the command line reference: {problems}"
 
 
+def test_every_header_is_in_the_cpp_reference(site: Path) -> None:
+    """Each header of every folder of include/gyrodrift (generated coefficient tables aside)
+    has its section on its area's page, with at least one documented declaration."""
+    inc = ROOT / "include" / "gyrodrift"
+    missing = []
+    for header in sorted(inc.glob("*/*.hpp")):
+        if header.name.startswith("lifting_coefficients_"):
+            continue
+        area = header.parent.name
+        page = site / "cpp" / f"{area}.html"
+        text = page.read_text() if page.is_file() else ""
+        start = text.find(f"<h2>&lt;gyrodrift/{area}/{header.name}&gt;")
+        if start < 0:
+            missing.append(f"{area}/{header.name}")
+            continue
+        end = text.find("<h2>", start + 4)
+        if 'class="sig sig-object cpp"' not in text[start:end if end > 0 else len(text)]:
+            missing.append(f"{area}/{header.name} (no declaration)")
+    assert not missing, missing
+
+
 # ------------------------------------------------------------------ in a browser
 
 
