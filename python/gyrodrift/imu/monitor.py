@@ -191,7 +191,7 @@ def _drift_autocovariance(a1: float, a2: float, q: float, lags: int) -> np.ndarr
 
 def model_avar(drift: tuple[float, float, float, float, float], octaves: int) -> np.ndarray:
     """The exact (non-overlapped) Allan variance of the drift model "AR(2) drift + white noise"
-    at averaging factors m = 2^k, k = 0 .. octaves - 1, in (units of the model)^2:
+    at averaging factors m = 2^k, k = 0 .. octaves - 1, in (units of the model)^2::
 
         sigma^2(m) = r / m + (1 / m^2) [ sum_{|k|<m} (m - |k|) gamma_k
                                          - sum_{k=1}^{2m-1} min(k, 2m - k) gamma_k ],
