@@ -267,9 +267,9 @@ def reference_from_config(cfg: ProcessorConfig, channel: str) -> MonitorReferenc
 def reference_from_record(y_rad_s: ArrayLike, rate_hz: float, learn_s: float,
                           octaves: int) -> MonitorReference:
     """The reference learned from the first `learn_s` seconds of a record: the offline
-    maximum-likelihood fit of that span (:func:`gyrodrift.filters.fit_drift_model`,
+    maximum-likelihood fit of that span (:func:`gyrodrift.filters.drift_model.fit_drift_model`,
     AR(2) + white) as the drift model, and the span's own streaming Allan variance as the
-    expected curve, at the octaves where it has at least :data:`LEARN_MIN_TERMS` squared
+    expected curve, at the octaves where it has at least ``LEARN_MIN_TERMS`` squared
     differences (at most `octaves`).
 
     Raises
