@@ -47,6 +47,10 @@ std::string settings_problem(const Settings& s) {
     return "warmup_blocks must be 0 (gain 1/k from the start) or a finite number >= 1";
   }
   if (!(s.lambda_start > 0.0 && s.lambda_start <= 1.0)) return "lambda_start must be in (0, 1]";
+  if (!std::isfinite(s.info_blocks) || !(s.info_blocks == 0.0 || s.info_blocks >= 1.0)) {
+    return "info_blocks must be 0 or a finite number >= 1";
+  }
+  if (!std::isfinite(s.min_ar_wald) || !(s.min_ar_wald >= 0.0)) return "min_ar_wald must be a finite number >= 0";
   return "";
 }
 
@@ -87,6 +91,8 @@ class OnlineDriftPy {
     cs.warmup_blocks = static_cast<Scalar>(s.warmup_blocks);
     cs.lambda_start = static_cast<Scalar>(s.lambda_start);
     cs.adapt_ar = s.adapt_ar;
+    cs.info_blocks = static_cast<Scalar>(s.info_blocks);
+    cs.min_ar_wald = static_cast<Scalar>(s.min_ar_wald);
     const DriftModelParams<Scalar> m{static_cast<Scalar>(a1), static_cast<Scalar>(a2), static_cast<Scalar>(q),
                                      static_cast<Scalar>(r), static_cast<Scalar>(mean)};
     if (!core_.configure(m, cs)) {
@@ -228,7 +234,8 @@ void bind_online_drift(py::module_& m) {
                        "Settings of the online drift identifier (keyword-only; defaults from C++).")
       .def(py::init([](std::uint32_t block_samples, std::uint32_t retune_blocks, std::uint64_t min_samples,
                        double memory_blocks, double max_step, double max_rel_stderr, double max_innovation_ratio,
-                       std::uint8_t ar_order, double warmup_blocks, double lambda_start, bool adapt_ar) {
+                       std::uint8_t ar_order, double warmup_blocks, double lambda_start, bool adapt_ar,
+                       double info_blocks, double min_ar_wald) {
              Settings s;
              s.block_samples = block_samples;
              s.retune_blocks = retune_blocks;
@@ -241,6 +248,8 @@ void bind_online_drift(py::module_& m) {
              s.warmup_blocks = warmup_blocks;
              s.lambda_start = lambda_start;
              s.adapt_ar = adapt_ar;
+             s.info_blocks = info_blocks;
+             s.min_ar_wald = min_ar_wald;
              check_settings(s);
              return s;
            }),
@@ -250,7 +259,8 @@ void bind_online_drift(py::module_& m) {
            py::arg("max_rel_stderr") = Settings{}.max_rel_stderr,
            py::arg("max_innovation_ratio") = Settings{}.max_innovation_ratio,
            py::arg("ar_order") = Settings{}.ar_order, py::arg("warmup_blocks") = Settings{}.warmup_blocks,
-           py::arg("lambda_start") = Settings{}.lambda_start, py::arg("adapt_ar") = Settings{}.adapt_ar)
+           py::arg("lambda_start") = Settings{}.lambda_start, py::arg("adapt_ar") = Settings{}.adapt_ar,
+           py::arg("info_blocks") = Settings{}.info_blocks, py::arg("min_ar_wald") = Settings{}.min_ar_wald)
       .def_readwrite("block_samples", &Settings::block_samples)
       .def_readwrite("retune_blocks", &Settings::retune_blocks)
       .def_readwrite("min_samples", &Settings::min_samples)
@@ -261,7 +271,9 @@ void bind_online_drift(py::module_& m) {
       .def_readwrite("ar_order", &Settings::ar_order)
       .def_readwrite("warmup_blocks", &Settings::warmup_blocks)
       .def_readwrite("lambda_start", &Settings::lambda_start)
-      .def_readwrite("adapt_ar", &Settings::adapt_ar);
+      .def_readwrite("adapt_ar", &Settings::adapt_ar)
+      .def_readwrite("info_blocks", &Settings::info_blocks)
+      .def_readwrite("min_ar_wald", &Settings::min_ar_wald);
   bind_one<double>(m, "OnlineDriftIdentifier",
                    "Online recursive-prediction-error identifier of the drift model, double state; "
                    "push(float64 array).");

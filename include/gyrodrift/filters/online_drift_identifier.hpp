@@ -29,7 +29,7 @@
 //   gamma_k = gamma_{k-1} / (gamma_{k-1} + lambda_k) (-> 1/k: the early blocks' information,
 //   gathered far from the optimum, is discounted); warmup_blocks = 0: gamma_k = 1/k. With
 //   forgetting, gamma_k >= 1/memory_blocks.
-//   R_k = R_{k-1} + gamma_k (H_block / B - R_{k-1})              (average information per sample)
+//   R_k = R_{k-1} + max(gamma_k, 1/info_blocks) (H_block / B - R_{k-1})   (information per sample)
 //   step = -gamma_k (R_k + mu diag R_k)^-1 G_block / B           (mu = 2^-16, Marquardt)
 // scaled as a whole so that no component exceeds max_step (the direction is kept: the
 // parameters are strongly correlated along the likelihood's ridge, and clipping components
@@ -54,7 +54,8 @@
 //     retune interval is outside [1/max_innovation_ratio, max_innovation_ratio] (the model does
 //     not describe the data: a divergence): status fallback;
 //   - the relative standard error of q or of r (= the stderr of log q, log r) exceeds
-//     max_rel_stderr (the drift/white split is not identified; the online analogue of the
+//     max_rel_stderr, or (AR part estimated) its Wald statistic against white drift is below
+//     min_ar_wald (the drift/white split is not identified; the online analogue of the
 //     offline fit's split check): status not_identified;
 //   - the steady-state gain of the estimate (Riccati recursion warm-started from the main
 //     filter's covariance, at most kOnlineDriftRetuneIterations steps, stopped as in
@@ -64,8 +65,8 @@
 // Ar2SteadyStateKalman's, computed once at configure()) back in use. The estimate keeps running
 // in every case, so a later retune can accept it again.
 //
-// State: sizeof(OnlineDriftIdentifier<float>) is 400 bytes, <double> 728 on x86-64 (checked in
-// cpp/tests/test_online_drift_identifier.cpp; the Cortex-M gate unit reports the float size).
+// State: sizeof(OnlineDriftIdentifier<float>) is 408 bytes, <double> 744 on x86-64 (checked in
+// cpp/tests/test_online_drift_identifier.cpp; the float size is the same on Cortex-M4).
 // Per-sample work: 4 filter steps (about 200 flops, 4 divisions, 1 square root).
 // Allocation-free, noexcept, deterministic, templated on Scalar; float-safe (no double
 // arithmetic in a float instantiation).
@@ -132,6 +133,17 @@ struct OnlineDriftSettings {
   // Added: false holds a1, a2 at the configured values and identifies q and r only (better
   // conditioned when tracking a change of the noise levels with forgetting).
   bool adapt_ar = true;
+  // Added: memory of the information matrix R in blocks (its gain is at least
+  // 1/info_blocks; 0: R averages every block as theta does). R is the Gauss-Newton metric
+  // of the steps and gives the standard errors and the identification guard, so it must
+  // describe the information at the current estimate, not an average over the path there
+  // (at a white-noise record the information about the split vanishes only at the optimum).
+  Scalar info_blocks = Scalar(50);
+  // Added: with adapt_ar, the split is identified only if the drift is told from white noise:
+  // the Wald statistic of the AR part against zero, u^T Cov(u)^-1 u (u = (u1, u2), chi-square
+  // with 2 degrees of freedom, 1 with ar_order 1) is at least this. At a1 = a2 = 0 the drift
+  // is white and q, r are not separable, although the linearised stderrs near there are finite.
+  Scalar min_ar_wald = Scalar(25);
 };
 
 template <class Scalar>
@@ -154,7 +166,9 @@ class OnlineDriftIdentifier {
         std::isfinite(s.max_innovation_ratio) && s.max_innovation_ratio > Scalar(1) &&
         (s.ar_order == 1 || s.ar_order == 2) && std::isfinite(s.warmup_blocks) &&
         (s.warmup_blocks == Scalar(0) || s.warmup_blocks >= Scalar(1)) && s.lambda_start > Scalar(0) &&
-        s.lambda_start <= Scalar(1);
+        s.lambda_start <= Scalar(1) && std::isfinite(s.info_blocks) &&
+        (s.info_blocks == Scalar(0) || s.info_blocks >= Scalar(1)) && std::isfinite(s.min_ar_wald) &&
+        s.min_ar_wald >= Scalar(0);
     const bool model_ok = drift_params_status(configured) == Ar2Status::ok && configured.r > Scalar(0) &&
                           (s.ar_order == 2 || configured.a2 == Scalar(0));
     if (!settings_ok || !model_ok) {
@@ -462,7 +476,11 @@ class OnlineDriftIdentifier {
     gamma_ = gamma;
     const Scalar m = settings_.memory_blocks;
     if (m > Scalar(0) && gamma < Scalar(1) / m) gamma = Scalar(1) / m;
-    for (int i = 0; i < 10; ++i) r_info_[i] += gamma * (h_[i] * inv_b - r_info_[i]);
+    Scalar gamma_r = gamma;
+    if (settings_.info_blocks > Scalar(0) && gamma_r < Scalar(1) / settings_.info_blocks) {
+      gamma_r = Scalar(1) / settings_.info_blocks;
+    }
+    for (int i = 0; i < 10; ++i) r_info_[i] += gamma_r * (h_[i] * inv_b - r_info_[i]);
     Scalar gb[4];
     for (int j = 0; j < 4; ++j) gb[j] = g_[j] * inv_b;
     for (int j = 0; j < 2; ++j) {
@@ -500,6 +518,18 @@ class OnlineDriftIdentifier {
     nis_sum_ += nis_block_;
     nis_block_ = Scalar(0);
     if (blocks_ % settings_.retune_blocks == 0) retune();
+  }
+
+  // Wald statistic of the free AR parameters against zero (0 when none is free).
+  Scalar ar_wald(const Scalar* cov) const noexcept {
+    if (is_free(0) && is_free(1)) {
+      const Scalar c00 = cov[0], c01 = cov[1], c11 = cov[5];
+      const Scalar det = c00 * c11 - c01 * c01;
+      if (!(det > Scalar(0))) return Scalar(0);
+      return (c11 * u_[0] * u_[0] - Scalar(2) * c01 * u_[0] * u_[1] + c00 * u_[1] * u_[1]) / det;
+    }
+    if (is_free(0)) return cov[0] > Scalar(0) ? u_[0] * u_[0] / cov[0] : Scalar(0);
+    return std::numeric_limits<Scalar>::infinity();  // AR part held: nothing to test
   }
 
   bool at_bound() const noexcept {
@@ -566,7 +596,7 @@ class OnlineDriftIdentifier {
       return;
     }
     const Scalar lim = settings_.max_rel_stderr;
-    if (!(std::sqrt(cov[10]) <= lim) || !(std::sqrt(cov[15]) <= lim)) {
+    if (!(std::sqrt(cov[10]) <= lim) || !(std::sqrt(cov[15]) <= lim) || !(ar_wald(cov) >= settings_.min_ar_wald)) {
       refuse(OnlineDriftStatus::not_identified);
       return;
     }
