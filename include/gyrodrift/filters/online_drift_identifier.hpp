@@ -337,6 +337,12 @@ class OnlineDriftIdentifier {
     logq_ = std::log(q0);
     logr_ = std::log(r0);
     set_params();
+    if (configured_.q > Scalar(0)) {  // exactly the configured model until the first update
+      estimate_.a1 = configured_.a1;
+      estimate_.a2 = configured_.a2;
+      estimate_.q = configured_.q;
+      estimate_.r = configured_.r;
+    }
     // The estimate starts at the configured model where it is representable.
     const Scalar mean0 = configured_.mean;
     estimate_.mean = mean0;

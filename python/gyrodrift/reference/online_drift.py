@@ -153,6 +153,8 @@ class OnlineDriftReference:
             min(max(math.atanh(a2), -_MAX_U), _MAX_U) if ar_order == 2 else 0.0,
             math.log(q0), math.log(r)])
         self._set_params()
+        if q > 0:  # exactly the configured model until the first update
+            self.params = (a1, a2, q, r)
         self.mean = mean
         self.in_use = self.configured
         self.gain = self.cgain
