@@ -22,6 +22,11 @@ Prints one row per case (averaged over seeds) with the ratios to the optimum.
 
     python scripts/online_drift_mc.py            # fast: 1 seed, 240000 samples
     python scripts/online_drift_mc.py --full     # the docs run: 5 seeds, 480000 samples
+    python scripts/online_drift_mc.py --convergence   # online estimate vs offline ML fit
+
+--convergence: for both pairs, r/q in {1, 3} and seeds 1-3, 240000 samples, no forgetting,
+the configured model as above; prints (online - ML) / (the offline fit's standard error) for
+a1, a2, q, r, mean after the last sample.
 """
 
 from __future__ import annotations
@@ -161,11 +166,38 @@ def run_case(case: Case) -> dict[str, float]:
     return out
 
 
+def convergence(seeds: int = 3, n: int = 240000) -> None:
+    """Print the online estimate's distance to the offline ML fit in offline standard errors."""
+    print(f"# {n} samples; (online - ML) / offline stderr; ML identified")
+    print(f"{'a1':>7} {'a2':>7} {'r/q':>4} {'seed':>4} {'z_a1':>6} {'z_a2':>6} {'z_q':>6} "
+          f"{'z_r':>6} {'z_mean':>6} {'ident':>5} {'status':>14}")
+    names = ("a1", "a2", "q", "r", "mean")
+    for a1, a2 in PAIRS:
+        for ratio in RATIOS:
+            for seed in range(1, seeds + 1):
+                y, _, _, _ = simulate(Case(a1, a2, ratio, "none", n, seed))
+                fit = gyrodrift.fit_drift_model(y, rate_hz=400.0)
+                ident = OnlineDriftIdentifier(
+                    DriftParams(0.8 * a1, 0.5 * a2 + 0.03, 1.5, 0.7 * ratio, 0.0),
+                    OnlineDriftSettings(block_samples=400, retune_blocks=50, min_samples=100000))
+                ident.push(y)
+                est = ident.estimate
+                z = [(getattr(est, k) - getattr(fit, k)) / fit.stderr[k] for k in names]
+                print(f"{a1:7.4f} {a2:7.4f} {ratio:4.1f} {seed:4d} "
+                      + " ".join(f"{v:+6.2f}" for v in z)
+                      + f" {fit.identified!s:>5} {ident.status:>14}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--full", action="store_true", help="5 seeds, 480000 samples (docs run)")
     ap.add_argument("--seed", type=int, default=1, help="first seed")
+    ap.add_argument("--convergence", action="store_true",
+                    help="the online estimate against the offline ML fit instead")
     args = ap.parse_args()
+    if args.convergence:
+        convergence()
+        return
     seeds, n = (5, 480000) if args.full else (1, 240000)
     t0 = time.monotonic()
     print(f"# {n} samples, {seeds} seed(s) per row, q = 1 before the change; MSE against the "

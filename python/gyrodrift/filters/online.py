@@ -229,7 +229,7 @@ class OnlineDriftTrace:
     gain : ndarray (n, 2)
         Steady-state Kalman gain (k0, k1) of in_use.
     status : ndarray (n,) uint8
-        Status codes (names in :data:`ONLINE_DRIFT_STATUS`).
+        Status codes (names in ``ONLINE_DRIFT_STATUS``).
     stderr : ndarray (n, 5)
         Standard errors of the estimate (NaN while unavailable).
     retuned : ndarray (n,) bool
@@ -379,7 +379,7 @@ class OnlineDriftIdentifier:
 
     @property
     def status(self) -> str:
-        """One of :data:`ONLINE_DRIFT_STATUS`."""
+        """One of ``ONLINE_DRIFT_STATUS``."""
         return ONLINE_DRIFT_STATUS[int(self._impl.status)]
 
     @property
