@@ -42,9 +42,9 @@
 // Cost: per update() two counter updates and one comparison of the sample count; per new term
 // at an octave (two per sample on average, amortized) a subtraction, a division, a square root
 // and a comparison.
-// State (sizeof, float, 32-bit MCU): 20 bytes per octave (reference, block start as a
-// compensated pair, its term count, the edf per term) plus a fixed part (settings, factors,
-// masks, counts, five trips); docs/guides/health-alarms.md gives the sizes.
+// State (sizeof, float, Cortex-M4): 20 bytes per octave (reference variance and edf per term,
+// block start as a compensated pair, its term count) plus 256 bytes (settings, factors, class
+// masks, counts, five trips of 24 bytes): 576 bytes for 16 octaves (docs/guides/health-alarms.md).
 // The numpy reference is gyrodrift.reference.health (same equations).
 #pragma once
 
@@ -285,7 +285,7 @@ class HealthAlarms {
     if (terms == 0) return;
     const std::uint32_t since = static_cast<std::uint32_t>(terms) - snap_terms_[k];  // modulo 2^32
     Scalar var = Scalar(0);
-    std::uint64_t tested = 0;
+    std::uint32_t tested = 0;  // 32-bit: a hardware conversion to float on the MCU
     if (since >= settings_.block_terms) {
       const CompensatedSum<Scalar> cur = allan.sum_sq(k);
       const Scalar sum = (cur.sum - snap_[k].sum) + (cur.comp - snap_[k].comp);
@@ -295,7 +295,7 @@ class HealthAlarms {
       snap_terms_[k] = static_cast<std::uint32_t>(terms);
     } else if (terms < settings_.block_terms) {
       if (!allan.avar(k, var)) return;
-      tested = terms;
+      tested = static_cast<std::uint32_t>(terms);  // < block_terms
     } else {
       return;
     }
