@@ -3,4 +3,5 @@
 #pragma once
 
 #include "imu/gyro_monitor.hpp"
+#include "imu/health_alarms.hpp"
 #include "imu/imu_processor.hpp"
