@@ -4,9 +4,10 @@
 //       rate_random_walk_factor, false_alarm_probability, stuck_samples, saturated_samples,
 //       reidentify, block_samples, retune_blocks, min_samples, memory_blocks, max_step,
 //       max_rel_stderr)                       durations in samples (the caller converts seconds)
-//   GyroMonitorRun(settings, model, reference_avar)      double state
-//   GyroMonitorRunF32(settings, model, reference_avar)   float state, as on the target
-//     model: (a1, a2, q, r, mean); reference_avar: expected Allan variance per octave
+//   GyroMonitorRun(settings, model, reference_avar, reference_edf)      double state
+//   GyroMonitorRunF32(settings, model, reference_avar, reference_edf)   float state, as on the target
+//     model: (a1, a2, q, r, mean); reference_avar: expected Allan variance per octave;
+//     reference_edf: edf per term of the alarms' block test per octave (0: from the slope)
 //     .run(y, stuck, saturated, report_every, coverage) -> dict of per-report arrays
 //     .latched(y, stuck, saturated) -> u16 latched alarm bits after each sample
 //     .trips() -> {alarm name: {statistic, threshold, tau_s, sample}} for the raised alarms
@@ -101,7 +102,8 @@ class GyroMonitorRunPy {
   using Monitor = GyroMonitor<Scalar, kMonitorOctaves>;
 
  public:
-  GyroMonitorRunPy(const MonitorSettingsPy& settings, py::tuple model, const CArray<double>& reference_avar) {
+  GyroMonitorRunPy(const MonitorSettingsPy& settings, py::tuple model, const CArray<double>& reference_avar,
+                   const CArray<double>& reference_edf) {
     const GyroMonitorSettings<Scalar> s = settings.to_core<Scalar>();
     if (model.size() != 5) throw py::value_error("model: expected (a1, a2, q, r, mean)");
     DriftModelParams<Scalar> p{};
@@ -116,7 +118,13 @@ class GyroMonitorRunPy {
     }
     typename Monitor::Reference ref{};
     ref.octaves = static_cast<std::size_t>(reference_avar.shape(0));
-    for (std::size_t k = 0; k < ref.octaves; ++k) ref.avar[k] = static_cast<Scalar>(reference_avar.data()[k]);
+    if (reference_edf.ndim() != 1 || reference_edf.shape(0) != reference_avar.shape(0)) {
+      throw py::value_error("reference_edf: expected one value per reference octave (0: from the slope)");
+    }
+    for (std::size_t k = 0; k < ref.octaves; ++k) {
+      ref.avar[k] = static_cast<Scalar>(reference_avar.data()[k]);
+      ref.edf_per_term[k] = static_cast<Scalar>(reference_edf.data()[k]);
+    }
     const GyroMonitorStatus st = monitor_.configure(s, p, ref);
     if (st == GyroMonitorStatus::bad_model) {
       throw py::value_error("model: not a valid stationary drift model (a1, a2, q >= 0, r >= 0, q + r > 0, mean)");
@@ -276,8 +284,9 @@ template <class Scalar>
 void bind_run(py::module_& m, const char* name, const char* doc) {
   using T = GyroMonitorRunPy<Scalar>;
   py::class_<T>(m, name, doc)
-      .def(py::init<const MonitorSettingsPy&, py::tuple, const CArray<double>&>(), py::arg("settings"),
-           py::arg("model"), py::arg("reference_avar").noconvert())
+      .def(py::init<const MonitorSettingsPy&, py::tuple, const CArray<double>&, const CArray<double>&>(),
+           py::arg("settings"), py::arg("model"), py::arg("reference_avar").noconvert(),
+           py::arg("reference_edf").noconvert())
       .def("run", &T::run, py::arg("y").noconvert(), py::arg("stuck").noconvert(),
            py::arg("saturated").noconvert(), py::arg("report_every"), py::arg("coverage"),
            "Push the samples (1-D, C-contiguous) with their stuck/saturated flags; returns the "

@@ -20,38 +20,6 @@ namespace gyrodrift::loop {
 // The most octaves a configuration may give the monitor (the schema's bound): the loop's capacity.
 inline constexpr std::size_t kLoopMonitorOctaves = static_cast<std::size_t>(config_schema::kMonitorOctaves.hi);
 
-// The exact non-overlapped Allan variance of the drift model "AR(2) drift + white noise" at
-// averaging factors m = 2^k, k < octaves (gyrodrift.imu.monitor.model_avar, the same sum):
-//   sigma^2(m) = r / m + (1 / m^2) [ m g0 + 2 sum_{k=1}^{m-1} (m - k) g_k - sum_{k=1}^{2m-1} min(k, 2m - k) g_k ]
-// with g_k the drift's autocovariance (g_k = a1 g_{k-1} + a2 g_{k-2}), in double on the host;
-// one pass over the lags, each lag added to the octaves it belongs to.
-inline void drift_model_avar(double a1, double a2, double q, double r, std::size_t octaves, double* out) {
-  const double d = (1.0 + a2) * ((1.0 - a2) * (1.0 - a2) - a1 * a1);
-  const double g0 = q == 0.0 ? 0.0 : q * (1.0 - a2) / d;
-  const double g1 = q == 0.0 ? 0.0 : a1 * g0 / (1.0 - a2);
-  std::array<double, kLoopMonitorOctaves> var_sum{}, cov_sum{};
-  if (octaves > kLoopMonitorOctaves) octaves = kLoopMonitorOctaves;
-  const std::uint64_t lags = std::uint64_t{1} << octaves;  // 2 m_max
-  double gm2 = g0, gm1 = g1;
-  for (std::uint64_t k = 1; k < lags; ++k) {
-    const double gk = k == 1 ? g1 : a1 * gm1 + a2 * gm2;
-    if (k > 1) {
-      gm2 = gm1;
-      gm1 = gk;
-    }
-    for (std::size_t j = 0; j < octaves; ++j) {
-      const std::uint64_t m = std::uint64_t{1} << j;
-      if (k >= 2 * m) continue;
-      if (k < m) var_sum[j] += static_cast<double>(m - k) * gk;
-      cov_sum[j] += static_cast<double>(k < m ? k : 2 * m - k) * gk;
-    }
-  }
-  for (std::size_t j = 0; j < octaves; ++j) {
-    const auto m = static_cast<double>(std::uint64_t{1} << j);
-    out[j] = r / m + (m * g0 + 2.0 * var_sum[j] - cov_sum[j]) / (m * m);
-  }
-}
-
 class Processing {
  public:
   // The window comes from the configuration file at run time: one stage type over every
@@ -107,11 +75,13 @@ class Processing {
       on[c] = m.channels[c];
       if (!on[c]) continue;
       const ImuChannelConfig<float>& cc = fc.imu.channels[c];
-      double avar[kMonitorOctaves] = {};
-      drift_model_avar(static_cast<double>(cc.model.a1), static_cast<double>(cc.model.a2), static_cast<double>(cc.q),
-                       static_cast<double>(cc.r), m.octaves, avar);
-      refs[c].octaves = m.octaves;
-      for (std::size_t k = 0; k < m.octaves; ++k) refs[c].avar[k] = static_cast<float>(avar[k]);
+      // the model's exact Allan variance and block edf per octave (computed in double)
+      const DriftModelParams<float> model{cc.model.a1, cc.model.a2, cc.q, cc.r, cc.model.mean};
+      if (!health_reference_from_drift_model(model, m.octaves, refs[c], s.alarms.block_terms)) {
+        error = std::string("channels.") + config_schema::kChannelNames[c] +
+                ": the monitor cannot compute this model's Allan variance";
+        return false;
+      }
     }
     if (proc_->configure_monitor(s, refs, on) != GyroMonitorStatus::ok) {
       error = "monitor: the gyro monitor refuses this configuration (a value out of float range?)";

@@ -188,18 +188,21 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
     n = m.samples(rate)
     octaves = int(m.octaves)
     monitored = cfg.monitored_channels()
-    table = []
+    table, edf_table = [], []
     for ch in CHANNEL_NAMES[:3]:
         if ch in monitored:
-            avar = reference_from_config(cfg, ch).avar
+            ref = reference_from_config(cfg, ch)
+            edf = ref.edf_per_term if ref.edf_per_term is not None else np.zeros(octaves)
             try:
-                lits = [float_literal(float(v)) for v in avar]
+                lits = [float_literal(float(v)) for v in ref.avar]
+                edf_lits = [float_literal(float(v)) for v in edf]
             except GyrodriftValueError as exc:
                 raise ConfigError(f"channels.{ch}", f"the monitor's reference Allan variance "
                                                     f"of this channel's model: {exc}") from None
         else:
-            lits = ["0.0f"] * octaves
+            lits = edf_lits = ["0.0f"] * octaves
         table.append(f"    {{{', '.join(lits)}}},  // {ch}")
+        edf_table.append(f"    {{{', '.join(edf_lits)}}},  // {ch}")
     flags = ", ".join("true" if ch in monitored else "false" for ch in CHANNEL_NAMES[:3])
     return [
         "// The gyro monitor ([monitor] table): durations in samples at the sample rate, and each",
@@ -208,6 +211,10 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
         f"inline constexpr bool kMonitorChannels[3] = {{{flags}}};",
         "inline constexpr float kMonitorReferenceAvar[3][kMonitorOctaves] = {",
         *table,
+        "};",
+        "// edf per squared difference of the alarms' block test under the model",
+        "inline constexpr float kMonitorReferenceEdf[3][kMonitorOctaves] = {",
+        *edf_table,
         "};",
         "inline gyrodrift::GyroMonitorSettings<float> monitor_settings() noexcept {",
         "  gyrodrift::GyroMonitorSettings<float> s;",
@@ -233,8 +240,10 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
         "  std::array<Processor::MonitorReference, 3> refs{};",
         "  for (std::size_t c = 0; c < 3; ++c) {",
         "    refs[c].octaves = kMonitorChannels[c] ? kMonitorOctaves : 0U;",
-        "    for (std::size_t k = 0; k < kMonitorOctaves; ++k) refs[c].avar[k] = "
-        "kMonitorReferenceAvar[c][k];",
+        "    for (std::size_t k = 0; k < kMonitorOctaves; ++k) {",
+        "      refs[c].avar[k] = kMonitorReferenceAvar[c][k];",
+        "      refs[c].edf_per_term[k] = kMonitorReferenceEdf[c][k];",
+        "    }",
         "  }",
         "  const std::array<bool, 3> on{kMonitorChannels[0], kMonitorChannels[1], "
         "kMonitorChannels[2]};",

@@ -44,6 +44,10 @@ __all__ = [
 STATUS_NAMES = {-1: "off", 0: "unconfigured", 1: "learning", 2: "tracking",
                 3: "not_identified", 4: "fallback"}
 
+#: Squared differences per block test of the alarms at each octave (HealthAlarmSettings
+#: block_terms, its default): the edf of a model reference is that of such a block.
+BLOCK_TERMS = 64
+
 #: A learned reference keeps the octaves whose Allan variance has at least this many squared
 #: differences in the learning span (fewer: too uncertain to compare against).
 LEARN_MIN_TERMS = 8
@@ -69,6 +73,7 @@ class MonitorReference:
     avar: np.ndarray
     source: str = "config"
     learn_s: float = 0.0
+    edf_per_term: np.ndarray | None = None  # per octave, of the alarms' block test (None: from the slope)
 
 
 @dataclass(frozen=True)
@@ -237,11 +242,15 @@ def reference_from_model(drift: tuple[float, float, float, float, float], rate_h
     """
     if not (math.isfinite(rate_hz) and rate_hz > 0.0):
         raise GyrodriftValueError(f"rate_hz must be a positive finite number, got {rate_hz!r}")
+    from gyrodrift.stability.model_allan import ar2_white_edf_per_term
+
     if len(drift) != 5:
         raise GyrodriftValueError("drift: expected (a1, a2, q, r, mean)")
     a1, a2, q, r, mean = (float(x) for x in drift)
     d = (a1, a2, q, r, mean)
-    return MonitorReference(drift=d, avar=model_avar(d, octaves), source="config")
+    edf = ar2_white_edf_per_term(a1, a2, q, r, int(octaves), BLOCK_TERMS)
+    return MonitorReference(drift=d, avar=model_avar(d, octaves), source="config",
+                            edf_per_term=np.asarray(edf, dtype=np.float64))
 
 
 def reference_from_config(cfg: ProcessorConfig, channel: str) -> MonitorReference:
@@ -369,9 +378,17 @@ def monitor_alarm_bits(cfg: ProcessorConfig, values: ArrayLike) -> np.ndarray:
         y = np.ascontiguousarray(v[:, c])
         stuck, sat = _stuck_saturated(y, float(np.float32(cc.saturation)), int(cc.stuck_samples))
         mon = native.GyroMonitorRunF32(s, tuple(float(x) for x in ref.drift),
-                                       np.ascontiguousarray(ref.avar, dtype=np.float64))
+                                       np.ascontiguousarray(ref.avar, dtype=np.float64),
+                                       _edf(ref))
         out |= np.asarray(mon.latched(y, stuck, sat), dtype=np.uint16)
     return out
+
+
+def _edf(reference: MonitorReference) -> np.ndarray:
+    """The reference's edf per term for the binding (zeros: derived from the curve's slope)."""
+    if reference.edf_per_term is None:
+        return np.zeros(np.asarray(reference.avar).size)
+    return np.ascontiguousarray(reference.edf_per_term, dtype=np.float64)
 
 
 def _settings(native: Any, cfg: MonitorConfig, rate_hz: float, octaves: int) -> Any:
@@ -465,7 +482,7 @@ def run_monitor(y_rad_s: ArrayLike, rate_hz: float, reference: MonitorReference,
     try:
         s = _settings(native, cfg, rate, octaves)
         cls = native.GyroMonitorRun if dt == np.float64 else native.GyroMonitorRunF32
-        mon = cls(s, tuple(float(x) for x in reference.drift), ref_avar)
+        mon = cls(s, tuple(float(x) for x in reference.drift), ref_avar, _edf(reference))
         out = mon.run(y, stuck_a, sat_a, every, float(cfg.coverage))
         raw_trips = mon.trips()
     except ValueError as exc:
