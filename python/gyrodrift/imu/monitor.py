@@ -61,6 +61,9 @@ class MonitorReference:
     fallback of the re-identification. avar: expected Allan variance at tau0 * 2^k, (rad/s)^2,
     one value per octave (from the drift model, or learned from the first part of a record).
     source: "config" or "learned" (with the learning span in seconds in learn_s).
+    edf_per_term: equivalent degrees of freedom per squared difference of the alarms' block
+    test, per octave, under the drift model (None: the alarms derive it from the curve's
+    slope, as for a learned reference).
 
     Examples
     --------
@@ -73,7 +76,7 @@ class MonitorReference:
     avar: np.ndarray
     source: str = "config"
     learn_s: float = 0.0
-    edf_per_term: np.ndarray | None = None  # per octave, of the alarms' block test (None: from the slope)
+    edf_per_term: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
