@@ -411,3 +411,32 @@ def test_loop_json_is_strict(loop_bin: Path, tmp_path: Path, rng: np.random.Gene
     frames, _ = _monitor_records(rng, 500)
     _, stats = _run_loop(loop_bin, on, frames, 500)
     json.dumps(stats, allow_nan=False)
+
+
+def test_run_monitor_is_the_composition_of_its_parts(rng: np.random.Generator) -> None:
+    # the monitor = the health alarms (gyrodrift.stability.health) fed the samples the monitor
+    # uses (stuck, saturated and non-finite ones as missing) with the processor's flags, and
+    # the noise estimates read from that curve: the same bits at every report, the same
+    # trips, the same estimates (double state, the same operations: 1e-12 relative)
+    from gyrodrift.stability.health import HealthAlarms, HealthAlarmSettings
+
+    y = _faulty_record(rng)
+    y[30_000:] *= 3.0  # ARW up 3x: the arw alarm trips
+    drift = (1.2, -0.3, 1e-10, 1e-8, 2e-3)
+    ref = reference_from_model(drift, RATE_HZ, 12)
+    settings = MonitorConfig(octaves=12, stuck_alarm_s=0.5, saturated_alarm_s=0.05)
+    tr = run_monitor(y, RATE_HZ, ref, settings=settings, report_every_s=20.0, saturation=0.1,
+                     stuck_samples=5)
+    stuck, sat = _stuck_saturated_by_hand(y, 0.1, 5)
+    ha = HealthAlarms(RATE_HZ, ref.avar, HealthAlarmSettings(stuck_samples=200,
+                                                             saturated_samples=20),
+                      edf_per_term=ref.edf_per_term)
+    bits = ha.run(np.where(stuck | sat, np.nan, y), stuck, sat)
+    np.testing.assert_array_equal(tr.health, bits[8000 - 1::8000])
+    assert set(tr.trips) == set(ha.trips) and "arw_high" in tr.trips and "stuck" in tr.trips
+    for name, trip in ha.trips.items():
+        assert tr.trips[name]["t_s"] == trip.sample / RATE_HZ
+        assert tr.trips[name]["statistic"] == pytest.approx(trip.statistic, rel=1e-12)
+    est = ha.estimate_noise(settings.coverage)
+    assert tr.n[-1] == pytest.approx(est.n.value, rel=1e-12)
+    assert tr.n_hi[-1] == pytest.approx(est.n.hi, rel=1e-12)
