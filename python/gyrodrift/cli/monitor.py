@@ -143,11 +143,11 @@ def run(args: argparse.Namespace) -> int:
         from gyrodrift.report.monitor import plot_monitor, segment_fits
 
         half = duration_s / 2.0
-        fits = segment_fits(y, rec.rate_hz, [(0.0, duration_s), (0.0, half),
-                                             (half, duration_s)])
-        plot_monitor(trace, args.png, fits=fits,
-                     fits_label="offline fit (whole record, each half)",
-                     title=f"gyrodrift monitor: {rec.source} {channel}")
+        whole, *halves = segment_fits(y, rec.rate_hz, [(0.0, duration_s), (0.0, half),
+                                                       (half, duration_s)])
+        plot_monitor(trace, args.png, fits=halves, fits_label="offline fit, each half",
+                     whole=whole, learn_s=reference.learn_s if reference.source == "learned"
+                     else 0.0, title=f"gyrodrift monitor: {rec.source} {channel}")
     if args.json:
         for row in rows:
             emit_json_line(row)

@@ -177,10 +177,13 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
 
 def plot_monitor(trace: MonitorTrace, path: str | Path, *,
                  fits: Sequence[SegmentFit] = (), fits_label: str = "offline fit",
+                 whole: SegmentFit | None = None, learn_s: float = 0.0,
                  title: str = "gyro monitor") -> Path:
     """N, B and K over time (online estimates with their intervals, upper limits of K as
     open triangles), each offline fit in ``fits`` as a horizontal line with its interval band
-    over its span, and a marker line at the time each alarm was first raised.
+    over its span (``whole``: the fit of the whole record, dashed), the learning span
+    [0, ``learn_s``] shaded when the reference was learned, and a marker line at the time
+    each alarm was first raised.
 
     Examples
     --------
@@ -231,6 +234,17 @@ def plot_monitor(trace: MonitorTrace, path: str | Path, *,
                 ax.plot([f.t0_s, f.t1_s], [fv, fv], "-", color="k", lw=1.5, label=lab)
                 if math.isfinite(flo) and math.isfinite(fhi):
                     ax.fill_between([f.t0_s, f.t1_s], flo, fhi, color="k", alpha=0.12, lw=0)
+        if whole is not None:
+            wv = getattr(whole, f"{name}_{unit}")
+            if name == "k" and whole.k_upper_limit:
+                wv = whole.k_hi_deg_h_rt_h
+            if math.isfinite(wv):
+                ax.plot([whole.t0_s, whole.t1_s], [wv, wv], "--", color="0.45", lw=1.2,
+                        label="offline fit, whole record" + (
+                            " (K upper limit)" if name == "k" and whole.k_upper_limit else ""))
+        if learn_s > 0.0:
+            ax.axvspan(0.0, learn_s, color="0.5", alpha=0.08, lw=0,
+                       label="learning span" if ax is axes[0] else None)
         for k, (flag, when) in enumerate(sorted(alarms.items(), key=lambda kv: kv[1])):
             ax.axvline(when, color=colors[(k + 3) % len(colors)], ls="--", lw=1,
                        label=f"alarm {flag}" if ax is axes[0] else None)

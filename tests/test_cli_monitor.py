@@ -1,0 +1,261 @@
+"""`gyrodrift monitor`: one-line argument errors, the JSON lines (schema, units checked with
+independent arithmetic), the reference (learned from --learn-s, or the configuration's drift
+model, whose Allan variance is checked against the autocovariance sum), the arw_high alarm
+after a 2x angle-random-walk step and not before, the plot, the exit code of --fail-on-alarm."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from gyrodrift.cli import main
+from gyrodrift.imu.config import drift_filter_config, write_config
+from gyrodrift.imu.monitor import MonitorTrace
+from gyrodrift.imu.monitor_reference import (
+    drift_model_avar,
+    learn_reference,
+    reference_from_config,
+)
+from gyrodrift.report.monitor import segment_fits, trace_rows
+
+RATE_HZ = 100.0
+#: one deg/h in rad/s, and one rad/sqrt(s) in deg/sqrt(h), written out (not from gyrodrift.units)
+DEG_H = math.pi / 180.0 / 3600.0
+RT_S_TO_RT_H = 180.0 / math.pi * 60.0
+
+
+@pytest.fixture(scope="module")
+def records(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """White-noise records in deg/h at 100 Hz: 'steady' (1 deg/h per sample, 240 s) and
+    'step' (1 deg/h for 150 s, then 2 deg/h: the angle random walk doubles)."""
+    d = tmp_path_factory.mktemp("monitor")
+    rng = np.random.default_rng(11)
+    steady = rng.normal(0.0, 1.0, 24000)
+    step = rng.normal(0.0, 1.0, 48000)
+    step[15000:] *= 2.0
+    out = {"steady": d / "steady.npy", "step": d / "step.npy", "dir": d}
+    np.save(out["steady"], steady)
+    np.save(out["step"], step)
+    return out
+
+
+def _fails(argv: list[str], capsys: pytest.CaptureFixture[str], *words: str) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("gyrodrift monitor: error:"), err
+    for w in words:
+        assert w in err, err
+
+
+def test_argument_errors_are_one_line(records: dict[str, Path], tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    rec = str(records["steady"])
+    base = ["monitor", rec, "--rate-hz", "100", "--gyro-units", "deg/h"]
+    # 240 s: too short for the default 600 s learning span plus a report
+    _fails(base, capsys, "shorter than the learning span", "600")
+    _fails([*base, "--learn-s", "235", "--report-every-s", "10"], capsys, "235 + 10")
+    _fails([*base, "--learn-s", "0"], capsys, "--learn-s")
+    _fails([*base, "--learn-s", "nan"], capsys, "--learn-s")
+    _fails([*base, "--report-every-s", "-5"], capsys, "--report-every-s")
+    _fails([*base, "--report-every-s", "300"], capsys, "shorter than one report interval")
+    _fails(["monitor", rec, "--rate-hz", "100"], capsys, "--gyro-units")
+    _fails([*base, "--learn-s", "60", "--png", str(tmp_path / "m.txt")], capsys,
+           "unsupported file type")
+    _fails([*base, "--config", str(tmp_path / "missing.toml")], capsys, "missing.toml")
+    # a configuration whose gyro channel has no drift model, one for another rate
+    cfg = tmp_path / "gz.toml"
+    write_config(drift_filter_config("gz", a1=0.5, a2=0.2, mean=0.0, q=1e-12, r=1e-10,
+                                     sample_rate_hz=RATE_HZ), cfg)
+    _fails([*base, "--config", str(cfg)], capsys, "gx has no ar2_kalman stage")
+    cfg400 = tmp_path / "gx400.toml"
+    write_config(drift_filter_config("gx", a1=0.5, a2=0.2, mean=0.0, q=1e-12, r=1e-10,
+                                     sample_rate_hz=400.0), cfg400)
+    _fails([*base, "--config", str(cfg400)], capsys, "400 Hz", "100 Hz")
+
+
+def test_drift_model_avar_is_the_autocovariance_sum() -> None:
+    """Allan variance of AR(2) drift + white noise against the definition: with the
+    autocovariance R(h) of the AR(2) (Yule-Walker recursion from its variance) and
+    D(n) = n R(0) + 2 sum_{h<n} (n - h) R(h) + n r, avar(m) = (4 D(m) - D(2m)) / (2 m^2).
+    Double sums of at most a few hundred terms: 1e-12 relative."""
+    for a1, a2, q, r in ((1.5, -0.56, 2.0, 0.3), (0.6868, -0.0213, 0.25, 0.09),
+                         (0.2, 0.5, 1.0, 0.0), (-0.5, 0.1, 1.0, 4.0)):
+        g0 = q * (1 - a2) / ((1 + a2) * ((1 - a2) ** 2 - a1 ** 2))
+        acov = [g0, a1 * g0 / (1 - a2)]
+        for _ in range(2, 260):
+            acov.append(a1 * acov[-1] + a2 * acov[-2])
+
+        def d(n: int, acov: list[float] = acov, r: float = r) -> float:
+            return n * acov[0] + 2 * sum((n - h) * acov[h] for h in range(1, n)) + n * r
+
+        want = [(4 * d(m) - d(2 * m)) / (2 * m * m) for m in (1, 2, 4, 8, 16, 32, 64, 128)]
+        np.testing.assert_allclose(drift_model_avar(a1, a2, q, r, 8), want, rtol=1e-12)
+    # the slow end: an AR(1) drift with a 1e5-sample correlation time averages out as
+    # tau_c / m for m >> tau_c (the white-noise limit of the drift: avar ~ 2 var tau_c / m)
+    phi = math.exp(-1e-5)
+    avar = drift_model_avar(phi, 0.0, 1.0 - phi * phi, 0.0, 32)
+    m = 2.0 ** 31
+    assert avar[-1] == pytest.approx(2.0 * 1e5 / m, rel=1e-3)
+    with pytest.raises(ValueError, match="not stationary"):
+        drift_model_avar(1.2, 0.0, 1.0, 1.0)
+
+
+def test_reference_from_config_is_the_channel_stage(tmp_path: Path) -> None:
+    cfg = drift_filter_config("gy", a1=0.9, a2=-0.1, mean=1e-5, q=1e-12, r=4e-10,
+                              sample_rate_hz=RATE_HZ)
+    ref = reference_from_config(cfg, "gy", 5)
+    assert ref.source == "config" and ref.drift == (0.9, -0.1, 1e-12, 4e-10, 1e-5)
+    np.testing.assert_allclose(ref.avar, drift_model_avar(0.9, -0.1, 1e-12, 4e-10, 5),
+                               rtol=0)
+
+
+def test_learned_reference_of_white_noise() -> None:
+    """White noise of 2e-5 rad/s per sample: the learned Allan variance at tau0 * 2^k is
+    sigma^2 / 2^k. Tolerance 10 %: the fit of 120 s (12000 samples) pins the white term to
+    about 1 % (edf ~ 8000 at tau0), the model selection may add a small B or K term that
+    shows at the longest octave used here (2^6 samples)."""
+    y = np.random.default_rng(5).normal(0.0, 2e-5, 30000)
+    ref = learn_reference(y, RATE_HZ, 120.0, 7)
+    assert ref.source == "learned" and ref.learn_s == 120.0
+    np.testing.assert_allclose(ref.avar, 4e-10 / 2.0 ** np.arange(7), rtol=0.1)
+    q, r = ref.drift[2:4]  # white noise: drift and white share the record's variance
+    assert r + q == pytest.approx(4e-10, rel=0.1)
+    # only the first 120 s are learned from: the rest of the record does not move it
+    y2 = y.copy()
+    y2[12000:] *= 10.0
+    assert learn_reference(y2, RATE_HZ, 120.0, 7).avar == pytest.approx(ref.avar, rel=1e-12)
+    with pytest.raises(ValueError, match="shorter than the learning span"):
+        learn_reference(y, RATE_HZ, 301.0)
+
+
+def _trace() -> MonitorTrace:
+    n = 2
+    one = np.ones(n)
+    return MonitorTrace(
+        t_s=np.array([10.0, 20.0]), n=2e-6 * one, n_lo=1.5e-6 * one, n_hi=3e-6 * one,
+        b=5e-7 * one, b_lo=np.array([math.nan, 4e-7]), b_hi=6e-7 * one,
+        k=np.array([math.nan, 3e-8]), k_lo=np.array([math.nan, 2e-8]), k_hi=4e-8 * one,
+        k_upper_limit=np.array([True, False]), a1=np.array([0.5, 0.6]), a2=0.1 * one,
+        q=1e-14 * one, r=2e-10 * one, mean=1e-6 * one, gain0=0.2 * one, gain1=0.1 * one,
+        status=("configured", "retuned"), health=np.array([0, 0b101], dtype=np.uint16),
+        alarm_names=("arw_high", "bias_instability_high", "rate_random_walk_high", "stuck",
+                     "saturated"),
+        trips={"arw_high": {"statistic": 1.9, "threshold": 1.4, "tau_s": 0.01, "t_s": 20.0},
+               "rate_random_walk_high": {"statistic": 3.0, "threshold": 2.0, "tau_s": 5.0,
+                                         "t_s": 20.0}})
+
+
+def test_rows_convert_to_ieee_units() -> None:
+    """The trace (rad/s base) as JSON rows: N rad/sqrt(s) * 180/pi * 60 = deg/sqrt(h);
+    B rad/s / (pi/180/3600) = deg/h; K rad/s/sqrt(s) * 180/pi * 3600 * 60 = deg/h/sqrt(h);
+    q, r (rad/s)^2 / (pi/180/3600)^2 = (deg/h)^2. Same-formula products: 1e-14 relative."""
+    rows = trace_rows(_trace())
+    r0, r1 = rows
+    rel = 1e-14
+    assert r0["t_s"] == 10.0 and r1["t_s"] == 20.0
+    assert r0["n_deg_rt_h"] == pytest.approx(2e-6 * RT_S_TO_RT_H, rel=rel)
+    assert r0["n_lo_deg_rt_h"] == pytest.approx(1.5e-6 * RT_S_TO_RT_H, rel=rel)
+    assert r0["n_hi_deg_rt_h"] == pytest.approx(3e-6 * RT_S_TO_RT_H, rel=rel)
+    assert r0["b_deg_h"] == pytest.approx(5e-7 / DEG_H, rel=rel)
+    assert r0["b_lo_deg_h"] is None and r1["b_lo_deg_h"] == pytest.approx(4e-7 / DEG_H, rel=rel)
+    assert r0["k_deg_h_rt_h"] is None and r0["k_upper_limit"] is True
+    assert r0["k_hi_deg_h_rt_h"] == pytest.approx(4e-8 / DEG_H * 60.0, rel=rel)
+    assert r1["k_deg_h_rt_h"] == pytest.approx(3e-8 / DEG_H * 60.0, rel=rel)
+    assert r1["k_upper_limit"] is False
+    assert r0["q_deg_h_sq"] == pytest.approx(1e-14 / DEG_H ** 2, rel=rel)
+    assert r0["r_deg_h_sq"] == pytest.approx(2e-10 / DEG_H ** 2, rel=rel)
+    assert r0["mean_deg_h"] == pytest.approx(1e-6 / DEG_H, rel=rel)
+    assert (r0["a1"], r1["a1"], r0["a2"], r0["gain"]) == (0.5, 0.6, 0.1, [0.2, 0.1])
+    assert (r0["status"], r1["status"]) == ("configured", "retuned")
+    assert r0["health"] == [] and r0["trips"] == {}
+    assert r1["health"] == ["arw_high", "rate_random_walk_high"]
+    assert r1["trips"]["arw_high"]["statistic"] == 1.9
+    json.dumps(rows, allow_nan=False)  # strict JSON as they are
+
+
+def test_segment_fits_of_a_step(records: dict[str, Path]) -> None:
+    """The offline fit of each half of the step record: N = sigma sqrt(dt) in deg/sqrt(h)
+    (1 deg/h and 2 deg/h per sample at 100 Hz: 1/60 * 0.1 and twice that); within 5 % (edf
+    of the N term above 1e4 per half)."""
+    y = np.load(records["step"]) * DEG_H
+    first, second = segment_fits(y, RATE_HZ, [(0.0, 150.0), (150.0, 480.0)])
+    assert first.n_deg_rt_h == pytest.approx(0.1 / 60.0, rel=0.05)
+    assert second.n_deg_rt_h == pytest.approx(0.2 / 60.0, rel=0.05)
+    assert first.n_lo_deg_rt_h < first.n_deg_rt_h < first.n_hi_deg_rt_h
+    (short,) = segment_fits(y, RATE_HZ, [(0.0, 0.05)])  # 5 samples: no fit
+    assert math.isnan(short.n_deg_rt_h)
+
+
+# ---------------------------------------------------------------- the command over the core
+
+KEYS = {"t_s", "n_deg_rt_h", "n_lo_deg_rt_h", "n_hi_deg_rt_h", "b_deg_h", "b_lo_deg_h",
+        "b_hi_deg_h", "k_deg_h_rt_h", "k_lo_deg_h_rt_h", "k_hi_deg_h_rt_h", "k_upper_limit",
+        "a1", "a2", "q_deg_h_sq", "r_deg_h_sq", "mean_deg_h", "gain", "status", "health",
+        "trips"}
+
+
+def _lines(out: str) -> list[dict[str, object]]:
+    return [json.loads(line) for line in out.splitlines()]
+
+
+def test_json_lines_one_per_report(records: dict[str, Path],
+                                   capsys: pytest.CaptureFixture[str]) -> None:
+    """240 s, a report every 20 s: 12 lines with the fields and the units of the table; N of
+    1 deg/h white noise at 100 Hz is 1/600 deg/sqrt(h) (the online interval holds it, or the
+    estimate is within 10 % of it: the Allan variance at tau0 over 24000 samples has edf
+    ~ 16000, 1 %)."""
+    assert main(["monitor", str(records["steady"]), "--rate-hz", "100", "--gyro-units", "deg/h",
+                 "--learn-s", "60", "--report-every-s", "20", "--json"]) == 0
+    rows = _lines(capsys.readouterr().out)
+    assert [r["t_s"] for r in rows] == pytest.approx([20.0 * k for k in range(1, 13)])
+    for r in rows:
+        assert set(r) >= KEYS, KEYS - set(r)
+        assert isinstance(r["health"], list)
+    last = rows[-1]
+    assert last["n_deg_rt_h"] == pytest.approx(1.0 / 600.0, rel=0.1)
+    assert last["health"] == []
+
+
+def test_config_reference_and_table(records: dict[str, Path], tmp_path: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """--config: the model the rows report before any retuning is the configuration's, in
+    (deg/h)^2; the text table has a row per report and says the health."""
+    cfg = tmp_path / "gx.toml"
+    q, r = 1e-4 * DEG_H ** 2, 1.0 * DEG_H ** 2
+    write_config(drift_filter_config("gx", a1=0.5, a2=0.2, mean=0.0, q=q, r=r,
+                                     sample_rate_hz=RATE_HZ), cfg)
+    argv = ["monitor", str(records["steady"]), "--rate-hz", "100", "--gyro-units", "deg/h",
+            "--config", str(cfg), "--report-every-s", "40"]
+    assert main([*argv, "--json"]) == 0
+    rows = _lines(capsys.readouterr().out)
+    assert len(rows) == 6
+    assert rows[0]["a1"] == 0.5 and rows[0]["a2"] == 0.2
+    assert rows[0]["q_deg_h_sq"] == pytest.approx(1e-4, rel=1e-12)
+    assert rows[0]["r_deg_h_sq"] == pytest.approx(1.0, rel=1e-12)
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "reference from the configuration" in text
+    assert sum(1 for line in text.splitlines() if line.strip().startswith(("40 ", "240 "))) == 2
+
+
+def test_arw_step_raises_arw_high_after_the_change_and_not_before(
+        records: dict[str, Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """1 deg/h white noise for 150 s, then 2 deg/h (angle random walk x2): the reference is
+    learned from the first 60 s; no report up to the change carries arw_high, the last one
+    does. --fail-on-alarm: exit 3 after writing the outputs; --png writes a PNG."""
+    png = tmp_path / "monitor.png"
+    argv = ["monitor", str(records["step"]), "--rate-hz", "100", "--gyro-units", "deg/h",
+            "--learn-s", "60", "--report-every-s", "10", "--json", "--png", str(png)]
+    assert main([*argv, "--fail-on-alarm"]) == 3
+    captured = capsys.readouterr()
+    assert captured.err.strip() == "gyrodrift monitor: alarm raised: arw_high"
+    rows = _lines(captured.out)
+    before = [r for r in rows if float(r["t_s"]) <= 150.0]  # type: ignore[arg-type]
+    assert before and all("arw_high" not in r["health"] for r in before)  # type: ignore[operator]
+    assert "arw_high" in rows[-1]["health"]  # type: ignore[operator]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
+    assert main(argv) == 0  # without --fail-on-alarm the alarm is reported, not the exit code
+    capsys.readouterr()
