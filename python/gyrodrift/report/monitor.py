@@ -144,8 +144,10 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
     ``b_deg_h``, ``k_deg_h_rt_h`` with ``_lo``/``_hi`` bounds (None where not estimable) and
     ``k_upper_limit``; the model in use (``a1``, ``a2``, ``q_deg_h_sq``, ``r_deg_h_sq``,
     ``mean_deg_h``) and its steady-state ``gain`` [g0, g1]; the re-identification
-    ``status``; ``health``, the names of the raised (latched) alarms, empty when healthy; and
-    ``trips``, for each raised alarm the statistic that tripped it.
+    ``status`` (and, where the trace has them, ``b_tau_s``, the averaging time B is read at,
+    and the counts ``retunes`` and ``refused_retunes``); ``health``, the names of the raised
+    (latched) alarms, empty when healthy; and ``trips``, for each raised alarm the statistic
+    that tripped it.
 
     Examples
     --------
@@ -165,11 +167,19 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
                 v = float(arr[i]) * factor
                 row[f"{name}_{part}{unit}"] = v if math.isfinite(v) else None
         row["k_upper_limit"] = bool(trace.k_upper_limit[i])
+        b_tau = getattr(trace, "b_tau_s", None)
+        if b_tau is not None and np.size(b_tau) == np.size(trace.t_s):
+            v = float(b_tau[i])
+            row["b_tau_s"] = v if math.isfinite(v) and v > 0.0 else None
         row.update({"a1": float(trace.a1[i]), "a2": float(trace.a2[i]),
                     "q_deg_h_sq": float(trace.q[i]) / sq, "r_deg_h_sq": float(trace.r[i]) / sq,
                     "mean_deg_h": float(trace.mean[i]) / DPH,
                     "gain": [float(trace.gain0[i]), float(trace.gain1[i])],
-                    "status": str(trace.status[i]), "health": flags,
+                    "status": str(trace.status[i]),
+                    **{name: int(getattr(trace, name)[i]) for name in ("retunes",
+                                                                       "refused_retunes")
+                       if np.size(getattr(trace, name, ())) == np.size(trace.t_s)},
+                    "health": flags,
                     "trips": {f: dict(trace.trips[f]) for f in flags if f in trace.trips}})
         rows.append(row)
     return rows
