@@ -259,3 +259,33 @@ def test_arw_step_raises_arw_high_after_the_change_and_not_before(
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
     assert main(argv) == 0  # without --fail-on-alarm the alarm is reported, not the exit code
     capsys.readouterr()
+
+
+def test_rows_without_reidentification_report_the_reference_model() -> None:
+    """While the re-identification is off the trace's model is NaN; the rows give the
+    reference's model and its steady-state gain: K = P H^T / (H P H^T + r) with P the
+    predicted covariance of the discrete algebraic Riccati equation (scipy), 1e-9 relative
+    (the C++ solver iterates to convergence)."""
+    import dataclasses
+
+    from gyrodrift.imu.monitor import MonitorReference
+    from scipy.linalg import solve_discrete_are
+
+    a1, a2, q, r, mean = 0.6, 0.2, 2e-12, 5e-10, 3e-6
+    nan = np.full(2, math.nan)
+    tr = dataclasses.replace(
+        _trace(), a1=nan, a2=nan, q=nan, r=nan, mean=nan, gain0=nan, gain1=nan,
+        status=("off", "off"),
+        reference=MonitorReference(drift=(a1, a2, q, r, mean), avar=np.ones(3)))
+    f = np.array([[a1, a2], [1.0, 0.0]])
+    h = np.array([[1.0, 0.0]])
+    # the gain depends on q / r only: scipy's solver is given r = 1 (at variances of 1e-12
+    # its own result is off by 1e-5 relative)
+    p = solve_discrete_are(f.T, h.T, np.diag([q / r, 0.0]), np.array([[1.0]]))
+    gain = (p @ h.T / (h @ p @ h.T + 1.0)).ravel()
+    for row in trace_rows(tr):
+        assert (row["a1"], row["a2"], row["status"]) == (a1, a2, "off")
+        assert row["q_deg_h_sq"] == pytest.approx(q / DEG_H ** 2, rel=1e-14)
+        assert row["r_deg_h_sq"] == pytest.approx(r / DEG_H ** 2, rel=1e-14)
+        assert row["mean_deg_h"] == pytest.approx(mean / DEG_H, rel=1e-14)
+        np.testing.assert_allclose(row["gain"], gain, rtol=1e-9)

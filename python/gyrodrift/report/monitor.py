@@ -143,7 +143,8 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
     """One dict per report of ``trace``, in the IEEE units: ``t_s``; ``n_deg_rt_h``,
     ``b_deg_h``, ``k_deg_h_rt_h`` with ``_lo``/``_hi`` bounds (None where not estimable) and
     ``k_upper_limit``; the model in use (``a1``, ``a2``, ``q_deg_h_sq``, ``r_deg_h_sq``,
-    ``mean_deg_h``) and its steady-state ``gain`` [g0, g1]; the re-identification
+    ``mean_deg_h``; the reference's while the re-identification is off) and its
+    steady-state ``gain`` [g0, g1]; the re-identification
     ``status`` (and, where the trace has them, ``b_tau_s``, the averaging time B is read at,
     and the counts ``retunes`` and ``refused_retunes``); ``health``, the names of the raised
     (latched) alarms, empty when healthy; and ``trips``, for each raised alarm the statistic
@@ -157,6 +158,7 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
     """
     rows = []
     sq = DPH * DPH
+    configured = _configured_model(trace)
     for i in range(int(np.size(trace.t_s))):
         flags = trace.flags(i)
         row: dict[str, Any] = {"t_s": float(trace.t_s[i])}
@@ -171,10 +173,13 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
         if b_tau is not None and np.size(b_tau) == np.size(trace.t_s):
             v = float(b_tau[i])
             row["b_tau_s"] = v if math.isfinite(v) and v > 0.0 else None
-        row.update({"a1": float(trace.a1[i]), "a2": float(trace.a2[i]),
-                    "q_deg_h_sq": float(trace.q[i]) / sq, "r_deg_h_sq": float(trace.r[i]) / sq,
-                    "mean_deg_h": float(trace.mean[i]) / DPH,
-                    "gain": [float(trace.gain0[i]), float(trace.gain1[i])],
+        model = (float(trace.a1[i]), float(trace.a2[i]), float(trace.q[i]), float(trace.r[i]),
+                 float(trace.mean[i]), float(trace.gain0[i]), float(trace.gain1[i]))
+        if configured is not None and not all(math.isfinite(v) for v in model[:5]):
+            model = configured  # no re-identification: the filter runs the reference model
+        row.update({"a1": model[0], "a2": model[1], "q_deg_h_sq": model[2] / sq,
+                    "r_deg_h_sq": model[3] / sq, "mean_deg_h": model[4] / DPH,
+                    "gain": [model[5], model[6]],
                     "status": str(trace.status[i]),
                     **{name: int(getattr(trace, name)[i]) for name in ("retunes",
                                                                        "refused_retunes")
@@ -183,6 +188,25 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
                     "trips": {f: dict(trace.trips[f]) for f in flags if f in trace.trips}})
         rows.append(row)
     return rows
+
+
+def _configured_model(trace: MonitorTrace
+                      ) -> tuple[float, float, float, float, float, float, float] | None:
+    """The reference's drift model (a1, a2, q, r, mean) and its steady-state Kalman gain:
+    the model the filter runs while the re-identification is off (None without a
+    reference)."""
+    if trace.reference is None:
+        return None
+    from gyrodrift._native import core
+
+    a1, a2, q, r, mean = (float(v) for v in trace.reference.drift)
+    ar2 = core("ar2")
+    try:
+        g0, g1 = ar2.Ar2SteadyStateKalman(ar2.Ar2KalmanSettings(
+            a1=a1, a2=a2, sigma2=q, mean=mean, q=q, r=r)).gain
+    except ValueError:  # no steady state (e.g. q = r = 0)
+        g0 = g1 = math.nan
+    return a1, a2, q, r, mean, float(g0), float(g1)
 
 
 def plot_monitor(trace: MonitorTrace, path: str | Path, *,
