@@ -15,6 +15,7 @@ void bind_allan(pybind11::module_& m);    // Allan variance kernels
 void bind_deviation(pybind11::module_& m);  // deviation family (part of the allan area)
 void bind_streaming_allan(pybind11::module_& m);  // streaming octave Allan (allan area)
 void bind_imu(pybind11::module_& m);      // IMU processor and frame codecs
+void bind_monitor(pybind11::module_& m);  // gyro monitor over records (imu area)
 void bind_align(pybind11::module_& m);    // strapdown navigation and alignment
 void bind_drift(pybind11::module_& m);    // drift-model likelihood (ML identification)
 
