@@ -13,12 +13,7 @@ import numpy as np
 import pytest
 from gyrodrift.cli import main
 from gyrodrift.imu.config import drift_filter_config, write_config
-from gyrodrift.imu.monitor import MonitorTrace
-from gyrodrift.imu.monitor_reference import (
-    drift_model_avar,
-    learn_reference,
-    reference_from_config,
-)
+from gyrodrift.imu.monitor import MonitorTrace, reference_from_record
 from gyrodrift.report.monitor import segment_fits, trace_rows
 
 RATE_HZ = 100.0
@@ -69,66 +64,11 @@ def test_argument_errors_are_one_line(records: dict[str, Path], tmp_path: Path,
     cfg = tmp_path / "gz.toml"
     write_config(drift_filter_config("gz", a1=0.5, a2=0.2, mean=0.0, q=1e-12, r=1e-10,
                                      sample_rate_hz=RATE_HZ), cfg)
-    _fails([*base, "--config", str(cfg)], capsys, "gx has no ar2_kalman stage")
+    _fails([*base, "--config", str(cfg)], capsys, "'gx' is not monitored")
     cfg400 = tmp_path / "gx400.toml"
     write_config(drift_filter_config("gx", a1=0.5, a2=0.2, mean=0.0, q=1e-12, r=1e-10,
                                      sample_rate_hz=400.0), cfg400)
     _fails([*base, "--config", str(cfg400)], capsys, "400 Hz", "100 Hz")
-
-
-def test_drift_model_avar_is_the_autocovariance_sum() -> None:
-    """Allan variance of AR(2) drift + white noise against the definition: with the
-    autocovariance R(h) of the AR(2) (Yule-Walker recursion from its variance) and
-    D(n) = n R(0) + 2 sum_{h<n} (n - h) R(h) + n r, avar(m) = (4 D(m) - D(2m)) / (2 m^2).
-    Double sums of at most a few hundred terms: 1e-12 relative."""
-    for a1, a2, q, r in ((1.5, -0.56, 2.0, 0.3), (0.6868, -0.0213, 0.25, 0.09),
-                         (0.2, 0.5, 1.0, 0.0), (-0.5, 0.1, 1.0, 4.0)):
-        g0 = q * (1 - a2) / ((1 + a2) * ((1 - a2) ** 2 - a1 ** 2))
-        acov = [g0, a1 * g0 / (1 - a2)]
-        for _ in range(2, 260):
-            acov.append(a1 * acov[-1] + a2 * acov[-2])
-
-        def d(n: int, acov: list[float] = acov, r: float = r) -> float:
-            return n * acov[0] + 2 * sum((n - h) * acov[h] for h in range(1, n)) + n * r
-
-        want = [(4 * d(m) - d(2 * m)) / (2 * m * m) for m in (1, 2, 4, 8, 16, 32, 64, 128)]
-        np.testing.assert_allclose(drift_model_avar(a1, a2, q, r, 8), want, rtol=1e-12)
-    # the slow end: an AR(1) drift with a 1e5-sample correlation time averages out as
-    # tau_c / m for m >> tau_c (the white-noise limit of the drift: avar ~ 2 var tau_c / m)
-    phi = math.exp(-1e-5)
-    avar = drift_model_avar(phi, 0.0, 1.0 - phi * phi, 0.0, 32)
-    m = 2.0 ** 31
-    assert avar[-1] == pytest.approx(2.0 * 1e5 / m, rel=1e-3)
-    with pytest.raises(ValueError, match="not stationary"):
-        drift_model_avar(1.2, 0.0, 1.0, 1.0)
-
-
-def test_reference_from_config_is_the_channel_stage(tmp_path: Path) -> None:
-    cfg = drift_filter_config("gy", a1=0.9, a2=-0.1, mean=1e-5, q=1e-12, r=4e-10,
-                              sample_rate_hz=RATE_HZ)
-    ref = reference_from_config(cfg, "gy", 5)
-    assert ref.source == "config" and ref.drift == (0.9, -0.1, 1e-12, 4e-10, 1e-5)
-    np.testing.assert_allclose(ref.avar, drift_model_avar(0.9, -0.1, 1e-12, 4e-10, 5),
-                               rtol=0)
-
-
-def test_learned_reference_of_white_noise() -> None:
-    """White noise of 2e-5 rad/s per sample: the learned Allan variance at tau0 * 2^k is
-    sigma^2 / 2^k. Tolerance 10 %: the fit of 120 s (12000 samples) pins the white term to
-    about 1 % (edf ~ 8000 at tau0), the model selection may add a small B or K term that
-    shows at the longest octave used here (2^6 samples)."""
-    y = np.random.default_rng(5).normal(0.0, 2e-5, 30000)
-    ref = learn_reference(y, RATE_HZ, 120.0, 7)
-    assert ref.source == "learned" and ref.learn_s == 120.0
-    np.testing.assert_allclose(ref.avar, 4e-10 / 2.0 ** np.arange(7), rtol=0.1)
-    q, r = ref.drift[2:4]  # white noise: drift and white share the record's variance
-    assert r + q == pytest.approx(4e-10, rel=0.1)
-    # only the first 120 s are learned from: the rest of the record does not move it
-    y2 = y.copy()
-    y2[12000:] *= 10.0
-    assert learn_reference(y2, RATE_HZ, 120.0, 7).avar == pytest.approx(ref.avar, rel=1e-12)
-    with pytest.raises(ValueError, match="shorter than the learning span"):
-        learn_reference(y, RATE_HZ, 301.0)
 
 
 def _trace() -> MonitorTrace:
@@ -289,3 +229,24 @@ def test_rows_without_reidentification_report_the_reference_model() -> None:
         assert row["r_deg_h_sq"] == pytest.approx(r / DEG_H ** 2, rel=1e-14)
         assert row["mean_deg_h"] == pytest.approx(mean / DEG_H, rel=1e-14)
         np.testing.assert_allclose(row["gain"], gain, rtol=1e-9)
+
+
+def test_learn_s_sets_the_reference(records: dict[str, Path],
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """Without --config the model reported (the re-identification is off by default, so the
+    filter runs the reference) is the one learned from the first --learn-s seconds:
+    reference_from_record on those samples in rad/s (same arithmetic: 1e-12 relative)."""
+    x = np.load(records["steady"])
+    for learn_s in (60.0, 120.0):
+        ref = reference_from_record(x * DEG_H, RATE_HZ, learn_s, 16)
+        assert main(["monitor", str(records["steady"]), "--rate-hz", "100", "--gyro-units",
+                     "deg/h", "--learn-s", str(learn_s), "--report-every-s", "60",
+                     "--json"]) == 0
+        rows = _lines(capsys.readouterr().out)
+        assert rows[0]["status"] == "off"
+        a1, a2, q, r, mean = ref.drift
+        assert rows[0]["a1"] == pytest.approx(a1, rel=1e-12)
+        assert rows[0]["a2"] == pytest.approx(a2, rel=1e-12)
+        assert rows[-1]["q_deg_h_sq"] == pytest.approx(q / DEG_H ** 2, rel=1e-12)
+        assert rows[-1]["r_deg_h_sq"] == pytest.approx(r / DEG_H ** 2, rel=1e-12)
+        assert rows[-1]["mean_deg_h"] == pytest.approx(mean / DEG_H, rel=1e-12)

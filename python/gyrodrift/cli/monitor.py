@@ -35,8 +35,8 @@ __all__ = ["ALARM_EXIT", "register", "run"]
 
 #: Exit code of ``--fail-on-alarm`` when an alarm was raised (the outputs are written first).
 ALARM_EXIT = 3
-#: Report interval unless told otherwise, s.
-DEFAULT_REPORT_EVERY_S = 10.0
+#: The span the reference is learned from without --config, s.
+DEFAULT_LEARN_S = 600.0
 
 
 def register(subparsers: Any) -> None:
@@ -48,10 +48,8 @@ def register(subparsers: Any) -> None:
     >>> args = p.parse_args(["monitor", "gyro.npy", "--rate-hz", "100", "--gyro-units",
     ...                      "deg/h"])
     >>> args.learn_s, args.report_every_s, args.channel, args.fail_on_alarm
-    (600.0, 10.0, None, False)
+    (600.0, None, None, False)
     """
-    from gyrodrift.imu.monitor_reference import DEFAULT_LEARN_S
-
     p = subparsers.add_parser("monitor", help="online noise estimates, drift re-identification "
                               "and health alarms over a record, as the target runs them",
                               description=__doc__.split("\n\n")[0])
@@ -67,9 +65,10 @@ def register(subparsers: Any) -> None:
                    help="without --config: seconds at the start of the record the reference "
                         f"model is identified from (default {DEFAULT_LEARN_S:g}; the record "
                         "must be longer than this plus one report interval)")
-    p.add_argument("--report-every-s", type=float, default=DEFAULT_REPORT_EVERY_S,
+    p.add_argument("--report-every-s", type=float, default=None,
                    help="seconds between two reports (one table row or JSON line each; "
-                        f"default {DEFAULT_REPORT_EVERY_S:g})")
+                        "default: the monitor settings' report_interval_s, 10 s unless the "
+                        "configuration says otherwise)")
     p.add_argument("--png", help="write a plot of the online N, B and K over time with their "
                                  "intervals, beside the offline fit of the whole record and of "
                                  "each half, with the time each alarm was raised")
@@ -101,16 +100,19 @@ def run(args: argparse.Namespace) -> int:
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
     >>> np.save(rec, np.random.default_rng(0).normal(0.0, 0.5, 2000))
     >>> run(p.parse_args(["monitor", rec, "--rate-hz", "100", "--gyro-units", "deg/h",
-    ...                   "--learn-s", "10", "--report-every-s", "5"]))  # doctest: +SKIP
+    ...                   "--learn-s", "10", "--report-every-s", "5"]))
     # .../gyro.npy: 2000 samples at 100 Hz, channel gx; reference learned from 0..10 s
     ...
+         20 ...
+    health: no alarm raised
     0
     >>> tmp.cleanup()
     """
+    from gyrodrift.imu.config import MonitorConfig
     from gyrodrift.imu.monitor import run_monitor
 
     for flag, value in (("--learn-s", args.learn_s), ("--report-every-s", args.report_every_s)):
-        if not (math.isfinite(value) and value > 0.0):
+        if value is not None and not (math.isfinite(value) and value > 0.0):
             raise CliError(f"{flag} {value:g}: give a positive number of seconds")
     check_output(args.png, "--png")
     cfg = None
@@ -121,19 +123,25 @@ def run(args: argparse.Namespace) -> int:
             cfg = load_config(args.config)
         except GyrodriftError as exc:
             raise CliError(f"{args.config}: {exc}") from exc
+    settings = cfg.monitor if cfg is not None else MonitorConfig()
+    every_s = settings.report_interval_s if args.report_every_s is None else args.report_every_s
     rec = record_from_args(args, mmap=False)
     channel = _channel(args)
     y = np.asarray(rec.rate_deg_h, dtype=np.float64) * DPH
     duration_s = rec.n / rec.rate_hz
-    if duration_s < args.report_every_s:
+    if duration_s < every_s:
         raise CliError(f"{rec.source}: the record ({duration_s:.6g} s) is shorter than one "
-                       f"report interval ({args.report_every_s:g} s)")
-    reference = _reference(args, cfg, channel, y, rec.rate_hz, rec.source, duration_s)
-    settings = getattr(cfg, "monitor", None) if cfg is not None else None
+                       f"report interval ({every_s:g} s)")
+    reference = _reference(args, cfg, channel, y, rec.rate_hz, rec.source, duration_s,
+                           every_s, settings.octaves)
+    checks: dict[str, Any] = {}
+    if cfg is not None:  # the processor's per-sample checks of this channel
+        checks = {"saturation": cfg.channel(channel).saturation,
+                  "stuck_samples": cfg.channel(channel).stuck_samples}
     try:
         trace = run_monitor(y, rec.rate_hz, reference, settings=settings,
-                            report_every_s=args.report_every_s)
-    except (ValueError, GyrodriftError) as exc:
+                            report_every_s=every_s, **checks)
+    except GyrodriftError as exc:
         raise CliError(f"{rec.source}: {exc}") from exc
     from gyrodrift.report.monitor import first_alarms, trace_rows
 
@@ -160,9 +168,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _reference(args: argparse.Namespace, cfg: Any, channel: str, y: np.ndarray,
-               rate_hz: float, source: str, duration_s: float) -> Any:
+               rate_hz: float, source: str, duration_s: float, every_s: float,
+               octaves: int) -> Any:
     """The reference model: the configuration's, or learned from the first --learn-s s."""
-    from gyrodrift.imu.monitor_reference import learn_reference, reference_from_config
+    from gyrodrift.imu.monitor import reference_from_config, reference_from_record
 
     if cfg is not None:
         cfg_rate = float(cfg.timing.sample_rate_hz)
@@ -173,12 +182,12 @@ def _reference(args: argparse.Namespace, cfg: Any, channel: str, y: np.ndarray,
             return reference_from_config(cfg, channel)
         except GyrodriftError as exc:
             raise CliError(f"{args.config}: {exc}") from exc
-    if duration_s < args.learn_s + args.report_every_s:
+    if duration_s < args.learn_s + every_s:
         raise CliError(f"{source}: the record ({duration_s:.6g} s) is shorter than the learning "
-                       f"span plus one report interval ({args.learn_s:g} + "
-                       f"{args.report_every_s:g} s): give a shorter --learn-s, or --config")
+                       f"span plus one report interval ({args.learn_s:g} + {every_s:g} s): "
+                       "give a shorter --learn-s, or --config")
     try:
-        return learn_reference(y, rate_hz, args.learn_s)
+        return reference_from_record(y, rate_hz, args.learn_s, octaves)
     except GyrodriftError as exc:
         raise CliError(f"{source}: {exc}") from exc
 
