@@ -250,3 +250,35 @@ def test_learn_s_sets_the_reference(records: dict[str, Path],
         assert rows[-1]["q_deg_h_sq"] == pytest.approx(q / DEG_H ** 2, rel=1e-12)
         assert rows[-1]["r_deg_h_sq"] == pytest.approx(r / DEG_H ** 2, rel=1e-12)
         assert rows[-1]["mean_deg_h"] == pytest.approx(mean / DEG_H, rel=1e-12)
+
+
+def test_replay_report_plots_the_monitor(tmp_path: Path, cpp_build_dir: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """A replay whose configuration enables the monitor: report.json carries the monitor's
+    reports per monitored channel (one a second over 4 s) and the host run's alarms beside
+    the loop's counters (equal where the loop reports them); monitor-gz.png is written and
+    named in the output. Without the monitor enabled neither appears."""
+    from gyrodrift.replay.harness import LOOP_RELATIVE
+
+    cfg = drift_filter_config("gz", a1=1.0, a2=-0.25, mean=0.0, q=1e-10, r=1e-8,
+                              sample_rate_hz=400.0)
+    on, off = tmp_path / "on.toml", tmp_path / "off.toml"
+    write_config(cfg.with_monitor(enabled=True, report_interval_s=1.0), on)
+    write_config(cfg, off)
+    loop = str(cpp_build_dir / LOOP_RELATIVE)
+    for config, out in ((on, tmp_path / "on"), (off, tmp_path / "off")):
+        assert main(["replay", "--duration-s", "4", "--fast", "--no-rt", "--loop-binary", loop,
+                     "--config", str(config), "--out-dir", str(out)]) == 0
+    text = capsys.readouterr().out
+    rep = json.loads((tmp_path / "on" / "report.json").read_text())
+    mon = rep["monitor"]
+    assert list(mon["channels"]) == ["gz"] and mon["channels"]["gz"]["reports"] == 4
+    assert mon["channels"]["gz"]["last"]["t_s"] == 4.0
+    assert set(mon["alarms_host"]) == {"arw_high", "bias_instability_high",
+                                       "rate_random_walk_high", "stuck", "saturated"}
+    assert mon["agree"] in (None, True), mon
+    png = tmp_path / "on" / "monitor-gz.png"
+    assert png.read_bytes()[:4] == b"\x89PNG" and str(png) in text
+    assert "monitor gz" in text
+    assert "monitor" not in json.loads((tmp_path / "off" / "report.json").read_text())
+    assert not list((tmp_path / "off").glob("monitor*.png"))

@@ -298,7 +298,7 @@ def monitor_summary(traces: dict[str, MonitorTrace],
     raised (the first report each was raised at, s), the statistic that tripped each, and the
     last report (the JSON row of ``gyrodrift monitor``); the alarms of each kind over the
     channels (``alarms_host``) beside the loop's own counters (``alarms_loop``, its
-    ``monitor_<alarm>`` health counters; None without loop statistics) and whether they
+    ``monitor_<alarm>`` health counters; None when it reports none) and whether they
     agree.
 
     Examples
@@ -318,8 +318,8 @@ def monitor_summary(traces: dict[str, MonitorTrace],
         channels[ch] = {"alarms": alarms, "trips": dict(tr.trips), "reports": len(rows),
                         "last": rows[-1] if rows else None}
     health = (loop_stats or {}).get("health") or {}
-    loop = ({name: int(health[f"monitor_{name}"]) for name in host
-             if f"monitor_{name}" in health} if health else None)
+    loop = {name: int(health[f"monitor_{name}"]) for name in host
+            if f"monitor_{name}" in health} or None  # None: the loop counts no alarms
     return {"channels": channels, "alarms_host": host, "alarms_loop": loop,
             "agree": None if loop is None else loop == host}
 
