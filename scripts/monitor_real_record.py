@@ -94,6 +94,7 @@ def _online(r: dict[str, object], name: str, unit: str) -> str:
 
 
 def main(argv: list[str]) -> int:
+    from gyrodrift.imu.config import MonitorConfig
     from gyrodrift.imu.monitor import reference_from_record, run_monitor
     from gyrodrift.report.monitor import first_alarms, plot_monitor, segment_fits, trace_rows
 
@@ -114,7 +115,7 @@ def main(argv: list[str]) -> int:
     for ax, y in axes.items():
         duration = y.size / RATE_HZ
         t0 = time.perf_counter()
-        ref = reference_from_record(y, RATE_HZ, LEARN_S, 16)
+        ref = reference_from_record(y, RATE_HZ, LEARN_S, MonitorConfig().octaves)
         trace = run_monitor(y, RATE_HZ, ref, report_every_s=REPORT_EVERY_S)
         run_s = time.perf_counter() - t0
         rows = trace_rows(trace)
