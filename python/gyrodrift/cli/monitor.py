@@ -1,7 +1,8 @@
 """`gyrodrift monitor`: run the gyro monitor the target runs over a record, sample by sample
-through the C++ core: streaming Allan statistics, online noise estimates (N, B, K with
-intervals), online re-identification of the drift model with its retuned Kalman gain, and
-latched health alarms. One report per --report-every-s: a table, or JSON lines (--json).
+through the C++ core in the target's float state: streaming Allan statistics, online noise
+estimates (N, B, K with intervals), online re-identification of the drift model with its
+retuned Kalman gain, and latched health alarms. One report per --report-every-s: a table, or
+JSON lines (--json).
 
 The alarms compare against a reference model: the configuration's (--config: the gyro
 channel's ar2_kalman stage, and the monitor settings of the configuration file), or, without
@@ -140,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
                   "stuck_samples": cfg.channel(channel).stuck_samples}
     try:
         trace = run_monitor(y, rec.rate_hz, reference, settings=settings,
-                            report_every_s=every_s, **checks)
+                            report_every_s=every_s, dtype=np.float32, **checks)
     except GyrodriftError as exc:
         raise CliError(f"{rec.source}: {exc}") from exc
     from gyrodrift.report.monitor import first_alarms, trace_rows
