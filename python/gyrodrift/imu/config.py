@@ -12,8 +12,8 @@ writes a full example.
 Every problem is a :class:`ConfigError` whose one-line message starts with the key
 (``channels.gx.stages[1].a1: ...``).
 
-Example
--------
+Examples
+--------
 >>> cfg = default_config()
 >>> parse_config(dumps_config(cfg)) == cfg
 True

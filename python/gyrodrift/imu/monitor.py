@@ -191,7 +191,7 @@ def _drift_autocovariance(a1: float, a2: float, q: float, lags: int) -> np.ndarr
 
 def model_avar(drift: tuple[float, float, float, float, float], octaves: int) -> np.ndarray:
     """The exact (non-overlapped) Allan variance of the drift model "AR(2) drift + white noise"
-    at averaging factors m = 2^k, k = 0 .. octaves - 1, in (units of the model)^2:
+    at averaging factors m = 2^k, k = 0 .. octaves - 1, in (units of the model)^2::
 
         sigma^2(m) = r / m + (1 / m^2) [ sum_{|k|<m} (m - |k|) gamma_k
                                          - sum_{k=1}^{2m-1} min(k, 2m - k) gamma_k ],
@@ -267,9 +267,9 @@ def reference_from_config(cfg: ProcessorConfig, channel: str) -> MonitorReferenc
 def reference_from_record(y_rad_s: ArrayLike, rate_hz: float, learn_s: float,
                           octaves: int) -> MonitorReference:
     """The reference learned from the first `learn_s` seconds of a record: the offline
-    maximum-likelihood fit of that span (:func:`gyrodrift.filters.fit_drift_model`,
+    maximum-likelihood fit of that span (:func:`gyrodrift.filters.drift_model.fit_drift_model`,
     AR(2) + white) as the drift model, and the span's own streaming Allan variance as the
-    expected curve, at the octaves where it has at least :data:`LEARN_MIN_TERMS` squared
+    expected curve, at the octaves where it has at least ``LEARN_MIN_TERMS`` squared
     differences (at most `octaves`).
 
     Raises
