@@ -245,6 +245,7 @@ def plot_monitor(trace: MonitorTrace, path: str | Path, *,
     colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     for ax, (name, unit, label) in zip(axes, panels, strict=True):
         v, lo, hi = col(f"{name}_{unit}"), col(f"{name}_lo_{unit}"), col(f"{name}_hi_{unit}")
+        hi_all = hi.copy()  # the upper limits of K are drawn too
         if name == "k":
             upper = np.array([r["k_upper_limit"] for r in rows], dtype=bool)
             v = np.where(upper, math.nan, v)
@@ -283,9 +284,12 @@ def plot_monitor(trace: MonitorTrace, path: str | Path, *,
             ax.axvline(when, color=colors[(k + 3) % len(colors)], ls="--", lw=1,
                        label=f"alarm {flag}" if ax is axes[0] else None)
         ax.set_ylabel(label)
-        positive = np.concatenate([x[np.isfinite(x) & (x > 0)] for x in (v, lo, hi)])
-        if positive.size and positive.max() / positive.min() > 20:
-            ax.set_yscale("log")
+        shown = [v, lo, hi_all] + [np.array([getattr(f, f"{name}_{p}{unit}") for f in fits])
+                               for p in ("", "lo_", "hi_")]
+        positive = np.concatenate([x[np.isfinite(x) & (x > 0)] for x in shown])
+        if positive.size >= 2 and positive.max() / positive.min() > 20:
+            ax.set_yscale("log")  # limits set: a band reaching 0 must not decide them
+            ax.set_ylim(positive.min() / 1.5, positive.max() * 1.5)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="best")
     axes[-1].set_xlabel("time (s)")
