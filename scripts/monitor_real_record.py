@@ -143,7 +143,7 @@ def main(argv: list[str]) -> int:
         duration = y.size / RATE_HZ
         t0 = time.perf_counter()
         ref = reference_from_record(y, RATE_HZ, LEARN_S, MonitorConfig().octaves)
-        trace = run_monitor(y, RATE_HZ, ref, report_every_s=REPORT_EVERY_S)
+        trace = run_monitor(y, RATE_HZ, ref, report_every_s=REPORT_EVERY_S, dtype=np.float32)
         run_s = time.perf_counter() - t0
         rows = trace_rows(trace)
         spans = [(a, min(b, duration)) for a, b in SEGMENTS_S]
