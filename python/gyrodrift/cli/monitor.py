@@ -93,18 +93,21 @@ def run(args: argparse.Namespace) -> int:
 
     Examples
     --------
-    The monitor over 20 s of white noise (0.5 deg/h per sample at 100 Hz), the reference
-    learned from the first 10 s, a report every 5 s:
+    The monitor over 30 s of an AR(2) drift (a1 0.6, a2 0.2) under white noise, deg/h at
+    100 Hz, the reference learned from the first 20 s, a report every 5 s:
 
     >>> import os, tempfile, numpy as np
+    >>> from scipy.signal import lfilter
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> tmp = tempfile.TemporaryDirectory(); rec = os.path.join(tmp.name, "gyro.npy")
-    >>> np.save(rec, np.random.default_rng(0).normal(0.0, 0.5, 2000))
+    >>> rng = np.random.default_rng(1)
+    >>> np.save(rec, lfilter([1.0], [1.0, -0.6, -0.2], rng.normal(0, 1, 3000))
+    ...         + rng.normal(0, 0.5, 3000))
     >>> run(p.parse_args(["monitor", rec, "--rate-hz", "100", "--gyro-units", "deg/h",
-    ...                   "--learn-s", "10", "--report-every-s", "5"]))
-    # .../gyro.npy: 2000 samples at 100 Hz, channel gx; reference learned from 0..10 s
+    ...                   "--learn-s", "20", "--report-every-s", "5"]))
+    # .../gyro.npy: 3000 samples at 100 Hz, channel gx; reference learned from 0..20 s
     ...
-         20 ...
+         30 ...
     health: no alarm raised
     0
     >>> tmp.cleanup()
