@@ -54,6 +54,7 @@ OWN_FLAGS: dict[str, set[str]] = {
     "filter": {"--filter", "--core"},
     "allan": {"--taus-per-decade", "--noise-id", "--deviation", "--curve"},
     "fit": {"--criterion"},
+    "monitor": {"--channel", "--learn-s", "--report-every-s", "--fail-on-alarm"},
     "identify": {"--model", "--max-model", "--bootstrap"},
     "psd": {"--nperseg", "--bins-per-decade"},
     "compare": set(),

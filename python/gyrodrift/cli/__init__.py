@@ -32,6 +32,7 @@ SUBCOMMAND_MODULES: list[str] = [
     "allan",
     "fit",
     "identify",
+    "monitor",
     "psd",
     "compare",
     "wavelet_response",

@@ -41,7 +41,7 @@ import numpy as np
 from gyrodrift.cli import CliError
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.io.atomic import atomic_output, is_stdout, output_target
-from gyrodrift.io.json_text import json_default, json_text
+from gyrodrift.io.json_text import json_default, json_text, strict_json_value
 from gyrodrift.io.records import Record, load_record
 from gyrodrift.stability import IEEE952_TERMS
 from gyrodrift.units import DEFAULT_GYRO_UNITS, DEFAULT_TIME_UNITS, GYRO_INPUT_UNITS, TIME_UNITS
@@ -61,6 +61,7 @@ __all__ = [
     "check_output",
     "check_rate_hz",
     "emit_json",
+    "emit_json_line",
     "format_csv_value",
     "human_stream",
     "json_default",
@@ -335,6 +336,22 @@ def emit_json(payload: Any, stream: IO[str] | None = None) -> None:
     """
     out = sys.stdout if stream is None else stream
     out.write(json_text(payload, indent=2))  # NaN/Inf as null: strict JSON
+    out.write("\n")
+
+
+def emit_json_line(payload: Any, stream: IO[str] | None = None) -> None:
+    """Write ``payload`` as one line of JSON (JSON lines: one object per line, stdout by
+    default), by the same rules as :func:`emit_json` (strict JSON: NaN/Inf as null).
+
+    Examples
+    --------
+    >>> emit_json_line({"t_s": 10.0, "health": [], "b": float("nan")})
+    {"t_s": 10.0, "health": [], "b": null}
+    """
+    import json
+
+    out = sys.stdout if stream is None else stream
+    out.write(json.dumps(strict_json_value(payload), default=json_default, allow_nan=False))
     out.write("\n")
 
 

@@ -7,6 +7,7 @@ With no input file it simulates a short static IMU record itself, so it runs as 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 from pathlib import Path
 
@@ -135,7 +136,14 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift.replay.faults import FaultSpec
     from gyrodrift.replay.firmware import FirmwareError
     from gyrodrift.replay.harness import ReplayError, ReplayOptions, run_replay
-    from gyrodrift.report.replay import format_table, write_json, write_png
+    from gyrodrift.report.replay import (
+        format_table,
+        monitor_summary,
+        monitor_traces,
+        write_json,
+        write_monitor_pngs,
+        write_png,
+    )
 
     if args.can_signals and not args.input:
         raise CliError("--can-signals applies to an input CAN log")
@@ -198,12 +206,20 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     j, png = out / "report.json", out / "report.png"
+    monitor_pngs: list[Path] = []
+    if proc.monitor.enabled:  # the online estimates against the offline fit of the record
+        traces = monitor_traces(samples, proc)
+        result = dataclasses.replace(result, report={
+            **result.report, "monitor": monitor_summary(traces, result.loop_stats)})
+        monitor_pngs = write_monitor_pngs(traces, samples, proc.timing.sample_rate_hz,
+                                          out / "monitor.png")
     with atomic_output(j) as tmp_j, atomic_output(png) as tmp_png:
         write_json(result, tmp_j)
         write_png(result, tmp_png)
     if args.json:
-        emit_json({**result.report, "files": {"json": str(j), "png": str(png)}})
+        emit_json({**result.report, "files": {"json": str(j), "png": str(png),
+                                              "monitor_png": [str(m) for m in monitor_pngs]}})
     else:
         print(format_table(result))
-        print(f"report: {j} {png}")
+        print(f"report: {j} {png}" + "".join(f" {m}" for m in monitor_pngs))
     return 0 if result.ok else 1

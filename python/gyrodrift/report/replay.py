@@ -1,4 +1,6 @@
-"""The replay report: a terminal table, the JSON file, and a PNG of latency and jitter."""
+"""The replay report: a terminal table, the JSON file, a PNG of latency and jitter, and, when
+the replayed configuration has the gyro monitor enabled, its online estimates over the
+replayed record against the offline fit of the same record (one PNG per monitored channel)."""
 
 from __future__ import annotations
 
@@ -8,13 +10,19 @@ from typing import Any
 
 import numpy as np
 
+from gyrodrift.codecs.wire import Samples
+from gyrodrift.imu.config import ProcessorConfig
+from gyrodrift.imu.monitor import MonitorTrace
 from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.replay.harness import ReplayResult
 
 __all__ = [
     "format_table",
+    "monitor_summary",
+    "monitor_traces",
     "write_json",
+    "write_monitor_pngs",
     "write_png",
 ]
 
@@ -98,10 +106,32 @@ def format_table(result: ReplayResult) -> str:
         rows.append(("loop cycles / overruns", f"{loop['cycles']} / {loop['overruns']}"))
         nz = {k: v for k, v in loop["rejected"].items() if v}
         rows.append(("loop rejected", ", ".join(f"{k} {v}" for k, v in nz.items()) or "none"))
+    mon = r.get("monitor")
+    if mon:
+        rows += _monitor_rows(mon)
     failed = [k for k, v in r["checks"].items() if not v]
     rows.append(("failed checks", ", ".join(failed) or "none"))
     w = max(len(k) for k, _ in rows)
     return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+
+
+def _monitor_rows(mon: dict[str, Any]) -> list[tuple[str, str]]:
+    """The gyro monitor's rows: per channel the alarms and the last online estimates, then
+    the alarm counts of the host run against the loop's counters."""
+    rows = []
+    for ch, c in mon["channels"].items():
+        last = c["last"] or {}
+        alarms = ", ".join(f"{k} at {v:g} s" for k, v in c["alarms"].items()) or "none"
+        rows.append((f"monitor {ch}",
+                     f"alarms {alarms}; last report N {_fmt(last.get('n_deg_rt_h'), 4)} "
+                     f"deg/sqrt(h), B {_fmt(last.get('b_deg_h'), 4)} deg/h, status "
+                     f"{last.get('status', '-')}"))
+    if mon.get("alarms_loop") is not None:
+        rows.append(("monitor alarms host / loop",
+                     ", ".join(f"{k} {v}/{mon['alarms_loop'].get(k, '-')}"
+                               for k, v in mon["alarms_host"].items())
+                     + ("" if mon["agree"] else " (DIFFER)")))
+    return rows
 
 
 def _firmware_rows(r: dict[str, Any]) -> list[tuple[str, str]]:
@@ -221,3 +251,104 @@ def write_png(result: ReplayResult, path: str | Path) -> Path:
     finally:
         plt.close(fig)
     return path
+
+
+def monitor_traces(samples: Samples, processor: ProcessorConfig) -> dict[str, MonitorTrace]:
+    """The gyro monitor over the replayed record, as the target runs it: per monitored channel
+    (:meth:`~gyrodrift.imu.config.ProcessorConfig.monitored_channels`), the configuration's
+    ``[monitor]`` settings, the channel's ``ar2_kalman`` model as the reference, its
+    saturation and stuck checks, the float state of the target, over the samples as sent
+    (float32 on the wire). Empty when the configuration's monitor is not enabled.
+
+    Examples
+    --------
+    >>> from gyrodrift.codecs.wire import make_samples
+    >>> from gyrodrift.imu.config import drift_filter_config
+    >>> rng = np.random.default_rng(0)
+    >>> s = make_samples(np.arange(4000) / 400.0, rng.normal(0.0, 1e-4, (4000, 3)),
+    ...                  np.tile([0.0, 0.0, 9.8], (4000, 1)))
+    >>> cfg = drift_filter_config("gz", a1=0.5, a2=0.2, mean=0.0, q=1e-10, r=1e-8,
+    ...                           sample_rate_hz=400.0)
+    >>> monitor_traces(s, cfg)  # the monitor is off
+    {}
+    >>> tr = monitor_traces(s, cfg.with_monitor(enabled=True, report_interval_s=5.0))
+    >>> list(tr), tr["gz"].t_s.tolist()
+    (['gz'], [5.0, 10.0])
+    """
+    from gyrodrift.imu.monitor import reference_from_config, run_monitor
+    from gyrodrift.imu.schema import CHANNEL_NAMES
+
+    mon = processor.monitor
+    if not mon.enabled:
+        return {}
+    rate = float(processor.timing.sample_rate_hz)
+    out = {}
+    for ch in processor.monitored_channels():
+        cc = processor.channel(ch)
+        y = samples.channels[:, CHANNEL_NAMES.index(ch)].astype(np.float64)
+        out[ch] = run_monitor(y, rate, reference_from_config(processor, ch), settings=mon,
+                              dtype=np.float32, saturation=cc.saturation,
+                              stuck_samples=cc.stuck_samples)
+    return out
+
+
+def monitor_summary(traces: dict[str, MonitorTrace],
+                    loop_stats: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The monitor's part of the report: per monitored channel (``channels``) the alarms
+    raised (the first report each was raised at, s), the statistic that tripped each, and the
+    last report (the JSON row of ``gyrodrift monitor``); the alarms of each kind over the
+    channels (``alarms_host``) beside the loop's own counters (``alarms_loop``, its
+    ``monitor_<alarm>`` health counters; None when it reports none) and whether they
+    agree.
+
+    Examples
+    --------
+    >>> monitor_summary({})["channels"]
+    {}
+    """
+    from gyrodrift.report.monitor import first_alarms, trace_rows
+
+    channels: dict[str, Any] = {}
+    host: dict[str, int] = {}
+    for ch, tr in traces.items():
+        rows = trace_rows(tr)
+        alarms = first_alarms(tr)
+        for name in tr.alarm_names:
+            host[name] = host.get(name, 0) + (name in alarms)
+        channels[ch] = {"alarms": alarms, "trips": dict(tr.trips), "reports": len(rows),
+                        "last": rows[-1] if rows else None}
+    health = (loop_stats or {}).get("health") or {}
+    loop = {name: int(health[f"monitor_{name}"]) for name in host
+            if f"monitor_{name}" in health} or None  # None: the loop counts no alarms
+    return {"channels": channels, "alarms_host": host, "alarms_loop": loop,
+            "agree": None if loop is None else loop == host}
+
+
+def write_monitor_pngs(traces: dict[str, MonitorTrace], samples: Samples, rate_hz: float,
+                       path: str | Path) -> list[Path]:
+    """One plot per monitored channel, ``<stem>-<channel><suffix>`` beside ``path``: the online
+    N, B and K over the replayed record against the offline fit (``gyrodrift allan``'s
+    default) of the whole record and of each half, with the alarms.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     write_monitor_pngs({}, None, 400.0, Path(d) / "monitor.png")  # nothing monitored
+    []
+    """
+    from gyrodrift.imu.schema import CHANNEL_NAMES
+    from gyrodrift.report.monitor import plot_monitor, segment_fits
+
+    path = Path(path)
+    written = []
+    for ch, tr in traces.items():
+        y = samples.channels[:, CHANNEL_NAMES.index(ch)].astype(np.float64)
+        duration = y.size / rate_hz
+        whole, *halves = segment_fits(y, rate_hz, [(0.0, duration), (0.0, duration / 2.0),
+                                                   (duration / 2.0, duration)])
+        out = path.with_name(f"{path.stem}-{ch}{path.suffix}")
+        plot_monitor(tr, out, fits=halves, fits_label="offline fit, each half", whole=whole,
+                     title=f"gyrodrift replay: monitor of {ch} (float state, as the target)")
+        written.append(out)
+    return written
