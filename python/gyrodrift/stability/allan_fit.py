@@ -632,7 +632,10 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
                 continue
             se_log = math.sqrt(max(float(cv[k, k]), 0.0)) / (2.0 * ck)
             val = _coef_to_value(name, ck)
-            res[name] = (val, val * math.exp(-z * se_log), val * math.exp(z * se_log))
+            # a term at the edge of zero in a neighbouring model can have se_log > 700
+            half = z * se_log
+            res[name] = (val, val * math.exp(-half) if half < 700.0 else 0.0,
+                         val * math.exp(half) if half < 700.0 else math.inf)
         return res
 
     ivs = intervals(kept, c, model, cov)
