@@ -14,7 +14,8 @@ import scipy.integrate
 from gyrodrift.simulation import simulate_preset
 from gyrodrift.stability import allan_fit, gmwm
 from gyrodrift.stability.allan import oadev
-from gyrodrift.stability.allan_fit import allan_kernel_corr, fit_allan
+from gyrodrift.stability.allan_fit import fit_allan
+from gyrodrift.stability.gmwm import allan_kernel_corr
 
 
 def _corr_quad(delta: float) -> float:

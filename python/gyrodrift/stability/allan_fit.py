@@ -67,7 +67,7 @@ covariance of the measured log Allan variances in two parts:
 - d^2 C, the model discrepancy (Kennedy & O'Hagan 2001): what the five-term model misses
   (an output filter's bend, a Gauss-Markov hump, a warm-up) treated as a random relative
   error of the curve, with the correlation C_ij of the Allan filters at tau_i and tau_j over
-  log-frequency (`allan_kernel_corr`: a misfit of the spectrum shows at the taus whose
+  log-frequency (`gmwm.allan_kernel_corr`: a misfit of the spectrum shows at the taus whose
   filters see its band; C = 0.60 for adjacent octaves, 0.22 two octaves apart; computed for
   flicker noise, whose power per log-frequency is flat). Its variance d^2 is estimated from
   the residuals r = log sigma_hat^2 - log sigma_model^2 by moments: with M = I - J H^-1 J' W
@@ -114,7 +114,6 @@ Example
 from __future__ import annotations
 
 import dataclasses
-import functools
 import math
 from dataclasses import dataclass, field
 from typing import Any
@@ -123,13 +122,13 @@ import numpy as np
 import scipy.stats
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.stability import IEEE952_TERMS, ieee952
+from gyrodrift.stability import IEEE952_TERMS, gmwm, ieee952
 from gyrodrift.stability.fit_check import FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
 
 __all__ = ["ALLAN_TERMS", "EXTRAPOLATION_FACTOR", "MAX_TRIM_SHARE", "MIN_FIT_EDF",
            "MODEL_DISCREPANCY", "MODEL_SET_DELTA", "READOFF_MIN_EDF", "TRIM_SIGMAS",
-           "AllanFit", "AllanTerm", "allan_kernel_corr", "fit_allan", "parse_fit_range",
+           "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range",
            "parse_terms", "slope_readouts"]
 
 #: Relative error of sigma^2 the five-term model is allowed at any tau (module docstring).
@@ -446,45 +445,12 @@ def _select(tau: np.ndarray, var: np.ndarray, wt: np.ndarray, names: tuple[str, 
     return kept, c, model, chi2, tried
 
 
-@functools.lru_cache(maxsize=1)
-def _allan_kernel() -> tuple[np.ndarray, np.ndarray]:
-    """Power of the Allan filter per unit log-frequency for a flicker spectrum (module
-    docstring): g(u) = sin^4(x) / x^2, x = pi f tau = pi e^u, on a grid of u."""
-    u = np.linspace(-10.0, 4.0, 14001)
-    x = np.pi * np.exp(u)
-    return u, np.sin(x) ** 4 / x**2
-
-
-def allan_kernel_corr(tau_s: np.ndarray) -> np.ndarray:
-    """Correlation matrix C_ij = int g(u) g(u + ln(tau_j / tau_i)) du / int g^2 du of the
-    Allan filters at averaging times tau_i, tau_j over log-frequency (module docstring):
-    the overlap of the frequency bands two taus see. About 0.6 for adjacent octaves.
-
-    Examples
-    --------
-    >>> c = allan_kernel_corr(np.array([1.0, 2.0, 4.0, 1024.0]))
-    >>> bool(0.5 < c[0, 1] < 0.8), bool(c[0, 2] < c[0, 1]), bool(c[0, 3] < 1e-3)
-    (True, True, True)
-    """
-    u, g = _allan_kernel()
-    lt = np.log(np.asarray(tau_s, dtype=np.float64))
-    d = np.abs(lt[:, None] - lt[None, :])
-    norm = float(np.einsum("i,i->", g, g))
-    out = np.empty_like(d)
-    for delta in np.unique(np.round(d, 9)):
-        shifted = np.interp(u + delta, u, g, left=0.0, right=0.0)
-        out[np.abs(d - delta) < 1e-8] = float(np.einsum("i,i->", g, shifted)) / norm
-    return out
-
-
 def _sampling_cov(tau: np.ndarray, var: np.ndarray, edf: np.ndarray, used: np.ndarray,
                   n_samples: int | None, rate_hz: float | None) -> tuple[np.ndarray, str]:
     """Covariance of log sigma_hat^2 at the used taus (module docstring): the Gaussian
     covariance of the estimated Allan variances under the octave sieve of
     `gmwm.wv_covariance_nonparametric` (record length and octave taus known), else
     2 / edf per tau with the Allan-filter overlap as the correlation."""
-    from gyrodrift.stability import gmwm
-
     ok = np.isfinite(var) & (var > 0) & np.isfinite(edf) & (edf > 0)
     if n_samples is not None and rate_hz is not None and n_samples >= 16:
         m = tau[ok] * float(rate_hz)
@@ -509,7 +475,7 @@ def _sampling_cov(tau: np.ndarray, var: np.ndarray, edf: np.ndarray, used: np.nd
                 v = var[used]
                 return 4.0 * cov_wv[np.ix_(sel, sel)] / np.outer(v, v), "sieve"
     sd = np.sqrt(2.0 / edf[used])
-    return np.outer(sd, sd) * allan_kernel_corr(tau[used]), "edf"
+    return np.outer(sd, sd) * gmwm.allan_kernel_corr(tau[used]), "edf"
 
 
 def _robust_cov(jac: np.ndarray, wt: np.ndarray, resid: np.ndarray, v_s: np.ndarray,
@@ -618,10 +584,10 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     v_s, cov_source = _sampling_cov(tau, np.where(ok_all, dev, 1.0) ** 2, e, used,
                                     n_samples, rate_hz)
     cov, discrepancy = _robust_cov(jac, wt_u, np.log(var_u / model), v_s,
-                                   allan_kernel_corr(t_u))
+                                   gmwm.allan_kernel_corr(t_u))
     z = (float(scipy.stats.t.ppf(0.5 + ci / 2.0, dof)) if dof > 0
          else float(scipy.stats.norm.ppf(0.5 + ci / 2.0)))
-    corr = allan_kernel_corr(t_u)
+    corr = gmwm.allan_kernel_corr(t_u)
 
     def intervals(terms: tuple[str, ...], coef: np.ndarray, m: np.ndarray, cv: np.ndarray
                   ) -> dict[str, tuple[float, float, float]]:
