@@ -88,11 +88,21 @@ and the candidate is scored as that model (`_convert_pinned`). A named model (mo
 "N+K", ...) keeps the iterated efficient weight below, and the same conversion.
 
 Misfit and intervals: where J exceeds its MISFIT_P quantile of chi-squared (scales - p
-dof) or the check fails, the result is flagged approximate and the parameter covariance
-is multiplied by J / dof (the reduced chi-square: the residual scatter exceeds what the
-weight expects by that factor; treating the excess as noise of the same covariance scales
-the estimator's covariance by it, as for a weighted least-squares fit with an unknown
-scale). A correlation time at a bound that is kept gets a one-sided interval.
+dof) or the check fails, the result is flagged approximate. The parameter covariance is
+misspecification-robust in every case (`_robust_param_cov`): the GMM sandwich
+(D' W D)^-1 D' W S W D (D' W D)^-1 (Hall & Inoue 2003 for GMM under misspecification, here
+without their higher-order term), W the fit's weight, S the covariance of the measured
+wavelet variances from the data (the sieve of `wv_covariance_nonparametric`; for a named
+model its variances raised to the model's where those are larger) plus a model
+discrepancy d^2 diag(nu_hat) C diag(nu_hat): what no candidate follows (an output filter,
+a hump, flicker noise between the Gauss-Markov terms) as a random relative error of the
+wavelet variance, correlated between scales by the overlap C of the Haar filters over
+log-frequency (`allan_kernel_corr`), with d^2 estimated from the residuals by moments (the
+same construction as the Allan fit's, `gyrodrift.stability.allan_fit`). When the model holds,
+d is near 0 and the sandwich is the efficient GMM covariance. (The earlier rule multiplied
+the model-based covariance by J / dof; on a misfit record with J / dof = 7e4 that gave an
+interval of a factor 55 each way.) A correlation time at a bound that is kept gets a
+one-sided interval.
 
 Selected (`select_nested`): start at the eligible candidate of smallest WIC; while a sub-model with
 one term fewer has a WIC within WIC_MARGIN = 2 of the current model's, move to the best such
