@@ -1042,7 +1042,9 @@ class GmwmResult:
         noise there, with its spectral density at zero frequency, sigma^2 (1 + phi) /
         (1 - phi) per sample); K adds every one whose correlation time exceeds the longest
         scale (a random walk there, increment variance sigma^2 (1 - phi^2)). 0.0 where the
-        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high. Where the
+        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high and
+        K_upper_limit (the largest K the measured wavelet variance allows at any fitted
+        scale: the bound to report where K is 0, not resolved). Where the
         value is the model's own N (K) term alone, its interval is that parameter's;
         otherwise it follows from param_cov by the delta method on the log scale
         (d log(1 + phi)/(1 - phi) / d log T_c = 2 phi / (T_c (1 - phi^2)),
@@ -1103,6 +1105,13 @@ class GmwmResult:
                 half = z * 0.5 * math.sqrt(max(var, 0.0))
                 out[f"{name}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
                 out[f"{name}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
+        # the largest K the measured WV allows: the random walk's WV alone,
+        # (tau^2 + 2) g2 / (12 tau) (tau in samples), reaching the upper end of the measured
+        # interval at some fitted scale; an upper limit whatever the model (K = 0: not
+        # resolved by the record, K <= this)
+        tau_n = self.tau_s / dt
+        g2 = 12.0 * tau_n * self.wv_ci_high / (tau_n * tau_n + 2.0)
+        out["K_upper_limit"] = float(60.0 * math.sqrt(float(np.min(g2)) / dt))
         return out
 
     def as_dict(self) -> dict[str, object]:
