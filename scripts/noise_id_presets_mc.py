@@ -7,8 +7,11 @@ the coverage of the intervals, the misfit flag rate and the automatic fit ranges
     PYTHONPATH=python:build/dev-NAME/py python scripts/noise_id_presets_mc.py \\
         [--records 100] [--length 1.0] [--preset NAME ...] [--seed0 0] [--ci 0.95] [--jobs 1]
 
-Seeds seed0, seed0 + 1, ... (fixed: the same command gives the same table). --length scales
-each preset's default record length. tests/test_noise_presets.py runs a small version with
+Seeds seed0, seed0 + 1, ... (fixed: the same command gives the same table; seeds 1000..1099
+were used while developing the intervals, 2000..2099 for the validation table). --length
+scales each preset's default record length. The fit gets the record's length and rate (the
+sampling covariance of its intervals), as `gyrodrift allan`, `identify` and `characterize`
+do. tests/test_noise_presets.py runs a small version with
 thresholds; docs/validation/noise-identification.md holds the full run.
 """
 

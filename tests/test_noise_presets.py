@@ -20,7 +20,7 @@ from gyrodrift.stability.allan_fit import fit_allan
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "scripts"))
 import noise_id_presets_mc as mc
 
-#: records per preset and length factor of the small Monte Carlo (about 20 s in all)
+#: records per preset and length factor of the small Monte Carlo (about 40 s of CPU in all)
 RECORDS = 6
 LENGTH = {"tactical-mems": 0.4, "consumer-mems": 0.5, "navigation-fog": 0.25}
 
