@@ -85,6 +85,7 @@ void def_loglike(py::module_& m) {
 void bind_drift(py::module_& m) {
   def_loglike<double>(m);
   def_loglike<float>(m);
+  bind_online_drift(m);  // bind_online_drift.cpp: OnlineDriftIdentifier, OnlineDriftIdentifierF32
 }
 
 }  // namespace gyrodrift::py_bindings
