@@ -5,10 +5,13 @@ against the generating values, of the datasheet read-off against the true curve'
 the coverage of the intervals, the misfit flag rate and the automatic fit ranges.
 
     PYTHONPATH=python:build/dev-NAME/py python scripts/noise_id_presets_mc.py \\
-        [--records 100] [--length 1.0] [--preset NAME ...] [--seed0 0] [--ci 0.95]
+        [--records 100] [--length 1.0] [--preset NAME ...] [--seed0 0] [--ci 0.95] [--jobs 1]
 
-Seeds seed0, seed0 + 1, ... (fixed: the same command gives the same table). --length scales
-each preset's default record length. tests/test_noise_presets.py runs a small version with
+Seeds seed0, seed0 + 1, ... (fixed: the same command gives the same table; seeds 1000..1099
+were used while developing the intervals, 2000..2099 for the validation table). --length
+scales each preset's default record length. The fit gets the record's length and rate (the
+sampling covariance of its intervals), as `gyrodrift allan`, `identify` and `characterize`
+do. tests/test_noise_presets.py runs a small version with
 thresholds; docs/validation/noise-identification.md holds the full run.
 """
 
@@ -38,6 +41,9 @@ class Tally:
     k_ratio: list[float] = field(default_factory=list)      # identified K / generating K
     k_cover: list[bool] = field(default_factory=list)
     k_limit_holds: list[bool] = field(default_factory=list)  # upper limit >= generating K
+    # standardised squared errors (log(estimate / truth) / se_log)^2, se_log = log(high /
+    # value) / 1.96: about 1 on average for honest intervals, far below 1 for inflated ones
+    z2: dict[str, list[float]] = field(default_factory=lambda: {"N": [], "B": []})
     approximate: list[bool] = field(default_factory=list)
     n_used: list[int] = field(default_factory=list)
     tau_lo: list[float] = field(default_factory=list)
@@ -45,21 +51,38 @@ class Tally:
     seconds: list[float] = field(default_factory=list)
 
 
+def _z2(value: float, high: float, truth: float) -> float:
+    se_log = math.log(high / value) / 1.96
+    return (math.log(value / truth) / se_log) ** 2 if se_log > 0 else math.inf
+
+
 def run_one(name: str, n: int, seed: int, ci: float) -> tuple[AllanFit, object, float]:
     """Simulate one record, fit it; returns the fit, the truth and the fit's wall time."""
     rec = simulate_preset(name, n, seed)
-    r = oadev(rec.gyro_deg_h, rec.rate_hz, progress=False, ci=ci)
+    r = oadev(rec.gyro_deg_h, rec.rate_hz, progress=False, ci=ci, threads=1)
     t0 = time.perf_counter()
-    fit = fit_allan(r.tau_s, r.adev, r.edf, ci=ci)
+    fit = fit_allan(r.tau_s, r.adev, r.edf, ci=ci, n_samples=r.n_samples, rate_hz=r.rate_hz)
     return fit, rec.truth, time.perf_counter() - t0
 
 
-def tally(name: str, n: int, seeds: range, ci: float) -> tuple[Tally, object]:
-    """Run the records of one preset."""
+def _run_star(a: tuple[str, int, int, float]) -> tuple[AllanFit, object, float]:
+    return run_one(*a)
+
+
+def tally(name: str, n: int, seeds: range, ci: float, jobs: int = 1) -> tuple[Tally, object]:
+    """Run the records of one preset (``jobs`` worker processes; the result does not depend
+    on it: each record is simulated from its own seed)."""
     out = Tally()
     truth = None
-    for seed in seeds:
-        fit, truth, sec = run_one(name, n, seed, ci)
+    args = [(name, n, seed, ci) for seed in seeds]
+    if jobs > 1:
+        import multiprocessing
+
+        with multiprocessing.get_context("fork").Pool(jobs) as pool:
+            results = pool.map(_run_star, args, chunksize=1)
+    else:
+        results = [run_one(*a) for a in args]
+    for fit, truth, sec in results:
         t = truth
         out.seconds.append(sec)
         out.approximate.append(fit.approximate)
@@ -70,6 +93,7 @@ def tally(name: str, n: int, seeds: range, ci: float) -> tuple[Tally, object]:
             nt = fit.term("N")
             out.n_ratio.append(nt.value / t.n_deg_rt_h)  # type: ignore[attr-defined]
             out.n_cover.append(nt.ci_low <= t.n_deg_rt_h <= nt.ci_high)  # type: ignore[attr-defined]
+            out.z2["N"].append(_z2(nt.value, nt.ci_high, t.n_deg_rt_h))  # type: ignore[attr-defined]
         else:
             out.n_ratio.append(0.0)
             out.n_cover.append(False)
@@ -77,6 +101,7 @@ def tally(name: str, n: int, seeds: range, ci: float) -> tuple[Tally, object]:
             bt = fit.term("B")
             out.b_ratio.append(bt.value / t.b_deg_h)  # type: ignore[attr-defined]
             out.b_cover.append(bt.ci_low <= t.b_deg_h <= bt.ci_high)  # type: ignore[attr-defined]
+            out.z2["B"].append(_z2(bt.value, bt.ci_high, t.b_deg_h))  # type: ignore[attr-defined]
         else:
             out.b_ratio.append(0.0)
             out.b_cover.append(False)
@@ -112,6 +137,7 @@ def main() -> None:
     ap.add_argument("--preset", action="append", choices=list(PRESETS), help="presets to run")
     ap.add_argument("--seed0", type=int, default=0)
     ap.add_argument("--ci", type=float, default=0.95)
+    ap.add_argument("--jobs", type=int, default=1, help="worker processes")
     args = ap.parse_args()
     names = args.preset or list(PRESETS)
     t_start = time.perf_counter()
@@ -123,7 +149,8 @@ def main() -> None:
     print("|" + " --- |" * 15)
     for name in names:
         n = max(1024, round(PRESETS[name].default_n_samples * args.length))
-        res, truth = tally(name, n, range(args.seed0, args.seed0 + args.records), args.ci)
+        res, truth = tally(name, n, range(args.seed0, args.seed0 + args.records), args.ci,
+                           args.jobs)
         kept_b = [x for x in res.b_ratio if x > 0]
         cover_b = [c for c, x in zip(res.b_cover, res.b_ratio, strict=True) if x > 0]
         t = truth
@@ -137,7 +164,6 @@ def main() -> None:
               f"{np.median(res.tau_lo):.3g}..{np.median(res.tau_hi):.3g} s (median ends); "
               f"fit {1e3 * np.median(res.seconds):.0f} ms per record (median)")
     print(f"# total {time.perf_counter() - t_start:.0f} s")
-    _ = math.nan
 
 
 if __name__ == "__main__":

@@ -195,7 +195,8 @@ def _fits(res: Any, dev_name: str, args: argparse.Namespace) -> tuple[Any, Any, 
 
         try:
             afit = fit_allan(res.tau_s, res.adev, res.edf, terms=args.terms,
-                             fit_range=args.fit_range, select=not args.no_select, ci=res.ci)
+                             fit_range=args.fit_range, select=not args.no_select, ci=res.ci,
+                             n_samples=res.n_samples, rate_hz=res.rate_hz)
         except ValueError as exc:
             if args.fit_range or args.terms != DEFAULT_FIT_TERMS:
                 raise CliError(str(exc)) from exc

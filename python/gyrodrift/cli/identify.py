@@ -240,7 +240,8 @@ def run(args: argparse.Namespace) -> int:
 
         try:
             fit = fit_allan(allan.tau_s, allan.adev, allan.edf, terms=args.terms,
-                            fit_range=args.fit_range, select=not args.no_select, ci=args.ci)
+                            fit_range=args.fit_range, select=not args.no_select, ci=args.ci,
+                            n_samples=allan.n_samples, rate_hz=allan.rate_hz)
         except ValueError as exc:
             raise CliError(str(exc)) from exc
         if args.png:

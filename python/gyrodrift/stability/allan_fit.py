@@ -48,21 +48,47 @@ deviation with the measured one and its 95 % chi-squared interval (from the edf)
 `AllanFit.approximate` is True when a used tau fails it or the reduced chi2 exceeds its 99 %
 point: the output then says the model is approximate.
 
-Intervals (misspecification-robust): the variance of each coefficient is the larger of
-(1) s^2 [(J' W J)^-1]_kk with J = d log sigma_model^2 / d C, W = diag(w_i) and
-s^2 = max(1, chi2 / dof) (dof = used taus - kept terms): the Gauss-Newton covariance of the
-log-scale fit, inflated by the reduced chi-square when the model does not describe the curve
-within the stated errors (the quasi-likelihood / Birge-ratio scale), and
-(2) the residual sandwich H^-1 M H^-1 (n / dof), H = J' W J, M the Bartlett-weighted
-(HAC_LAGS neighbours each side) sum of the products of the per-tau scores
-J_i' w_i (log sigma_hat_i^2 - log sigma_model_i^2): where the model misses the curve
-systematically over neighbouring taus (an output filter bending the short taus, a hump) the
-residuals are correlated and larger than the stated errors, and (2) measures what they do to
-the coefficient, which (1) cannot, since a systematic misfit spread over a few taus barely
-moves chi2. The Allan variances at neighbouring octave taus also share clusters; the Monte
+Intervals (misspecification-robust). The coefficients' covariance is the sandwich::
+
+    cov(C) = H^-1 J' W (V_s + d^2 C) W J H^-1,   H = J' W J,
+
+J = d log sigma_model^2 / d C at the used taus, W = diag(w_i) the fit's weight, and the
+covariance of the measured log Allan variances in two parts:
+
+- V_s, their sampling covariance. With the record length and sample rate (``n_samples``,
+  ``rate_hz``; every used tau an octave multiple of the sample period) it is the Gaussian
+  covariance of the estimated Allan variances, exact for the record length, under the octave
+  sieve spectrum that `gyrodrift.stability.gmwm.wv_covariance_nonparametric` matches to the
+  measured curve (the overlapping Allan variance at tau = m dt is twice the Haar wavelet
+  variance of level log2(2m), with the same coefficients); it depends on the data only, not
+  on the fitted model, and holds the strong correlation of neighbouring octaves under flicker
+  and random-walk noise that a diagonal 2 / edf misses. Without them, 2 / edf_i on the
+  diagonal with the correlation C below.
+- d^2 C, the model discrepancy (Kennedy & O'Hagan 2001): what the five-term model misses
+  (an output filter's bend, a Gauss-Markov hump, a warm-up) treated as a random relative
+  error of the curve, with the correlation C_ij of the Allan filters at tau_i and tau_j over
+  log-frequency (`gmwm.allan_kernel_corr`: a misfit of the spectrum shows at the taus whose
+  filters see its band; C = 0.60 for adjacent octaves, 0.22 two octaves apart; computed for
+  flicker noise, whose power per log-frequency is flat). Its variance d^2 is estimated from
+  the residuals r = log sigma_hat^2 - log sigma_model^2 by moments: with M = I - J H^-1 J' W
+  (the fit's residual maker) and A = diag(V_s)^-1::
+
+      d^2 = max(0, [r' A r - tr(A M V_s M')] / tr(A M C M')),
+
+  the excess of the residuals over their sampling variance, weighted where the curve is
+  measured precisely enough to show it (`AllanFit.discrepancy` = d, relative sd of sigma^2).
+
+The quantile is Student's t with dof = used taus - kept terms (the discrepancy's variance is
+estimated from the residuals). Model uncertainty: each term's interval is widened to cover
+its intervals in every model tried by the selection whose IC is within MODEL_SET_DELTA = 4 of
+the selected one's (`AllanFit.model_set`): on the tactical-mems preset the selection drops
+K on about 45 % of the records (keeping N+B or N+B+R), B then carries K's share of the
+minimum (+16 % on those records), and the selected model's own intervals cover the
+generating B on 67-76 % of them. Each term's interval is
+the delta method on the log scale, value exp(+-t se_log), se_log = se(C) / (2 C). The Monte
 Carlo coverage on the `gyrodrift.simulation.presets` records
-(docs/validation/noise-identification.md) is the check. Each term's interval is the delta
-method on the log scale, value exp(+-z se_log), se_log = se(C) / (2 C).
+(docs/validation/noise-identification.md, on seeds other than those the construction was
+checked on during development) is the check.
 
 Datasheet read-off: `AllanFit.b_readoff` is the minimum of the measured Allan deviation over
 the taus with edf >= READOFF_MIN_EDF, divided by 0.664, at `b_readoff_tau_s`, with the
@@ -96,13 +122,14 @@ import numpy as np
 import scipy.stats
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.stability import IEEE952_TERMS, ieee952
+from gyrodrift.stability import IEEE952_TERMS, gmwm, ieee952
 from gyrodrift.stability.fit_check import FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
 
 __all__ = ["ALLAN_TERMS", "EXTRAPOLATION_FACTOR", "MAX_TRIM_SHARE", "MIN_FIT_EDF",
-           "MODEL_DISCREPANCY", "READOFF_MIN_EDF", "TRIM_SIGMAS", "AllanFit", "AllanTerm",
-           "fit_allan", "parse_fit_range", "parse_terms", "slope_readouts"]
+           "MODEL_DISCREPANCY", "MODEL_SET_DELTA", "READOFF_MIN_EDF", "TRIM_SIGMAS",
+           "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range",
+           "parse_terms", "slope_readouts"]
 
 #: Relative error of sigma^2 the five-term model is allowed at any tau (module docstring).
 MODEL_DISCREPANCY = 0.1
@@ -122,8 +149,9 @@ READOFF_MIN_EDF = 10.0
 CHECK_CI = 0.95
 #: K counts as identified only if its interval spans at most this factor (high / low).
 K_MAX_SPAN = 3.0
-#: Neighbouring taus (each side) whose residuals the robust covariance lets correlate.
-HAC_LAGS = 2
+#: Models whose IC is within this of the selected one's widen its intervals (model
+#: uncertainty; the same margin as GMWM's model set).
+MODEL_SET_DELTA = 4.0
 
 #: Term letter -> power k of tau in sigma^2.
 ALLAN_TERMS: dict[str, int] = {"Q": -2, "N": -1, "B": 0, "K": 1, "R": 2}
@@ -242,7 +270,8 @@ class AllanFit:
     dof
         used taus minus kept terms.
     scale
-        the factor the covariance was inflated by, max(1, chi2 / dof).
+        max(1, chi2 / dof), the reduced chi-square (reported; the intervals use the
+        sandwich of the module docstring).
     approximate
         the model does not describe the curve within its errors (the check
         fails or chi2 / dof exceeds its 99 % point); the values are approximate.
@@ -256,6 +285,15 @@ class AllanFit:
     upper_limits
         terms the record cannot identify, with the largest value the curve
         allows (K, deg/h/sqrt(h)).
+    discrepancy
+        the model discrepancy d (relative sd of sigma^2 per tau) estimated from the
+        residuals (module docstring).
+    covariance_source
+        "sieve" (the sampling covariance of the curve from the record length and rate)
+        or "edf" (2 / edf with the Allan-filter correlation).
+    model_set
+        the other models within MODEL_SET_DELTA of the selected one's IC, whose
+        intervals the terms' cover.
 
     Examples
     --------
@@ -288,6 +326,9 @@ class AllanFit:
     b_readoff_ci_low: float = math.nan
     b_readoff_ci_high: float = math.nan
     upper_limits: dict[str, float] = field(default_factory=dict)
+    discrepancy: float = 0.0
+    covariance_source: str = "edf"
+    model_set: tuple[tuple[str, ...], ...] = ()
 
     def term(self, name: str) -> AllanTerm:
         for t in self.terms:
@@ -315,13 +356,18 @@ class AllanFit:
                        f"[{self.b_readoff_ci_low:.4g}, {self.b_readoff_ci_high:.4g}] at tau = "
                        f"{self.b_readoff_tau_s:.4g} s ({fitted}; the read-off includes what "
                        "N, K and other terms add at the minimum)")
+        if self.model_set:
+            out.append("intervals cover those of the models within "
+                       f"{MODEL_SET_DELTA:g} of the selected one's IC: "
+                       + ", ".join("+".join(m) for m in self.model_set))
         for name, value in self.upper_limits.items():
             out.append(f"{name} not identified by this record (its slope is not seen): "
                        f"{name} <= {value:.4g} {TERM_UNITS['gyro'][name].ieee}")
         if self.approximate:
             out.extend(self.check.warnings or (
                 f"model is approximate: chi2 / dof = {self.chi2 / max(self.dof, 1):.3g} "
-                f"(dof {self.dof}); intervals widened by sqrt({self.scale:.3g}) or more",))
+                f"(dof {self.dof}); model discrepancy {100 * self.discrepancy:.3g} % of "
+                f"sigma^2 per tau in the intervals",))
         return out
 
     def as_dict(self) -> dict[str, object]:
@@ -343,6 +389,9 @@ class AllanFit:
                           "ci_low": self.b_readoff_ci_low,
                           "ci_high": self.b_readoff_ci_high, "unit": "deg/h"},
             "upper_limits": dict(self.upper_limits),
+            "discrepancy": self.discrepancy,
+            "covariance_source": self.covariance_source,
+            "model_set": ["+".join(m) for m in self.model_set],
             "check": self.check.as_dict(),
         }
 
@@ -385,22 +434,31 @@ def _solve(tau: np.ndarray, var: np.ndarray, wt: np.ndarray, names: tuple[str, .
 
 
 def _select(tau: np.ndarray, var: np.ndarray, wt: np.ndarray, names: tuple[str, ...],
-            select: bool) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, float]:
-    """Kept terms, their coefficients, the model and chi2 (backward elimination on IC)."""
+            select: bool) -> tuple[tuple[str, ...], np.ndarray, np.ndarray, float,
+                                   dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, float]]]:
+    """Kept terms, their coefficients, the model and chi2 (backward elimination on IC), and
+    every model tried (terms -> coefficients, model, chi2)."""
+    tried: dict[tuple[str, ...], tuple[np.ndarray, np.ndarray, float]] = {}
+
+    def solve(sub: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, float]:
+        if sub not in tried:
+            tried[sub] = _solve(tau, var, wt, sub)
+        return tried[sub]
+
     kept = names
-    c, model, chi2 = _solve(tau, var, wt, kept)
+    c, model, chi2 = solve(kept)
     if not select:
-        return kept, c, model, chi2
+        return kept, c, model, chi2, tried
     nz = tuple(n for n, ck in zip(kept, c, strict=True) if ck > 0)
     if nz and nz != kept:
         kept = nz
-        c, model, chi2 = _solve(tau, var, wt, kept)
+        c, model, chi2 = solve(kept)
     ic = chi2 + 2.0 * len(kept)
     while len(kept) > 1:
         trials = []
         for drop in kept:
             sub = tuple(n for n in kept if n != drop)
-            cs, ms, x2 = _solve(tau, var, wt, sub)
+            cs, ms, x2 = solve(sub)
             trials.append((x2 + 2.0 * np.count_nonzero(cs > 0), sub, cs, ms, x2))
         best = min(trials, key=lambda t: t[0])
         if best[0] > ic:
@@ -409,9 +467,59 @@ def _select(tau: np.ndarray, var: np.ndarray, wt: np.ndarray, names: tuple[str, 
         nz = tuple(n for n, ck in zip(kept, c, strict=True) if ck > 0)
         if nz and nz != kept:
             kept = nz
-            c, model, chi2 = _solve(tau, var, wt, kept)
+            c, model, chi2 = solve(kept)
         ic = chi2 + 2.0 * len(kept)
-    return kept, c, model, chi2
+    return kept, c, model, chi2, tried
+
+
+def _sampling_cov(tau: np.ndarray, var: np.ndarray, edf: np.ndarray, used: np.ndarray,
+                  n_samples: int | None, rate_hz: float | None) -> tuple[np.ndarray, str]:
+    """Covariance of log sigma_hat^2 at the used taus (module docstring): the Gaussian
+    covariance of the estimated Allan variances under the octave sieve of
+    `gmwm.wv_covariance_nonparametric` (record length and octave taus known), else
+    2 / edf per tau with the Allan-filter overlap as the correlation."""
+    ok = np.isfinite(var) & (var > 0) & np.isfinite(edf) & (edf > 0)
+    if n_samples is not None and rate_hz is not None and n_samples >= 16:
+        m = tau[ok] * float(rate_hz)
+        lev = np.log2(np.maximum(m, 1e-300))
+        octave = np.abs(m - np.round(m)) <= 1e-6 * m
+        octave &= np.abs(lev - np.round(lev)) <= 1e-9
+        octave &= 2.0 ** (np.round(lev) + 1.0) <= n_samples
+        if np.all(octave[used[ok]]):
+            keep = octave
+            level = np.round(lev[keep]).astype(np.int64) + 1
+            if np.unique(level).size == level.size and level.size >= 2:
+                n = int(n_samples)
+                big_l = 2.0 ** level
+                m_coef = n - big_l + 1.0
+                wv = gmwm.WaveletVariance(
+                    tau_s=big_l / float(rate_hz), level=level, nu2=var[ok][keep] / 2.0,
+                    n_coeffs=m_coef.astype(np.int64), eta=np.maximum(m_coef / big_l, 1.0),
+                    rate_hz=float(rate_hz), n_samples=n)
+                cov_wv = gmwm.wv_covariance_nonparametric(wv)
+                pos = np.flatnonzero(ok)[keep]
+                sel = np.searchsorted(pos, np.flatnonzero(used))
+                v = var[used]
+                return 4.0 * cov_wv[np.ix_(sel, sel)] / np.outer(v, v), "sieve"
+    sd = np.sqrt(2.0 / edf[used])
+    return np.outer(sd, sd) * gmwm.allan_kernel_corr(tau[used]), "edf"
+
+
+def _robust_cov(jac: np.ndarray, wt: np.ndarray, resid: np.ndarray, v_s: np.ndarray,
+                corr: np.ndarray) -> tuple[np.ndarray, float]:
+    """Sandwich covariance of the coefficients (module docstring) and the model discrepancy
+    d (relative sd of sigma^2 per tau) estimated from the residuals by moments."""
+    info = jac.T @ (jac * wt[:, None])
+    bread = np.linalg.pinv(info)
+    resid_maker = np.eye(wt.size) - jac @ bread @ (jac.T * wt[None, :])
+    a = 1.0 / np.diag(v_s)
+    den = float(np.einsum("i,ij,ji->", a, resid_maker, corr @ resid_maker.T))
+    excess = float(np.sum(a * resid**2)) - float(
+        np.einsum("i,ij,ji->", a, resid_maker, v_s @ resid_maker.T))
+    d2 = max(0.0, excess / den) if den > 0 else 0.0
+    v = v_s + d2 * corr
+    g = jac.T * wt[None, :]
+    return bread @ g @ v @ g.T @ bread, math.sqrt(d2)
 
 
 def _fmt_tau(t: float) -> str:
@@ -421,11 +529,15 @@ def _fmt_tau(t: float) -> str:
 def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
               terms: str | tuple[str, ...] = IEEE952_TERMS,
               fit_range: tuple[float, float] | str | None = None, select: bool = True,
-              ci: float = 0.95) -> AllanFit:
+              ci: float = 0.95, n_samples: int | None = None,
+              rate_hz: float | None = None) -> AllanFit:
     """Allan-variance fit (module docstring). tau_s in s, adev in deg/h, edf per tau.
 
     ``fit_range`` (s, "TMIN:TMAX" or a pair) fixes the fitted taus; None chooses them
-    automatically (module docstring) and says which in ``range_note``.
+    automatically (module docstring) and says which in ``range_note``. ``n_samples`` (rate
+    samples of the record behind the curve) and ``rate_hz`` give the intervals the curve's
+    sampling covariance (module docstring); without them (a published curve) they use
+    2 / edf with the Allan-filter correlation.
 
     Raises
     ------
@@ -458,6 +570,7 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     lo, hi = (parse_fit_range(fit_range) if isinstance(fit_range, str)
               else (fit_range if fit_range is not None else (0.0, math.inf)))
     finite = np.isfinite(dev) & np.isfinite(e) & np.isfinite(tau)
+    ok_all = finite & (dev > 0) & (e > 0)
     used = finite & (tau >= lo * (1 - 1e-12)) & (tau <= hi * (1 + 1e-12)) & (dev > 0) & (e > 0)
     n_low_edf = 0
     if not user_range:
@@ -477,7 +590,8 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
                    math.ceil((1.0 - MAX_TRIM_SHARE) * np.count_nonzero(used)))
     while True:
         idx = np.flatnonzero(used)
-        kept, c, model, chi2 = _select(tau[idx], var_all[idx], wt_all[idx], names, select)
+        kept, c, model, chi2, tried = _select(tau[idx], var_all[idx], wt_all[idx], names,
+                                              select)
         if user_range or idx.size <= min_kept:
             break
         z = np.abs(np.log(var_all[idx] / model)) * np.sqrt(wt_all[idx])
@@ -494,32 +608,53 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     ic = chi2 + 2.0 * len(kept)
     dof = max(int(idx.size) - len(kept), 0)
     scale = max(1.0, chi2 / dof) if dof > 0 else 1.0
-    # Gauss-Newton covariance of the log-scale fit, inflated by the reduced chi-square
     powers = np.array([ALLAN_TERMS[n] for n in kept])
     jac = (t_u[:, None] ** powers[None, :].astype(np.float64)) / model[:, None]
-    info = jac.T @ (jac * wt_u[:, None])
-    bread = np.linalg.pinv(info)
-    cov = bread * scale
-    if dof > 0:
-        # residual sandwich with Bartlett weights over neighbouring taus (their Allan
-        # variances, and a misfit, are correlated), small-sample factor n / dof
-        score = jac * (wt_u * np.log(var_u / model))[:, None]
-        meat = score.T @ score
-        for lag in range(1, HAC_LAGS + 1):
-            g = score[lag:].T @ score[:-lag]
-            meat += (1.0 - lag / (HAC_LAGS + 1.0)) * (g + g.T)
-        cov_hac = bread @ meat @ bread * (idx.size / dof)
-        cov = np.where(np.eye(len(kept), dtype=bool) & (np.diag(cov_hac) > np.diag(cov)),
-                       cov_hac, cov)
-    z = float(scipy.stats.norm.ppf(0.5 + ci / 2.0))
+    v_s, cov_source = _sampling_cov(tau, np.where(ok_all, dev, 1.0) ** 2, e, used,
+                                    n_samples, rate_hz)
+    cov, discrepancy = _robust_cov(jac, wt_u, np.log(var_u / model), v_s,
+                                   gmwm.allan_kernel_corr(t_u))
+    z = (float(scipy.stats.t.ppf(0.5 + ci / 2.0, dof)) if dof > 0
+         else float(scipy.stats.norm.ppf(0.5 + ci / 2.0)))
+    corr = gmwm.allan_kernel_corr(t_u)
+
+    def intervals(terms: tuple[str, ...], coef: np.ndarray, m: np.ndarray, cv: np.ndarray
+                  ) -> dict[str, tuple[float, float, float]]:
+        res = {}
+        for k, name in enumerate(terms):
+            ck = float(coef[k])
+            if ck <= 0.0:
+                continue
+            se_log = math.sqrt(max(float(cv[k, k]), 0.0)) / (2.0 * ck)
+            val = _coef_to_value(name, ck)
+            # a term at the edge of zero in a neighbouring model can have se_log > 700
+            half = z * se_log
+            res[name] = (val, val * math.exp(-half) if half < 700.0 else 0.0,
+                         val * math.exp(half) if half < 700.0 else math.inf)
+        return res
+
+    ivs = intervals(kept, c, model, cov)
+    # model uncertainty: each term's interval covers its intervals in the models whose IC
+    # is within MODEL_SET_DELTA of the selected one's
+    near = []
+    for sub, (cs, ms, x2) in tried.items():
+        p_sub = int(np.count_nonzero(cs > 0))
+        if sub == kept or p_sub != len(sub) or x2 + 2.0 * p_sub > ic + MODEL_SET_DELTA:
+            continue
+        pw = np.array([ALLAN_TERMS[n] for n in sub])
+        jac_s = (t_u[:, None] ** pw[None, :].astype(np.float64)) / ms[:, None]
+        cov_s, _ = _robust_cov(jac_s, wt_u, np.log(var_u / ms), v_s, corr)
+        near.append(sub)
+        for name, (_, lo_s, hi_s) in intervals(sub, cs, ms, cov_s).items():
+            if name in ivs:
+                val, lo_v, hi_v = ivs[name]
+                ivs[name] = (val, min(lo_v, lo_s), max(hi_v, hi_s))
     out = []
     for k, name in enumerate(kept):
-        ck = float(c[k])
-        if ck <= 0.0:
+        if name not in ivs:
             continue
-        se_log = math.sqrt(max(float(cov[k, k]), 0.0)) / (2.0 * ck)
-        val = _coef_to_value(name, ck)
-        lo_v, hi_v = val * math.exp(-z * se_log), val * math.exp(z * se_log)
+        val, lo_v, hi_v = ivs[name]
+        ck = float(c[k])
         dens = _DENSITY.get(name)
         out.append(AllanTerm(
             name, val, TERM_UNITS["gyro"][name].ieee, lo_v, hi_v, ck,
@@ -595,7 +730,8 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
         fit_adev=total, components=comps, check=check, ic=float(ic), chi2=float(chi2),
         ci=float(ci), dof=dof, scale=float(scale), approximate=bool(approximate),
         range_source=source, range_note=note, b_readoff=b_ro, b_readoff_tau_s=b_ro_tau,
-        b_readoff_ci_low=b_ro_lo, b_readoff_ci_high=b_ro_hi, upper_limits=upper)
+        b_readoff_ci_low=b_ro_lo, b_readoff_ci_high=b_ro_hi, upper_limits=upper,
+        discrepancy=float(discrepancy), covariance_source=cov_source, model_set=tuple(near))
 
 
 def slope_readouts(result: Any, tolerance: float = 0.15) -> list[tuple[Any, ...]]:

@@ -88,11 +88,21 @@ and the candidate is scored as that model (`_convert_pinned`). A named model (mo
 "N+K", ...) keeps the iterated efficient weight below, and the same conversion.
 
 Misfit and intervals: where J exceeds its MISFIT_P quantile of chi-squared (scales - p
-dof) or the check fails, the result is flagged approximate and the parameter covariance
-is multiplied by J / dof (the reduced chi-square: the residual scatter exceeds what the
-weight expects by that factor; treating the excess as noise of the same covariance scales
-the estimator's covariance by it, as for a weighted least-squares fit with an unknown
-scale). A correlation time at a bound that is kept gets a one-sided interval.
+dof) or the check fails, the result is flagged approximate. The parameter covariance is
+misspecification-robust in every case (`_robust_param_cov`): the GMM sandwich
+(D' W D)^-1 D' W S W D (D' W D)^-1 (Hall & Inoue 2003 for GMM under misspecification, here
+without their higher-order term), W the fit's weight, S the covariance of the measured
+wavelet variances from the data (the sieve of `wv_covariance_nonparametric`; for a named
+model its variances raised to the model's where those are larger) plus a model
+discrepancy d^2 diag(nu_hat) C diag(nu_hat): what no candidate follows (an output filter,
+a hump, flicker noise between the Gauss-Markov terms) as a random relative error of the
+wavelet variance, correlated between scales by the overlap C of the Haar filters over
+log-frequency (`allan_kernel_corr`), with d^2 estimated from the residuals by moments (the
+same construction as the Allan fit's, `gyrodrift.stability.allan_fit`). When the model holds,
+d is near 0 and the sandwich is the efficient GMM covariance. (The earlier rule multiplied
+the model-based covariance by J / dof; on a misfit record with J / dof = 7e4 that gave an
+interval of a factor 55 each way.) A correlation time at a bound that is kept gets a
+one-sided interval.
 
 Selected (`select_nested`): start at the eligible candidate of smallest WIC; while a sub-model with
 one term fewer has a WIC within WIC_MARGIN = 2 of the current model's, move to the best such
@@ -120,6 +130,7 @@ True
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from collections.abc import Callable
@@ -142,6 +153,7 @@ __all__ = [
     "GmwmParam",
     "GmwmResult",
     "WaveletVariance",
+    "allan_kernel_corr",
     "haar_wv",
     "identify_gmwm",
     "parse_model",
@@ -1055,7 +1067,9 @@ class GmwmResult:
         noise there, with its spectral density at zero frequency, sigma^2 (1 + phi) /
         (1 - phi) per sample); K adds every one whose correlation time exceeds the longest
         scale (a random walk there, increment variance sigma^2 (1 - phi^2)). 0.0 where the
-        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high. Where the
+        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high and
+        K_upper_limit (the largest K the measured wavelet variance allows at any fitted
+        scale: the bound to report where K is 0, not resolved). Where the
         value is the model's own N (K) term alone, its interval is that parameter's;
         otherwise it follows from param_cov by the delta method on the log scale
         (d log(1 + phi)/(1 - phi) / d log T_c = 2 phi / (T_c (1 - phi^2)),
@@ -1116,6 +1130,13 @@ class GmwmResult:
                 half = z * 0.5 * math.sqrt(max(var, 0.0))
                 out[f"{name}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
                 out[f"{name}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
+        # the largest K the measured WV allows: the random walk's WV alone,
+        # (tau^2 + 2) g2 / (12 tau) (tau in samples), reaching the upper end of the measured
+        # interval at some fitted scale; an upper limit whatever the model (K = 0: not
+        # resolved by the record, K <= this)
+        tau_n = self.tau_s / dt
+        g2 = 12.0 * tau_n * self.wv_ci_high / (tau_n * tau_n + 2.0)
+        out["K_upper_limit"] = float(60.0 * math.sqrt(float(np.min(g2)) / dt))
         return out
 
     def as_dict(self) -> dict[str, object]:
@@ -1211,6 +1232,69 @@ def _param_cov(terms: tuple[str, ...], theta: np.ndarray, tau: np.ndarray,
     lc = _chol(omega)
     a = np.einsum("ij,jk->ik", _tri_inv(lc), d)
     return np.linalg.pinv(a.T @ a)
+
+
+@functools.lru_cache(maxsize=1)
+def _allan_kernel() -> tuple[np.ndarray, np.ndarray]:
+    """Power of the Allan filter per unit log-frequency for a flicker spectrum (module
+    docstring): g(u) = sin^4(x) / x^2, x = pi f tau = pi e^u, on a grid of u."""
+    u = np.linspace(-10.0, 4.0, 14001)
+    x = np.pi * np.exp(u)
+    return u, np.sin(x) ** 4 / x**2
+
+
+def allan_kernel_corr(tau_s: np.ndarray) -> np.ndarray:
+    """Correlation matrix C_ij = int g(u) g(u + ln(tau_j / tau_i)) du / int g^2 du of the
+    Allan filters at averaging times tau_i, tau_j over log-frequency (module docstring):
+    the overlap of the frequency bands two taus see. About 0.6 for adjacent octaves.
+
+    Examples
+    --------
+    >>> c = allan_kernel_corr(np.array([1.0, 2.0, 4.0, 1024.0]))
+    >>> bool(0.5 < c[0, 1] < 0.8), bool(c[0, 2] < c[0, 1]), bool(c[0, 3] < 1e-3)
+    (True, True, True)
+    """
+    u, g = _allan_kernel()
+    lt = np.log(np.asarray(tau_s, dtype=np.float64))
+    d = np.abs(lt[:, None] - lt[None, :])
+    norm = float(np.einsum("i,i->", g, g))
+    out = np.empty_like(d)
+    for delta in np.unique(np.round(d, 9)):
+        shifted = np.interp(u + delta, u, g, left=0.0, right=0.0)
+        out[np.abs(d - delta) < 1e-8] = float(np.einsum("i,i->", g, shifted)) / norm
+    return out
+
+
+def _raise_diag(cov: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """cov with its variances raised to var where var is larger, correlations kept."""
+    d = np.sqrt(np.diag(cov))
+    up = np.sqrt(np.maximum(np.diag(cov), var)) / np.where(d > 0, d, 1.0)
+    return cov * np.outer(up, up)
+
+
+def _robust_param_cov(terms: tuple[str, ...], theta: np.ndarray, tau: np.ndarray,
+                      omega_w: np.ndarray, omega_data: np.ndarray, nu2: np.ndarray
+                      ) -> tuple[np.ndarray, float]:
+    """Misspecification-robust covariance of the log parameters (module docstring): the GMM
+    sandwich (D' W D)^-1 D' W S W D (D' W D)^-1 with W = omega_w^-1 the fit's weight and S
+    the covariance of the measured wavelet variances taken from the data
+    (omega_data, the sieve) plus a model discrepancy d^2 diag(nu) C diag(nu) (C: the
+    overlap of the Haar filters over log-frequency, `allan_kernel_corr`), d^2 by moments
+    from the residuals; returns the covariance and d."""
+    d = _jacobian(terms, theta, tau)
+    li = _tri_inv(_chol(omega_w))
+    dw = li @ d
+    bread = np.linalg.pinv(dw.T @ dw)
+    gw = bread @ dw.T @ li  # (D' W D)^-1 D' W
+    resid = nu2 - theoretical_wv(terms, np.exp(theta), tau)
+    maker = np.eye(tau.size) - d @ gw
+    a = 1.0 / np.diag(omega_data)
+    vc = np.outer(nu2, nu2) * allan_kernel_corr(tau)
+    den = float(np.einsum("i,ij,ji->", a, maker, vc @ maker.T))
+    excess = float(np.sum(a * resid**2)) - float(
+        np.einsum("i,ij,ji->", a, maker, omega_data @ maker.T))
+    d2 = max(0.0, excess / den) if den > 0 else 0.0
+    return gw @ (omega_data + d2 * vc) @ gw.T, math.sqrt(d2)
 
 
 def _wic(fit: _Fit) -> float:
@@ -1478,7 +1562,8 @@ def _select_common(top: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
 
 def _widen_by_model_set(params: tuple[GmwmParam, ...], near: list[tuple[str, ...]],
                         sel: _Selection, tau: np.ndarray, dt: float, ci: float,
-                        n_scales: int) -> tuple[tuple[GmwmParam, ...], list[str]]:
+                        omega_data: np.ndarray, nu2: np.ndarray
+                        ) -> tuple[tuple[GmwmParam, ...], list[str]]:
     """Widen the intervals of N and K (the values a user carries into a filter) to cover
     those of every eligible candidate within MODEL_SET_DELTA of the selected one's WIC that
     has the term (model uncertainty: the data do not tell those models apart, and under
@@ -1488,8 +1573,7 @@ def _widen_by_model_set(params: tuple[GmwmParam, ...], near: list[tuple[str, ...
     hi: dict[str, float] = {}
     for c in near:
         f = sel.fits[c]
-        dof = max(n_scales - _n_params(c), 1)
-        cov = _param_cov(c, f.theta, tau, sel.omega) * max(1.0, f.objective / dof)
+        cov, _ = _robust_param_cov(c, f.theta, tau, sel.omega, omega_data, nu2)
         for q in _make_params(c, f.theta, cov, dt, ci, None):
             if q.name in ("N", "K"):
                 lo[q.name] = min(lo.get(q.name, math.inf), q.ci_low)
@@ -1637,15 +1721,23 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
     p_value = float(scipy.stats.chi2.sf(fit.objective, dof))
     approximate = p_value < 1.0 - MISFIT_P or not check.holds
     inflate = max(1.0, fit.objective / dof) if approximate else 1.0
+    if model == "auto":
+        omega_data = omega_np
+    else:
+        # the sieve's covariance, its variances raised to the named model's where that is
+        # larger: fitted to the measured WV, the sieve understates the longest scales'
+        # variance when they happen to be low, which the discrepancy estimate would take
+        # for misfit
+        omega_data = _raise_diag(wv_covariance_nonparametric(wv), np.diag(omega))
+    cov, discrepancy = _robust_param_cov(terms, fit.theta, tau, omega, omega_data, wv.nu2)
     if approximate:
         notes.append(
             f"the model is approximate: J = {fit.objective:.4g} on {dof} degrees of freedom "
             f"(p = {p_value:.2g})"
             + ("" if check.holds else f", {check.n_failed} of {wv.nu2.size} scales outside "
                "the measured interval and tolerance")
-            + (f"; intervals widened by sqrt(J / dof) = {math.sqrt(inflate):.3g}"
-               if inflate > 1.0 else "; J / dof <= 1: intervals not widened"))
-    cov = _param_cov(terms, fit.theta, tau, omega) * inflate
+            + f"; the intervals hold a model discrepancy of {100 * discrepancy:.3g} % of the "
+              "wavelet variance per scale")
     boot = None
     if bootstrap:
         rng = np.random.default_rng(seed)
@@ -1661,7 +1753,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         boot = np.array(boots)
     params = _make_params(terms, fit.theta, cov, dt, ci, boot, inflate)
     if model == "auto" and near:
-        params, widened = _widen_by_model_set(params, near, sel, tau, dt, ci, wv.nu2.size)
+        params, widened = _widen_by_model_set(params, near, sel, tau, dt, ci, omega_data,
+                                              wv.nu2)
         if widened:
             notes.append(
                 f"the interval of {' and '.join(widened)} covers the intervals of the "

@@ -327,7 +327,8 @@ def characterize_channel(x: np.ndarray, rate_hz: float, channel: str, *, ci: flo
     # It works in the record's own unit; C_k are (unit)^2 s^k whatever the unit.
     from gyrodrift.stability.allan_fit import fit_allan
 
-    afit = fit_allan(tau, a.adev, a.edf, terms=tuple(used), ci=ci)
+    afit = fit_allan(tau, a.adev, a.edf, terms=tuple(used), ci=ci, n_samples=a.n_samples,
+                     rate_hz=a.rate_hz)
     coeffs = np.zeros(len(TERMS))
     for t in afit.terms:
         coeffs[TERMS.index(t.name)] = t.coeff
