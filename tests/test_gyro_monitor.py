@@ -134,6 +134,18 @@ def test_reference_from_config_and_record(rng: np.random.Generator) -> None:
         reference_from_record(y, RATE_HZ, 0.01, 16)
 
 
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_reference_learned_from_white_noise_runs_in_float(seed: int) -> None:
+    """A white learning span once gave an AR(2) fit at a2 ~ -0.999999, which the float monitor
+    refused as non-stationary; the reference now takes the model `gyrodrift fit` would choose."""
+    y = np.random.default_rng(seed).normal(2e-4, 1e-3, 6000)  # 60 s of white noise at 100 Hz
+    ref = reference_from_record(y, 100.0, 10.0, 10)
+    a1, a2 = ref.drift[0], ref.drift[1]
+    assert abs(a2) < 0.99 and abs(a1) + abs(a2) < 1.0
+    trace = run_monitor(y, 100.0, ref, report_every_s=10.0, dtype=np.float32)
+    assert trace.t_s.size >= 5
+
+
 # ----------------------------------------------------------------------------- the run
 
 

@@ -280,10 +280,11 @@ def reference_from_config(cfg: ProcessorConfig, channel: str) -> MonitorReferenc
 def reference_from_record(y_rad_s: ArrayLike, rate_hz: float, learn_s: float,
                           octaves: int) -> MonitorReference:
     """The reference learned from the first `learn_s` seconds of a record: the offline
-    maximum-likelihood fit of that span (:func:`gyrodrift.filters.drift_model.fit_drift_model`,
-    AR(2) + white) as the drift model, and the span's own streaming Allan variance as the
-    expected curve, at the octaves where it has at least ``LEARN_MIN_TERMS`` squared
-    differences (at most `octaves`).
+    maximum-likelihood fit of that span as the drift model (AR(2) + white, AR(1) + white or
+    white, chosen by AIC as :func:`gyrodrift.filters.drift_model.compare_drift_models` does;
+    white noise when the chosen drift/noise split is not identified), and the span's own
+    streaming Allan variance as the expected curve, at the octaves where it has at least
+    ``LEARN_MIN_TERMS`` squared differences (at most `octaves`).
 
     Raises
     ------
@@ -297,7 +298,7 @@ def reference_from_record(y_rad_s: ArrayLike, rate_hz: float, learn_s: float,
     >>> ref.source, ref.learn_s, ref.avar.shape  # 3000 samples: octaves with >= 8 terms
     ('learned', 30.0, (9,))
     """
-    from gyrodrift.filters.drift_model import fit_drift_model
+    from gyrodrift.filters.drift_model import compare_drift_models
     from gyrodrift.stability.streaming import StreamingAllan
 
     y = np.asarray(y_rad_s, dtype=np.float64)
@@ -311,8 +312,12 @@ def reference_from_record(y_rad_s: ArrayLike, rate_hz: float, learn_s: float,
     if span.size < 2 * (LEARN_MIN_TERMS + 1):
         raise GyrodriftValueError(f"the learning span ({learn_s!r} s) holds {span.size} finite "
                                   "samples: too few to learn a reference")
-    fit = fit_drift_model(span, rate_hz, "ar2+white")
-    assert not isinstance(fit, tuple)  # a 1-D record gives one fit
+    # An AR(2) forced onto a white span ends at a2 -> -1 (not stationary in float): choose the
+    # model as `gyrodrift fit` does, and take white noise when the split is not identified.
+    comparison = compare_drift_models(span, rate_hz, "aic")
+    fit = comparison.best
+    if not fit.identified:
+        fit = comparison.fit("white")
     sa = StreamingAllan(rate_hz, min(int(octaves), 40))
     sa.push(span)
     keep = int(np.count_nonzero(sa.counts >= LEARN_MIN_TERMS))

@@ -13,7 +13,7 @@ While t < block_terms the Allan variance of the first t terms, at t a multiple o
 block_terms that of the last block_terms terms, is divided by the reference and compared
 with max(f^2, chi2_{1-p}(nu) / nu) (Wilson-Hilferty). nu = e_k t for t terms, e_k the edf per
 term of block_terms terms of power-law noise with the reference's local slope mu_k (over two
-octaves, one at the ends): the phase's generalized autocovariance G(t) = t^2 (|t|^mu - 1) / mu,
+octaves, one at the ends): the phase's generalized autocovariance G(t) = t^2 (abs(t)^mu - 1) / mu,
 the correlation of second differences h apart from the fourth differences of G, edf = n^2 /
 (n + 2 sum (n - h) rho(h)^2).
 The classes: the leading run of octaves whose reference falls by at least half over two

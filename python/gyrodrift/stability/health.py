@@ -52,15 +52,23 @@ def alarm_names(bits: int) -> list[str]:
 class HealthAlarmSettings:
     """Settings of the health alarms (defaults those of the C++ struct).
 
-    Attributes:
-        arw_factor: alarm when N is up by more than this factor (the short octaves' Allan
-            variance above factor^2 times the reference), >= 1.
-        bias_instability_factor: the same for B (octaves around the reference's minimum).
-        rate_random_walk_factor: the same for K (the long, rising octaves).
-        false_alarm_probability: per test, for the chi-square bound, in (0, 0.5].
-        stuck_samples: stuck this many samples in a row raises ``stuck`` (0: off).
-        saturated_samples: saturated this many samples in a row raises ``saturated`` (0: off).
-        block_terms: squared differences per block test at each octave (>= 4).
+    Attributes
+    ----------
+    arw_factor : float
+        Alarm when N is up by more than this factor (the short octaves' Allan variance above
+        factor^2 times the reference), >= 1.
+    bias_instability_factor : float
+        The same for B (octaves around the reference's minimum).
+    rate_random_walk_factor : float
+        The same for K (the long, rising octaves).
+    false_alarm_probability : float
+        Per test, for the chi-square bound, in (0, 0.5].
+    stuck_samples : int
+        Stuck this many samples in a row raises ``stuck`` (0: off).
+    saturated_samples : int
+        Saturated this many samples in a row raises ``saturated`` (0: off).
+    block_terms : int
+        Squared differences per block test at each octave (>= 4).
 
     Examples
     --------
@@ -105,13 +113,19 @@ class HealthAlarmSettings:
 class HealthTrip:
     """What raised an alarm (the first time since the last reset or unlatch).
 
-    Attributes:
-        name: the alarm.
-        statistic: measured / expected Allan deviation (octave tests) or the run length
-            (stuck, saturated).
-        threshold: the value it exceeded.
-        tau_s: averaging time of the octave (0 for stuck, saturated).
-        sample: samples processed when it tripped (1-based).
+    Attributes
+    ----------
+    name : str
+        The alarm.
+    statistic : float
+        Measured / expected Allan deviation (octave tests) or the run length (stuck,
+        saturated).
+    threshold : float
+        The value it exceeded.
+    tau_s : float
+        Averaging time of the octave (0 for stuck, saturated).
+    sample : int
+        Samples processed when it tripped (1-based).
 
     Examples
     --------
