@@ -337,3 +337,26 @@ def test_a_writer_that_misses_the_temporary_file_is_named(tmp_path: Path) -> Non
     with pytest.raises(AssertionError, match="suffix="), atomic_output(null) as tmp:
         np.save(tmp, np.zeros(3))
     assert is_device(null, 3)
+
+
+def test_fit_output_to_stdout_is_the_configuration_alone(tmp_path: Path) -> None:
+    """`fit -o /dev/stdout` (here /proc/self/fd/1, the same file): stdout carries the processor
+    configuration and nothing else, the table goes to stderr. Before, a suffix-less stream was
+    refused, and a stream with a suffix got the table printed into it after the file."""
+    rec = tmp_path / "rec.npy"
+    np.save(rec, np.random.default_rng(3).normal(0.0, 1.0, 3000))
+    res = _gyrodrift("fit", str(rec), "--rate-hz", RATE_HZ, "--gyro-units", "deg/h", "-o",
+                     "/proc/self/fd/1", capture_output=True)
+    assert res.returncode == 0, res.stderr
+    cfg = tomllib.loads(res.stdout.decode())  # the whole of stdout is one TOML document
+    assert cfg["schema"] == "gyrodrift.processor"
+    assert b"chosen:" in res.stderr and b"chosen:" not in res.stdout
+    # A link named .json that leads to stdout: the JSON alone on stdout, --json to stderr.
+    link = tmp_path / "out.json"
+    link.symlink_to("/proc/self/fd/1")
+    res = _gyrodrift("fit", str(rec), "--rate-hz", RATE_HZ, "--gyro-units", "deg/h", "-o",
+                     str(link), "--json", capture_output=True)
+    assert res.returncode == 0, res.stderr
+    assert "chosen" in json.loads(res.stdout)
+    assert "chosen" in json.loads(res.stderr)
+    assert link.is_symlink()
