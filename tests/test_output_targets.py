@@ -360,3 +360,40 @@ def test_fit_output_to_stdout_is_the_configuration_alone(tmp_path: Path) -> None
     assert "chosen" in json.loads(res.stdout)
     assert "chosen" in json.loads(res.stderr)
     assert link.is_symlink()
+
+
+def test_decode_table_writer_follows_the_output_rule(tmp_path: Path) -> None:
+    """The decode table for ``gyrodrift-loop --can-signals`` goes through the one output rule:
+    a regular file is replaced whole by a rename (a hard link to the old file keeps the old
+    table: nothing was truncated and rewritten in place, which a reader or an interrupted write
+    would see half-done), a symbolic link stays a link, a FIFO stays a FIFO and gets the table,
+    a device stays a device."""
+    from gyrodrift.codecs.can_frames import load_dbc
+    from gyrodrift.codecs.can_signals import SignalMap, SignalRef, decode_table_text
+    from gyrodrift.io.imu_log import write_decode_table
+
+    names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+                 ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
+    smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    want = decode_table_text(smap)
+    table = tmp_path / "imu.cansig"
+    table.write_text("old table\n")
+    os.link(table, tmp_path / "old.cansig")
+    assert write_decode_table(smap, table) == table
+    assert table.read_text() == want
+    assert (tmp_path / "old.cansig").read_text() == "old table\n"
+    link = tmp_path / "link.cansig"
+    link.symlink_to(table.name)
+    write_decode_table(smap, link)
+    assert link.is_symlink() and table.read_text() == want
+    fifo = tmp_path / "fifo.cansig"
+    os.mkfifo(fifo)
+    reader = FifoReader(fifo)
+    try:
+        write_decode_table(smap, fifo)
+    finally:
+        data = reader.result()
+    assert data.decode() == want and stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    null = device(tmp_path, "nul", 3)
+    write_decode_table(smap, null)
+    assert is_device(null, 3)
