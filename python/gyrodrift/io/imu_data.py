@@ -74,6 +74,7 @@ __all__ = [
     "ImuData",
     "NpyChannels",
     "bag_imu_topics",
+    "check_time_units",
     "check_units_plausible",
     "input_kind",
     "load_imu",
@@ -194,6 +195,32 @@ def input_kind(path: str | Path) -> str:
         "(.bag, a rosbag2 directory, .db3, .mcap)")
 
 
+def check_time_units(path: str | Path, time_units: str) -> str:
+    """Refuse time units other than the default for a record without a time column to apply
+    them to (everything but text: a .npy record has no time column, logs and bags carry
+    their own time base); returns the record's kind (`input_kind`).
+
+    Examples
+    --------
+    >>> check_time_units("imu.csv", "ns")
+    'text'
+    >>> check_time_units("imu.npy", "ns")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: imu.npy: --time-units (time_units=) applies to the \
+time column of a text record; a npy record carries its own time base
+    """
+    p = Path(path)
+    if time_units not in TIME_UNITS:
+        raise GyrodriftValueError(f"unknown time units {time_units!r}; choose one of "
+                                  f"{', '.join(TIME_UNITS)}")
+    kind = input_kind(p)
+    if time_units != DEFAULT_TIME_UNITS and kind != "text":
+        raise GyrodriftValueError(f"{p}: --time-units (time_units=) applies to the time column "
+                                  f"of a text record; a {kind} record carries its own time base")
+    return kind
+
+
 def load_imu(
     path: str | Path,
     *,
@@ -242,13 +269,7 @@ def load_imu(
     """
     p = Path(path)
     _check_args(p, nan_policy, gyro_units, accel_units, rate_hz)
-    if time_units not in TIME_UNITS:
-        raise GyrodriftValueError(f"unknown time units {time_units!r}; choose one of "
-                                  f"{', '.join(TIME_UNITS)}")
-    kind = input_kind(p)
-    if time_units != DEFAULT_TIME_UNITS and kind != "text":
-        raise GyrodriftValueError(f"{p}: --time-units (time_units=) applies to the time column "
-                                  f"of a text record; a {kind} record carries its own time base")
+    kind = check_time_units(p, time_units)
     if kind == "npy":
         if spool_dir is not None:
             return _spool_npy(p, rate_hz, columns, gyro_units, accel_units, Path(spool_dir),
