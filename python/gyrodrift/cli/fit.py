@@ -181,8 +181,11 @@ def run(args: argparse.Namespace) -> int:
 
     fmt = _output_format(args.output)
     check_output(args.output, "-o")  # before the work
-    rec = record_from_args(args, mmap=False)
-    x = np.asarray(rec.rate_deg_h, dtype=np.float64)
+    # A memory-mapped .npy record stays on file: the Allan deviation, the block averages and
+    # the drift model's likelihood read it in pieces (bounded memory).
+    rec = record_from_args(args)
+    x = (rec.rate_deg_h if isinstance(rec.rate_deg_h, np.memmap)
+         else np.asarray(rec.rate_deg_h, dtype=np.float64))
     factor, tau_min = _decimation(x, rec.rate_hz)
     fit_rate = rec.rate_hz / factor
     try:
