@@ -44,8 +44,11 @@ def scale_for_peak(peak: float) -> float:
     --------
     >>> scale_for_peak(3.0), scale_for_peak(0.0), scale_for_peak(2.0**-70) == 2.0**-69
     (1.0, 1.0, True)
+    >>> scale_for_peak(1.7e308) == 2.0**1023
+    True
     """
     if not math.isfinite(peak) or peak == 0.0:
         return 1.0
     exponent = math.frexp(peak)[1]
-    return 1.0 if abs(exponent) <= SAFE_EXPONENT else math.ldexp(1.0, exponent)
+    # 2^1024 is not a double: the largest records get 2^1023 (max / c in [1, 2)).
+    return 1.0 if abs(exponent) <= SAFE_EXPONENT else math.ldexp(1.0, min(exponent, 1023))
