@@ -107,9 +107,10 @@ def run(args: argparse.Namespace) -> int:
         spec = load_spec(args.spec) if args.spec else None
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
-    # --time-units where it cannot apply is refused before the work, as the single-file
-    # commands do (a .npy log has no time column; logs and bags carry their own time base)
-    from gyrodrift.io.imu_data import check_time_units, input_kind
+    # --time-units, --time-column and --topic where they cannot apply are refused before the
+    # work, as the single-file commands do (a .npy log has no time column; logs and bags
+    # carry their own time base; only bags have topics)
+    from gyrodrift.io.imu_data import check_reader_options, input_kind
 
     for p in paths:
         try:
@@ -117,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
         except GyrodriftError:
             continue  # an unsupported input: the worker reports it
         try:
-            check_time_units(p, args.time_units)
+            check_reader_options(p, args.time_units, args.time_column, args.topic)
         except GyrodriftError as exc:
             raise CliError(str(exc)) from exc
     # the units of records that do not carry them are never guessed (gyrodrift.units)
