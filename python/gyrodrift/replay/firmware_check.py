@@ -13,6 +13,7 @@ import numpy as np
 
 from gyrodrift.codecs.wire import make_samples
 from gyrodrift.imu.config import ProcessorConfig
+from gyrodrift.io.atomic import atomic_write_text
 from gyrodrift.replay.firmware import (
     ASSUMED_CPI,
     CORE_CLOCK_HZ,
@@ -92,7 +93,7 @@ def check_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
     cost = measure_step_cost(image, config)
     budget = instruction_budget(config.timing.loop_hz)
     summary = {"image": image.as_dict(), "step_cost": cost}
-    (Path(out_dir) / "budget.json").write_text(json.dumps(summary, indent=1) + "\n")
+    atomic_write_text(Path(out_dir) / "budget.json", json.dumps(summary, indent=1) + "\n")
     if cost["instructions_max"] > budget:
         raise FirmwareError(
             f"the configuration does not fit the MCU budget: {cost['instructions_max']:.0f} "
