@@ -5,10 +5,10 @@ The budgets sit below the interpreter's libraries plus one float64 copy of this 
 a command that reads the record into memory, or touches every page of its memory map (mapped
 pages count as resident), exceeds its budget here. Before, `allan` counted the record's
 NaN through the mapping and `identify` and `characterize` read the whole record; `fit` (751
-MB at this size) and `identify --identifier gmwm` and `psd` (1120 MB) read the whole record too. `fit` on a
-record it fits at its own rate (benchmarks/peak_memory.py's fit-full-rate, the same
-file-backed likelihood passes) takes minutes at this size and is measured by the script
-only (docs/validation/memory.md)."""
+MB at this size), `identify --identifier gmwm` (770 MB) and `psd` (1120 MB) read the whole
+record too. `fit` on a record it fits at its own rate (benchmarks/peak_memory.py's
+fit-full-rate, the same file-backed likelihood passes) takes minutes at this size and is
+measured by the script only (docs/validation/memory.md)."""
 
 from __future__ import annotations
 
