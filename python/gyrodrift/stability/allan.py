@@ -180,7 +180,7 @@ def averaging_factors(
                             "non-overlapping clusters of 2 tau)")
 
 
-def record_scale(arr: np.ndarray) -> float:
+def record_scale(arr: np.ndarray, chunk: int = DEFAULT_CHUNK_SAMPLES) -> float:
     """`gyrodrift._scale.normalising_scale` of a record (1.0 inside the safe range), a
     file-backed memory map read in chunks from its file (no page of the mapping resident).
 
@@ -192,8 +192,8 @@ def record_scale(arr: np.ndarray) -> float:
     if not is_file_backed(arr):
         return normalising_scale(arr)
     peak = 0.0
-    for p in iter_chunks(arr, DEFAULT_CHUNK_SAMPLES):
-        pk = float(np.max(np.abs(p))) if p.size else 0.0
+    for p in iter_chunks(arr, max(int(chunk), 1)):
+        pk = max(float(np.max(p)), -float(np.min(p))) if p.size else 0.0
         if pk > peak:  # NaN is left to the kernels' own check
             peak = pk
     return scale_for_peak(peak)
@@ -468,7 +468,7 @@ def oadev(
     """
     is_memmap = isinstance(x, np.memmap)
     arr = checked_record(x, rate_hz, kind, "x")
-    c = record_scale(arr)
+    c = record_scale(arr, int(chunk_samples or DEFAULT_CHUNK_SAMPLES))
     if c != 1.0:
         # A record of extreme magnitude (its Allan sums overflow or underflow): analysed
         # divided by a power of two (exact), the deviation scaled back. Such a record is

@@ -185,7 +185,7 @@ def deviation(
                      threads=threads)
     is_memmap = isinstance(data, np.memmap)
     arr = checked_record(data, rate_hz, kind, "data")
-    c = record_scale(arr)
+    c = record_scale(arr, int(chunk_samples or DEFAULT_CHUNK_SAMPLES))
     if c != 1.0:  # extreme magnitude: as oadev, analysed scaled by a power of two
         return scaled_back(deviation(np.asarray(arr, dtype=np.float64) / c, rate_hz, name,
                                      kind=kind, taus=taus, per_decade=per_decade, ci=ci,
