@@ -482,6 +482,7 @@ void bind_allan(pybind11::module_& m) {
         "Averaging factors 1 <= m <= max_m: 'octave', 'decade' (per_decade points), 'all'.");
   bind_deviation(m);  // bind_deviation.cpp: mdev, ohdev, hdev, totdev kernels
   bind_streaming_allan(m);  // bind_streaming_allan.cpp: StreamingAllan, StreamingAllanF32
+  bind_health(m);  // bind_health.cpp: HealthAlarms, the model Allan variance, edf and quantiles
 }
 
 }  // namespace gyrodrift::py_bindings

@@ -162,6 +162,7 @@ void bind_drift(py::module_& m) {
   def_loglike<double>(m);
   def_loglike<float>(m);
   def_stream(m);
+  bind_online_drift(m);  // bind_online_drift.cpp: OnlineDriftIdentifier, OnlineDriftIdentifierF32
 }
 
 }  // namespace gyrodrift::py_bindings

@@ -823,6 +823,7 @@ void bind_can_signals(py::module_& m) {
 
 void bind_imu(py::module_& m) {
   bind_contract(m);
+  bind_monitor(m);  // bind_monitor.cpp: GyroMonitorSettings, GyroMonitorRun, GyroMonitorRunF32
   bind_processor_config(m);
   bind_processors(m);
   bind_serial_codec(m);

@@ -4,7 +4,10 @@
 //   StreamingAllanF32(rate_hz, n_octaves)   float state (as on the target), push(float32 array)
 // Both: push(y) -> samples accepted (non-finite ones are counted in `rejected` and skipped),
 // tau_s, avar (NaN where an octave has no term yet), counts (terms per octave), samples,
-// rejected, reset(). push releases the GIL and takes the object's lock.
+// rejected, reset(), estimate_noise(coverage) (include/gyrodrift/stability/online_noise.hpp:
+// (ok, n, b, k, b_tau_s), each term a tuple (value, lo, hi, valid, upper_limit)).
+// push releases the GIL and takes the object's lock.
+#include <gyrodrift/stability/online_noise.hpp>
 #include <gyrodrift/stability/streaming_allan.hpp>
 
 #include <cmath>
@@ -21,6 +24,24 @@ namespace gyrodrift::py_bindings {
 namespace {
 
 constexpr std::size_t kMaxOctaves = 40;
+
+template <class Scalar>
+py::tuple term_tuple(const NoiseTermEstimate<Scalar>& t) {
+  return py::make_tuple(static_cast<double>(t.value), static_cast<double>(t.lo),
+                        static_cast<double>(t.hi), t.valid, t.upper_limit);
+}
+
+}  // namespace
+
+template <class Scalar>
+py::tuple noise_tuple(bool ok, const NoiseEstimates<Scalar>& e) {
+  return py::make_tuple(ok, term_tuple(e.n), term_tuple(e.b), term_tuple(e.k),
+                        static_cast<double>(e.b_tau_s));
+}
+template py::tuple noise_tuple<double>(bool, const NoiseEstimates<double>&);
+template py::tuple noise_tuple<float>(bool, const NoiseEstimates<float>&);
+
+namespace {
 
 template <class Scalar>
 class StreamingAllanPy {
@@ -104,6 +125,16 @@ class StreamingAllanPy {
 
   std::int64_t n_octaves() const { return static_cast<std::int64_t>(core_.octaves()); }
 
+  py::tuple estimate_noise(double coverage) const {
+    NoiseEstimates<Scalar> e{};
+    bool ok = false;
+    {
+      ReleasedAndLocked guard(this);
+      ok = gyrodrift::estimate_noise(core_, static_cast<Scalar>(coverage), e);
+    }
+    return noise_tuple(ok, e);
+  }
+
  private:
   StreamingAllan<Scalar, kMaxOctaves> core_{};
 };
@@ -125,7 +156,10 @@ void bind_one(py::module_& m, const char* name, const char* doc) {
                              "squared differences per octave: floor(N / 2^k) - 1")
       .def_property_readonly("samples", &T::samples)
       .def_property_readonly("rejected", &T::rejected)
-      .def_property_readonly("n_octaves", &T::n_octaves);
+      .def_property_readonly("n_octaves", &T::n_octaves)
+      .def("estimate_noise", &T::estimate_noise, py::arg("coverage"),
+           "IEEE 952 N, B, K read from the curve so far with intervals at `coverage`: "
+           "(ok, n, b, k, b_tau_s), each term (value, lo, hi, valid, upper_limit).");
 }
 
 }  // namespace

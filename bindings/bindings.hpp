@@ -14,9 +14,12 @@ void bind_wavelet(pybind11::module_& m);  // lifting wavelets and denoisers
 void bind_allan(pybind11::module_& m);    // Allan variance kernels
 void bind_deviation(pybind11::module_& m);  // deviation family (part of the allan area)
 void bind_streaming_allan(pybind11::module_& m);  // streaming octave Allan (allan area)
+void bind_health(pybind11::module_& m);  // online noise estimates, health alarms (allan area)
 void bind_imu(pybind11::module_& m);      // IMU processor and frame codecs
+void bind_monitor(pybind11::module_& m);  // gyro monitor over records (imu area)
 void bind_align(pybind11::module_& m);    // strapdown navigation and alignment
 void bind_drift(pybind11::module_& m);    // drift-model likelihood (ML identification)
+void bind_online_drift(pybind11::module_& m);  // online drift-model identifier (drift area)
 
 // Per-object serialisation for bound objects whose methods release the GIL while they step
 // their own state (ImuProcessor, RealtimeWaveletBank, OadevStream): without it, one object

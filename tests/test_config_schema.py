@@ -38,6 +38,8 @@ def _location(f: Field) -> tuple[str, str]:
         return "[channels.gx]", f.key("gx")
     if f.section == "bias_removal":
         return "[channels.ax]", f.key("ax")
+    if f.section == "monitor":
+        return "[monitor]", f.name
     return "[channels.gx]", f.key("gx")
 
 
@@ -45,6 +47,9 @@ def _set(text: str, f: Field, value: str | None) -> tuple[str, str]:
     """The default configuration's text with field `f` (of gx's chain, or ax's bias stage) set
     to `value` (None: removed); returns (text, the key an error must name)."""
     table, key = _location(f)
+    if table == "[monitor]" and table not in text:  # the default text leaves it out (off)
+        at = text.index("[channels.gx]")
+        text = text[:at] + "[monitor]\n\n" + text[at:]
     if f.section in ("wavelet", "ar2_kalman"):
         stage = 0 if f.section == "wavelet" else 1
         full = f"channels.gx.stages[{stage}].{key}"

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import html as html_lib
 import importlib
+import inspect
 import os
 import pkgutil
 import re
@@ -92,17 +93,18 @@ other
 
 
 def test_site_configuration_fails_on_a_broken_reference(tmp_path: Path) -> None:
+    """The good page builds; a page with a missing name, a link to a missing page and a link
+    to a missing heading does not, and each of the three is reported as a warning (any one
+    of which fails a -W build; one build checks all three, the tiny builds cost seconds each)."""
     good = _tiny_build(tmp_path / "good", GOOD_PAGE)
     assert good.returncode == 0, good.stderr[-3000:]
-    bad_name = _tiny_build(tmp_path / "name",
-                           GOOD_PAGE.replace("`demo_function`", "`no_such_function`"))
-    assert bad_name.returncode != 0
-    assert "no_such_function" in bad_name.stderr
-    bad_link = _tiny_build(tmp_path / "link", GOOD_PAGE.replace("other.md#", "missing.md#"))
-    assert bad_link.returncode != 0
-    assert "missing" in bad_link.stderr
-    bad_anchor = _tiny_build(tmp_path / "anchor", GOOD_PAGE.replace("#a-heading", "#nowhere"))
-    assert bad_anchor.returncode != 0
+    bad = _tiny_build(tmp_path / "bad", GOOD_PAGE.replace("`demo_function`", "`no_such_function`")
+                      + "\nSee [a missing page](missing.md#x) and [a missing heading]"
+                        "(other.md#nowhere).\n")
+    assert bad.returncode != 0
+    warnings = [ln for ln in bad.stderr.splitlines() if "WARNING" in ln or "ERROR" in ln]
+    for needle in ("no_such_function", "missing", "nowhere"):
+        assert any(needle in ln for ln in warnings), (needle, bad.stderr[-3000:])
 
 
 def test_site_builds_with_warnings_as_errors(site: Path) -> None:
@@ -168,6 +170,76 @@ def test_every_public_name_is_in_the_api_reference(site: Path) -> None:
     assert not missing, missing
 
 
+def _docutils_messages(text: str) -> list[str]:
+    """docutils' warnings and errors on reST text (Sphinx's cross-reference roles and the
+    directives numpydoc emits are accepted as they are; Sphinx resolves them)."""
+    import io
+
+    import docutils.core
+    from docutils import nodes
+    from docutils.parsers.rst import Directive, directives, roles
+
+    def literal_role(name: str, rawtext: str, text: str, lineno: int, inliner: object,
+                     options: object = None, content: object = None,
+                     ) -> tuple[list[nodes.Node], list[nodes.system_message]]:
+        return [nodes.literal(rawtext, text)], []
+
+    for role in ("func", "class", "mod", "meth", "attr", "data", "obj", "exc", "doc", "ref",
+                 "math", "term"):
+        roles.register_local_role(role, literal_role)
+        roles.register_local_role(f"py:{role}", literal_role)
+
+    class AnyOptions(dict):  # type: ignore[type-arg]
+        def __missing__(self, key: str) -> object:
+            return directives.unchanged
+
+    class Ignored(Directive):
+        has_content = True
+        optional_arguments = 10
+        final_argument_whitespace = True
+        option_spec = AnyOptions()
+
+        def run(self) -> list[nodes.Node]:
+            return []
+
+    for name in ("seealso", "only", "autosummary", "versionadded", "versionchanged",
+                 "deprecated"):
+        directives.register_directive(name, Ignored)
+    stream = io.StringIO()
+    docutils.core.publish_doctree(text, settings_overrides={
+        "report_level": 2, "halt_level": 5, "warning_stream": stream})
+    return [ln for ln in stream.getvalue().splitlines()
+            if "(WARNING/" in ln or "(ERROR/" in ln or "(SEVERE/" in ln]
+
+
+def test_docstrings_are_valid_numpydoc_and_rest() -> None:
+    """Every public module's docstring and the docstring of every name a public module defines
+    and exports, as numpydoc renders it, is valid reST: no "unexpected indentation", no
+    ``|x|`` read as a substitution, no ``C_`` read as a link target. The site build (-W) fails
+    on the same; this finds it in seconds, without building the site."""
+    import warnings
+
+    from numpydoc.docscrape_sphinx import SphinxDocString
+
+    problems = []
+    for modname in _public_modules():
+        mod = importlib.import_module(modname)
+        objects = [(modname, mod)] + [
+            (f"{modname}.{n}", getattr(mod, n)) for n in mod.__all__
+            if getattr(getattr(mod, n), "__module__", None) == modname]
+        for qualname, obj in objects:
+            if not (inspect.ismodule(obj) or inspect.isclass(obj) or inspect.isroutine(obj)):
+                continue
+            doc = inspect.getdoc(obj)
+            if not doc:
+                continue
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)  # a module's own section titles
+                text = str(SphinxDocString(doc, config={"show_class_members": False}))
+            problems += [f"{qualname}: {m}" for m in _docutils_messages(text)]
+    assert not problems, "\n".join(problems)
+
+
 def test_every_subcommand_and_flag_is_in_the_cli_reference(site: Path) -> None:
     import argparse
 
@@ -194,6 +266,27 @@ def test_every_subcommand_and_flag_is_in_the_cli_reference(site: Path) -> None:
             names = action.option_strings or [action.metavar or action.dest]
             problems += [f"{name} {n}" for n in names if n not in entries]
     assert not problems, f"not in the command line reference: {problems}"
+
+
+def test_every_header_is_in_the_cpp_reference(site: Path) -> None:
+    """Each header of every folder of include/gyrodrift (generated coefficient tables aside)
+    has its section on its area's page, with at least one documented declaration."""
+    inc = ROOT / "include" / "gyrodrift"
+    missing = []
+    for header in sorted(inc.glob("*/*.hpp")):
+        if header.name.startswith("lifting_coefficients_"):
+            continue
+        area = header.parent.name
+        page = site / "cpp" / f"{area}.html"
+        text = page.read_text() if page.is_file() else ""
+        start = text.find(f"<h2>&lt;gyrodrift/{area}/{header.name}&gt;")
+        if start < 0:
+            missing.append(f"{area}/{header.name}")
+            continue
+        end = text.find("<h2>", start + 4)
+        if 'class="sig sig-object cpp"' not in text[start:end if end > 0 else len(text)]:
+            missing.append(f"{area}/{header.name} (no declaration)")
+    assert not missing, missing
 
 
 # ------------------------------------------------------------------ in a browser

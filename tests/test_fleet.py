@@ -5,6 +5,9 @@ run doing no work for finished logs."""
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -493,6 +496,51 @@ def test_cli_with_its_own_cluster_in_a_fresh_process(logs: list[Path], tmp_path:
     assert run.returncode == 0, run.stderr[-2000:]
     assert "1 done" in run.stdout
     assert json.loads((out / "summary.json").read_text())["n_done"] == 1
+
+
+_SCRIPT_BODY = """\
+import sys
+from gyrodrift.workflows.fleet import FleetOptions, run_fleet
+{call}
+"""
+_CALL = ("s = run_fleet([sys.argv[1]], sys.argv[2], workers=1, progress=False,\n"
+         "              opts=FleetOptions(rate_hz=100.0, plots=False))\n"
+         "print('done', s['n_done'])")
+
+
+def _run_script(tmp_path: Path, body: str, log: Path) -> subprocess.CompletedProcess[str]:
+    script = tmp_path / "user_script.py"
+    script.write_text(body)
+    return subprocess.run([sys.executable, str(script), str(log), str(tmp_path / "out")],
+                          capture_output=True, text=True, env=os.environ.copy(), timeout=300,
+                          cwd=tmp_path)
+
+
+def test_unguarded_script_with_own_cluster_gets_one_clear_error(logs: list[Path],
+                                                                tmp_path: Path) -> None:
+    """A script that calls run_fleet(workers >= 1) at its top level, without the
+    ``if __name__ == "__main__":`` guard: every worker process runs the script again and would
+    start a cluster while it starts. The call is refused before any worker starts, naming the
+    script's line and the guard, not a cascade of worker tracebacks ending in "Nanny failed to
+    start"."""
+    run = _run_script(tmp_path, _SCRIPT_BODY.format(call=_CALL), logs[0])
+    assert run.returncode != 0
+    last = run.stderr.strip().splitlines()[-1]
+    assert last.startswith("gyrodrift.errors.GyrodriftError: "), run.stderr[-3000:]
+    assert "user_script.py, line 3" in last and 'if __name__ == "__main__":' in last, last
+    assert "Nanny" not in run.stderr and "bootstrapping" not in run.stderr, run.stderr[-3000:]
+    assert not (tmp_path / "out" / "summary.json").exists()
+
+
+def test_guarded_script_runs_on_its_own_cluster(logs: list[Path], tmp_path: Path) -> None:
+    """The same call under the guard (inside a function called from it) runs on worker
+    processes: the check does not refuse a correct script."""
+    body = _SCRIPT_BODY.format(
+        call="def main():\n" + "".join(f"    {ln}\n" for ln in _CALL.splitlines())
+        + "\n\nif __name__ == \"__main__\":\n    main()")
+    run = _run_script(tmp_path, body, logs[0])
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert "done 1" in run.stdout
 
 
 # ------------------------------------------------------------------ stale results on resume

@@ -17,7 +17,6 @@ from __future__ import annotations
 import hashlib
 import importlib
 import inspect
-import logging
 import math
 import os
 import pkgutil
@@ -67,6 +66,10 @@ def public_names() -> dict[str, list[tuple[str, str, str]]]:
     object.
     """
     modules = {m: importlib.import_module(m) for m in public_modules()}
+    missing = sorted(m for m, mod in modules.items() if not hasattr(mod, "__all__"))
+    if missing:
+        raise RuntimeError(f"public modules without __all__ (the API reference lists what "
+                           f"__all__ names): {', '.join(missing)}")
     # Objects fetched once (a module may build an attribute on each access).
     objects = {m: {name: getattr(mod, name) for name in mod.__all__}
                for m, mod in modules.items()}
@@ -287,9 +290,18 @@ def run_doxygen() -> None:
     stamp.write_text(digest.hexdigest())
 
 
+def cpp_areas() -> dict[str, str]:
+    """Every header area (a folder of include/gyrodrift) -> its page title: a new area gets a
+    page without an edit here (titled by its name until CPP_AREAS gives it one)."""
+    inc = ROOT / "include" / "gyrodrift"
+    return {d.name: CPP_AREAS.get(d.name, f"{d.name.capitalize()} headers")
+            for d in sorted(inc.iterdir()) if d.is_dir() and any(d.glob("*.hpp"))}
+
+
 def generate_cpp_pages() -> None:
     inc = ROOT / "include" / "gyrodrift"
-    for area, title in CPP_AREAS.items():
+    areas = cpp_areas()
+    for area, title in areas.items():
         lines = [".. Generated from include/gyrodrift by docs/_ext/gyrodrift_docs.py.\n",
                  _title(title),
                  f"Umbrella header: ``#include <gyrodrift/{area}.hpp>``.\n"]
@@ -299,6 +311,9 @@ def generate_cpp_pages() -> None:
             lines += [_title(f"<gyrodrift/{area}/{h.name}>", "-"),
                       f".. doxygenfile:: {h.name}\n   :project: gyrodrift\n"]
         write_if_changed(CPP / f"{area}.rst", "\n".join(lines))
+    for old in CPP.glob("*.rst"):
+        if old.stem not in areas:
+            old.unlink()
 
 
 # ------------------------------------------------------------------ Sphinx hooks
@@ -361,69 +376,9 @@ def _drop_type_docstring(app: Any, what: str, name: str, obj: Any, options: Any,
             lines[:] = []
 
 
-# The docstrings are plain text inside numpydoc sections: |x| is an absolute value and C_-2 a
-# subscript, not reST substitutions or link targets. Escape those outside literals, doctest
-# blocks and literal blocks, so the text renders as written.
-_LITERAL = re.compile(r"(``.*?``|`[^`]*`_?)")
-_BAR = re.compile(r"(?<!\\)\|")
-_TRAILING_UNDERSCORE = re.compile(r"(?<=[\w)\]])_(?=[^\w`]|$)")
-
-
-def _escape_plain(text: str) -> str:
-    parts = _LITERAL.split(text)
-    for i in range(0, len(parts), 2):
-        parts[i] = _TRAILING_UNDERSCORE.sub(r"\\_", _BAR.sub(r"\\|", parts[i]))
-    return "".join(parts)
-
-
-def _escape_docstring(app: Any, what: str, name: str, obj: Any, options: Any,
-                      lines: list[str]) -> None:
-    in_doctest = False
-    literal_indent: int | None = None
-    for i, line in enumerate(lines):
-        stripped = line.strip()
-        indent = len(line) - len(line.lstrip())
-        if literal_indent is not None:
-            if stripped and indent <= literal_indent:
-                literal_indent = None
-            else:
-                continue
-        if stripped.startswith(">>>"):
-            in_doctest = True
-        if in_doctest:
-            if not stripped:
-                in_doctest = False
-            continue
-        if stripped.startswith((".. ", "| ", "+-", "+=")) or set(stripped) <= set("=-~^ |"):
-            continue
-        lines[i] = _escape_plain(line)
-        if stripped.endswith("::"):
-            literal_indent = indent
-
-
-# Layout messages of docutils about docstrings written as plain text (indented continuation
-# lines under "name: text" entries): the text renders as written, so they are not errors of
-# the site. Every other warning about a docstring (a broken reference above all) still is.
-_PLAIN_TEXT_LAYOUT = ("ends without a blank line; unexpected unindent",
-                      "Inline emphasis start-string without end-string",
-                      "Inline substitution_reference start-string without end-string",
-                      "Unexpected indentation")
-
-
-class _DocstringLayoutFilter(logging.Filter):
-    def filter(self, record: logging.LogRecord) -> bool:
-        location = str(getattr(record, "location", "") or "")
-        if "docstring of" in location or "<autosummary>" in location:
-            return not any(p in record.getMessage() for p in _PLAIN_TEXT_LAYOUT)
-        return True
-
-
 def setup(app: Any) -> dict[str, Any]:
-    for handler in logging.getLogger("sphinx").handlers:
-        handler.filters.insert(0, _DocstringLayoutFilter())
     # Before sphinx-gallery (priority 500) and before Sphinx reads the sources.
     app.connect("config-inited", lambda app, config: _generate(app), priority=400)
     app.connect("missing-reference", _resolve_alias)
     app.connect("autodoc-process-docstring", _drop_type_docstring, priority=100)
-    app.connect("autodoc-process-docstring", _escape_docstring, priority=110)
     return {"parallel_read_safe": True, "parallel_write_safe": True, "version": "1"}

@@ -58,8 +58,26 @@ struct WaveletSpec {
   std::size_t window = schema::kPrefilterWindow;
 };
 
+// The [monitor] table (gyrodrift.imu.config.MonitorConfig), durations converted to samples at
+// the sample rate as MonitorConfig.samples does (lround of seconds times rate).
+struct MonitorSpec {
+  bool enabled = false;
+  std::size_t octaves = 0;
+  std::uint64_t report_samples = 0;
+  double coverage = 0.0;
+  double arw_factor = 0.0, bias_instability_factor = 0.0, rate_random_walk_factor = 0.0;
+  double false_alarm_probability = 0.0;
+  std::uint32_t stuck_samples = 0, saturated_samples = 0;
+  bool reidentify = false;
+  std::uint32_t block_samples = 0, retune_blocks = 0;
+  std::uint64_t min_samples = 0;
+  double memory_blocks = 0.0, max_step = 0.0, max_rel_stderr = 0.0;
+  std::array<bool, kImuChannels> channels{};  // monitored: a gyro whose first stage is ar2_kalman
+};
+
 struct FileConfig {
   ImuConfig<float> imu;
+  MonitorSpec monitor;
   std::array<WaveletSpec, kImuChannels> wavelets{};
   double sample_rate_hz = schema::kDefaultSampleRateHz;  // timing.sample_rate_hz
   double loop_rate_hz = schema::kDefaultSampleRateHz;    // timing.loop_rate_hz (absent: the sample rate)
@@ -422,7 +440,45 @@ inline std::string type_list(const std::vector<StageRead>& stages) {
 }
 
 // gyrodrift.imu.config.validate: channels, then timing, then the loop rate's relation.
-inline bool validate(const std::array<ChannelRead, kImuChannels>& chans, const Section& timing, std::string& err) {
+inline long long lround_nonneg(double x) { return static_cast<long long>(std::floor(x + 0.5)); }
+
+// gyrodrift.imu.config._check_monitor: the fields, then their relations.
+inline bool check_monitor(const std::array<ChannelRead, kImuChannels>& chans, const Section& timing,
+                          const Section& monitor, std::string& err) {
+  for (const schema::FieldSpec* f : schema::kFields) {
+    if (std::string(f->section) != "monitor") continue;
+    if (!check_field(field_key("monitor", *f, ""), *f, monitor.value(*f), err)) return false;
+  }
+  const double rate = timing.value(schema::kTimingSampleRateHz).number;
+  const double block_s = monitor.value(schema::kMonitorBlockS).number;
+  const long long block = lround_nonneg(block_s * rate);
+  const double u32 = static_cast<double>(std::numeric_limits<std::uint32_t>::max());
+  if (static_cast<double>(block) > u32) {
+    err = "monitor.block_s: more than 4294967295 samples at " + tomldoc::repr_number(rate) + " Hz";
+    return false;
+  }
+  for (const schema::FieldSpec* f : {&schema::kMonitorStuckAlarmS, &schema::kMonitorSaturatedAlarmS}) {
+    if (static_cast<double>(lround_nonneg(monitor.value(*f).number * rate)) > u32) {
+      err = std::string("monitor.") + f->name + ": more than 4294967295 samples at " + tomldoc::repr_number(rate) + " Hz";
+      return false;
+    }
+  }
+  if (monitor.value(schema::kMonitorEnabled).boolean) {
+    bool any = false;
+    for (std::size_t c = 0; c < kImuChannels; ++c) {
+      any = any || (is_gyro(schema::kChannelNames[c]) && chans[c].stages[0].type == "ar2_kalman");
+    }
+    if (!any) {
+      err = "monitor.enabled: no gyro channel has ar2_kalman as its first stage (the drift model the monitor "
+            "starts from)";
+      return false;
+    }
+  }
+  return true;
+}
+
+inline bool validate(const std::array<ChannelRead, kImuChannels>& chans, const Section& timing,
+                     const Section& monitor, std::string& err) {
   for (std::size_t c = 0; c < kImuChannels; ++c) {
     const std::string ch = schema::kChannelNames[c];
     const std::string key = "channels." + ch;
@@ -456,6 +512,7 @@ inline bool validate(const std::array<ChannelRead, kImuChannels>& chans, const S
     if (std::string(f->section) != "timing") continue;
     if (!check_field(field_key("timing", *f, ""), *f, timing.value(*f), err)) return false;
   }
+  if (!check_monitor(chans, timing, monitor, err)) return false;
   const FieldValue loop = timing.value(schema::kTimingLoopRateHz);
   const FieldValue rate = timing.value(schema::kTimingSampleRateHz);
   if (!loop.given && !accepts(schema::kTimingLoopRateHz, rate)) {
@@ -476,8 +533,35 @@ inline ChannelFilter filter_of(const std::string& type) {
 }
 
 // The checked values into the loop's configuration (float32 where the processor holds them).
-inline void build(const std::array<ChannelRead, kImuChannels>& chans, const Section& timing, FileConfig& fc) {
+inline void build(const std::array<ChannelRead, kImuChannels>& chans, const Section& timing,
+                  const Section& monitor, FileConfig& fc) {
   fc.sample_rate_hz = timing.value(schema::kTimingSampleRateHz).number;
+  {
+    const double rate = fc.sample_rate_hz;
+    MonitorSpec& m = fc.monitor;
+    auto num = [&monitor](const schema::FieldSpec& f) { return monitor.value(f).number; };
+    m.enabled = monitor.value(schema::kMonitorEnabled).boolean;
+    m.octaves = static_cast<std::size_t>(monitor.value(schema::kMonitorOctaves).integer);
+    m.report_samples = static_cast<std::uint64_t>(std::max(1LL, lround_nonneg(num(schema::kMonitorReportIntervalS) * rate)));
+    m.coverage = num(schema::kMonitorCoverage);
+    m.arw_factor = num(schema::kMonitorArwFactor);
+    m.bias_instability_factor = num(schema::kMonitorBiasInstabilityFactor);
+    m.rate_random_walk_factor = num(schema::kMonitorRateRandomWalkFactor);
+    m.false_alarm_probability = num(schema::kMonitorFalseAlarmProbability);
+    m.stuck_samples = static_cast<std::uint32_t>(lround_nonneg(num(schema::kMonitorStuckAlarmS) * rate));
+    m.saturated_samples = static_cast<std::uint32_t>(lround_nonneg(num(schema::kMonitorSaturatedAlarmS) * rate));
+    m.reidentify = monitor.value(schema::kMonitorReidentify).boolean;
+    const double block_s = num(schema::kMonitorBlockS);
+    m.block_samples = static_cast<std::uint32_t>(std::max(1LL, lround_nonneg(block_s * rate)));
+    m.retune_blocks = static_cast<std::uint32_t>(std::max(1LL, lround_nonneg(num(schema::kMonitorRetuneS) / block_s)));
+    m.min_samples = static_cast<std::uint64_t>(lround_nonneg(num(schema::kMonitorMinLearnS) * rate));
+    m.memory_blocks = num(schema::kMonitorMemoryS) / block_s;
+    m.max_step = num(schema::kMonitorMaxStep);
+    m.max_rel_stderr = num(schema::kMonitorIdentifiedMaxRelStderr);
+    for (std::size_t c = 0; c < kImuChannels; ++c) {
+      m.channels[c] = m.enabled && is_gyro(schema::kChannelNames[c]) && chans[c].stages[0].type == "ar2_kalman";
+    }
+  }
   const double period_us = 1e6 / fc.sample_rate_hz;
   fc.imu.period_us = static_cast<std::uint32_t>(std::lround(period_us));
   const FieldValue tol = timing.value(schema::kTimingTimeToleranceUs);
@@ -579,9 +663,18 @@ inline bool read_doc(const toml::table& doc, FileConfig& out, std::string& err) 
     }
     if (!t.finish(ch, err)) return false;
   }
-  if (!ct.finish("", err) || !top.finish("", err)) return false;
-  if (!validate(chans, timing, err)) return false;
-  build(chans, timing, out);
+  if (!ct.finish("", err)) return false;
+  Section monitor;  // absent: every field its default (read_fields on an empty table)
+  {
+    toml::table empty;
+    Table mt;
+    const toml::node* mnode = top.has("monitor") ? top.any("monitor", err) : &empty;
+    if (!mt.open("monitor", mnode, err)) return false;
+    if (!read_fields(mt, "monitor", "", monitor, err) || !mt.finish("", err)) return false;
+  }
+  if (!top.finish("", err)) return false;
+  if (!validate(chans, timing, monitor, err)) return false;
+  build(chans, timing, monitor, out);
   return true;
 }
 

@@ -149,6 +149,108 @@ inline constexpr FieldSpec kAr2KalmanSteadyState{
     -kInf, false, kInf, false, true, false, false,
     "", "finite", "",
     "constant (DARE steady-state) Kalman gain instead of the time-varying one"};
+inline constexpr FieldSpec kMonitorEnabled{
+    "monitor", "enabled", false, FieldKind::boolean,
+    false, true, 0.0, "",
+    -kInf, false, kInf, false, true, false, false,
+    "", "finite", "",
+    "run the gyro monitor (streaming Allan statistics, health alarms, online re-identification) on every gyro channel whose first stage is ar2_kalman (its model is the reference and the fallback)"};
+inline constexpr FieldSpec kMonitorOctaves{
+    "monitor", "octaves", false, FieldKind::integer,
+    false, true, 16.0, "",
+    2.0, false, 24.0, false, true, false, false,
+    "", "2..24", "",
+    "octaves of the streaming Allan curve: tau = 2^k / sample rate, k = 0 .. octaves - 1"};
+inline constexpr FieldSpec kMonitorReportIntervalS{
+    "monitor", "report_interval_s", false, FieldKind::number,
+    false, true, 10.0, "",
+    0.0, true, 86400.0, false, true, false, false,
+    "", "> 0 and <= 86400", "s",
+    "interval of the monitor's reports (noise estimates, model in use, alarms)"};
+inline constexpr FieldSpec kMonitorCoverage{
+    "monitor", "coverage", false, FieldKind::number,
+    false, true, 0.6826894921370859, "",
+    0.0, true, 1.0, true, true, false, true,
+    "", "> 0 and < 1", "",
+    "coverage of the noise estimates' intervals (default: one sigma)"};
+inline constexpr FieldSpec kMonitorArwFactor{
+    "monitor", "arw_factor", false, FieldKind::number,
+    false, true, 2.0, "",
+    1.0, true, 1000.0, false, true, false, true,
+    "", "> 1 and <= 1000", "",
+    "alarm when the angle random walk N is up by more than this factor"};
+inline constexpr FieldSpec kMonitorBiasInstabilityFactor{
+    "monitor", "bias_instability_factor", false, FieldKind::number,
+    false, true, 2.0, "",
+    1.0, true, 1000.0, false, true, false, true,
+    "", "> 1 and <= 1000", "",
+    "alarm when the bias instability B is up by more than this factor"};
+inline constexpr FieldSpec kMonitorRateRandomWalkFactor{
+    "monitor", "rate_random_walk_factor", false, FieldKind::number,
+    false, true, 2.0, "",
+    1.0, true, 1000.0, false, true, false, true,
+    "", "> 1 and <= 1000", "",
+    "alarm when the rate random walk K is up by more than this factor"};
+inline constexpr FieldSpec kMonitorFalseAlarmProbability{
+    "monitor", "false_alarm_probability", false, FieldKind::number,
+    false, true, 1e-06, "",
+    0.0, true, 0.5, false, true, false, true,
+    "", "> 0 and <= 0.5", "",
+    "false-alarm probability of one check of one octave (the chi-square bound)"};
+inline constexpr FieldSpec kMonitorStuckAlarmS{
+    "monitor", "stuck_alarm_s", false, FieldKind::number,
+    false, true, 1.0, "",
+    0.0, false, 86400.0, false, true, false, false,
+    "", "0..86400", "s",
+    "a channel stuck this long without a break raises the stuck alarm (0: off)"};
+inline constexpr FieldSpec kMonitorSaturatedAlarmS{
+    "monitor", "saturated_alarm_s", false, FieldKind::number,
+    false, true, 1.0, "",
+    0.0, false, 86400.0, false, true, false, false,
+    "", "0..86400", "s",
+    "a channel saturated this long without a break raises the saturated alarm (0: off)"};
+inline constexpr FieldSpec kMonitorReidentify{
+    "monitor", "reidentify", false, FieldKind::boolean,
+    false, true, 0.0, "",
+    -kInf, false, kInf, false, true, false, false,
+    "", "finite", "",
+    "re-identify the drift model online and retune the steady-state AR(2)-Kalman gain"};
+inline constexpr FieldSpec kMonitorBlockS{
+    "monitor", "block_s", false, FieldKind::number,
+    false, true, 1.0, "",
+    0.0, true, 3600.0, false, true, false, false,
+    "", "> 0 and <= 3600", "s",
+    "samples per update of the re-identified parameters, in seconds (at least one sample)"};
+inline constexpr FieldSpec kMonitorRetuneS{
+    "monitor", "retune_s", false, FieldKind::number,
+    false, true, 60.0, "",
+    0.0, true, 86400.0, false, true, false, false,
+    "", "> 0 and <= 86400", "s",
+    "time between gain retunes (rounded to whole blocks, at least one)"};
+inline constexpr FieldSpec kMonitorMinLearnS{
+    "monitor", "min_learn_s", false, FieldKind::number,
+    false, true, 600.0, "",
+    0.0, false, 10000000.0, false, true, false, false,
+    "", "0..10000000", "s",
+    "no retune before this much accepted data"};
+inline constexpr FieldSpec kMonitorMemoryS{
+    "monitor", "memory_s", false, FieldKind::number,
+    false, true, 0.0, "",
+    0.0, false, 10000000.0, false, true, false, false,
+    "", "0..10000000", "s",
+    "forgetting horizon of the re-identification (0: none, converges to the maximum-likelihood fit of everything seen)"};
+inline constexpr FieldSpec kMonitorMaxStep{
+    "monitor", "max_step", false, FieldKind::number,
+    false, true, 0.1, "",
+    0.0, true, 10.0, false, true, false, true,
+    "", "> 0 and <= 10", "",
+    "largest change of one parameter per update (log q, log r; the AR part)"};
+inline constexpr FieldSpec kMonitorIdentifiedMaxRelStderr{
+    "monitor", "identified_max_rel_stderr", false, FieldKind::number,
+    false, true, 0.5, "",
+    0.0, true, 10.0, false, true, false, true,
+    "", "> 0 and <= 10", "",
+    "retune only when the relative standard errors of q and r are at most this (the drift/noise split is identified)"};
 
 inline constexpr const FieldSpec* kFields[] = {
     &kTimingSampleRateHz,
@@ -169,8 +271,25 @@ inline constexpr const FieldSpec* kFields[] = {
     &kAr2KalmanR,
     &kAr2KalmanP0,
     &kAr2KalmanSteadyState,
+    &kMonitorEnabled,
+    &kMonitorOctaves,
+    &kMonitorReportIntervalS,
+    &kMonitorCoverage,
+    &kMonitorArwFactor,
+    &kMonitorBiasInstabilityFactor,
+    &kMonitorRateRandomWalkFactor,
+    &kMonitorFalseAlarmProbability,
+    &kMonitorStuckAlarmS,
+    &kMonitorSaturatedAlarmS,
+    &kMonitorReidentify,
+    &kMonitorBlockS,
+    &kMonitorRetuneS,
+    &kMonitorMinLearnS,
+    &kMonitorMemoryS,
+    &kMonitorMaxStep,
+    &kMonitorIdentifiedMaxRelStderr,
 };
-inline constexpr std::size_t kFieldCount = 18;
+inline constexpr std::size_t kFieldCount = 35;
 
 inline constexpr const char* kSchema = "gyrodrift.processor";
 inline constexpr int kVersion = 1;

@@ -1,19 +1,60 @@
 // Health alarms for one gyro channel: its streaming Allan variance leaves the reference model's
 // interval (angle random walk up, bias instability up, rate random walk up), or the channel is
-// stuck or saturating for too long. Alarms are latched (stay raised until reset()), counted, and
-// keep the statistic that tripped them.
-//
-// INTERFACE SKELETON: update() is not implemented yet (no alarm is ever raised). The public
-// names and meanings are fixed; the implementation replaces the bodies.
+// stuck or saturating for too long. Alarms are latched (stay raised until reset() or
+// unlatch()), counted, and keep the statistic that tripped them.
 //
 // The reference is the expected Allan variance at each octave of the streaming curve (from the
-// configured drift model, or learned from the first part of a record), so one alarm logic
-// serves both. Allocation-free, noexcept, templated on Scalar.
+// configured drift model, health_reference_from_drift_model, or from IEEE 952 terms,
+// health_reference_from_ieee952, or learned from the first part of a record), so one alarm
+// logic serves both. Allocation-free, noexcept, templated on Scalar.
+//
+// Octave classes (at configure(), from the reference's local slope over two octaves,
+// r_k = ref_{k+1} / ref_{k-1}, one-sided and squared at the ends): the leading run of octaves
+// with r_k <= 1/2 (falling at least as tau^-1/2 in variance per octave: white rate noise)
+// belongs to arw_high; after it, octaves with r_k >= 2 (rising: rate random walk, or the rising
+// part of an AR(2) drift's hump) to rate_random_walk_high, the others (around the minimum, the
+// flat or falling correlated part) to bias_instability_high.
+//
+// Tests (each time an octave has a new squared difference; update() may be called every
+// sample or at any slower cadence, the blocks then hold more terms):
+// - block test: each time block_terms new squared differences have arrived at octave k since
+//   its last block test, the Allan variance of those terms alone, sigma^2_b, from the
+//   difference of the StreamingAllan's compensated sums (a few eps of Scalar, at any record
+//   length), so a change is seen within a block and not diluted by the record so far;
+// - start-up test: while octave k holds fewer than block_terms terms, the Allan variance of
+//   the whole record so far at each new term.
+// The ratio sigma^2 / ref_k is tested against max(f^2, chi2_{1-p}(nu) / nu): f the class's
+// factor (N, B or K up by more than f means the variance up by more than f^2), p =
+// false_alarm_probability, chi2 by Wilson-Hilferty (stability/allan_chi2.hpp), nu the edf of
+// the terms tested: the reference's local slope mu at octave k (over two octaves) taken as a
+// power law tau^mu, its squared differences' correlations from the phase's generalized
+// autocovariance (mu = -1: white rate noise, rho(1) = -1/2; 0: flicker; 1: random walk; the
+// rising side of an AR(2) drift's hump, mu up to 2, has strongly correlated differences and
+// few degrees of freedom per term), computed once at configure() for block_terms terms (in
+// double) and scaled to the number of terms tested. Under a reference equal to the truth (a
+// stationary sensor), a test fails with probability about p or less; a test fails when the
+// measured ratio exceeds f^2 and is significant at p.
+// stuck / saturated: the caller's per-sample flags, raised when that many samples in a row are
+// flagged (0: off).
+// Trip statistics: octave tests keep sqrt(ratio) (measured / expected Allan deviation) against
+// sqrt(threshold) and the octave's tau; stuck/saturated the run length against the setting.
+// `sample` is the number of update() calls when it tripped.
+// Cost: per update() two counter updates and one comparison of the sample count; per new term
+// at an octave (two per sample on average, amortized) a subtraction, a division, a square root
+// and a comparison.
+// State (sizeof, float, Cortex-M4): 20 bytes per octave (reference variance and edf per term,
+// block start as a compensated pair, its term count) plus 256 bytes (settings, factors, class
+// masks, counts, five trips of 24 bytes): 576 bytes for 16 octaves (docs/guides/health-alarms.md).
+// The numpy reference is gyrodrift.reference.health (same equations).
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
+#include "../filters/drift_likelihood.hpp"
+#include "../stability/allan_chi2.hpp"
+#include "../stability/model_allan.hpp"
 #include "../stability/streaming_allan.hpp"
 
 namespace gyrodrift {
@@ -41,6 +82,10 @@ template <class Scalar, std::size_t Octaves>
 struct HealthReference {
   Scalar avar[Octaves] = {};  // expected Allan variance at octave k (tau = 2^k / rate), channel units^2
   std::size_t octaves = 0;    // number of valid entries
+  // Optional: equivalent degrees of freedom per squared difference of a block at octave k
+  // under the reference model (0 < e <= 1; 0: derived from the reference's local slope at
+  // configure()). health_reference_from_drift_model fills it exactly for its model.
+  Scalar edf_per_term[Octaves] = {};
 };
 
 template <class Scalar>
@@ -51,6 +96,7 @@ struct HealthAlarmSettings {
   Scalar false_alarm_probability = Scalar(1e-6);  // per check and octave, for the chi-square bound
   std::uint32_t stuck_samples = 0;      // 0: off; stuck for this many samples in a row raises stuck
   std::uint32_t saturated_samples = 0;  // 0: off; saturated this many samples in a row raises saturated
+  std::uint32_t block_terms = 64;       // squared differences per block test at each octave (>= 4)
 };
 
 // What tripped an alarm (the first time it was raised).
@@ -64,38 +110,275 @@ struct HealthTrip {
 
 template <class Scalar, std::size_t Octaves>
 class HealthAlarms {
+  static_assert(Octaves >= 1 && Octaves <= 48, "Octaves must be in 1..48");
+
  public:
+  // False (state unchanged) for a reference with more than Octaves or no octaves, a
+  // non-finite or non-positive entry, a factor below 1 or not finite, false_alarm_probability
+  // outside (0, 0.5], or block_terms below 4. Resets the alarms.
   bool configure(const HealthReference<Scalar, Octaves>& ref, const HealthAlarmSettings<Scalar>& s) noexcept {
+    if (ref.octaves < 1 || ref.octaves > Octaves) return false;
+    for (std::size_t k = 0; k < ref.octaves; ++k) {
+      if (!(ref.avar[k] > Scalar(0)) || !std::isfinite(ref.avar[k])) return false;
+      if (!(ref.edf_per_term[k] >= Scalar(0)) || ref.edf_per_term[k] > Scalar(1)) return false;
+    }
+    const Scalar factors[3] = {s.arw_factor, s.bias_instability_factor, s.rate_random_walk_factor};
+    for (const Scalar f : factors) {
+      if (!(f >= Scalar(1)) || !std::isfinite(f)) return false;
+    }
+    if (!(s.false_alarm_probability > Scalar(0)) || !(s.false_alarm_probability <= Scalar(0.5)) ||
+        s.block_terms < 4) {
+      return false;
+    }
     ref_ = ref;
     settings_ = s;
+    for (std::size_t c = 0; c < 3; ++c) factor2_[c] = factors[c] * factors[c];
+    z_ = -normal_quantile(s.false_alarm_probability);  // 1 - p would round in float
+    arw_mask_ = 0;
+    rrw_mask_ = 0;
+    const std::size_t n = ref.octaves;
+    bool leading = true;
+    for (std::size_t k = 0; k < n; ++k) {
+      Scalar r = Scalar(1);
+      if (n >= 3 && k > 0 && k + 1 < n) {
+        r = ref.avar[k + 1] / ref.avar[k - 1];
+      } else if (n >= 2) {
+        const Scalar one = k == 0 ? ref.avar[1] / ref.avar[0] : ref.avar[k] / ref.avar[k - 1];
+        r = one * one;
+      }
+      const std::uint64_t bit = std::uint64_t{1} << k;
+      if (leading && (n == 1 || r <= Scalar(0.5))) {
+        arw_mask_ |= bit;
+        continue;
+      }
+      leading = false;
+      if (r >= Scalar(2)) rrw_mask_ |= bit;
+    }
+    for (std::size_t k = 0; k < n; ++k) {
+      if (ref.edf_per_term[k] > Scalar(0) && ref.edf_per_term[k] <= Scalar(1)) continue;
+      const double lo = static_cast<double>(ref.avar[k > 0 ? k - 1 : k]);
+      const double hi = static_cast<double>(ref.avar[k + 1 < n ? k + 1 : k]);
+      const double span = (k > 0 && k + 1 < n) ? 2.0 : 1.0;
+      const double mu = n >= 2 ? std::log2(hi / lo) / span : -1.0;
+      ref_.edf_per_term[k] = static_cast<Scalar>(power_law_edf_per_term(mu, s.block_terms));
+    }
     reset();
     return true;
   }
+
+  // Clears the alarms, counts and trips and restarts the tests (keeps the configuration).
   void reset() noexcept {
     latched_ = 0;
     for (std::size_t i = 0; i < kHealthAlarmCount; ++i) {
       raised_[i] = 0;
+      exceedances_[i] = 0;
       trip_[i] = HealthTrip<Scalar>{};
     }
+    for (std::size_t k = 0; k < Octaves; ++k) {
+      snap_[k] = CompensatedSum<Scalar>{};
+      snap_terms_[k] = 0;
+    }
+    updates_ = 0;
+    last_samples_ = 0;
+    stuck_run_ = 0;
+    saturated_run_ = 0;
   }
-  // Once per sample, after the sample went into `allan`. Returns the latched alarm bits.
+
+  // Lowers the latched bits (counts and trips stay; the next raise records a new trip).
+  void unlatch() noexcept { latched_ = 0; }
+
+  // Once per sample (or at a slower cadence), after the sample went into `allan` (the same
+  // StreamingAllan, not reset in between unless this is reset too). Returns the latched bits.
   std::uint16_t update(const StreamingAllan<Scalar, Octaves>& allan, bool stuck, bool saturated) noexcept {
-    (void)allan;
-    (void)stuck;
-    (void)saturated;
+    ++updates_;
+    stuck_run_ = stuck ? sat_inc(stuck_run_) : 0U;
+    saturated_run_ = saturated ? sat_inc(saturated_run_) : 0U;
+    if (settings_.stuck_samples > 0 && stuck_run_ >= settings_.stuck_samples) {
+      raise(3, static_cast<Scalar>(stuck_run_), static_cast<Scalar>(settings_.stuck_samples), Scalar(0));
+    }
+    if (settings_.saturated_samples > 0 && saturated_run_ >= settings_.saturated_samples) {
+      raise(4, static_cast<Scalar>(saturated_run_), static_cast<Scalar>(settings_.saturated_samples),
+            Scalar(0));
+    }
+    const std::uint64_t n = allan.samples();
+    if (n == last_samples_) return latched_;
+    if (n < last_samples_) {  // the curve was reset: restart the blocks
+      for (std::size_t k = 0; k < Octaves; ++k) {
+        snap_[k] = CompensatedSum<Scalar>{};
+        snap_terms_[k] = 0;
+      }
+      last_samples_ = 0;
+    }
+    const std::size_t octaves = ref_.octaves < allan.octaves() ? ref_.octaves : allan.octaves();
+    for (std::size_t k = 0; k < octaves; ++k) {
+      if ((n >> k) == (last_samples_ >> k)) break;  // no new cluster mean here nor above
+      check_octave(allan, k);
+    }
+    last_samples_ = n;
     return latched_;
   }
+
   std::uint16_t latched() const noexcept { return latched_; }
   // Times alarm i (index into kHealthAlarmNames) was raised since reset (0 or 1 while latched).
   std::uint32_t raised(std::size_t i) const noexcept { return i < kHealthAlarmCount ? raised_[i] : 0; }
+  // Failed tests of alarm i since reset (octave tests over the threshold, or samples of a
+  // stuck/saturated run at or beyond its limit), counted also while the alarm is latched.
+  std::uint32_t exceedances(std::size_t i) const noexcept {
+    return i < kHealthAlarmCount ? exceedances_[i] : 0;
+  }
   const HealthTrip<Scalar>& trip(std::size_t i) const noexcept { return trip_[i < kHealthAlarmCount ? i : 0]; }
+  // The alarm bit octave k's tests raise (0 beyond the reference).
+  std::uint16_t octave_alarm(std::size_t k) const noexcept {
+    if (k >= ref_.octaves) return 0;
+    const std::uint64_t bit = std::uint64_t{1} << k;
+    if ((arw_mask_ & bit) != 0U) return kAlarmArwHigh;
+    if ((rrw_mask_ & bit) != 0U) return kAlarmRateRandomWalkHigh;
+    return kAlarmBiasInstabilityHigh;
+  }
+  const HealthReference<Scalar, Octaves>& reference() const noexcept { return ref_; }
+  const HealthAlarmSettings<Scalar>& settings() const noexcept { return settings_; }
+  std::uint64_t updates() const noexcept { return updates_; }
 
  private:
+  static std::uint32_t sat_inc(std::uint32_t v) noexcept { return v == 0xFFFFFFFFU ? v : v + 1U; }
+
+  // edf / n of n squared differences of power-law noise whose Allan variance goes as tau^mu
+  // (mu clamped to [-1, 1.9]): the phase's generalized autocovariance G(t) = t^2 (|t|^mu - 1) / mu
+  // (t^2 ln|t| at mu = 0; the t^2 term is annihilated by the differences), the correlations
+  // rho(h) of consecutive second differences from its fourth differences, edf = n^2 / (n + 2
+  // sum_{h<n} (n - h) rho(h)^2). In double: the fourth differences cancel to h^-4 of G.
+  static double power_law_edf_per_term(double mu, std::uint32_t n) noexcept {
+    if (!std::isfinite(mu) || mu < -1.0) mu = -1.0;
+    if (mu > 1.9) mu = 1.9;
+    const auto g = [mu](double t) noexcept {
+      t = std::fabs(t);
+      if (t == 0.0) return 0.0;
+      const double l = std::log(t);
+      const double x = mu * l;
+      const double f = x == 0.0 ? 1.0 : std::expm1(x) / x;
+      return t * t * l * f;
+    };
+    const auto c = [&g](double h) noexcept {
+      return g(h - 2.0) - 4.0 * g(h - 1.0) + 6.0 * g(h) - 4.0 * g(h + 1.0) + g(h + 2.0);
+    };
+    const double c0 = c(0.0);
+    const double nn = static_cast<double>(n);
+    double sum = 0.0;
+    for (std::uint32_t h = 1; h < n; ++h) {
+      const double r = c(static_cast<double>(h)) / c0;
+      sum += (nn - static_cast<double>(h)) * r * r;
+    }
+    return nn / (nn + 2.0 * sum);
+  }
+
+  void raise(std::size_t i, Scalar statistic, Scalar threshold, Scalar tau_s) noexcept {
+    exceedances_[i] = sat_inc(exceedances_[i]);
+    const std::uint16_t bit = kHealthAlarmNames[i].bit;
+    if ((latched_ & bit) != 0U) return;
+    latched_ = static_cast<std::uint16_t>(latched_ | bit);
+    raised_[i] = sat_inc(raised_[i]);
+    trip_[i] = HealthTrip<Scalar>{statistic, threshold, tau_s, updates_};
+  }
+
+  void check_octave(const StreamingAllan<Scalar, Octaves>& allan, std::size_t k) noexcept {
+    const std::uint64_t terms = allan.terms(k);
+    if (terms == 0) return;
+    const std::uint32_t since = static_cast<std::uint32_t>(terms) - snap_terms_[k];  // modulo 2^32
+    Scalar var = Scalar(0);
+    std::uint32_t tested = 0;  // 32-bit: a hardware conversion to float on the MCU
+    if (since >= settings_.block_terms) {
+      const CompensatedSum<Scalar> cur = allan.sum_sq(k);
+      const Scalar sum = (cur.sum - snap_[k].sum) + (cur.comp - snap_[k].comp);
+      var = sum / (Scalar(2) * static_cast<Scalar>(since));
+      tested = since;
+      snap_[k] = cur;
+      snap_terms_[k] = static_cast<std::uint32_t>(terms);
+    } else if (terms < settings_.block_terms) {
+      if (!allan.avar(k, var)) return;
+      tested = static_cast<std::uint32_t>(terms);  // < block_terms
+    } else {
+      return;
+    }
+    const std::uint16_t bit = octave_alarm(k);
+    const std::size_t c = bit == kAlarmArwHigh ? 0U : (bit == kAlarmBiasInstabilityHigh ? 1U : 2U);
+    Scalar nu = ref_.edf_per_term[k] * static_cast<Scalar>(tested);
+    if (nu < Scalar(1)) nu = Scalar(1);
+    const Scalar chi = chi2_quantile_wh(nu, z_) / nu;
+    const Scalar thr = chi > factor2_[c] ? chi : factor2_[c];
+    const Scalar ratio = var / ref_.avar[k];
+    if (ratio > thr) raise(c, std::sqrt(ratio), std::sqrt(thr), allan.tau_s(k));
+  }
+
   HealthReference<Scalar, Octaves> ref_{};
   HealthAlarmSettings<Scalar> settings_{};
-  std::uint16_t latched_ = 0;
+  CompensatedSum<Scalar> snap_[Octaves] = {};  // compensated sum at the start of the block
+  std::uint32_t snap_terms_[Octaves] = {};     // term count there (modulo 2^32)
+  std::uint64_t arw_mask_ = 0;
+  std::uint64_t rrw_mask_ = 0;
+  std::uint64_t updates_ = 0;
+  std::uint64_t last_samples_ = 0;
+  Scalar factor2_[3] = {};
+  Scalar z_ = Scalar(0);
+  std::uint32_t stuck_run_ = 0;
+  std::uint32_t saturated_run_ = 0;
   std::uint32_t raised_[kHealthAlarmCount] = {};
+  std::uint32_t exceedances_[kHealthAlarmCount] = {};
   HealthTrip<Scalar> trip_[kHealthAlarmCount] = {};
+  std::uint16_t latched_ = 0;
 };
+
+// Reference from the drift model "AR(2) drift + white noise" (exact expected Allan variance at
+// tau = 2^k / rate, k < octaves; stability/model_allan.hpp). Computes in double and rounds to
+// Scalar (the difference of two near-equal sums loses digits for a smooth drift). False
+// (ref untouched) for an invalid model or octaves outside 1..Octaves.
+// The edf per term is that of block_terms terms under the model (ar2_white_edf_per_term; pass
+// the alarms' block_terms).
+template <class Scalar, std::size_t Octaves>
+bool health_reference_from_drift_model(const DriftModelParams<Scalar>& p, std::size_t octaves,
+                                       HealthReference<Scalar, Octaves>& ref,
+                                       std::uint32_t block_terms = 64) noexcept {
+  if (octaves < 1 || octaves > Octaves || block_terms < 1) return false;
+  double av[Octaves] = {};
+  double e[Octaves] = {};
+  const double a1 = static_cast<double>(p.a1);
+  const double a2 = static_cast<double>(p.a2);
+  const double q = static_cast<double>(p.q);
+  const double r = static_cast<double>(p.r);
+  if (!ar2_white_avar<double>(a1, a2, q, r, octaves, av) ||
+      !ar2_white_edf_per_term<double>(a1, a2, q, r, octaves, block_terms, e)) {
+    return false;
+  }
+  for (std::size_t k = 0; k < Octaves; ++k) {
+    ref.avar[k] = k < octaves ? static_cast<Scalar>(av[k]) : Scalar(0);
+    ref.edf_per_term[k] = k < octaves ? static_cast<Scalar>(e[k]) : Scalar(0);
+  }
+  ref.octaves = octaves;
+  return true;
+}
+
+// Reference from IEEE 952 terms in the channel's units at rate_hz (stability/model_allan.hpp:
+// q_angle quantization, n angle random walk, b bias instability, k rate random walk; tau = 2^k /
+// rate_hz). False for octaves outside 1..Octaves, a negative or non-finite term, all terms 0,
+// or a rate not positive.
+template <class Scalar, std::size_t Octaves>
+bool health_reference_from_ieee952(Scalar q_angle, Scalar n, Scalar b, Scalar k, Scalar rate_hz,
+                                   std::size_t octaves, HealthReference<Scalar, Octaves>& ref) noexcept {
+  const Scalar t[4] = {q_angle, n, b, k};
+  for (const Scalar v : t) {
+    if (!(v >= Scalar(0)) || !std::isfinite(v)) return false;
+  }
+  if (octaves < 1 || octaves > Octaves || !(rate_hz > Scalar(0)) || !std::isfinite(rate_hz) ||
+      !(q_angle + n + b + k > Scalar(0))) {
+    return false;
+  }
+  for (std::size_t j = 0; j < octaves; ++j) {
+    const Scalar tau = std::ldexp(Scalar(1), static_cast<int>(j)) / rate_hz;
+    ref.avar[j] = ieee952_avar(q_angle, n, b, k, tau);
+  }
+  for (std::size_t j = octaves; j < Octaves; ++j) ref.avar[j] = Scalar(0);
+  for (std::size_t j = 0; j < Octaves; ++j) ref.edf_per_term[j] = Scalar(0);  // from the slope
+  ref.octaves = octaves;
+  return true;
+}
 
 }  // namespace gyrodrift

@@ -14,9 +14,13 @@
 // consecutive cluster means of octave k (octave 0: the samples). Every new cluster mean adds
 // one squared difference to its octave and, every second one, passes a pair average up: two
 // octave updates per sample on average (amortized O(1)), at most `Octaves` in one step.
+// Which octaves take a new cluster mean follows from the sample count alone (octave k has
+// floor(N / 2^k) cluster means), so an octave keeps no counters or flags: its last cluster
+// mean (which is also the first half of the next octave's cluster while that waits for its
+// partner) and its compensated sum.
 // The error-free transformations need IEEE round-to-nearest without reassociation: do not
 // build this with -ffast-math (-ffp-contract only fuses d * d into the sum, which is harmless).
-// State: 6 Scalars, a 64-bit count and two flags per octave (40 bytes in float).
+// State: 4 Scalars per octave (16 bytes in float) and a fixed 32-byte part (float, 32-bit MCU).
 //
 // Precision (float on the MCU, hours at 400 Hz):
 // - the cluster means are pairwise averages carried as unevaluated pairs hi + lo (TwoSum:
@@ -103,22 +107,21 @@ class StreamingAllan {
     ++samples_;
     Pair mean = two_sum(y, -origin_);
     for (std::size_t k = 0; k < octaves_; ++k) {
+      // this is cluster mean number c = N / 2^k of octave k (N a multiple of 2^k here)
+      const std::uint64_t c = samples_ >> k;
       Octave& o = octave_[k];
-      if (o.has_prev) {
+      if (c >= 2) {
         // hi parts of neighbouring means are close, so their difference is (nearly) exact
         const Scalar d = (mean.hi - o.prev.hi) + (mean.lo - o.prev.lo);
         o.sum_sq.add(d * d);
-        ++o.terms;
       }
-      o.prev = mean;
-      o.has_prev = true;
-      if (!o.has_half) {  // first half of the next octave's cluster: wait for its partner
-        o.half = mean;
-        o.has_half = true;
+      if ((c & 1U) != 0U) {  // first half of the next octave's cluster: wait for its partner
+        o.prev = mean;
         return true;
       }
-      o.has_half = false;
-      mean = average(o.half, mean);
+      const Pair up = average(o.prev, mean);
+      o.prev = mean;
+      mean = up;
     }
     return true;
   }
@@ -139,16 +142,27 @@ class StreamingAllan {
   // Averaging factor of octave k (samples per cluster).
   std::uint64_t factor(std::size_t k) const noexcept { return std::uint64_t{1} << k; }
   // Squared differences summed at octave k: floor(N / 2^k) - 1 (0 before two clusters).
-  std::uint64_t terms(std::size_t k) const noexcept { return k < octaves_ ? octave_[k].terms : 0; }
+  std::uint64_t terms(std::size_t k) const noexcept {
+    if (k >= octaves_) return 0;
+    const std::uint64_t c = samples_ >> k;
+    return c >= 2 ? c - 1 : 0;
+  }
   std::uint64_t samples() const noexcept { return samples_; }
   std::uint64_t rejected() const noexcept { return rejected_; }
 
   // Allan variance at octave k in (rate units)^2; false if k is out of range or it has no term.
   bool avar(std::size_t k, Scalar& out) const noexcept {
-    if (k >= octaves_ || octave_[k].terms == 0) return false;
-    out = octave_[k].sum_sq.value() /
-          (Scalar(2) * static_cast<Scalar>(octave_[k].terms));
+    const std::uint64_t n = terms(k);
+    if (n == 0) return false;
+    out = octave_[k].sum_sq.value() / (Scalar(2) * static_cast<Scalar>(n));
     return std::isfinite(out);
+  }
+
+  // The compensated sum of the squared differences at octave k (sum + comp, about twice the
+  // precision of Scalar); {0, 0} out of range. The difference of two of these taken terms
+  // apart is the sum over those terms to a few eps (the health alarms' block statistics).
+  CompensatedSum<Scalar> sum_sq(std::size_t k) const noexcept {
+    return k < octaves_ ? octave_[k].sum_sq : CompensatedSum<Scalar>{};
   }
 
  private:
@@ -173,11 +187,8 @@ class StreamingAllan {
 
   struct Octave {
     CompensatedSum<Scalar> sum_sq{};
-    Pair prev{};  // last cluster mean (for the next difference)
-    Pair half{};  // first of a pair waiting for its partner (the next octave's cluster)
-    std::uint64_t terms{0};
-    bool has_prev{false};
-    bool has_half{false};
+    Pair prev{};  // last cluster mean: the next difference's partner and, when the octave
+                  // has an odd number of means, the first half of the next octave's cluster
   };
 
   Octave octave_[Octaves]{};

@@ -52,7 +52,7 @@ def register(subparsers: Any) -> None:
 
 
 def cutoff_hz(f_hz: np.ndarray, mag: np.ndarray, level_db: float) -> float:
-    """First frequency where |H| falls below level_db (linear interpolation in dB).
+    """First frequency where ``|H|`` falls below level_db (linear interpolation in dB).
 
     Examples
     --------

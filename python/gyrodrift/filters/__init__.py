@@ -1,5 +1,18 @@
 """Drift filters and their identification: AR(2) models and AR/AR(2)-Kalman filters, the
-maximum-likelihood drift model, lifting wavelets and wavelet packets, and the forced real-time
-wavelet prefilter as an FIR."""
+maximum-likelihood drift model and its online re-identification, lifting wavelets and wavelet
+packets, and the forced real-time wavelet prefilter as an FIR.
 
-__all__: list[str] = []
+Examples
+--------
+>>> from gyrodrift.filters import OnlineDriftSettings
+>>> OnlineDriftSettings().block_samples
+400
+"""
+
+from gyrodrift.filters.online import DriftParams as DriftParams
+from gyrodrift.filters.online import OnlineDriftIdentifier as OnlineDriftIdentifier
+from gyrodrift.filters.online import OnlineDriftSettings as OnlineDriftSettings
+from gyrodrift.filters.online import OnlineDriftTrace as OnlineDriftTrace
+
+__all__: list[str] = ["DriftParams", "OnlineDriftIdentifier", "OnlineDriftSettings",
+                      "OnlineDriftTrace"]

@@ -119,16 +119,23 @@ def is_stationary(a1: float, a2: float) -> bool:
 class Ar2Model:
     """An identified AR(2) drift model.
 
-    Attributes:
-        a1, a2: AR coefficients (dimensionless).
-        sigma2: driving-noise variance of the method (Yule-Walker c0 - a.c, Burg final
-            prediction-error power, FB-LS residual SS / (2 (n - 2))), (units of y)^2.
-        mean: removed mean (constant drift), units of y.
-        method: "yule-walker", "burg" or "ls".
-        n: number of samples fitted (0 if the model was given by hand).
-        r: variance of the AR(2) estimation (one-step prediction) error on the fitting record,
-            (units of y)^2; the Kalman filter's default measurement variance. NaN if unknown
-            (then kalman_filter uses sigma2).
+    Attributes
+    ----------
+    a1, a2
+        AR coefficients (dimensionless).
+    sigma2
+        driving-noise variance of the method (Yule-Walker c0 - a.c, Burg final
+        prediction-error power, FB-LS residual SS / (2 (n - 2))), (units of y)^2.
+    mean
+        removed mean (constant drift), units of y.
+    method
+        "yule-walker", "burg" or "ls".
+    n
+        number of samples fitted (0 if the model was given by hand).
+    r
+        variance of the AR(2) estimation (one-step prediction) error on the fitting record,
+        (units of y)^2; the Kalman filter's default measurement variance. NaN if unknown
+        (then kalman_filter uses sigma2).
 
     Examples
     --------
@@ -264,10 +271,13 @@ def fit_ar2(
     "burg", or "ls" (forward-backward least squares, MATLAB `ar` default). The mean is removed
     first and kept. For (n, 3) input, returns one model per axis.
 
-    Raises:
-        Ar2FitError (a ValueError): too short (< 8 samples), constant, NaN/Inf, or a
-            non-stationary result; the message names the cause.
-        TypeError: non-numeric input.
+    Raises
+    ------
+    Ar2FitError
+        (a ValueError) too short (< 8 samples), constant, NaN/Inf, or a
+        non-stationary result; the message names the cause.
+    TypeError
+        non-numeric input.
 
     Examples
     --------

@@ -137,9 +137,15 @@ class LjungBox:
 class FilterResponse:
     """Steady-state Kalman filter as a linear filter of the record.
 
-    gain: constant Kalman gain (k0, k1); dc_gain: output change per sustained input change;
-    bandwidth_hz: frequency where |H| falls 3 dB below |H(0)| (None if the filter passes
-    nothing, i.e. gain 0, or never falls 3 dB below DC up to Nyquist).
+    Attributes
+    ----------
+    gain
+        constant Kalman gain (k0, k1).
+    dc_gain
+        output change per sustained input change.
+    bandwidth_hz
+        frequency where ``|H|`` falls 3 dB below ``|H(0)|`` (None if the filter passes
+        nothing, i.e. gain 0, or never falls 3 dB below DC up to Nyquist).
 
     Examples
     --------
@@ -757,7 +763,7 @@ def drift_fisher_information(a1: float, a2: float, q: float, r: float, n: int,
     """Expected (Fisher) information of n samples about the drift model's parameters.
 
     Whittle's asymptotic form for a stationary Gaussian record with spectrum
-    S(f) = q / |1 - a1 e^{-i w} - a2 e^{-2 i w}|^2 + r (w = 2 pi f / rate):
+    ``S(f) = q / |1 - a1 e^{-i w} - a2 e^{-2 i w}|^2 + r`` (w = 2 pi f / rate):
     I_jk = (n / 2) (1 / pi) int_0^pi d_j log S(w) d_k log S(w) dw, evaluated on n_freq
     midpoints (the mean is asymptotically orthogonal to these parameters and left out). The
     test holds it to the numerical Hessian of the exact expected log-likelihood.
@@ -1138,7 +1144,8 @@ def steady_state_response(a1: float, a2: float, q: float, r: float, rate_hz: flo
                           ) -> FilterResponse:
     """Frequency response of the steady-state AR(2)-Kalman filter as a filter of the record:
     X_k = (I - K C) A X_{k-1} + K y_k, output C X_k, so
-    H(z) = C (I - (I - K C) A z^-1)^-1 K; DC gain H(1); -3 dB point where |H| = |H(1)| / sqrt 2.
+    H(z) = C (I - (I - K C) A z^-1)^-1 K; DC gain H(1); -3 dB point where
+    ``|H| = |H(1)| / sqrt 2``.
     The gain K comes from the C++ DARE solver (Ar2SteadyStateKalman).
 
     Examples

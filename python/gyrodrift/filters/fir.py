@@ -134,7 +134,7 @@ def apply_fir(x: np.ndarray, taps: np.ndarray) -> np.ndarray:
 def fir_group_delay(
     b: np.ndarray, rate_hz: float = DEFAULT_SAMPLE_RATE_HZ, n_freqs: int = 512
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Frequency (Hz), magnitude |H| and group delay (s) of FIR taps b (newest first).
+    """Frequency (Hz), magnitude ``|H|`` and group delay (s) of FIR taps b (newest first).
 
     Examples
     --------

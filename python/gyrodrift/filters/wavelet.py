@@ -3,7 +3,7 @@
 * :func:`wavedec` / :func:`waverec`: periodized db4/db8 DWT by lifting (C++), identical to
   ``numpy.concatenate(pywt.wavedec(x, w, mode="periodization", level=J))`` (no index shift).
 * :func:`wavelet_denoise`: offline denoiser of paper 000 sec. 2.3: t = sigma sqrt(2 ln n),
-  sigma = median(|d1|)/0.6745 (or per level), soft / hard thresholding or forced (all
+  sigma = median(``|d1|``)/0.6745 (or per level), soft / hard thresholding or forced (all
   details zero). A length that is not a multiple of 2**level is padded at the end by
   half-sample symmetric reflection (x[n-1], x[n-2], ...) to the next multiple, denoised,
   and truncated back to n; n in the threshold is the original length.

@@ -5,7 +5,7 @@
    E(c) = -sum c_i^2 ln c_i^2 (0 ln 0 = 0): a parent replaces its children's best basis when
    E(parent) <= E(best(children)) (ties go to the parent, the coarser description). The root
    is never chosen: the denoiser splits at least once.
-3. Thresholding of the chosen nodes: t = sigma sqrt(2 ln n), sigma = median(|d|)/0.6745 from
+3. Thresholding of the chosen nodes: t = sigma sqrt(2 ln n), sigma = median(``|d|``)/0.6745 from
    the level-1 high-pass node "d" (the finest noise estimate, as in paper 000 sec. 2.3);
    every chosen node except the pure low-pass one ("aa...a") is thresholded (soft by default).
 4. Reconstruction from the chosen nodes only; truncated to the input length.

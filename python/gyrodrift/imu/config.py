@@ -12,8 +12,8 @@ writes a full example.
 Every problem is a :class:`ConfigError` whose one-line message starts with the key
 (``channels.gx.stages[1].a1: ...``).
 
-Example
--------
+Examples
+--------
 >>> cfg = default_config()
 >>> parse_config(dumps_config(cfg)) == cfg
 True
@@ -46,6 +46,7 @@ from gyrodrift.imu.schema import (
     REQUIRED,
     SCHEMA,
     STAGE_TYPES,
+    U32_MAX,
     VERSION,
     Field,
     channel_unit,
@@ -71,6 +72,7 @@ __all__ = [
     "BiasRemoval",
     "ChannelConfig",
     "ConfigError",
+    "MonitorConfig",
     "PassThrough",
     "ProcessorConfig",
     "Stage",
@@ -243,6 +245,71 @@ class Timing:
         return self.sample_rate_hz if self.loop_rate_hz is None else self.loop_rate_hz
 
 
+def _monitor_default(name: str) -> Any:
+    return field_spec("monitor", name).default
+
+
+@dataclass(frozen=True)
+class MonitorConfig:
+    """The gyro monitor (the ``[monitor]`` table; off by default): streaming Allan statistics,
+    health alarms and the online re-identification on every gyro channel whose first stage is
+    ar2_kalman. Durations in seconds, converted to samples at the sample rate
+    (:meth:`samples`).
+
+    Examples
+    --------
+    >>> m = MonitorConfig(enabled=True, reidentify=True)
+    >>> m.octaves, m.report_interval_s, m.samples(400.0)["block_samples"]
+    (16, 10.0, 400)
+    """
+
+    enabled: bool = _monitor_default("enabled")
+    octaves: int = _monitor_default("octaves")
+    report_interval_s: float = _monitor_default("report_interval_s")
+    coverage: float = _monitor_default("coverage")
+    arw_factor: float = _monitor_default("arw_factor")
+    bias_instability_factor: float = _monitor_default("bias_instability_factor")
+    rate_random_walk_factor: float = _monitor_default("rate_random_walk_factor")
+    false_alarm_probability: float = _monitor_default("false_alarm_probability")
+    stuck_alarm_s: float = _monitor_default("stuck_alarm_s")
+    saturated_alarm_s: float = _monitor_default("saturated_alarm_s")
+    reidentify: bool = _monitor_default("reidentify")
+    block_s: float = _monitor_default("block_s")
+    retune_s: float = _monitor_default("retune_s")
+    min_learn_s: float = _monitor_default("min_learn_s")
+    memory_s: float = _monitor_default("memory_s")
+    max_step: float = _monitor_default("max_step")
+    identified_max_rel_stderr: float = _monitor_default("identified_max_rel_stderr")
+
+    def samples(self, sample_rate_hz: float) -> dict[str, int | float]:
+        """The durations at `sample_rate_hz` as the processor holds them (the C++ reader's
+        rounding: lround of seconds times rate): stuck_samples, saturated_samples,
+        block_samples (at least one), retune_blocks (whole blocks, at least one), min_samples,
+        memory_blocks (a float), report_samples.
+
+        Examples
+        --------
+        >>> d = MonitorConfig(block_s=0.5, retune_s=30.0).samples(400.0)
+        >>> d["block_samples"], d["retune_blocks"], d["report_samples"]
+        (200, 60, 4000)
+        """
+        block = max(1, _lround(self.block_s * sample_rate_hz))
+        return {
+            "stuck_samples": _lround(self.stuck_alarm_s * sample_rate_hz),
+            "saturated_samples": _lround(self.saturated_alarm_s * sample_rate_hz),
+            "block_samples": block,
+            "retune_blocks": max(1, _lround(self.retune_s / self.block_s)),
+            "min_samples": _lround(self.min_learn_s * sample_rate_hz),
+            "memory_blocks": self.memory_s / self.block_s,
+            "report_samples": max(1, _lround(self.report_interval_s * sample_rate_hz)),
+        }
+
+
+def _lround(x: float) -> int:
+    """C's lround (half away from zero) of a non-negative number."""
+    return math.floor(x + 0.5)
+
+
 @dataclass(frozen=True)
 class ProcessorConfig:
     """The whole processor: six channels in the order gx gy gz ax ay az.
@@ -260,6 +327,7 @@ class ProcessorConfig:
     channels: tuple[ChannelConfig, ...]
     timing: Timing = Timing()
     meta: tuple[tuple[str, Any], ...] = ()
+    monitor: MonitorConfig = MonitorConfig()
 
     def __post_init__(self) -> None:
         validate(self)
@@ -288,6 +356,24 @@ class ProcessorConfig:
 
     def uses(self, stage_type: str) -> bool:
         return any(s.type == stage_type for c in self.channels for s in c.stages)
+
+    def with_monitor(self, **changes: Any) -> ProcessorConfig:
+        """A copy with monitor fields replaced.
+
+        Examples
+        --------
+        >>> cfg = drift_filter_config("gz", a1=0.6, a2=0.2, mean=0.0, q=1e-10, r=1e-8,
+        ...                           sample_rate_hz=100.0).with_monitor(enabled=True)
+        >>> cfg.monitor.enabled, cfg.monitored_channels()
+        (True, ('gz',))
+        """
+        return replace(self, monitor=replace(self.monitor, **changes))
+
+    def monitored_channels(self) -> tuple[str, ...]:
+        """The gyro channels the monitor watches (when enabled): those whose first stage is
+        ar2_kalman (its model is the monitor's reference and the re-identification's start)."""
+        return tuple(c.name for c in self.channels
+                     if c.is_gyro and isinstance(c.stages[0], Ar2KalmanStage))
 
     def as_dict(self) -> dict[str, Any]:
         """The file's content as plain JSON-ready values (unit suffixes on the keys)."""
@@ -397,12 +483,31 @@ def validate(cfg: ProcessorConfig) -> None:
     for f in FIELDS:
         if f.section == "timing":
             _check_field(f"timing.{f.key('')}", f, getattr(cfg.timing, f.name))
+    _check_monitor(cfg)
     loop = field_spec("timing", "loop_rate_hz")
     if cfg.timing.loop_rate_hz is None and not loop.accepts(cfg.timing.sample_rate_hz):
         # valid for the format, not for the loop program: its cycle runs at most at 2000 Hz
         raise ConfigError("timing.loop_rate_hz", f"absent, so the sample rate "
                           f"{cfg.timing.sample_rate_hz!r} Hz, outside the loop's "
                           f"{loop.bounds_text()}: give it")
+
+
+def _check_monitor(cfg: ProcessorConfig) -> None:
+    """The monitor's fields, then their relations to each other and to the processor."""
+    m = cfg.monitor
+    for f in FIELDS:
+        if f.section == "monitor":
+            _check_field(f"monitor.{f.key('')}", f, getattr(m, f.name))
+    rate = cfg.timing.sample_rate_hz
+    n = m.samples(rate)
+    if n["block_samples"] > U32_MAX:
+        raise ConfigError("monitor.block_s", f"more than {U32_MAX} samples at {rate!r} Hz")
+    for name in ("stuck_alarm_s", "saturated_alarm_s"):
+        if n[name.replace("_alarm_s", "_samples")] > U32_MAX:
+            raise ConfigError(f"monitor.{name}", f"more than {U32_MAX} samples at {rate!r} Hz")
+    if m.enabled and not cfg.monitored_channels():
+        raise ConfigError("monitor.enabled", "no gyro channel has ar2_kalman as its first "
+                                             "stage (the drift model the monitor starts from)")
 
 
 # ----------------------------------------------------------------------------- reading
@@ -563,8 +668,14 @@ def config_from_dict(data: Mapping[str, Any]) -> ProcessorConfig:
         c.finish(ch)
         channels.append(ChannelConfig(name=ch, stages=stages, **values))
     ct.finish()
+    monitor = MonitorConfig()
+    if top.has("monitor"):
+        mt = _Table("monitor", top.get("monitor", "any"))
+        monitor = MonitorConfig(**_read_fields(mt, "monitor"))
+        mt.finish()
     top.finish()
-    return ProcessorConfig(channels=tuple(channels), timing=timing, meta=meta_items)
+    return ProcessorConfig(channels=tuple(channels), timing=timing, meta=meta_items,
+                           monitor=monitor)
 
 
 #: Tables and arrays nested deeper than this are refused (both readers; the document is depth
@@ -758,6 +869,8 @@ def dumps_config(cfg: ProcessorConfig) -> str:
         lines += [f"{k} = {_value(v)}" for k, v in cfg.meta]
         lines.append("")
     lines += ["[timing]", *_field_lines("timing", cfg.timing), ""]
+    if cfg.monitor != MonitorConfig():  # absent: off, every field its default
+        lines += ["[monitor]", *_field_lines("monitor", cfg.monitor), ""]
     for cc in cfg.channels:
         ch = cc.name
         lines += [f"[channels.{ch}]", *_field_lines("channel", cc, ch), ""]

@@ -78,7 +78,7 @@ class ImuChannelConfig:
     without a bias_removal stage subtracts `bias` after its last stage (imu/imu_processor.hpp).
 
     ar2_kalman needs a1, a2, sigma2, mean (the AR(2) model, units of the channel), q and r
-    (units^2) and p0 (P_0 = p0 I). saturation: |x| >= saturation marks the value bad.
+    (units^2) and p0 (P_0 = p0 I). saturation: ``|x| >= saturation`` marks the value bad.
     stuck_samples: the N-th identical value in a row is stuck (0 = off).
 
     Examples

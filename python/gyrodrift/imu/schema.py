@@ -56,12 +56,14 @@ __all__ = [
     "FLOAT32_MIN_NORMAL",
     "MAX_STAGES",
     "MAX_VARIANCE",
+    "MONITOR_MAX_OCTAVES",
     "PAPER_WAVELET",
     "REQUIRED",
     "SCHEMA",
     "SECTIONS",
     "STAGE_TYPES",
     "THRESHOLDS",
+    "U32_MAX",
     "VERSION",
     "WAVELETS",
     "Field",
@@ -84,8 +86,11 @@ MAX_STAGES = 2
 #: Wavelets of the real-time stage -> filter length.
 WAVELETS = {"db4": 8, "db8": 16}
 THRESHOLDS = ("forced", "soft", "hard")
-#: Where the fields live: the timing table, each channel's table, and each stage type's table.
-SECTIONS = ("timing", "channel", "bias_removal", "wavelet", "ar2_kalman")
+#: Where the fields live: the timing table, each channel's table, each stage type's table, and
+#: the gyro monitor's table.
+SECTIONS = ("timing", "channel", "bias_removal", "wavelet", "ar2_kalman", "monitor")
+#: The most octaves of the monitor's streaming Allan curve (the loop program's capacity).
+MONITOR_MAX_OCTAVES = 24
 
 
 class _Required:
@@ -311,6 +316,56 @@ FIELDS: tuple[Field, ...] = (
           "initial state covariance P_0 = p0 I", lo=0.0, hi=MAX_VARIANCE, float32=True),
     Field("ar2_kalman", "steady_state", "bool", "", False,
           "constant (DARE steady-state) Kalman gain instead of the time-varying one"),
+    Field("monitor", "enabled", "bool", "", False,
+          "run the gyro monitor (streaming Allan statistics, health alarms, online "
+          "re-identification) on every gyro channel whose first stage is ar2_kalman (its model "
+          "is the reference and the fallback)"),
+    Field("monitor", "octaves", "int", "", 16,
+          "octaves of the streaming Allan curve: tau = 2^k / sample rate, k = 0 .. octaves - 1",
+          lo=2, hi=MONITOR_MAX_OCTAVES),
+    Field("monitor", "report_interval_s", "float", "s", 10.0,
+          "interval of the monitor's reports (noise estimates, model in use, alarms)",
+          lo=0.0, lo_open=True, hi=86400.0),
+    Field("monitor", "coverage", "float", "", math.erf(1.0 / math.sqrt(2.0)),
+          "coverage of the noise estimates' intervals (default: one sigma)",
+          lo=0.0, hi=1.0, lo_open=True, hi_open=True, float32=True),
+    Field("monitor", "arw_factor", "float", "", 2.0,
+          "alarm when the angle random walk N is up by more than this factor",
+          lo=1.0, lo_open=True, hi=1000.0, float32=True),
+    Field("monitor", "bias_instability_factor", "float", "", 2.0,
+          "alarm when the bias instability B is up by more than this factor",
+          lo=1.0, lo_open=True, hi=1000.0, float32=True),
+    Field("monitor", "rate_random_walk_factor", "float", "", 2.0,
+          "alarm when the rate random walk K is up by more than this factor",
+          lo=1.0, lo_open=True, hi=1000.0, float32=True),
+    Field("monitor", "false_alarm_probability", "float", "", 1e-6,
+          "false-alarm probability of one check of one octave (the chi-square bound)",
+          lo=0.0, lo_open=True, hi=0.5, float32=True),
+    Field("monitor", "stuck_alarm_s", "float", "s", 1.0,
+          "a channel stuck this long without a break raises the stuck alarm (0: off)",
+          lo=0.0, hi=86400.0),
+    Field("monitor", "saturated_alarm_s", "float", "s", 1.0,
+          "a channel saturated this long without a break raises the saturated alarm (0: off)",
+          lo=0.0, hi=86400.0),
+    Field("monitor", "reidentify", "bool", "", False,
+          "re-identify the drift model online and retune the steady-state AR(2)-Kalman gain"),
+    Field("monitor", "block_s", "float", "s", 1.0,
+          "samples per update of the re-identified parameters, in seconds (at least one sample)",
+          lo=0.0, lo_open=True, hi=3600.0),
+    Field("monitor", "retune_s", "float", "s", 60.0,
+          "time between gain retunes (rounded to whole blocks, at least one)",
+          lo=0.0, lo_open=True, hi=86400.0),
+    Field("monitor", "min_learn_s", "float", "s", 600.0,
+          "no retune before this much accepted data", lo=0.0, hi=1e7),
+    Field("monitor", "memory_s", "float", "s", 0.0,
+          "forgetting horizon of the re-identification (0: none, converges to the "
+          "maximum-likelihood fit of everything seen)", lo=0.0, hi=1e7),
+    Field("monitor", "max_step", "float", "", 0.1,
+          "largest change of one parameter per update (log q, log r; the AR part)",
+          lo=0.0, lo_open=True, hi=10.0, float32=True),
+    Field("monitor", "identified_max_rel_stderr", "float", "", 0.5,
+          "retune only when the relative standard errors of q and r are at most this (the "
+          "drift/noise split is identified)", lo=0.0, lo_open=True, hi=10.0, float32=True),
 )
 
 

@@ -16,8 +16,8 @@ Lines starting with ``#`` are comments. allantools' output (taus, devs, errors, 
 as columns ``tau_s,adev,adev_error,n`` reads as is (``n``: its count of terms, used as the
 count).
 
-Example
--------
+Examples
+--------
 >>> import os, tempfile
 >>> path = os.path.join(tempfile.mkdtemp(), "curve.csv")
 >>> _ = open(path, "w").write("tau_s,adev,count\\n1,0.5,1000\\n10,0.16,100\\n100,0.05,10\\n")
@@ -54,13 +54,24 @@ _COUNT = ("count", "n", "ns", "clusters", "num_clusters", "n_clusters")
 class AllanCurve:
     """A published Allan-deviation curve in the package's units.
 
-    Attributes:
-        tau_s: averaging times, s (increasing).
-        adev: Allan deviation, deg/h (gyro) or m/s^2 (accelerometer).
-        edf: equivalent degrees of freedom per point.
-        sensor: "gyro" or "accel"; unit: "deg/h" or "m/s^2"; units_in: the file's unit.
-        edf_from: "edf", "count" or "duration" (where the edf came from).
-        source: the file.
+    Attributes
+    ----------
+    tau_s
+        averaging times, s (increasing).
+    adev
+        Allan deviation, deg/h (gyro) or m/s^2 (accelerometer).
+    edf
+        equivalent degrees of freedom per point.
+    sensor
+        "gyro" or "accel".
+    unit
+        "deg/h" or "m/s^2".
+    units_in
+        the file's unit.
+    edf_from
+        "edf", "count" or "duration" (where the edf came from).
+    source
+        the file.
 
     Examples
     --------

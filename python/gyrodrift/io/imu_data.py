@@ -25,8 +25,8 @@ NaN/Inf samples follow `nan_policy` as in `gyrodrift.io.records`: "refuse" (defa
 their
 count, "drop" removes the rows (all channels) and reports the count.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np, tempfile, pathlib
 >>> d = pathlib.Path(tempfile.mkdtemp())
 >>> np.save(d / "imu.npy", np.zeros((100, 6)) + np.arange(6))
@@ -104,15 +104,23 @@ _ACCEL_RE = re.compile(r"^(accel|acc|accelerometer|a|f|linear_acceleration|lin_a
 class ImuData:
     """Up to six IMU channels on one uniform time base.
 
-    Attributes:
-        channels: name ("gyro_x" .. "accel_z") -> 1-D float64 samples in rad/s (gyro) or m/s^2
-            (accelerometer); a read-only numpy.memmap for spooled records.
-        rate_hz: sample rate, Hz.
-        source: the file (or bag) read.
-        fmt: input kind ("npy", "text", "psins", "replay-log", "rosbag1", "rosbag2").
-        n_total: samples in the file before any were dropped.
-        n_dropped: rows removed by nan_policy="drop".
-        detail: what the reader decided (columns, units, topic, time column), for reports.
+    Attributes
+    ----------
+    channels
+        name ("gyro_x" .. "accel_z") -> 1-D float64 samples in rad/s (gyro) or m/s^2
+        (accelerometer); a read-only numpy.memmap for spooled records.
+    rate_hz
+        sample rate, Hz.
+    source
+        the file (or bag) read.
+    fmt
+        input kind ("npy", "text", "psins", "replay-log", "rosbag1", "rosbag2").
+    n_total
+        samples in the file before any were dropped.
+    n_dropped
+        rows removed by nan_policy="drop".
+    detail
+        what the reader decided (columns, units, topic, time column), for reports.
 
     Examples
     --------

@@ -4,7 +4,7 @@ fine-alignment Kalman filter, the real-time wavelet prefilter as an FIR), Monte 
 real-data run.
 
 The plain-loop numpy references (`Strapdown`, `InertialCoarseAlign`, `FineAlignKF`,
-`run_alignment_reference`) are the oracles of include/gyrodrift/nav/*.hpp and live in
+`run_alignment_reference`) are the oracles of ``include/gyrodrift/nav/*.hpp`` and live in
 `gyrodrift.reference.align`; the Earth model is `gyrodrift.nav.earth`, the prefilter's FIR
 `gyrodrift.filters.fir`.
 

@@ -3,10 +3,11 @@ records with and without the real-time wavelet prefilter, statistics against the
 prefilter mechanism study, and the real-data heading-consistency run.
 
 Definitions used in every table:
+
 - heading error psi(t) = phi_U(t), the Up misalignment of the computed attitude (estimated -
   true clockwise heading), sampled at the KF updates;
 - convergence time (band criterion): the first fine-alignment time t_c with
-  |psi(t) - psi(end)| <= 1 arcmin for all t >= t_c, per run; a run whose band is entered only
+  ``|psi(t) - psi(end)| <= 1 arcmin`` for all t >= t_c, per run; a run whose band is entered only
   in the last minute counts as not converged;
 - theory: steady-state heading -eps_E/(W cos L) + (nab_E/g) tan L and level nab/g with the
   nav-frame projection of the simulated constant biases at the mean attitude; the ARW limit
@@ -56,7 +57,7 @@ BAND_RAD = ARCMIN
 
 def convergence_time_s(t_s: np.ndarray, psi: np.ndarray, band_rad: float = BAND_RAD,
                        min_hold_s: float = 60.0) -> float:
-    """First t with |psi(t') - psi(end)| <= band for all t' >= t; NaN (not converged) when the
+    """First t with ``|psi(t') - psi(end)| <= band`` for all t' >= t; NaN (not converged) when the
     band is entered less than min_hold_s before the end (it would then hold trivially).
 
     Examples

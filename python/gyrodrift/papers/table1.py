@@ -6,12 +6,13 @@ bior3.7 wavelet packet, AR model filter, AR(2)-Kalman), beside the published row
 Default record (`default_record`): the paper gives no sample rate. Its raw row is matched
 through these choices (see the documentation's validation page "Allan variance, noise
 identification, PSD, command line, paper comparison"):
+
 - the random part is the AR(2) drift of the paper's eq. (6) itself, y_k = -0.0340 y_{k-1}
   + 0.0252 y_{k-2} + r_k, whose low-frequency level sigma_r / (1 - a1 - a2) is set to the
   published N = 0.0012 deg/sqrt(h) (white-rate Allan line N' = 60 N (deg/h) sqrt(s));
 - plus angle quantization of the published Q = 0.0035, read in the unit the paper's numbers
-  actually have ((deg/h)*s = arcsec; see gyrodrift.stability.ieee952);
-- the sample rate is then the one at which these two give the published STD = 0.0962 deg/h:
+  actually have (``(deg/h)*s = arcsec``; see gyrodrift.stability.ieee952);
+- the sample rate is then the one at which these two give the published STD = 0.0962 deg/h,
   var = gamma_AR N'^2 f_s + 2 Q^2 f_s^2, f_s = 1.737 Hz. (White rate of two-sided level N'^2
   has variance N'^2 f_s, gamma_AR = 1.019 is the AR(2)'s variance over its low-frequency
   level; a white angle error of std Q (arcsec) differenced over dt = 1/f_s is a rate of

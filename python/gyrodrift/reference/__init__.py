@@ -33,6 +33,7 @@ from gyrodrift.reference.ar2 import steady_state_gain as steady_state_gain
 # isort: split
 # --- drift-model likelihood ---
 from gyrodrift.reference.drift import drift_loglike as drift_loglike
+from gyrodrift.reference.online_drift import OnlineDriftReference as OnlineDriftReference
 
 # isort: split
 # --- wavelets ---

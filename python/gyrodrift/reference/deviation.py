@@ -1,15 +1,17 @@
 """The deviation family straight from NIST SP 1065 (phase form), in plain numpy.
 
 Phase x_0..x_{N-1} at interval tau0, tau = m tau0:
+
 - eq. 14, modified Allan: 1 / (2 m^2 tau^2 (N-3m+1)) sum_j [sum_{i=j}^{j+m-1}
   (x_{i+2m} - 2 x_{i+m} + x_i)]^2
 - eq. 15, time deviation: tau / sqrt(3) Mod sigma
 - eq. 18, Hadamard: 1 / (6 tau^2 n) sum over i = 0, m, 2m, ... of
   (x_{i+3m} - 3 x_{i+2m} + 3 x_{i+m} - x_i)^2
 - eq. 20, overlapping Hadamard: the same over every i, n = N - 3m
-- eq. 25, total: 1 / (2 tau^2 (N-2)) sum_{i=1}^{N-2} (x*_{i-m} - 2 x*_i + x*_{i+m})^2 on
-  the record extended by reflection about both ends, x*_{-j} = 2 x_0 - x_j and
-  x*_{N-1+j} = 2 x_{N-1} - x_{N-1-j}.
+- eq. 25, total: ``1 / (2 tau^2 (N-2)) sum_{i=1}^{N-2} (x*_{i-m} - 2 x*_i + x*_{i+m})^2`` on
+  the record extended by reflection about both ends, ``x*_{-j} = 2 x_0 - x_j`` and
+  ``x*_{N-1+j} = 2 x_{N-1} - x_{N-1-j}``.
+
 Each difference is formed explicitly (the inner sums of eq. 14 as window sums, no running
 updates), so this is independent of the C++ kernels' recursions; O(N m) at worst, for tests.
 `rate_to_phase` integrates rate samples (mean removed first: every statistic here is blind to

@@ -5,8 +5,10 @@ Model: x_k = a1 x_{k-1} + a2 x_{k-2} + w_k (var q), y_k = mean + x_k + v_k (var 
 Written straight from the state-space equations with 2x2 matrices and a plain loop: the
 stationary initial covariance from the Lyapunov equation P = A P A^T + Q solved by
 scipy.linalg.solve_discrete_lyapunov (not the closed form the C++ core uses), then the Kalman
-filter's prediction-error decomposition (Harvey 1989 eq. 3.4.7)
+filter's prediction-error decomposition (Harvey 1989 eq. 3.4.7)::
+
     log L = -1/2 sum_k (log 2 pi + log F_k + e_k^2 / F_k).
+
 Float64 throughout; an oracle, not the fast path.
 """
 

@@ -3,7 +3,7 @@
 Written straight from the equations, deliberately plain:
 
 * offline denoiser (paper 000, sec. 2.3): J-level periodized DWT, t = sigma sqrt(2 ln n),
-  sigma = median(|d1|) / 0.6745, soft eta(W) = sgn(W)(|W| - t)+ or hard, or forced (all
+  sigma = median(``|d1|``) / 0.6745, soft ``eta(W) = sgn(W)(|W| - t)+`` or hard, or forced (all
   details zero), inverse DWT;
 * real-time sliding window (paper 004, sec. 2.2): per sample, the full recompute of the
   symmetric-extended window ``ext = [w, w[::-1]]``, output ``waverec(...)[N - 1]``;
@@ -56,7 +56,7 @@ def pad_symmetric(x: np.ndarray, multiple: int) -> np.ndarray:
 
 
 def threshold_value(d1: np.ndarray, n: int) -> float:
-    """t = sigma sqrt(2 ln n) with sigma = median(|d1|) / 0.6745 (paper 000 sec. 2.3).
+    """t = sigma sqrt(2 ln n) with sigma = median(``|d1|``) / 0.6745 (paper 000 sec. 2.3).
 
     Examples
     --------

@@ -28,12 +28,19 @@ FAULT_KINDS: tuple[str, ...] = ("drop", "corrupt", "duplicate", "reorder", "dela
 class FaultSpec:
     """Per-sample fault probabilities (each in [0, 1], their sum <= 1) and parameters.
 
-    drop: the sample is never sent (the loop sees a sequence gap).
-    corrupt: one bit of the sample is flipped on the wire (serial: a payload byte, so the
+    Attributes
+    ----------
+    drop
+        the sample is never sent (the loop sees a sequence gap).
+    corrupt
+        one bit of the sample is flipped on the wire (serial: a payload byte, so the
         CRC fails; SLCAN: a hex digit of the GyroZ line becomes non-hex, as a line error).
-    duplicate: the sample is sent twice in a row.
-    reorder: the sample is swapped with the next one.
-    delay: the sample is sent `delay_s` later than its timestamp says (after later samples).
+    duplicate
+        the sample is sent twice in a row.
+    reorder
+        the sample is swapped with the next one.
+    delay
+        the sample is sent `delay_s` later than its timestamp says (after later samples).
 
     Examples
     --------

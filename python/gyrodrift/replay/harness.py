@@ -114,7 +114,7 @@ class ReplayError(GyrodriftError, RuntimeError):
 
 def find_loop_binary(explicit: str | os.PathLike[str] | None = None) -> Path:
     """The gyrodrift-loop executable: `explicit`, $GYRODRIFT_LOOP, the C++ build named by
-    $GYRODRIFT_CPP_BUILD_DIR, the repo's build/*/ trees, the scripts directory of this
+    $GYRODRIFT_CPP_BUILD_DIR, the repo's ``build/*/`` trees, the scripts directory of this
     installation (where the wheel installs it, beside the `gyrodrift` command), or
     `gyrodrift-loop` on PATH.
 

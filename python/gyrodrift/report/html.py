@@ -1,8 +1,8 @@
 """Self-contained HTML pages (jinja2; images inline as base64 PNG): the `characterize` report
 of one IMU and the `fleet` summary.
 
-Example
--------
+Examples
+--------
 >>> "<table" in render_table([{"a": 1.0}])
 True
 """

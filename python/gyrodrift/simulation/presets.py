@@ -13,7 +13,7 @@ a slow trend, and records are finite. A `SensorPreset` combines all of these:
   noise generation", Proc. IEEE 83(5), 1995, sec. IV; the 1992 conference version): white
   noise of standard deviation B convolved (FFT convolution) with the fractional-differencing
   filter h_0 = 1, h_k = h_{k-1} (k - 1 + alpha / 2) / k, alpha = 1, truncated at n
-  coefficients. Its two-sided PSD is B^2 dt / |2 sin(pi f dt)| -> B^2 / (2 pi f) at low f,
+  coefficients. Its two-sided PSD is ``B^2 dt / |2 sin(pi f dt)|`` -> B^2 / (2 pi f) at low f,
   so its Allan deviation is the IEEE Std 952 floor sqrt(2 ln2 / pi) B = 0.664 B for tau well
   above the sample period;
 - sinusoidal vibration A sin(2 pi f0 t + phi), phi uniform (a hump near tau = 0.37 / f0);
@@ -70,24 +70,37 @@ B_MIN_TAU_FRACTION = 0.1
 class SensorPreset:
     """A gyro imitating a published datasheet, as generating noise terms.
 
-    Attributes:
-        name, description: the preset's name and what it imitates (with the published numbers).
-        rate_hz: output rate, Hz.
-        q_arcsec: quantization noise Q, arcsec.
-        n_deg_rt_h: angle random walk N, deg/sqrt(h).
-        b_deg_h: bias instability B, deg/h, of flicker rate noise (IEEE Std 952: flat Allan
-            floor sqrt(2 ln2 / pi) B = 0.664 B).
-        k_deg_h_rt_h: rate random walk K, deg/h/sqrt(h).
-        r_deg_h2: rate ramp R, deg/h/h.
-        gauss_markov: (sigma_deg_h, correlation_time_s) of each Gauss-Markov term.
-        vibration: (amplitude_deg_h, frequency_hz) of each sinusoid.
-        warmup: (amplitude_deg_h, time_constant_s) of the warm-up, or None.
-        bandwidth_hz: cut-off of the sensor's digital low-pass filter (a `filter_taps`-tap
-            linear-phase FIR, scipy.signal.firwin, unit gain at DC) acting on the wideband
-            terms N, B, Gauss-Markov and vibration, or None (no filter). It lowers the Allan
-            deviation over the first few sample periods below the N line, as the output
-            filters of MEMS parts do.
-        default_n_samples: a record length that shows the preset's terms.
+    Attributes
+    ----------
+    name, description
+        the preset's name and what it imitates (with the published numbers).
+    rate_hz
+        output rate, Hz.
+    q_arcsec
+        quantization noise Q, arcsec.
+    n_deg_rt_h
+        angle random walk N, deg/sqrt(h).
+    b_deg_h
+        bias instability B, deg/h, of flicker rate noise (IEEE Std 952: flat Allan
+        floor sqrt(2 ln2 / pi) B = 0.664 B).
+    k_deg_h_rt_h
+        rate random walk K, deg/h/sqrt(h).
+    r_deg_h2
+        rate ramp R, deg/h/h.
+    gauss_markov
+        (sigma_deg_h, correlation_time_s) of each Gauss-Markov term.
+    vibration
+        (amplitude_deg_h, frequency_hz) of each sinusoid.
+    warmup
+        (amplitude_deg_h, time_constant_s) of the warm-up, or None.
+    bandwidth_hz
+        cut-off of the sensor's digital low-pass filter (a `filter_taps`-tap
+        linear-phase FIR, scipy.signal.firwin, unit gain at DC) acting on the wideband
+        terms N, B, Gauss-Markov and vibration, or None (no filter). It lowers the Allan
+        deviation over the first few sample periods below the N line, as the output
+        filters of MEMS parts do.
+    default_n_samples
+        a record length that shows the preset's terms.
 
     Examples
     --------
@@ -238,11 +251,15 @@ def _structure(r: np.ndarray) -> np.ndarray:
 class PresetTruth:
     """The generating terms of a preset record and its exact expected Allan deviation.
 
-    Attributes:
-        q_arcsec, n_deg_rt_h, b_deg_h, k_deg_h_rt_h, r_deg_h2: the generating IEEE 952 terms.
-        rate_hz, n_samples: the record's rate and length.
-        b_min_deg_h, tau_b_min_s: the datasheet read-off, min adev / 0.664 over
-            dt <= tau <= T / 10, and the tau of that minimum.
+    Attributes
+    ----------
+    q_arcsec, n_deg_rt_h, b_deg_h, k_deg_h_rt_h, r_deg_h2
+        the generating IEEE 952 terms.
+    rate_hz, n_samples
+        the record's rate and length.
+    b_min_deg_h, tau_b_min_s
+        the datasheet read-off, min adev / 0.664 over
+        dt <= tau <= T / 10, and the tau of that minimum.
 
     Examples
     --------
@@ -379,8 +396,10 @@ def simulate_preset(preset: str | SensorPreset, n_samples: int, seed: int, *,
     generated and the filter's "valid" part kept, so the record is stationary from its first
     sample.
 
-    Raises:
-        GyrodriftValueError: unknown preset, fewer than 16 samples, bad seed or axes.
+    Raises
+    ------
+    GyrodriftValueError
+        unknown preset, fewer than 16 samples, bad seed or axes.
 
     Examples
     --------

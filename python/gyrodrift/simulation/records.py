@@ -32,7 +32,7 @@ How each term is made (dt = 1 / rate_hz):
   stationary from its first sample (no burn-in transient). Non-stationary (a1, a2) are rejected.
 - first-order Gauss-Markov terms gm = ((sigma_deg_h, tau_s), ...): x_k = phi x_{k-1} + u_k,
   phi = exp(-dt/tau), var u = sigma^2 (1 - phi^2), stationary from the first sample
-  (autocovariance sigma^2 exp(-|t|/tau); IEEE Std 952 C.1 exponentially correlated noise).
+  (autocovariance ``sigma^2 exp(-|t|/tau)``; IEEE Std 952 C.1 exponentially correlated noise).
 - optional pulse counting (pulse_deg = S > 0), as a ring-laser gyro's digital output: the sum
   of the terms is integrated to angle theta and the output per sample is
   floor(theta_k / S) - floor(theta_{k-1} / S) pulses (random initial phase). The angle error is
@@ -74,21 +74,31 @@ _TERM_ORDER = ("q", "n", "b", "k", "ar2", "pulse", "gm")
 class NoiseTerms:
     """IEEE Std 952 gyro error terms (all >= 0) plus a constant bias and an AR(2) drift.
 
-    Attributes:
-        q_deg: quantization noise coefficient Q, deg.
-        n_deg_rt_h: angle random walk N, deg/sqrt(h).
-        b_deg_h: bias instability B, deg/h (Allan floor 0.664 B).
-        k_deg_h_rt_h: rate random walk K, deg/h/sqrt(h).
-        r_deg_h2: rate ramp R, deg/h/h (may be negative: the sign is the ramp direction).
-        bias_deg_h: constant bias, deg/h (any sign).
-        ar2: (a1, a2, sigma_deg_h) of the AR(2) drift component, or None.
-        gm: first-order Gauss-Markov terms, a tuple of (sigma_deg_h, tau_s): stationary
-            standard deviation (deg/h) and correlation time (s) of each (IEEE Std 952 C.1
-            "exponentially correlated noise"), at most 3.
-        pulse_deg: if > 0, the output is pulse-counted like a ring-laser gyro: the sum of all
-            terms is integrated to angle and the output is whole pulses of this size per
-            sample (rate = counts x pulse_deg / dt). Quantization noise then has
-            Q = pulse_deg / sqrt(12) when the angle sweeps many pulses (IEEE Std 952, C.1).
+    Attributes
+    ----------
+    q_deg
+        quantization noise coefficient Q, deg.
+    n_deg_rt_h
+        angle random walk N, deg/sqrt(h).
+    b_deg_h
+        bias instability B, deg/h (Allan floor 0.664 B).
+    k_deg_h_rt_h
+        rate random walk K, deg/h/sqrt(h).
+    r_deg_h2
+        rate ramp R, deg/h/h (may be negative: the sign is the ramp direction).
+    bias_deg_h
+        constant bias, deg/h (any sign).
+    ar2
+        (a1, a2, sigma_deg_h) of the AR(2) drift component, or None.
+    gm
+        first-order Gauss-Markov terms, a tuple of (sigma_deg_h, tau_s): stationary
+        standard deviation (deg/h) and correlation time (s) of each (IEEE Std 952 C.1
+        "exponentially correlated noise"), at most 3.
+    pulse_deg
+        if > 0, the output is pulse-counted like a ring-laser gyro: the sum of all
+        terms is integrated to angle and the output is whole pulses of this size per
+        sample (rate = counts x pulse_deg / dt). Quantization noise then has
+        Q = pulse_deg / sqrt(12) when the angle sweeps many pulses (IEEE Std 952, C.1).
 
     Examples
     --------
@@ -170,16 +180,22 @@ class _TimeBase:
 class GyroRecord(_TimeBase):
     """A simulated gyro rate record.
 
-    Attributes:
-        rate_deg_h: rate in deg/h, shape (n,) for one axis or (n, axes), float64, C-contiguous.
-        rate_hz: sample rate, Hz.
-        terms: the noise terms the record was generated from.
-        seed: the seed that reproduces it.
-        components: per-term contributions in deg/h (same shape as rate_deg_h) when
-            ``keep_components=True`` was passed, keyed "quantization", "arw",
-            "bias_instability", "rrw", "ramp", "bias", "ar2", "gauss_markov" (all GM terms)
-            and "pulse_quantization" (the
-            pulse-counting error); otherwise empty.
+    Attributes
+    ----------
+    rate_deg_h
+        rate in deg/h, shape (n,) for one axis or (n, axes), float64, C-contiguous.
+    rate_hz
+        sample rate, Hz.
+    terms
+        the noise terms the record was generated from.
+    seed
+        the seed that reproduces it.
+    components
+        per-term contributions in deg/h (same shape as rate_deg_h) when
+        ``keep_components=True`` was passed, keyed "quantization", "arw",
+        "bias_instability", "rrw", "ramp", "bias", "ar2", "gauss_markov" (all GM terms)
+        and "pulse_quantization" (the
+        pulse-counting error); otherwise empty.
 
     Examples
     --------
@@ -231,20 +247,33 @@ class ImuRecord(_TimeBase):
     (as the shared laser-gyro record), level, heading_deg = angle from north to the body y axis,
     clockwise seen from above. Accelerometers read specific force, +g on z when level.
 
-    Attributes:
-        gyro_rad_s: (n, 3) angular rate, rad/s (Earth rate in body axes + gyro errors).
-        accel_m_s2: (n, 3) specific force, m/s^2 (gravity reaction + accelerometer errors).
-        rate_hz: sample rate, Hz.
-        latitude_deg, height_m, heading_deg: the static pose.
-        gravity_m_s2: normal gravity magnitude used (gyrodrift.nav.earth.gravity_m_s2: WGS-84
-            normal gravity series + free-air).
-        gyro_true_rad_s: (3,) error-free body rate.
-        accel_true_m_s2: (3,) error-free specific force.
-        gyro_err_deg_h: (n, 3) gyro errors that were added, deg/h.
-        gyro_terms: the (x, y, z) gyro error terms.
-        accel_bias_m_s2: (3,) constant accelerometer bias that was added.
-        vrw_m_s_rt_h: (3,) velocity random walk coefficients, m/s/sqrt(h).
-        seed: reproduces the record.
+    Attributes
+    ----------
+    gyro_rad_s
+        (n, 3) angular rate, rad/s (Earth rate in body axes + gyro errors).
+    accel_m_s2
+        (n, 3) specific force, m/s^2 (gravity reaction + accelerometer errors).
+    rate_hz
+        sample rate, Hz.
+    latitude_deg, height_m, heading_deg
+        the static pose.
+    gravity_m_s2
+        normal gravity magnitude used (gyrodrift.nav.earth.gravity_m_s2: WGS-84
+        normal gravity series + free-air).
+    gyro_true_rad_s
+        (3,) error-free body rate.
+    accel_true_m_s2
+        (3,) error-free specific force.
+    gyro_err_deg_h
+        (n, 3) gyro errors that were added, deg/h.
+    gyro_terms
+        the (x, y, z) gyro error terms.
+    accel_bias_m_s2
+        (3,) constant accelerometer bias that was added.
+    vrw_m_s_rt_h
+        (3,) velocity random walk coefficients, m/s/sqrt(h).
+    seed
+        reproduces the record.
 
     Examples
     --------
@@ -462,9 +491,11 @@ def simulate(
     Give the length as ``duration_s`` (rounded to whole samples) or ``n``. ``axes`` independent
     axes share the same terms; the result is (n,) for one axis, else (n, axes).
 
-    Raises:
-        ValueError: negative or non-finite terms, non-stationary ar2, rate_hz <= 0, both or
-            neither of duration_s / n, fewer than 2 samples, axes < 1, bad seed.
+    Raises
+    ------
+    ValueError
+        negative or non-finite terms, non-stationary ar2, rate_hz <= 0, both or
+        neither of duration_s / n, fewer than 2 samples, axes < 1, bad seed.
 
     Examples
     --------

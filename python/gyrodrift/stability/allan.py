@@ -77,22 +77,36 @@ AUTO_PROGRESS_TERMS = 300_000_000
 class AllanResult:
     """Overlapping Allan deviation per tau, with its confidence interval.
 
-    Attributes:
-        tau_s: averaging times, s.
-        m: averaging factors (tau = m / rate_hz).
-        adev: deviation, in the rate unit of the input (e.g. deg/h).
-        terms: number of squared differences behind each value.
-        edf: equivalent degrees of freedom (SP 1065 Table 5).
-        alpha: power-law noise exponent used for each edf (S_y(f) ~ f^alpha).
-        ci_low, ci_high: chi-squared confidence interval of the deviation (probability `ci`).
-        ci: two-sided probability of the interval.
-        n_samples: record length (rate samples, or phase samples for kind="phase").
-        rate_hz: sample rate.
-        kind: "rate" or "phase".
-        deviation: which deviation `adev` holds ("oadev", or "mdev", "tdev", "hdev",
-            "ohdev", "totdev" from gyrodrift.deviation).
-        noise_id: per tau, how alpha was found: "acf" (lag-1 autocorrelation), "slope"
-            (local slope of the curve) or "given" (by the caller).
+    Attributes
+    ----------
+    tau_s
+        averaging times, s.
+    m
+        averaging factors (tau = m / rate_hz).
+    adev
+        deviation, in the rate unit of the input (e.g. deg/h).
+    terms
+        number of squared differences behind each value.
+    edf
+        equivalent degrees of freedom (SP 1065 Table 5).
+    alpha
+        power-law noise exponent used for each edf (S_y(f) ~ f^alpha).
+    ci_low, ci_high
+        chi-squared confidence interval of the deviation (probability `ci`).
+    ci
+        two-sided probability of the interval.
+    n_samples
+        record length (rate samples, or phase samples for kind="phase").
+    rate_hz
+        sample rate.
+    kind
+        "rate" or "phase".
+    deviation
+        which deviation `adev` holds ("oadev", or "mdev", "tdev", "hdev",
+        "ohdev", "totdev" from gyrodrift.deviation).
+    noise_id
+        per tau, how alpha was found: "acf" (lag-1 autocorrelation), "slope"
+        (local slope of the curve) or "given" (by the caller).
 
     Examples
     --------
@@ -433,31 +447,42 @@ def oadev(
 ) -> AllanResult:
     """Overlapping Allan deviation with chi-squared confidence intervals.
 
-    Args:
-        x: 1-D rate samples (any rate unit; kind="rate") or cumulative angle samples
-            (kind="phase"; the deviation is then in angle unit per second). Angle increments
-            per sample are rate x dt: divide them by dt first (gyrodrift.io.records does). A
-            numpy.memmap is processed in chunks read from its file (bounded memory).
-        rate_hz: sample rate, Hz.
-        taus: "octave", "decade" (per_decade points per decade), "all", or taus in s.
-        ci: two-sided probability of the confidence interval (default 1 sigma, 0.683).
-        alpha: noise exponent for the edf (one for all taus, or one per tau); default (None
-            or "acf"): the lag-1 autocorrelation method (gyrodrift.stability.noise_type) at every
-            tau
-            with at least 30 averages (reads at most 65536 averages per tau; a memmap in
-            chunks), the local slope of the deviation (noise_alpha_from_slope, capped by the
-            last ACF value) beyond; "slope": the slope method at every tau. The method used
-            per tau is in the result's `noise_id`.
-        chunk_samples: chunk size of the memmap path (default 2**20); forces the chunked
-            path for in-memory arrays too when given.
-        progress: tqdm bar on stderr: True, False or "auto" (when the work exceeds
-            AUTO_PROGRESS_TERMS squared differences, a few seconds).
-        threads: worker threads of the in-memory rate path (None: all cores). The fused
-            kernel runs factor groups (two cost-balanced halves); each thread takes whole
-            groups, so the result is the same bit for bit for any thread count.
+    Parameters
+    ----------
+    x
+        1-D rate samples (any rate unit; kind="rate") or cumulative angle samples
+        (kind="phase"; the deviation is then in angle unit per second). Angle increments
+        per sample are rate x dt: divide them by dt first (gyrodrift.io.records does). A
+        numpy.memmap is processed in chunks read from its file (bounded memory).
+    rate_hz
+        sample rate, Hz.
+    taus
+        "octave", "decade" (per_decade points per decade), "all", or taus in s.
+    ci
+        two-sided probability of the confidence interval (default 1 sigma, 0.683).
+    alpha
+        noise exponent for the edf (one for all taus, or one per tau); default (None
+        or "acf"): the lag-1 autocorrelation method (gyrodrift.stability.noise_type) at every
+        tau
+        with at least 30 averages (reads at most 65536 averages per tau; a memmap in
+        chunks), the local slope of the deviation (noise_alpha_from_slope, capped by the
+        last ACF value) beyond; "slope": the slope method at every tau. The method used
+        per tau is in the result's `noise_id`.
+    chunk_samples
+        chunk size of the memmap path (default 2**20); forces the chunked
+        path for in-memory arrays too when given.
+    progress
+        tqdm bar on stderr: True, False or "auto" (when the work exceeds
+        AUTO_PROGRESS_TERMS squared differences, a few seconds).
+    threads
+        worker threads of the in-memory rate path (None: all cores). The fused
+        kernel runs factor groups (two cost-balanced halves); each thread takes whole
+        groups, so the result is the same bit for bit for any thread count.
 
-    Raises:
-        ValueError: not 1-D, too short for the taus, NaN/Inf (with their count), bad rate.
+    Raises
+    ------
+    ValueError
+        not 1-D, too short for the taus, NaN/Inf (with their count), bad rate.
 
     Examples
     --------

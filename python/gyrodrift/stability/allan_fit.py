@@ -2,7 +2,7 @@
 a self-check and misspecification-robust intervals (the default noise identifier of
 `gyrodrift allan`, `identify` and `characterize`).
 
-Model (IEEE Std 952-1997 Annex C, table C.2; tau in s, sigma in deg/h):
+Model (IEEE Std 952-1997 Annex C, table C.2; tau in s, sigma in deg/h)::
 
     sigma^2(tau) = C_-2 / tau^2 + C_-1 / tau + C_0 + C_1 tau + C_2 tau^2,   C_k >= 0
     Q = sqrt(C_-2 / 3) arcsec, N = sqrt(C_-1) / 60 deg/sqrt(h), B = sqrt(C_0 pi / (2 ln 2))
@@ -12,7 +12,7 @@ The flat C_0 is the exact Allan variance of flicker (1/f) rate noise for averagi
 above the sample period and below the record's low-frequency end, so the model's shape is right
 for bias instability; what goes wrong on real records is how the fit weighs the points.
 
-Objective (log scale). The fit minimises
+Objective (log scale). The fit minimises::
 
     chi2 = sum_i w_i (log sigma_hat_i^2 - log sigma_model_i^2)^2,  w_i = 1 / (2 / edf_i + d^2)
 
@@ -30,7 +30,7 @@ is symmetric.
 Fit range. Unless the caller gives `fit_range`, the range is chosen automatically and stated
 (`AllanFit.range_note`): taus with a positive deviation and edf >= MIN_FIT_EDF, then, one at a
 time, the end tau (shortest or longest) whose standardised residual
-|log sigma_hat^2 - log sigma_model^2| sqrt(w) exceeds TRIM_SIGMAS is removed and the model
+``|log sigma_hat^2 - log sigma_model^2| sqrt(w)`` exceeds TRIM_SIGMAS is removed and the model
 refitted, while more than max(5, terms + 1) taus and at least 1 - MAX_TRIM_SHARE of the
 eligible taus remain: a sensor's output filter bends the
 first taus below the N line, a warm-up or the record's end bends the last ones; both are outside
@@ -74,8 +74,8 @@ gives the K whose line alone reaches the upper end of
 the measured interval at some fitted tau (the largest K the curve allows), and the K term, if
 kept, is marked ``identified = False``.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> from gyrodrift.stability.ieee952 import allan_model_deg_h
 >>> tau = np.logspace(-1, 3, 20)
@@ -234,25 +234,47 @@ class AllanTerm:
 class AllanFit:
     """Result of `fit_allan`.
 
-    Attributes:
-        terms: the kept terms with intervals; requested: the terms asked for; dropped: the
-            requested terms not kept (zero in the NNLS or not improving IC).
-        tau_min_s, tau_max_s: the fit range actually used (first and last tau inside).
-        fit_used: per input tau, whether it was in the fit.
-        fit_adev: fitted total deviation at every input tau (deg/h).
-        components: each kept term's deviation at every input tau (deg/h).
-        check: the self-check of the fitted curve against the measured one (every fit).
-        ic: the information criterion of the kept model; chi2: its weighted residual.
-        ci: interval probability.
-        dof: used taus minus kept terms; scale: the factor the covariance was inflated by,
-            max(1, chi2 / dof).
-        approximate: the model does not describe the curve within its errors (the check
-            fails or chi2 / dof exceeds its 99 % point); the values are approximate.
-        range_source: "automatic" or "user"; range_note: which taus were fitted and why.
-        b_readoff, b_readoff_tau_s, b_readoff_ci_low, b_readoff_ci_high: the datasheet
-            read-off min adev / 0.664 (deg/h), its tau and interval (probability ci).
-        upper_limits: terms the record cannot identify, with the largest value the curve
-            allows (K, deg/h/sqrt(h)).
+    Attributes
+    ----------
+    terms
+        the kept terms with intervals.
+    requested
+        the terms asked for.
+    dropped
+        the requested terms not kept (zero in the NNLS or not improving IC).
+    tau_min_s, tau_max_s
+        the fit range actually used (first and last tau inside).
+    fit_used
+        per input tau, whether it was in the fit.
+    fit_adev
+        fitted total deviation at every input tau (deg/h).
+    components
+        each kept term's deviation at every input tau (deg/h).
+    check
+        the self-check of the fitted curve against the measured one (every fit).
+    ic
+        the information criterion of the kept model.
+    chi2
+        its weighted residual.
+    ci
+        interval probability.
+    dof
+        used taus minus kept terms.
+    scale
+        the factor the covariance was inflated by, max(1, chi2 / dof).
+    approximate
+        the model does not describe the curve within its errors (the check
+        fails or chi2 / dof exceeds its 99 % point); the values are approximate.
+    range_source
+        "automatic" or "user".
+    range_note
+        which taus were fitted and why.
+    b_readoff, b_readoff_tau_s, b_readoff_ci_low, b_readoff_ci_high
+        the datasheet read-off min adev / 0.664 (deg/h), its tau and interval
+        (probability ci).
+    upper_limits
+        terms the record cannot identify, with the largest value the curve
+        allows (K, deg/h/sqrt(h)).
 
     Examples
     --------
@@ -435,8 +457,10 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     ``fit_range`` (s, "TMIN:TMAX" or a pair) fixes the fitted taus; None chooses them
     automatically (module docstring) and says which in ``range_note``.
 
-    Raises:
-        ValueError: bad curve, bad terms / fit range, fewer taus in the range than terms.
+    Raises
+    ------
+    ValueError
+        bad curve, bad terms / fit range, fewer taus in the range than terms.
 
     Examples
     --------

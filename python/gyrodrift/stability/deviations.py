@@ -18,17 +18,18 @@ arcsec for deg/h input; for phase input in the phase unit, as SP 1065's time dev
   at most chunk_samples float64 each plus the re-chunking carry: ~8 chunk_samples x 8 bytes,
   64 MiB at the default 2**20), never loaded whole.
 - Confidence intervals: edf per tau (gyrodrift.stability.edf: Greenhall & Riley for
-mdev/tdev/hdev/ohdev,
-  SP 1065 Table 7 for totdev, Table 5 for oadev) for the noise type alpha of each tau
-  (gyrodrift.stability.noise_type: lag-1 ACF where >= 30 averages exist, slope fallback; the method
-  used is in `.noise_id`), and the chi-squared interval of SP 1065 eq. 45.
+  mdev/tdev/hdev/ohdev, SP 1065 Table 7 for totdev, Table 5 for oadev) for the noise type
+  alpha of each tau (gyrodrift.stability.noise_type: lag-1 ACF where >= 30 averages exist,
+  slope fallback; the method used is in `.noise_id`), and the chi-squared interval of
+  SP 1065 eq. 45.
 
-Example:
-    >>> import numpy as np, gyrodrift
-    >>> y = np.random.default_rng(0).standard_normal(10_000)
-    >>> r = gyrodrift.deviation(y, 100.0, "mdev")
-    >>> r.deviation, float(r.tau_s[0]), str(r.noise_id[0])
-    ('mdev', 0.01, 'acf')
+Examples
+--------
+>>> import numpy as np, gyrodrift
+>>> y = np.random.default_rng(0).standard_normal(10_000)
+>>> r = gyrodrift.deviation(y, 100.0, "mdev")
+>>> r.deviation, float(r.tau_s[0]), str(r.noise_id[0])
+('mdev', 0.01, 'acf')
 """
 
 from __future__ import annotations
@@ -149,26 +150,37 @@ def deviation(
 ) -> AllanResult:
     """Deviation `name` (one of DEVIATIONS) with chi-squared confidence intervals.
 
-    Args:
-        data: 1-D rate samples (kind="rate") or phase / cumulative angle samples
-            (kind="phase"). A numpy.memmap is streamed from its file (bounded memory).
-        rate_hz: sample rate, Hz.
-        name: "oadev", "mdev", "tdev", "hdev", "ohdev" or "totdev".
-        taus: "octave", "decade" (per_decade points per decade), "all", or taus in s. The
-            longest tau leaves at least 2 terms (allantools' cut): N/3 rate samples for
-            mdev/tdev, (N-1)/3 for ohdev, N/4 for hdev, N for totdev.
-        ci: two-sided probability of the interval (default 1 sigma, 0.683).
-        alpha: noise exponent for the edf: None (default) the lag-1 ACF method where at
-            least 30 averages exist, the slope method beyond (gyrodrift.stability.noise_type);
-            "slope"
-            the slope method everywhere; or integers (one, or one per tau).
-        chunk_samples: chunk of the streamed path (default 2**20); forces it when given.
-        threads: worker threads for the in-memory kernels (each takes one half of the term
-            range of a group of taus; None: all cores; the result is the same for any count).
-        progress: passed to gyrodrift.stability.allan.oadev for name="oadev" (ignored otherwise).
+    Parameters
+    ----------
+    data
+        1-D rate samples (kind="rate") or phase / cumulative angle samples
+        (kind="phase"). A numpy.memmap is streamed from its file (bounded memory).
+    rate_hz
+        sample rate, Hz.
+    name
+        "oadev", "mdev", "tdev", "hdev", "ohdev" or "totdev".
+    taus
+        "octave", "decade" (per_decade points per decade), "all", or taus in s. The
+        longest tau leaves at least 2 terms (allantools' cut): N/3 rate samples for
+        mdev/tdev, (N-1)/3 for ohdev, N/4 for hdev, N for totdev.
+    ci
+        two-sided probability of the interval (default 1 sigma, 0.683).
+    alpha
+        noise exponent for the edf: None (default) the lag-1 ACF method where at
+        least 30 averages exist, the slope method beyond (gyrodrift.stability.noise_type);
+        "slope": the slope method everywhere; or integers (one, or one per tau).
+    chunk_samples
+        chunk of the streamed path (default 2**20); forces it when given.
+    threads
+        worker threads for the in-memory kernels (each takes one half of the term
+        range of a group of taus; None: all cores; the result is the same for any count).
+    progress
+        passed to gyrodrift.stability.allan.oadev for name="oadev" (ignored otherwise).
 
-    Raises:
-        ValueError: unknown name, not 1-D, too short, NaN/Inf, bad rate or taus.
+    Raises
+    ------
+    ValueError
+        unknown name, not 1-D, too short, NaN/Inf, bad rate or taus.
 
     Examples
     --------

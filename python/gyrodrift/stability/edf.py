@@ -98,11 +98,20 @@ def edf_greenhall(alpha: int, d: int, m: int, n_phase: int, *, overlapping: bool
                   modified: bool) -> float:
     """Equivalent degrees of freedom by Greenhall & Riley's algorithm (module docstring).
 
-    Args:
-        alpha: noise exponent, -4..2, with alpha + 2 d > 1.
-        d: 2 for the (modified) Allan variance, 3 for the Hadamard variances.
-        m: averaging factor; n_phase: phase points (rate samples + 1).
-        overlapping: True for oadev/mdev/tdev/ohdev (stride S = m); modified: mdev/tdev.
+    Parameters
+    ----------
+    alpha
+        noise exponent, -4..2, with alpha + 2 d > 1.
+    d
+        2 for the (modified) Allan variance, 3 for the Hadamard variances.
+    m
+        averaging factor.
+    n_phase
+        phase points (rate samples + 1).
+    overlapping
+        True for oadev/mdev/tdev/ohdev (stride S = m).
+    modified
+        True for mdev/tdev.
 
     Examples
     --------

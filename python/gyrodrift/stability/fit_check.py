@@ -46,18 +46,32 @@ DEFAULT_TOLERANCE = 0.25
 class FitCheck:
     """Whether a fitted model describes the measured curve, point by point.
 
-    Attributes:
-        what: the curve's name ("Allan deviation", "wavelet variance").
-        x_name, x_unit: the abscissa ("tau", "s").
-        x: abscissa of every point; ratio: fitted / measured at every point.
-        inside: the fitted value lies inside the measured interval.
-        passed: inside, or the ratio within `tolerance`.
-        used: the point was in the fit.
-        statistic: the fit statistic (reduced chi-square: chi2 / dof; nan if not defined).
-        dof: its degrees of freedom.
-        tolerance: ratio tolerance (see module docstring).
-        holds: every used point passed.
-        warnings: lines to show the user (empty when the model holds).
+    Attributes
+    ----------
+    what
+        the curve's name ("Allan deviation", "wavelet variance").
+    x_name, x_unit
+        the abscissa ("tau", "s").
+    x
+        abscissa of every point.
+    ratio
+        fitted / measured at every point.
+    inside
+        the fitted value lies inside the measured interval.
+    passed
+        inside, or the ratio within `tolerance`.
+    used
+        the point was in the fit.
+    statistic
+        the fit statistic (reduced chi-square: chi2 / dof; nan if not defined).
+    dof
+        its degrees of freedom.
+    tolerance
+        ratio tolerance (see module docstring).
+    holds
+        every used point passed.
+    warnings
+        lines to show the user (empty when the model holds).
 
     Examples
     --------

@@ -9,7 +9,7 @@ of level j (Percival & Walden 2000, "Wavelet Methods for Time Series Analysis", 
 L_j = 2^j taps, h_{j,l} = +1/2^j for l < 2^(j-1) and -1/2^j for 2^(j-1) <= l < 2^j, i.e.
 W_{j,t} = (mean of x over the newer half - mean over the older half) / 2 with halves of
 m_j = 2^(j-1) samples. The scale is tau_j = 2^j dt (the filter width; GMWM's convention).
-The unbiased wavelet variance uses the M_j = N - L_j + 1 coefficients free of the boundary:
+The unbiased wavelet variance uses the M_j = N - L_j + 1 coefficients free of the boundary::
 
     nu^2_j = (1 / M_j) sum_{t = L_j - 1}^{N - 1} W_{j,t}^2.
 
@@ -20,19 +20,19 @@ W = (S_{i+m} - S_i) / (2m), O(N) per scale.
 
 Theoretical Haar wavelet variance (tau = 2^j in samples; Guerrier et al. 2013 sec. 2 and
 table 1, Zhang 2008; each one checked in the tests against the exact quadratic form
-h_j' Gamma h_j of the process's covariance Gamma):
+h_j' Gamma h_j of the process's covariance Gamma)::
 
-- white noise N, per-sample variance s2:          nu^2 = s2 / tau
-- quantization Q, white angle error e_t of variance q2 differenced into rate,
-  x_t = e_t - e_{t-1} (per-sample units):          nu^2 = 6 q2 / tau^2
-- random walk K, x_t = x_{t-1} + u_t, var(u) = g2: nu^2 = (tau^2 + 2) g2 / (12 tau)
-- drift (ramp) R, x_t = w t:                       nu^2 = w^2 tau^2 / 16
-- first-order Gauss-Markov = AR(1) x_t = phi x_{t-1} + u_t, var(u) = v, phi = exp(-dt / T_c),
-  stationary variance sigma^2 = v / (1 - phi^2):
-      nu^2 = 2 v [tau/2 - 3 phi - (tau/2) phi^2 + 4 phi^(tau/2 + 1) - phi^(tau + 1)]
-             / [tau^2 (1 - phi)^2 (1 - phi^2)]
-  (from sigma^2_A(m) = Var(ybar_m) - Cov(ybar_m, ybar'_m) with gamma(k) = sigma^2 phi^|k|,
-  summed in closed form; nu^2 = sigma^2_A(tau/2) / 2).
+    - white noise N, per-sample variance s2:          nu^2 = s2 / tau
+    - quantization Q, white angle error e_t of variance q2 differenced into rate,
+      x_t = e_t - e_{t-1} (per-sample units):          nu^2 = 6 q2 / tau^2
+    - random walk K, x_t = x_{t-1} + u_t, var(u) = g2: nu^2 = (tau^2 + 2) g2 / (12 tau)
+    - drift (ramp) R, x_t = w t:                       nu^2 = w^2 tau^2 / 16
+    - first-order Gauss-Markov = AR(1) x_t = phi x_{t-1} + u_t, var(u) = v, phi = exp(-dt / T_c),
+      stationary variance sigma^2 = v / (1 - phi^2):
+          nu^2 = 2 v [tau/2 - 3 phi - (tau/2) phi^2 + 4 phi^(tau/2 + 1) - phi^(tau + 1)]
+                 / [tau^2 (1 - phi)^2 (1 - phi^2)]
+      (from sigma^2_A(m) = Var(ybar_m) - Cov(ybar_m, ybar'_m) with gamma(k) = sigma^2 phi^|k|,
+      summed in closed form; nu^2 = sigma^2_A(tau/2) / 2).
 
 IEEE Std 952 / 1554 units (dt in s, x in deg/h): N = sqrt(s2 dt) / 60 deg/sqrt(h) (white rate
 of two-sided PSD N^2), Q = sqrt(q2) dt arcsec ((deg/h) s), K = 60 sqrt(g2 / dt)
@@ -50,7 +50,7 @@ the diagonal weights 1 / var(nu_hat_j) of the chi-squared approximation with
 eta_j = max(M_j / 2^j, 1) degrees of freedom (Percival & Walden 2000 eq. 313c, model-free);
 steps 2 and 3 with the efficient weight Omega(theta_prev)^-1, where Omega is the covariance
 of the estimated wavelet variances under the fitted Gaussian model, computed exactly for the
-record length (not a bootstrap):
+record length (not a bootstrap)::
 
     Cov(nu_hat_i, nu_hat_j) = 2 / (M_i M_j) sum_k n_ij(k) c_ij(k)^2,
 
@@ -69,7 +69,7 @@ Gauss-Markov term per octave, matched to the measured WV by NNLS), i.e. an octav
 spectral estimate that depends on the data only, not on the candidate. All candidates then
 minimise the same quadratic form, so their J statistics and the wavelet variance
 information criterion (Guerrier, Stebler, Skaloud, Victoria-Feser, IEEE TIM 65 (2016)
-973-983)
+973-983)::
 
     WIC = J + 2 tr(P) = J + 2 p,  P = D (D' W D)^+ D' W,  W = Omega_np^-1,
 
@@ -106,8 +106,8 @@ fewest parameters among all within 2 of the minimum, nested or not; on the Monte
 tuning seeds it chose N+K+GM over a lower-WIC N+GM+GM; scripts/gmwm_monte_carlo.py and
 the GMWM validation page.)
 
-Example
--------
+Examples
+--------
 >>> import gyrodrift
 >>> rec = gyrodrift.simulate(n=2**15, rate_hz=100.0, n_deg_rt_h=0.05, k_deg_h_rt_h=5.0,
 ...                          seed=1)
@@ -246,12 +246,18 @@ def _sub_models(terms: tuple[str, ...]) -> list[tuple[str, ...]]:
 class WaveletVariance:
     """Empirical Haar wavelet variance of a record.
 
-    Attributes:
-        tau_s: scales 2^j dt, s (Haar filter width; the Allan averaging time is tau_s / 2).
-        level: j = 1..J.
-        nu2: wavelet variance, (record unit)^2.
-        n_coeffs: M_j, boundary-free coefficients behind each value.
-        eta: chi-squared degrees of freedom max(M_j / 2^j, 1) (Percival & Walden eq. 313c).
+    Attributes
+    ----------
+    tau_s
+        scales 2^j dt, s (Haar filter width; the Allan averaging time is tau_s / 2).
+    level
+        j = 1..J.
+    nu2
+        wavelet variance, (record unit)^2.
+    n_coeffs
+        M_j, boundary-free coefficients behind each value.
+    eta
+        chi-squared degrees of freedom max(M_j / 2^j, 1) (Percival & Walden eq. 313c).
 
     Examples
     --------
@@ -530,12 +536,12 @@ def wv_covariance(model: str | tuple[str, ...], params: np.ndarray, levels: np.n
     difference of the phase C (cumulative sum), so with the generalised covariance K of
     `_gen_cov`, c_ab(k) = Cov(W_{a,s}, W_{b,s+k}) = sum_{p,q} w_p w_q K(k + o_q - o_p)
     / (4 m_a m_b) with w = (1, -2, 1), o = (-2m, -m, 0): nine closed-form terms per lag, no
-    FFT, cost independent of the record length. Then
+    FFT, cost independent of the record length. Then::
 
         Cov(nu_a, nu_b) = 2 / (M_a M_b) sum_k n_ab(k) c_ab(k)^2,
 
     n_ab(k) = number of s with s in [L_a - 1, N - 1] and s + k in [L_b - 1, N - 1]. The lags
-    run over the support of c (|k| <= 2 m_a + 2 m_b, plus the Gauss-Markov tails) with a
+    run over the support of c (``|k| <= 2 m_a`` + 2 m_b, plus the Gauss-Markov tails) with a
     step delta (a power of 2, <= m_a / 8 and <= T_c / 4, so the kinks of c, at multiples of
     m_a, lie on the grid an even number of steps apart; Simpson's rule, exact sum for
     delta = 1); if that would exceed MAX_LAGS lags (scales more than ~8 octaves apart, whose
@@ -1011,25 +1017,44 @@ class GmwmParam:
 class GmwmResult:
     """GMWM fit of a composite noise model (see the module docstring).
 
-    Attributes:
-        model: the fitted (or selected) model, canonical order, e.g. "Q+N+GM+K".
-        params: one GmwmParam per parameter (Q, N, K, R, GM1_sigma, GM1_tau, ...).
-        tau_s: scales 2^j dt, s; wv: empirical Haar wavelet variance, (deg/h)^2;
-        wv_ci_low, wv_ci_high: its chi-squared interval (probability ci, eta dof);
-        wv_fit: the fitted total; wv_components: each term's WV ("GM1", ...).
-        objective: the GMM J statistic at the estimate (efficient weight).
-        wic: WIC of the selected model with its own efficient weight (model="auto"), else None.
-        candidates: (model, WIC) of every sub-model tried, best first (model="auto").
-        ci, ci_method: interval probability and "asymptotic" or "bootstrap".
-        param_cov: covariance of the log parameters (internal, model order).
-        check: the fitted WV against the measured one at every scale (FitCheck; statistic
-            J / dof).
-        approximate: the model does not describe the data (J above its MISFIT_P quantile of
-            chi-squared, or the check fails); the intervals are widened by J / dof.
-        weight: "common" (the model-free weight of wv_covariance_nonparametric, model="auto")
-            or "efficient" (the fitted model's own, iterated; a named model).
-        notes: what the fit changed or found (converted Gauss-Markov terms, misfit), one
-            line each.
+    Attributes
+    ----------
+    model
+        the fitted (or selected) model, canonical order, e.g. "Q+N+GM+K".
+    params
+        one GmwmParam per parameter (Q, N, K, R, GM1_sigma, GM1_tau, ...).
+    tau_s
+        scales 2^j dt, s.
+    wv
+        empirical Haar wavelet variance, (deg/h)^2.
+    wv_ci_low, wv_ci_high
+        its chi-squared interval (probability ci, eta dof).
+    wv_fit
+        the fitted total.
+    wv_components
+        each term's WV ("GM1", ...).
+    objective
+        the GMM J statistic at the estimate (efficient weight).
+    wic
+        WIC of the selected model with its own efficient weight (model="auto"), else None.
+    candidates
+        (model, WIC) of every sub-model tried, best first (model="auto").
+    ci, ci_method
+        interval probability and "asymptotic" or "bootstrap".
+    param_cov
+        covariance of the log parameters (internal, model order).
+    check
+        the fitted WV against the measured one at every scale (FitCheck; statistic
+        J / dof).
+    approximate
+        the model does not describe the data (J above its MISFIT_P quantile of
+        chi-squared, or the check fails); the intervals are widened by J / dof.
+    weight
+        "common" (the model-free weight of wv_covariance_nonparametric, model="auto")
+        or "efficient" (the fitted model's own, iterated; a named model).
+    notes
+        what the fit changed or found (converted Gauss-Markov terms, misfit), one
+        line each.
 
     Examples
     --------
@@ -1535,30 +1560,43 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
                   convert_bounds: bool = True) -> GmwmResult:
     """GMWM fit of a composite noise model to a rate record (module docstring).
 
-    Args:
-        x: 1-D rate record, deg/h (the units of every printed value follow from this). A
-            float64 numpy.memmap longer than FILE_BACKED_MIN samples is read from its file
-            in chunks (its wavelet variance from the streamed Allan variance): the memory
-            does not grow with the record.
-        rate_hz: sample rate, Hz.
-        model: "auto" (WIC selection among the sub-models of max_model) or terms joined by
-            "+": Q, N, K, R, GM (GM up to 3 times), e.g. "Q+N+GM+K".
-        max_model: the largest model "auto" considers.
-        ci: two-sided probability of the parameter intervals.
-        bootstrap: 0 for asymptotic intervals; B > 0 for B parametric-bootstrap refits.
-        seed: seed of the bootstrap.
-        max_level: highest wavelet level J (default floor(log2 N) - 1).
-        tau_range: (min, max) scale tau_j = 2^j dt in s of the levels fitted (default
-            all); e.g. to leave out a vibration peak at short scales. The covariance is
-            that of the levels kept.
-        convert_bounds: a named model's Gauss-Markov term whose correlation time stops at
-            a bound is turned into the white noise or random walk it is and the model
-            refitted (`_resolve_pinned`; the notes say so). False keeps the named model
-            (simulation studies of its estimator); a correlation time at a bound then
-            gets a one-sided interval. Selection (model="auto") always converts.
+    Parameters
+    ----------
+    x
+        1-D rate record, deg/h (the units of every printed value follow from this). A
+        float64 numpy.memmap longer than FILE_BACKED_MIN samples is read from its file in
+        chunks (its wavelet variance from the streamed Allan variance): the memory does not
+        grow with the record.
+    rate_hz
+        sample rate, Hz.
+    model
+        "auto" (WIC selection among the sub-models of max_model) or terms joined by
+        "+": Q, N, K, R, GM (GM up to 3 times), e.g. "Q+N+GM+K".
+    max_model
+        the largest model "auto" considers.
+    ci
+        two-sided probability of the parameter intervals.
+    bootstrap
+        0 for asymptotic intervals; B > 0 for B parametric-bootstrap refits.
+    seed
+        seed of the bootstrap.
+    max_level
+        highest wavelet level J (default floor(log2 N) - 1).
+    tau_range
+        (min, max) scale tau_j = 2^j dt in s of the levels fitted (default
+        all); e.g. to leave out a vibration peak at short scales. The covariance is
+        that of the levels kept.
+    convert_bounds
+        a named model's Gauss-Markov term whose correlation time stops at
+        a bound is turned into the white noise or random walk it is and the model
+        refitted (`_resolve_pinned`; the notes say so). False keeps the named model
+        (simulation studies of its estimator); a correlation time at a bound then
+        gets a one-sided interval. Selection (model="auto") always converts.
 
-    Raises:
-        GyrodriftValueError: bad record (not 1-D, NaN/Inf, too short), bad model, bad ci.
+    Raises
+    ------
+    GyrodriftValueError
+        bad record (not 1-D, NaN/Inf, too short), bad model, bad ci.
 
     Examples
     --------

@@ -3,20 +3,22 @@
 Three methods:
 
 1. `identify` -- IEEE Std 952-1997 Annex C (eq. C.21 and table C.2): weighted least squares
-   of the Allan variance on sigma^2(tau) = sum_{k=-2..2} C_k tau^k with C_k >= 0, then
+   of the Allan variance on sigma^2(tau) = sum_{k=-2..2} C_k tau^k with C_k >= 0, then::
+
        C_-2 = 3 Q^2        Q  = sqrt(C_-2 / 3)          (deg/h)*s = arcsec
        C_-1 = N^2          N  = sqrt(C_-1) / 60         deg/sqrt(h)
        C_0  = (2 ln2/pi) B^2   B = sqrt(C_0 pi / (2 ln2))   deg/h
        C_1  = K^2 / 3      K  = 60 sqrt(3 C_1)          deg/h/sqrt(h)
        C_2  = R^2 / 2      R  = 3600 sqrt(2 C_2)        deg/h/h
+
    Unit factors: sqrt(s) = sqrt(h)/60, so (deg/h) sqrt(s) = deg/sqrt(h) / 60 and
    (deg/h)/sqrt(s) = 60 deg/h/sqrt(h); (deg/h)/s = 3600 deg/h^2.
    Each squared residual is weighted by edf / (2 sigma^4), the inverse variance of a
    chi-squared sigma^2 estimate with edf degrees of freedom.
-2. `paper_fit` -- the 2006 paper's eq. (8): sigma(tau) = A0 + A_-1/sqrt(tau) + A_-2/tau, least
-   squares on sigma (not sigma^2) with A >= 0, and its conversions Q = A_-2/sqrt(3),
-   N = A_-1/60, B = A0/0.6648. With sigma in deg/h and tau in s, A_-2/sqrt(3) is in
-   (deg/h)*s = arcsec although the paper's Table 1 heads that column (deg); both are given.
+2. `paper_fit` -- the 2006 paper's eq. (8): ``sigma(tau) = A0 + A_-1/sqrt(tau) + A_-2/tau``,
+   least squares on sigma (not sigma^2) with A >= 0, and its conversions ``Q = A_-2/sqrt(3)``,
+   ``N = A_-1/60``, ``B = A0/0.6648``. With sigma in deg/h and tau in s, ``A_-2/sqrt(3)`` is in
+   ``(deg/h)*s`` = arcsec although the paper's Table 1 heads that column (deg); both are given.
 3. `slope_method` -- IEEE Std 952 C.1 read-offs as a cross-check: the -1/2 slope line at
    tau = 1 h gives N, the +1/2 line at tau = 3 h gives K, the -1 line at tau = sqrt(3) s
    gives Q, the flat minimum / sqrt(2 ln2/pi) gives B.
@@ -87,7 +89,7 @@ class NoiseFit:
 @dataclass(frozen=True)
 class PaperFit:
     """The 2006 paper's eq. (8) fit. q_paper is the number the paper prints under 'Q (deg)';
-    it is A_-2/sqrt(3) in (deg/h)*s, i.e. arcsec (q_arcsec, same number); q_deg is the true
+    it is ``A_-2/sqrt(3)`` in ``(deg/h)*s``, i.e. arcsec (q_arcsec, same number); q_deg is the true
     angle in degrees (q_arcsec / 3600).
 
     Examples

@@ -5,7 +5,7 @@ Every channel is analysed in SI units (gyro rad/s, accelerometer m/s^2). The IEE
 Annex C fit (the default identifier, `gyrodrift.stability.allan_fit.fit_allan`: automatic fit
 range, log-scale objective, misspecification-robust intervals, self-check) gives
 sigma^2(tau) = sum_k C_k tau^k, k = -2..2,
-from which, for a record unit U (rad/s or m/s^2):
+from which, for a record unit U (rad/s or m/s^2)::
 
     Q = sqrt(C_-2 / 3)            U s           (quantization; rad, m/s)
     N = sqrt(C_-1)                U / sqrt(Hz)  (white noise density: Kalibr *_noise_density)
@@ -35,8 +35,8 @@ factor that admits one, reported as `band_scale` (> 1 flags a misfit).
 `method="gmwm"` identifies the terms by the generalized method of wavelet moments
 (`gyrodrift.identify_gmwm`) instead of the Allan fit.
 
-Example
--------
+Examples
+--------
 >>> import numpy as np
 >>> rng = np.random.default_rng(1)
 >>> from gyrodrift.io.imu_data import ImuData

@@ -19,8 +19,8 @@ the distribution over units (count, min, quartiles, max) and flags units outside
 JSON ``{"gyroscope_noise_density": {"max": 2e-4}, "gyro_B": {"min": 0, "max": 1e-5}}``, keys
 either the Kalibr names (checked on every axis) or ``<sensor>_<term>`` (gyro_N, accel_K, ...).
 
-Example
--------
+Examples
+--------
 >>> unit_name("/data/unit 7/imu.npy", "/data")
 'unit_7__imu'
 """
@@ -33,6 +33,7 @@ import json
 import math
 import os
 import re
+import sys
 import tempfile
 import time
 import traceback
@@ -43,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.errors import GyrodriftError, GyrodriftValueError
 from gyrodrift.io.atomic import atomic_output, atomic_write_text
 from gyrodrift.io.json_text import json_text
 from gyrodrift.stability import DEFAULT_IDENTIFIER
@@ -448,6 +449,10 @@ def run_fleet(paths: Sequence[str | Path], out_dir: str | Path, *, opts: FleetOp
     scheduler: address of an existing dask.distributed scheduler; else a LocalCluster of
     `workers` processes (one thread each) on 127.0.0.1 is started and closed. `client`: an
     existing distributed.Client to use instead (tests share one).
+    The LocalCluster's worker processes import the main script again when they start (as
+    every spawned or forkserver process does): a script calls run_fleet with workers >= 1
+    under ``if __name__ == "__main__":``; called at a script's top level without it, it
+    raises GyrodriftError before any worker starts.
     A finished unit is skipped unless `force` or stale (module docstring); the returned
     summary counts the skipped (n_skipped), the run (n_run) and, among these, the stale ones
     redone with their reason (n_redone, redone: [{unit, path, reason}]).
@@ -593,6 +598,71 @@ def _start_forkserver() -> None:
                 os.environ[k] = v
 
 
+def _main_script_rerun_by_workers() -> str | None:
+    """The file of the main module when the worker processes of a LocalCluster would run it
+    again, else None.
+
+    A worker process started by ``spawn`` or ``forkserver`` (what dask.distributed's nanny
+    uses) first imports the parent's main module as ``__mp_main__``: a script given by its
+    path (``python script.py``) or a module run with ``python -m module`` (not a package's
+    ``__main__``). Interactive sessions, ``python -c`` and notebooks have no such file."""
+    main = sys.modules.get("__main__")
+    if main is None:
+        return None
+    spec_name = getattr(getattr(main, "__spec__", None), "name", None)
+    if spec_name is not None:
+        if spec_name == "__main__" or spec_name.endswith(".__main__"):
+            return None
+        origin = getattr(main.__spec__, "origin", None)
+        return origin if isinstance(origin, str) else None
+    path = getattr(main, "__file__", None)
+    return path if isinstance(path, str) else None
+
+
+def _is_main_guard(test: Any) -> bool:
+    """Whether an ``if`` test is ``__name__ == "__main__"`` (either order)."""
+    import ast
+
+    if not (isinstance(test, ast.Compare) and len(test.ops) == 1
+            and isinstance(test.ops[0], ast.Eq)):
+        return False
+    sides = [test.left, test.comparators[0]]
+    return (any(isinstance(e, ast.Name) and e.id == "__name__" for e in sides)
+            and any(isinstance(e, ast.Constant) and e.value == "__main__" for e in sides))
+
+
+def _unguarded_main_line() -> tuple[str, int] | None:
+    """(file, line) of the main script's top-level statement that led to this call when that
+    statement is not under ``if __name__ == "__main__":``, else None.
+
+    A worker process of the fleet's own LocalCluster runs such a script again from the top
+    (_main_script_rerun_by_workers): it would start a cluster of its own while it starts, which
+    multiprocessing refuses, and the nanny reports only that the worker failed to start."""
+    import ast
+
+    path = _main_script_rerun_by_workers()
+    if path is None:
+        return None
+    main_globals = sys.modules["__main__"].__dict__
+    frame: Any = sys._getframe(1)
+    while frame is not None and not (frame.f_globals is main_globals
+                                     and frame.f_code.co_name == "<module>"):
+        frame = frame.f_back
+    if frame is None:  # not called from the script's top level (a thread, a callback)
+        return None
+    line = frame.f_lineno
+    try:
+        tree = ast.parse(Path(path).read_text(), path)
+    except (OSError, SyntaxError, ValueError):
+        return None
+    for node in tree.body:
+        end = getattr(node, "end_lineno", None) or node.lineno
+        if node.lineno <= line <= end:
+            guarded = isinstance(node, ast.If) and _is_main_guard(node.test)
+            return None if guarded else (path, line)
+    return None
+
+
 def _local_cluster(workers: int) -> Any:
     """A LocalCluster of `workers` processes (one thread each) on 127.0.0.1, no dashboard (the
     scheduler's HTTP endpoint for health and metrics listens on a free 127.0.0.1 port),
@@ -678,6 +748,12 @@ def _run_dask(todo: list[tuple[str, str]], out: Path, opts: FleetOptions, worker
         if scheduler is None:
             if workers < 1:
                 raise GyrodriftValueError(f"workers must be >= 1, got {workers}")
+            unguarded = _unguarded_main_line()
+            if unguarded is not None:
+                raise GyrodriftError(
+                    f"{unguarded[0]}, line {unguarded[1]}: run_fleet with workers >= 1 starts "
+                    "worker processes that run the main script again; put the script's work "
+                    "under 'if __name__ == \"__main__\":' (or pass scheduler= or client=)")
             cluster = _local_cluster(workers)
             client = Client(cluster)
         else:

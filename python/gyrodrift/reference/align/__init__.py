@@ -1,5 +1,5 @@
 """Plain-loop numpy references of the SINS alignment (paper 004), the oracles of the
-C++ headers include/gyrodrift/nav/*.hpp that `gyrodrift.nav.run_alignment` runs:
+C++ headers ``include/gyrodrift/nav/*.hpp`` that `gyrodrift.nav.run_alignment` runs:
 strapdown, inertial-frame coarse alignment, the 12/15-state fine-alignment Kalman filter and
 the whole pipeline.
 

@@ -4,9 +4,11 @@
 C_b^n(t) = C_i0^n(t) C_ib0^i0 C_b^ib0(t): C_b^ib0 is integrated from the gyro increments
 (coning-corrected, starting at I), C_i0^n(t) is the Earth rotation of the ENU frame about the
 polar axis u = [0, cos L, sin L] (angle Omega t), and the constant C_ib0^i0 is found from the
-gravity-induced specific force integrated in both inertial frames at t1 = T/2 and t2 = T:
+gravity-induced specific force integrated in both inertial frames at t1 = T/2 and t2 = T::
+
   V^i0(t) = int_0^t C_n^i0(tau) [0, 0, g] dtau  (closed form below),
   V^ib0(t) = sum_k C_b^ib0(k-1) (dv_k + 1/2 dtheta_k x dv_k + sculling).
+
 The position-integral variant uses S(t) = int_0^t V dtau instead, which turns the bounded
 lever-arm sway velocity into a bounded displacement against a signal growing as t^3; the
 unknown sway velocity at t = 0 would still leave a term v(0) t, so the least-squares
@@ -14,7 +16,7 @@ projection onto t (beta = sum t_k S_k / sum t_k^2 over [0, t_j]) is removed from
 sequences in both frames. The operator is linear and C_ib0^i0 constant, so the two frames
 stay consistent, and no gravity term is linear in t.
 C_ib0^i0 = M(V^i0_2, V^i0_1) M(V^ib0_2, V^ib0_1)^T with the TRIAD frame
-M(a, b) = [a/|a|, a x b/|a x b|, a x (a x b)/|..|], exactly orthonormal by construction.
+``M(a, b) = [a/|a|, a x b/|a x b|, a x (a x b)/|..|]``, exactly orthonormal by construction.
 """
 
 from __future__ import annotations

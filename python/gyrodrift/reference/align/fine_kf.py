@@ -1,16 +1,20 @@
 """Fine-alignment Kalman filter with zero-velocity measurements (reference for
 nav/fine_align_kf.hpp).
 
-States (psi-angle ENU error model, Savage / Yan Gongmin PSINS "Ft" form), 15 states:
+States (psi-angle ENU error model, Savage / Yan Gongmin PSINS "Ft" form), 15 states::
+
   x = [phi (3, rad), dv^n (3, m/s), dp (3, ENU metres), eps^b (3, gyro drift rad/s),
        nabla^b (3, accelerometer bias m/s^2)];
-12 states drop dp. With w_in = w_ie + w_en, R_M/R_N + h, f^n the specific force:
+
+12 states drop dp. With w_in = w_ie + w_en, R_M/R_N + h, f^n the specific force::
+
   phi'  = -[w_in x] phi + M_av dv + M_ap dp - C_b^n eps
   dv'   = [f^n x] phi - [(2 w_ie + w_en) x] dv + M_vp dp + C_b^n nabla
   dp'   = dv;  eps' = 0;  nabla' = 0   (+ white process noise)
-M_av: d w_en / d v = [[0, -1/RM, 0], [1/RN, 0, 0], [tanL/RN, 0, 0]];
-M_ap: d w_ie / d pN = [0, -W sinL, W cosL]/RM (north-position column);
-M_vp: d g_U / d h = +3.086e-6 /s^2 (Up/Up element), the free-air gradient of the gravity model.
+  M_av: d w_en / d v = [[0, -1/RM, 0], [1/RN, 0, 0], [tanL/RN, 0, 0]];
+  M_ap: d w_ie / d pN = [0, -W sinL, W cosL]/RM (north-position column);
+  M_vp: d g_U / d h = +3.086e-6 /s^2 (Up/Up element), the free-air gradient of the gravity model.
+
 Discretisation over the update interval T: Phi = I + F T + (F T)^2 / 2,
 Q_k = (Phi Q Phi^T + Q) T / 2 (trapezoid), Q = diag(q).
 Update (z = v^n, H = [0 I 0 ...]): S = H P H^T + R (Cholesky solve, no explicit inverse),

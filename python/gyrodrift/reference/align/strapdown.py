@@ -1,6 +1,7 @@
 """ENU strapdown mechanization from increments (reference for nav/strapdown.hpp).
 
 Per sample k (interval dt, increments dtheta_k, dv_k):
+
 - coning: phi_k = dtheta_k + (1/12) dtheta_{k-1} x dtheta_k (one-plus-previous-sample
   rotation vector, Savage 1998 eq. 7.1.1.1-11 form);
 - sculling: dv_sf^b = dv_k + 1/2 dtheta_k x dv_k
@@ -9,6 +10,7 @@ Per sample k (interval dt, increments dtheta_k, dv_k):
   + (g^n - (2 w_ie^n + w_en^n) x v_{k-1}) dt;
 - position (lat, lon, h) by the trapezoid of v; attitude
   q_k = q(-w_in^n dt) (x) q_{k-1} (x) q(phi_k), renormalised.
+
 Earth quantities are taken at the start of the sample.
 """
 

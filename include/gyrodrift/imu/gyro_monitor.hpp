@@ -1,0 +1,144 @@
+// The on-target monitor of one gyro channel: streaming Allan statistics of its raw input, the
+// IEEE 952 noise estimates read from them (N, B, K with intervals), latched health alarms
+// against a reference Allan curve, and the online re-identification of the channel's drift
+// model "AR(2) drift + white noise", whose steady-state Kalman gain the processor may take.
+//
+//   StreamingAllan<Scalar, Octaves>   stability/streaming_allan.hpp
+//   estimate_noise                    stability/online_noise.hpp (at report time, not per sample)
+//   HealthAlarms<Scalar, Octaves>     imu/health_alarms.hpp (per sample)
+//   OnlineDriftIdentifier<Scalar>     filters/online_drift_identifier.hpp (per sample, optional)
+//
+// push(y, stuck, saturated) once per sample of the channel, after the processor's bad-value
+// checks: a stuck or saturated value (or a non-finite one) is not a statistic's input, but the
+// stuck and saturated flags go to the alarms, which count how long they last.
+//
+// Fixed memory chosen at compile time (Octaves: the largest number of octaves a configuration
+// may use), no heap, no exceptions, deterministic (the same input gives the same state).
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include "../filters/drift_likelihood.hpp"
+#include "../filters/online_drift_identifier.hpp"
+#include "../stability/online_noise.hpp"
+#include "../stability/streaming_allan.hpp"
+#include "health_alarms.hpp"
+
+namespace gyrodrift {
+
+template <class Scalar>
+struct GyroMonitorSettings {
+  Scalar sample_rate_hz = Scalar(0);         // sample rate of the channel, Hz
+  std::size_t octaves = 0;                   // octaves of the streaming Allan curve (<= Octaves)
+  HealthAlarmSettings<Scalar> alarms{};      // alarm factors, false-alarm probability, durations
+  bool reidentify = false;                   // run the online re-identification
+  OnlineDriftSettings<Scalar> drift{};       // its block, retune cadence, guards
+};
+
+enum class GyroMonitorStatus : std::uint8_t {
+  unconfigured = 0,  // configure() not called
+  ok = 1,
+  bad_settings = 2,   // rate, octaves or the reference out of range
+  bad_model = 3,      // the drift model is not a valid stationary model
+};
+
+template <class Scalar, std::size_t Octaves>
+class GyroMonitor {
+ public:
+  static constexpr std::size_t capacity = Octaves;
+  using Reference = HealthReference<Scalar, Octaves>;
+
+  GyroMonitor() noexcept = default;
+
+  // settings: see GyroMonitorSettings; model: the channel's configured drift model (the
+  // identifier's start and fallback); reference: the expected Allan variance per octave that
+  // the alarms compare against (reference.octaves >= 1, at most settings.octaves).
+  GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const DriftModelParams<Scalar>& model,
+                              const Reference& reference) noexcept {
+    settings_ = settings;
+    status_ = GyroMonitorStatus::bad_settings;
+    if (settings.octaves < 1 || settings.octaves > Octaves || reference.octaves < 1 ||
+        reference.octaves > settings.octaves) {
+      return status_;
+    }
+    if (!allan_.configure(settings.sample_rate_hz, settings.octaves)) return status_;
+    for (std::size_t k = 0; k < reference.octaves; ++k) {
+      if (!(reference.avar[k] > Scalar(0)) || !std::isfinite(reference.avar[k])) return status_;
+    }
+    if (drift_params_status(model) != Ar2Status::ok) {
+      status_ = GyroMonitorStatus::bad_model;
+      return status_;
+    }
+    if (!alarms_.configure(reference, settings.alarms)) return status_;
+    if (settings.reidentify && !identifier_.configure(model, settings.drift)) {
+      status_ = GyroMonitorStatus::bad_model;
+      return status_;
+    }
+    status_ = GyroMonitorStatus::ok;
+    reset();
+    return status_;
+  }
+
+  // Forgets every sample and clears the alarms; keeps the configuration.
+  void reset() noexcept {
+    allan_.reset();
+    alarms_.reset();
+    if (settings_.reidentify) identifier_.reset();
+    samples_ = 0;
+    used_ = 0;
+    retuned_ = false;
+  }
+
+  // One sample of the channel. stuck/saturated: the processor's checks flagged this value (it
+  // is then not used by the statistics). Returns the latched alarm bits (0: healthy).
+  std::uint16_t push(Scalar y, bool stuck, bool saturated) noexcept {
+    retuned_ = false;
+    if (status_ != GyroMonitorStatus::ok) return 0;
+    ++samples_;
+    const bool bad = stuck || saturated;
+    if (!bad && !std::isfinite(y)) return alarms_.latched();  // not a sample of anything
+    if (!bad && allan_.push(y)) {
+      ++used_;
+      if (settings_.reidentify) {
+        identifier_.push(y);
+        retuned_ = identifier_.retuned();
+      }
+    }
+    return alarms_.update(allan_, stuck, saturated);
+  }
+
+  // Noise estimates from the curve so far (report time: a few octave fits, not per sample).
+  bool noise(Scalar coverage, NoiseEstimates<Scalar>& out) const noexcept {
+    if (status_ != GyroMonitorStatus::ok) {
+      out = NoiseEstimates<Scalar>{};
+      return false;
+    }
+    return estimate_noise(allan_, coverage, out);
+  }
+
+  GyroMonitorStatus status() const noexcept { return status_; }
+  const GyroMonitorSettings<Scalar>& settings() const noexcept { return settings_; }
+  const StreamingAllan<Scalar, Octaves>& allan() const noexcept { return allan_; }
+  const HealthAlarms<Scalar, Octaves>& alarms() const noexcept { return alarms_; }
+  const OnlineDriftIdentifier<Scalar>& identifier() const noexcept { return identifier_; }
+  std::uint16_t latched() const noexcept { return alarms_.latched(); }
+  // True after the push() whose sample made the identifier retune the gain.
+  bool retuned() const noexcept { return retuned_; }
+  bool reidentifying() const noexcept { return settings_.reidentify && status_ == GyroMonitorStatus::ok; }
+  std::uint64_t samples() const noexcept { return samples_; }  // pushed (all)
+  std::uint64_t used() const noexcept { return used_; }        // used by the statistics
+
+ private:
+  GyroMonitorSettings<Scalar> settings_{};
+  StreamingAllan<Scalar, Octaves> allan_{};
+  HealthAlarms<Scalar, Octaves> alarms_{};
+  OnlineDriftIdentifier<Scalar> identifier_{};
+  GyroMonitorStatus status_ = GyroMonitorStatus::unconfigured;
+  std::uint64_t samples_ = 0;
+  std::uint64_t used_ = 0;
+  bool retuned_ = false;
+};
+
+}  // namespace gyrodrift
