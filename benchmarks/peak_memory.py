@@ -1,12 +1,15 @@
 """Peak resident memory of the analysis commands on a large .npy record.
 
 Writes a float64 white-noise record of N samples (deg/h, 400 Hz) into a temporary directory
-in pieces (this process never holds it), runs each command as its own process
+in pieces (this process never holds it), and for ``fit-full-rate`` a second one with a random
+walk whose Allan minimum lies at 0.13 s (52 samples), so that ``fit`` fits the drift model at
+the record's own rate instead of on block averages; runs each command as its own process
 (``python -m gyrodrift CMD record.npy ...``) and reads that process's peak resident set size
 from ``os.wait4`` (``ru_maxrss``: resident pages, including mapped file pages), then prints
 a table: command, samples, peak MB, budget MB, ok. The budgets are stated in BUDGET_MB and
 do not depend on the record's length; docs/validation/memory.md holds the table on 1e8 and
-1e7 samples, and tests/test_peak_memory.py runs this script on 2e7 samples.
+1e7 samples, and tests/test_peak_memory.py runs this script on 2e7 samples (fit-full-rate,
+about 5 minutes there on a loaded machine, is measured here only).
 
 Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit,...] [--json]
 """
@@ -31,9 +34,15 @@ import numpy as np
 BUDGET_MB: dict[str, float] = {
     "allan": 250.0,
     "identify": 250.0,
+    "identify-gmwm": 250.0,
     "fit": 300.0,
+    "fit-full-rate": 300.0,
     "characterize": 250.0,
+    "psd": 250.0,
 }
+#: The commands run when --commands is not given (fit-full-rate takes half an hour at 1e8
+#: samples on a loaded 2-core machine).
+DEFAULT_COMMANDS = ("allan", "identify", "identify-gmwm", "fit", "characterize", "psd")
 
 RATE_HZ = 400.0
 
@@ -41,21 +50,32 @@ RATE_HZ = 400.0
 def command_args(command: str, record: Path, out: Path) -> list[str]:
     """The command line run for `command` (its JSON output, no plots or reports)."""
     rate = ["--rate-hz", f"{RATE_HZ:g}", "--gyro-units", "deg/h"]
+    walk = str(record.with_name("walk.npy"))
     return {
         "allan": ["allan", str(record), *rate, "--json"],
         "identify": ["identify", str(record), *rate, "--json"],
+        "identify-gmwm": ["identify", str(record), *rate, "--identifier", "gmwm", "--json"],
         "fit": ["fit", str(record), *rate, "--json"],
+        "fit-full-rate": ["fit", walk, *rate, "--json"],
         "characterize": ["characterize", str(record), *rate, "--json"],
+        "psd": ["psd", str(record), *rate, "--json", "--png", str(out.with_suffix(".png"))],
     }[command]
 
 
-def write_record(path: Path, n: int, chunk: int = 1 << 22) -> None:
-    """N samples of white noise (30 deg/h per sample) written piece by piece."""
+def write_record(path: Path, n: int, walk: bool = False, chunk: int = 1 << 22) -> None:
+    """N samples of white noise (30 deg/h per sample) written piece by piece; with `walk`, plus
+    a random walk of 1 deg/h per sample (the Allan minimum at sqrt(3) 30 = 52 samples)."""
     mm = np.lib.format.open_memmap(path, mode="w+", dtype=np.float64, shape=(n,))
-    rng = np.random.default_rng(0)
+    rng = np.random.default_rng(1 if walk else 0)
+    level = 0.0
     for start in range(0, n, chunk):
         stop = min(n, start + chunk)
-        mm[start:stop] = rng.standard_normal(stop - start) * 30.0
+        piece = rng.standard_normal(stop - start) * 30.0
+        if walk:
+            steps = np.cumsum(rng.standard_normal(stop - start)) + level
+            level = float(steps[-1])
+            piece += steps
+        mm[start:stop] = piece
         mm.flush()
     del mm
 
@@ -81,6 +101,9 @@ def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
         # (and across exec), so this process must never have held the record's pages.
         subprocess.run([sys.executable, __file__, "--write", str(rec), str(samples)],
                        check=True)
+        if "fit-full-rate" in commands:
+            subprocess.run([sys.executable, __file__, "--write-walk", str(d / "walk.npy"),
+                            str(samples)], check=True)
         for cmd in commands:
             argv = [sys.executable, "-m", "gyrodrift", *command_args(cmd, rec, d / "out")]
             peak, code, wall, last = peak_mb(argv, d)
@@ -92,12 +115,12 @@ def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
 
 
 def main() -> int:
-    if sys.argv[1:2] == ["--write"]:
-        write_record(Path(sys.argv[2]), int(sys.argv[3]))
+    if sys.argv[1:2] in (["--write"], ["--write-walk"]):
+        write_record(Path(sys.argv[2]), int(sys.argv[3]), walk=sys.argv[1] == "--write-walk")
         return 0
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=float, nargs="+", default=[1e8, 1e7])
-    ap.add_argument("--commands", default=",".join(BUDGET_MB))
+    ap.add_argument("--commands", default=",".join(DEFAULT_COMMANDS))
     ap.add_argument("--json", action="store_true", help="rows as JSON on stdout")
     a = ap.parse_args()
     commands = [c for c in a.commands.split(",") if c]

@@ -73,3 +73,83 @@ def test_gmwm_is_scale_equivariant(c: float) -> None:
         assert np.isinf(r.wv).all()
     else:
         assert (r.wv > 0).all() and (r.wv < np.finfo(float).tiny).all()
+
+
+# ------------------------------------------------------------- allan and identify commands
+
+def _cli_json(argv: list[str], capsys: pytest.CaptureFixture[str]) -> dict:
+    import json
+
+    from gyrodrift.cli import main
+
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    return json.loads(out)
+
+
+@pytest.fixture(scope="module")
+def scaled_records(tmp_path_factory: pytest.TempPathFactory) -> dict[float, str]:
+    rng = np.random.default_rng(8)
+    y = rng.normal(size=20000) * 30.0 + np.cumsum(rng.normal(size=20000)) * 0.3
+    d = tmp_path_factory.mktemp("scaled")
+    paths = {}
+    for c in (1.0, 1e150, 1e-150):
+        paths[c] = str(d / f"rec{c:g}.npy")
+        np.save(paths[c], y * c)
+    return paths
+
+
+def _close(a: float | None, b: float | None, c: float) -> None:
+    """a (at scale c) is c x b (at scale 1) within 1e-9 relative: the record is analysed
+    divided by a power of two, exactly, so only the last digits of c x b's product and of
+    the optimiser's steps on a curve off by a power of two can differ."""
+    if a is None or b is None:
+        assert a is None and b is None
+        return
+    assert math.isclose(a, c * b, rel_tol=1e-9), (a, c * b)
+
+
+@pytest.mark.parametrize("c", [1e150, 1e-150])
+def test_allan_command_on_extreme_scales_gives_the_scaled_answer(
+        scaled_records: dict[float, str], capsys: pytest.CaptureFixture[str], c: float) -> None:
+    """Before: `allan` on the 1e150 record refused ("the Allan sums are not finite") or
+    ended in a traceback from the IEEE 952 fit; the 1e-150 record failed in the fit too."""
+    argv = ["--rate-hz", "100", "--gyro-units", "deg/h", "--json"]
+    ref = _cli_json(["allan", scaled_records[1.0], *argv], capsys)
+    got = _cli_json(["allan", scaled_records[c], *argv], capsys)
+    for a, b in zip(got["taus"], ref["taus"], strict=True):
+        for k in ("adev", "ci_low", "ci_high", "fit_adev"):
+            _close(a[k], b[k], c)
+    assert [t["name"] for t in got["fit"]["terms"]] == [t["name"] for t in ref["fit"]["terms"]]
+    for a, b in zip(got["fit"]["terms"], ref["fit"]["terms"], strict=True):
+        for k in ("value", "ci_low", "ci_high"):
+            _close(a[k], b[k], c)
+    for k in ("n_deg_rt_h", "k_deg_h_rt_h", "b_deg_h"):
+        _close(got["ieee952"][k], ref["ieee952"][k], c)
+    assert got["self_check"]["holds"] == ref["self_check"]["holds"]
+
+
+@pytest.mark.parametrize("c", [1e150, 1e-150])
+def test_identify_command_on_extreme_scales_gives_the_scaled_answer(
+        scaled_records: dict[float, str], capsys: pytest.CaptureFixture[str], c: float) -> None:
+    argv = ["--rate-hz", "100", "--gyro-units", "deg/h", "--json"]
+    ref = _cli_json(["identify", scaled_records[1.0], *argv], capsys)
+    got = _cli_json(["identify", scaled_records[c], *argv], capsys)
+    assert [t["name"] for t in got["fit"]["terms"]] == [t["name"] for t in ref["fit"]["terms"]]
+    for a, b in zip(got["fit"]["terms"], ref["fit"]["terms"], strict=True):
+        for k in ("value", "ci_low", "ci_high"):
+            _close(a[k], b[k], c)
+
+
+def test_a_deviation_beyond_double_is_a_clear_error() -> None:
+    """Where the answer itself is beyond double (samples alternating +-1.7e308: the Allan
+    deviation at tau0 is 1.7e308 sqrt(2)), one line says so instead of an inf deviation."""
+    from gyrodrift.stability.allan import oadev
+    from gyrodrift.stability.deviations import deviation
+
+    y = np.where(np.arange(4096) % 2 == 0, 1.7e308, -1.7e308)
+    with pytest.raises(ValueError, match="beyond the floating-point range"):
+        oadev(y, 100.0, progress=False)
+    with pytest.raises(ValueError, match="beyond the floating-point range"):
+        deviation(y, 100.0, "mdev")

@@ -712,3 +712,36 @@ def test_resumed_cli_run_closes_its_cluster_without_a_trace(logs: list[Path],
     finally:
         for lg, level in saved:
             lg.setLevel(level)
+
+
+@pytest.mark.parametrize(("option", "flag"), [
+    (("--time-units", "ns"), "--time-units"),
+    (("--time-column", "t"), "--time-column"),
+    (("--topic", "/imu"), "--topic"),
+])
+def test_reader_options_a_npy_log_cannot_use_are_refused_as_by_characterize(
+        tmp_path: Path, logs: list[Path], capsys: pytest.CaptureFixture[str],
+        option: tuple[str, str], flag: str) -> None:
+    """--time-units and --time-column name a text log's time column, --topic a bag's topic:
+    a .npy log has none. `characterize` and the fleet used to accept and ignore them for a
+    .npy log (the fleet also ignored --time-units where characterize refused it); now both
+    refuse them with the same line, the fleet before any work, and the library refuses them
+    for each such log (reported as failed)."""
+    from gyrodrift.cli import main
+
+    out = tmp_path / "out"
+    argv = [str(logs[0]), "--rate-hz", "100", *UNITS, *option]
+    assert main(["characterize", *argv]) == 2
+    want = capsys.readouterr().err.strip().splitlines()
+    assert len(want) == 1 and flag in want[0] and str(logs[0]) in want[0], want
+    code = main(["fleet", *argv, "--out-dir", str(out), "--workers", "0", "--progress",
+                 "never"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert err == [want[0].replace("gyrodrift characterize:", "gyrodrift fleet:")]
+    assert not (out / "units").exists() or not any((out / "units").iterdir())
+    field = {"--time-units": "time_units", "--time-column": "time_column",
+             "--topic": "topic"}[flag]
+    opts = FleetOptions(rate_hz=100.0, plots=False, **{field: option[1]})
+    summary = run_fleet([str(logs[0])], tmp_path / "lib", workers=0, opts=opts)
+    assert summary["n_failed"] == 1 and summary["n_done"] == 0

@@ -337,3 +337,63 @@ def test_a_writer_that_misses_the_temporary_file_is_named(tmp_path: Path) -> Non
     with pytest.raises(AssertionError, match="suffix="), atomic_output(null) as tmp:
         np.save(tmp, np.zeros(3))
     assert is_device(null, 3)
+
+
+def test_fit_output_to_stdout_is_the_configuration_alone(tmp_path: Path) -> None:
+    """`fit -o /dev/stdout` (here /proc/self/fd/1, the same file): stdout carries the processor
+    configuration and nothing else, the table goes to stderr. Before, a suffix-less stream was
+    refused, and a stream with a suffix got the table printed into it after the file."""
+    rec = tmp_path / "rec.npy"
+    np.save(rec, np.random.default_rng(3).normal(0.0, 1.0, 3000))
+    res = _gyrodrift("fit", str(rec), "--rate-hz", RATE_HZ, "--gyro-units", "deg/h", "-o",
+                     "/proc/self/fd/1", capture_output=True)
+    assert res.returncode == 0, res.stderr
+    cfg = tomllib.loads(res.stdout.decode())  # the whole of stdout is one TOML document
+    assert cfg["schema"] == "gyrodrift.processor"
+    assert b"chosen:" in res.stderr and b"chosen:" not in res.stdout
+    # A link named .json that leads to stdout: the JSON alone on stdout, --json to stderr.
+    link = tmp_path / "out.json"
+    link.symlink_to("/proc/self/fd/1")
+    res = _gyrodrift("fit", str(rec), "--rate-hz", RATE_HZ, "--gyro-units", "deg/h", "-o",
+                     str(link), "--json", capture_output=True)
+    assert res.returncode == 0, res.stderr
+    assert "chosen" in json.loads(res.stdout)
+    assert "chosen" in json.loads(res.stderr)
+    assert link.is_symlink()
+
+
+def test_decode_table_writer_follows_the_output_rule(tmp_path: Path) -> None:
+    """The decode table for ``gyrodrift-loop --can-signals`` goes through the one output rule:
+    a regular file is replaced whole by a rename (a hard link to the old file keeps the old
+    table: nothing was truncated and rewritten in place, which a reader or an interrupted write
+    would see half-done), a symbolic link stays a link, a FIFO stays a FIFO and gets the table,
+    a device stays a device."""
+    from gyrodrift.codecs.can_frames import load_dbc
+    from gyrodrift.codecs.can_signals import SignalMap, SignalRef, decode_table_text
+    from gyrodrift.io.imu_log import write_decode_table
+
+    names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+                 ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
+    smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    want = decode_table_text(smap)
+    table = tmp_path / "imu.cansig"
+    table.write_text("old table\n")
+    os.link(table, tmp_path / "old.cansig")
+    assert write_decode_table(smap, table) == table
+    assert table.read_text() == want
+    assert (tmp_path / "old.cansig").read_text() == "old table\n"
+    link = tmp_path / "link.cansig"
+    link.symlink_to(table.name)
+    write_decode_table(smap, link)
+    assert link.is_symlink() and table.read_text() == want
+    fifo = tmp_path / "fifo.cansig"
+    os.mkfifo(fifo)
+    reader = FifoReader(fifo)
+    try:
+        write_decode_table(smap, fifo)
+    finally:
+        data = reader.result()
+    assert data.decode() == want and stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    null = device(tmp_path, "nul", 3)
+    write_decode_table(smap, null)
+    assert is_device(null, 3)

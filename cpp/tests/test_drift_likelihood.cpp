@@ -7,6 +7,7 @@
 #include <doctest/doctest.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -170,4 +171,42 @@ TEST_CASE("the likelihood pass allocates nothing (double and float, 1e5 samples,
   CHECK(s1 == Ar2Status::ok);
   CHECK(s2 == Ar2Status::ok);
   CHECK(static_cast<double>(sf.loglike()) == doctest::Approx(sd.loglike()).epsilon(1e-5));
+}
+
+TEST_CASE("the pass over a record in pieces equals the one pass, bit for bit, however it is cut") {
+  const double a1 = 0.6868, a2 = -0.0213, q = 0.25, r = 0.09, mean = 40.0;
+  const auto y = ar2_record(a1, a2, q, r, mean, 5000, 21u);
+  const DriftModelParams<double> p{a1, a2, q, r, mean};
+  DriftLikelihoodSums<double> whole;
+  std::vector<double> innov(y.size()), innov_pieces(y.size(), 0.0);
+  REQUIRE(drift_likelihood(y.data(), y.size(), 1, p, whole, innov.data(), 1) == Ar2Status::ok);
+  // Pieces shorter and longer than the 64-sample summation block, cut inside the covariance
+  // recursion's first steps (before the latch) and after it.
+  for (std::size_t piece : {std::size_t{1}, std::size_t{7}, std::size_t{64}, std::size_t{1000},
+                            std::size_t{4999}}) {
+    gyrodrift::DriftLikelihoodStream<double> stream;
+    REQUIRE(stream.begin(p) == Ar2Status::ok);
+    for (std::size_t lo = 0; lo < y.size(); lo += piece) {
+      const std::size_t n = std::min(piece, y.size() - lo);
+      REQUIRE(stream.update(y.data() + lo, n, 1, innov_pieces.data() + lo, 1) == Ar2Status::ok);
+    }
+    DriftLikelihoodSums<double> s;
+    REQUIRE(stream.finish(s) == Ar2Status::ok);
+    CHECK(s.n == whole.n);
+    CHECK(s.sum_log_f == whole.sum_log_f);
+    CHECK(s.sum_ee == whole.sum_ee);
+    CHECK(s.sum_eg == whole.sum_eg);
+    CHECK(s.sum_gg == whole.sum_gg);
+    CHECK(innov_pieces == innov);
+  }
+  // A NaN in a later piece, and a piece before begin(), are statuses.
+  gyrodrift::DriftLikelihoodStream<double> stream;
+  CHECK(stream.update(y.data(), 10, 1) == Ar2Status::bad_argument);
+  REQUIRE(stream.begin(p) == Ar2Status::ok);
+  std::vector<double> bad(y.begin(), y.begin() + 100);
+  bad[70] = std::numeric_limits<double>::quiet_NaN();
+  REQUIRE(stream.update(bad.data(), 50, 1) == Ar2Status::ok);
+  REQUIRE(stream.update(bad.data() + 50, 50, 1) == Ar2Status::ok);
+  DriftLikelihoodSums<double> s;
+  CHECK(stream.finish(s) == Ar2Status::non_finite);
 }

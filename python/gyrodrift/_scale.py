@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-__all__ = ["SAFE_EXPONENT", "normalising_scale"]
+__all__ = ["SAFE_EXPONENT", "normalising_scale", "scale_for_peak"]
 
 #: A record whose largest magnitude has a binary exponent within +-SAFE_EXPONENT is left as
 #: it is: its squares (and sums of 1e9 of them) stay within float64 by a wide margin.
@@ -33,8 +33,22 @@ def normalising_scale(a: np.ndarray) -> float:
     (left to the estimator's own checks). Reads the record twice (max, min), no copy."""
     if a.size == 0:
         return 1.0
-    peak = max(float(np.max(a)), -float(np.min(a)))
+    return scale_for_peak(max(float(np.max(a)), -float(np.min(a))))
+
+
+def scale_for_peak(peak: float) -> float:
+    """`normalising_scale` of a record whose largest magnitude is `peak` (for a record read
+    in pieces: the largest of the pieces' peaks).
+
+    Examples
+    --------
+    >>> scale_for_peak(3.0), scale_for_peak(0.0), scale_for_peak(2.0**-70) == 2.0**-69
+    (1.0, 1.0, True)
+    >>> scale_for_peak(1.7e308) == 2.0**1023
+    True
+    """
     if not math.isfinite(peak) or peak == 0.0:
         return 1.0
     exponent = math.frexp(peak)[1]
-    return 1.0 if abs(exponent) <= SAFE_EXPONENT else math.ldexp(1.0, exponent)
+    # 2^1024 is not a double: the largest records get 2^1023 (max / c in [1, 2)).
+    return 1.0 if abs(exponent) <= SAFE_EXPONENT else math.ldexp(1.0, min(exponent, 1023))

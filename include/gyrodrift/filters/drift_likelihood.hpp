@@ -30,6 +30,7 @@
 // result on long records at little cost.
 // Once the covariance recursion reaches its fixed point (change <= 4 eps relative) it is latched
 // and only the two state recursions run (the remaining change is below rounding).
+// DriftLikelihoodStream gives the same pass over a record read in pieces (bounded memory).
 #pragma once
 
 #include <cmath>
@@ -105,12 +106,157 @@ inline void drift_stationary_covariance(Scalar a1, Scalar a2, Scalar q, Scalar& 
   g1 = a1 * g0 / (one - a2);
 }
 
+// The likelihood pass over a record that arrives in pieces (a file read in chunks): begin()
+// with the parameters, update() with consecutive pieces, finish() for the sums. The state
+// carries the filter, the covariance latch and the partial block sums across pieces, so the
+// sums are those of one pass over the whole record, bit for bit, however it is cut.
+// Allocation-free and noexcept like drift_likelihood (which is begin + one update + finish).
+template <class Scalar>
+class DriftLikelihoodStream {
+ public:
+  // Checks the parameters (drift_params_status) and sets the stationary start.
+  Ar2Status begin(const DriftModelParams<Scalar>& p) noexcept {
+    status_ = drift_params_status(p);
+    if (status_ != Ar2Status::ok) return status_;
+    p_ = p;
+    drift_stationary_covariance(p.a1, p.a2, p.q, p00_, p01_);
+    p11_ = p00_;
+    x0_ = x1_ = c0_ = c1_ = Scalar(0);
+    f_ = inv_f_ = log_f_ = k0_ = k1_ = Scalar(0);
+    slog_ = see_ = seg_ = sgg_ = detail::CompensatedSum<Scalar>{};
+    b_log_ = b_ee_ = b_eg_ = b_gg_ = Scalar(0);
+    in_block_ = 0;
+    n_ = 0;
+    latched_ = false;
+    bad_sample_ = false;
+    return status_;
+  }
+
+  // The next n samples y[0], y[stride], ...; if std_innov is not null, their standardised
+  // innovations e_k / sqrt(F_k) go to std_innov[k * innov_stride] (k counted in this piece).
+  // A refused piece (bad_argument, or non_finite from an overflowing recursion) ends the pass:
+  // every later call returns the same status.
+  Ar2Status update(const Scalar* y, std::size_t n, std::ptrdiff_t stride,
+                   Scalar* std_innov = nullptr, std::ptrdiff_t innov_stride = 1) noexcept {
+    if (status_ != Ar2Status::ok) return status_;
+    if (n == 0) return status_;
+    if (y == nullptr || stride == 0 || (std_innov != nullptr && innov_stride == 0)) {
+      status_ = Ar2Status::bad_argument;
+      return status_;
+    }
+    const Scalar a1 = p_.a1, a2 = p_.a2, q = p_.q, r = p_.r, mean = p_.mean;
+    const Scalar eps4 = Scalar(4) * std::numeric_limits<Scalar>::epsilon();
+    const Scalar* yk = y;
+    // One filter step with the current gain; plain partial sums (b_*) are folded into the
+    // compensated totals every kBlock samples, so the hot loop has no compensation branches
+    // and the rounding error stays ~ (kBlock eps + n eps^2) relative.
+    auto step = [&](std::size_t idx) noexcept {
+      const Scalar v = *yk;
+      bad_sample_ = bad_sample_ || !std::isfinite(v);
+      const Scalar e = (v - mean) - x0_;
+      const Scalar g = Scalar(1) - c0_;
+      b_log_ += log_f_;
+      b_ee_ += e * e * inv_f_;
+      b_eg_ += e * g * inv_f_;
+      b_gg_ += g * g * inv_f_;
+      if (std_innov != nullptr) {
+        std_innov[static_cast<std::ptrdiff_t>(idx) * innov_stride] = e / std::sqrt(f_);
+      }
+      // Update then predict: X = A (X + K e), the same for the constant sequence.
+      const Scalar u0 = x0_ + k0_ * e, u1 = x1_ + k1_ * e;
+      x0_ = a1 * u0 + a2 * u1;
+      x1_ = u0;
+      const Scalar w0 = c0_ + k0_ * g, w1 = c1_ + k1_ * g;
+      c0_ = a1 * w0 + a2 * w1;
+      c1_ = w0;
+      yk += stride;
+      if (++in_block_ == kBlock) {
+        slog_.add(b_log_);
+        see_.add(b_ee_);
+        seg_.add(b_eg_);
+        sgg_.add(b_gg_);
+        b_log_ = b_ee_ = b_eg_ = b_gg_ = Scalar(0);
+        in_block_ = 0;
+      }
+    };
+    std::size_t k = 0;
+    // Phase 1: covariance recursion until it reaches its fixed point.
+    for (; k < n && !latched_; ++k) {
+      f_ = p00_ + r;
+      if (!(f_ > Scalar(0)) || !std::isfinite(f_)) {
+        status_ = Ar2Status::non_finite;
+        return status_;
+      }
+      inv_f_ = Scalar(1) / f_;
+      log_f_ = std::log(f_);
+      k0_ = p00_ * inv_f_;
+      k1_ = p01_ * inv_f_;
+      // Filtered covariance P - K H P, then predicted A P A^T + Q.
+      const Scalar f00 = p00_ - k0_ * p00_;
+      const Scalar f01 = p01_ - k0_ * p01_;
+      const Scalar f11 = p11_ - k1_ * p01_;
+      const Scalar n00 = a1 * a1 * f00 + Scalar(2) * a1 * a2 * f01 + a2 * a2 * f11 + q;
+      const Scalar n01 = a1 * f00 + a2 * f01;
+      const Scalar n11 = f00;
+      const Scalar change = std::fabs(n00 - p00_) + std::fabs(n01 - p01_) + std::fabs(n11 - p11_);
+      const Scalar scale = std::fabs(n00) + std::fabs(n01) + std::fabs(n11);
+      // Latch once the next F and gain equal these to rounding.
+      latched_ = change <= eps4 * scale;
+      p00_ = n00;
+      p01_ = n01;
+      p11_ = n11;
+      step(k);
+    }
+    // Phase 2: constant F and gain.
+    for (; k < n; ++k) step(k);
+    n_ += n;
+    return status_;
+  }
+
+  // The sums of everything passed to update() (bad_argument when nothing was; non_finite for
+  // a NaN/Inf sample or sums that overflowed); `out` is only written on ok. The stream may
+  // continue after it.
+  Ar2Status finish(DriftLikelihoodSums<Scalar>& out) const noexcept {
+    if (status_ != Ar2Status::ok) return status_;
+    if (n_ == 0) return Ar2Status::bad_argument;
+    if (bad_sample_) return Ar2Status::non_finite;
+    detail::CompensatedSum<Scalar> slog = slog_, see = see_, seg = seg_, sgg = sgg_;
+    slog.add(b_log_);
+    see.add(b_ee_);
+    seg.add(b_eg_);
+    sgg.add(b_gg_);
+    if (!std::isfinite(see.value() + slog.value() + x0_)) return Ar2Status::non_finite;
+    out.n = n_;
+    out.sum_log_f = slog.value();
+    out.sum_ee = see.value();
+    out.sum_eg = seg.value();
+    out.sum_gg = sgg.value();
+    return Ar2Status::ok;
+  }
+
+ private:
+  static constexpr std::size_t kBlock = 64;
+  DriftModelParams<Scalar> p_{};
+  Ar2Status status_ = Ar2Status::bad_argument;  // until begin()
+  // Covariance (p00, p01, p11), predicted states of the data (x0, x1) and of the constant-1
+  // sequence (c0, c1), the current F, 1/F, log F and gain (k0, k1).
+  Scalar p00_ = Scalar(0), p01_ = Scalar(0), p11_ = Scalar(0);
+  Scalar x0_ = Scalar(0), x1_ = Scalar(0), c0_ = Scalar(0), c1_ = Scalar(0);
+  Scalar f_ = Scalar(0), inv_f_ = Scalar(0), log_f_ = Scalar(0), k0_ = Scalar(0), k1_ = Scalar(0);
+  detail::CompensatedSum<Scalar> slog_{}, see_{}, seg_{}, sgg_{};
+  Scalar b_log_ = Scalar(0), b_ee_ = Scalar(0), b_eg_ = Scalar(0), b_gg_ = Scalar(0);
+  std::size_t in_block_ = 0;
+  std::size_t n_ = 0;
+  bool latched_ = false;
+  bool bad_sample_ = false;
+};
+
 // Log-likelihood sums of y[0], y[stride], ..., y[(n-1) stride] (stride in elements, so a column
 // of an (n, 3) row-major array is y = data + axis, stride = 3). If std_innov is not null, the
 // standardised innovations e_k / sqrt(F_k) at the given mean are written to
 // std_innov[k * innov_stride]. Returns bad_argument for null y / n == 0 / stride == 0 or bad
 // variances, non_stationary, or non_finite (parameters, data, or an overflowing recursion);
-// `out` is only written on ok.
+// `out` is only written on ok. One DriftLikelihoodStream pass over the whole record.
 template <class Scalar>
 Ar2Status drift_likelihood(const Scalar* y, std::size_t n, std::ptrdiff_t stride,
                            const DriftModelParams<Scalar>& p, DriftLikelihoodSums<Scalar>& out,
@@ -118,93 +264,12 @@ Ar2Status drift_likelihood(const Scalar* y, std::size_t n, std::ptrdiff_t stride
   if (y == nullptr || n == 0 || stride == 0 || (std_innov != nullptr && innov_stride == 0)) {
     return Ar2Status::bad_argument;
   }
-  const Ar2Status ps = drift_params_status(p);
-  if (ps != Ar2Status::ok) return ps;
-  const Scalar a1 = p.a1, a2 = p.a2, q = p.q, r = p.r, mean = p.mean;
-  const Scalar eps4 = Scalar(4) * std::numeric_limits<Scalar>::epsilon();
-
-  Scalar p00, p01;
-  drift_stationary_covariance(a1, a2, q, p00, p01);
-  Scalar p11 = p00;
-  // Predicted states of the data (x0, x1) and of the constant-1 sequence (c0, c1).
-  Scalar x0 = Scalar(0), x1 = Scalar(0), c0 = Scalar(0), c1 = Scalar(0);
-  detail::CompensatedSum<Scalar> slog, see, seg, sgg;
-  Scalar f = Scalar(0), inv_f = Scalar(0), log_f = Scalar(0), k0 = Scalar(0), k1 = Scalar(0);
-  const Scalar* yk = y;
-  std::size_t k = 0;
-  // One filter step with the current gain; plain partial sums (b_*) are folded into the
-  // compensated totals every kBlock samples, so the hot loop has no compensation branches
-  // and the rounding error stays ~ (kBlock eps + n eps^2) relative.
-  constexpr std::size_t kBlock = 64;
-  Scalar b_log = Scalar(0), b_ee = Scalar(0), b_eg = Scalar(0), b_gg = Scalar(0);
-  std::size_t in_block = 0;
-  bool bad_sample = false;
-  auto step = [&](std::size_t idx) noexcept {
-    const Scalar v = *yk;
-    bad_sample = bad_sample || !std::isfinite(v);
-    const Scalar e = (v - mean) - x0;
-    const Scalar g = Scalar(1) - c0;
-    b_log += log_f;
-    b_ee += e * e * inv_f;
-    b_eg += e * g * inv_f;
-    b_gg += g * g * inv_f;
-    if (std_innov != nullptr) std_innov[static_cast<std::ptrdiff_t>(idx) * innov_stride] = e / std::sqrt(f);
-    // Update then predict: X = A (X + K e), the same for the constant sequence.
-    const Scalar u0 = x0 + k0 * e, u1 = x1 + k1 * e;
-    x0 = a1 * u0 + a2 * u1;
-    x1 = u0;
-    const Scalar w0 = c0 + k0 * g, w1 = c1 + k1 * g;
-    c0 = a1 * w0 + a2 * w1;
-    c1 = w0;
-    yk += stride;
-    if (++in_block == kBlock) {
-      slog.add(b_log);
-      see.add(b_ee);
-      seg.add(b_eg);
-      sgg.add(b_gg);
-      b_log = b_ee = b_eg = b_gg = Scalar(0);
-      in_block = 0;
-    }
-  };
-  // Phase 1: covariance recursion until it reaches its fixed point.
-  bool latched = false;
-  for (; k < n && !latched; ++k) {
-    f = p00 + r;
-    if (!(f > Scalar(0)) || !std::isfinite(f)) return Ar2Status::non_finite;
-    inv_f = Scalar(1) / f;
-    log_f = std::log(f);
-    k0 = p00 * inv_f;
-    k1 = p01 * inv_f;
-    // Filtered covariance P - K H P, then predicted A P A^T + Q.
-    const Scalar f00 = p00 - k0 * p00;
-    const Scalar f01 = p01 - k0 * p01;
-    const Scalar f11 = p11 - k1 * p01;
-    const Scalar n00 = a1 * a1 * f00 + Scalar(2) * a1 * a2 * f01 + a2 * a2 * f11 + q;
-    const Scalar n01 = a1 * f00 + a2 * f01;
-    const Scalar n11 = f00;
-    const Scalar change = std::fabs(n00 - p00) + std::fabs(n01 - p01) + std::fabs(n11 - p11);
-    const Scalar scale = std::fabs(n00) + std::fabs(n01) + std::fabs(n11);
-    // Latch once the next F and gain equal these to rounding.
-    latched = change <= eps4 * scale;
-    p00 = n00;
-    p01 = n01;
-    p11 = n11;
-    step(k);
-  }
-  // Phase 2: constant F and gain.
-  for (; k < n; ++k) step(k);
-  if (bad_sample) return Ar2Status::non_finite;
-  slog.add(b_log);
-  see.add(b_ee);
-  seg.add(b_eg);
-  sgg.add(b_gg);
-  if (!std::isfinite(see.value() + slog.value() + x0)) return Ar2Status::non_finite;
-  out.n = n;
-  out.sum_log_f = slog.value();
-  out.sum_ee = see.value();
-  out.sum_eg = seg.value();
-  out.sum_gg = sgg.value();
-  return Ar2Status::ok;
+  DriftLikelihoodStream<Scalar> stream;
+  Ar2Status s = stream.begin(p);
+  if (s != Ar2Status::ok) return s;
+  s = stream.update(y, n, stride, std_innov, innov_stride);
+  if (s != Ar2Status::ok) return s;
+  return stream.finish(out);
 }
 
 }  // namespace gyrodrift

@@ -9,12 +9,15 @@ Ljung-Box p-value of the innovations), the model chosen by the lowest AIC (or BI
 --criterion bic), the filter's steady-state gain, DC gain and -3 dB bandwidth. -o FILE writes
 the filter configuration: a .toml processor configuration (schema "gyrodrift.processor",
 version 1: the fitted ar2_kalman stage, steady_state = true, on the gyro channel of the
-record, in rad/s; pass_through elsewhere), or .json with the fields of --json.
+record, in rad/s; pass_through elsewhere), or .json with the fields of --json; a device, FIFO
+or the standard output without a suffix (-o /dev/stdout) gets the .toml, and the table then
+goes to stderr.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
 import math
 import os
@@ -29,9 +32,10 @@ from gyrodrift.cli.common import (
     add_json_arg,
     check_output,
     emit_json,
+    human_stream,
     record_from_args,
 )
-from gyrodrift.io.atomic import atomic_write_text
+from gyrodrift.io.atomic import atomic_write_text, output_target
 from gyrodrift.io.json_text import json_text
 from gyrodrift.units import DPH
 
@@ -124,6 +128,21 @@ def _decimation(x: np.ndarray, rate_hz: float) -> tuple[int, float]:
     return choose_decimation(a.tau_s, a.adev, rate_hz, int(x.size)), tau_min
 
 
+def _output_format(output: str | None) -> str | None:
+    """The format of -o: its suffix (.toml or .json); a device, FIFO or the standard output
+    without one (``-o /dev/stdout``) gets the processor configuration (.toml)."""
+    if not output:
+        return None
+    suffix = Path(output).suffix.lower()
+    if suffix in (".toml", ".json"):
+        return suffix
+    if not suffix:
+        with contextlib.suppress(OSError):
+            if output_target(output).kind == "stream":
+                return ".toml"
+    raise CliError(f"-o/--output: unknown suffix {suffix!r}; use .toml or .json")
+
+
 def _fmt(v: float, se: float) -> str:
     if not math.isfinite(se):
         return f"{v:.5g}"
@@ -160,12 +179,13 @@ def run(args: argparse.Namespace) -> int:
         drift_params_at_rate,
     )
 
-    if args.output and Path(args.output).suffix.lower() not in (".toml", ".json"):
-        raise CliError(f"-o/--output: unknown suffix {Path(args.output).suffix!r}; use .toml "
-                       "or .json")
+    fmt = _output_format(args.output)
     check_output(args.output, "-o")  # before the work
-    rec = record_from_args(args, mmap=False)
-    x = np.asarray(rec.rate_deg_h, dtype=np.float64)
+    # A memory-mapped .npy record stays on file: the Allan deviation, the block averages and
+    # the drift model's likelihood read it in pieces (bounded memory).
+    rec = record_from_args(args)
+    x = (rec.rate_deg_h if isinstance(rec.rate_deg_h, np.memmap)
+         else np.asarray(rec.rate_deg_h, dtype=np.float64))
     factor, tau_min = _decimation(x, rec.rate_hz)
     fit_rate = rec.rate_hz / factor
     try:
@@ -199,16 +219,26 @@ def run(args: argparse.Namespace) -> int:
                "filter_params": list(best.filter_params), "filter": resp.as_dict()}
     if args.output:
         out = Path(args.output)
-        if out.suffix.lower() == ".toml":
+        if fmt == ".toml":
             text = config_toml(best, rec.rate_hz, _gyro_channel(args.column), rec.source,
                                fit_rate_hz=fit_rate)
         else:
             text = json_text(payload) + "\n"
         atomic_write_text(out, text)
         payload["output"] = str(out)
+    # An output that is stdout itself (-o /dev/stdout) keeps stdout to itself: the table
+    # (or --json) goes to stderr.
+    with contextlib.redirect_stdout(human_stream(args.output)):
+        _report(args, rec, cmp_, best, resp, payload, factor, fit_rate, tau_min, note)
+    return 0
+
+
+def _report(args: argparse.Namespace, rec: Any, cmp_: Any, best: Any, resp: Any,
+            payload: dict[str, Any], factor: int, fit_rate: float, tau_min: float,
+            note: str) -> None:
     if args.json:
         emit_json(payload)
-        return 0
+        return
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, units deg/h "
           "(q, r in (deg/h)^2); ± = standard error (observed information)")
     if factor > 1:
@@ -250,4 +280,3 @@ def run(args: argparse.Namespace) -> int:
           f"DC gain {resp.dc_gain:.4g}, -3 dB bandwidth {bw}")
     if args.output:
         print(f"configuration written to {args.output}")
-    return 0

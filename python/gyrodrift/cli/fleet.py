@@ -107,6 +107,20 @@ def run(args: argparse.Namespace) -> int:
         spec = load_spec(args.spec) if args.spec else None
     except (OSError, ValueError, GyrodriftError) as exc:
         raise CliError(str(exc)) from exc
+    # --time-units, --time-column and --topic where they cannot apply are refused before the
+    # work, as the single-file commands do (a .npy log has no time column; logs and bags
+    # carry their own time base; only bags have topics)
+    from gyrodrift.io.imu_data import check_reader_options, input_kind
+
+    for p in paths:
+        try:
+            input_kind(p)
+        except GyrodriftError:
+            continue  # an unsupported input: the worker reports it
+        try:
+            check_reader_options(p, args.time_units, args.time_column, args.topic)
+        except GyrodriftError as exc:
+            raise CliError(str(exc)) from exc
     # the units of records that do not carry them are never guessed (gyrodrift.units)
     need = [p for p in paths if not _carried(p)]
     if need:

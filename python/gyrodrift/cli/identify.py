@@ -182,9 +182,9 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     check_output(args.png, "--png")  # before the work
-    # The Allan identifiers stream a memory-mapped .npy record from its file (bounded
-    # memory); GMWM's wavelet variance needs the whole record in memory.
-    rec = record_from_args(args, mmap=args.identifier != "gmwm")
+    # A memory-mapped .npy record is streamed from its file (bounded memory): the Allan
+    # deviation, and GMWM's wavelet variance through it.
+    rec = record_from_args(args)
     x = (rec.rate_deg_h if isinstance(rec.rate_deg_h, np.memmap)
          else np.asarray(rec.rate_deg_h, dtype=np.float64))
     head = (f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, rate in deg/h"

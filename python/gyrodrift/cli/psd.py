@@ -68,11 +68,18 @@ def run(args: argparse.Namespace) -> int:
 
     check_output(args.png, "--png")
     check_output(args.csv_out, "--csv", (".csv",))
-    rec = record_from_args(args, mmap=False)
-    x = np.asarray(rec.rate_deg_h)
-    if x.size and np.all(x == x[0]):
-        raise CliError(f"{rec.source}: the record is constant ({x.size} samples of {x[0]:g} "
-                       "deg/h): its PSD is zero at every frequency, nothing to plot")
+    from gyrodrift.io.records import iter_chunks
+
+    # A memory-mapped .npy record stays on file: read in pieces (bounded memory).
+    rec = record_from_args(args)
+    x = (rec.rate_deg_h if isinstance(rec.rate_deg_h, np.memmap)
+         else np.asarray(rec.rate_deg_h))
+    if x.size:
+        first = float(x[0])
+        if all(bool(np.all(p == first)) for p in iter_chunks(x, 1 << 20)):
+            raise CliError(f"{rec.source}: the record is constant ({x.size} samples of "
+                           f"{first:g} deg/h): its PSD is zero at every frequency, nothing "
+                           "to plot")
     try:
         res = _welch_in_range(x, rec.rate_hz, args.nperseg, rec.source)
     except ValueError as exc:
@@ -105,11 +112,15 @@ def _welch_in_range(x: np.ndarray, rate_hz: float, nperseg: int | None, source: 
     1e-200 deg/h underflows it to 0 (N = inf or 0, silently). The record is scaled by a power
     of two for the transform and the PSD scaled back: exact (the same bits) wherever the
     PSD is representable, and the bins that are not show as inf or lost to zero."""
+    from gyrodrift.io.records import iter_chunks
     from gyrodrift.stability.psd import welch_psd
 
-    peak = float(np.max(np.abs(x)))
+    peak = 0.0
+    for p in iter_chunks(x, 1 << 20):  # file reads for a memory map
+        pk = float(np.max(np.abs(p))) if p.size else 0.0
+        peak = pk if not pk <= peak else peak  # NaN wins: welch_psd refuses it
     scale = math.ldexp(1.0, math.frexp(peak)[1]) if peak > 0 and math.isfinite(peak) else 1.0
-    res = welch_psd(x / scale, rate_hz, nperseg=nperseg)
+    res = welch_psd(x, rate_hz, nperseg=nperseg, scale=scale)
     with np.errstate(over="ignore", under="ignore"):
         psd = res.psd * scale * scale
     lost = (res.psd > 0) & (psd < np.finfo(np.float64).tiny)

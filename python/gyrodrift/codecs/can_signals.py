@@ -66,7 +66,6 @@ __all__ = [
     "decode_table_text",
     "encode_sample_frames",
     "load_signal_map",
-    "write_decode_table",
 ]
 
 CHANNEL_ROLES: tuple[str, ...] = ("gx", "gy", "gz", "ax", "ay", "az")
@@ -361,28 +360,6 @@ def decode_table_text(smap: SignalMap) -> str:
                      f"{e['length']} {e['order']} {e['type']} {e['scale']!r} {e['offset']!r} "
                      f"{e['factor']!r} {mux}  # {e['message']}.{e['signal']}")
     return "\n".join(lines) + "\n"
-
-
-def write_decode_table(smap: SignalMap, path: str | Path) -> Path:
-    """Write :func:`decode_table_text` to `path` (for ``gyrodrift-loop --can-signals``);
-    returns the path.
-
-    Examples
-    --------
-    The decode table written for ``gyrodrift-loop --can-signals``:
-
-    >>> import tempfile
-    >>> from gyrodrift.codecs.can_frames import load_dbc
-    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
-    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
-    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
-    >>> with tempfile.TemporaryDirectory() as d:
-    ...     print(write_decode_table(smap, Path(d) / "imu.cansig").read_text().splitlines()[0])
-    gyrodrift-can-signals 1
-    """
-    path = Path(path)
-    path.write_text(decode_table_text(smap))
-    return path
 
 
 # --- encoding (what a vendor IMU would send; the replay harness uses it) ------------------

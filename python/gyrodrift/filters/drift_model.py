@@ -21,6 +21,13 @@ the best optimum finely. On long records the multi-start runs on the first 2^14 
 distinct modes (within 3 log-likelihood units) warm-start quasi-Newton refinements on the full
 record.
 
+A record memory-mapped from a .npy file (1-D float64, as `numpy.load(..., mmap_mode="r")` gives
+it) longer than 2^20 samples is never held in memory: every pass over the whole record (its
+mean and Burg fit, the autocovariances, each likelihood evaluation through the core's
+DriftLoglikeStream, the innovations' Ljung-Box sums, `block_average`) reads it from the file
+in pieces of 2^20 samples, and only its first 2^16 samples (the multi-start prefix and the
+split check) are copied; the fit is that of the record in memory, to rounding.
+
 Standard errors are from the observed information: the Hessian of the log-likelihood at the
 optimum, differenced in (a1, a2, q/(q+r)) and exact in the scale and the mean, carried to
 (a1, a2, q, r, mean) by the chain rule.
@@ -54,9 +61,10 @@ import scipy.stats
 from threadpoolctl import threadpool_limits
 
 from gyrodrift._native import core
-from gyrodrift._scale import normalising_scale
+from gyrodrift._scale import normalising_scale, scale_for_peak
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
-from gyrodrift.filters.ar2 import Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
+from gyrodrift.filters.ar2 import MIN_SAMPLES, Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
+from gyrodrift.io.records import is_file_backed, iter_chunks
 
 __all__ = [
     "DECIMATION_MIN_BLOCKS",
@@ -286,10 +294,162 @@ class DriftModelComparison:
 # --------------------------------------------------------------------------- likelihood
 
 
+#: Samples per piece read from a file-backed record (8 MiB of float64).
+_PIECE = 1 << 20
+
+
+class _Pieces:
+    """A file-backed record (`gyrodrift.io.records.is_file_backed`) divided by `scale`, read
+    from its file in pieces of _PIECE samples for every pass (`pieces`), with the statistics
+    of the whole record the fit needs (`stats`: the mean, Burg's AR(2) and the autocovariances
+    at lags 0-2 around the mean, as `fit_ar2(x, "burg")` and the in-memory code give them)."""
+
+    def __init__(self, mm: np.ndarray, scale: float) -> None:
+        self.mm = mm
+        self.scale = scale
+        self.shape = (int(mm.shape[0]),)
+        self._stats: tuple[Ar2Model, list[float], float] | None = None
+
+    def pieces(self) -> Any:
+        for p in iter_chunks(self.mm, _PIECE):
+            yield p if self.scale == 1.0 else p / self.scale
+
+    def head(self, m: int) -> np.ndarray:
+        """The first m samples, in memory."""
+        p = next(iter_chunks(self.mm, max(1, min(m, self.shape[0]))))
+        return np.array(p if self.scale == 1.0 else p / self.scale, dtype=np.float64)
+
+    def stats(self) -> tuple[Ar2Model, list[float], float]:
+        """(Burg's AR(2) of the record with its mean, [c0, c1, c2] around that mean, sum of
+        squares around it); the checks and formulas of the core's fit_ar2 (ar2_model.hpp), in
+        three passes."""
+        if self._stats is not None:
+            return self._stats
+        n = self.shape[0]
+        if n < MIN_SAMPLES:
+            raise Ar2FitError("too_short", f"{n} samples, at least {MIN_SAMPLES} needed")
+        total, first, equal = 0.0, None, True
+        for p in self.pieces():
+            if not np.all(np.isfinite(p)):
+                raise Ar2FitError("non_finite", "the record contains NaN or Inf (or values "
+                                  "whose sum overflows)")
+            first = float(p[0]) if first is None else first
+            equal = equal and bool(np.all(p == first))
+            total += float(np.sum(p))
+        if equal:
+            raise Ar2FitError("constant", "all samples are equal")
+        mean = total / n
+        if not math.isfinite(mean):
+            raise Ar2FitError("non_finite", "the record contains NaN or Inf (or values whose "
+                              "sum overflows)")
+        e0 = s1 = s2 = 0.0
+        prev = np.empty(0)
+        for p in self.pieces():
+            d = np.concatenate([prev, p - mean])
+            t = prev.size
+            e0 += float(d[t:] @ d[t:])
+            s1 += float(d[max(t, 1) - 1:-1] @ d[max(t, 1):])
+            s2 += float(d[max(t, 2) - 2:-2] @ d[max(t, 2):])
+            prev = d[-2:]
+        head = self.head(2) - mean
+        tail = prev
+        den1 = 2.0 * e0 - head[0] ** 2 - tail[-1] ** 2
+        if not den1 > 0:
+            raise Ar2FitError("constant", "all samples are equal")
+        k1 = -2.0 * s1 / den1
+        num2 = den2 = 0.0
+        prev = np.empty(0)
+        for p in self.pieces():
+            d = np.concatenate([prev, p - mean])
+            t0 = max(prev.size, 2)
+            x0, x1, x2 = d[t0:], d[t0 - 1:-1], d[t0 - 2:-2]
+            f = x0 + k1 * x1
+            b = x2 + k1 * x1
+            num2 += float(f @ b)
+            den2 += float(f @ f + b @ b)
+            prev = d[-2:]
+        if not den2 > 0:
+            raise Ar2FitError("non_stationary", "the fitted model has a root on or outside the "
+                              "unit circle (or its normal equations are singular)")
+        k2 = -2.0 * num2 / den2
+        sigma2 = e0 / n * (1.0 - k1 * k1) * (1.0 - k2 * k2)
+        burg = Ar2Model(a1=-(k1 * (1.0 + k2)), a2=-k2, sigma2=max(sigma2, 0.0), mean=mean,
+                        method="burg", n=n)
+        self._stats = (burg, [e0 / n, s1 / n, s2 / n], e0)
+        return self._stats
+
+    def moments(self, center: float) -> tuple[float, float]:
+        """(mean, sum of squares around it), the mean as center + mean(x - center)."""
+        n = self.shape[0]
+        mean = center + sum(float(np.sum(p - center)) for p in self.pieces()) / n
+        return mean, sum(float((p - mean) @ (p - mean)) for p in self.pieces())
+
+
+def _head(x: np.ndarray | _Pieces, m: int) -> np.ndarray:
+    return x.head(m) if isinstance(x, _Pieces) else x[:m]
+
+
+def _autocov(d: np.ndarray) -> list[float]:
+    """Biased autocovariances [c0, c1, c2] of a centred record."""
+    n = d.size
+    return [float(d[: n - k] @ d[k:]) / n for k in range(3)]
+
+
+def _autocov_around(x: np.ndarray | _Pieces, center: float) -> list[float]:
+    if isinstance(x, _Pieces):
+        burg, c, _ = x.stats()
+        assert burg.mean == center  # the profile's center is the record's mean (_fit_1d)
+        return c
+    return _autocov(x - center)
+
+
+class _LagSums:
+    """The Ljung-Box statistic of a series that arrives in pieces: raw sums of the series, of
+    its squares and of its lag-k products, with the first and last `lags` values, centred
+    exactly at the end (the same rho_k as `ljung_box`, to rounding)."""
+
+    def __init__(self, lags: int) -> None:
+        self.lags = lags
+        self.n = 0
+        self.total = 0.0
+        self.sq = 0.0
+        self.prod = np.zeros(lags)
+        self.first = np.empty(0)
+        self.tail = np.empty(0)
+
+    def add(self, e: np.ndarray) -> None:
+        z = np.concatenate([self.tail, e])
+        t = self.tail.size
+        for k in range(1, self.lags + 1):
+            lo = max(t, k)
+            if lo < z.size:
+                self.prod[k - 1] += float(z[lo - k:z.size - k] @ z[lo:])
+        self.n += e.size
+        self.total += float(np.sum(e))
+        self.sq += float(e @ e)
+        if self.first.size < self.lags:
+            self.first = np.concatenate([self.first, e[: self.lags - self.first.size]])
+        self.tail = z[-self.lags:]
+
+    def result(self, model_df: int) -> LjungBox:
+        n, lags = self.n, self.lags
+        m = self.total / n
+        c0 = self.sq - n * m * m
+        k = np.arange(1, lags + 1)
+        head = np.cumsum(self.first)[:lags]            # sum_{t < k} e_t
+        tail = np.cumsum(self.tail[::-1])[:lags]       # sum_{t >= n - k} e_t
+        cov = self.prod - m * ((self.total - tail) + (self.total - head)) + (n - k) * m * m
+        rho = cov / c0
+        q = float(n * (n + 2) * np.sum(rho**2 / (n - k)))
+        df = max(lags - model_df, 1)
+        return LjungBox(statistic=q, pvalue=float(scipy.stats.chi2.sf(q, df)), lags=lags,
+                        df=df)
+
+
 class _Profile:
     """Profile log-likelihood of the dynamic parameters (mean and scale concentrated out)."""
 
-    def __init__(self, x: np.ndarray, model: str, center: float) -> None:
+    def __init__(self, x: np.ndarray | _Pieces, model: str, center: float) -> None:
         self.x = x
         self.model = model
         self.center = center
@@ -309,7 +469,12 @@ class _Profile:
 
     def sums(self, a1: float, a2: float, q: float, r: float, mean: float) -> tuple[float, ...]:
         self.evaluations += 1
-        return self.core.drift_loglike(self.x, a1, a2, q, r, mean)
+        if isinstance(self.x, _Pieces):
+            stream = self.core.DriftLoglikeStream(a1=a1, a2=a2, q=q, r=r, mean=mean)
+            for piece in self.x.pieces():
+                stream.update(piece)
+            return tuple(stream.result())
+        return tuple(self.core.drift_loglike(self.x, a1, a2, q, r, mean))
 
     def concentrated(self, a1: float, a2: float, w: float) -> tuple[float, float, float]:
         """(profile loglike, scale s, mean) for q = s w, r = s (1 - w)."""
@@ -353,13 +518,11 @@ def _optimise(prof: _Profile, u0: np.ndarray, tight: bool = True) -> np.ndarray:
     return np.asarray(res.x)
 
 
-def _moment_starts(d: np.ndarray, model: str, burg: Ar2Model) -> list[np.ndarray]:
-    """Start points from the sample autocovariances c0, c1, c2 of the demeaned record: a share
-    f of c0 is attributed to the white noise (r = f c0, f = 0, 0.3, 0.6, 0.85) and the AR part
-    solved from the Yule-Walker equations with c0 (1 - f); for f = 0 the papers' Burg fit (all
-    variance to the drift) is used instead."""
-    n = d.size
-    c = [float(d[: n - k] @ d[k:]) / n for k in range(3)]
+def _moment_starts(c: list[float], model: str, burg: Ar2Model) -> list[np.ndarray]:
+    """Start points from the sample autocovariances c = [c0, c1, c2] of the demeaned record: a
+    share f of c0 is attributed to the white noise (r = f c0, f = 0, 0.3, 0.6, 0.85) and the AR
+    part solved from the Yule-Walker equations with c0 (1 - f); for f = 0 the papers' Burg fit
+    (all variance to the drift) is used instead."""
     starts = []
     for f in (0.0, 0.3, 0.6, 0.85, 0.95):
         g0 = c[0] * (1.0 - f)
@@ -665,10 +828,9 @@ def _profile_split(prof: _Profile, model: str, ratio: float,
     return best_f, best_u
 
 
-def _yule_walker_at(d: np.ndarray, model: str, w: float) -> tuple[float, float]:
-    """(a1, a2) from the sample autocovariances when a share 1 - w of the variance is white."""
-    n = d.size
-    c = [float(d[: n - j] @ d[j:]) / n for j in range(3)]
+def _yule_walker_at(c: list[float], model: str, w: float) -> tuple[float, float]:
+    """(a1, a2) from the sample autocovariances c = [c0, c1, c2] when a share 1 - w of the
+    variance is white."""
     g0 = c[0] * w
     if model == "ar1+white":
         return max(min(c[1] / g0, 0.99), -0.99), 0.0
@@ -698,13 +860,15 @@ def _split_check(prof: _Profile, model: str, u_ml: np.ndarray
     if model == "white":
         return (math.inf, math.inf), None
     n = prof.n
-    sub = prof if n <= _PROFILE_N else _Profile(prof.x[:_PROFILE_N], model, prof.center)
+    sub = (prof if n <= _PROFILE_N and not isinstance(prof.x, _Pieces)
+           else _Profile(_head(prof.x, _PROFILE_N), model, prof.center))
     f_ml = sub.negll(u_ml)
     a1, a2, _ = prof.natural(u_ml)
-    d = sub.x - prof.center
+    assert not isinstance(sub.x, _Pieces)
+    c_sub = _autocov(sub.x - prof.center)
     drops = []
     for ratio in _SPLIT_PROBES:
-        f, _ = _profile_split(sub, model, ratio, [(a1, a2), _yule_walker_at(d, model,
+        f, _ = _profile_split(sub, model, ratio, [(a1, a2), _yule_walker_at(c_sub, model,
                                                                              1.0 / (1.0 + ratio))])
         drops.append(max(f - f_ml, 0.0) * n)
     prof.evaluations += sub.evaluations if sub is not prof else 0
@@ -712,8 +876,12 @@ def _split_check(prof: _Profile, model: str, u_ml: np.ndarray
     # If it does not, the drift cannot be told from white noise whatever the probes say (the
     # fit then sits in a spurious mode, e.g. a weak sharp resonance, that can make the probes'
     # drops exceed the threshold: seen on -0.0069/0.0113 at 6e4 samples).
-    dx = prof.x - float(np.mean(prof.x))
-    ll_white = -0.5 * n * (_LOG_2PI + math.log(float(dx @ dx) / n) + 1.0)
+    if isinstance(prof.x, _Pieces):
+        ss = prof.x.moments(prof.center)[1]
+    else:
+        dx = prof.x - float(np.mean(prof.x))
+        ss = float(dx @ dx)
+    ll_white = -0.5 * n * (_LOG_2PI + math.log(ss / n) + 1.0)
     ll_ml = -prof.negll(u_ml) * n
     beats_white = ll_ml - ll_white > 0.5 * (_N_PARAMS[model] - _N_PARAMS["white"]) * math.log(n)
     if beats_white and max(drops) > _SPLIT_DROP_MIN:
@@ -725,8 +893,8 @@ def _minimax_tuning(prof: _Profile, model: str, a1: float, a2: float
                     ) -> tuple[float, float, float, float]:
     """The tuning of a split that is not identified: the profile fit at q = r on the whole
     record, (a1, a2, q, r) (see _split_check)."""
-    _, u = _profile_split(prof, model, 1.0, [(a1, a2), _yule_walker_at(prof.x - prof.center,
-                                                                       model, 0.5)])
+    _, u = _profile_split(prof, model, 1.0, [(a1, a2), _yule_walker_at(
+        _autocov_around(prof.x, prof.center), model, 0.5)])
     b1, b2, w = prof.natural(u)
     _, scale, _ = prof.concentrated(b1, b2, w)
     return (b1, b2, scale * w, scale * (1.0 - w))
@@ -767,11 +935,22 @@ def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float
             ) -> DriftModelFit:
     n = prof.n
     q, r = s * w, s * (1.0 - w)
-    innov = np.empty(n)
-    ll = prof.core.drift_loglike(prof.x, a1, a2, q, r, mean, innov)[0]
+    lags = max(1, min(10, n // 5))
+    if isinstance(prof.x, _Pieces):
+        stream = prof.core.DriftLoglikeStream(a1=a1, a2=a2, q=q, r=r, mean=mean)
+        lag_sums = _LagSums(lags)
+        for piece in prof.x.pieces():
+            innov = np.empty(piece.size)
+            stream.update(piece, innov)
+            lag_sums.add(innov)
+        ll = stream.result()[0]
+        lb = lag_sums.result(_MODEL_DF[model])
+    else:
+        innov = np.empty(n)
+        ll = prof.core.drift_loglike(prof.x, a1, a2, q, r, mean, innov)[0]
+        lb = ljung_box(innov, lags, _MODEL_DF[model])
     stderr = _observed_stderr(prof, model, a1, a2, w, s, mean)
     k = _N_PARAMS[model]
-    lags = max(1, min(10, n // 5))
     split_drop, minimax = split
     # The probes' drops say the split is identified, but a standard error that does not exist
     # (NaN: the likelihood is flat or singular at the estimate) or a zero drop says the
@@ -786,26 +965,31 @@ def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float
     return DriftModelFit(
         model=model, a1=a1, a2=a2, q=q, r=r, mean=mean, loglike=ll,
         aic=2.0 * k - 2.0 * ll, bic=k * math.log(n) - 2.0 * ll, stderr=stderr, n=n,
-        rate_hz=rate_hz, ljung_box=ljung_box(innov, lags, _MODEL_DF[model]),
+        rate_hz=rate_hz, ljung_box=lb,
         start_loglike=start_ll, n_evaluations=prof.evaluations, split_drop=split_drop,
         identified=identified, tuning="ml" if identified else "minimax-split",
         filter_params=tuple(float(v) for v in filter_params))  # type: ignore[arg-type]
 
 
-def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
-    burg = fit_ar2(a, "burg")  # rejects too short / constant / non-finite (Ar2FitError)
+def _fit_1d(a: np.ndarray | _Pieces, rate_hz: float, model: str) -> DriftModelFit:
+    # Both reject too short / constant / non-finite records (Ar2FitError).
+    burg = a.stats()[0] if isinstance(a, _Pieces) else fit_ar2(a, "burg")
     assert isinstance(burg, Ar2Model)
     center = burg.mean
     if model == "white":
         prof = _Profile(a, model, center)
-        d = a - center
-        mean = center + float(d.mean())
-        r = float(np.mean((a - mean) ** 2))
+        if isinstance(a, _Pieces):
+            mean, ss = a.moments(center)
+            r = ss / a.shape[0]
+        else:
+            d = a - center
+            mean = center + float(d.mean())
+            r = float(np.mean((a - mean) ** 2))
         if not r > 0:
             raise Ar2FitError("constant", "all samples are equal")
         return _finish(prof, model, 0.0, 0.0, 0.0, r, mean, rate_hz, math.nan,
                        ((math.inf, math.inf), None))
-    starts = _moment_starts(a - center, model, burg)
+    starts = _moment_starts(_autocov_around(a, center), model, burg)
     prof = _Profile(a, model, center)
     if a.shape[0] > 2 * _WARM_START_N:
         # Multi-start on a prefix of the long record, then Newton steps on the whole record
@@ -814,7 +998,7 @@ def _fit_1d(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
         # Every distinct prefix mode within _MODE_KEEP_LL of the best is refined: on a prefix
         # of 2^14 samples two modes (e.g. r -> 0 and an interior split) can be tied within
         # 0.1, and the full record then prefers the other one by over 1 log-likelihood unit.
-        pre = _Profile(a[:_WARM_START_N], model, center)
+        pre = _Profile(_head(a, _WARM_START_N), model, center)
         modes = sorted(_prefix_modes(pre, starts), key=prof.negll)
         start_ll = -prof.negll(modes[0]) * prof.n
         u, f_u, status = modes[0], math.inf, "failed"
@@ -886,10 +1070,14 @@ def fit_drift_model(
     rate = float(rate_hz)
     if not (math.isfinite(rate) and rate > 0):
         raise GyrodriftValueError(f"rate_hz must be finite and > 0, got {rate_hz!r}")
-    a = np.asarray(x)
     # One BLAS thread: scipy's L-BFGS-B calls BLAS on 3-vectors, and OpenBLAS's thread
     # hand-off then costs more than the whole likelihood (measured 1.3 -> 0.5 s CPU on a 1e6
     # fit on 2 cores; on a loaded machine a trivial 3-parameter minimize took 45 ms instead of 2).
+    if is_file_backed(x) and np.asarray(x).dtype == np.float64 and len(x) > _PIECE:  # type: ignore[arg-type]
+        # read from its file in pieces (module docstring): memory independent of its length
+        with threadpool_limits(limits=1, user_api="blas"):
+            return _fit_normalised(x, rate, model)  # type: ignore[arg-type]
+    a = np.asarray(x)
     with threadpool_limits(limits=1, user_api="blas"):
         if a.ndim == 2 and a.shape[1] == 3:
             return tuple(_fit_normalised(_prepare(a[:, i]), rate, model) for i in range(3))
@@ -901,11 +1089,21 @@ def _fit_normalised(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
     back: q, r, their standard errors and the filter's q, r by c^2; mean by c;
     log-likelihoods by -n ln c (the density of c x); AIC and BIC accordingly. a1, a2, the
     Ljung-Box test and the split drops do not depend on the scale. A record of extreme
-    magnitude (1e150, 1e-150) failed with OverflowError/ZeroDivisionError before."""
-    c = normalising_scale(a)
-    if c == 1.0:
-        return _fit_1d(a, rate_hz, model)
-    fit = _fit_1d(a / c, rate_hz, model)
+    magnitude (1e150, 1e-150) failed with OverflowError/ZeroDivisionError before. A file-backed
+    record is scaled piece by piece as it is read (_Pieces)."""
+    if is_file_backed(a):
+        peak = 0.0
+        for p in iter_chunks(a, _PIECE):
+            peak = max(peak, float(np.max(p)), -float(np.min(p)))
+        c = scale_for_peak(peak)
+        fit = _fit_1d(_Pieces(a, c), rate_hz, model)
+        if c == 1.0:
+            return fit
+    else:
+        c = normalising_scale(a)
+        if c == 1.0:
+            return _fit_1d(a, rate_hz, model)
+        fit = _fit_1d(a / c, rate_hz, model)
     c2 = c * c
     dll = fit.n * math.log(c)
     scale = {"a1": 1.0, "a2": 1.0, "q": c2, "r": c2, "mean": c}
@@ -1025,9 +1223,15 @@ def block_average(x: np.ndarray, factor: int) -> np.ndarray:
     >>> block_average(np.arange(7.0), 3).tolist()
     [1.0, 4.0]
     """
-    a = np.asarray(x, dtype=np.float64)
     if factor < 1:
         raise GyrodriftValueError(f"factor must be >= 1, got {factor!r}")
+    if is_file_backed(x):  # read from its file, whole blocks at a time (module docstring)
+        m = x.shape[0] // factor
+        step = factor * max(1, _PIECE // factor)
+        out = [p[: p.size // factor * factor].reshape(-1, factor).astype(np.float64).mean(axis=1)
+               for p in iter_chunks(x, step)]
+        return np.concatenate(out)[:m] if out else np.empty(0)
+    a = np.asarray(x, dtype=np.float64)
     m = a.size // factor
     return a[:m * factor].reshape(m, factor).mean(axis=1)
 

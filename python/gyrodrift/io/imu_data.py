@@ -74,6 +74,7 @@ __all__ = [
     "ImuData",
     "NpyChannels",
     "bag_imu_topics",
+    "check_reader_options",
     "check_units_plausible",
     "input_kind",
     "load_imu",
@@ -202,6 +203,40 @@ def input_kind(path: str | Path) -> str:
         "(.bag, a rosbag2 directory, .db3, .mcap)")
 
 
+def check_reader_options(path: str | Path, time_units: str = DEFAULT_TIME_UNITS,
+                         time_column: str | int | None = None, topic: str | None = None) -> str:
+    """Refuse reading options the record cannot use, instead of ignoring them: time units
+    other than the default or a time column for anything but a text record (a .npy record
+    has no time column, logs and bags carry their own time base), a topic for anything but a
+    ROS bag; returns the record's kind (`input_kind`).
+
+    Examples
+    --------
+    >>> check_reader_options("imu.csv", "ns")
+    'text'
+    >>> check_reader_options("imu.npy", "ns")
+    Traceback (most recent call last):
+    ...
+    gyrodrift.errors.GyrodriftValueError: imu.npy: --time-units (time_units=) applies to the \
+time column of a text record; a npy record carries its own time base
+    """
+    p = Path(path)
+    if time_units not in TIME_UNITS:
+        raise GyrodriftValueError(f"unknown time units {time_units!r}; choose one of "
+                                  f"{', '.join(TIME_UNITS)}")
+    kind = input_kind(p)
+    if time_units != DEFAULT_TIME_UNITS and kind != "text":
+        raise GyrodriftValueError(f"{p}: --time-units (time_units=) applies to the time column "
+                                  f"of a text record; a {kind} record carries its own time base")
+    if time_column is not None and kind != "text":
+        raise GyrodriftValueError(f"{p}: --time-column (time_column=) applies to a text record; "
+                                  f"a {kind} record has no time column to choose")
+    if topic is not None and kind not in ("rosbag1", "rosbag2"):
+        raise GyrodriftValueError(f"{p}: --topic (topic=) applies to a ROS bag, not to a {kind} "
+                                  "record")
+    return kind
+
+
 def load_imu(
     path: str | Path,
     *,
@@ -250,13 +285,7 @@ def load_imu(
     """
     p = Path(path)
     _check_args(p, nan_policy, gyro_units, accel_units, rate_hz)
-    if time_units not in TIME_UNITS:
-        raise GyrodriftValueError(f"unknown time units {time_units!r}; choose one of "
-                                  f"{', '.join(TIME_UNITS)}")
-    kind = input_kind(p)
-    if time_units != DEFAULT_TIME_UNITS and kind != "text":
-        raise GyrodriftValueError(f"{p}: --time-units (time_units=) applies to the time column "
-                                  f"of a text record; a {kind} record carries its own time base")
+    kind = check_reader_options(p, time_units, time_column, topic)
     if kind == "npy":
         if spool_dir is not None:
             return _spool_npy(p, rate_hz, columns, gyro_units, accel_units, Path(spool_dir),

@@ -17,7 +17,12 @@ import can
 import numpy as np
 
 from gyrodrift.codecs import FRAME_SIZE, INPUT_BASE_ID, TYPE_INPUT, SampleAssembler, encode_sample
-from gyrodrift.codecs.can_signals import SignalMap, SignalSampleAssembler, load_signal_map
+from gyrodrift.codecs.can_signals import (
+    SignalMap,
+    SignalSampleAssembler,
+    decode_table_text,
+    load_signal_map,
+)
 from gyrodrift.codecs.wire import (
     Samples,
     decode_stream,
@@ -25,7 +30,7 @@ from gyrodrift.codecs.wire import (
     make_samples,
 )
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.io.atomic import atomic_output
+from gyrodrift.io.atomic import atomic_output, atomic_write_text
 
 __all__ = [
     "CAN_FORMATS",
@@ -34,6 +39,7 @@ __all__ = [
     "SUFFIX_FORMATS",
     "log_format",
     "read_imu_log",
+    "write_decode_table",
     "write_imu_log",
     "write_samples",
 ]
@@ -156,6 +162,28 @@ def write_imu_log(path: str | Path, t_s: np.ndarray, gyro_rad_s: np.ndarray,
     samples = make_samples(t_s, gyro_rad_s, accel_m_s2)
     write_samples(path, samples, kind)
     return path
+
+
+def write_decode_table(smap: SignalMap, path: str | Path) -> Path:
+    """Write the decode table of a user's DBC
+    (:func:`gyrodrift.codecs.can_signals.decode_table_text`) to `path` for
+    ``gyrodrift-loop --can-signals``, by the one output rule
+    (:mod:`gyrodrift.io.atomic`: a file replaced whole or not at all, a link followed, a
+    device or FIFO written through); returns the path.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> from gyrodrift.codecs.can_frames import load_dbc
+    >>> from gyrodrift.codecs.can_signals import SignalRef
+    >>> names = dict(gx="IMU_GyroXY.GyroX", gy="IMU_GyroXY.GyroY", gz="IMU_GyroZ.GyroZ",
+    ...              ax="IMU_AccelXY.AccelX", ay="IMU_AccelXY.AccelY", az="IMU_AccelZ.AccelZ")
+    >>> smap = SignalMap(load_dbc(), {r: SignalRef(*s.split(".")) for r, s in names.items()})
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     print(write_decode_table(smap, Path(d) / "imu.cansig").read_text().splitlines()[0])
+    gyrodrift-can-signals 1
+    """
+    return atomic_write_text(path, decode_table_text(smap))
 
 
 def write_samples(path: str | Path, samples: Samples, fmt: str | None = None) -> Path:

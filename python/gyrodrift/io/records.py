@@ -33,8 +33,8 @@ from gyrodrift.units import (
     TIME_UNITS,
 )
 
-__all__ = ["UNITS", "Record", "is_number", "load_npy", "load_record", "rate_from_time",
-           "to_deg_h"]
+__all__ = ["UNITS", "Record", "is_file_backed", "is_number", "iter_chunks", "load_npy",
+           "load_record", "rate_from_time", "to_deg_h"]
 
 #: The input units a gyro record may be in (gyrodrift.units: rates, then angle increments).
 UNITS: tuple[str, ...] = GYRO_INPUT_UNITS
@@ -499,14 +499,36 @@ def _count_nonfinite_chunked(values: np.ndarray, chunk: int = 1 << 22) -> int:
     file reads, not through the mapping: pages touched through a mapping stay resident in the
     process (its peak memory would grow with the record, 800 MB at 1e8 samples)."""
     n_bad = 0
-    for piece in _chunks(values, chunk):
+    for piece in iter_chunks(values, chunk):
         n_bad += int(np.count_nonzero(~np.isfinite(piece)))
     return n_bad
 
 
-def _chunks(values: np.ndarray, chunk: int) -> Iterator[np.ndarray]:
-    if (isinstance(values, np.memmap) and values.filename is not None and values.ndim == 1
-            and values.flags.c_contiguous):
+def is_file_backed(values: object) -> bool:
+    """Whether `values` is a 1-D contiguous memory map of a file, which :func:`iter_chunks`
+    reads with file reads (pages touched through a mapping stay resident in the process).
+
+    Examples
+    --------
+    >>> is_file_backed(np.zeros(3))
+    False
+    """
+    return (isinstance(values, np.memmap) and values.filename is not None
+            and values.ndim == 1 and values.flags.c_contiguous)
+
+
+def iter_chunks(values: np.ndarray, chunk: int) -> Iterator[np.ndarray]:
+    """Consecutive pieces of at most `chunk` samples of a 1-D record: read from the file for
+    a file-backed memory map (:func:`is_file_backed`; the process's memory then does not grow
+    with the record), views otherwise.
+
+    Examples
+    --------
+    >>> [p.tolist() for p in iter_chunks(np.arange(5.0), 2)]
+    [[0.0, 1.0], [2.0, 3.0], [4.0]]
+    """
+    if is_file_backed(values):
+        assert isinstance(values, np.memmap) and values.filename is not None  # is_file_backed
         with open(values.filename, "rb") as fh:
             for lo in range(0, values.shape[0], chunk):
                 count = min(chunk, values.shape[0] - lo)

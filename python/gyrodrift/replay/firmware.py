@@ -43,6 +43,7 @@ from gyrodrift.codecs.serial_frame import (
 from gyrodrift.errors import GyrodriftError
 from gyrodrift.imu.config import ProcessorConfig, dumps_config
 from gyrodrift.imu.firmware_header import emit_cpp
+from gyrodrift.io.atomic import atomic_write_text
 
 __all__ = [
     "ASSUMED_CPI",
@@ -259,7 +260,7 @@ def build_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
         raise FirmwareError(f"configuration refused for the firmware: {exc}") from None
     text = dumps_config(config)
     cfg_path = out / "config.toml"
-    cfg_path.write_text(text)
+    atomic_write_text(cfg_path, text)
     pkg_parent = str(Path(__file__).resolve().parents[2])
     pythonpath = os.pathsep.join([pkg_parent, *[p for p in sys.path if p and p != pkg_parent]])
     build = out / "build"

@@ -13,6 +13,7 @@ import numpy as np
 
 from gyrodrift.codecs.wire import make_samples
 from gyrodrift.imu.config import ProcessorConfig
+from gyrodrift.io.atomic import atomic_write_text
 from gyrodrift.replay.firmware import (
     ASSUMED_CPI,
     CORE_CLOCK_HZ,
@@ -105,7 +106,7 @@ def check_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
     summary: dict[str, Any] = {"image": image.as_dict(), "step_cost": cost}
     if monitor is not None:
         summary["monitor"] = monitor
-    (Path(out_dir) / "budget.json").write_text(json.dumps(summary, indent=1) + "\n")
+    atomic_write_text(Path(out_dir) / "budget.json", json.dumps(summary, indent=1) + "\n")
     if monitor is not None and monitor["ram_delta_bytes"] > MONITOR_RAM_BUDGET_BYTES:
         raise FirmwareError(
             f"the gyro monitor does not fit its RAM budget: {monitor['ram_delta_bytes']} B more "

@@ -35,7 +35,9 @@ import scipy.special
 from tqdm import tqdm
 
 from gyrodrift._native import core
+from gyrodrift._scale import normalising_scale, scale_for_peak
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
+from gyrodrift.io.records import is_file_backed, iter_chunks
 from gyrodrift.stability import noise_type
 from gyrodrift.stability.edf import edf_simple
 from gyrodrift.stability.record_source import RecordSource
@@ -49,6 +51,8 @@ __all__ = [
     "factors_for_taus",
     "lag1_noise_id",
     "oadev",
+    "record_scale",
+    "scaled_back",
 ]
 
 
@@ -188,6 +192,44 @@ def averaging_factors(
                             f"record too short for tau = {{tau:g}} s: {n_data} samples at "
                             f"{rate_hz:g} Hz support tau <= {max_m / rate_hz:g} s (two "
                             "non-overlapping clusters of 2 tau)")
+
+
+def record_scale(arr: np.ndarray, chunk: int = DEFAULT_CHUNK_SAMPLES) -> float:
+    """`gyrodrift._scale.normalising_scale` of a record (1.0 inside the safe range), a
+    file-backed memory map read in chunks from its file (no page of the mapping resident).
+
+    Examples
+    --------
+    >>> record_scale(np.array([1.0, -3.0])), record_scale(np.array([1e150])) > 1e149
+    (1.0, True)
+    """
+    if not is_file_backed(arr):
+        return normalising_scale(arr)
+    peak = 0.0
+    for p in iter_chunks(arr, max(int(chunk), 1)):
+        pk = max(float(np.max(p)), -float(np.min(p))) if p.size else 0.0
+        if pk > peak:  # NaN is left to the kernels' own check
+            peak = pk
+    return scale_for_peak(peak)
+
+
+def scaled_back(res: AllanResult, c: float) -> AllanResult:
+    """The deviation of the record c times the one analysed (`AllanResult.scaled`); a
+    deviation beyond the floating-point range at that scale is refused with one line.
+
+    Examples
+    --------
+    >>> r = oadev(np.random.default_rng(0).normal(size=256), 1.0, progress=False)
+    >>> bool(np.allclose(scaled_back(r, 2.0**200).adev, r.adev * 2.0**200))
+    True
+    """
+    with np.errstate(over="ignore"):
+        out = res.scaled(c)
+    if not (np.all(np.isfinite(out.adev)) and np.all(np.isfinite(out.ci_high))):
+        raise GyrodriftValueError(
+            f"x: the {res.deviation} of this record (or its interval) is beyond the "
+            f"floating-point range (up to {float(np.max(res.adev)):.3g} x {c:.3g})")
+    return out
 
 
 def checked_record(x: object, rate_hz: object, kind: str, arg: str) -> np.ndarray:
@@ -451,6 +493,15 @@ def oadev(
     """
     is_memmap = isinstance(x, np.memmap)
     arr = checked_record(x, rate_hz, kind, "x")
+    c = record_scale(arr, int(chunk_samples or DEFAULT_CHUNK_SAMPLES))
+    if c != 1.0:
+        # A record of extreme magnitude (its Allan sums overflow or underflow): analysed
+        # divided by a power of two (exact), the deviation scaled back. Such a record is
+        # read into memory (a memmap too).
+        return scaled_back(oadev(np.asarray(arr, dtype=np.float64) / c, rate_hz, kind=kind,
+                                 taus=taus, per_decade=per_decade, ci=ci, alpha=alpha,
+                                 chunk_samples=chunk_samples, progress=progress,
+                                 threads=threads), c)
     n_data = int(arr.shape[0])
     m = averaging_factors(n_data, taus, rate_hz=rate_hz, kind=kind, per_decade=per_decade)
     n_terms = n_data - 2 * m + (1 if kind == "rate" else 0)

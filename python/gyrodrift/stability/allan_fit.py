@@ -121,6 +121,7 @@ from typing import Any
 import numpy as np
 import scipy.stats
 
+from gyrodrift._scale import scale_for_peak
 from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.stability import IEEE952_TERMS, gmwm, ieee952
 from gyrodrift.stability.fit_check import FitCheck, check_fit
@@ -238,6 +239,24 @@ class AllanTerm:
     def as_dict(self) -> dict[str, object]:
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
+    def scaled(self, c: float) -> AllanTerm:
+        """The term of the curve c times this one (values, intervals and densities x c, the
+        coefficient x c^2).
+
+        Examples
+        --------
+        >>> t = AllanTerm("N", 0.5, "deg/sqrt(h)", 0.4, 0.6, 900.0)
+        >>> t.scaled(2.0).value, t.scaled(2.0).coeff
+        (1.0, 3600.0)
+        """
+        def opt(v: float | None) -> float | None:
+            return None if v is None else v * c
+
+        return dataclasses.replace(
+            self, value=self.value * c, ci_low=self.ci_low * c, ci_high=self.ci_high * c,
+            coeff=self.coeff * c * c, density=opt(self.density),
+            density_ci_low=opt(self.density_ci_low), density_ci_high=opt(self.density_ci_high))
+
 
 @dataclass(frozen=True, eq=False)
 class AllanFit:
@@ -329,6 +348,17 @@ class AllanFit:
     discrepancy: float = 0.0
     covariance_source: str = "edf"
     model_set: tuple[tuple[str, ...], ...] = ()
+
+    def scaled(self, c: float) -> AllanFit:
+        """The fit of the curve c times this one's: every term, fitted and component
+        deviation, read-off and upper limit x c (coefficients x c^2); the check, the
+        statistic and the range do not depend on the scale."""
+        return dataclasses.replace(
+            self, terms=tuple(t.scaled(c) for t in self.terms), fit_adev=self.fit_adev * c,
+            components={k: v * c for k, v in self.components.items()},
+            b_readoff=self.b_readoff * c, b_readoff_ci_low=self.b_readoff_ci_low * c,
+            b_readoff_ci_high=self.b_readoff_ci_high * c,
+            upper_limits={k: v * c for k, v in self.upper_limits.items()})
 
     def term(self, name: str) -> AllanTerm:
         for t in self.terms:
@@ -565,6 +595,13 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
         raise GyrodriftValueError("tau_s, adev and edf must be 1-D of equal length")
     if not 0.0 < ci < 1.0:
         raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
+    ok = np.isfinite(dev)
+    c_dev = scale_for_peak(float(np.max(np.abs(dev[ok]))) if np.any(ok) else 0.0)
+    if c_dev != 1.0:
+        # A curve of extreme magnitude (its variances or weights overflow or underflow):
+        # fitted scaled by a power of two (exact), the fit scaled back.
+        return fit_allan(tau, dev / c_dev, e, terms=terms, fit_range=fit_range, select=select,
+                         ci=ci).scaled(c_dev)
     names = parse_terms(terms) if not isinstance(terms, tuple) else parse_terms(list(terms))
     user_range = fit_range is not None
     lo, hi = (parse_fit_range(fit_range) if isinstance(fit_range, str)

@@ -51,6 +51,8 @@ from gyrodrift.stability.allan import (
     chi2_interval,
     factors_for_taus,
     oadev,
+    record_scale,
+    scaled_back,
 )
 from gyrodrift.stability.edf import edf_for
 from gyrodrift.stability.record_source import RecordSource
@@ -195,6 +197,12 @@ def deviation(
                      threads=threads)
     is_memmap = isinstance(data, np.memmap)
     arr = checked_record(data, rate_hz, kind, "data")
+    c = record_scale(arr, int(chunk_samples or DEFAULT_CHUNK_SAMPLES))
+    if c != 1.0:  # extreme magnitude: as oadev, analysed scaled by a power of two
+        return scaled_back(deviation(np.asarray(arr, dtype=np.float64) / c, rate_hz, name,
+                                     kind=kind, taus=taus, per_decade=per_decade, ci=ci,
+                                     alpha=alpha, chunk_samples=chunk_samples,
+                                     progress=progress, threads=threads), c)
     n_rate = int(arr.shape[0]) - (1 if kind == "phase" else 0)
     m = _factors(name, n_rate, taus, float(rate_hz), per_decade)
     n_threads = (os.cpu_count() or 1) if threads is None else int(threads)

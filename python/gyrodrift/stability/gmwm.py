@@ -143,12 +143,14 @@ import scipy.linalg
 import scipy.optimize
 import scipy.stats
 
-from gyrodrift._scale import normalising_scale
+from gyrodrift._scale import normalising_scale, scale_for_peak
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
+from gyrodrift.io.records import is_file_backed, iter_chunks
 from gyrodrift.stability.fit_check import DEFAULT_TOLERANCE, FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
 
 __all__ = [
+    "FILE_BACKED_MIN",
     "TERMS",
     "GmwmParam",
     "GmwmResult",
@@ -348,6 +350,50 @@ def haar_wv(x: np.ndarray, rate_hz: float, *, max_level: int | None = None
         # einsum, not np.dot: BLAS dot spawns threads and is 50x slower on a loaded machine
         nu2[idx] = float(np.einsum("i,i->", w, w)) / (w.size * 4.0 * m * m)
         m_coef[idx] = w.size
+    tau_s = (2.0 ** levels) / float(rate_hz)
+    eta = np.maximum(m_coef / 2.0 ** levels, 1.0)
+    return WaveletVariance(tau_s, levels, nu2, m_coef, eta, float(rate_hz), n)
+
+
+#: A file-backed record longer than this (samples) is never held in memory (_haar_wv_file).
+FILE_BACKED_MIN = 1 << 20
+#: Samples per chunk read from a file-backed record (the streamed Allan variance holds about
+#: three chunks).
+_WV_PIECE = 1 << 20
+
+
+def _haar_wv_file(mm: np.ndarray, rate_hz: float, max_level: int | None
+                  ) -> WaveletVariance | None:
+    """`haar_wv` of a file-backed record without holding it: the Haar MODWT wavelet variance
+    at level j is half the overlapping Allan variance at m = 2^(j-1) (w_i is half the
+    difference of two adjacent means of m samples, over the same n - 2m + 1 positions), which
+    `gyrodrift.stability.allan.oadev` streams from the file in chunks. None when the record is
+    of extreme magnitude (`normalising_scale` is not 1; the caller scales it in memory) or a
+    level does not fit the Allan variance's range."""
+    from gyrodrift.stability.allan import oadev
+
+    n = int(mm.shape[0])
+    peak, bad = 0.0, 0
+    for p in iter_chunks(mm, _WV_PIECE):
+        bad += int(np.count_nonzero(~np.isfinite(p)))
+        peak = max(peak, float(np.nanmax(np.abs(p), initial=0.0)))
+    if bad:
+        raise GyrodriftValueError(f"x: {bad} NaN/Inf samples; drop or repair them first")
+    if scale_for_peak(peak) != 1.0:
+        return None
+    j_max = _default_levels(n) if max_level is None else int(max_level)
+    if j_max < 1 or 2 ** j_max > n:
+        raise GyrodriftValueError(f"max_level={max_level} does not fit {n} samples (2^J <= N)")
+    levels = np.arange(1, j_max + 1)
+    m = 2 ** (levels - 1)
+    if int(m[-1]) > (n - 1) // 2:
+        return None
+    res = oadev(mm, float(rate_hz), taus=m / float(rate_hz), alpha=0, progress=False,
+                chunk_samples=_WV_PIECE)
+    if not np.array_equal(res.m, m):
+        return None
+    nu2 = res.adev ** 2 / 2.0
+    m_coef = np.asarray(res.terms, dtype=np.int64)
     tau_s = (2.0 ** levels) / float(rate_hz)
     eta = np.maximum(m_coef / 2.0 ** levels, 1.0)
     return WaveletVariance(tau_s, levels, nu2, m_coef, eta, float(rate_hz), n)
@@ -1601,7 +1647,10 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
     Parameters
     ----------
     x
-        1-D rate record, deg/h (the units of every printed value follow from this).
+        1-D rate record, deg/h (the units of every printed value follow from this). A
+        float64 numpy.memmap longer than FILE_BACKED_MIN samples is read from its file in
+        chunks (its wavelet variance from the streamed Allan variance): the memory does not
+        grow with the record.
     rate_hz
         sample rate, Hz.
     model
@@ -1642,18 +1691,28 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
     >>> p.unit, p.ci_low < 30.0 * 0.1 / 60.0 < p.ci_high   # N = sigma sqrt(dt) / 60
     ('deg/sqrt(h)', True)
     """
-    arr = _check_record(x, rate_hz)
+    wv_file = None
+    if (is_file_backed(x) and np.asarray(x).dtype == np.float64
+            and len(x) > FILE_BACKED_MIN):
+        # A long memory-mapped record is read from its file in chunks (bounded memory).
+        _check_record(np.nan_to_num(x[:16]), rate_hz)  # rate, shape, dtype; NaN below
+        wv_file = _haar_wv_file(x, rate_hz, max_level)
+    if wv_file is not None:
+        n_samples = len(x)
+    else:
+        arr = _check_record(x, rate_hz)
+        n_samples = int(arr.size)
     if not 0.0 < ci < 1.0:
         raise GyrodriftValueError(f"ci must be in (0, 1), got {ci!r}")
     if not isinstance(bootstrap, (int, np.integer)) or bootstrap < 0:
         raise GyrodriftValueError(f"bootstrap must be an integer >= 0, got {bootstrap!r}")
-    scale = normalising_scale(arr)
+    scale = 1.0 if wv_file is not None else normalising_scale(arr)
     if scale != 1.0:  # an extreme-magnitude record: fitted scaled, results scaled back
         return _scaled_back(identify_gmwm(arr / scale, rate_hz, model, max_model=max_model,
                                           ci=ci, bootstrap=bootstrap, seed=seed,
                                           max_level=max_level, tau_range=tau_range), scale)
     dt = 1.0 / float(rate_hz)
-    wv = haar_wv(arr, rate_hz, max_level=max_level)
+    wv = wv_file if wv_file is not None else haar_wv(arr, rate_hz, max_level=max_level)
     if tau_range is not None:
         wv = _subset(wv, tau_range)
     if np.any(wv.nu2 <= 0):
@@ -1745,7 +1804,7 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         chol = _chol(omega)
         boots = []
         for _ in range(int(bootstrap)):
-            xb = _simulate_model(terms, p_hat, arr.size, rng)
+            xb = _simulate_model(terms, p_hat, n_samples, rng)
             wb = haar_wv(xb, rate_hz, max_level=int(wv.level[-1]))
             if tau_range is not None:
                 wb = _subset(wb, tau_range)
@@ -1785,7 +1844,7 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         comps[name] = _component_wv(t, p_nat[k:k + width], tau)
         k += width
     return GmwmResult(
-        model=_model_str(terms), params=params, rate_hz=float(rate_hz), n_samples=arr.size,
+        model=_model_str(terms), params=params, rate_hz=float(rate_hz), n_samples=n_samples,
         tau_s=wv.tau_s, wv=wv.nu2, wv_ci_low=lo, wv_ci_high=hi,
         wv_fit=theoretical_wv(terms, p_nat, tau), wv_components=comps,
         objective=fit.objective, wic=wic, candidates=candidates, ci=float(ci),

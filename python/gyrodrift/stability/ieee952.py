@@ -27,11 +27,12 @@ Three methods:
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import scipy.optimize
 
+from gyrodrift._scale import scale_for_peak
 from gyrodrift.errors import GyrodriftValueError
 
 __all__ = [
@@ -180,6 +181,15 @@ def identify(tau_s: np.ndarray, adev_deg_h: np.ndarray, edf: np.ndarray | None =
     True
     """
     tau, sig = _check_curve(tau_s, adev_deg_h)
+    c_dev = scale_for_peak(float(np.max(np.abs(sig))))
+    if c_dev != 1.0:
+        # A curve of extreme magnitude (sig^2 or its weights overflow or underflow): fitted
+        # scaled by a power of two (exact), every term scaled back (coefficients by c^2).
+        f = identify(tau, sig / c_dev, edf, powers)
+        return replace(f, q_arcsec=f.q_arcsec * c_dev, n_deg_rt_h=f.n_deg_rt_h * c_dev,
+                       b_deg_h=f.b_deg_h * c_dev, k_deg_h_rt_h=f.k_deg_h_rt_h * c_dev,
+                       r_deg_h2=f.r_deg_h2 * c_dev,
+                       coeffs=tuple(v * c_dev * c_dev for v in f.coeffs))  # type: ignore[arg-type]
     use = np.isin(POWERS, np.asarray(powers))
     if tau.size < int(use.sum()):
         raise GyrodriftValueError(f"{tau.size} taus cannot identify {int(use.sum())} terms")

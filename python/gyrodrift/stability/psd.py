@@ -10,12 +10,14 @@ logarithmically spaced frequency bins for a readable log-log display.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.io.records import is_file_backed, iter_chunks
 
-__all__ = ["Psd", "arw_from_white_level", "log_binned", "welch_psd"]
+__all__ = ["PSD_PIECE", "Psd", "arw_from_white_level", "log_binned", "welch_psd"]
 
 
 @dataclass(frozen=True)
@@ -34,12 +36,20 @@ class Psd:
     rate_hz: float
 
 
+#: A file-backed record is read in pieces of about this many samples (whole segments).
+PSD_PIECE = 1 << 20
+
+
 def welch_psd(x: np.ndarray, rate_hz: float, nperseg: int | None = None,
-              window: str = "hann") -> Psd:
+              window: str = "hann", *, scale: float = 1.0) -> Psd:
     """One-sided Welch PSD (50 % overlap, mean removed per segment) of a 1-D rate record.
 
     nperseg defaults to the largest power of two <= n/8 (at least 8 averaged half-overlapping
-    segments, so each bin has about 16 degrees of freedom), capped at 2**16.
+    segments, so each bin has about 16 degrees of freedom), capped at 2**16. scale: the PSD
+    is that of x / scale (a power of two keeps a record of extreme magnitude exact). A
+    memory-mapped record (`gyrodrift.io.records.is_file_backed`) is read from its file in
+    pieces of whole segments, each piece's mean periodogram weighted by its segments: the
+    memory does not grow with the record.
 
     Examples
     --------
@@ -47,25 +57,48 @@ def welch_psd(x: np.ndarray, rate_hz: float, nperseg: int | None = None,
     >>> float(r.f_hz[-1])
     50.0
     """
-    x = np.asarray(x, dtype=np.float64)
+    backed = is_file_backed(x)
+    if not backed:
+        x = np.asarray(x, dtype=np.float64)
     if x.ndim != 1:
         raise GyrodriftValueError(f"x: expected a 1-D record, got shape {x.shape}")
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise GyrodriftValueError(f"rate_hz must be positive and finite, got {rate_hz!r}")
-    if x.size < 16:
-        raise GyrodriftValueError(f"record too short for a PSD: {x.size} samples (need >= 16)")
-    bad = int(np.count_nonzero(~np.isfinite(x)))
+    n = int(x.shape[0])
+    if n < 16:
+        raise GyrodriftValueError(f"record too short for a PSD: {n} samples (need >= 16)")
+    bad = sum(int(np.count_nonzero(~np.isfinite(p))) for p in iter_chunks(x, PSD_PIECE))
     if bad:
         raise GyrodriftValueError(f"x: {bad} NaN/Inf samples; drop or repair them first")
     if nperseg is None:
-        nperseg = int(min(2 ** 16, 2 ** int(np.floor(np.log2(max(x.size // 8, 8))))))
-    if not 8 <= nperseg <= x.size:
-        raise GyrodriftValueError(f"nperseg must be in [8, {x.size}], got {nperseg}")
+        nperseg = int(min(2 ** 16, 2 ** int(np.floor(np.log2(max(n // 8, 8))))))
+    if not 8 <= nperseg <= n:
+        raise GyrodriftValueError(f"nperseg must be in [8, {n}], got {nperseg}")
     import scipy.signal  # here: `import gyrodrift` stays light (scipy.signal loads scipy.stats)
 
-    f, p = scipy.signal.welch(x, fs=rate_hz, window=window, nperseg=nperseg,
-                              detrend="constant", scaling="density", return_onesided=True)
-    return Psd(f, p, int(nperseg), float(rate_hz))
+    kw: dict[str, Any] = {"fs": rate_hz, "window": window, "nperseg": nperseg,
+                          "detrend": "constant", "scaling": "density",
+                          "return_onesided": True}
+    if not backed:
+        f, p = scipy.signal.welch(x if scale == 1.0 else x / scale, **kw)
+        return Psd(f, p, int(nperseg), float(rate_hz))
+    assert isinstance(x, np.memmap) and x.filename is not None  # is_file_backed
+    step = nperseg - nperseg // 2  # scipy's default overlap: nperseg // 2
+    n_seg = (n - nperseg) // step + 1
+    per_piece = max(1, PSD_PIECE // step)
+    total: np.ndarray | None = None
+    f = np.empty(0)
+    for a in range(0, n_seg, per_piece):
+        b = min(a + per_piece, n_seg)
+        lo, hi = a * step, (b - 1) * step + nperseg
+        piece = np.fromfile(x.filename, dtype=x.dtype, count=hi - lo,
+                            offset=x.offset + lo * x.dtype.itemsize).astype(np.float64)
+        if piece.size != hi - lo:
+            raise GyrodriftValueError(f"{x.filename}: file shorter than its header says")
+        f, p = scipy.signal.welch(piece if scale == 1.0 else piece / scale, **kw)
+        total = p * (b - a) if total is None else total + p * (b - a)
+    assert total is not None
+    return Psd(f, total / n_seg, int(nperseg), float(rate_hz))
 
 
 def log_binned(f_hz: np.ndarray, psd: np.ndarray, bins_per_decade: int = 20

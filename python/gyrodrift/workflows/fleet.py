@@ -334,12 +334,13 @@ def _characterize_record(path: str, d: Path, opts: FleetOptions) -> tuple[Any, s
     opts.memory_budget_mib: one channel at a time in memory), "spool" (a larger .npy log:
     float64 files per channel in a temporary directory under d, read in chunks), or "whole"
     (text, logs, bags: parsed into memory). "memory" and "spool" give the same numbers."""
-    from gyrodrift.io.imu_data import NpyChannels, load_imu
+    from gyrodrift.io.imu_data import NpyChannels, check_reader_options, load_imu
     from gyrodrift.workflows import characterize as ch
 
     kw: dict[str, Any] = {"ci": opts.ci, "taus": opts.taus, "terms": opts.terms,
                           "method": opts.method, "threads": 1}
-    if Path(path).suffix.lower() == ".npy":
+    # options the log cannot use are refused, not ignored
+    if check_reader_options(path, opts.time_units, opts.time_column, opts.topic) == "npy":
         reader = NpyChannels(path, rate_hz=opts.rate_hz, columns=opts.columns,
                              gyro_units=opts.gyro_units, accel_units=opts.accel_units,
                              chunk_rows=opts.chunk_rows)
