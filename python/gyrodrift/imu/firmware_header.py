@@ -192,7 +192,10 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
     for ch in CHANNEL_NAMES[:3]:
         if ch in monitored:
             ref = reference_from_config(cfg, ch)
-            edf = ref.edf_per_term if ref.edf_per_term is not None else np.zeros(octaves)
+            if ref.edf_per_term is None:  # the target derives none (no hardware double)
+                raise ConfigError(f"channels.{ch}", "the monitor's reference has no edf per "
+                                                    "term for the firmware image")
+            edf = ref.edf_per_term
             try:
                 lits = [float_literal(float(v)) for v in ref.avar]
                 edf_lits = [float_literal(float(v)) for v in edf]
