@@ -145,21 +145,24 @@ def test_second_configuration_equals_host_loop() -> None:
     assert res.report["loop_rate_hz"] == 200.0
 
 
-def monitor_config(enabled: bool = True) -> ProcessorConfig:
+def monitor_config(enabled: bool = True, reidentify: bool = True) -> ProcessorConfig:
     """One identified gyro (gz: steady-state AR(2)-Kalman as its first stage, stuck detection)
-    watched by the gyro monitor: 16 octaves, re-identification on, a stuck alarm after 0.5 s."""
+    watched by the gyro monitor: 16 octaves, re-identification on (or off: the image then has
+    no re-identification state), a stuck alarm after 0.5 s."""
     cfg = drift_filter_config("gz", a1=1.0, a2=-0.25, mean=0.0, q=1e-10, r=1e-8,
                               sample_rate_hz=400.0)
     gz = cfg.channel("gz")
     cfg = cfg.with_channel("gz", replace(gz, saturation=8.0, stuck_samples=5))
-    return cfg.with_monitor(enabled=enabled, octaves=16, reidentify=True, stuck_alarm_s=0.5)
+    return cfg.with_monitor(enabled=enabled, octaves=16, reidentify=reidentify,
+                            stuck_alarm_s=0.5)
 
 
-def test_monitor_configuration_equals_host_loop() -> None:
+@pytest.mark.parametrize("reidentify", [True, False])
+def test_monitor_configuration_equals_host_loop(reidentify: bool) -> None:
     """MCU = host with the gyro monitor running: the same outputs, flags (the health_alarm bit
     of the stuck alarm included) and counters (the monitor's among them) as the host loop; and
     the monitor's RAM within its budget against the same image without it."""
-    cfg = monitor_config()
+    cfg = monitor_config(reidentify=reidentify)
     image = cached_firmware(cfg)
     plain = cached_firmware(monitor_config(enabled=False))
     assert 0 < image.ram_bytes - plain.ram_bytes <= MONITOR_RAM_BUDGET_BYTES

@@ -260,3 +260,37 @@ TEST_CASE("a retune of the re-identification reaches the steady-state stage") {
   CHECK(proc.health().monitor_retunes == id.retunes());
   CHECK(proc.health().monitor_refused_retunes == id.refused_retunes());
 }
+
+TEST_CASE("a monitor built without the re-identification equals one with it off, and refuses it") {
+  constexpr std::size_t kOct = 12;
+  using Lean = gyrodrift::GyroMonitor<float, kOct, false>;
+  using Full = gyrodrift::GyroMonitor<float, kOct, true>;
+  static_assert(sizeof(Lean) + sizeof(gyrodrift::OnlineDriftIdentifier<float>) <= sizeof(Full) + 8,
+                "the lean monitor holds no identifier state");
+  const gyrodrift::DriftModelParams<float> model{0.5F, 0.0F, 1e-10F, 1e-8F, 0.0F};
+  auto ref = white_reference<float, kOct>(1e-8F, kOct);
+  ref.avar[6] *= 0.1F;  // a reference the noise exceeds tenfold at one octave: alarms to compare
+  static Lean lean;
+  static Full full;
+  CHECK(lean.configure(settings<float>(kOct, true), model, ref) == gyrodrift::GyroMonitorStatus::bad_settings);
+  REQUIRE(lean.configure(settings<float>(kOct, false), model, ref) == gyrodrift::GyroMonitorStatus::ok);
+  REQUIRE(full.configure(settings<float>(kOct, false), model, ref) == gyrodrift::GyroMonitorStatus::ok);
+  CHECK_FALSE(lean.reidentifying());
+  Noise n{11, 0.0, 3e-4};  // variance 3e-8: 3x the reference, 30x at octave 6
+  for (std::size_t i = 0; i < 30000; ++i) {
+    const float y = static_cast<float>(n.next());
+    const bool stuck = i % 4000 < 2;
+    CHECK(lean.push(y, stuck, false) == full.push(y, stuck, false));
+  }
+  CHECK(lean.latched() != 0);  // the comparison saw a raised alarm
+  for (std::size_t k = 0; k < kOct; ++k) {
+    float a = 0.0F, b = 0.0F;
+    REQUIRE(lean.allan().avar(k, a));
+    REQUIRE(full.allan().avar(k, b));
+    CHECK(a == b);  // the same code on the same samples: bit-identical
+  }
+  for (std::size_t i = 0; i < gyrodrift::kHealthAlarmCount; ++i) {
+    CHECK(lean.alarms().raised(i) == full.alarms().raised(i));
+    CHECK(lean.alarms().exceedances(i) == full.alarms().exceedances(i));
+  }
+}

@@ -13,12 +13,15 @@
 // stuck and saturated flags go to the alarms, which count how long they last.
 //
 // Fixed memory chosen at compile time (Octaves: the largest number of octaves a configuration
-// may use), no heap, no exceptions, deterministic (the same input gives the same state).
+// may use; Reidentify false: no re-identification state, 408 B less in float, and configure()
+// refuses settings.reidentify), no heap, no exceptions, deterministic (the same input gives
+// the same state).
 #pragma once
 
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "../filters/drift_likelihood.hpp"
 #include "../filters/online_drift_identifier.hpp"
@@ -44,10 +47,15 @@ enum class GyroMonitorStatus : std::uint8_t {
   bad_model = 3,      // the drift model is not a valid stationary model
 };
 
-template <class Scalar, std::size_t Octaves>
+namespace detail {
+struct NoDriftIdentifier {};  // the re-identification compiled out
+}  // namespace detail
+
+template <class Scalar, std::size_t Octaves, bool Reidentify = true>
 class GyroMonitor {
  public:
   static constexpr std::size_t capacity = Octaves;
+  static constexpr bool kReidentify = Reidentify;
   using Reference = HealthReference<Scalar, Octaves>;
 
   GyroMonitor() noexcept = default;
@@ -57,8 +65,9 @@ class GyroMonitor {
   // the alarms compare against (reference.octaves >= 1, at most settings.octaves).
   GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const DriftModelParams<Scalar>& model,
                               const Reference& reference) noexcept {
-    reidentify_ = settings.reidentify;
+    reidentify_ = Reidentify && settings.reidentify;
     status_ = GyroMonitorStatus::bad_settings;
+    if (settings.reidentify && !Reidentify) return status_;
     if (settings.octaves < 1 || settings.octaves > Octaves || reference.octaves < 1 ||
         reference.octaves > settings.octaves) {
       return status_;
@@ -72,10 +81,12 @@ class GyroMonitor {
       return status_;
     }
     if (!alarms_.configure(reference, settings.alarms)) return status_;
-    if (settings.reidentify && !identifier_.configure(model, settings.drift)) {
-      // the identifier's own rules: a model with white noise (r > 0), its block and memory
-      status_ = model.r > Scalar(0) ? GyroMonitorStatus::bad_settings : GyroMonitorStatus::bad_model;
-      return status_;
+    if constexpr (Reidentify) {
+      if (settings.reidentify && !identifier_.configure(model, settings.drift)) {
+        // the identifier's own rules: a model with white noise (r > 0), its block and memory
+        status_ = model.r > Scalar(0) ? GyroMonitorStatus::bad_settings : GyroMonitorStatus::bad_model;
+        return status_;
+      }
     }
     status_ = GyroMonitorStatus::ok;
     reset();
@@ -86,7 +97,9 @@ class GyroMonitor {
   void reset() noexcept {
     allan_.reset();
     alarms_.reset();
-    if (reidentify_) identifier_.reset();
+    if constexpr (Reidentify) {
+      if (reidentify_) identifier_.reset();
+    }
     samples_ = 0;
     used_ = 0;
     retuned_ = false;
@@ -103,9 +116,11 @@ class GyroMonitor {
     const bool bad = stuck || saturated;
     if (!bad && std::isfinite(y) && allan_.push(y)) {
       ++used_;
-      if (reidentify_) {
-        identifier_.push(y);
-        retuned_ = identifier_.retuned();
+      if constexpr (Reidentify) {
+        if (reidentify_) {
+          identifier_.push(y);
+          retuned_ = identifier_.retuned();
+        }
       }
     }
     return alarms_.update(allan_, stuck, saturated);
@@ -123,7 +138,10 @@ class GyroMonitor {
   GyroMonitorStatus status() const noexcept { return status_; }
   const StreamingAllan<Scalar, Octaves>& allan() const noexcept { return allan_; }
   const HealthAlarms<Scalar, Octaves>& alarms() const noexcept { return alarms_; }
-  const OnlineDriftIdentifier<Scalar>& identifier() const noexcept { return identifier_; }
+  template <bool R = Reidentify, class = std::enable_if_t<R>>
+  const OnlineDriftIdentifier<Scalar>& identifier() const noexcept {
+    return identifier_;
+  }
   std::uint16_t latched() const noexcept { return alarms_.latched(); }
   // True after the push() whose sample made the identifier retune the gain.
   bool retuned() const noexcept { return retuned_; }
@@ -134,7 +152,7 @@ class GyroMonitor {
  private:
   StreamingAllan<Scalar, Octaves> allan_{};
   HealthAlarms<Scalar, Octaves> alarms_{};
-  OnlineDriftIdentifier<Scalar> identifier_{};
+  std::conditional_t<Reidentify, OnlineDriftIdentifier<Scalar>, detail::NoDriftIdentifier> identifier_{};
   GyroMonitorStatus status_ = GyroMonitorStatus::unconfigured;
   std::uint64_t samples_ = 0;
   std::uint64_t used_ = 0;

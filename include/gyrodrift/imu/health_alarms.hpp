@@ -31,7 +31,8 @@
 // autocovariance (mu = -1: white rate noise, rho(1) = -1/2; 0: flicker; 1: random walk; the
 // rising side of an AR(2) drift's hump, mu up to 2, has strongly correlated differences and
 // few degrees of freedom per term), computed once at configure() for block_terms terms (in
-// double) and scaled to the number of terms tested. Under a reference equal to the truth (a
+// double; where there is no hardware double, kHealthEdfFromSlope, the reference must carry it)
+// and scaled to the number of terms tested. Under a reference equal to the truth (a
 // stationary sensor), a test fails with probability about p or less; a test fails when the
 // measured ratio exceeds f^2 and is significant at p.
 // stuck / saturated: the caller's per-sample flags, raised when that many samples in a row are
@@ -78,6 +79,18 @@ inline constexpr HealthAlarmName kHealthAlarmNames[] = {
 };
 inline constexpr std::size_t kHealthAlarmCount = sizeof(kHealthAlarmNames) / sizeof(kHealthAlarmNames[0]);
 
+// Whether HealthAlarms::configure derives a missing edf per term from the reference's slope
+// (power_law_edf_per_term, in double). Off on a target without a double-precision FPU (e.g.
+// Cortex-M4F, __ARM_FP without bit 3), where software double would be pulled into the image:
+// there every reference must carry its edf (health_reference_from_drift_model fills it; the
+// generated firmware header writes the host-computed table; health_reference_power_law_edf
+// fills it on the host), and configure() rejects a reference without one.
+#if defined(__ARM_FP) && !(__ARM_FP & 8)
+inline constexpr bool kHealthEdfFromSlope = false;
+#else
+inline constexpr bool kHealthEdfFromSlope = true;
+#endif
+
 template <class Scalar, std::size_t Octaves>
 struct HealthReference {
   Scalar avar[Octaves] = {};  // expected Allan variance at octave k (tau = 2^k / rate), channel units^2
@@ -115,12 +128,14 @@ class HealthAlarms {
  public:
   // False (state unchanged) for a reference with more than Octaves or no octaves, a
   // non-finite or non-positive entry, a factor below 1 or not finite, false_alarm_probability
-  // outside (0, 0.5], or block_terms below 4. Resets the alarms.
+  // outside (0, 0.5], or block_terms below 4; without kHealthEdfFromSlope also for a reference
+  // entry whose edf per term is 0. Resets the alarms.
   bool configure(const HealthReference<Scalar, Octaves>& ref, const HealthAlarmSettings<Scalar>& s) noexcept {
     if (ref.octaves < 1 || ref.octaves > Octaves) return false;
     for (std::size_t k = 0; k < ref.octaves; ++k) {
       if (!(ref.avar[k] > Scalar(0)) || !std::isfinite(ref.avar[k])) return false;
       if (!(ref.edf_per_term[k] >= Scalar(0)) || ref.edf_per_term[k] > Scalar(1)) return false;
+      if (!kHealthEdfFromSlope && !(ref.edf_per_term[k] > Scalar(0))) return false;
     }
     const Scalar factors[3] = {s.arw_factor, s.bias_instability_factor, s.rate_random_walk_factor};
     for (const Scalar f : factors) {
@@ -156,11 +171,13 @@ class HealthAlarms {
     }
     for (std::size_t k = 0; k < n; ++k) {
       if (ref.edf_per_term[k] > Scalar(0) && ref.edf_per_term[k] <= Scalar(1)) continue;
-      const double lo = static_cast<double>(ref.avar[k > 0 ? k - 1 : k]);
-      const double hi = static_cast<double>(ref.avar[k + 1 < n ? k + 1 : k]);
-      const double span = (k > 0 && k + 1 < n) ? 2.0 : 1.0;
-      const double mu = n >= 2 ? std::log2(hi / lo) / span : -1.0;
-      ref_.edf_per_term[k] = static_cast<Scalar>(power_law_edf_per_term(mu, s.block_terms));
+      if constexpr (kHealthEdfFromSlope) {
+        const double lo = static_cast<double>(ref.avar[k > 0 ? k - 1 : k]);
+        const double hi = static_cast<double>(ref.avar[k + 1 < n ? k + 1 : k]);
+        const double span = (k > 0 && k + 1 < n) ? 2.0 : 1.0;
+        const double mu = n >= 2 ? std::log2(hi / lo) / span : -1.0;
+        ref_.edf_per_term[k] = static_cast<Scalar>(power_law_edf_per_term(mu, s.block_terms));
+      }
     }
     reset();
     return true;

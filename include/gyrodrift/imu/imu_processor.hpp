@@ -255,16 +255,16 @@ namespace detail {
 // The gyro monitors of a processor built with MonitorOctaves > 0: MonitorSlots monitors, each
 // serving the gyro channel configure_monitor() gave it (slot[c], -1: none); an empty base
 // otherwise, so a build without the monitor pays no RAM for it (empty base optimisation).
-template <class Scalar, std::size_t MonitorOctaves, std::size_t MonitorSlots>
+template <class Scalar, std::size_t MonitorOctaves, std::size_t MonitorSlots, bool MonitorReidentify = true>
 struct ImuMonitorBank {
-  std::array<GyroMonitor<Scalar, MonitorOctaves>, MonitorSlots> monitors{};
+  std::array<GyroMonitor<Scalar, MonitorOctaves, MonitorReidentify>, MonitorSlots> monitors{};
   std::array<std::int8_t, kImuGyroChannels> slot{{-1, -1, -1}};
   std::array<bool, MonitorSlots> retune_stage{};  // the channel's steady-state stage takes retunes
   std::array<std::uint16_t, MonitorSlots> latched{};
   std::array<std::uint32_t, MonitorSlots> refused{};
 };
-template <class Scalar, std::size_t MonitorSlots>
-struct ImuMonitorBank<Scalar, 0, MonitorSlots> {};
+template <class Scalar, std::size_t MonitorSlots, bool MonitorReidentify>
+struct ImuMonitorBank<Scalar, 0, MonitorSlots, MonitorReidentify> {};
 
 }  // namespace detail
 
@@ -277,17 +277,19 @@ struct ImuMonitorBank<Scalar, 0, MonitorSlots> {};
 // MonitorOctaves > 0 builds MonitorSlots GyroMonitors (imu/gyro_monitor.hpp, that many octaves
 // at most) for the gyro channels configure_monitor() names (a firmware build watching one gyro
 // pays for one); 0 (the default) builds none and the processor is the same as without the
-// monitor, bit for bit.
+// monitor, bit for bit. MonitorReidentify false builds the monitors without the online
+// re-identification (less RAM; configure_monitor() then refuses settings.reidentify).
 template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels,
-          std::size_t MonitorOctaves = 0, std::size_t MonitorSlots = kImuGyroChannels>
-class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, MonitorSlots> {
+          std::size_t MonitorOctaves = 0, std::size_t MonitorSlots = kImuGyroChannels,
+          bool MonitorReidentify = true>
+class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, MonitorSlots, MonitorReidentify> {
   static_assert(WaveletChannels >= 1 && WaveletChannels <= kImuChannels, "WaveletChannels in 1..6");
   static_assert(MonitorSlots >= 1 && MonitorSlots <= kImuGyroChannels, "MonitorSlots in 1..3");
 
  public:
   static constexpr std::size_t kMonitorOctaves = MonitorOctaves;
   static constexpr std::size_t kMonitorSlots = MonitorOctaves > 0 ? MonitorSlots : 0;
-  using Monitor = GyroMonitor<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
+  using Monitor = GyroMonitor<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1), MonitorReidentify>;
   using MonitorReference = HealthReference<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
 
   static constexpr std::uint32_t kResyncAfter = kImuResyncAfter;
@@ -575,7 +577,9 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
         }
       }
       this->latched[i] = now;
-      if (m.reidentifying()) {
+      if constexpr (!MonitorReidentify) {
+        // no re-identification compiled in: no retunes
+      } else if (m.reidentifying()) {
         const OnlineDriftIdentifier<Scalar>& id = m.identifier();
         if (id.refused_retunes() != this->refused[i]) {
           health_.monitor_refused_retunes += id.refused_retunes() - this->refused[i];

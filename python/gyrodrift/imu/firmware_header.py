@@ -192,7 +192,10 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
     for ch in CHANNEL_NAMES[:3]:
         if ch in monitored:
             ref = reference_from_config(cfg, ch)
-            edf = ref.edf_per_term if ref.edf_per_term is not None else np.zeros(octaves)
+            if ref.edf_per_term is None:  # the target derives none (no hardware double)
+                raise ConfigError(f"channels.{ch}", "the monitor's reference has no edf per "
+                                                    "term for the firmware image")
+            edf = ref.edf_per_term
             try:
                 lits = [float_literal(float(v)) for v in ref.avar]
                 edf_lits = [float_literal(float(v)) for v in edf]
@@ -254,24 +257,28 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
 
 
 def _processor_type_lines(window: int, wavelet_channels: int, chan_taps: list[str],
-                          monitor_octaves: int = 0, monitor_slots: int = 0) -> list[str]:
+                          monitor_octaves: int = 0, monitor_slots: int = 0,
+                          monitor_reidentify: bool = True) -> list[str]:
     """The Processor type and make_wavelet: the FIR stage on channels 0..k-1, or none; the
-    gyro monitor's capacity (octaves 0: none) and its monitors (one per monitored gyro)."""
+    gyro monitor's capacity (octaves 0: none), its monitors (one per monitored gyro) and
+    whether they hold the re-identification (its state only when it is configured on)."""
     octaves = [f"inline constexpr std::size_t kMonitorOctaves = {monitor_octaves};"]
     if monitor_octaves:
         octaves.append(f"inline constexpr std::size_t kMonitorSlots = {monitor_slots};")
+        octaves.append("inline constexpr bool kMonitorReidentify = "
+                       f"{'true' if monitor_reidentify else 'false'};")
     if not wavelet_channels:
         return [
             *octaves,
             "inline constexpr std::size_t kWaveletChannels = 1;",
             "using Wavelet = gyrodrift::NoWavelet<float>;",
             "using Processor = gyrodrift::ImuProcessor<float, Wavelet, gyrodrift::kImuChannels, "
-            "kMonitorOctaves, kMonitorSlots>;" if monitor_octaves else
+            "kMonitorOctaves, kMonitorSlots, kMonitorReidentify>;" if monitor_octaves else
             "using Processor = gyrodrift::ImuProcessor<float>;",
             "inline Wavelet make_wavelet(std::size_t) noexcept { return Wavelet{}; }",
         ]
     processor = ("using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels, "
-                 "kMonitorOctaves, kMonitorSlots>;" if monitor_octaves else
+                 "kMonitorOctaves, kMonitorSlots, kMonitorReidentify>;" if monitor_octaves else
                  "using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels>;")
     return [
         *octaves,
@@ -339,7 +346,7 @@ def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: 
         "};",
         "",
         *_processor_type_lines(window, wavelet_channels, chan_taps, _monitor_octaves(cfg),
-                               len(cfg.monitored_channels())),
+                               len(cfg.monitored_channels()), bool(cfg.monitor.reidentify)),
         "",
         *_monitor_lines(cfg),
         "",
