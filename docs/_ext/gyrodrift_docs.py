@@ -376,9 +376,21 @@ def _drop_type_docstring(app: Any, what: str, name: str, obj: Any, options: Any,
             lines[:] = []
 
 
+def _always_reread(app: Any, env: Any, added: set[str], changed: set[str],
+                   removed: set[str]) -> list[str]:
+    """The command line page is generated from the argument parsers, not from its source
+    file: an incremental build would keep a stale page after a new subcommand or flag."""
+    return [d for d in ALWAYS_REREAD if d in env.found_docs]
+
+
+#: Pages whose content comes from code rather than from their source file.
+ALWAYS_REREAD = ("cli",)
+
+
 def setup(app: Any) -> dict[str, Any]:
     # Before sphinx-gallery (priority 500) and before Sphinx reads the sources.
     app.connect("config-inited", lambda app, config: _generate(app), priority=400)
+    app.connect("env-get-outdated", _always_reread)
     app.connect("missing-reference", _resolve_alias)
     app.connect("autodoc-process-docstring", _drop_type_docstring, priority=100)
     return {"parallel_read_safe": True, "parallel_write_safe": True, "version": "1"}

@@ -213,8 +213,8 @@ def model_avar(drift: tuple[float, float, float, float, float], octaves: int) ->
     >>> [round(float(v), 12) for v in model_avar((0.0, 0.0, 0.0, 1.0, 0.0), 3)]  # white: r / m
     [1.0, 0.5, 0.25]
     >>> v = model_avar((0.5, 0.0, 1.0, 0.0, 0.0), 2)  # AR(1): sigma^2(1) = gamma0 - gamma1
-    >>> round(float(v[0]), 12), round(4.0 / 3.0 - 2.0 / 3.0, 12)
-    (0.666666666667, 0.666666666667)
+    >>> round(float(v[0]), 9), round(4.0 / 3.0 - 2.0 / 3.0, 9)
+    (0.666666667, 0.666666667)
     """
     a1, a2, q, r, _ = (float(x) for x in drift)
     if isinstance(octaves, bool) or int(octaves) != octaves or not 1 <= octaves <= 40:

@@ -315,7 +315,7 @@ def _example_trace() -> MonitorTrace:
         t_s=np.array([10.0, 20.0, 30.0]), n=1e-4 * one, n_lo=0.9e-4 * one, n_hi=1.1e-4 * one,
         b=1e-6 * one, b_lo=0.5e-6 * one, b_hi=2e-6 * one, k=nan, k_lo=nan, k_hi=1e-7 * one,
         k_upper_limit=np.ones(n, dtype=bool), a1=0.5 * one, a2=0.1 * one, q=1e-14 * one,
-        r=1e-10 * one, mean=0.0 * one, gain0=0.1 * one, gain1=0.05 * one,
+        r=4e-10 * one, mean=0.0 * one, gain0=0.1 * one, gain1=0.05 * one,
         status=("configured",) * n, health=np.array([0, 1, 1], dtype=np.uint16),
         alarm_names=("arw_high", "bias_instability_high", "rate_random_walk_high", "stuck",
                      "saturated"),

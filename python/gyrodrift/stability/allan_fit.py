@@ -601,7 +601,7 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
         # A curve of extreme magnitude (its variances or weights overflow or underflow):
         # fitted scaled by a power of two (exact), the fit scaled back.
         return fit_allan(tau, dev / c_dev, e, terms=terms, fit_range=fit_range, select=select,
-                         ci=ci).scaled(c_dev)
+                         ci=ci, n_samples=n_samples, rate_hz=rate_hz).scaled(c_dev)
     names = parse_terms(terms) if not isinstance(terms, tuple) else parse_terms(list(terms))
     user_range = fit_range is not None
     lo, hi = (parse_fit_range(fit_range) if isinstance(fit_range, str)
