@@ -37,7 +37,24 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "../filters/drift_likelihood.hpp"
+
 namespace gyrodrift {
+
+namespace detail {
+
+// 2x2 matrix, row-major {m00, m01, m10, m11}: the products of the model's companion matrix.
+template <class Scalar>
+struct Mat2 {
+  Scalar a, b, c, d;
+};
+template <class Scalar>
+constexpr Mat2<Scalar> mat2_mul(const Mat2<Scalar>& x, const Mat2<Scalar>& y) noexcept {
+  return {x.a * y.a + x.b * y.c, x.a * y.b + x.b * y.d, x.c * y.a + x.d * y.c,
+          x.c * y.b + x.d * y.d};
+}
+
+}  // namespace detail
 
 // Expected Allan variance of AR(2) drift (a1, a2, driving variance q) + white noise (variance r)
 // at m = 2^k samples, k = 0 .. octaves - 1, into avar[k] ((units of y)^2). False (avar
@@ -54,19 +71,9 @@ bool ar2_white_avar(Scalar a1, Scalar a2, Scalar q, Scalar r, std::size_t octave
   if (!(a2 < one && a2 > -one && a1 + a2 < one && a2 - a1 < one)) return false;
   Scalar g0 = Scalar(0);
   Scalar g1 = Scalar(0);
-  if (q > Scalar(0)) {
-    const Scalar den = (one + a2) * ((one - a2) * (one - a2) - a1 * a1);
-    g0 = q * (one - a2) / den;
-    g1 = a1 * g0 / (one - a2);
-  }
-  // 2x2 matrices row-major {m00, m01, m10, m11}
-  struct M2 {
-    Scalar a, b, c, d;
-  };
-  const auto mul = [](const M2& x, const M2& y) noexcept {
-    return M2{x.a * y.a + x.b * y.c, x.a * y.b + x.b * y.d, x.c * y.a + x.d * y.c,
-              x.c * y.b + x.d * y.d};
-  };
+  if (q > Scalar(0)) drift_stationary_covariance(a1, a2, q, g0, g1);
+  using M2 = detail::Mat2<Scalar>;
+  const auto mul = [](const M2& x, const M2& y) noexcept { return detail::mat2_mul(x, y); };
   const M2 f{a1, a2, one, Scalar(0)};
   const M2 p{g0, g1, g1, g0};
   M2 a_m{one, Scalar(0), Scalar(0), one};  // A_1 = I
@@ -98,18 +105,9 @@ bool ar2_white_edf_per_term(Scalar a1, Scalar a2, Scalar q, Scalar r, std::size_
   const Scalar one = Scalar(1);
   Scalar g0 = Scalar(0);
   Scalar g1 = Scalar(0);
-  if (q > Scalar(0)) {
-    const Scalar den = (one + a2) * ((one - a2) * (one - a2) - a1 * a1);
-    g0 = q * (one - a2) / den;
-    g1 = a1 * g0 / (one - a2);
-  }
-  struct M2 {
-    Scalar a, b, c, d;
-  };
-  const auto mul = [](const M2& x, const M2& y) noexcept {
-    return M2{x.a * y.a + x.b * y.c, x.a * y.b + x.b * y.d, x.c * y.a + x.d * y.c,
-              x.c * y.b + x.d * y.d};
-  };
+  if (q > Scalar(0)) drift_stationary_covariance(a1, a2, q, g0, g1);
+  using M2 = detail::Mat2<Scalar>;
+  const auto mul = [](const M2& x, const M2& y) noexcept { return detail::mat2_mul(x, y); };
   const auto add = [](const M2& x, const M2& y) noexcept {
     return M2{x.a + y.a, x.b + y.b, x.c + y.c, x.d + y.d};
   };
