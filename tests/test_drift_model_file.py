@@ -12,7 +12,6 @@ the scaled records in test_extreme_scales.py."""
 from __future__ import annotations
 
 import math
-import re
 import tracemalloc
 from pathlib import Path
 
@@ -20,21 +19,10 @@ import numpy as np
 import pytest
 from gyrodrift._native import core
 from gyrodrift.filters import drift_model as dm
+from mapped_memory import mapped_resident_kib
 from scipy.signal import lfilter
 
 N = 1_000_000
-
-
-def _mapped_resident_kib(path: Path) -> int:
-    """Resident KiB of this process's mappings of `path` (/proc/self/smaps)."""
-    total, current = 0, False
-    with open("/proc/self/smaps") as fh:
-        for line in fh:
-            if re.match(r"^[0-9a-f]+-[0-9a-f]+ ", line):
-                current = line.rstrip().endswith(str(path))
-            elif current and line.startswith("Rss:"):
-                total += int(line.split()[1])
-    return total
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +47,7 @@ def test_file_backed_fit_equals_the_fit_in_memory_without_holding_the_record(
         tracemalloc.stop()
     # a copy of the record would be 8 MB; the pieces and the 2^16-sample prefix are ~2 MB
     assert peak < 0.5 * 8 * N, peak
-    assert _mapped_resident_kib(record) < 1024
+    assert mapped_resident_kib(record) < 1024
     ref = dm.compare_drift_models(np.load(record), 100.0)
     assert got.chosen == ref.chosen
     for f, f0 in zip(got.fits, ref.fits, strict=True):
@@ -81,7 +69,7 @@ def test_file_backed_block_average_is_the_in_memory_one(record: Path,
     for factor in (1, 7, 1024, 4096):  # blocks smaller and larger than a piece
         assert np.array_equal(dm.block_average(mm, factor), dm.block_average(np.load(record),
                                                                             factor)), factor
-    assert _mapped_resident_kib(record) < 1024
+    assert mapped_resident_kib(record) < 1024
 
 
 def test_stream_pieces_equal_one_pass() -> None:

@@ -12,26 +12,15 @@ optimiser's own tolerance on nearly equal data)."""
 from __future__ import annotations
 
 import math
-import re
 import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
 from gyrodrift.stability import gmwm
+from mapped_memory import mapped_resident_kib
 
 N = 1 << 20
-
-
-def _mapped_resident_kib(path: Path) -> int:
-    total, current = 0, False
-    with open("/proc/self/smaps") as fh:
-        for line in fh:
-            if re.match(r"^[0-9a-f]+-[0-9a-f]+ ", line):
-                current = line.rstrip().endswith(str(path))
-            elif current and line.startswith("Rss:"):
-                total += int(line.split()[1])
-    return total
 
 
 def test_file_backed_gmwm_equals_the_fit_in_memory_without_holding_the_record(
@@ -50,7 +39,7 @@ def test_file_backed_gmwm_equals_the_fit_in_memory_without_holding_the_record(
     finally:
         tracemalloc.stop()
     assert peak < 0.5 * 8 * N, peak  # a copy of the record would be 8.4 MB
-    assert _mapped_resident_kib(path) < 1024
+    assert mapped_resident_kib(path) < 1024
     ref = gmwm.identify_gmwm(y, 100.0)
     assert got.n_samples == ref.n_samples == N
     np.testing.assert_allclose(got.wv, ref.wv, rtol=1e-9)

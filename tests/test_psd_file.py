@@ -8,26 +8,15 @@ Tolerance: the same periodograms averaged in another order, 1e-12 relative (~1e-
 
 from __future__ import annotations
 
-import re
 import tracemalloc
 from pathlib import Path
 
 import numpy as np
 import pytest
 from gyrodrift.stability import psd as psd_mod
+from mapped_memory import mapped_resident_kib
 
 N = 1 << 22
-
-
-def _mapped_resident_kib(path: Path) -> int:
-    total, current = 0, False
-    with open("/proc/self/smaps") as fh:
-        for line in fh:
-            if re.match(r"^[0-9a-f]+-[0-9a-f]+ ", line):
-                current = line.rstrip().endswith(str(path))
-            elif current and line.startswith("Rss:"):
-                total += int(line.split()[1])
-    return total
 
 
 @pytest.mark.parametrize("nperseg", [None, 1001])
@@ -49,7 +38,7 @@ def test_file_backed_psd_equals_the_psd_in_memory_without_holding_the_record(
         tracemalloc.stop()
     # a copy of the record would be 33.6 MB; a piece of 2^16-sample segments ~6 MB
     assert peak < 0.25 * 8 * N, peak
-    assert _mapped_resident_kib(path) < 1024
+    assert mapped_resident_kib(path) < 1024
     ref = psd_mod.welch_psd(y, 400.0, nperseg)
     assert got.nperseg == ref.nperseg
     np.testing.assert_array_equal(got.f_hz, ref.f_hz)
