@@ -39,6 +39,12 @@ BUDGET_MB: dict[str, float] = {
     "fit-full-rate": 300.0,
     "characterize": 250.0,
     "psd": 250.0,
+    # the record filtered by the AR(2)-Kalman filter (the default), written to a .npy file
+    "filter": 250.0,
+    # the 2006 paper's Table 1 (five filtered records, their Allan deviations and PSDs)
+    "compare": 300.0,
+    # two parametric-bootstrap replicates of the record's length
+    "identify-gmwm-bootstrap": 250.0,
 }
 #: The commands run when --commands is not given (fit-full-rate takes half an hour at 1e8
 #: samples on a loaded 2-core machine).
@@ -59,6 +65,12 @@ def command_args(command: str, record: Path, out: Path) -> list[str]:
         "fit-full-rate": ["fit", walk, *rate, "--json"],
         "characterize": ["characterize", str(record), *rate, "--json"],
         "psd": ["psd", str(record), *rate, "--json", "--png", str(out.with_suffix(".png"))],
+        "filter": ["filter", str(record), *rate, "-o", str(out.with_name("filtered.npy")),
+                   "--json"],
+        "compare": ["compare", str(record), *rate, "--out-dir", str(out.with_name("compare")),
+                    "--json"],
+        "identify-gmwm-bootstrap": ["identify", str(record), *rate, "--identifier", "gmwm",
+                                    "--bootstrap", "2", "--json"],
     }[command]
 
 

@@ -315,6 +315,11 @@ def fit_ar2(
     return Ar2Model(a1=a1, a2=a2, sigma2=sigma2, mean=mean, method=name, n=int(a.size), r=r)
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    # einsum, not the BLAS dot: BLAS starts threads, many times slower on a loaded machine
+    return float(np.einsum("i,i->", a, b))
+
+
 def _lagged(chunks: Iterable[np.ndarray], mean: float) -> Iterator[tuple[np.ndarray, ...]]:
     """(x_i, x_{i-1}, x_{i-2}) of the demeaned record over consecutive pieces: the indices
     i >= 0, i >= 1 and i >= 2 of each piece, the previous piece's last two samples carried."""
@@ -391,17 +396,17 @@ def fit_ar2_chunks(chunks: Callable[[], Iterable[np.ndarray]],
     g00 = g01 = g11 = h0 = h1 = yy = 0.0
     for x0, x1p, x0p, x2, x0q, x1q in _lagged(chunks(), mean):
         # x0: i >= 0; (x1p, x0p): x_{i-1}, x_i for i >= 1; (x2, x1q, x0q): i >= 2
-        s0 += float(x0 @ x0)
-        s1 += float(x0p @ x1p)
-        s2 += float(x0q @ x2)
-        den1 += float(x0p @ x0p + x1p @ x1p)
+        s0 += _dot(x0, x0)
+        s1 += _dot(x0p, x1p)
+        s2 += _dot(x0q, x2)
+        den1 += _dot(x0p, x0p) + _dot(x1p, x1p)
         if name == "ls":
-            g00 += float(2.0 * (x1q @ x1q))
-            g01 += float(x1q @ (x2 + x0q))
-            g11 += float(x2 @ x2 + x0q @ x0q)
-            h0 += float(x1q @ (x0q + x2))
-            h1 += float(2.0 * (x0q @ x2))
-            yy += float(x0q @ x0q + x2 @ x2)
+            g00 += 2.0 * _dot(x1q, x1q)
+            g01 += _dot(x1q, x2 + x0q)
+            g11 += _dot(x2, x2) + _dot(x0q, x0q)
+            h0 += _dot(x1q, x0q + x2)
+            h1 += 2.0 * _dot(x0q, x2)
+            yy += _dot(x0q, x0q) + _dot(x2, x2)
     if name == "yule-walker":
         c0, c1, c2 = s0 / n, s1 / n, s2 / n
         if not (c0 > 0 and math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
@@ -421,8 +426,8 @@ def fit_ar2_chunks(chunks: Callable[[], Iterable[np.ndarray]],
         for _x0, _x1p, _x0p, x2, x0q, x1q in _lagged(chunks(), mean):
             f = x0q + k1 * x1q
             b = x2 + k1 * x1q
-            num2 += float(f @ b)
-            den2 += float(f @ f + b @ b)
+            num2 += _dot(f, b)
+            den2 += _dot(f, f) + _dot(b, b)
         if not den2 > 0:
             raise Ar2FitError(*non_stationary)
         k2 = -2.0 * num2 / den2
@@ -440,7 +445,7 @@ def fit_ar2_chunks(chunks: Callable[[], Iterable[np.ndarray]],
     ss = 0.0
     for _x0, _x1p, _x0p, x2, x0q, x1q in _lagged(chunks(), mean):
         e = x0q - a1 * x1q - a2 * x2
-        ss += float(e @ e)
+        ss += _dot(e, e)
     return Ar2Model(a1=a1, a2=a2, sigma2=max(sigma2, 0.0), mean=mean, method=name, n=n,
                     r=ss / (n - 2))
 
