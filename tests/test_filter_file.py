@@ -1,6 +1,7 @@
 """`gyrodrift filter` on a long memory-mapped .npy record filters it in pieces (ar, kalman,
-realtime-wavelet): the AR(2) model fitted in passes over the pieces (`fit_ar2_chunks`), the
-C++ filter's state carried from piece to piece, the output written piece by piece and the
+realtime-wavelet: the AR(2) model fitted in passes over the pieces (`fit_ar2_chunks`), the
+C++ filter's state carried from piece to piece; wavelet, wpacket: from windows of the record,
+`gyrodrift.filters.wavelet_file`), the output written piece by piece and the
 printed standard deviations taken piece by piece; the memory does not grow with the record
 (tests/test_peak_memory.py).
 
@@ -35,7 +36,7 @@ def _record(n: int = N, seed: int = 4) -> np.ndarray:
     return scipy.signal.lfilter([1.0], [1.0, -0.6868, 0.0213], e) * 0.5 + 3.0
 
 
-def _pieces(x: np.ndarray, piece: int):  # noqa: ANN202
+def _pieces(x: np.ndarray, piece: int):
     return lambda: (x[i:i + piece] for i in range(0, x.size, piece))
 
 
@@ -81,6 +82,8 @@ def _run(argv: list[object], capsys: pytest.CaptureFixture[str]) -> dict:
     ["--filter", "kalman", "--core", "float", "--kalman-q", "0.05"],
     ["--filter", "ar", "--ar-method", "ls"],
     ["--filter", "realtime-wavelet", "--wavelet", "db4", "--window", "64", "--level", "3"],
+    ["--filter", "wavelet", "--wavelet", "db4", "--level", "3", "--threshold", "hard"],
+    ["--filter", "wpacket", "--level", "3"],
 ])
 def test_filter_of_a_mapped_record_in_pieces_is_the_one_call_filter(
         tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
@@ -102,6 +105,14 @@ def test_filter_of_a_mapped_record_in_pieces_is_the_one_call_filter(
     dtype = np.float32 if f32 else np.float64
     if method == "realtime-wavelet":
         expected = gyrodrift.RealtimeWavelet("db4", window=64, level=3).filter(x)
+    elif method == "wavelet":
+        expected = gyrodrift.wavelet_denoise(x, "db4", 3, "hard")
+    elif method == "wpacket":
+        # PyWavelets' reconstruction near a window's edge sums in another order: 1e-15
+        # absolute on O(1) values (tests/test_wavelet_file.py)
+        expected = gyrodrift.wavelet_packet_denoise(x, "bior3.7", 3)
+        np.testing.assert_allclose(y, expected, rtol=0, atol=1e-12 * np.max(np.abs(x)))
+        expected = y
     else:
         model = fit_ar2_chunks(_pieces(x, PIECE), extra[extra.index("--ar-method") + 1]
                                if "--ar-method" in extra else "yule-walker")

@@ -6,10 +6,10 @@ denoising (wavelet: db4 or db8, soft or hard threshold), bior3.7 wavelet-packet 
 or hard). The C++ core runs in double or float (the MCU build). The filtered record is written
 to .npy or .csv (t_s, rate_deg_h).
 
-A memory-mapped .npy record longer than 2^20 samples is filtered in pieces by the ar, kalman
-and realtime-wavelet methods (the filter's state carried from piece to piece, the output
-written piece by piece): the memory does not grow with the record. The offline wavelet and
-wpacket methods transform the whole record at once and hold it in memory."""
+A memory-mapped .npy record longer than 2^20 samples is filtered in pieces (the ar, kalman and
+realtime-wavelet filters' state carried from piece to piece; the offline wavelet and wpacket
+denoisers from windows of the record, the whole record's output), the output written piece
+by piece: the memory does not grow with the record (wavelet with --core float excepted)."""
 
 from __future__ import annotations
 
@@ -40,8 +40,8 @@ from gyrodrift.io.records import is_file_backed, iter_chunks
 __all__ = ["METHODS", "register", "run"]
 
 METHODS = ("ar", "kalman", "wavelet", "wpacket", "realtime-wavelet")
-#: The methods that filter a long memory-mapped record in pieces (stateful filters).
-PIECEWISE_METHODS = ("ar", "kalman", "realtime-wavelet")
+#: The methods that filter a long memory-mapped record in pieces.
+PIECEWISE_METHODS = ("ar", "kalman", "realtime-wavelet", "wavelet", "wpacket")
 #: A memory-mapped record longer than this (samples) is filtered in pieces of _PIECE.
 FILE_BACKED_MIN = 1 << 20
 _PIECE = 1 << 20
@@ -204,6 +204,31 @@ def _piecewise_filter(x: np.ndarray, args: argparse.Namespace
         lambda: kf.fault_count)
 
 
+def _denoised_pieces(x: np.ndarray, args: argparse.Namespace
+                     ) -> tuple[Iterator[np.ndarray], dict[str, Any]]:
+    """The offline wavelet or wavelet-packet denoiser's output in pieces
+    (`gyrodrift.filters.wavelet_file`), with the info `_run_filter` reports."""
+    from gyrodrift.filters import wavelet_file
+
+    info: dict[str, Any] = {"method": args.filter, "core": args.core}
+    level = args.level or (5 if args.filter == "wavelet" else 4)
+    mode = args.threshold or "soft"
+    if args.filter == "wavelet":
+        if mode == "forced":
+            raise CliError("--threshold forced is the real-time prefilter's mode: use "
+                           "--filter realtime-wavelet, or soft/hard")
+        info |= {"wavelet": args.wavelet, "level": level, "threshold": mode}
+        return wavelet_file.wavelet_denoise_pieces(x, args.wavelet, level, mode,
+                                                   piece=_PIECE), info
+    if args.core == "float":
+        raise CliError("wpacket runs in Python (PyWavelets, float64) only; drop --core float")
+    if mode == "forced":
+        raise CliError("wpacket thresholds are soft or hard")
+    info |= {"wavelet": "bior3.7", "level": level, "threshold": mode}
+    return wavelet_file.wavelet_packet_denoise_pieces(x, "bior3.7", level, mode,
+                                                      piece=_PIECE), info
+
+
 def _write_pieces(out: Path, n: int, rate_hz: float, pieces: Iterator[np.ndarray]) -> None:
     """The filtered record's pieces written one after the other to `out` (.npy: a float64
     header for n samples, then the samples; .csv: t_s, rate_deg_h as `write_csv` writes
@@ -230,13 +255,25 @@ def _write_pieces(out: Path, n: int, rate_hz: float, pieces: Iterator[np.ndarray
 def _run_piecewise(x: np.ndarray, args: argparse.Namespace, out: Path, rate_hz: float
                    ) -> tuple[dict[str, Any], float, float]:
     """Filter a file-backed record in pieces into `out`: (info, std in, std out)."""
-    step, info, faults = _piecewise_filter(x, args)
     m_in, m_out = _Moments(), _Moments()
-
-    def filtered() -> Iterator[np.ndarray]:
+    if args.filter in ("wavelet", "wpacket"):
+        outputs, info = _denoised_pieces(x, args)
+        faults: Callable[[], int] = lambda: 0  # noqa: E731
         for p in iter_chunks(x, _PIECE):
             m_in.add(p)
-            y = step(p).astype(np.float64)
+    else:
+        step, info, faults = _piecewise_filter(x, args)
+
+        def stepped() -> Iterator[np.ndarray]:
+            for p in iter_chunks(x, _PIECE):
+                m_in.add(p)
+                yield step(p)
+
+        outputs = stepped()
+
+    def filtered() -> Iterator[np.ndarray]:
+        for p in outputs:
+            y = p.astype(np.float64)
             m_out.add(y)
             yield y
 
@@ -271,7 +308,8 @@ def run(args: argparse.Namespace) -> int:
     rec = record_from_args(args)
     raw = rec.rate_deg_h
     if (args.filter in PIECEWISE_METHODS and is_file_backed(raw) and raw.dtype == np.float64
-            and raw.shape[0] > FILE_BACKED_MIN):
+            and raw.shape[0] > FILE_BACKED_MIN
+            and not (args.filter == "wavelet" and args.core == "float")):
         try:
             info, std_in, std_out = _run_piecewise(raw, args, out, rec.rate_hz)
         except ValueError as exc:

@@ -134,7 +134,7 @@ import contextlib
 import functools
 import itertools
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -1465,7 +1465,8 @@ class _ModelStream:
                 phi = math.exp(-1.0 / tc)
                 u = math.sqrt(sigma2 * (1 - phi * phi)) * g.standard_normal(m)
                 if carry is None:
-                    z = self._zi[i] if self._zi[i] is not None else float(g.standard_normal())
+                    zi = self._zi[i]
+                    z = zi if zi is not None else float(g.standard_normal())
                     carry = np.array([phi * math.sqrt(sigma2) * z])
                 y, self._carry[i] = scipy.signal.lfilter([1.0], [1.0, -phi], u, zi=carry)
                 x += y
@@ -1494,7 +1495,8 @@ def _spool_replicate(path: Path, stream: _ModelStream) -> None:
 
 
 def _bootstrap_wv_file(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.random.Generator,
-                       rate_hz: float, max_level: int) -> Iterator[WaveletVariance]:
+                       rate_hz: float, max_level: int
+                       ) -> Generator[WaveletVariance, None, None]:
     """Wavelet variances of successive bootstrap records of a file-backed record's length,
     without holding one: each record is simulated in pieces of _WV_PIECE samples into one
     temporary .npy file (disk: 8 bytes per sample), and its wavelet variance is streamed from
@@ -1904,10 +1906,12 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         boots = []
         # a file-backed record's replicates are simulated and analysed in pieces, as the
         # record itself (the same random numbers as in memory)
-        replicates = (_bootstrap_wv_file(terms, p_hat, n_samples, rng, rate_hz,
-                                         int(wv.level[-1])) if wv_file is not None else
-                      (haar_wv(_simulate_model(terms, p_hat, n_samples, rng), rate_hz,
-                               max_level=int(wv.level[-1])) for _ in itertools.repeat(None)))
+        top_level = int(wv.level[-1])
+        replicates: Generator[WaveletVariance, None, None] = (
+            _bootstrap_wv_file(terms, p_hat, n_samples, rng, rate_hz, top_level)
+            if wv_file is not None else
+            (haar_wv(_simulate_model(terms, p_hat, n_samples, rng), rate_hz, max_level=top_level)
+             for _ in itertools.repeat(None)))
         with contextlib.closing(replicates):  # removes the temporary file now
             for wb in itertools.islice(replicates, int(bootstrap)):
                 if tau_range is not None:
