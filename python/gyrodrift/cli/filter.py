@@ -160,13 +160,13 @@ class _Moments:
 
 
 def _piecewise_filter(x: np.ndarray, args: argparse.Namespace
-                      ) -> tuple[Callable[[np.ndarray], np.ndarray], dict[str, Any],
-                                 Callable[[], int]]:
-    """(filter of the next piece, info, faults so far) of a stateful method: the AR(2) model
-    fitted in passes over the pieces (`fit_ar2_chunks`), the C++ filter's state carried from
-    one piece to the next, so that the pieces' outputs are the one-call path's."""
+                      ) -> tuple[Callable[[Iterator[np.ndarray]], Iterator[np.ndarray]],
+                                 dict[str, Any], Callable[[], int]]:
+    """(outputs of the record's pieces, info, faults so far) of a stateful method: the AR(2)
+    model fitted in passes over the pieces (`fit_ar2_chunks`), the C++ filter's state carried
+    from one piece to the next, so that the pieces' outputs are the one-call path's."""
     import gyrodrift
-    from gyrodrift.filters.ar2 import fit_ar2_chunks
+    from gyrodrift.filters.ar2 import ar_filter_pieces, fit_ar2_chunks
 
     dtype = np.float32 if args.core == "float" else np.float64
     info: dict[str, Any] = {"method": args.filter, "core": args.core}
@@ -177,30 +177,19 @@ def _piecewise_filter(x: np.ndarray, args: argparse.Namespace
                  "threshold": mode}
         rt = gyrodrift.RealtimeWavelet(args.wavelet, window=args.window, level=level,
                                        mode=mode, dtype=dtype)
-        return (lambda p: np.asarray(rt.filter(p))), info, (
+        return (lambda ps: (np.asarray(rt.filter(p)) for p in ps)), info, (
             lambda: int(np.sum(rt.fault_counts)))
     model = fit_ar2_chunks(lambda: iter_chunks(x, _PIECE), args.ar_method)
     info["ar2"] = {"a1": model.a1, "a2": model.a2, "sigma2": model.sigma2,
                    "mean": model.mean, "method": args.ar_method}
     if args.filter == "ar":
-        # the AR filter's state is its last two (demeaned) inputs: the next piece is filtered
-        # behind the previous piece's last two samples, whose outputs are dropped
-        carry = np.empty(0, dtype=dtype)
-
-        def ar_piece(p: np.ndarray) -> np.ndarray:
-            nonlocal carry
-            a = np.concatenate([carry, p.astype(dtype)])
-            y = np.asarray(gyrodrift.ar_filter(a, model))[carry.size:]
-            carry = a[-2:]
-            return y
-
-        return ar_piece, info, lambda: 0
+        return (lambda ps: ar_filter_pieces(ps, model, dtype)), info, lambda: 0
     info["kalman"] = {"q": model.sigma2 if args.kalman_q is None else args.kalman_q,
                       "r": model.measurement_variance if args.kalman_r is None
                       else args.kalman_r, "steady_state": bool(args.steady_state)}
     kf = gyrodrift.KalmanFilter(model, q=args.kalman_q, r=args.kalman_r,
                                 steady_state=args.steady_state, dtype=dtype)
-    return (lambda p: np.asarray(kf.process(p.astype(dtype)))), info, (
+    return (lambda ps: (np.asarray(kf.process(p.astype(dtype))) for p in ps)), info, (
         lambda: kf.fault_count)
 
 
@@ -262,14 +251,14 @@ def _run_piecewise(x: np.ndarray, args: argparse.Namespace, out: Path, rate_hz: 
         for p in iter_chunks(x, _PIECE):
             m_in.add(p)
     else:
-        step, info, faults = _piecewise_filter(x, args)
+        run, info, faults = _piecewise_filter(x, args)
 
-        def stepped() -> Iterator[np.ndarray]:
+        def inputs() -> Iterator[np.ndarray]:
             for p in iter_chunks(x, _PIECE):
                 m_in.add(p)
-                yield step(p)
+                yield p
 
-        outputs = stepped()
+        outputs = run(inputs())
 
     def filtered() -> Iterator[np.ndarray]:
         for p in outputs:

@@ -40,6 +40,7 @@ __all__ = [
     "FilterResult",
     "KalmanFilter",
     "ar_filter",
+    "ar_filter_pieces",
     "fit_ar2",
     "fit_ar2_chunks",
     "is_stationary",
@@ -473,6 +474,31 @@ def ar_filter(
     out, faults = core("ar2").ar_filter_batch(a, params, out)
     _report_faults(faults, "ar_filter")
     return out
+
+
+def ar_filter_pieces(pieces: Iterable[np.ndarray], model: Ar2Model, dtype: object = np.float64
+                     ) -> Iterator[np.ndarray]:
+    """`ar_filter` of a 1-D record given in consecutive pieces, yielded piece by piece.
+
+    The filter's state is its last two inputs: each piece is filtered behind the previous
+    piece's last two samples, whose outputs are dropped, so that the pieces' outputs are the
+    one-call `ar_filter`'s bit for bit (for finite inputs: a NaN, replaced by the prediction
+    inside the filter, is carried as the sample).
+
+    Examples
+    --------
+    >>> m = Ar2Model(a1=0.5, a2=0.1, sigma2=1.0)
+    >>> x = np.random.default_rng(0).standard_normal(100)
+    >>> y = np.concatenate(list(ar_filter_pieces((x[i:i + 7] for i in range(0, 100, 7)), m)))
+    >>> bool(np.array_equal(y, ar_filter(x, m)))
+    True
+    """
+    dt = np.dtype(dtype)  # type: ignore[call-overload]
+    carry = np.empty(0, dtype=dt)
+    for p in pieces:
+        a = np.concatenate([carry, np.asarray(p, dtype=dt)])
+        yield np.asarray(ar_filter(a, model))[carry.size:]
+        carry = a[-2:]
 
 
 @dataclass(frozen=True)
