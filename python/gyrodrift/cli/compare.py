@@ -7,8 +7,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-import numpy as np
-
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_input_args,
