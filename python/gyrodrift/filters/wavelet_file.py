@@ -28,6 +28,7 @@ Memory: a window of about `piece` + 2 `margin` samples and its transforms, and t
 
 from __future__ import annotations
 
+import gc
 import math
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -41,6 +42,8 @@ __all__ = ["wavelet_denoise_pieces", "wavelet_packet_denoise_pieces"]
 
 #: Samples per output piece (a multiple of 2^J is used).
 DEFAULT_PIECE = 1 << 20
+#: Samples per piece of the packet denoiser at most (its tree holds J + 1 copies of a window).
+PACKET_PIECE = 1 << 18
 
 
 class _Padded:
@@ -269,7 +272,8 @@ def wavelet_packet_denoise_pieces(x: Any, wavelet: str = "bior3.7", level: int =
     wavelet, level, mode
         as `wavelet_packet_denoise`.
     piece
-        samples per output piece (rounded down to a multiple of 2^level).
+        samples per output piece (at most PACKET_PIECE, rounded down to a multiple of
+        2^level).
 
     Yields
     ------
@@ -303,7 +307,7 @@ def wavelet_packet_denoise_pieces(x: Any, wavelet: str = "bior3.7", level: int =
     arr = _checked(x, level, 10, wavelet_ok)
     level = int(level)
     pad = _Padded(arr, level)
-    step, margin = _pieces_plan(level, piece)
+    step, margin = _pieces_plan(level, min(piece, PACKET_PIECE))
     _scan(arr, step)
     if pad.m <= step + 2 * margin:
         from gyrodrift.filters.wavelet_packet import wavelet_packet_denoise
@@ -317,6 +321,9 @@ def wavelet_packet_denoise_pieces(x: Any, wavelet: str = "bior3.7", level: int =
     def windows() -> Iterator[tuple[Any, int, int]]:
         for a in range(0, pad.m, step):
             b = min(pad.m, a + step)
+            # a packet tree's nodes refer to each other: freed by the cycle collector only,
+            # which counts objects, not bytes (dozens of MB per tree would pile up)
+            gc.collect()
             yield tree(pad.window(a - margin, b + margin)), a, b
 
     costs: dict[str, float] = {}
