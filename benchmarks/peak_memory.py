@@ -9,7 +9,9 @@ from ``os.wait4`` (``ru_maxrss``: resident pages, including mapped file pages), 
 a table: command, samples, peak MB, budget MB, ok. The budgets are stated in BUDGET_MB and
 do not depend on the record's length; docs/validation/memory.md holds the table on 1e8 and
 1e7 samples, and tests/test_peak_memory.py runs this script on 2e7 samples (fit-full-rate,
-about 5 minutes there on a loaded machine, is measured here only).
+about 5 minutes there on a loaded machine, and compare, about 3 minutes, are measured here
+only). filter, compare and identify-gmwm-bootstrap also write temporary files (the output,
+the filtered records, the bootstrap records) beside the record or in TMPDIR.
 
 Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit,...] [--json]
 """

@@ -38,13 +38,13 @@ def test_analysis_commands_stay_under_their_memory_budget() -> None:
         assert r["peak_mb"] <= r["budget_mb"], r
 
 
-def test_filtering_commands_and_the_bootstrap_stay_under_their_memory_budget() -> None:
-    """`filter` (the AR(2)-Kalman filter, written to a .npy file), `compare` (the paper's
-    Table 1: five filtered records, their Allan deviations and PSDs) and `identify
-    --identifier gmwm --bootstrap 2` held the record and its filtered or simulated copies:
-    541, 2074 and 798 MB at this size before they read the record and wrote or simulated
-    their outputs in pieces."""
-    commands = ["filter", "compare", "identify-gmwm-bootstrap"]
+def test_filter_and_the_gmwm_bootstrap_stay_under_their_memory_budget() -> None:
+    """`filter` (the AR(2)-Kalman filter, written to a .npy file) and `identify --identifier
+    gmwm --bootstrap 2` held the record and its filtered or simulated copies: 541 and 798 MB
+    at this size before they read the record and wrote or simulated their outputs in pieces.
+    `compare` (2074 MB before, the same pieces for its four filters) takes minutes at this
+    size and is measured by the script only (docs/validation/memory.md)."""
+    commands = ["filter", "identify-gmwm-bootstrap"]
     run = subprocess.run([sys.executable, str(SCRIPT), "--samples", "2e7", "--commands",
                           ",".join(commands), "--json"], capture_output=True,
                          text=True, env=os.environ.copy(), timeout=900)
