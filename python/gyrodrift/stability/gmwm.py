@@ -199,6 +199,19 @@ MODEL_ERROR_REL = DEFAULT_TOLERANCE / 2.0
 #: within this WIC distance (`_widen_by_model_set`): twice the nested-selection margin, the
 #: distance within which information-criterion weights still give a model real support.
 MODEL_SET_DELTA = 2.0 * WIC_MARGIN
+#: The random walk K is read from a fit of white noise + a flat flicker floor + K (+ the
+#: ramp where the selected model has one) to the longest LONG_SCALE_LEVELS scales
+#: (`_long_scale_k`): six octaves, from the flicker floor to the end of the record.
+LONG_SCALE_LEVELS = 6
+#: K is reported as resolved only where the long-scale fit's random walk carries at least
+#: this share of the fitted wavelet variance at the longest scale (the record shows it) ...
+K_RESOLVED_SHARE = 0.5
+#: ... and its 95 % interval is within this factor (high / low). With an honest interval
+#: that is a standard error of at most ln(2) / (2 * 1.96) = 0.177 on log K, so the estimate
+#: lies within -30 % .. +30 % of the truth with probability >= 0.91 (log 1.3 = 0.262 =
+#: 1.48 se, log 0.7 = -0.357 = -2.02 se); wider, the record does not show K within 30 %
+#: and only the upper limit is reported.
+K_RESOLVED_RATIO = 2.0
 
 
 # --------------------------------------------------------------------------------------
@@ -431,6 +444,8 @@ def _component_wv(term: str, p: np.ndarray, tau: np.ndarray) -> np.ndarray:
         return (tau * tau + 2.0) * p[0] / (12.0 * tau)
     if term == "R":
         return p[0] * tau * tau / 16.0
+    if term == "B":  # flicker floor (the long-scale K fit only): flat
+        return np.full(tau.shape, float(p[0]))
     if term == "GM":
         sigma2, tc = p[0], p[1]
         phi = math.exp(-1.0 / tc)
@@ -1065,8 +1080,12 @@ class GmwmResult:
         "common" (the model-free weight of wv_covariance_nonparametric, model="auto")
         or "efficient" (the fitted model's own, iterated; a named model).
     notes
-        what the fit changed or found (converted Gauss-Markov terms, misfit), one
-        line each.
+        what the fit changed or found (converted Gauss-Markov terms, misfit, K not
+        resolved), one line each.
+    k_long
+        the random walk of the long-scale fit (`_long_scale_k`): K, its interval
+        (probability ci), and the share of the fitted wavelet variance it carries at the
+        longest scale; None where the record has too few scales.
 
     Examples
     --------
@@ -1096,6 +1115,7 @@ class GmwmResult:
     approximate: bool = False
     weight: str = "efficient"
     notes: tuple[str, ...] = ()
+    k_long: tuple[float, float, float, float] | None = None
 
     def param(self, name: str) -> GmwmParam:
         for p in self.params:
@@ -1107,33 +1127,48 @@ class GmwmResult:
         return self.param(name).value
 
     def implied(self) -> dict[str, float]:
-        """The white-noise density N (deg/sqrt(h)) and random walk K (deg/h/sqrt(h)) the
-        fitted model implies over the fitted scales, with intervals (probability ci): N adds
-        every Gauss-Markov term whose correlation time lies below the smallest scale (white
-        noise there, with its spectral density at zero frequency, sigma^2 (1 + phi) /
-        (1 - phi) per sample); K adds every one whose correlation time exceeds the longest
-        scale (a random walk there, increment variance sigma^2 (1 - phi^2)). 0.0 where the
-        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high and
-        K_upper_limit (the largest K the measured wavelet variance allows at any fitted
-        scale: the bound to report where K is 0, not resolved). Where the
-        value is the model's own N (K) term alone, its interval is that parameter's;
-        otherwise it follows from param_cov by the delta method on the log scale
-        (d log(1 + phi)/(1 - phi) / d log T_c = 2 phi / (T_c (1 - phi^2)),
-        d log(1 - phi^2) / d log T_c = -2 phi^2 / (T_c (1 - phi^2)), T_c in samples).
+        """The white-noise density N (deg/sqrt(h)) and the random walk K (deg/h/sqrt(h))
+        the fit implies, with intervals (probability ci).
+
+        N adds to the model's N term every Gauss-Markov term whose correlation time lies
+        below the smallest scale (white noise there, with its spectral density at zero
+        frequency, sigma^2 (1 + phi) / (1 - phi) per sample).
+
+        K is reported only where the record shows it (K_resolved = 1.0): read from the
+        long-scale fit (`_long_scale_k`: white noise, a flat flicker floor and K over the
+        longest scales, the floor that no candidate model has and that otherwise goes into
+        K or hides it), where its random walk carries at least K_RESOLVED_SHARE of the fitted
+        wavelet variance at the longest scale and its interval is within a factor
+        K_RESOLVED_RATIO. Otherwise K, K_ci_low and K_ci_high are 0.0 (not resolved) and
+        K_upper_limit is the value to report: the largest K the measured wavelet variance
+        allows at any fitted scale (the random walk's wavelet variance alone,
+        (tau^2 + 2) g2 / (12 tau), reaching the upper end of the measured interval).
+
+        K_model (K_model_ci_low, K_model_ci_high) is the random walk of the selected model
+        itself: its K term plus every Gauss-Markov term whose correlation time stopped at
+        its upper bound, a random walk of increment variance sigma^2 (1 - phi^2) over the
+        scales below it (0.0 where it has neither: the random walk is then in the flicker
+        floor, a slow Gauss-Markov term or a ramp). Intervals of sums follow from
+        param_cov by the delta method on the log scale (d log(1 + phi)/(1 - phi) / d log
+        T_c = 2 phi / (T_c (1 - phi^2)), d log(1 - phi^2) / d log T_c = -2 phi^2 / (T_c
+        (1 - phi^2)), T_c in samples); a term's own interval where it is alone.
 
         Examples
         --------
         >>> x = np.random.default_rng(1).standard_normal(4096) * 30.0
         >>> res = identify_gmwm(x, 100.0, model="N")
         >>> imp = res.implied()
-        >>> imp["N"] == res.value("N"), imp["K"], imp["N_ci_low"] == res.param("N").ci_low
-        (True, 0.0, True)
+        >>> imp["N"] == res.value("N"), imp["K"], imp["K_resolved"]
+        (True, 0.0, 0.0)
+        >>> imp["N_ci_low"] == res.param("N").ci_low
+        True
         """
         dt = 1.0 / self.rate_hz
         terms = parse_model(self.model)
-        lo_s, hi_s = float(self.tau_s[0]), float(self.tau_s[-1])
+        lo_s = float(self.tau_s[0])
+        tc_hi_s = _tc_bounds(self.tau_s / dt)[1] * dt
         z = float(scipy.stats.norm.ppf(0.5 + self.ci / 2.0))
-        # per quantity: [(variance, gradient of its log w.r.t. theta)], own-term-only flag
+        # per quantity: [(variance, gradient of its log w.r.t. theta)]
         parts: dict[str, list[tuple[float, np.ndarray]]] = {"N": [], "K": []}
         npar = _n_params(terms)
         k = 0
@@ -1154,35 +1189,34 @@ class GmwmResult:
                 if tc_s < lo_s:
                     grad[k + 1] = 2.0 * phi / (tc * (1.0 - phi * phi))
                     parts["N"].append((sigma2 * (1.0 + phi) / (1.0 - phi), grad))
-                elif tc_s > hi_s:
+                elif math.log(tc_s) >= math.log(tc_hi_s) - TC_BOUND_LOG_TOL:
                     grad[k + 1] = -2.0 * phi * phi / (tc * (1.0 - phi * phi))
                     parts["K"].append((sigma2 * (1.0 - phi * phi), grad))
             k += 2 if t == "GM" else 1
         out: dict[str, float] = {}
         for name, items in parts.items():
+            key = "N" if name == "N" else "K_model"
             total = sum(v for v, _ in items)
             conv = (lambda v: math.sqrt(v * dt) / 60.0) if name == "N" else (
                 lambda v: 60.0 * math.sqrt(v / dt))
             value = conv(total) if total > 0 else 0.0
-            out[name] = value
+            out[key] = value
             if not items:
-                out[f"{name}_ci_low"] = out[f"{name}_ci_high"] = 0.0
+                out[f"{key}_ci_low"] = out[f"{key}_ci_high"] = 0.0
             elif len(items) == 1 and name in terms and value == self.value(name):
-                out[f"{name}_ci_low"] = self.param(name).ci_low
-                out[f"{name}_ci_high"] = self.param(name).ci_high
+                out[f"{key}_ci_low"] = self.param(name).ci_low
+                out[f"{key}_ci_high"] = self.param(name).ci_high
             else:
                 grad = np.sum([v / total * gr for v, gr in items], axis=0)
                 var = float(grad @ self.param_cov @ grad)
                 half = z * 0.5 * math.sqrt(max(var, 0.0))
-                out[f"{name}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
-                out[f"{name}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
-        # the largest K the measured WV allows: the random walk's WV alone,
-        # (tau^2 + 2) g2 / (12 tau) (tau in samples), reaching the upper end of the measured
-        # interval at some fitted scale; an upper limit whatever the model (K = 0: not
-        # resolved by the record, K <= this)
-        tau_n = self.tau_s / dt
-        g2 = 12.0 * tau_n * self.wv_ci_high / (tau_n * tau_n + 2.0)
-        out["K_upper_limit"] = float(60.0 * math.sqrt(float(np.min(g2)) / dt))
+                out[f"{key}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
+                out[f"{key}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
+        resolved = _k_resolved(self.k_long)
+        kl = self.k_long if resolved and self.k_long is not None else (0.0, 0.0, 0.0, 0.0)
+        out["K"], out["K_ci_low"], out["K_ci_high"] = kl[0], kl[1], kl[2]
+        out["K_resolved"] = 1.0 if resolved else 0.0
+        out["K_upper_limit"] = _k_upper_limit(self.tau_s, self.wv_ci_high, dt)
         return out
 
     def as_dict(self) -> dict[str, object]:
@@ -1209,6 +1243,64 @@ class GmwmResult:
             "notes": list(self.notes),
             "implied": self.implied(),
         }
+
+
+def _k_upper_limit(tau_s: np.ndarray, wv_ci_high: np.ndarray, dt: float) -> float:
+    """The largest K (deg/h/sqrt(h)) the measured wavelet variance allows: the random walk's
+    WV alone, (tau^2 + 2) g2 / (12 tau) (tau in samples), reaching the upper end of the
+    measured interval at some fitted scale. An upper limit whatever the model."""
+    tau_n = tau_s / dt
+    g2 = 12.0 * tau_n * wv_ci_high / (tau_n * tau_n + 2.0)
+    return float(60.0 * math.sqrt(float(np.min(g2)) / dt))
+
+
+def _k_resolved(k_long: tuple[float, float, float, float] | None) -> bool:
+    """Whether the long-scale fit resolves K (K_RESOLVED_SHARE, K_RESOLVED_RATIO)."""
+    if k_long is None:
+        return False
+    value, lo, hi, share = k_long
+    return bool(value > 0.0 and lo > 0.0 and math.isfinite(hi)
+                and share >= K_RESOLVED_SHARE and hi <= K_RESOLVED_RATIO * lo)
+
+
+def _long_scale_k(wv: WaveletVariance, omega: np.ndarray, terms: tuple[str, ...], dt: float,
+                  ci: float) -> tuple[float, float, float, float] | None:
+    """K from the longest scales, with a flicker floor the candidate models lack.
+
+    Bias instability is flicker noise, whose Haar wavelet variance is flat (B^2 ln 2 / pi,
+    half the Allan variance 2 ln 2 B^2 / pi): no Gauss-Markov term follows it beyond its
+    correlation time, so over the longest scales of a candidate model the floor is taken
+    either by the random walk (K too high, with an interval that does not hold it: K+GM
+    on the tactical MEMS preset, 1.4-1.5x) or by a Gauss-Markov term at its upper bound
+    or a ramp (no K). Here white noise (which also holds the tails of faster terms,
+    1 / tau beyond their correlation times), a flat floor and K (and the ramp, where the
+    selected model has one) are fitted to the longest LONG_SCALE_LEVELS scales with the
+    weight omega (the selection's common weight there) and the misspecification-robust
+    covariance of `_robust_param_cov`. Returns K, its interval (probability ci, symmetric
+    on the log scale), and K's share of the fitted WV at the longest scale; None with
+    fewer than LONG_SCALE_LEVELS scales or when the fit fails."""
+    n_lev = wv.nu2.size
+    if n_lev < LONG_SCALE_LEVELS:
+        return None
+    sl = slice(n_lev - LONG_SCALE_LEVELS, n_lev)
+    nu2 = wv.nu2[sl]
+    tau = 2.0 ** wv.level[sl].astype(np.float64)
+    om = omega[sl, sl]
+    long_terms = ("N", "K", "R", "B") if "R" in terms else ("N", "K", "B")
+    try:
+        fit = _fit_model(long_terms, nu2, tau, _chol(om))
+        cov, _ = _robust_param_cov(long_terms, fit.theta, tau, om, om, nu2)
+    except (GyrodriftValueError, np.linalg.LinAlgError):
+        return None
+    p = np.exp(fit.theta)
+    k_wv = _component_wv("K", p[1:2], tau[-1:])[0]
+    share = float(k_wv / theoretical_wv(long_terms, p, tau[-1:])[0])
+    value = 60.0 * math.sqrt(float(p[1]) / dt)
+    z = float(scipy.stats.norm.ppf(0.5 + ci / 2.0))
+    half = z * 0.5 * math.sqrt(max(float(cov[1, 1]), 0.0))
+    lo, hi = ((value * math.exp(-half), value * math.exp(half)) if half < 700.0
+              else (0.0, math.inf))
+    return value, lo, hi, share
 
 
 def _to_ieee(terms: tuple[str, ...], theta: np.ndarray, dt: float
@@ -1596,7 +1688,8 @@ def _select_common(top: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
             reduced.append(f"{_model_str(cand)} -> {_model_str(f1.terms)}")
         if f1.terms not in fits or f1.objective < fits[f1.terms].objective:
             fits[f1.terms] = f1
-            fit_notes[f1.terms] = conv if f1.terms != cand else []
+            # the notes of a conversion, or of a GM kept at its upper bound
+            fit_notes[f1.terms] = conv
     wics = {c: _wic(f) for c, f in fits.items()}
     failed = {c: _check(wv, lo, hi, fits[c], tau).n_failed for c in fits}
     holding = {c: w for c, w in wics.items() if failed[c] == 0}
@@ -1843,13 +1936,31 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             name = f"GM{g}"
         comps[name] = _component_wv(t, p_nat[k:k + width], tau)
         k += width
-    return GmwmResult(
+    res = GmwmResult(
         model=_model_str(terms), params=params, rate_hz=float(rate_hz), n_samples=n_samples,
         tau_s=wv.tau_s, wv=wv.nu2, wv_ci_low=lo, wv_ci_high=hi,
         wv_fit=theoretical_wv(terms, p_nat, tau), wv_components=comps,
         objective=fit.objective, wic=wic, candidates=candidates, ci=float(ci),
         ci_method="bootstrap" if bootstrap else "asymptotic", param_cov=cov, check=check,
-        approximate=approximate, weight=weight, notes=tuple(notes))
+        approximate=approximate, weight=weight, notes=tuple(notes),
+        k_long=_long_scale_k(wv, omega_data, terms, dt, ci))
+    imp = res.implied()
+    if imp["K_resolved"]:
+        notes.append(
+            f"K = {imp['K']:.4g} [{imp['K_ci_low']:.4g}, {imp['K_ci_high']:.4g}] "
+            f"deg/h/sqrt(h) from the longest {LONG_SCALE_LEVELS} scales with a flicker floor "
+            f"(the model's own random walk: {imp['K_model']:.4g})")
+    elif imp["K_model"] > 0.0:
+        kl = res.k_long
+        notes.append(
+            f"K is not resolved by the record (the random walk's interval is not within a "
+            f"factor {K_RESOLVED_RATIO:g}, or it carries less than "
+            f"{100 * K_RESOLVED_SHARE:g} % of the longest scale"
+            + ("" if kl is None else f": {kl[0]:.4g} [{kl[1]:.4g}, {kl[2]:.4g}] with a "
+               f"flicker floor, {100 * kl[3]:.0f} %")
+            + f"); report the upper limit K <= {imp['K_upper_limit']:.4g} deg/h/sqrt(h), "
+              f"not the model's {imp['K_model']:.4g}")
+    return replace(res, notes=tuple(notes))
 
 
 
@@ -1871,7 +1982,10 @@ def _scaled_back(res: GmwmResult, c: float) -> GmwmResult:
 
     c2 = c * c
     with np.errstate(over="ignore"):
+        kl = None if res.k_long is None else (
+            res.k_long[0] * c, res.k_long[1] * c, res.k_long[2] * c, res.k_long[3])
         return replace(res, params=tuple(param(p) for p in res.params), wv=res.wv * c2,
+                       k_long=kl,
                        wv_ci_low=res.wv_ci_low * c2, wv_ci_high=res.wv_ci_high * c2,
                        wv_fit=res.wv_fit * c2,
                        wv_components={k: v * c2 for k, v in res.wv_components.items()})
