@@ -199,12 +199,12 @@ MODEL_ERROR_REL = DEFAULT_TOLERANCE / 2.0
 #: within this WIC distance (`_widen_by_model_set`): twice the nested-selection margin, the
 #: distance within which information-criterion weights still give a model real support.
 MODEL_SET_DELTA = 2.0 * WIC_MARGIN
-#: The random walk K is read from a fit of white noise + a flat flicker floor + K (+ the
-#: ramp where the selected model has one) to the longest LONG_SCALE_LEVELS scales
-#: (`_long_scale_k`): six octaves, from the flicker floor to the end of the record.
+#: Whether the longest scales show a flicker floor, and K if they do, is read from a fit of
+#: white noise + K + a flat floor (+ the ramp where the selected model has one) to the
+#: longest LONG_SCALE_LEVELS scales (`_long_scale_k`): six octaves, a factor 64 in scale.
 LONG_SCALE_LEVELS = 6
-#: K is reported as resolved only where the long-scale fit's random walk carries at least
-#: this share of the fitted wavelet variance at the longest scale (the record shows it) ...
+#: K is reported as resolved only where its random walk carries at least this share of the
+#: fitted wavelet variance at the longest scale (the record shows it) ...
 K_RESOLVED_SHARE = 0.5
 #: ... and its 95 % interval is within this factor (high / low). With an honest interval
 #: that is a standard error of at most ln(2) / (2 * 1.96) = 0.177 on log K, so the estimate
@@ -1083,9 +1083,12 @@ class GmwmResult:
         what the fit changed or found (converted Gauss-Markov terms, misfit, K not
         resolved), one line each.
     k_long
-        the random walk of the long-scale fit (`_long_scale_k`): K, its interval
-        (probability ci), and the share of the fitted wavelet variance it carries at the
-        longest scale; None where the record has too few scales.
+        the random walk of the long-scale fit with a flicker floor (`_long_scale_k`): K,
+        its interval (probability ci), and the share of the fitted wavelet variance it
+        carries at the longest scale; None where the record has too few scales.
+    k_resolved
+        the K reported as resolved by the record (`_resolve_k`): value and interval;
+        None where only its upper limit is reported.
 
     Examples
     --------
@@ -1116,6 +1119,7 @@ class GmwmResult:
     weight: str = "efficient"
     notes: tuple[str, ...] = ()
     k_long: tuple[float, float, float, float] | None = None
+    k_resolved: tuple[float, float, float] | None = None
 
     def param(self, name: str) -> GmwmParam:
         for p in self.params:
@@ -1134,15 +1138,15 @@ class GmwmResult:
         below the smallest scale (white noise there, with its spectral density at zero
         frequency, sigma^2 (1 + phi) / (1 - phi) per sample).
 
-        K is reported only where the record shows it (K_resolved = 1.0): read from the
-        long-scale fit (`_long_scale_k`: white noise, a flat flicker floor and K over the
-        longest scales, the floor that no candidate model has and that otherwise goes into
-        K or hides it), where its random walk carries at least K_RESOLVED_SHARE of the fitted
-        wavelet variance at the longest scale and its interval is within a factor
-        K_RESOLVED_RATIO. Otherwise K, K_ci_low and K_ci_high are 0.0 (not resolved) and
-        K_upper_limit is the value to report: the largest K the measured wavelet variance
-        allows at any fitted scale (the random walk's wavelet variance alone,
-        (tau^2 + 2) g2 / (12 tau), reaching the upper end of the measured interval).
+        K is reported only where the record resolves it (K_resolved = 1.0; `_resolve_k`):
+        where a fit of white noise, K and a flat flicker floor to the longest scales
+        (`_long_scale_k`) shows the floor, the K of that fit; where it shows none, the
+        selected model's own K term; in both cases only if that random walk carries at least
+        K_RESOLVED_SHARE of the fitted wavelet variance at the longest scale and its interval
+        is within a factor K_RESOLVED_RATIO. Otherwise K, K_ci_low and K_ci_high are 0.0
+        (not resolved) and K_upper_limit is the value to report: the largest K the measured
+        wavelet variance allows at any fitted scale (the random walk's wavelet variance
+        alone, (tau^2 + 2) g2 / (12 tau), reaching the upper end of the measured interval).
 
         K_model (K_model_ci_low, K_model_ci_high) is the random walk of the selected model
         itself: its K term plus every Gauss-Markov term whose correlation time stopped at
@@ -1212,10 +1216,9 @@ class GmwmResult:
                 half = z * 0.5 * math.sqrt(max(var, 0.0))
                 out[f"{key}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
                 out[f"{key}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
-        resolved = _k_resolved(self.k_long)
-        kl = self.k_long if resolved and self.k_long is not None else (0.0, 0.0, 0.0, 0.0)
-        out["K"], out["K_ci_low"], out["K_ci_high"] = kl[0], kl[1], kl[2]
-        out["K_resolved"] = 1.0 if resolved else 0.0
+        kr = self.k_resolved if self.k_resolved is not None else (0.0, 0.0, 0.0)
+        out["K"], out["K_ci_low"], out["K_ci_high"] = kr
+        out["K_resolved"] = 0.0 if self.k_resolved is None else 1.0
         out["K_upper_limit"] = _k_upper_limit(self.tau_s, self.wv_ci_high, dt)
         return out
 
@@ -1254,31 +1257,35 @@ def _k_upper_limit(tau_s: np.ndarray, wv_ci_high: np.ndarray, dt: float) -> floa
     return float(60.0 * math.sqrt(float(np.min(g2)) / dt))
 
 
-def _k_resolved(k_long: tuple[float, float, float, float] | None) -> bool:
-    """Whether the long-scale fit resolves K (K_RESOLVED_SHARE, K_RESOLVED_RATIO)."""
-    if k_long is None:
-        return False
-    value, lo, hi, share = k_long
-    return bool(value > 0.0 and lo > 0.0 and math.isfinite(hi)
-                and share >= K_RESOLVED_SHARE and hi <= K_RESOLVED_RATIO * lo)
+def _narrow(lo: float, hi: float) -> bool:
+    """An interval of K within the factor K_RESOLVED_RATIO (lower end above 0)."""
+    return bool(lo > 0.0 and math.isfinite(hi) and hi <= K_RESOLVED_RATIO * lo)
 
 
 def _long_scale_k(wv: WaveletVariance, omega: np.ndarray, terms: tuple[str, ...], dt: float,
-                  ci: float) -> tuple[float, float, float, float] | None:
+                  ci: float) -> tuple[tuple[float, float, float, float], bool] | None:
     """K from the longest scales, with a flicker floor the candidate models lack.
 
     Bias instability is flicker noise, whose Haar wavelet variance is flat (B^2 ln 2 / pi,
     half the Allan variance 2 ln 2 B^2 / pi): no Gauss-Markov term follows it beyond its
     correlation time, so over the longest scales of a candidate model the floor is taken
-    either by the random walk (K too high, with an interval that does not hold it: K+GM
-    on the tactical MEMS preset, 1.4-1.5x) or by a Gauss-Markov term at its upper bound
-    or a ramp (no K). Here white noise (which also holds the tails of faster terms,
-    1 / tau beyond their correlation times), a flat floor and K (and the ramp, where the
-    selected model has one) are fitted to the longest LONG_SCALE_LEVELS scales with the
-    weight omega (the selection's common weight there) and the misspecification-robust
-    covariance of `_robust_param_cov`. Returns K, its interval (probability ci, symmetric
-    on the log scale), and K's share of the fitted WV at the longest scale; None with
-    fewer than LONG_SCALE_LEVELS scales or when the fit fails."""
+    either by the random walk (K too high, with an interval that does not hold the truth:
+    K+GM on the tactical MEMS preset, 1.4-1.5x) or by a Gauss-Markov term at its upper
+    bound or a ramp (no K). Here white noise (which also holds the tails of faster terms,
+    1 / tau beyond their correlation times), K, a flat floor (and the ramp, where the
+    selected model has one) are fitted to the longest LONG_SCALE_LEVELS scales: a linear
+    model in the variances, fitted by non-negative least squares with the weight omega^-1
+    (the selection's common weight there). The covariance of the variances is the
+    generalised-least-squares sandwich (A' W A)^-1 A' W (S + d^2 V) W A (A' W A)^-1 with
+    S = omega and the model discrepancy d^2 V of `_robust_param_cov`, taken without the
+    non-negativity constraint, so that a term the fit set to 0 still widens the interval of
+    the terms it trades with (a log-scale delta method at a term's bound does not: its
+    derivative vanishes and K's interval came out narrow and wrong). K's interval is
+    g2 +- z sd on the increment variance (lower end at least 0).
+
+    Returns ((K, its interval low and high, K's share of the fitted WV at the longest
+    scale), whether the floor is shown: its variance's lower limit, estimate - z sd, above
+    0); None with fewer than LONG_SCALE_LEVELS scales or when the fit fails."""
     n_lev = wv.nu2.size
     if n_lev < LONG_SCALE_LEVELS:
         return None
@@ -1287,20 +1294,73 @@ def _long_scale_k(wv: WaveletVariance, omega: np.ndarray, terms: tuple[str, ...]
     tau = 2.0 ** wv.level[sl].astype(np.float64)
     om = omega[sl, sl]
     long_terms = ("N", "K", "R", "B") if "R" in terms else ("N", "K", "B")
+    a = _design(long_terms, tau, ())
+    li = _tri_inv(_chol(om))
+    aw = np.einsum("ij,jk->ik", li, a)
+    bw = np.einsum("ij,j->i", li, nu2)
+    scale = np.linalg.norm(aw, axis=0)
+    scale[scale == 0] = 1.0
     try:
-        fit = _fit_model(long_terms, nu2, tau, _chol(om))
-        cov, _ = _robust_param_cov(long_terms, fit.theta, tau, om, om, nu2)
-    except (GyrodriftValueError, np.linalg.LinAlgError):
+        v, _ = scipy.optimize.nnls(aw / scale, bw)
+        bread = np.linalg.pinv(aw.T @ aw)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):
         return None
-    p = np.exp(fit.theta)
-    k_wv = _component_wv("K", p[1:2], tau[-1:])[0]
-    share = float(k_wv / theoretical_wv(long_terms, p, tau[-1:])[0])
-    value = 60.0 * math.sqrt(float(p[1]) / dt)
+    v = v / scale
+    gw = bread @ aw.T @ li  # (A' W A)^-1 A' W
+    resid = nu2 - a @ v
+    maker = np.eye(tau.size) - a @ gw
+    w_diag = 1.0 / np.diag(om)
+    vc = np.outer(nu2, nu2) * allan_kernel_corr(tau)
+    den = float(np.einsum("i,ij,ji->", w_diag, maker, vc @ maker.T))
+    excess = float(np.sum(w_diag * resid**2)) - float(
+        np.einsum("i,ij,ji->", w_diag, maker, om @ maker.T))
+    d2 = max(0.0, excess / den) if den > 0 else 0.0
+    cov = gw @ (om + d2 * vc) @ gw.T
     z = float(scipy.stats.norm.ppf(0.5 + ci / 2.0))
-    half = z * 0.5 * math.sqrt(max(float(cov[1, 1]), 0.0))
-    lo, hi = ((value * math.exp(-half), value * math.exp(half)) if half < 700.0
-              else (0.0, math.inf))
-    return value, lo, hi, share
+    g2 = float(v[1])
+    sd = math.sqrt(max(float(cov[1, 1]), 0.0))
+    b_sd = math.sqrt(max(float(cov[-1, -1]), 0.0))
+
+    def k_of(g: float) -> float:
+        return 60.0 * math.sqrt(max(g, 0.0) / dt)
+
+    total = float(a[-1] @ v)
+    share = float(a[-1, 1] * g2 / total) if total > 0 else 0.0
+    return (k_of(g2), k_of(g2 - z * sd), k_of(g2 + z * sd), share), \
+        bool(float(v[-1]) - z * b_sd > 0.0)
+
+
+def _resolve_k(res: GmwmResult, long: tuple[tuple[float, float, float, float], bool] | None
+               ) -> tuple[float, float, float] | None:
+    """The K to report (value, interval) where the record resolves it, else None.
+
+    Where the long-scale fit shows a flicker floor (`_long_scale_k`), K is its random walk,
+    resolved if that carries at least K_RESOLVED_SHARE of the fitted WV at the longest scale
+    and its interval is within K_RESOLVED_RATIO. Where it shows none, the candidate models
+    lack nothing on the long scales and K is the selected model's own K term, resolved on
+    the same two conditions (its share of the model's fitted WV at the longest scale). A
+    random walk held by a Gauss-Markov term at its upper bound is never resolved: its
+    correlation time is only a lower limit, so its increment variance is not determined
+    (its delta-method interval is too narrow)."""
+    if long is None:
+        return None
+    (value, lo, hi, share), floor = long
+    if floor:
+        ok = value > 0.0 and share >= K_RESOLVED_SHARE and _narrow(lo, hi)
+        return (value, lo, hi) if ok else None
+    terms = parse_model(res.model)
+    if "K" not in terms:
+        return None
+    imp = res.implied()
+    k = res.param("K")
+    if imp["K_model"] != k.value:  # a GM at its upper bound adds to it
+        return None
+    dt = 1.0 / res.rate_hz
+    tau = float(res.tau_s[-1]) / dt
+    g2 = (k.value / 60.0) ** 2 * dt
+    k_share = (tau * tau + 2.0) * g2 / (12.0 * tau) / float(res.wv_fit[-1])
+    ok = k_share >= K_RESOLVED_SHARE and _narrow(k.ci_low, k.ci_high)
+    return (k.value, k.ci_low, k.ci_high) if ok else None
 
 
 def _to_ieee(terms: tuple[str, ...], theta: np.ndarray, dt: float
@@ -1943,14 +2003,17 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         objective=fit.objective, wic=wic, candidates=candidates, ci=float(ci),
         ci_method="bootstrap" if bootstrap else "asymptotic", param_cov=cov, check=check,
         approximate=approximate, weight=weight, notes=tuple(notes),
-        k_long=_long_scale_k(wv, omega_data, terms, dt, ci))
+        )
+    long = _long_scale_k(wv, omega_data, terms, dt, ci)
+    res = replace(res, k_long=None if long is None else long[0])
+    res = replace(res, k_resolved=_resolve_k(res, long))
     imp = res.implied()
-    if imp["K_resolved"]:
+    if imp["K_resolved"] and long is not None and long[1]:
         notes.append(
             f"K = {imp['K']:.4g} [{imp['K_ci_low']:.4g}, {imp['K_ci_high']:.4g}] "
             f"deg/h/sqrt(h) from the longest {LONG_SCALE_LEVELS} scales with a flicker floor "
             f"(the model's own random walk: {imp['K_model']:.4g})")
-    elif imp["K_model"] > 0.0:
+    elif not imp["K_resolved"] and imp["K_model"] > 0.0:
         kl = res.k_long
         notes.append(
             f"K is not resolved by the record (the random walk's interval is not within a "
@@ -1984,8 +2047,10 @@ def _scaled_back(res: GmwmResult, c: float) -> GmwmResult:
     with np.errstate(over="ignore"):
         kl = None if res.k_long is None else (
             res.k_long[0] * c, res.k_long[1] * c, res.k_long[2] * c, res.k_long[3])
+        kr = None if res.k_resolved is None else (
+            res.k_resolved[0] * c, res.k_resolved[1] * c, res.k_resolved[2] * c)
         return replace(res, params=tuple(param(p) for p in res.params), wv=res.wv * c2,
-                       k_long=kl,
+                       k_long=kl, k_resolved=kr,
                        wv_ci_low=res.wv_ci_low * c2, wv_ci_high=res.wv_ci_high * c2,
                        wv_fit=res.wv_fit * c2,
                        wv_components={k: v * c2 for k, v in res.wv_components.items()})
