@@ -24,6 +24,12 @@ With --lengths L1,L2,..: only the model selection, on records of 2^L samples for
 same seeds, the first --reps replicates), printed as one hit-rate row per case and length with
 the record length in correlation times of the case's slowest Gauss-Markov term; the coverage
 and RMSE tables are not run (they are evaluated at --n only).
+
+With --misspecified, --preset P or --k-resolution: the model selection on the misspecified
+(flicker) cases, the simulator presets or the well-specified cases with a random walk, and
+the K a user reads (`GmwmResult.implied()`): how often it is resolved, whether the resolved
+K is within 30 % and its interval holds the generating K, and whether the upper limit
+holds where it is not resolved.
 """
 
 from __future__ import annotations
