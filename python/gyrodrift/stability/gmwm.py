@@ -116,6 +116,17 @@ fewest parameters among all within 2 of the minimum, nested or not; on the Monte
 tuning seeds it chose N+K+GM over a lower-WIC N+GM+GM; scripts/gmwm_monte_carlo.py and
 the GMWM validation page.)
 
+The random walk a user reads (`GmwmResult.implied`): no candidate has a flicker floor (bias
+instability, a flat wavelet variance), so on flicker records the selected model's random
+walk holds the floor's longest scales (K too high, with an interval that misses the truth)
+or a Gauss-Markov term at its upper bound or a ramp hides it. K is therefore reported only
+where the record resolves it: a linear fit of white noise, K and a flat floor to the
+longest LONG_SCALE_LEVELS scales (`_long_scale_k`) says whether the floor is there; K is
+that fit's if it is, else the selected model's own K term, and is reported only if it
+carries at least K_RESOLVED_SHARE of the fitted wavelet variance at the longest scale and
+its interval is within a factor K_RESOLVED_RATIO (`_resolve_k`); otherwise its upper limit
+is.
+
 Examples
 --------
 >>> import gyrodrift
