@@ -2013,8 +2013,7 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         wv_fit=theoretical_wv(terms, p_nat, tau), wv_components=comps,
         objective=fit.objective, wic=wic, candidates=candidates, ci=float(ci),
         ci_method="bootstrap" if bootstrap else "asymptotic", param_cov=cov, check=check,
-        approximate=approximate, weight=weight, notes=tuple(notes),
-        )
+        approximate=approximate, weight=weight, notes=tuple(notes))
     long = _long_scale_k(wv, omega_data, terms, dt, ci)
     res = replace(res, k_long=None if long is None else long[0])
     res = replace(res, k_resolved=_resolve_k(res, long))
@@ -2030,8 +2029,8 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             f"K is not resolved by the record (the random walk's interval is not within a "
             f"factor {K_RESOLVED_RATIO:g}, or it carries less than "
             f"{100 * K_RESOLVED_SHARE:g} % of the longest scale"
-            + ("" if kl is None else f": {kl[0]:.4g} [{kl[1]:.4g}, {kl[2]:.4g}] with a "
-               f"flicker floor, {100 * kl[3]:.0f} %")
+            + ("" if kl is None else f"; the long-scale fit with a flicker floor gives "
+               f"{kl[0]:.4g} [{kl[1]:.4g}, {kl[2]:.4g}], {100 * kl[3]:.0f} %")
             + f"); report the upper limit K <= {imp['K_upper_limit']:.4g} deg/h/sqrt(h), "
               f"not the model's {imp['K_model']:.4g}")
     return replace(res, notes=tuple(notes))
