@@ -14,15 +14,10 @@ for bias instability; what goes wrong on real records is how the fit weighs the 
 
 Objective (log scale). The fit minimises::
 
-    chi2 = sum_i w_i (log sigma_hat_i^2 - b_i - log sigma_model_i^2)^2,  w_i = 1 / (2 / edf_i + d^2)
+    chi2 = sum_i w_i (log sigma_hat_i^2 - log sigma_model_i^2)^2,  w_i = 1 / (2 / edf_i + d^2)
 
 over C_k >= 0 (scipy.optimize.least_squares, bounds, started from the weighted NNLS of
-`ieee952.identify`). b_i = psi(edf_i / 2) - log(edf_i / 2) (psi the digamma function) is the
-mean of the log of a chi-squared variance estimate with edf_i degrees of freedom relative to
-the log of its expectation: about -1 / edf_i, -0.08 at 12 edf and -0.2 at 5 edf. Without it a
-log-scale fit runs below the longest, least-measured taus, where the random walk K shows: K
-came out 7 % low as a median on the tactical-mems preset, and B absorbed K's share near the
-Allan minimum. 2 / edf_i is the variance of the log of a chi-squared variance estimate
+`ieee952.identify`). 2 / edf_i is the variance of the log of a chi-squared variance estimate
 with edf_i degrees of freedom; d = MODEL_DISCREPANCY (10 % of sigma^2, 5 % of sigma) is the
 relative error the five-term model is allowed at any tau (output filters, vibration lines and
 Gauss-Markov humps of real sensors), so that the short taus, whose edf run to 1e5, do not
@@ -129,7 +124,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.special
 import scipy.stats
 
 from gyrodrift._scale import scale_for_peak
@@ -634,10 +628,7 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
             f"{int(np.count_nonzero(used))} taus with a positive deviation"
             + ("" if user_range else f" and edf >= {MIN_FIT_EDF:g}")
             + f" in the fit range {lo:g}:{hi:g} s cannot identify {len(names)} terms")
-    # the fit compares log sigma_hat^2 - b_i with the model's log (module docstring)
-    half_edf = np.where(used, e, 1.0) / 2.0
-    var_all = np.where(used, dev, 1.0) ** 2 * np.exp(
-        np.log(half_edf) - scipy.special.digamma(half_edf))
+    var_all = np.where(used, dev, 1.0) ** 2
     wt_all = 1.0 / (2.0 / np.where(used, e, 1.0) + MODEL_DISCREPANCY**2)
     trimmed_short = trimmed_long = 0
     # Never more than MAX_TRIM_SHARE of the eligible taus: trimming is for the ends a sensor's
