@@ -528,7 +528,7 @@ class NpyChannels:
         return out
 
     def spool(self, spool_dir: str | Path, nan_policy: str = "refuse") -> ImuData:
-        """Every channel copied to `spool_dir/<name>.npy` (float64), returned as read-only
+        """Every channel copied to `spool_dir/<name>.f64` (raw float64), returned as read-only
         memory maps (which the Allan code reads in chunks: bounded memory). NaN/Inf:
         `nan_policy` "refuse" raises with their count; "drop" removes the rows where any
         used channel has one and reports their count (as `load_imu` does)."""
@@ -538,7 +538,10 @@ class NpyChannels:
         spool = Path(spool_dir)
         spool.mkdir(parents=True, exist_ok=True)
         rows = min(self.chunk_rows, self.n)
-        scratch = {name: np.empty(rows) for name in self._idx}
+        # one buffer per channel only where rows may be dropped (all channels' values are
+        # needed before a row is written); one buffer for all channels otherwise
+        one = np.empty(rows)
+        scratch = {name: np.empty(rows) if nan_policy == "drop" else one for name in self._idx}
         finite, ok = np.empty(rows, dtype=bool), np.empty(rows, dtype=bool)
         n_bad = n_rows_bad = n_kept = 0
         raw = {name: open(spool / f"{name}.f64", "wb") for name in self._idx}
@@ -551,6 +554,10 @@ class NpyChannels:
                     np.isfinite(col, out=finite[:m])
                     n_bad += m - int(np.count_nonzero(finite[:m]))
                     ok[:m] &= finite[:m]
+                    if nan_policy != "drop":
+                        raw[name].write(col.data)
+                if nan_policy != "drop":
+                    continue
                 kept = int(np.count_nonzero(ok[:m]))
                 n_rows_bad += m - kept
                 n_kept += kept
@@ -562,6 +569,7 @@ class NpyChannels:
                 fh.close()
         if nan_policy != "drop":
             self._refuse(n_bad)
+            n_kept = self.n
         n_dropped = n_rows_bad if nan_policy == "drop" else 0
         cols: dict[str, np.ndarray] = {}
         for name in self.names:
