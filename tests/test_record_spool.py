@@ -222,8 +222,11 @@ def test_text_blocks_report_the_files_line_numbers(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"Line #6 \(got 3 columns instead of 2\)") as whole:
         np.genfromtxt(lines, delimiter=",", dtype=np.float64, ndmin=2)
     for block in (1, 2, 3, 5, 100):
-        with pytest.raises(ValueError, match=r"Line #6 \(got 3 columns instead of 2\)"):
-            list(iter_text_tables(iter(lines), delimiter=",", first_line_no=1, lines=block))
+        with pytest.raises(GyrodriftValueError,
+                           match=r"^t.csv: malformed: Some errors were detected !; "
+                                 r"Line #6 \(got 3 columns instead of 2\)$"):
+            list(iter_text_tables(iter(lines), delimiter=",", first_line_no=1, lines=block,
+                                  malformed="t.csv: malformed"))
     assert "Line #6" in str(whole.value)
     tables = [t for t, _, _ in iter_text_tables(iter(lines[:5]), delimiter=",",
                                                 first_line_no=1, lines=2)]

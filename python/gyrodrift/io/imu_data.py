@@ -626,8 +626,9 @@ def _read_text_columns(p: Path, delim: str | None, skip: int) -> list[np.ndarray
             with p.open(encoding="utf-8-sig") as fh:  # a byte-order mark is not part of a name
                 for _ in range(skip):
                     next(fh, None)
-                for table, _lines, _no in iter_text_tables(fh, delimiter=delim,
-                                                           first_line_no=skip + 1):
+                for table, _lines, _no in iter_text_tables(
+                        fh, delimiter=delim, first_line_no=skip + 1,
+                        malformed=f"{source}: malformed text table"):
                     if table.shape[0] == 0:
                         continue
                     if not spools:
@@ -638,9 +639,6 @@ def _read_text_columns(p: Path, delim: str | None, skip: int) -> list[np.ndarray
         except UnicodeDecodeError as exc:
             raise GyrodriftValueError(f"{source}: not a text table (byte {exc.start} of a line "
                                       "is not UTF-8; a binary file?)") from None
-        except ValueError as exc:
-            detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
-            raise GyrodriftValueError(f"{source}: malformed text table: {detail}") from exc
         if not spools:
             raise GyrodriftValueError(f"{source}: no data rows")
         return [sp.finish() for sp in spools]

@@ -53,8 +53,9 @@ GYRO_AXES = {"x": 0, "y": 1, "z": 2}
 class Record:
     """A rate record in deg/h.
 
-    rate_deg_h may be a read-only numpy.memmap (large .npy in deg/h without NaN), which the
-    Allan code reads in chunks; use np.asarray(rate_deg_h) to load it.
+    rate_deg_h may be a read-only numpy.memmap (a 1-D float64 .npy in deg/h without NaN, or
+    a record of 2^20 samples or more normalized into a temporary file: `load_record`), which
+    the analyses read in chunks; use np.asarray(rate_deg_h) to load it.
 
     Examples
     --------
@@ -285,6 +286,14 @@ def load_record(
     nanoseconds read as seconds are refused, naming the units the step suggests. Only
     regular files are read (a FIFO or device would block or never end).
 
+    mmap: a 1-D float64 .npy record in deg/h without NaN/Inf is returned memory-mapped; any
+    other .npy or .csv record of gyrodrift.io.spool.SPOOL_MIN_SAMPLES (2^20) samples or more
+    is converted in blocks of rows (a .csv parsed in blocks of lines) into a float64 file in
+    a temporary directory (8 bytes per sample; a .csv's column and time column too while it
+    is read) and returned memory-mapped; the directory goes when no array refers to the
+    map any more. The values are those of the conversion in memory. With mmap=False every
+    record is returned in memory.
+
     Examples
     --------
     >>> import tempfile, os
@@ -477,8 +486,9 @@ def _read_csv_columns(p: Path, delimiter: str, skip: int, names: list[str], idx:
         with p.open(encoding="utf-8-sig") as fh:
             for _ in range(skip):
                 next(fh, None)
-            for table, lines, line_no in iter_text_tables(fh, delimiter=delimiter,
-                                                          first_line_no=skip + 1):
+            for table, lines, line_no in iter_text_tables(
+                    fh, delimiter=delimiter, first_line_no=skip + 1,
+                    malformed=f"{p}: malformed CSV"):
                 if table.shape[0] == 0:
                     continue
                 if table.shape[1] != len(names):
@@ -494,11 +504,6 @@ def _read_csv_columns(p: Path, delimiter: str, skip: int, names: list[str], idx:
         raise GyrodriftValueError(
             f"{p}: not a text CSV file (byte {exc.start} of a line is "
             "not UTF-8; a binary file named .csv?)") from None
-    except GyrodriftValueError:
-        raise
-    except ValueError as exc:
-        detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
-        raise GyrodriftValueError(f"{p}: malformed CSV: {detail}") from exc
     if n_rows == 0:
         raise GyrodriftValueError(f"{p}: no data rows (header only?)")
 

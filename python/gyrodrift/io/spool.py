@@ -201,13 +201,14 @@ def _is_data_line(line: str, comments: str) -> bool:
 
 
 def iter_text_tables(fh: Iterable[str], *, delimiter: str | None, first_line_no: int,
-                     comments: str = "#", lines: int | None = None
+                     malformed: str = "malformed text table", comments: str = "#",
+                     lines: int | None = None
                      ) -> Iterator[tuple[np.ndarray, list[str], int]]:
     """The numbers of a text table in blocks: (float64 table of the block's rows, the
     block's lines, the file line number of its first line), parsed by ``numpy.genfromtxt``
     (cells that are not numbers become NaN; a row with another field count than the first
-    data line raises ``ValueError`` naming the file's line numbers), `lines` lines at a time
-    (default :data:`TEXT_BLOCK_LINES`).
+    data line raises GyrodriftValueError ``"<malformed>: <genfromtxt's message>"`` with the
+    file's line numbers), `lines` lines at a time (default :data:`TEXT_BLOCK_LINES`).
 
     `fh` yields the lines after any header (its first line is line `first_line_no` of the
     file, counting from 1).
@@ -237,7 +238,9 @@ def iter_text_tables(fh: Iterable[str], *, delimiter: str | None, first_line_no:
                 table = np.genfromtxt(feed, delimiter=delimiter, comments=comments,
                                       dtype=np.float64, invalid_raise=True, ndmin=2)
         except ValueError as exc:
-            raise ValueError(_shift_line_numbers(str(exc), shift)) from None
+            text = _shift_line_numbers(str(exc), shift)
+            detail = "; ".join(part.strip() for part in text.splitlines() if part.strip())
+            raise GyrodriftValueError(f"{malformed}: {detail}") from None
         if first_data is not None:
             table = table[1:]
         else:
