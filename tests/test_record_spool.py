@@ -258,3 +258,19 @@ def test_spool_removes_its_file_on_error_and_when_released(tmp_path: Path,
     assert float(view.sum()) == 3.0
     del view
     assert list(spooled.iterdir()) == []
+
+
+def test_units_check_reads_a_spooled_record(tmp_path: Path, spooled: Path) -> None:
+    """The units plausibility check samples a spooled channel from its file (not through the
+    map) and reaches the in-memory verdict: g values declared m/s^2 are refused, naming g."""
+    rng = np.random.default_rng(5)
+    x = np.column_stack([rng.normal(0.0, 1e-4, (N, 3)),
+                         rng.normal([0.0, 0.0, 1.0], 1e-3, (N, 3))])
+    np.save(tmp_path / "imu.npy", x)
+    rec = load_imu(tmp_path / "imu.npy", rate_hz=RATE, spool_dir=tmp_path / "sp")
+    assert all(isinstance(v, np.memmap) for v in rec.channels.values())
+    with pytest.raises(GyrodriftValueError, match=r"the data look like g;"):
+        imu_data.check_units_plausible(rec, "rad/s", "m/s^2")
+    right = load_imu(tmp_path / "imu.npy", rate_hz=RATE, spool_dir=tmp_path / "sp2",
+                     accel_units="g")
+    imu_data.check_units_plausible(right, "rad/s", "g")  # the right units pass
