@@ -9,7 +9,9 @@ from ``os.wait4`` (``ru_maxrss``: resident pages, including mapped file pages), 
 a table: command, samples, peak MB, budget MB, ok. The budgets are stated in BUDGET_MB and
 do not depend on the record's length; docs/validation/memory.md holds the table on 1e8 and
 1e7 samples, and tests/test_peak_memory.py runs this script on 2e7 samples (fit-full-rate,
-about 5 minutes there on a loaded machine, is measured here only).
+about 5 minutes there on a loaded machine, and compare, about 3 minutes, are measured here
+only). filter, compare and identify-gmwm-bootstrap also write temporary files (the output,
+the filtered records, the bootstrap records) beside the record or in TMPDIR.
 
 Record variants (``--variants``, or ``COMMAND:VARIANT`` in ``--commands``): ``npy`` (the
 default: 1-D float64 in deg/h, memory-mapped as it is), and the forms the reader normalizes
@@ -48,6 +50,12 @@ BUDGET_MB: dict[str, float] = {
     "fit-full-rate": 300.0,
     "characterize": 250.0,
     "psd": 250.0,
+    # the record filtered by the AR(2)-Kalman filter (the default), written to a .npy file
+    "filter": 250.0,
+    # the 2006 paper's Table 1 (five filtered records, their Allan deviations and PSDs)
+    "compare": 300.0,
+    # two parametric-bootstrap replicates of the record's length
+    "identify-gmwm-bootstrap": 250.0,
 }
 #: The commands run when --commands is not given (fit-full-rate takes half an hour at 1e8
 #: samples on a loaded 2-core machine).
@@ -84,6 +92,12 @@ def command_args(command: str, record: Path, out: Path, variant: str = "npy") ->
         "fit-full-rate": ["fit", walk, *rate, "--json"],
         "characterize": ["characterize", str(record), *rate, "--json"],
         "psd": ["psd", str(record), *rate, "--json", "--png", str(out.with_suffix(".png"))],
+        "filter": ["filter", str(record), *rate, "-o", str(out.with_name("filtered.npy")),
+                   "--json"],
+        "compare": ["compare", str(record), *rate, "--out-dir", str(out.with_name("compare")),
+                    "--json"],
+        "identify-gmwm-bootstrap": ["identify", str(record), *rate, "--identifier", "gmwm",
+                                    "--bootstrap", "2", "--json"],
     }[command]
 
 

@@ -24,6 +24,10 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("io/spool.py", "append"): "a normalized record's samples in its own temporary directory",
     ("papers/table1.py", "_write_report"): "the temporary files of atomic_output entered "
                                            "through an ExitStack",
+    ("stability/gmwm.py", "_spool_replicate"): "a bootstrap replicate in a temporary "
+                                               "directory the bootstrap made and removes",
+    ("papers/table1.py", "_spool"): "a filtered record in a temporary directory the "
+                                    "comparison made and removes",
     ("replay/firmware.py", "cached_firmware"): "image.json inside a fresh mkdtemp directory, "
                                                "renamed into place whole",
     ("replay/harness.py", "start"): "the decode table in a mkstemp file for the loop "

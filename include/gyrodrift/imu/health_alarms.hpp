@@ -46,12 +46,18 @@
 // State (sizeof, float, Cortex-M4): 20 bytes per octave (reference variance and edf per term,
 // block start as a compensated pair, its term count) plus 256 bytes (settings, factors, class
 // masks, counts, five trips of 24 bytes): 576 bytes for 16 octaves (docs/guides/health-alarms.md).
+// Records = false (the processor's monitors, whose reports are the latched bits and the
+// processor's own counters): no trips, raise or exceedance counts, and the reference is
+// referred to, not copied (it must outlive the alarms: on the target a constant table in
+// flash; on a target without kHealthEdfFromSlope it must carry its edf per term, as there
+// always): 12 bytes per octave plus 96, 288 bytes for 16 on the Cortex-M4F.
 // The numpy reference is gyrodrift.reference.health (same equations).
 #pragma once
 
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "../filters/drift_likelihood.hpp"
 #include "../stability/allan_chi2.hpp"
@@ -121,21 +127,76 @@ struct HealthTrip {
   std::uint64_t sample = 0;      // sample count when it tripped
 };
 
+namespace detail {
+
+// What HealthAlarms keeps besides its tests: with Records, a copy of the reference, the raise
+// and exceedance counts and a trip per alarm; without, a pointer to the caller's reference.
+template <class Scalar, std::size_t Octaves, bool Records>
+struct HealthAlarmStore {
+  HealthReference<Scalar, Octaves> ref{};
+  std::uint32_t raised[kHealthAlarmCount] = {};
+  std::uint32_t exceedances[kHealthAlarmCount] = {};
+  HealthTrip<Scalar> trip[kHealthAlarmCount] = {};
+  const HealthReference<Scalar, Octaves>& reference() const noexcept { return ref; }
+  std::size_t octaves() const noexcept { return ref.octaves; }
+  Scalar edf(std::size_t k) const noexcept { return ref.edf_per_term[k]; }
+  void set_edf(std::size_t k, Scalar v) noexcept { ref.edf_per_term[k] = v; }
+};
+// Without Records, where the edf may be derived (kHealthEdfFromSlope: the host), the alarms
+// keep the edf per term they use (the reference's, or derived); on the target they read the
+// reference's (which must carry it) and keep nothing.
+template <class Scalar, std::size_t Octaves, bool Own>
+struct HealthAlarmEdf {
+  Scalar edf_per_term[Octaves] = {};
+};
 template <class Scalar, std::size_t Octaves>
+struct HealthAlarmEdf<Scalar, Octaves, false> {};
+template <class Scalar, std::size_t Octaves>
+struct HealthAlarmStore<Scalar, Octaves, false> : HealthAlarmEdf<Scalar, Octaves, kHealthEdfFromSlope> {
+  const HealthReference<Scalar, Octaves>* ref = nullptr;  // set by a successful configure()
+  const HealthReference<Scalar, Octaves>& reference() const noexcept { return *ref; }
+  std::size_t octaves() const noexcept { return ref != nullptr ? ref->octaves : 0U; }
+  Scalar edf(std::size_t k) const noexcept {
+    if constexpr (kHealthEdfFromSlope) {
+      return this->edf_per_term[k];
+    } else {
+      return reference().edf_per_term[k];
+    }
+  }
+  void set_edf(std::size_t k, Scalar v) noexcept {
+    if constexpr (kHealthEdfFromSlope) {
+      this->edf_per_term[k] = v;
+    } else {
+      (void)k;
+      (void)v;
+    }
+  }
+};
+
+}  // namespace detail
+
+template <class Scalar, std::size_t Octaves, bool Records = true>
 class HealthAlarms {
   static_assert(Octaves >= 1 && Octaves <= 48, "Octaves must be in 1..48");
+  using Reference = HealthReference<Scalar, Octaves>;
 
  public:
+  static constexpr bool kRecords = Records;
+
   // False (state unchanged) for a reference with more than Octaves or no octaves, a
   // non-finite or non-positive entry, a factor below 1 or not finite, false_alarm_probability
   // outside (0, 0.5], or block_terms below 4; without kHealthEdfFromSlope also for a reference
-  // entry whose edf per term is 0. Resets the alarms.
-  bool configure(const HealthReference<Scalar, Octaves>& ref, const HealthAlarmSettings<Scalar>& s) noexcept {
+  // entry whose edf per term is 0. Resets the alarms. Without Records the
+  // alarms keep a pointer to `ref`: it must outlive them (a temporary is refused at compile time).
+  template <bool R = Records, class = std::enable_if_t<!R>>
+  bool configure(Reference&& ref, const HealthAlarmSettings<Scalar>& s) = delete;
+  bool configure(const Reference& ref, const HealthAlarmSettings<Scalar>& s) noexcept {
+    constexpr bool derive_edf = kHealthEdfFromSlope;
     if (ref.octaves < 1 || ref.octaves > Octaves) return false;
     for (std::size_t k = 0; k < ref.octaves; ++k) {
       if (!(ref.avar[k] > Scalar(0)) || !std::isfinite(ref.avar[k])) return false;
       if (!(ref.edf_per_term[k] >= Scalar(0)) || ref.edf_per_term[k] > Scalar(1)) return false;
-      if (!kHealthEdfFromSlope && !(ref.edf_per_term[k] > Scalar(0))) return false;
+      if (!derive_edf && !(ref.edf_per_term[k] > Scalar(0))) return false;
     }
     const Scalar factors[3] = {s.arw_factor, s.bias_instability_factor, s.rate_random_walk_factor};
     for (const Scalar f : factors) {
@@ -145,7 +206,11 @@ class HealthAlarms {
         s.block_terms < 4) {
       return false;
     }
-    ref_ = ref;
+    if constexpr (Records) {
+      store_.ref = ref;
+    } else {
+      store_.ref = &ref;
+    }
     settings_ = s;
     for (std::size_t c = 0; c < 3; ++c) factor2_[c] = factors[c] * factors[c];
     z_ = -normal_quantile(s.false_alarm_probability);  // 1 - p would round in float
@@ -170,13 +235,16 @@ class HealthAlarms {
       if (r >= Scalar(2)) rrw_mask_ |= bit;
     }
     for (std::size_t k = 0; k < n; ++k) {
-      if (ref.edf_per_term[k] > Scalar(0) && ref.edf_per_term[k] <= Scalar(1)) continue;
-      if constexpr (kHealthEdfFromSlope) {
+      if (ref.edf_per_term[k] > Scalar(0) && ref.edf_per_term[k] <= Scalar(1)) {
+        store_.set_edf(k, ref.edf_per_term[k]);
+        continue;
+      }
+      if constexpr (derive_edf) {
         const double lo = static_cast<double>(ref.avar[k > 0 ? k - 1 : k]);
         const double hi = static_cast<double>(ref.avar[k + 1 < n ? k + 1 : k]);
         const double span = (k > 0 && k + 1 < n) ? 2.0 : 1.0;
         const double mu = n >= 2 ? std::log2(hi / lo) / span : -1.0;
-        ref_.edf_per_term[k] = static_cast<Scalar>(power_law_edf_per_term(mu, s.block_terms));
+        store_.set_edf(k, static_cast<Scalar>(power_law_edf_per_term(mu, s.block_terms)));
       }
     }
     reset();
@@ -186,10 +254,12 @@ class HealthAlarms {
   // Clears the alarms, counts and trips and restarts the tests (keeps the configuration).
   void reset() noexcept {
     latched_ = 0;
-    for (std::size_t i = 0; i < kHealthAlarmCount; ++i) {
-      raised_[i] = 0;
-      exceedances_[i] = 0;
-      trip_[i] = HealthTrip<Scalar>{};
+    if constexpr (Records) {
+      for (std::size_t i = 0; i < kHealthAlarmCount; ++i) {
+        store_.raised[i] = 0;
+        store_.exceedances[i] = 0;
+        store_.trip[i] = HealthTrip<Scalar>{};
+      }
     }
     for (std::size_t k = 0; k < Octaves; ++k) {
       snap_[k] = CompensatedSum<Scalar>{};
@@ -226,7 +296,8 @@ class HealthAlarms {
       }
       last_samples_ = 0;
     }
-    const std::size_t octaves = ref_.octaves < allan.octaves() ? ref_.octaves : allan.octaves();
+    const std::size_t ref_octaves = store_.octaves();
+    const std::size_t octaves = ref_octaves < allan.octaves() ? ref_octaves : allan.octaves();
     for (std::size_t k = 0; k < octaves; ++k) {
       if ((n >> k) == (last_samples_ >> k)) break;  // no new cluster mean here nor above
       check_octave(allan, k);
@@ -237,22 +308,30 @@ class HealthAlarms {
 
   std::uint16_t latched() const noexcept { return latched_; }
   // Times alarm i (index into kHealthAlarmNames) was raised since reset (0 or 1 while latched).
-  std::uint32_t raised(std::size_t i) const noexcept { return i < kHealthAlarmCount ? raised_[i] : 0; }
+  template <bool R = Records, class = std::enable_if_t<R>>
+  std::uint32_t raised(std::size_t i) const noexcept {
+    return i < kHealthAlarmCount ? store_.raised[i] : 0;
+  }
   // Failed tests of alarm i since reset (octave tests over the threshold, or samples of a
   // stuck/saturated run at or beyond its limit), counted also while the alarm is latched.
+  template <bool R = Records, class = std::enable_if_t<R>>
   std::uint32_t exceedances(std::size_t i) const noexcept {
-    return i < kHealthAlarmCount ? exceedances_[i] : 0;
+    return i < kHealthAlarmCount ? store_.exceedances[i] : 0;
   }
-  const HealthTrip<Scalar>& trip(std::size_t i) const noexcept { return trip_[i < kHealthAlarmCount ? i : 0]; }
+  template <bool R = Records, class = std::enable_if_t<R>>
+  const HealthTrip<Scalar>& trip(std::size_t i) const noexcept {
+    return store_.trip[i < kHealthAlarmCount ? i : 0];
+  }
   // The alarm bit octave k's tests raise (0 beyond the reference).
   std::uint16_t octave_alarm(std::size_t k) const noexcept {
-    if (k >= ref_.octaves) return 0;
+    if (k >= store_.octaves()) return 0;
     const std::uint64_t bit = std::uint64_t{1} << k;
     if ((arw_mask_ & bit) != 0U) return kAlarmArwHigh;
     if ((rrw_mask_ & bit) != 0U) return kAlarmRateRandomWalkHigh;
     return kAlarmBiasInstabilityHigh;
   }
-  const HealthReference<Scalar, Octaves>& reference() const noexcept { return ref_; }
+  // The reference in use (without Records: only after a successful configure()).
+  const Reference& reference() const noexcept { return store_.reference(); }
   const HealthAlarmSettings<Scalar>& settings() const noexcept { return settings_; }
   std::uint64_t updates() const noexcept { return updates_; }
 
@@ -289,12 +368,18 @@ class HealthAlarms {
   }
 
   void raise(std::size_t i, Scalar statistic, Scalar threshold, Scalar tau_s) noexcept {
-    exceedances_[i] = sat_inc(exceedances_[i]);
+    if constexpr (Records) store_.exceedances[i] = sat_inc(store_.exceedances[i]);
     const std::uint16_t bit = kHealthAlarmNames[i].bit;
     if ((latched_ & bit) != 0U) return;
     latched_ = static_cast<std::uint16_t>(latched_ | bit);
-    raised_[i] = sat_inc(raised_[i]);
-    trip_[i] = HealthTrip<Scalar>{statistic, threshold, tau_s, updates_};
+    if constexpr (Records) {
+      store_.raised[i] = sat_inc(store_.raised[i]);
+      store_.trip[i] = HealthTrip<Scalar>{statistic, threshold, tau_s, updates_};
+    } else {
+      (void)statistic;
+      (void)threshold;
+      (void)tau_s;
+    }
   }
 
   void check_octave(const StreamingAllan<Scalar, Octaves>& allan, std::size_t k) noexcept {
@@ -318,15 +403,16 @@ class HealthAlarms {
     }
     const std::uint16_t bit = octave_alarm(k);
     const std::size_t c = bit == kAlarmArwHigh ? 0U : (bit == kAlarmBiasInstabilityHigh ? 1U : 2U);
-    Scalar nu = ref_.edf_per_term[k] * static_cast<Scalar>(tested);
+    const Reference& ref = reference();
+    Scalar nu = store_.edf(k) * static_cast<Scalar>(tested);
     if (nu < Scalar(1)) nu = Scalar(1);
     const Scalar chi = chi2_quantile_wh(nu, z_) / nu;
     const Scalar thr = chi > factor2_[c] ? chi : factor2_[c];
-    const Scalar ratio = var / ref_.avar[k];
+    const Scalar ratio = var / ref.avar[k];
     if (ratio > thr) raise(c, std::sqrt(ratio), std::sqrt(thr), allan.tau_s(k));
   }
 
-  HealthReference<Scalar, Octaves> ref_{};
+  detail::HealthAlarmStore<Scalar, Octaves, Records> store_{};
   HealthAlarmSettings<Scalar> settings_{};
   CompensatedSum<Scalar> snap_[Octaves] = {};  // compensated sum at the start of the block
   std::uint32_t snap_terms_[Octaves] = {};     // term count there (modulo 2^32)
@@ -338,9 +424,6 @@ class HealthAlarms {
   Scalar z_ = Scalar(0);
   std::uint32_t stuck_run_ = 0;
   std::uint32_t saturated_run_ = 0;
-  std::uint32_t raised_[kHealthAlarmCount] = {};
-  std::uint32_t exceedances_[kHealthAlarmCount] = {};
-  HealthTrip<Scalar> trip_[kHealthAlarmCount] = {};
   std::uint16_t latched_ = 0;
 };
 

@@ -130,11 +130,13 @@ True
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -1387,32 +1389,131 @@ def select_nested(wics: dict[tuple[str, ...], float], margin: float | None = Non
         cur = min(near, key=lambda c: (wics[c], _n_params(c)))
 
 
+class _ModelStream:
+    """A parametric-bootstrap record of the model (per-sample parameters) in consecutive
+    pieces, each term's generator state carried from one piece to the next (the random walk's
+    running sum, the Gauss-Markov AR(1) filter state, the quantization noise's last draw), so
+    that the record never needs to be held whole.
+
+    The random numbers are those `_simulate_model` draws from `rng` for the whole record at
+    once, term after term (Q: n + 1 normals, N and K: n, GM: n, then one for its start; R:
+    none), and the pieces are bit-identical to that record however it is cut: cut into
+    several pieces, the start of each term's draws is found by one pass over the earlier
+    terms' draws (their states recorded, the numbers discarded), after which `rng` stands
+    where the whole-record simulation leaves it.
+    """
+
+    def __init__(self, terms: tuple[str, ...], p: np.ndarray, n: int,
+                 rng: np.random.Generator, piece: int) -> None:
+        self.terms, self.p, self.n, self.piece = terms, p, int(n), max(int(piece), 1)
+        self.pos = 0
+        self._carry: list[Any] = [None] * len(terms)
+        self._zi: list[float | None] = [None] * len(terms)
+        self._gens: list[np.random.Generator | None] = []
+        if self.piece >= self.n:  # one piece: the draws come from rng in order
+            self._gens = [None if t == "R" else rng for t in terms]
+            return
+        for t in terms:
+            if t == "R":
+                self._gens.append(None)
+                continue
+            bit = type(rng.bit_generator)()
+            bit.state = rng.bit_generator.state
+            self._gens.append(np.random.Generator(bit))
+            left = self.n + (1 if t == "Q" else 0)
+            while left:
+                rng.standard_normal(min(left, self.piece))
+                left -= min(left, self.piece)
+            if t == "GM":
+                self._zi[len(self._gens) - 1] = float(rng.standard_normal())
+
+    def next_piece(self) -> np.ndarray:
+        """The next samples (at most `piece`; an empty array at the end)."""
+        import scipy.signal
+
+        a = self.pos
+        b = min(self.n, a + self.piece)
+        m = b - a
+        x = np.zeros(m)
+        if m == 0:
+            return x
+        k = 0
+        for i, t in enumerate(self.terms):
+            g = self._gens[i]
+            carry = self._carry[i]
+            if t == "Q":
+                assert g is not None
+                e = math.sqrt(self.p[k]) * g.standard_normal(m + (1 if carry is None else 0))
+                if carry is not None:
+                    e = np.concatenate(([carry], e))
+                x += np.diff(e)
+                self._carry[i] = float(e[-1])
+            elif t == "N":
+                assert g is not None
+                x += math.sqrt(self.p[k]) * g.standard_normal(m)
+            elif t == "K":
+                assert g is not None
+                steps = math.sqrt(self.p[k]) * g.standard_normal(m)
+                walk = np.cumsum(steps if carry is None else np.concatenate(([carry], steps)))
+                x += walk if carry is None else walk[1:]
+                self._carry[i] = float(walk[-1])
+            elif t == "R":
+                x += math.sqrt(self.p[k]) * np.arange(a, b)
+            else:
+                assert g is not None
+                sigma2, tc = self.p[k], self.p[k + 1]
+                phi = math.exp(-1.0 / tc)
+                u = math.sqrt(sigma2 * (1 - phi * phi)) * g.standard_normal(m)
+                if carry is None:
+                    zi = self._zi[i]
+                    z = zi if zi is not None else float(g.standard_normal())
+                    carry = np.array([phi * math.sqrt(sigma2) * z])
+                y, self._carry[i] = scipy.signal.lfilter([1.0], [1.0, -phi], u, zi=carry)
+                x += y
+                k += 1
+            k += 1
+        self.pos = b
+        return x
+
+
 def _simulate_model(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.random.Generator
                     ) -> np.ndarray:
-    """A record of the model (per-sample parameters) for the parametric bootstrap."""
-    import scipy.signal
+    """A record of the model (per-sample parameters) for the parametric bootstrap (one piece
+    of `_ModelStream`)."""
+    return _ModelStream(terms, p, n, rng, n).next_piece()
 
-    x = np.zeros(n)
-    k = 0
-    for t in terms:
-        if t == "Q":
-            e = math.sqrt(p[k]) * rng.standard_normal(n + 1)
-            x += np.diff(e)
-        elif t == "N":
-            x += math.sqrt(p[k]) * rng.standard_normal(n)
-        elif t == "K":
-            x += np.cumsum(math.sqrt(p[k]) * rng.standard_normal(n))
-        elif t == "R":
-            x += math.sqrt(p[k]) * np.arange(n)
-        else:
-            sigma2, tc = p[k], p[k + 1]
-            phi = math.exp(-1.0 / tc)
-            u = math.sqrt(sigma2 * (1 - phi * phi)) * rng.standard_normal(n)
-            zi = np.array([phi * math.sqrt(sigma2) * rng.standard_normal()])
-            x += scipy.signal.lfilter([1.0], [1.0, -phi], u, zi=zi)[0]
-            k += 1
-        k += 1
-    return x
+
+def _spool_replicate(path: Path, stream: _ModelStream) -> None:
+    """Write the stream's whole record to `path` as a float64 .npy file, piece by piece with
+    file writes (never through a mapping, whose written pages would stay resident)."""
+    with open(path, "wb") as fh:
+        np.lib.format.write_array_header_1_0(
+            fh, {"descr": np.lib.format.dtype_to_descr(np.dtype(np.float64)),
+                 "fortran_order": False, "shape": (stream.n,)})
+        while stream.pos < stream.n:
+            stream.next_piece().tofile(fh)
+
+
+def _bootstrap_wv_file(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.random.Generator,
+                       rate_hz: float, max_level: int
+                       ) -> Generator[WaveletVariance, None, None]:
+    """Wavelet variances of successive bootstrap records of a file-backed record's length,
+    without holding one: each record is simulated in pieces of _WV_PIECE samples into one
+    temporary .npy file (disk: 8 bytes per sample), and its wavelet variance is streamed from
+    that file as the record's own (`_haar_wv_file`). The records are those of
+    `_simulate_model` with the same generator."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="gyrodrift-bootstrap.") as d:
+        path = Path(d) / "replicate.npy"
+        while True:
+            _spool_replicate(path, _ModelStream(terms, p, n, rng, _WV_PIECE))
+            mm = np.load(path, mmap_mode="r")
+            wb = _haar_wv_file(mm, rate_hz, max_level)
+            if wb is None:  # a replicate of extreme magnitude: in memory, as the record
+                wb = haar_wv(np.array(mm), rate_hz, max_level=max_level)
+            del mm
+            yield wb
 
 
 def _gm_offsets(terms: tuple[str, ...]) -> list[tuple[int, int]]:
@@ -1803,12 +1904,19 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         p_hat = np.exp(fit.theta)
         chol = _chol(omega)
         boots = []
-        for _ in range(int(bootstrap)):
-            xb = _simulate_model(terms, p_hat, n_samples, rng)
-            wb = haar_wv(xb, rate_hz, max_level=int(wv.level[-1]))
-            if tau_range is not None:
-                wb = _subset(wb, tau_range)
-            boots.append(_fit_model(terms, wb.nu2, tau, chol, start=fit.theta).theta)
+        # a file-backed record's replicates are simulated and analysed in pieces, as the
+        # record itself (the same random numbers as in memory)
+        top_level = int(wv.level[-1])
+        replicates: Generator[WaveletVariance, None, None] = (
+            _bootstrap_wv_file(terms, p_hat, n_samples, rng, rate_hz, top_level)
+            if wv_file is not None else
+            (haar_wv(_simulate_model(terms, p_hat, n_samples, rng), rate_hz, max_level=top_level)
+             for _ in itertools.repeat(None)))
+        with contextlib.closing(replicates):  # removes the temporary file now
+            for wb in itertools.islice(replicates, int(bootstrap)):
+                if tau_range is not None:
+                    wb = _subset(wb, tau_range)
+                boots.append(_fit_model(terms, wb.nu2, tau, chol, start=fit.theta).theta)
         boot = np.array(boots)
     params = _make_params(terms, fit.theta, cov, dt, ci, boot, inflate)
     if model == "auto" and near:
