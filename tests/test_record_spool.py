@@ -274,3 +274,20 @@ def test_units_check_reads_a_spooled_record(tmp_path: Path, spooled: Path) -> No
     right = load_imu(tmp_path / "imu.npy", rate_hz=RATE, spool_dir=tmp_path / "sp2",
                      accel_units="g")
     imu_data.check_units_plausible(right, "rad/s", "g")  # the right units pass
+
+
+@pytest.mark.parametrize("dtype", ["int16", "uint64", ">f8", "float16", "float32"])
+def test_every_number_dtype_is_spooled_as_numpy_converts_it(tmp_path: Path, spooled: Path,
+                                                            dtype: str) -> None:
+    """Integer, big-endian, half and single precision records (1-D and a column of a 2-D
+    array, deg/s): the spooled deg/h record is numpy's float64 conversion times the unit
+    factor (one IEEE multiplication per sample)."""
+    raw = (np.random.default_rng(4).standard_normal((3001, 2)) * 100).astype(dtype)
+    np.save(tmp_path / "one.npy", raw[:, 0])
+    np.save(tmp_path / "two.npy", raw)
+    for path, column, col in ((tmp_path / "one.npy", None, raw[:, 0]),
+                              (tmp_path / "two.npy", 1, raw[:, 1])):
+        rec = load_record(path, column=column, rate_hz=RATE, units="deg/s")
+        assert isinstance(rec.rate_deg_h, np.memmap) and rec.rate_deg_h.dtype == np.float64
+        np.testing.assert_array_equal(
+            rec.rate_deg_h, col.astype(np.float64) * RATE_UNITS["deg/s"].to_deg_h)
