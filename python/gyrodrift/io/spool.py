@@ -1,8 +1,8 @@
 """Records read and normalized in bounded memory, for the readers of `gyrodrift.io.records`
 and `gyrodrift.io.imu_data`.
 
-- :class:`SampleSpool`: float64 samples appended in pieces; kept in memory up to
-  :data:`SPOOL_MIN_SAMPLES`, beyond that written to a file in a temporary directory and
+- :class:`SampleSpool`: float64 samples appended in pieces; kept in memory below
+  :data:`SPOOL_MIN_SAMPLES`, from there on written to a file in a temporary directory and
   returned as a read-only memory map (which the analyses read in chunks with file reads).
   The directory is removed when no array refers to the mapping any more, or at the latest
   when the interpreter exits. Disk: 8 bytes per sample.
@@ -47,8 +47,8 @@ TEXT_BLOCK_LINES = 1 << 16
 
 
 class SampleSpool:
-    """float64 samples appended in pieces, in memory up to `memory_max` samples, beyond that
-    in a temporary file (module docstring).
+    """float64 samples appended in pieces, in memory while fewer than `memory_max`, from
+    there on in a temporary file (module docstring).
 
     Use it as a context manager: an error inside the block removes the file; `finish`
     returns the samples (an array, or a read-only ``numpy.memmap`` of the file).
@@ -56,8 +56,8 @@ class SampleSpool:
     Parameters
     ----------
     memory_max
-        most samples kept in memory (default :data:`SPOOL_MIN_SAMPLES`); 0 writes every
-        sample to the file.
+        the number of samples from which they go to the file (default
+        :data:`SPOOL_MIN_SAMPLES`); 0 writes every sample to the file.
     name
         the file's name stem (for messages and debugging).
 
@@ -88,7 +88,7 @@ class SampleSpool:
     def append(self, values: np.ndarray) -> None:
         """Append `values` (converted to float64; copied, so a reused buffer may follow)."""
         v = np.ascontiguousarray(values, dtype=np.float64).reshape(-1)
-        if self._fh is None and self.n + v.size > self._memory_max:
+        if self._fh is None and self.n + v.size >= self._memory_max:
             self._dir = tempfile.mkdtemp(prefix="gyrodrift-record.")
             self._fh = open(os.path.join(self._dir, f"{self._name}.f64"), "wb")
             for part in self._parts:
