@@ -46,7 +46,7 @@
 // average, amortized) an addition, the block position (a 32-bit remainder), and at a test a
 // division, the chi-square bound, a square root and a comparison.
 // State (sizeof, float, Cortex-M4): 12 bytes per octave (reference variance and edf per term,
-// the block's sum) plus about 220 bytes (settings, class masks, counts, five trips of 24
+// the block's sum) plus 224 bytes (settings, class masks, counts, five trips of 24
 // bytes) (docs/guides/health-alarms.md).
 // Records = false (the processor's monitors, whose reports are the latched bits and the
 // processor's own counters): no trips, raise or exceedance counts, and the reference and the
