@@ -334,4 +334,6 @@ TEST_CASE("a monitor without records (the processor's) raises the same alarms at
   CHECK(bare.samples() == full.samples());
   CHECK(bare.used() == full.used());
   CHECK(&bare.alarms().reference() == &ref);  // read in place
+  CHECK(&bare.alarms().settings() == &s.alarms);  // so are the alarms' settings
+  CHECK(&full.alarms().settings() != &s.alarms);  // the full monitor's are a copy
 }

@@ -15,7 +15,7 @@
 // Fixed memory chosen at compile time (Octaves: the largest number of octaves a configuration
 // may use; Reidentify false: no re-identification state, and configure() refuses
 // settings.reidentify; Records false: the alarms keep no trips or counts and refer to the
-// reference instead of copying it, HealthAlarms' Records), no heap, no exceptions,
+// reference and their settings instead of copying them, HealthAlarms' Records), no heap, no exceptions,
 // deterministic (the same input gives the same state). The processor's monitors are built
 // with neither (it reports the latched bits and counts alarms itself, and shares one
 // re-identification among its gyros: filters/shared_drift_identifier.hpp).
@@ -65,7 +65,8 @@ class GyroMonitor {
 
   GyroMonitor() noexcept = default;
 
-  // Without Records the alarms refer to `reference`: it must outlive the monitor.
+  // Without Records the alarms refer to `reference` and settings.alarms: they must outlive
+  // the monitor.
   template <bool R = Records, class = std::enable_if_t<!R>>
   GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const DriftModelParams<Scalar>& model,
                               Reference&& reference) = delete;
@@ -75,6 +76,15 @@ class GyroMonitor {
   // the alarms compare against (reference.octaves >= 1, at most settings.octaves).
   GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const DriftModelParams<Scalar>& model,
                               const Reference& reference) noexcept {
+    return configure(settings, settings.alarms, model, reference);
+  }
+  // The same with the alarms' settings `alarms` instead of settings.alarms (without Records the
+  // alarms refer to them: several monitors may share one copy, which must outlive them).
+  template <bool R = Records, class = std::enable_if_t<!R>>
+  GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, HealthAlarmSettings<Scalar>&& alarms,
+                              const DriftModelParams<Scalar>& model, const Reference& reference) = delete;
+  GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const HealthAlarmSettings<Scalar>& alarms,
+                              const DriftModelParams<Scalar>& model, const Reference& reference) noexcept {
     reidentify_ = Reidentify && settings.reidentify;
     status_ = GyroMonitorStatus::bad_settings;
     if (settings.reidentify && !Reidentify) return status_;
@@ -90,7 +100,7 @@ class GyroMonitor {
       status_ = GyroMonitorStatus::bad_model;
       return status_;
     }
-    if (!alarms_.configure(reference, settings.alarms)) return status_;
+    if (!alarms_.configure(reference, alarms)) return status_;
     if constexpr (Reidentify) {
       if (settings.reidentify && !identifier_.configure(model, settings.drift)) {
         // the identifier's own rules: a model with white noise (r > 0), its block and memory
@@ -121,7 +131,8 @@ class GyroMonitor {
     // Every sample updates the alarms (their sample count, and the time of a trip, are the
     // monitor's); a non-finite value feeds no statistic and ends a stuck or saturated run.
     const bool bad = stuck || saturated;
-    if (!bad && std::isfinite(y) && allan_.push(y)) {
+    if (!bad && std::isfinite(y) &&
+        allan_.push(y, [this](std::size_t k, Scalar d2) noexcept { alarms_.term(allan_, k, d2); })) {
       if constexpr (Reidentify) {
         if (reidentify_) {
           identifier_.push(y);
@@ -129,7 +140,7 @@ class GyroMonitor {
         }
       }
     }
-    return alarms_.update(allan_, stuck, saturated);
+    return alarms_.update(stuck, saturated);
   }
 
   // Noise estimates from the curve so far (report time: a few octave fits, not per sample).

@@ -268,6 +268,7 @@ struct ImuMonitorBank {
   std::array<bool, MonitorSlots> retune_stage{};  // the channel's steady-state stage takes retunes
   std::array<std::uint16_t, MonitorSlots> latched{};
   std::array<std::uint32_t, MonitorSlots> refused{};
+  HealthAlarmSettings<Scalar> alarm_settings{};  // one copy, which every monitor's alarms refer to
   bool reidentify = false;
 };
 template <class Scalar, std::size_t MonitorSlots, bool MonitorReidentify>
@@ -480,6 +481,7 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
     this->reidentify = false;
     if (status_ != ImuStatus::ok) return GyroMonitorStatus::bad_settings;
     if (settings.reidentify && !MonitorReidentify) return GyroMonitorStatus::bad_settings;
+    this->alarm_settings = settings.alarms;
     GyroMonitorSettings<Scalar> per_gyro = settings;
     per_gyro.reidentify = false;  // the monitors' statistics and alarms; the processor re-identifies
     std::array<std::int8_t, kImuGyroChannels> slots{{-1, -1, -1}};
@@ -491,7 +493,8 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
       const ImuChannelConfig<Scalar>& cc = config_.channels[c];
       if (cc.filter != ChannelFilter::ar2_kalman) return GyroMonitorStatus::bad_model;
       models[used] = DriftModelParams<Scalar>{cc.model.a1, cc.model.a2, cc.q, cc.r, cc.model.mean};
-      const GyroMonitorStatus st = this->monitors[used].configure(per_gyro, models[used], references[c]);
+      const GyroMonitorStatus st = this->monitors[used].configure(per_gyro, this->alarm_settings, models[used],
+                                                                   references[c]);
       if (st != GyroMonitorStatus::ok) return st;
       this->retune_stage[used] = settings.reidentify && cc.steady_state;
       this->latched[used] = 0;
