@@ -9,9 +9,20 @@ from ``os.wait4`` (``ru_maxrss``: resident pages, including mapped file pages), 
 a table: command, samples, peak MB, budget MB, ok. The budgets are stated in BUDGET_MB and
 do not depend on the record's length; docs/validation/memory.md holds the table on 1e8 and
 1e7 samples, and tests/test_peak_memory.py runs this script on 2e7 samples (fit-full-rate,
-about 5 minutes there on a loaded machine, is measured here only).
+about 5 minutes there on a loaded machine, and compare, about 3 minutes, are measured here
+only). filter, compare and identify-gmwm-bootstrap also write temporary files (the output,
+the filtered records, the bootstrap records) beside the record or in TMPDIR.
 
-Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit,...] [--json]
+Record variants (``--variants``, or ``COMMAND:VARIANT`` in ``--commands``): ``npy`` (the
+default: 1-D float64 in deg/h, memory-mapped as it is), and the forms the reader normalizes
+in pieces into a temporary file: ``rad-s`` (1-D float64 in rad/s, ``--gyro-units rad/s``),
+``float32`` (1-D float32 in deg/h), ``2d`` ((n, 3) float64 in deg/h, the middle column:
+``--column 1``, characterize ``--column-channels=-,gyro_z,-``), ``drop-nan`` (1-D float64
+with every 1000th sample NaN, ``--drop-nan``) and ``text`` (CSV ``t_s,gyro_z``, the rate from
+its time column; parsing it takes about 5 us per line).
+
+Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit:rad-s,...]
+[--variants npy,rad-s,...] [--json]
 """
 
 from __future__ import annotations
@@ -39,6 +50,12 @@ BUDGET_MB: dict[str, float] = {
     "fit-full-rate": 300.0,
     "characterize": 250.0,
     "psd": 250.0,
+    # the record filtered by the AR(2)-Kalman filter (the default), written to a .npy file
+    "filter": 250.0,
+    # the 2006 paper's Table 1 (five filtered records, their Allan deviations and PSDs)
+    "compare": 300.0,
+    # two parametric-bootstrap replicates of the record's length
+    "identify-gmwm-bootstrap": 250.0,
 }
 #: The commands run when --commands is not given (fit-full-rate takes half an hour at 1e8
 #: samples on a loaded 2-core machine).
@@ -46,10 +63,26 @@ DEFAULT_COMMANDS = ("allan", "identify", "identify-gmwm", "fit", "characterize",
 
 RATE_HZ = 400.0
 
+#: Record variants: the extra command-line arguments of the single-channel commands and of
+#: characterize (module docstring).
+VARIANTS: dict[str, tuple[list[str], list[str]]] = {
+    "npy": ([], []),
+    "rad-s": (["--gyro-units", "rad/s"], ["--gyro-units", "rad/s"]),
+    "float32": ([], []),
+    "2d": (["--column", "1"], ["--column-channels=-,gyro_z,-"]),
+    "drop-nan": (["--drop-nan"], ["--drop-nan"]),
+    "text": ([], []),
+}
 
-def command_args(command: str, record: Path, out: Path) -> list[str]:
-    """The command line run for `command` (its JSON output, no plots or reports)."""
-    rate = ["--rate-hz", f"{RATE_HZ:g}", "--gyro-units", "deg/h"]
+
+def command_args(command: str, record: Path, out: Path, variant: str = "npy") -> list[str]:
+    """The command line run for `command` (its JSON output, no plots or reports) on the
+    record of `variant` (VARIANTS; its units flag replaces deg/h)."""
+    single, multi = VARIANTS[variant]
+    extra = multi if command == "characterize" else single
+    units = "rad/s" if variant == "rad-s" else "deg/h"
+    rate = ["--rate-hz", f"{RATE_HZ:g}", "--gyro-units", units,
+            *[a for a in extra if a not in ("--gyro-units", "rad/s")]]
     walk = str(record.with_name("walk.npy"))
     return {
         "allan": ["allan", str(record), *rate, "--json"],
@@ -59,6 +92,12 @@ def command_args(command: str, record: Path, out: Path) -> list[str]:
         "fit-full-rate": ["fit", walk, *rate, "--json"],
         "characterize": ["characterize", str(record), *rate, "--json"],
         "psd": ["psd", str(record), *rate, "--json", "--png", str(out.with_suffix(".png"))],
+        "filter": ["filter", str(record), *rate, "-o", str(out.with_name("filtered.npy")),
+                   "--json"],
+        "compare": ["compare", str(record), *rate, "--out-dir", str(out.with_name("compare")),
+                    "--json"],
+        "identify-gmwm-bootstrap": ["identify", str(record), *rate, "--identifier", "gmwm",
+                                    "--bootstrap", "2", "--json"],
     }[command]
 
 
@@ -80,6 +119,39 @@ def write_record(path: Path, n: int, walk: bool = False, chunk: int = 1 << 22) -
     del mm
 
 
+def write_variant(path: Path, n: int, variant: str, chunk: int = 1 << 22) -> None:
+    """The white-noise record of `write_record` (the same samples, 30 deg/h per sample) in
+    the form of `variant` (VARIANTS), written piece by piece."""
+    rng = np.random.default_rng(0)
+    if variant == "text":
+        with open(path, "w") as fh:
+            fh.write("t_s,gyro_z\n")
+            for start in range(0, n, chunk):
+                stop = min(n, start + chunk)
+                t = np.arange(start, stop) / RATE_HZ
+                x = rng.standard_normal(stop - start) * 30.0
+                np.savetxt(fh, np.column_stack([t, x]), fmt="%.4f,%.6f")
+        return
+    dtype = np.float32 if variant == "float32" else np.float64
+    shape: tuple[int, ...] = (n, 3) if variant == "2d" else (n,)
+    mm = np.lib.format.open_memmap(path, mode="w+", dtype=dtype, shape=shape)
+    for start in range(0, n, chunk):
+        stop = min(n, start + chunk)
+        piece = rng.standard_normal(stop - start) * 30.0
+        if variant == "rad-s":
+            piece *= np.pi / 180.0 / 3600.0
+        if variant == "drop-nan":
+            piece[(np.arange(start, stop) % 1000) == 999] = np.nan
+        if variant == "2d":
+            mm[start:stop, 1] = piece
+            mm[start:stop, 0] = -piece
+            mm[start:stop, 2] = 0.5 * piece
+        else:
+            mm[start:stop] = piece
+        mm.flush()
+    del mm
+
+
 def peak_mb(argv: list[str], cwd: Path) -> tuple[float, int, float, str]:
     """(peak RSS MB, exit code, wall s, last stderr line) of one run of `argv`."""
     t0 = time.perf_counter()
@@ -93,45 +165,68 @@ def peak_mb(argv: list[str], cwd: Path) -> tuple[float, int, float, str]:
 
 
 def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
+    """Run each command (``COMMAND`` or ``COMMAND:VARIANT``) on a record of `samples`
+    samples and return its row (peak MB, budget, ok, exit code, wall time)."""
     rows: list[dict[str, object]] = []
     with tempfile.TemporaryDirectory(prefix="gyrodrift-mem.") as tmp:
         d = Path(tmp)
         rec = d / "record.npy"
+        variants = sorted({c.partition(":")[2] or "npy" for c in commands})
         # In a child: Linux carries a process's peak RSS over to the children it forks
         # (and across exec), so this process must never have held the record's pages.
-        subprocess.run([sys.executable, __file__, "--write", str(rec), str(samples)],
-                       check=True)
+        if any(c.partition(":")[2] in ("", "npy") for c in commands):
+            subprocess.run([sys.executable, __file__, "--write", str(rec), str(samples)],
+                           check=True)
         if "fit-full-rate" in commands:
             subprocess.run([sys.executable, __file__, "--write-walk", str(d / "walk.npy"),
                             str(samples)], check=True)
-        for cmd in commands:
-            argv = [sys.executable, "-m", "gyrodrift", *command_args(cmd, rec, d / "out")]
+        for v in variants:
+            if v != "npy":
+                subprocess.run([sys.executable, __file__, "--write-variant", v,
+                                str(_variant_path(d, v)), str(samples)], check=True)
+        for item in commands:
+            cmd, _, variant = item.partition(":")
+            variant = variant or "npy"
+            path = rec if variant == "npy" else _variant_path(d, variant)
+            argv = [sys.executable, "-m", "gyrodrift",
+                    *command_args(cmd, path, d / "out", variant)]
             peak, code, wall, last = peak_mb(argv, d)
             budget = BUDGET_MB[cmd]
             rows.append({"command": cmd, "samples": samples, "peak_mb": round(peak, 1),
                          "budget_mb": budget, "ok": code == 0 and peak <= budget,
-                         "exit": code, "wall_s": round(wall, 1), "stderr": last})
+                         "exit": code, "wall_s": round(wall, 1), "stderr": last,
+                         "variant": variant})
     return rows
+
+
+def _variant_path(d: Path, variant: str) -> Path:
+    return d / (f"record-{variant}.csv" if variant == "text" else f"record-{variant}.npy")
 
 
 def main() -> int:
     if sys.argv[1:2] in (["--write"], ["--write-walk"]):
         write_record(Path(sys.argv[2]), int(sys.argv[3]), walk=sys.argv[1] == "--write-walk")
         return 0
+    if sys.argv[1:2] == ["--write-variant"]:
+        write_variant(Path(sys.argv[3]), int(sys.argv[4]), sys.argv[2])
+        return 0
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--samples", type=float, nargs="+", default=[1e8, 1e7])
     ap.add_argument("--commands", default=",".join(DEFAULT_COMMANDS))
+    ap.add_argument("--variants", default="npy",
+                    help="record variants for the commands without one (VARIANTS)")
     ap.add_argument("--json", action="store_true", help="rows as JSON on stdout")
     a = ap.parse_args()
-    commands = [c for c in a.commands.split(",") if c]
+    commands = [c if ":" in c or v == "npy" else f"{c}:{v}"
+                for v in a.variants.split(",") if v for c in a.commands.split(",") if c]
     rows = [r for n in a.samples for r in measure(int(n), commands)]
     if a.json:
         print(json.dumps(rows))
         return 0
-    print("| command | samples | peak MB | budget MB | ok | exit | wall s |")
-    print("| --- | --- | --- | --- | --- | --- | --- |")
+    print("| command | variant | samples | peak MB | budget MB | ok | exit | wall s |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for r in rows:
-        print(f"| {r['command']} | {r['samples']:.0e} | {r['peak_mb']:.0f} | "
+        print(f"| {r['command']} | {r['variant']} | {r['samples']:.0e} | {r['peak_mb']:.0f} | "
               f"{r['budget_mb']:.0f} | {'yes' if r['ok'] else 'NO'} | {r['exit']} | "
               f"{r['wall_s']} |")
     for r in rows:

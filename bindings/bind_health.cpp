@@ -120,9 +120,8 @@ class HealthAlarmsPy {
       ReleasedAndLocked guard(this);
       std::size_t j = 0;
       for (std::size_t i = 0; i < n; ++i) {
-        allan_.push(d[i]);
-        const std::uint16_t bits =
-            alarms_.update(allan_, st_p != nullptr && st_p[i], sa_p != nullptr && sa_p[i]);
+        alarms_.push(allan_, d[i], st_p != nullptr && st_p[i], sa_p != nullptr && sa_p[i]);
+        const std::uint16_t bits = alarms_.latched();
         if ((i + 1) % step == 0 || i + 1 == n) o[j++] = bits;
       }
     }

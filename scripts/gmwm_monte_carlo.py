@@ -24,6 +24,12 @@ With --lengths L1,L2,..: only the model selection, on records of 2^L samples for
 same seeds, the first --reps replicates), printed as one hit-rate row per case and length with
 the record length in correlation times of the case's slowest Gauss-Markov term; the coverage
 and RMSE tables are not run (they are evaluated at --n only).
+
+With --misspecified, --preset P or --k-resolution: the model selection on the misspecified
+(flicker) cases, the simulator presets or the well-specified cases with a random walk, and
+the K a user reads (`GmwmResult.implied()`): how often it is resolved, whether the resolved
+K is within 30 % and its interval holds the generating K, and whether the upper limit
+holds where it is not resolved.
 """
 
 from __future__ import annotations
@@ -126,7 +132,34 @@ def one_misspecified(case: Misspecified, rep: int, max_model: str = "Q+N+K+R+GM+
                   else (math.nan, math.nan))
     return {"selected": res.model, "N": imp["N"], "K": imp["K"], "N_lo": n_lo, "N_hi": n_hi,
             "approximate": res.approximate, "holds": bool(res.check is not None
-                                                          and res.check.holds)}
+                                                          and res.check.holds),
+            "K_resolved": bool(imp["K_resolved"]), "K_lo": imp["K_ci_low"],
+            "K_hi": imp["K_ci_high"], "K_ul": imp["K_upper_limit"], "K_model": imp["K_model"]}
+
+
+def k_summary(rows: list[dict[str, object]], true_k: list[float]) -> dict[str, float]:
+    """The K a user reads: where resolved, the share within 30 % of the generating K and
+    the share whose interval covers it; elsewhere the share whose upper limit holds; and
+    the selected model's own random walk (K_model) / true, median."""
+    res = [bool(r["K_resolved"]) for r in rows]
+    kr = [float(r["K"]) / t for r, t, ok in zip(rows, true_k, res, strict=True)  # type: ignore[arg-type]
+          if ok]
+    cov = [float(r["K_lo"]) <= t <= float(r["K_hi"])  # type: ignore[arg-type]
+           for r, t, ok in zip(rows, true_k, res, strict=True) if ok]
+    ul = [float(r["K_ul"]) >= t for r, t, ok in zip(rows, true_k, res, strict=True)  # type: ignore[arg-type]
+          if not ok]
+    km = [float(r["K_model"]) / t for r, t in zip(rows, true_k, strict=True)]  # type: ignore[arg-type]
+    return {"resolved": float(sum(res)), "n": float(len(rows)),
+            "within_30": float(np.sum(np.abs(np.array(kr) - 1.0) <= 0.3)),
+            "covers": float(sum(cov)), "ul_holds": float(sum(ul)),
+            "unresolved": float(len(ul)), "k_model_median": float(np.median(km))}
+
+
+def k_cells(k: dict[str, float]) -> str:
+    """Table cells: K resolved, within 30 % / covers (of the resolved), upper limit holds
+    (of the others), K_model / true median."""
+    return (f"{k['resolved']:.0f} of {k['n']:.0f} | {k['within_30']:.0f} / {k['covers']:.0f} | "
+            f"{k['ul_holds']:.0f} of {k['unresolved']:.0f} | {k['k_model_median']:.2f}")
 
 
 def run_misspecified(case: Misspecified, reps: int, workers: int = 1,
@@ -140,15 +173,13 @@ def run_misspecified(case: Misspecified, reps: int, workers: int = 1,
         rows = [one_misspecified(case, r, max_model) for r in range(reps)]
     t = case.truth
     n_err = np.array([float(r["N"]) / t["N"] - 1.0 for r in rows])  # type: ignore[arg-type]
-    k_err = np.array([float(r["K"]) / t["K"] - 1.0 for r in rows])  # type: ignore[arg-type]
     cover = [float(r["N_lo"]) <= t["N"] <= float(r["N_hi"]) for r in rows]  # type: ignore[arg-type]
     sel = [str(r["selected"]) for r in rows]
     return {"reps": reps, "selected": {m: sel.count(m) for m in sorted(set(sel))},
+            "k": k_summary(rows, [t["K"]] * len(rows)),
             "n_err_median": float(np.median(np.abs(n_err))),
             "n_err_max": float(np.max(np.abs(n_err))),
             "n_within_10": float(np.mean(np.abs(n_err) <= 0.10)),
-            "k_err_median": float(np.median(np.abs(k_err))),
-            "k_within_30": float(np.mean(np.abs(k_err) <= 0.30)),
             "n_coverage": float(np.mean(cover)),
             "approximate": float(np.mean([bool(r["approximate"]) for r in rows]))}
 
@@ -169,7 +200,24 @@ def one_preset(name: str, rep: int, n: int, max_model: str = "Q+N+K+R+GM+GM"
                   else (math.nan, math.nan))
     return {"selected": res.model, "N": imp["N"], "K": imp["K"], "N_lo": n_lo, "N_hi": n_hi,
             "approximate": res.approximate, "true_N": rec.truth.n_deg_rt_h,
-            "true_K": rec.truth.k_deg_h_rt_h, "K_ul": imp["K_upper_limit"]}
+            "true_K": rec.truth.k_deg_h_rt_h, "K_ul": imp["K_upper_limit"],
+            "K_resolved": bool(imp["K_resolved"]), "K_lo": imp["K_ci_low"],
+            "K_hi": imp["K_ci_high"], "K_model": imp["K_model"]}
+
+
+def one_k(case: Case, rep: int, n: int, max_model: str = "Q+N+K+R+GM+GM"
+          ) -> dict[str, object]:
+    """The K a user reads (implied()) after selection on replicate rep of a well-specified
+    case with a random walk."""
+    import gyrodrift
+    from gyrodrift.stability.gmwm import identify_gmwm
+
+    rec = gyrodrift.simulate(n=n, rate_hz=RATE_HZ, seed=case.seed + rep, **case.sim)  # type: ignore[arg-type]
+    res = identify_gmwm(rec.rate_deg_h, RATE_HZ, model="auto", max_model=max_model)
+    imp = res.implied()
+    return {"selected": res.model, "K": imp["K"], "K_resolved": bool(imp["K_resolved"]),
+            "K_lo": imp["K_ci_low"], "K_hi": imp["K_ci_high"], "K_ul": imp["K_upper_limit"],
+            "K_model": imp["K_model"]}
 
 
 #: GMWM parameter -> attribute of ieee952.NoiseFit (the Allan fit's estimate of it).
@@ -312,31 +360,51 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--preset", action="append",
                     help="run GMWM selection on this simulator preset (repeatable; records "
                          "of --n samples)")
+    ap.add_argument("--k-resolution", action="store_true",
+                    help="the K a user reads after selection on the well-specified cases "
+                         "with a random walk (records of --n samples)")
     args = ap.parse_args(argv)
+    if args.k_resolution:
+        print(f"# K after GMWM selection on well-specified records: {args.reps} replicates "
+              f"per case, {args.n} samples at {RATE_HZ:g} Hz, among the sub-models of "
+              f"{args.max_model}, nominal 95 % intervals")
+        print("| case | selected | K resolved | resolved K: within 30 % / interval covers | "
+              "K not resolved: upper limit holds | model's K / true: median | CPU s |")
+        print("| --- | --- | --- | --- | --- | --- | --- |")
+        for k, case in enumerate(CASES, 1):
+            if "K" not in case.truth or (args.case and k not in args.case):
+                continue
+            c0 = time.process_time()
+            rows = [one_k(case, r, args.n, args.max_model) for r in range(args.reps)]
+            sel = [str(r["selected"]) for r in rows]
+            ks = k_summary(rows, [case.truth["K"]] * len(rows))
+            print(f"| {k}: {case.name} (K {case.truth['K']:g}) | "
+                  + ", ".join(f"{m} x{sel.count(m)}" for m in sorted(set(sel)))
+                  + f" | {k_cells(ks)} | {time.process_time() - c0:.0f} |")
+            sys.stdout.flush()
+        return 0
     if args.preset:
         print(f"# GMWM selection on simulator presets: {args.reps} replicates (seeds 9000 + "
               f"0 .. {args.reps - 1}), {args.n} samples, among the sub-models of "
               f"{args.max_model}, nominal 95 % intervals")
-        print("| preset | selected | implied N / true: median, worst | N within 10 % | implied "
-              "K / true: median | K within 30 % | K not resolved: upper limit holds | N has an "
-              "interval / covers | flagged approximate | CPU s |")
-        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
+        print("| preset | selected | implied N / true: median, worst | N within 10 % | K "
+              "resolved | resolved K: within 30 % / interval covers | K not resolved: upper "
+              "limit holds | model's K / true: median | N has an interval / covers | flagged "
+              "approximate | CPU s |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for name in args.preset:
             c0 = time.process_time()
             rows = [one_preset(name, r, args.n, args.max_model) for r in range(args.reps)]
             nr = np.array([float(r["N"]) / float(r["true_N"]) for r in rows])  # type: ignore[arg-type]
-            kr = np.array([float(r["K"]) / float(r["true_K"]) for r in rows])  # type: ignore[arg-type]
             has = [not math.isnan(float(r["N_lo"])) for r in rows]  # type: ignore[arg-type]
             cov = [h and float(r["N_lo"]) <= float(r["true_N"]) <= float(r["N_hi"])  # type: ignore[arg-type]
                    for h, r in zip(has, rows, strict=True)]
             sel = [str(r["selected"]) for r in rows]
             worst = float(nr[np.argmax(np.abs(nr - 1.0))])
-            ul = [float(r["K_ul"]) >= float(r["true_K"]) for r in rows  # type: ignore[arg-type]
-                  if float(r["K"]) == 0.0]  # type: ignore[arg-type]
+            ks = k_summary(rows, [float(r["true_K"]) for r in rows])  # type: ignore[arg-type]
             print(f"| {name} | " + ", ".join(f"{m} x{sel.count(m)}" for m in sorted(set(sel)))
                   + f" | {np.median(nr):.3f}, {worst:.3f} | "
-                  f"{100 * np.mean(np.abs(nr - 1) <= 0.1):.0f} % | {np.median(kr):.2f} | "
-                  f"{100 * np.mean(np.abs(kr - 1) <= 0.3):.0f} % | {sum(ul)} / {len(ul)} | "
+                  f"{100 * np.mean(np.abs(nr - 1) <= 0.1):.0f} % | {k_cells(ks)} | "
                   f"{sum(has)} / {sum(cov)} | "
                   f"{100 * np.mean([bool(r['approximate']) for r in rows]):.0f} % | "
                   f"{time.process_time() - c0:.0f} |")
@@ -345,9 +413,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.misspecified:
         print(f"# GMWM on misspecified records: {args.reps} replicates per case, {RATE_HZ:g} Hz, "
               f"selection among the sub-models of {args.max_model}, nominal 95 % intervals")
-        print("| case | n | selected | implied N: median abs error, within 10 % | implied K: "
-              "median abs error, within 30 % | coverage of N | flagged approximate | CPU s |")
-        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        print("| case | n | selected | implied N: median abs error, within 10 % | K resolved | "
+              "resolved K: within 30 % / interval covers | K not resolved: upper limit holds | "
+              "model's K / true: median | coverage of N | flagged approximate | CPU s |")
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for k, mcase in enumerate(MISSPECIFIED, 1):
             if args.case and k not in args.case:
                 continue
@@ -357,7 +426,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{mcase.sim['b_deg_h']:g}) | 2^{mcase.n.bit_length() - 1} | "
                   + ", ".join(f"{mm} x{c}" for mm, c in m["selected"].items())  # type: ignore[attr-defined]
                   + f" | {100 * m['n_err_median']:.1f} %, {100 * m['n_within_10']:.0f} % | "  # type: ignore[operator]
-                  f"{100 * m['k_err_median']:.0f} %, {100 * m['k_within_30']:.0f} % | "  # type: ignore[operator]
+                  f"{k_cells(m['k'])} | "  # type: ignore[arg-type]
                   f"{100 * m['n_coverage']:.0f} % | {100 * m['approximate']:.0f} % | "  # type: ignore[operator]
                   f"{time.process_time() - c0:.0f} |")
             sys.stdout.flush()

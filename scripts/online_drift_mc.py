@@ -23,10 +23,12 @@ Prints one row per case (averaged over seeds) with the ratios to the optimum.
     python scripts/online_drift_mc.py            # fast: 1 seed, 240000 samples
     python scripts/online_drift_mc.py --full     # the docs run: 5 seeds, 480000 samples
     python scripts/online_drift_mc.py --convergence   # online estimate vs offline ML fit
+    python scripts/online_drift_mc.py --convergence --samples 960000 --seeds 5
 
---convergence: for both pairs, r/q in {1, 3} and seeds 1-3, 240000 samples, no forgetting,
-the configured model as above; prints (online - ML) / (the offline fit's standard error) for
-a1, a2, q, r, mean after the last sample.
+--convergence: for both pairs, r/q in {1, 3} and seeds 1-3 (--seeds), 240000 samples
+(--samples), no forgetting, the configured model as above; prints (online - ML) / (the offline
+fit's standard error) for a1, a2, q, r, mean after the last sample, the likelihood distance
+sqrt(2 (log L(ML) - log L(online))) on the same record, and the offline fit's a2.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from dataclasses import dataclass
 import gyrodrift
 import numpy as np
 import scipy.linalg
+from gyrodrift._native import core
 from gyrodrift.filters.online import DriftParams, OnlineDriftIdentifier, OnlineDriftSettings
 from scipy.signal import lfilter
 
@@ -166,12 +169,24 @@ def run_case(case: Case) -> dict[str, float]:
     return out
 
 
-def convergence(seeds: int = 3, n: int = 240000) -> None:
-    """Print the online estimate's distance to the offline ML fit in offline standard errors."""
-    print(f"# {n} samples; (online - ML) / offline stderr; ML identified")
+def convergence(seeds: int = 3, n: int = 240000, extra: dict[str, float] | None = None
+                ) -> None:
+    """Print the online estimate's distance to the offline ML fit in offline standard errors,
+    and as a likelihood distance, sqrt(2 (log L(ML) - log L(online))) on the same record (the
+    Mahalanobis distance in the offline fit's information for a quadratic likelihood: below 1
+    puts every parameter, and every combination of them, within one standard error). extra:
+    settings of the identifier changed from the study's."""
+    settings = {"block_samples": 400, "retune_blocks": 50, "min_samples": 100000, **(extra or {})}
+    loglike = core("drift").drift_loglike
+    if extra:
+        print(f"# settings changed: {extra}")
+    print(f"# {n} samples; (online - ML) / offline stderr; d_LL = sqrt(2 (logL_ML - "
+          "logL_online)); a2_ML: the offline fit's a2")
     print(f"{'a1':>7} {'a2':>7} {'r/q':>4} {'seed':>4} {'z_a1':>6} {'z_a2':>6} {'z_q':>6} "
-          f"{'z_r':>6} {'z_mean':>6} {'ident':>5} {'status':>14}")
+          f"{'z_r':>6} {'z_mean':>6} {'d_LL':>5} {'a2_ML':>7} {'ident':>5} {'status':>9}")
     names = ("a1", "a2", "q", "r", "mean")
+    worst: dict[tuple[float, float], list[float]] = {}
+    t0 = time.monotonic()
     for a1, a2 in PAIRS:
         for ratio in RATIOS:
             for seed in range(1, seeds + 1):
@@ -179,13 +194,22 @@ def convergence(seeds: int = 3, n: int = 240000) -> None:
                 fit = gyrodrift.fit_drift_model(y, rate_hz=400.0)
                 ident = OnlineDriftIdentifier(
                     DriftParams(0.8 * a1, 0.5 * a2 + 0.03, 1.5, 0.7 * ratio, 0.0),
-                    OnlineDriftSettings(block_samples=400, retune_blocks=50, min_samples=100000))
+                    OnlineDriftSettings(**settings))  # type: ignore[arg-type]
                 ident.push(y)
                 est = ident.estimate
                 z = [(getattr(est, k) - getattr(fit, k)) / fit.stderr[k] for k in names]
+                ll_ml = loglike(y, fit.a1, fit.a2, fit.q, fit.r, fit.mean)[0]
+                ll_on = loglike(y, est.a1, est.a2, est.q, est.r, est.mean)[0]
+                d_ll = math.sqrt(max(2.0 * (ll_ml - ll_on), 0.0))
+                worst.setdefault((a1, a2), []).append(max(abs(v) for v in z[:4]))
                 print(f"{a1:7.4f} {a2:7.4f} {ratio:4.1f} {seed:4d} "
                       + " ".join(f"{v:+6.2f}" for v in z)
-                      + f" {fit.identified!s:>5} {ident.status:>14}")
+                      + f" {d_ll:5.2f} {fit.a2:+7.4f} {fit.identified!s:>5} {ident.status:>9}")
+    for (a1, a2), zs in worst.items():
+        within = sum(v <= 1.0 for v in zs)
+        print(f"# ({a1}, {a2}): {within} of {len(zs)} records within 1 standard error, "
+              f"largest |z| {max(zs):.2f}")
+    print(f"# {time.monotonic() - t0:.0f} s")
 
 
 def main() -> None:
@@ -194,9 +218,28 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1, help="first seed")
     ap.add_argument("--convergence", action="store_true",
                     help="the online estimate against the offline ML fit instead")
+    ap.add_argument("--samples", type=int, default=240000,
+                    help="--convergence: record length (default 240000)")
+    ap.add_argument("--seeds", type=int, default=3,
+                    help="--convergence: seeds 1..SEEDS per pair and r/q (default 3)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="--convergence: an OnlineDriftSettings field changed from the study's "
+                         "(repeatable), e.g. --set warmup_blocks=25")
     args = ap.parse_args()
     if args.convergence:
-        convergence()
+        extra: dict[str, float] = {}
+        defaults = OnlineDriftSettings().as_dict()
+        for item in args.set:
+            name, sep, value = item.partition("=")
+            if not sep or name not in defaults:
+                ap.error(f"--set: expected NAME=VALUE, NAME a field of OnlineDriftSettings, "
+                         f"got {item!r}")
+            kind = type(defaults[name])
+            try:
+                extra[name] = (value.lower() in ("1", "true")) if kind is bool else kind(value)
+            except ValueError:
+                ap.error(f"--set: {name} expects a {kind.__name__}, got {value!r}")
+        convergence(seeds=args.seeds, n=args.samples, extra=extra)
         return
     seeds, n = (5, 480000) if args.full else (1, 240000)
     t0 = time.monotonic()

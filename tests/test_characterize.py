@@ -235,9 +235,12 @@ def test_gmwm_method_converts_units(monkeypatch: pytest.MonkeyPatch) -> None:
     def fake(xd, rate_hz, *, ci):
         seen["x"] = xd
         tau = np.array([0.02, 0.04, 0.08])  # a wavelet variance the model describes exactly
+        implied = {"N": 0.3, "N_ci_low": 0.15, "N_ci_high": 0.6, "K": 12.0, "K_ci_low": 6.0,
+                   "K_ci_high": 24.0, "K_resolved": 1.0, "K_upper_limit": 30.0}
         return type("R", (), {"model": "N+K", "params": (P("N", 0.3), P("K", 12.0)),
                               "tau_s": tau, "wv": 1.0 / tau, "wv_fit": 1.0 / tau,
-                              "rate_hz": rate_hz, "n_samples": xd.size, "objective": 0.5})()
+                              "rate_hz": rate_hz, "n_samples": xd.size, "objective": 0.5,
+                              "implied": lambda self: implied})()
 
     monkeypatch.setattr(gyrodrift.stability.gmwm, "identify_gmwm", fake)
     c = characterize_channel(x, 100.0, "gyro_x", method="gmwm")
@@ -267,3 +270,24 @@ def test_gmwm_method_with_the_real_identify_gmwm() -> None:
     n = c.terms["N"]
     assert n.ci_low <= n_true <= n.ci_high
     assert n.value == pytest.approx(n_true, rel=0.05)
+    # No random walk in the record: K is not resolved, and its interval's top is the upper
+    # limit the wavelet variance allows (positive), not a zero a Kalibr file would pass on.
+    k = c.terms["K"]
+    assert k.value == 0.0 and k.ci_high > 0.0
+    assert k.ci_high == pytest.approx(c.extra["k_upper_limit"], rel=1e-12)
+
+
+def test_gmwm_white_noise_in_a_short_gauss_markov_term_is_exported_as_density() -> None:
+    """A GMWM model whose white noise sits in a Gauss-Markov term faster than the shortest
+    scale (GM alone on white noise filtered over 2 samples) still exports a noise density: the
+    implied N, within 10 % of the generating one, not 0 (which the Kalibr export refuses)."""
+    from gyrodrift.stability.gmwm import identify_gmwm
+    from gyrodrift.workflows.characterize import characterize_channel
+
+    rate_hz, n_true = 100.0, 1e-4  # rad/s/sqrt(Hz)
+    w = np.random.default_rng(5).standard_normal(2**15 + 1) * n_true * math.sqrt(rate_hz)
+    x = 0.5 * (w[1:] + w[:-1])  # gain 1 at 0 Hz: the same density there, correlated over 2 samples
+    s = 180.0 / math.pi * 3600.0
+    assert identify_gmwm(x * s, rate_hz, model="GM").implied()["N"] > 0.0
+    c = characterize_channel(x, rate_hz, "gyro_x", method="gmwm", ci=0.95)
+    assert c.terms["N"].value == pytest.approx(n_true, rel=0.10)

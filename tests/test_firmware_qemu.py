@@ -28,7 +28,6 @@ from gyrodrift.imu.config import (
     ProcessorConfig,
     WaveletStage,
     default_config,
-    drift_filter_config,
 )
 from gyrodrift.replay.faults import FaultSpec
 from gyrodrift.replay.firmware import (
@@ -149,11 +148,15 @@ def test_second_configuration_equals_host_loop() -> None:
 
 
 def monitor_config(enabled: bool = True, reidentify: bool = True) -> ProcessorConfig:
-    """One identified gyro (gz: steady-state AR(2)-Kalman as its first stage, stuck detection)
-    watched by the gyro monitor: 16 octaves, re-identification on (or off: the image then has
-    no re-identification state), a stuck alarm after 0.5 s."""
-    cfg = drift_filter_config("gz", a1=1.0, a2=-0.25, mean=0.0, q=1e-10, r=1e-8,
-                              sample_rate_hz=400.0)
+    """The default configuration's three gyros, each with its AR(2)-Kalman stage alone (the
+    wavelet stage left out), watched by the gyro monitor: 16 octaves, re-identification on (or
+    off: the image then has no re-identification state), gz with stuck detection and a stuck
+    alarm after 0.5 s."""
+    cfg = default_config()
+    for name in ("gx", "gy", "gz"):
+        ch = cfg.channel(name)
+        cfg = cfg.with_channel(name, replace(ch, stages=tuple(
+            s for s in ch.stages if isinstance(s, Ar2KalmanStage))))
     gz = cfg.channel("gz")
     cfg = cfg.with_channel("gz", replace(gz, saturation=8.0, stuck_samples=5))
     return cfg.with_monitor(enabled=enabled, octaves=16, reidentify=reidentify,
@@ -162,13 +165,17 @@ def monitor_config(enabled: bool = True, reidentify: bool = True) -> ProcessorCo
 
 @pytest.mark.parametrize("reidentify", [True, False])
 def test_monitor_configuration_equals_host_loop(reidentify: bool) -> None:
-    """MCU = host with the gyro monitor running: the same outputs, flags (the health_alarm bit
-    of the stuck alarm included) and counters (the monitor's among them) as the host loop; and
-    the monitor's RAM within its budget against the same image without it."""
+    """MCU = host with the gyro monitor watching three gyros (the re-identification shared
+    among them in turns): the same outputs, flags (the health_alarm bit of the stuck alarm
+    included) and counters (the monitor's among them) as the host loop. RAM: with or without
+    the re-identification the three monitors fit the monitor's 2 KiB over the same image
+    without them, and the image its own RAM budget."""
     cfg = monitor_config(reidentify=reidentify)
     image = cached_firmware(cfg)
     plain = cached_firmware(monitor_config(enabled=False))
-    assert 0 < image.ram_bytes - plain.ram_bytes <= MONITOR_RAM_BUDGET_BYTES
+    assert cfg.monitored_channels() == ("gx", "gy", "gz")
+    delta = image.ram_bytes - plain.ram_bytes
+    assert 0 < delta <= MONITOR_RAM_BUDGET_BYTES and image.ram_bytes <= RAM_BUDGET_BYTES
     samples = record(4.0, 400.0, seed=5)
     values = samples.channels.copy()
     values[800:1200, 2] = values[800, 2]  # gz stuck for 1 s: the stuck alarm after 0.5 s

@@ -48,7 +48,11 @@ def test_fleet_result_and_summary_files_are_strict(tmp_path, monkeypatch) -> Non
         return type("R", (), {"model": "N+K",
                               "params": (P("N", 0.3, 0.6), P("K", 12.0, np.inf)),
                               "tau_s": tau, "wv": 1.0 / tau, "wv_fit": 1.0 / tau,
-                              "rate_hz": rate_hz, "n_samples": xd.size, "objective": 0.5})()
+                              "rate_hz": rate_hz, "n_samples": xd.size, "objective": 0.5,
+                              "implied": lambda self: {
+                                  "N": 0.3, "N_ci_low": 0.15, "N_ci_high": 0.6, "K": 12.0,
+                                  "K_ci_low": 6.0, "K_ci_high": np.inf, "K_resolved": 1.0,
+                                  "K_upper_limit": np.inf}})()
 
     import gyrodrift.stability.gmwm
 

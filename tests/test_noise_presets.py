@@ -51,14 +51,35 @@ def test_accuracy_on_presets(small_mc, name: str) -> None:
     kept = [b for b in res.b_ratio if b > 0]
     assert len(kept) >= RECORDS // 2
     assert 0.7 <= float(np.median(kept)) <= 1.3, kept
-    # K: the upper limit holds on every record where K is not identified; identified K
-    # within 30 % as a median where there are at least 3.
+    # K: the upper limit holds on every record where K is not identified; where K is
+    # reported as identified, it is within 30 % (the rule asks for that at 90 %).
     assert all(res.k_limit_holds)
-    if len(res.k_ratio) >= 3:
-        assert 0.7 <= float(np.median(res.k_ratio)) <= 1.3
+    assert all(abs(k - 1.0) <= 0.3 for k in res.k_ratio), res.k_ratio
     # the read-off tracks the true curve's minimum (median within 15 %)
     assert 0.85 <= float(np.median(res.ro_ratio)) <= 1.15
     assert truth.b_min_deg_h > truth.b_deg_h  # type: ignore[attr-defined]
+
+
+def test_identified_k_is_within_30_percent() -> None:
+    # Regression: K was reported as identified when its 95 % interval spanned at most a
+    # factor 3; that picked the records whose K came out high (a larger K line carries more
+    # of the model, so its relative interval is narrower): on these tactical-mems records
+    # of the default length (2.8 h) it reported K = 1.48x and 1.51x the generating K
+    # (seeds 6 and 16) as identified. A 2.8 h record measures this K to about +-35 % (sd of
+    # log K over records): it must now be given as an upper limit that holds, or, where
+    # identified, within 30 %.
+    p = PRESETS["tactical-mems"]
+    for seed in (6, 16):
+        rec = simulate_preset(p, p.default_n_samples, seed)
+        r = oadev(rec.gyro_deg_h, rec.rate_hz, progress=False, ci=0.95, threads=1)
+        fit = fit_allan(r.tau_s, r.adev, r.edf, n_samples=r.n_samples, rate_hz=r.rate_hz)
+        k_true = rec.truth.k_deg_h_rt_h
+        if "K" in fit.upper_limits:
+            assert fit.upper_limits["K"] >= k_true, (seed, fit.upper_limits)
+            assert "K" not in fit.names or not fit.term("K").identified
+            assert any("K not identified" in line for line in fit.notes())
+        else:
+            assert abs(fit.value("K") / k_true - 1.0) <= 0.3, (seed, fit.value("K"))
 
 
 @pytest.mark.xdist_group("noise_presets_mc")

@@ -100,27 +100,27 @@ def test_float_state_follows_double() -> None:
     assert f.state_bytes <= 408 and d.state_bytes <= 744
 
 
-@pytest.mark.parametrize("pair,ratio,seed", [((0.2297, 0.1638), 1.0, 1),
-                                             ((0.6868, -0.0213), 1.0, 1)])
-def test_converges_to_the_offline_ml_fit(pair: tuple[float, float], ratio: float,
-                                         seed: int) -> None:
-    # 240000 samples (10 min at 400 Hz), no forgetting, configured 20 % off in a1, a2 = a2/2 +
-    # 0.03, q x1.5, r x0.7. Stated bound: every parameter within 2 of the offline fit's
-    # standard errors of the offline ML estimate (measured over 12 records of both pairs,
-    # r/q = 1 and 3: at most 1.9, most below 1.2; docs/validation/online-identification.md),
-    # the mean within 1.
+@pytest.mark.parametrize("pair", [(0.2297, 0.1638), (0.6868, -0.0213)])
+def test_converges_to_the_offline_ml_fit(pair: tuple[float, float]) -> None:
+    # 480000 samples (20 min at 400 Hz), r/q = 1, seed 1, no forgetting, configured 20 % off in
+    # a1, a2 = a2/2 + 0.03, q x1.5, r x0.7. Stated bound: every parameter within one of the
+    # offline fit's standard errors of the offline ML estimate, the mean within one (measured
+    # here 0.39 and 0.31; over 20 records of both pairs, r/q = 1 and 3, at 480000 samples 19
+    # within one standard error, the largest 1.05: `scripts/online_drift_mc.py --convergence
+    # --samples 480000 --seeds 5`, docs/validation/online-identification.md, which also gives
+    # the records that are not within it at 240000 and 960000 samples).
     a1, a2 = pair
-    y = _record(a1, a2, 1.0, ratio, 240000, seed)
+    y = _record(a1, a2, 1.0, 1.0, 480000, seed=1)
     fit = gyrodrift.fit_drift_model(y, rate_hz=400.0)
     assert fit.identified
-    ident = OnlineDriftIdentifier(DriftParams(0.8 * a1, 0.5 * a2 + 0.03, 1.5, 0.7 * ratio, 0.0),
+    ident = OnlineDriftIdentifier(DriftParams(0.8 * a1, 0.5 * a2 + 0.03, 1.5, 0.7, 0.0),
                                   OnlineDriftSettings(block_samples=400, retune_blocks=50,
                                                       min_samples=100000))
     ident.push(y)
     est = ident.estimate
     for name in ("a1", "a2", "q", "r"):
         z = (getattr(est, name) - getattr(fit, name)) / fit.stderr[name]
-        assert abs(z) <= 2.0, (name, z)
+        assert abs(z) <= 1.0, (name, z)
     assert abs(est.mean - fit.mean) <= fit.stderr["mean"]
     assert ident.status == "tracking" and ident.in_use == est
 

@@ -21,8 +21,13 @@ ALLOWED: dict[tuple[str, str], str] = {
     ("io/imu_log.py", "_write_samples"): "called with the temporary file of write_samples' "
                                           "atomic_output",
     ("io/imu_data.py", "spool"): "spool files in the caller's temporary directory",
+    ("io/spool.py", "append"): "a normalized record's samples in its own temporary directory",
     ("papers/table1.py", "_write_report"): "the temporary files of atomic_output entered "
                                            "through an ExitStack",
+    ("stability/gmwm.py", "_spool_replicate"): "a bootstrap replicate in a temporary "
+                                               "directory the bootstrap made and removes",
+    ("papers/table1.py", "_spool"): "a filtered record in a temporary directory the "
+                                    "comparison made and removes",
     ("replay/firmware.py", "cached_firmware"): "image.json inside a fresh mkdtemp directory, "
                                                "renamed into place whole",
     ("replay/harness.py", "start"): "the decode table in a mkstemp file for the loop "

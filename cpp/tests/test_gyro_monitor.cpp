@@ -255,10 +255,12 @@ TEST_CASE("a retune of the re-identification reaches the steady-state stage") {
     in.values[2] = static_cast<float>(x + 1e-4 * std::sqrt(3.0) * w.next());  // r = 1e-8
     proc.step(in, out);
   }
-  const auto& id = proc.monitor(2).identifier();
-  CHECK(id.retunes() >= 1);
-  CHECK(proc.health().monitor_retunes == id.retunes());
-  CHECK(proc.health().monitor_refused_retunes == id.refused_retunes());
+  const auto& id = proc.monitor_identifier();
+  const std::size_t slot = proc.monitor_slot(2);
+  CHECK(id.channels() == 1);
+  CHECK(id.retunes(slot) >= 1);
+  CHECK(proc.health().monitor_retunes == id.retunes(slot));
+  CHECK(proc.health().monitor_refused_retunes == id.refused_retunes(slot));
 }
 
 TEST_CASE("a monitor built without the re-identification equals one with it off, and refuses it") {
@@ -293,4 +295,45 @@ TEST_CASE("a monitor built without the re-identification equals one with it off,
     CHECK(lean.alarms().raised(i) == full.alarms().raised(i));
     CHECK(lean.alarms().exceedances(i) == full.alarms().exceedances(i));
   }
+}
+
+TEST_CASE("a monitor without records (the processor's) raises the same alarms at the same samples") {
+  // Records false: no trips or counts, the reference read in place; the alarm bits after every
+  // sample equal the full monitor's, whose trips say when each was raised.
+  constexpr std::size_t kOct = 12;
+  using Bare = gyrodrift::GyroMonitor<float, kOct, false, false>;
+  using Full = gyrodrift::GyroMonitor<float, kOct, false, true>;
+  static_assert(sizeof(Bare) + sizeof(gyrodrift::HealthReference<float, kOct>) <= sizeof(Full),
+                "no copy of the reference, no trips");
+  const gyrodrift::DriftModelParams<float> model{0.5F, 0.0F, 1e-10F, 1e-8F, 0.0F};
+  auto ref = white_reference<float, kOct>(1e-8F, kOct);
+  ref.avar[6] *= 0.1F;  // the noise exceeds it tenfold at octave 6
+  ref.avar[9] *= 0.3F;  // and threefold at octave 9: a second alarm kind later
+  static Bare bare;
+  static Full full;
+  auto s = settings<float>(kOct, false);
+  s.alarms.saturated_samples = 3;
+  REQUIRE(bare.configure(s, model, ref) == gyrodrift::GyroMonitorStatus::ok);
+  REQUIRE(full.configure(s, model, ref) == gyrodrift::GyroMonitorStatus::ok);
+  Noise n{17, 0.0, 3e-4};
+  std::uint16_t seen = 0;
+  for (std::size_t i = 0; i < 60000; ++i) {
+    const float y = static_cast<float>(n.next());
+    const bool sat = i % 7000 < 4;
+    const std::uint16_t b = bare.push(y, false, sat);
+    REQUIRE(b == full.push(y, false, sat));
+    if ((b & ~seen) != 0) {  // a newly raised alarm: the full monitor's trip is this sample
+      for (std::size_t a = 0; a < gyrodrift::kHealthAlarmCount; ++a) {
+        if ((b & ~seen & gyrodrift::kHealthAlarmNames[a].bit) != 0) CHECK(full.alarms().trip(a).sample == i + 1);
+      }
+      seen = b;
+    }
+  }
+  CHECK((seen & gyrodrift::kAlarmSaturated) != 0);
+  CHECK((seen & ~gyrodrift::kAlarmSaturated) != 0);  // an octave alarm too
+  CHECK(bare.samples() == full.samples());
+  CHECK(bare.used() == full.used());
+  CHECK(&bare.alarms().reference() == &ref);  // read in place
+  CHECK(&bare.alarms().settings() == &s.alarms);  // so are the alarms' settings
+  CHECK(&full.alarms().settings() != &s.alarms);  // the full monitor's are a copy
 }

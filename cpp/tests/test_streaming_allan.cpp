@@ -71,6 +71,35 @@ TEST_CASE("double equals the non-overlapped definition at every octave") {
   }
 }
 
+TEST_CASE("the term callback hands over every squared difference of every octave once") {
+  // 1000 samples of the gyro record: the callback's terms per octave, counted and summed in
+  // long double, against terms(k) and the definition (the same 1e-12 as above)
+  constexpr std::size_t kOctaves = 6;
+  Gyro g{777, 3.0};
+  std::vector<double> y(1000);
+  for (auto& v : y) v = g.next();
+  gyrodrift::StreamingAllan<double, kOctaves> sa;
+  REQUIRE(sa.configure(100.0, kOctaves));
+  std::size_t count[kOctaves] = {};
+  long double sum[kOctaves] = {};
+  bool in_order = true;  // terms(k) already counts the term when it is handed over
+  for (double v : y) {
+    sa.push(v, [&](std::size_t k, double d2) {
+      ++count[k];
+      sum[k] += static_cast<long double>(d2);
+      in_order = in_order && sa.terms(k) == count[k];
+    });
+  }
+  CHECK(in_order);
+  for (std::size_t k = 0; k < kOctaves; ++k) {
+    std::size_t terms = 0;
+    const long double ref = definition_avar(y, std::size_t{1} << k, terms);
+    CHECK(count[k] == terms);
+    const double got = static_cast<double>(sum[k] / (2.0L * static_cast<long double>(terms)));
+    CHECK(std::fabs(got - static_cast<double>(ref)) < 1e-12 * static_cast<double>(ref));
+  }
+}
+
 TEST_CASE("the octave appears after two clusters; configure limits the octaves") {
   gyrodrift::StreamingAllan<double, 8> sa;
   double v = 0.0;

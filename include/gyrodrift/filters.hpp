@@ -11,6 +11,7 @@
 #include "filters/input_range.hpp"
 #include "filters/lifting_transform.hpp"
 #include "filters/online_drift_identifier.hpp"
+#include "filters/shared_drift_identifier.hpp"
 #include "filters/realtime_wavelet.hpp"
 #include "filters/realtime_wavelet_noise.hpp"
 #include "filters/realtime_wavelet_windows.hpp"

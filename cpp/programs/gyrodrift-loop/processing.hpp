@@ -69,7 +69,8 @@ class Processing {
     s.drift.memory_blocks = static_cast<float>(m.memory_blocks);
     s.drift.max_step = static_cast<float>(m.max_step);
     s.drift.max_rel_stderr = static_cast<float>(m.max_rel_stderr);
-    std::array<Proc::MonitorReference, kImuGyroChannels> refs{};
+    std::array<Proc::MonitorReference, kImuGyroChannels>& refs = monitor_references_;  // the monitors read it
+    refs = {};
     std::array<bool, kImuGyroChannels> on{};
     for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
       on[c] = m.channels[c];
@@ -111,6 +112,8 @@ class Processing {
  private:
   double sample_rate_hz_ = config_schema::kDefaultSampleRateHz;
   std::optional<Proc> proc_;
+  // The monitors' reference curves (they refer to these for the processor's lifetime).
+  std::array<Proc::MonitorReference, kImuGyroChannels> monitor_references_{};
 };
 
 }  // namespace gyrodrift::loop

@@ -66,7 +66,10 @@
 // in every case, so a later retune can accept it again.
 //
 // State: sizeof(OnlineDriftIdentifier<float>) is 408 bytes, <double> 744 on x86-64 (checked in
-// cpp/tests/test_online_drift_identifier.cpp; the float size is the same on Cortex-M4).
+// cpp/tests/test_online_drift_identifier.cpp; the float size is the same on Cortex-M4), of which
+// 184 (float) are the channel's own (Track); the rest, the filters, block sums and settings, is
+// working state that SharedDriftIdentifier (shared_drift_identifier.hpp) keeps once for several
+// channels.
 // Per-sample work: 4 filter steps (about 200 flops, 4 divisions, 1 square root).
 // Allocation-free, noexcept, deterministic, templated on Scalar; float-safe (no double
 // arithmetic in a float instantiation).
@@ -146,9 +149,35 @@ struct OnlineDriftSettings {
   Scalar min_ar_wald = Scalar(25);
 };
 
+template <class Scalar, std::size_t Channels>
+class SharedDriftIdentifier;
+
 template <class Scalar>
 class OnlineDriftIdentifier {
  public:
+  // The state that belongs to one channel: the configured model and its gain, theta, the
+  // information R, the running mean (in the estimate), the start-up schedule, the gain in use,
+  // the counters. The filters, the block sums and the settings are the estimator's working
+  // state (SharedDriftIdentifier keeps one of those for all its channels).
+  struct Track {
+    DriftModelParams<Scalar> configured_{};
+    DriftModelParams<Scalar> estimate_{};
+    DriftModelParams<Scalar> in_use_{};
+    Scalar u_[2] = {Scalar(0), Scalar(0)};
+    Scalar logq_ = Scalar(0), logr_ = Scalar(0), log_var0_ = Scalar(0);
+    Scalar r_info_[10] = {};  // running average information per sample (packed)
+    Scalar nis_sum_ = Scalar(0);
+    Scalar lambda_ = Scalar(1), gamma_ = Scalar(1);
+    Scalar gain_[2] = {Scalar(0), Scalar(0)};
+    Scalar cgain_[2] = {Scalar(0), Scalar(0)};  // the configured model's gain
+    std::uint64_t samples_ = 0;
+    std::uint64_t rejected_ = 0;
+    std::uint32_t blocks_ = 0;
+    std::uint32_t retunes_ = 0;
+    std::uint32_t refused_retunes_ = 0;
+    OnlineDriftStatus status_ = OnlineDriftStatus::unconfigured;
+  };
+
   OnlineDriftIdentifier() noexcept = default;
 
   // The configured model is the start and the fallback. Returns false (status unconfigured)
@@ -156,9 +185,9 @@ class OnlineDriftIdentifier {
   // its steady-state gain not converging) or invalid settings. A configured q = 0 (white
   // noise) starts the estimate at q = 1e-6 r (log q must be finite).
   bool configure(const DriftModelParams<Scalar>& configured, const OnlineDriftSettings<Scalar>& s) noexcept {
-    configured_ = configured;
+    t_.configured_ = configured;
     settings_ = s;
-    status_ = OnlineDriftStatus::unconfigured;
+    t_.status_ = OnlineDriftStatus::unconfigured;
     const bool settings_ok =
         s.block_samples >= 8 && s.retune_blocks >= 1 && std::isfinite(s.memory_blocks) &&
         (s.memory_blocks == Scalar(0) || s.memory_blocks >= Scalar(1)) && std::isfinite(s.max_step) &&
@@ -181,19 +210,19 @@ class OnlineDriftIdentifier {
       clear_state();
       return false;
     }
-    cgain_[0] = kf.gain()(0);
-    cgain_[1] = kf.gain()(1);
-    log_var0_ = std::log(configured.q + configured.r);
+    t_.cgain_[0] = kf.gain()(0);
+    t_.cgain_[1] = kf.gain()(1);
+    t_.log_var0_ = std::log(configured.q + configured.r);
     clear_state();
-    status_ = OnlineDriftStatus::learning;
+    t_.status_ = OnlineDriftStatus::learning;
     return true;
   }
 
   // Back to the configured model, counters cleared.
   void reset() noexcept {
-    if (status_ != OnlineDriftStatus::unconfigured) {
+    if (t_.status_ != OnlineDriftStatus::unconfigured) {
       clear_state();
-      status_ = OnlineDriftStatus::learning;
+      t_.status_ = OnlineDriftStatus::learning;
     }
   }
 
@@ -202,33 +231,25 @@ class OnlineDriftIdentifier {
   bool push(Scalar y) noexcept {
     retuned_ = false;
     block_updated_ = false;
-    if (status_ == OnlineDriftStatus::unconfigured || !std::isfinite(y)) {
-      ++rejected_;
-      return false;
-    }
-    ++samples_;
-    // Running mean (exponential with the forgetting horizon); the innovations use the mean
-    // before this sample, the first sample starts it.
-    if (samples_ == 1) estimate_.mean = y;
-    const Scalar d = y - estimate_.mean;
-    estimate_.mean += d / mean_count();
+    Scalar d;
+    if (!observe(t_, settings_, y, d)) return false;
     sample(d);
     if (++in_block_ == settings_.block_samples) end_block();
     return true;
   }
 
-  OnlineDriftStatus status() const noexcept { return status_; }
-  const DriftModelParams<Scalar>& configured() const noexcept { return configured_; }
-  const DriftModelParams<Scalar>& estimate() const noexcept { return estimate_; }  // running estimate
-  const DriftModelParams<Scalar>& in_use() const noexcept { return in_use_; }      // the gain's model
+  OnlineDriftStatus status() const noexcept { return t_.status_; }
+  const DriftModelParams<Scalar>& configured() const noexcept { return t_.configured_; }
+  const DriftModelParams<Scalar>& estimate() const noexcept { return t_.estimate_; }  // running estimate
+  const DriftModelParams<Scalar>& in_use() const noexcept { return t_.in_use_; }      // the gain's model
   // Approximate standard errors of the running estimate; false while they do not exist
   // (before the first block, or an information matrix that is not positive definite).
   bool stderrs(DriftModelParams<Scalar>& se) const noexcept {
     Scalar cov[16];
     if (!theta_covariance(cov)) return false;
     const Scalar one = Scalar(1);
-    const Scalar a2 = estimate_.a2;
-    const Scalar p1 = std::tanh(u_[0]);
+    const Scalar a2 = t_.estimate_.a2;
+    const Scalar p1 = std::tanh(t_.u_[0]);
     // Jacobian of (a1, a2) with respect to (u1, u2).
     const Scalar j00 = (one - p1 * p1) * (one - a2), j01 = -p1 * (one - a2 * a2);
     const Scalar j11 = one - a2 * a2;
@@ -236,27 +257,30 @@ class OnlineDriftIdentifier {
     const Scalar v_a2 = j11 * j11 * cov[5];
     se.a1 = std::sqrt(v_a1 > Scalar(0) ? v_a1 : Scalar(0));
     se.a2 = std::sqrt(v_a2 > Scalar(0) ? v_a2 : Scalar(0));
-    se.q = estimate_.q * std::sqrt(cov[10]);
-    se.r = estimate_.r * std::sqrt(cov[15]);
-    const Scalar s = one - estimate_.a1 - estimate_.a2;
-    se.mean = std::sqrt((estimate_.q / (s * s) + estimate_.r) / mean_count());
+    se.q = t_.estimate_.q * std::sqrt(cov[10]);
+    se.r = t_.estimate_.r * std::sqrt(cov[15]);
+    const Scalar s = one - t_.estimate_.a1 - t_.estimate_.a2;
+    se.mean = std::sqrt((t_.estimate_.q / (s * s) + t_.estimate_.r) / mean_count());
     return std::isfinite(se.a1 + se.a2 + se.q + se.r + se.mean);
   }
   // Steady-state Kalman gain (k0, k1) of in_use(); changes only at a retune.
-  Scalar gain0() const noexcept { return gain_[0]; }
-  Scalar gain1() const noexcept { return gain_[1]; }
+  Scalar gain0() const noexcept { return t_.gain_[0]; }
+  Scalar gain1() const noexcept { return t_.gain_[1]; }
   // True after the push() that retuned the gain (until the next push()): an accepted retune,
   // or a refused one that put the configured gain back. Reload gain0(), gain1() then.
   bool retuned() const noexcept { return retuned_; }
-  std::uint32_t retunes() const noexcept { return retunes_; }  // accepted retunes
-  std::uint32_t refused_retunes() const noexcept { return refused_retunes_; }
-  std::uint64_t samples() const noexcept { return samples_; }
-  std::uint64_t rejected() const noexcept { return rejected_; }
+  std::uint32_t retunes() const noexcept { return t_.retunes_; }  // accepted retunes
+  std::uint32_t refused_retunes() const noexcept { return t_.refused_retunes_; }
+  std::uint64_t samples() const noexcept { return t_.samples_; }
+  std::uint64_t rejected() const noexcept { return t_.rejected_; }
   // Added: true after the push() that ended a block (a parameter update); blocks so far.
   bool block_updated() const noexcept { return block_updated_; }
-  std::uint32_t blocks() const noexcept { return blocks_; }
+  std::uint32_t blocks() const noexcept { return t_.blocks_; }
 
  private:
+  template <class S, std::size_t N>
+  friend class SharedDriftIdentifier;
+
   // Filter state in prediction form: X_k|k-1 = (x0, x1), P_k|k-1 = [[p00, p01], [p01, p11]].
   struct Filter {
     Scalar x0, x1, p00, p01, p11;
@@ -271,10 +295,48 @@ class OnlineDriftIdentifier {
 
   static Scalar delta() noexcept { return Scalar(1) / Scalar(1024); }
 
-  Scalar mean_count() const noexcept {
-    const Scalar n = static_cast<Scalar>(samples_);
-    const Scalar cap = settings_.memory_blocks * static_cast<Scalar>(settings_.block_samples);
+  Scalar mean_count() const noexcept { return mean_count(t_, settings_); }
+  static Scalar mean_count(const Track& t, const OnlineDriftSettings<Scalar>& s) noexcept {
+    const Scalar n = static_cast<Scalar>(t.samples_);
+    const Scalar cap = s.memory_blocks * static_cast<Scalar>(s.block_samples);
     return (cap > Scalar(0) && n > cap) ? cap : n;
+  }
+
+  // A sample's share of the channel's state: counted, and the running mean (exponential with
+  // the forgetting horizon) updated; d = y minus the mean before this sample (the first
+  // sample starts the mean). NaN/Inf, or an unconfigured channel: counted in rejected, false.
+  static bool observe(Track& t, const OnlineDriftSettings<Scalar>& s, Scalar y, Scalar& d) noexcept {
+    if (t.status_ == OnlineDriftStatus::unconfigured || !std::isfinite(y)) {
+      ++t.rejected_;
+      return false;
+    }
+    ++t.samples_;
+    if (t.samples_ == 1) t.estimate_.mean = y;
+    d = y - t.estimate_.mean;
+    t.estimate_.mean += d / mean_count(t, s);
+    return true;
+  }
+
+  // The working state restarted for the channel now in t_ (SharedDriftIdentifier, at its
+  // turn): the perturbed parameters from its theta, the four filters from the stationary
+  // covariance of its estimate (the exact likelihood of the samples from here on, as at the
+  // start of a record), empty block sums.
+  void resume() noexcept {
+    retuned_ = block_updated_ = false;
+    in_block_ = 0;
+    nis_block_ = Scalar(0);
+    for (Scalar& v : g_) v = Scalar(0);
+    for (Scalar& v : h_) v = Scalar(0);
+    if (t_.status_ == OnlineDriftStatus::unconfigured) return;
+    set_perturbed(settings_.ar_order == 2 ? std::tanh(t_.u_[1]) : Scalar(0));
+    start_filters();
+  }
+
+  void start_filters() noexcept {
+    start_filter(main_, t_.estimate_.a1, t_.estimate_.a2, t_.estimate_.q);
+    start_filter(f_u1_, a1_u1_, t_.estimate_.a2, t_.estimate_.q);
+    start_filter(f_u2_, a1_u2_, a2_u2_, t_.estimate_.q);
+    start_filter(f_lq_, t_.estimate_.a1, t_.estimate_.a2, q_lq_);
   }
 
   // One filter step on d: innovation e and its variance f; then update and predict. The
@@ -307,58 +369,61 @@ class OnlineDriftIdentifier {
   // Natural parameters of theta (and of the perturbed filters).
   void set_params() noexcept {
     const Scalar one = Scalar(1);
-    const Scalar a2 = settings_.ar_order == 2 ? std::tanh(u_[1]) : Scalar(0);
-    estimate_.a2 = a2;
-    estimate_.a1 = std::tanh(u_[0]) * (one - a2);
-    estimate_.q = std::exp(logq_);
-    estimate_.r = std::exp(logr_);
-    a1_u1_ = std::tanh(u_[0] + delta()) * (one - a2);
-    a2_u2_ = std::tanh(u_[1] + delta());
-    a1_u2_ = std::tanh(u_[0]) * (one - a2_u2_);
-    q_lq_ = std::exp(logq_ + delta());
+    const Scalar a2 = settings_.ar_order == 2 ? std::tanh(t_.u_[1]) : Scalar(0);
+    t_.estimate_.a2 = a2;
+    t_.estimate_.a1 = std::tanh(t_.u_[0]) * (one - a2);
+    t_.estimate_.q = std::exp(t_.logq_);
+    t_.estimate_.r = std::exp(t_.logr_);
+    set_perturbed(a2);
+  }
+
+  // The perturbed filters' parameters (theta + delta e_j); a2 = tanh(u2), or 0 with ar_order 1.
+  void set_perturbed(Scalar a2) noexcept {
+    const Scalar one = Scalar(1);
+    a1_u1_ = std::tanh(t_.u_[0] + delta()) * (one - a2);
+    a2_u2_ = std::tanh(t_.u_[1] + delta());
+    a1_u2_ = std::tanh(t_.u_[0]) * (one - a2_u2_);
+    q_lq_ = std::exp(t_.logq_ + delta());
   }
 
   void clear_state() noexcept {
-    estimate_ = configured_;
-    in_use_ = configured_;
-    gain_[0] = cgain_[0];
-    gain_[1] = cgain_[1];
+    t_.estimate_ = t_.configured_;
+    t_.in_use_ = t_.configured_;
+    t_.gain_[0] = t_.cgain_[0];
+    t_.gain_[1] = t_.cgain_[1];
     const Scalar one = Scalar(1);
-    Scalar q0 = configured_.q;
-    if (!(q0 > Scalar(0))) q0 = Scalar(1e-6) * configured_.r;
+    Scalar q0 = t_.configured_.q;
+    if (!(q0 > Scalar(0))) q0 = Scalar(1e-6) * t_.configured_.r;
     if (!(q0 > Scalar(0)) || !std::isfinite(q0)) q0 = one;  // unconfigured: any finite start
-    const Scalar r0 = configured_.r > Scalar(0) && std::isfinite(configured_.r) ? configured_.r : one;
-    const Scalar a2 = std::isfinite(configured_.a2) ? configured_.a2 : Scalar(0);
-    const Scalar a1 = std::isfinite(configured_.a1) ? configured_.a1 : Scalar(0);
+    const Scalar r0 = t_.configured_.r > Scalar(0) && std::isfinite(t_.configured_.r) ? t_.configured_.r : one;
+    const Scalar a2 = std::isfinite(t_.configured_.a2) ? t_.configured_.a2 : Scalar(0);
+    const Scalar a1 = std::isfinite(t_.configured_.a1) ? t_.configured_.a1 : Scalar(0);
     const Scalar p1 = (one - a2) != Scalar(0) ? a1 / (one - a2) : Scalar(0);
     const Scalar umax = Scalar(kOnlineDriftMaxU);
-    u_[0] = clamp(std::atanh(clamp(p1, -one, one)), -umax, umax);
-    u_[1] = settings_.ar_order == 2 ? clamp(std::atanh(clamp(a2, -one, one)), -umax, umax) : Scalar(0);
-    logq_ = std::log(q0);
-    logr_ = std::log(r0);
+    t_.u_[0] = clamp(std::atanh(clamp(p1, -one, one)), -umax, umax);
+    t_.u_[1] = settings_.ar_order == 2 ? clamp(std::atanh(clamp(a2, -one, one)), -umax, umax) : Scalar(0);
+    t_.logq_ = std::log(q0);
+    t_.logr_ = std::log(r0);
     set_params();
-    if (configured_.q > Scalar(0)) {  // exactly the configured model until the first update
-      estimate_.a1 = configured_.a1;
-      estimate_.a2 = configured_.a2;
-      estimate_.q = configured_.q;
-      estimate_.r = configured_.r;
+    if (t_.configured_.q > Scalar(0)) {  // exactly the configured model until the first update
+      t_.estimate_.a1 = t_.configured_.a1;
+      t_.estimate_.a2 = t_.configured_.a2;
+      t_.estimate_.q = t_.configured_.q;
+      t_.estimate_.r = t_.configured_.r;
     }
     // The estimate starts at the configured model where it is representable.
-    const Scalar mean0 = configured_.mean;
-    estimate_.mean = mean0;
-    start_filter(main_, estimate_.a1, estimate_.a2, estimate_.q);
-    start_filter(f_u1_, a1_u1_, estimate_.a2, estimate_.q);
-    start_filter(f_u2_, a1_u2_, a2_u2_, estimate_.q);
-    start_filter(f_lq_, estimate_.a1, estimate_.a2, q_lq_);
+    const Scalar mean0 = t_.configured_.mean;
+    t_.estimate_.mean = mean0;
+    start_filters();
     for (Scalar& v : g_) v = Scalar(0);
     for (Scalar& v : h_) v = Scalar(0);
-    for (Scalar& v : r_info_) v = Scalar(0);
-    nis_block_ = nis_sum_ = Scalar(0);
+    for (Scalar& v : t_.r_info_) v = Scalar(0);
+    nis_block_ = t_.nis_sum_ = Scalar(0);
     retuned_ = block_updated_ = false;
     in_block_ = 0;
-    blocks_ = 0;
-    retunes_ = refused_retunes_ = 0;
-    samples_ = rejected_ = 0;
+    t_.blocks_ = 0;
+    t_.retunes_ = t_.refused_retunes_ = 0;
+    t_.samples_ = t_.rejected_ = 0;
   }
 
   static Scalar clamp(Scalar v, Scalar lo, Scalar hi) noexcept { return v < lo ? lo : (v > hi ? hi : v); }
@@ -367,22 +432,22 @@ class OnlineDriftIdentifier {
   static constexpr int idx(int i, int j) noexcept { return i * (i + 1) / 2 + j; }
 
   void sample(Scalar d) noexcept {
-    const Scalar r = estimate_.r;
+    const Scalar r = t_.estimate_.r;
     Scalar e, f, e1, f1, e2, f2, e3, f3;
-    filter_step(main_, estimate_.a1, estimate_.a2, estimate_.q, r, d, e, f);
+    filter_step(main_, t_.estimate_.a1, t_.estimate_.a2, t_.estimate_.q, r, d, e, f);
     if (is_free(0)) {
-      filter_step(f_u1_, a1_u1_, estimate_.a2, estimate_.q, r, d, e1, f1);
+      filter_step(f_u1_, a1_u1_, t_.estimate_.a2, t_.estimate_.q, r, d, e1, f1);
     } else {
       e1 = e;
       f1 = f;
     }
     if (is_free(1)) {
-      filter_step(f_u2_, a1_u2_, a2_u2_, estimate_.q, r, d, e2, f2);
+      filter_step(f_u2_, a1_u2_, a2_u2_, t_.estimate_.q, r, d, e2, f2);
     } else {
       e2 = e;
       f2 = f;
     }
-    filter_step(f_lq_, estimate_.a1, estimate_.a2, q_lq_, r, d, e3, f3);
+    filter_step(f_lq_, t_.estimate_.a1, t_.estimate_.a2, q_lq_, r, d, e3, f3);
     // Normalised sensitivities s_j = psi_j / sqrt(F), t_j = phi_j / (sqrt(2) F).
     const Scalar inv_delta = Scalar(1024);
     const Scalar rs = Scalar(1) / std::sqrt(f);
@@ -443,10 +508,10 @@ class OnlineDriftIdentifier {
 
   // Covariance of theta (full 4x4, row-major) from the information; false if unavailable.
   bool theta_covariance(Scalar* cov) const noexcept {
-    if (blocks_ == 0 || status_ == OnlineDriftStatus::unconfigured) return false;
+    if (t_.blocks_ == 0 || t_.status_ == OnlineDriftStatus::unconfigured) return false;
     Scalar l[10];
-    if (!cholesky(r_info_, Scalar(0), l)) return false;
-    Scalar nb = static_cast<Scalar>(blocks_);
+    if (!cholesky(t_.r_info_, Scalar(0), l)) return false;
+    Scalar nb = static_cast<Scalar>(t_.blocks_);
     const Scalar m = settings_.memory_blocks;
     if (m > Scalar(0) && nb > Scalar(2) * m - Scalar(1)) nb = Scalar(2) * m - Scalar(1);
     const Scalar n_eff = nb * static_cast<Scalar>(settings_.block_samples);
@@ -466,34 +531,34 @@ class OnlineDriftIdentifier {
 
   void end_block() noexcept {
     in_block_ = 0;
-    ++blocks_;
+    ++t_.blocks_;
     block_updated_ = true;
     const Scalar inv_b = Scalar(1) / static_cast<Scalar>(settings_.block_samples);
     Scalar gamma = Scalar(1);
-    if (blocks_ == 1) {
-      lambda_ = settings_.lambda_start;
+    if (t_.blocks_ == 1) {
+      t_.lambda_ = settings_.lambda_start;
     } else if (settings_.warmup_blocks > Scalar(0)) {
       const Scalar rho = Scalar(1) - Scalar(1) / settings_.warmup_blocks;
-      lambda_ = rho * lambda_ + (Scalar(1) - rho);
-      gamma = gamma_ / (gamma_ + lambda_);
+      t_.lambda_ = rho * t_.lambda_ + (Scalar(1) - rho);
+      gamma = t_.gamma_ / (t_.gamma_ + t_.lambda_);
     } else {
-      gamma = Scalar(1) / static_cast<Scalar>(blocks_);
+      gamma = Scalar(1) / static_cast<Scalar>(t_.blocks_);
     }
-    gamma_ = gamma;
+    t_.gamma_ = gamma;
     const Scalar m = settings_.memory_blocks;
     if (m > Scalar(0) && gamma < Scalar(1) / m) gamma = Scalar(1) / m;
     Scalar gamma_r = gamma;
     if (settings_.info_blocks > Scalar(0) && gamma_r < Scalar(1) / settings_.info_blocks) {
       gamma_r = Scalar(1) / settings_.info_blocks;
     }
-    for (int i = 0; i < 10; ++i) r_info_[i] += gamma_r * (h_[i] * inv_b - r_info_[i]);
+    for (int i = 0; i < 10; ++i) t_.r_info_[i] += gamma_r * (h_[i] * inv_b - t_.r_info_[i]);
     Scalar gb[4];
     for (int j = 0; j < 4; ++j) gb[j] = g_[j] * inv_b;
     for (int j = 0; j < 2; ++j) {
       if (!is_free(j)) gb[j] = Scalar(0);
     }
     Scalar l[10];
-    if (cholesky(r_info_, Scalar(1) / Scalar(65536), l)) {
+    if (cholesky(t_.r_info_, Scalar(1) / Scalar(65536), l)) {
       Scalar step[4];
       cholesky_solve(l, gb, step);
       const Scalar ms = settings_.max_step;
@@ -510,20 +575,20 @@ class OnlineDriftIdentifier {
       }
       if (std::isfinite(step[0] + step[1] + step[2] + step[3])) {
         const Scalar umax = Scalar(kOnlineDriftMaxU);
-        const Scalar vlo = log_var0_ - Scalar(kOnlineDriftLogVarRange);
-        const Scalar vhi = log_var0_ + Scalar(kOnlineDriftLogVarRange);
-        if (is_free(0)) u_[0] = clamp(u_[0] + step[0], -umax, umax);
-        if (is_free(1)) u_[1] = clamp(u_[1] + step[1], -umax, umax);
-        logq_ = clamp(logq_ + step[2], vlo, vhi);
-        logr_ = clamp(logr_ + step[3], vlo, vhi);
+        const Scalar vlo = t_.log_var0_ - Scalar(kOnlineDriftLogVarRange);
+        const Scalar vhi = t_.log_var0_ + Scalar(kOnlineDriftLogVarRange);
+        if (is_free(0)) t_.u_[0] = clamp(t_.u_[0] + step[0], -umax, umax);
+        if (is_free(1)) t_.u_[1] = clamp(t_.u_[1] + step[1], -umax, umax);
+        t_.logq_ = clamp(t_.logq_ + step[2], vlo, vhi);
+        t_.logr_ = clamp(t_.logr_ + step[3], vlo, vhi);
         set_params();
       }
     }
     for (Scalar& v : g_) v = Scalar(0);
     for (Scalar& v : h_) v = Scalar(0);
-    nis_sum_ += nis_block_;
+    t_.nis_sum_ += nis_block_;
     nis_block_ = Scalar(0);
-    if (blocks_ % settings_.retune_blocks == 0) retune();
+    if (t_.blocks_ % settings_.retune_blocks == 0) retune();
   }
 
   // Wald statistic of the free AR parameters against zero (0 when none is free).
@@ -532,18 +597,18 @@ class OnlineDriftIdentifier {
       const Scalar c00 = cov[0], c01 = cov[1], c11 = cov[5];
       const Scalar det = c00 * c11 - c01 * c01;
       if (!(det > Scalar(0))) return Scalar(0);
-      return (c11 * u_[0] * u_[0] - Scalar(2) * c01 * u_[0] * u_[1] + c00 * u_[1] * u_[1]) / det;
+      return (c11 * t_.u_[0] * t_.u_[0] - Scalar(2) * c01 * t_.u_[0] * t_.u_[1] + c00 * t_.u_[1] * t_.u_[1]) / det;
     }
-    if (is_free(0)) return cov[0] > Scalar(0) ? u_[0] * u_[0] / cov[0] : Scalar(0);
+    if (is_free(0)) return cov[0] > Scalar(0) ? t_.u_[0] * t_.u_[0] / cov[0] : Scalar(0);
     return std::numeric_limits<Scalar>::infinity();  // AR part held: nothing to test
   }
 
   bool at_bound() const noexcept {
     const Scalar umax = Scalar(kOnlineDriftMaxU);
-    const Scalar vlo = log_var0_ - Scalar(kOnlineDriftLogVarRange);
-    const Scalar vhi = log_var0_ + Scalar(kOnlineDriftLogVarRange);
-    return std::fabs(u_[0]) >= umax || std::fabs(u_[1]) >= umax || logq_ <= vlo || logq_ >= vhi ||
-           logr_ <= vlo || logr_ >= vhi;
+    const Scalar vlo = t_.log_var0_ - Scalar(kOnlineDriftLogVarRange);
+    const Scalar vhi = t_.log_var0_ + Scalar(kOnlineDriftLogVarRange);
+    return std::fabs(t_.u_[0]) >= umax || std::fabs(t_.u_[1]) >= umax || t_.logq_ <= vlo || t_.logq_ >= vhi ||
+           t_.logr_ <= vlo || t_.logr_ >= vhi;
   }
 
   // Steady-state gain of the estimate: the Riccati recursion of filter_step from the main
@@ -558,7 +623,7 @@ class OnlineDriftIdentifier {
     for (std::uint32_t it = 0; it < kOnlineDriftRetuneIterations; ++it) {
       const Scalar o00 = s.p00, o01 = s.p01, o11 = s.p11;
       Scalar e, f;
-      filter_step(s, estimate_.a1, estimate_.a2, estimate_.q, estimate_.r, Scalar(0), e, f);
+      filter_step(s, t_.estimate_.a1, t_.estimate_.a2, t_.estimate_.q, t_.estimate_.r, Scalar(0), e, f);
       if (!std::isfinite(s.p00 + s.p01 + s.p11)) return false;
       const Scalar d = std::fabs(s.p00 - o00) + std::fabs(s.p01 - o01) + std::fabs(s.p11 - o11);
       const Scalar scale = std::fabs(s.p00) + std::fabs(s.p01) + std::fabs(s.p11) + std::numeric_limits<Scalar>::min();
@@ -567,7 +632,7 @@ class OnlineDriftIdentifier {
       d2 = d1;
       d1 = d;
       if (d <= Scalar(4) * eps * scale || (rho < Scalar(1) && d * rho <= tol * scale * (Scalar(1) - rho))) {
-        const Scalar fs = s.p00 + estimate_.r;
+        const Scalar fs = s.p00 + t_.estimate_.r;
         k0 = s.p00 / fs;
         k1 = s.p01 / fs;
         return std::isfinite(k0 + k1);
@@ -577,25 +642,25 @@ class OnlineDriftIdentifier {
   }
 
   void refuse(OnlineDriftStatus why) noexcept {
-    ++refused_retunes_;
-    status_ = why;
-    in_use_ = configured_;
-    if (gain_[0] != cgain_[0] || gain_[1] != cgain_[1]) retuned_ = true;
-    gain_[0] = cgain_[0];
-    gain_[1] = cgain_[1];
+    ++t_.refused_retunes_;
+    t_.status_ = why;
+    t_.in_use_ = t_.configured_;
+    if (t_.gain_[0] != t_.cgain_[0] || t_.gain_[1] != t_.cgain_[1]) retuned_ = true;
+    t_.gain_[0] = t_.cgain_[0];
+    t_.gain_[1] = t_.cgain_[1];
   }
 
   void retune() noexcept {
     const Scalar n_int = static_cast<Scalar>(settings_.retune_blocks) * static_cast<Scalar>(settings_.block_samples);
-    const Scalar nis = nis_sum_ / n_int;
-    nis_sum_ = Scalar(0);
-    if (samples_ < settings_.min_samples) {
-      status_ = OnlineDriftStatus::learning;
+    const Scalar nis = t_.nis_sum_ / n_int;
+    t_.nis_sum_ = Scalar(0);
+    if (t_.samples_ < settings_.min_samples) {
+      t_.status_ = OnlineDriftStatus::learning;
       return;
     }
     Scalar cov[16];
     const Scalar ratio = settings_.max_innovation_ratio;
-    const bool sane = drift_params_status(estimate_) == Ar2Status::ok && estimate_.r > Scalar(0) && !at_bound() &&
+    const bool sane = drift_params_status(t_.estimate_) == Ar2Status::ok && t_.estimate_.r > Scalar(0) && !at_bound() &&
                       std::isfinite(nis) && nis <= ratio && nis * ratio >= Scalar(1) && theta_covariance(cov);
     if (!sane) {
       refuse(OnlineDriftStatus::fallback);
@@ -611,36 +676,22 @@ class OnlineDriftIdentifier {
       refuse(OnlineDriftStatus::fallback);
       return;
     }
-    in_use_ = estimate_;
-    gain_[0] = k0;
-    gain_[1] = k1;
-    ++retunes_;
+    t_.in_use_ = t_.estimate_;
+    t_.gain_[0] = k0;
+    t_.gain_[1] = k1;
+    ++t_.retunes_;
     retuned_ = true;
-    status_ = OnlineDriftStatus::tracking;
+    t_.status_ = OnlineDriftStatus::tracking;
   }
 
-  DriftModelParams<Scalar> configured_{};
-  DriftModelParams<Scalar> estimate_{};
-  DriftModelParams<Scalar> in_use_{};
+  Track t_{};  // the channel's state (the part SharedDriftIdentifier keeps per channel)
   OnlineDriftSettings<Scalar> settings_{};
   Filter main_{}, f_u1_{}, f_u2_{}, f_lq_{};
-  Scalar u_[2] = {Scalar(0), Scalar(0)};
-  Scalar logq_ = Scalar(0), logr_ = Scalar(0), log_var0_ = Scalar(0);
   Scalar a1_u1_ = Scalar(0), a1_u2_ = Scalar(0), a2_u2_ = Scalar(0), q_lq_ = Scalar(0);
   Scalar g_[4] = {};        // block sums of the gradient
   Scalar h_[10] = {};       // block sums of the information (packed)
-  Scalar r_info_[10] = {};  // running average information per sample (packed)
-  Scalar nis_block_ = Scalar(0), nis_sum_ = Scalar(0);
-  Scalar lambda_ = Scalar(1), gamma_ = Scalar(1);
-  Scalar gain_[2] = {Scalar(0), Scalar(0)};
-  Scalar cgain_[2] = {Scalar(0), Scalar(0)};  // the configured model's gain
-  std::uint64_t samples_ = 0;
-  std::uint64_t rejected_ = 0;
+  Scalar nis_block_ = Scalar(0);
   std::uint32_t in_block_ = 0;
-  std::uint32_t blocks_ = 0;
-  std::uint32_t retunes_ = 0;
-  std::uint32_t refused_retunes_ = 0;
-  OnlineDriftStatus status_ = OnlineDriftStatus::unconfigured;
   bool retuned_ = false;
   bool block_updated_ = false;
 };

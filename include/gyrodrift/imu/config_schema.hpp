@@ -238,7 +238,7 @@ inline constexpr FieldSpec kMonitorMemoryS{
     false, true, 0.0, "",
     0.0, false, 10000000.0, false, true, false, false,
     "", "0..10000000", "s",
-    "forgetting horizon of the re-identification (0: none, converges to the maximum-likelihood fit of everything seen; else at least one block)"};
+    "forgetting horizon of the re-identification (0: none, for a stationary sensor: the estimate settles near the maximum-likelihood fit of everything seen; else at least one block, to track a change)"};
 inline constexpr FieldSpec kMonitorMaxStep{
     "monitor", "max_step", false, FieldKind::number,
     false, true, 0.1, "",

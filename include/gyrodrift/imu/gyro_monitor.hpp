@@ -13,9 +13,12 @@
 // stuck and saturated flags go to the alarms, which count how long they last.
 //
 // Fixed memory chosen at compile time (Octaves: the largest number of octaves a configuration
-// may use; Reidentify false: no re-identification state, 408 B less in float, and configure()
-// refuses settings.reidentify), no heap, no exceptions, deterministic (the same input gives
-// the same state).
+// may use; Reidentify false: no re-identification state, and configure() refuses
+// settings.reidentify; Records false: the alarms keep no trips or counts and refer to the
+// reference and their settings instead of copying them, HealthAlarms' Records), no heap, no exceptions,
+// deterministic (the same input gives the same state). The processor's monitors are built
+// with neither (it reports the latched bits and counts alarms itself, and shares one
+// re-identification among its gyros: filters/shared_drift_identifier.hpp).
 #pragma once
 
 #include <cmath>
@@ -51,20 +54,37 @@ namespace detail {
 struct NoDriftIdentifier {};  // the re-identification compiled out
 }  // namespace detail
 
-template <class Scalar, std::size_t Octaves, bool Reidentify = true>
+template <class Scalar, std::size_t Octaves, bool Reidentify = true, bool Records = true>
 class GyroMonitor {
  public:
   static constexpr std::size_t capacity = Octaves;
   static constexpr bool kReidentify = Reidentify;
+  static constexpr bool kRecords = Records;
   using Reference = HealthReference<Scalar, Octaves>;
+  using Alarms = HealthAlarms<Scalar, Octaves, Records>;
 
   GyroMonitor() noexcept = default;
+
+  // Without Records the alarms refer to `reference` and settings.alarms: they must outlive
+  // the monitor.
+  template <bool R = Records, class = std::enable_if_t<!R>>
+  GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const DriftModelParams<Scalar>& model,
+                              Reference&& reference) = delete;
 
   // settings: see GyroMonitorSettings; model: the channel's configured drift model (the
   // identifier's start and fallback); reference: the expected Allan variance per octave that
   // the alarms compare against (reference.octaves >= 1, at most settings.octaves).
   GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const DriftModelParams<Scalar>& model,
                               const Reference& reference) noexcept {
+    return configure(settings, settings.alarms, model, reference);
+  }
+  // The same with the alarms' settings `alarms` instead of settings.alarms (without Records the
+  // alarms refer to them: several monitors may share one copy, which must outlive them).
+  template <bool R = Records, class = std::enable_if_t<!R>>
+  GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, HealthAlarmSettings<Scalar>&& alarms,
+                              const DriftModelParams<Scalar>& model, const Reference& reference) = delete;
+  GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& settings, const HealthAlarmSettings<Scalar>& alarms,
+                              const DriftModelParams<Scalar>& model, const Reference& reference) noexcept {
     reidentify_ = Reidentify && settings.reidentify;
     status_ = GyroMonitorStatus::bad_settings;
     if (settings.reidentify && !Reidentify) return status_;
@@ -80,7 +100,7 @@ class GyroMonitor {
       status_ = GyroMonitorStatus::bad_model;
       return status_;
     }
-    if (!alarms_.configure(reference, settings.alarms)) return status_;
+    if (!alarms_.configure(reference, alarms)) return status_;
     if constexpr (Reidentify) {
       if (settings.reidentify && !identifier_.configure(model, settings.drift)) {
         // the identifier's own rules: a model with white noise (r > 0), its block and memory
@@ -100,8 +120,6 @@ class GyroMonitor {
     if constexpr (Reidentify) {
       if (reidentify_) identifier_.reset();
     }
-    samples_ = 0;
-    used_ = 0;
     retuned_ = false;
   }
 
@@ -110,12 +128,11 @@ class GyroMonitor {
   std::uint16_t push(Scalar y, bool stuck, bool saturated) noexcept {
     retuned_ = false;
     if (status_ != GyroMonitorStatus::ok) return 0;
-    ++samples_;
     // Every sample updates the alarms (their sample count, and the time of a trip, are the
     // monitor's); a non-finite value feeds no statistic and ends a stuck or saturated run.
     const bool bad = stuck || saturated;
-    if (!bad && std::isfinite(y) && allan_.push(y)) {
-      ++used_;
+    if (!bad && std::isfinite(y) &&
+        allan_.push(y, [this](std::size_t k, Scalar d2) noexcept { alarms_.term(allan_, k, d2); })) {
       if constexpr (Reidentify) {
         if (reidentify_) {
           identifier_.push(y);
@@ -123,7 +140,7 @@ class GyroMonitor {
         }
       }
     }
-    return alarms_.update(allan_, stuck, saturated);
+    return alarms_.update(stuck, saturated);
   }
 
   // Noise estimates from the curve so far (report time: a few octave fits, not per sample).
@@ -137,7 +154,7 @@ class GyroMonitor {
 
   GyroMonitorStatus status() const noexcept { return status_; }
   const StreamingAllan<Scalar, Octaves>& allan() const noexcept { return allan_; }
-  const HealthAlarms<Scalar, Octaves>& alarms() const noexcept { return alarms_; }
+  const Alarms& alarms() const noexcept { return alarms_; }
   template <bool R = Reidentify, class = std::enable_if_t<R>>
   const OnlineDriftIdentifier<Scalar>& identifier() const noexcept {
     return identifier_;
@@ -146,16 +163,14 @@ class GyroMonitor {
   // True after the push() whose sample made the identifier retune the gain.
   bool retuned() const noexcept { return retuned_; }
   bool reidentifying() const noexcept { return reidentify_ && status_ == GyroMonitorStatus::ok; }
-  std::uint64_t samples() const noexcept { return samples_; }  // pushed (all)
-  std::uint64_t used() const noexcept { return used_; }        // used by the statistics
+  std::uint64_t samples() const noexcept { return alarms_.updates(); }  // pushed (all)
+  std::uint64_t used() const noexcept { return allan_.samples(); }      // used by the statistics
 
  private:
   StreamingAllan<Scalar, Octaves> allan_{};
-  HealthAlarms<Scalar, Octaves> alarms_{};
+  Alarms alarms_{};
   std::conditional_t<Reidentify, OnlineDriftIdentifier<Scalar>, detail::NoDriftIdentifier> identifier_{};
   GyroMonitorStatus status_ = GyroMonitorStatus::unconfigured;
-  std::uint64_t samples_ = 0;
-  std::uint64_t used_ = 0;
   bool retuned_ = false;
   bool reidentify_ = false;  // the settings are kept by the parts that use them
 };

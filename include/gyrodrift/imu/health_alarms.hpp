@@ -15,14 +15,16 @@
 // part of an AR(2) drift's hump) to rate_random_walk_high, the others (around the minimum, the
 // flat or falling correlated part) to bias_instability_high.
 //
-// Tests (each time an octave has a new squared difference; update() may be called every
-// sample or at any slower cadence, the blocks then hold more terms):
-// - block test: each time block_terms new squared differences have arrived at octave k since
-//   its last block test, the Allan variance of those terms alone, sigma^2_b, from the
-//   difference of the StreamingAllan's compensated sums (a few eps of Scalar, at any record
-//   length), so a change is seen within a block and not diluted by the record so far;
+// Tests (each time an octave has a new squared difference: the alarms take every term from
+// StreamingAllan::push's term callback, term(), and update() once per sample; push() does
+// both):
+// - block test: when octave k's term count reaches a multiple of block_terms, the Allan
+//   variance of the last block_terms terms alone, sigma^2_b, from their sum, which the alarms
+//   add up term by term as they arrive (one Scalar per octave; block_terms roundings of
+//   Scalar at most, at any record length), so a change is seen within a block and not diluted
+//   by the record so far;
 // - start-up test: while octave k holds fewer than block_terms terms, the Allan variance of
-//   the whole record so far at each new term.
+//   the whole record so far at each new term (the curve's compensated sum).
 // The ratio sigma^2 / ref_k is tested against max(f^2, chi2_{1-p}(nu) / nu): f the class's
 // factor (N, B or K up by more than f means the variance up by more than f^2), p =
 // false_alarm_probability, chi2 by Wilson-Hilferty (stability/allan_chi2.hpp), nu the edf of
@@ -40,18 +42,25 @@
 // Trip statistics: octave tests keep sqrt(ratio) (measured / expected Allan deviation) against
 // sqrt(threshold) and the octave's tau; stuck/saturated the run length against the setting.
 // `sample` is the number of update() calls when it tripped.
-// Cost: per update() two counter updates and one comparison of the sample count; per new term
-// at an octave (two per sample on average, amortized) a subtraction, a division, a square root
-// and a comparison.
-// State (sizeof, float, Cortex-M4): 20 bytes per octave (reference variance and edf per term,
-// block start as a compensated pair, its term count) plus 256 bytes (settings, factors, class
-// masks, counts, five trips of 24 bytes): 576 bytes for 16 octaves (docs/guides/health-alarms.md).
+// Cost: per update() two counter updates; per new term at an octave (two per sample on
+// average, amortized) an addition, the block position (a 32-bit remainder), and at a test a
+// division, the chi-square bound, a square root and a comparison.
+// State (sizeof, float, Cortex-M4): 12 bytes per octave (reference variance and edf per term,
+// the block's sum) plus 224 bytes (settings, class masks, counts, five trips of 24
+// bytes) (docs/guides/health-alarms.md).
+// Records = false (the processor's monitors, whose reports are the latched bits and the
+// processor's own counters): no trips, raise or exceedance counts, and the reference and the
+// settings are referred to, not copied (they must outlive the alarms: on the target the
+// reference is a constant table in flash and the settings one copy that every gyro's alarms
+// share; on a target without kHealthEdfFromSlope the reference must carry its edf per term,
+// as there always): 4 bytes per octave plus 40, 104 bytes for 16 on the Cortex-M4F.
 // The numpy reference is gyrodrift.reference.health (same equations).
 #pragma once
 
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "../filters/drift_likelihood.hpp"
 #include "../stability/allan_chi2.hpp"
@@ -83,8 +92,9 @@ inline constexpr std::size_t kHealthAlarmCount = sizeof(kHealthAlarmNames) / siz
 // (power_law_edf_per_term, in double). Off on a target without a double-precision FPU (e.g.
 // Cortex-M4F, __ARM_FP without bit 3), where software double would be pulled into the image:
 // there every reference must carry its edf (health_reference_from_drift_model fills it; the
-// generated firmware header writes the host-computed table; health_reference_power_law_edf
-// fills it on the host), and configure() rejects a reference without one.
+// generated firmware header writes the table the host computes from the channel's drift model,
+// gyrodrift.stability.model_allan.ar2_white_edf_per_term), and configure() rejects a
+// reference without one (health_reference_from_ieee952's, whose edf comes from the slope).
 #if defined(__ARM_FP) && !(__ARM_FP & 8)
 inline constexpr bool kHealthEdfFromSlope = false;
 #else
@@ -121,21 +131,99 @@ struct HealthTrip {
   std::uint64_t sample = 0;      // sample count when it tripped
 };
 
+namespace detail {
+
+// t mod b (b > 0) without a 64-bit division (none in the Cortex-M instruction set, a library
+// call otherwise): the low word by one 32-bit division while the high word is 0 (2^32 terms:
+// 124 days at 400 Hz), else the high word's remainder extended bit by bit over the low word.
+inline std::uint32_t mod_u64_u32(std::uint64_t t, std::uint32_t b) noexcept {
+  const auto hi = static_cast<std::uint32_t>(t >> 32);
+  const auto lo = static_cast<std::uint32_t>(t);
+  if (hi == 0U) return lo % b;
+  std::uint64_t r = hi % b;
+  for (int i = 31; i >= 0; --i) {
+    r = (r << 1) | ((lo >> i) & 1U);
+    if (r >= b) r -= b;
+  }
+  return static_cast<std::uint32_t>(r);
+}
+
+// What HealthAlarms keeps besides its tests: with Records, a copy of the reference, the raise
+// and exceedance counts and a trip per alarm; without, a pointer to the caller's reference.
+template <class Scalar, std::size_t Octaves, bool Records>
+struct HealthAlarmStore {
+  HealthReference<Scalar, Octaves> ref{};
+  HealthAlarmSettings<Scalar> set{};
+  std::uint32_t raised[kHealthAlarmCount] = {};
+  std::uint32_t exceedances[kHealthAlarmCount] = {};
+  HealthTrip<Scalar> trip[kHealthAlarmCount] = {};
+  const HealthReference<Scalar, Octaves>& reference() const noexcept { return ref; }
+  const HealthAlarmSettings<Scalar>& settings() const noexcept { return set; }
+  std::size_t octaves() const noexcept { return ref.octaves; }
+  Scalar edf(std::size_t k) const noexcept { return ref.edf_per_term[k]; }
+  void set_edf(std::size_t k, Scalar v) noexcept { ref.edf_per_term[k] = v; }
+};
+// Without Records, where the edf may be derived (kHealthEdfFromSlope: the host), the alarms
+// keep the edf per term they use (the reference's, or derived); on the target they read the
+// reference's (which must carry it) and keep nothing.
+template <class Scalar, std::size_t Octaves, bool Own>
+struct HealthAlarmEdf {
+  Scalar edf_per_term[Octaves] = {};
+};
 template <class Scalar, std::size_t Octaves>
+struct HealthAlarmEdf<Scalar, Octaves, false> {};
+template <class Scalar, std::size_t Octaves>
+struct HealthAlarmStore<Scalar, Octaves, false> : HealthAlarmEdf<Scalar, Octaves, kHealthEdfFromSlope> {
+  const HealthReference<Scalar, Octaves>* ref = nullptr;  // set by a successful configure()
+  const HealthAlarmSettings<Scalar>* set = nullptr;        // likewise
+  const HealthReference<Scalar, Octaves>& reference() const noexcept { return *ref; }
+  const HealthAlarmSettings<Scalar>& settings() const noexcept { return *set; }
+  std::size_t octaves() const noexcept { return ref != nullptr ? ref->octaves : 0U; }
+  Scalar edf(std::size_t k) const noexcept {
+    if constexpr (kHealthEdfFromSlope) {
+      return this->edf_per_term[k];
+    } else {
+      return reference().edf_per_term[k];
+    }
+  }
+  void set_edf(std::size_t k, Scalar v) noexcept {
+    if constexpr (kHealthEdfFromSlope) {
+      this->edf_per_term[k] = v;
+    } else {
+      (void)k;
+      (void)v;
+    }
+  }
+};
+
+}  // namespace detail
+
+template <class Scalar, std::size_t Octaves, bool Records = true>
 class HealthAlarms {
   static_assert(Octaves >= 1 && Octaves <= 48, "Octaves must be in 1..48");
+  using Reference = HealthReference<Scalar, Octaves>;
 
  public:
+  static constexpr bool kRecords = Records;
+
   // False (state unchanged) for a reference with more than Octaves or no octaves, a
   // non-finite or non-positive entry, a factor below 1 or not finite, false_alarm_probability
   // outside (0, 0.5], or block_terms below 4; without kHealthEdfFromSlope also for a reference
-  // entry whose edf per term is 0. Resets the alarms.
-  bool configure(const HealthReference<Scalar, Octaves>& ref, const HealthAlarmSettings<Scalar>& s) noexcept {
+  // entry whose edf per term is 0. Resets the alarms. Without Records the
+  // alarms keep a pointer to `ref`: it must outlive them (a temporary is refused at compile time).
+  template <bool R = Records, class = std::enable_if_t<!R>>
+  bool configure(Reference&& ref, const HealthAlarmSettings<Scalar>& s) = delete;
+  template <bool R = Records, class = std::enable_if_t<!R>>
+  bool configure(const Reference& ref, HealthAlarmSettings<Scalar>&& s) = delete;
+  template <bool R = Records, class = std::enable_if_t<!R>>
+  bool configure(Reference&& ref, HealthAlarmSettings<Scalar>&& s) = delete;
+  bool configure(const Reference& ref, const HealthAlarmSettings<Scalar>& s) noexcept {
+    constexpr bool derive_edf = kHealthEdfFromSlope;
     if (ref.octaves < 1 || ref.octaves > Octaves) return false;
     for (std::size_t k = 0; k < ref.octaves; ++k) {
       if (!(ref.avar[k] > Scalar(0)) || !std::isfinite(ref.avar[k])) return false;
       if (!(ref.edf_per_term[k] >= Scalar(0)) || ref.edf_per_term[k] > Scalar(1)) return false;
-      if (!kHealthEdfFromSlope && !(ref.edf_per_term[k] > Scalar(0))) return false;
+      if (!derive_edf && !(ref.edf_per_term[k] > Scalar(0))) return false;
     }
     const Scalar factors[3] = {s.arw_factor, s.bias_instability_factor, s.rate_random_walk_factor};
     for (const Scalar f : factors) {
@@ -145,9 +233,13 @@ class HealthAlarms {
         s.block_terms < 4) {
       return false;
     }
-    ref_ = ref;
-    settings_ = s;
-    for (std::size_t c = 0; c < 3; ++c) factor2_[c] = factors[c] * factors[c];
+    if constexpr (Records) {
+      store_.ref = ref;
+      store_.set = s;
+    } else {
+      store_.ref = &ref;
+      store_.set = &s;
+    }
     z_ = -normal_quantile(s.false_alarm_probability);  // 1 - p would round in float
     arw_mask_ = 0;
     rrw_mask_ = 0;
@@ -161,7 +253,7 @@ class HealthAlarms {
         const Scalar one = k == 0 ? ref.avar[1] / ref.avar[0] : ref.avar[k] / ref.avar[k - 1];
         r = one * one;
       }
-      const std::uint64_t bit = std::uint64_t{1} << k;
+      const Mask bit = Mask{1} << k;
       if (leading && (n == 1 || r <= Scalar(0.5))) {
         arw_mask_ |= bit;
         continue;
@@ -170,13 +262,16 @@ class HealthAlarms {
       if (r >= Scalar(2)) rrw_mask_ |= bit;
     }
     for (std::size_t k = 0; k < n; ++k) {
-      if (ref.edf_per_term[k] > Scalar(0) && ref.edf_per_term[k] <= Scalar(1)) continue;
-      if constexpr (kHealthEdfFromSlope) {
+      if (ref.edf_per_term[k] > Scalar(0) && ref.edf_per_term[k] <= Scalar(1)) {
+        store_.set_edf(k, ref.edf_per_term[k]);
+        continue;
+      }
+      if constexpr (derive_edf) {
         const double lo = static_cast<double>(ref.avar[k > 0 ? k - 1 : k]);
         const double hi = static_cast<double>(ref.avar[k + 1 < n ? k + 1 : k]);
         const double span = (k > 0 && k + 1 < n) ? 2.0 : 1.0;
         const double mu = n >= 2 ? std::log2(hi / lo) / span : -1.0;
-        ref_.edf_per_term[k] = static_cast<Scalar>(power_law_edf_per_term(mu, s.block_terms));
+        store_.set_edf(k, static_cast<Scalar>(power_law_edf_per_term(mu, s.block_terms)));
       }
     }
     reset();
@@ -186,17 +281,15 @@ class HealthAlarms {
   // Clears the alarms, counts and trips and restarts the tests (keeps the configuration).
   void reset() noexcept {
     latched_ = 0;
-    for (std::size_t i = 0; i < kHealthAlarmCount; ++i) {
-      raised_[i] = 0;
-      exceedances_[i] = 0;
-      trip_[i] = HealthTrip<Scalar>{};
+    if constexpr (Records) {
+      for (std::size_t i = 0; i < kHealthAlarmCount; ++i) {
+        store_.raised[i] = 0;
+        store_.exceedances[i] = 0;
+        store_.trip[i] = HealthTrip<Scalar>{};
+      }
     }
-    for (std::size_t k = 0; k < Octaves; ++k) {
-      snap_[k] = CompensatedSum<Scalar>{};
-      snap_terms_[k] = 0;
-    }
+    for (std::size_t k = 0; k < Octaves; ++k) block_[k] = Scalar(0);
     updates_ = 0;
-    last_samples_ = 0;
     stuck_run_ = 0;
     saturated_run_ = 0;
   }
@@ -204,56 +297,69 @@ class HealthAlarms {
   // Lowers the latched bits (counts and trips stay; the next raise records a new trip).
   void unlatch() noexcept { latched_ = 0; }
 
-  // Once per sample (or at a slower cadence), after the sample went into `allan` (the same
-  // StreamingAllan, not reset in between unless this is reset too). Returns the latched bits.
-  std::uint16_t update(const StreamingAllan<Scalar, Octaves>& allan, bool stuck, bool saturated) noexcept {
+  // Every squared difference d2 of octave k, as `allan` produces it (StreamingAllan::push's
+  // term callback, the same curve every time, not reset in between unless these alarms are
+  // reset too), then update() once for the sample.
+  void term(const StreamingAllan<Scalar, Octaves>& allan, std::size_t k, Scalar d2) noexcept {
+    const std::size_t ref_octaves = store_.octaves();
+    if (k >= ref_octaves || k >= allan.octaves()) return;
+    block_[k] += d2;
+    check_octave(allan, k);
+  }
+
+  // Once per sample, after the sample's terms (term()). Returns the latched bits.
+  std::uint16_t update(bool stuck, bool saturated) noexcept {
     ++updates_;
     stuck_run_ = stuck ? sat_inc(stuck_run_) : 0U;
     saturated_run_ = saturated ? sat_inc(saturated_run_) : 0U;
-    if (settings_.stuck_samples > 0 && stuck_run_ >= settings_.stuck_samples) {
-      raise(3, static_cast<Scalar>(stuck_run_), static_cast<Scalar>(settings_.stuck_samples), Scalar(0));
+    const HealthAlarmSettings<Scalar>& set = settings();
+    if (set.stuck_samples > 0 && stuck_run_ >= set.stuck_samples) {
+      raise(3, static_cast<Scalar>(stuck_run_), static_cast<Scalar>(set.stuck_samples), Scalar(0), updates_);
     }
-    if (settings_.saturated_samples > 0 && saturated_run_ >= settings_.saturated_samples) {
-      raise(4, static_cast<Scalar>(saturated_run_), static_cast<Scalar>(settings_.saturated_samples),
-            Scalar(0));
+    if (set.saturated_samples > 0 && saturated_run_ >= set.saturated_samples) {
+      raise(4, static_cast<Scalar>(saturated_run_), static_cast<Scalar>(set.saturated_samples), Scalar(0),
+            updates_);
     }
-    const std::uint64_t n = allan.samples();
-    if (n == last_samples_) return latched_;
-    if (n < last_samples_) {  // the curve was reset: restart the blocks
-      for (std::size_t k = 0; k < Octaves; ++k) {
-        snap_[k] = CompensatedSum<Scalar>{};
-        snap_terms_[k] = 0;
-      }
-      last_samples_ = 0;
-    }
-    const std::size_t octaves = ref_.octaves < allan.octaves() ? ref_.octaves : allan.octaves();
-    for (std::size_t k = 0; k < octaves; ++k) {
-      if ((n >> k) == (last_samples_ >> k)) break;  // no new cluster mean here nor above
-      check_octave(allan, k);
-    }
-    last_samples_ = n;
     return latched_;
+  }
+
+  // One sample into `allan` and the alarms: allan.push(y) feeding term(), then update().
+  // False (the alarms still updated) if the curve refused y.
+  bool push(StreamingAllan<Scalar, Octaves>& allan, Scalar y, bool stuck, bool saturated) noexcept {
+    const bool used = allan.push(y, [this, &allan](std::size_t k, Scalar d2) noexcept { term(allan, k, d2); });
+    update(stuck, saturated);
+    return used;
   }
 
   std::uint16_t latched() const noexcept { return latched_; }
   // Times alarm i (index into kHealthAlarmNames) was raised since reset (0 or 1 while latched).
-  std::uint32_t raised(std::size_t i) const noexcept { return i < kHealthAlarmCount ? raised_[i] : 0; }
+  template <bool R = Records, class = std::enable_if_t<R>>
+  std::uint32_t raised(std::size_t i) const noexcept {
+    return i < kHealthAlarmCount ? store_.raised[i] : 0;
+  }
   // Failed tests of alarm i since reset (octave tests over the threshold, or samples of a
   // stuck/saturated run at or beyond its limit), counted also while the alarm is latched.
+  template <bool R = Records, class = std::enable_if_t<R>>
   std::uint32_t exceedances(std::size_t i) const noexcept {
-    return i < kHealthAlarmCount ? exceedances_[i] : 0;
+    return i < kHealthAlarmCount ? store_.exceedances[i] : 0;
   }
-  const HealthTrip<Scalar>& trip(std::size_t i) const noexcept { return trip_[i < kHealthAlarmCount ? i : 0]; }
+  template <bool R = Records, class = std::enable_if_t<R>>
+  const HealthTrip<Scalar>& trip(std::size_t i) const noexcept {
+    return store_.trip[i < kHealthAlarmCount ? i : 0];
+  }
   // The alarm bit octave k's tests raise (0 beyond the reference).
   std::uint16_t octave_alarm(std::size_t k) const noexcept {
-    if (k >= ref_.octaves) return 0;
-    const std::uint64_t bit = std::uint64_t{1} << k;
+    if (k >= store_.octaves()) return 0;
+    const Mask bit = Mask{1} << k;
     if ((arw_mask_ & bit) != 0U) return kAlarmArwHigh;
     if ((rrw_mask_ & bit) != 0U) return kAlarmRateRandomWalkHigh;
     return kAlarmBiasInstabilityHigh;
   }
-  const HealthReference<Scalar, Octaves>& reference() const noexcept { return ref_; }
-  const HealthAlarmSettings<Scalar>& settings() const noexcept { return settings_; }
+  // The reference in use (without Records: only after a successful configure()).
+  const Reference& reference() const noexcept { return store_.reference(); }
+  // The settings in use (without Records: only after a successful configure(), and they are
+  // the caller's, which must outlive the alarms, as the reference).
+  const HealthAlarmSettings<Scalar>& settings() const noexcept { return store_.settings(); }
   std::uint64_t updates() const noexcept { return updates_; }
 
  private:
@@ -288,29 +394,34 @@ class HealthAlarms {
     return nn / (nn + 2.0 * sum);
   }
 
-  void raise(std::size_t i, Scalar statistic, Scalar threshold, Scalar tau_s) noexcept {
-    exceedances_[i] = sat_inc(exceedances_[i]);
+  void raise(std::size_t i, Scalar statistic, Scalar threshold, Scalar tau_s, std::uint64_t sample) noexcept {
+    if constexpr (Records) store_.exceedances[i] = sat_inc(store_.exceedances[i]);
     const std::uint16_t bit = kHealthAlarmNames[i].bit;
     if ((latched_ & bit) != 0U) return;
     latched_ = static_cast<std::uint16_t>(latched_ | bit);
-    raised_[i] = sat_inc(raised_[i]);
-    trip_[i] = HealthTrip<Scalar>{statistic, threshold, tau_s, updates_};
+    if constexpr (Records) {
+      store_.raised[i] = sat_inc(store_.raised[i]);
+      store_.trip[i] = HealthTrip<Scalar>{statistic, threshold, tau_s, sample};
+    } else {
+      (void)sample;
+      (void)statistic;
+      (void)threshold;
+      (void)tau_s;
+    }
   }
 
+  // After block_[k] took octave k's newest term: the block test when the term count is a
+  // multiple of block_terms, else the start-up test while it is below.
   void check_octave(const StreamingAllan<Scalar, Octaves>& allan, std::size_t k) noexcept {
     const std::uint64_t terms = allan.terms(k);
-    if (terms == 0) return;
-    const std::uint32_t since = static_cast<std::uint32_t>(terms) - snap_terms_[k];  // modulo 2^32
+    const std::uint32_t block_terms = settings().block_terms;
     Scalar var = Scalar(0);
     std::uint32_t tested = 0;  // 32-bit: a hardware conversion to float on the MCU
-    if (since >= settings_.block_terms) {
-      const CompensatedSum<Scalar> cur = allan.sum_sq(k);
-      const Scalar sum = (cur.sum - snap_[k].sum) + (cur.comp - snap_[k].comp);
-      var = sum / (Scalar(2) * static_cast<Scalar>(since));
-      tested = since;
-      snap_[k] = cur;
-      snap_terms_[k] = static_cast<std::uint32_t>(terms);
-    } else if (terms < settings_.block_terms) {
+    if (detail::mod_u64_u32(terms, block_terms) == 0U) {
+      var = block_[k] / (Scalar(2) * static_cast<Scalar>(block_terms));
+      tested = block_terms;
+      block_[k] = Scalar(0);
+    } else if (terms < block_terms) {
       if (!allan.avar(k, var)) return;
       tested = static_cast<std::uint32_t>(terms);  // < block_terms
     } else {
@@ -318,29 +429,29 @@ class HealthAlarms {
     }
     const std::uint16_t bit = octave_alarm(k);
     const std::size_t c = bit == kAlarmArwHigh ? 0U : (bit == kAlarmBiasInstabilityHigh ? 1U : 2U);
-    Scalar nu = ref_.edf_per_term[k] * static_cast<Scalar>(tested);
+    const HealthAlarmSettings<Scalar>& set = settings();
+    const Scalar f = c == 0U ? set.arw_factor : (c == 1U ? set.bias_instability_factor : set.rate_random_walk_factor);
+    const Scalar f2 = f * f;
+    const Reference& ref = reference();
+    Scalar nu = store_.edf(k) * static_cast<Scalar>(tested);
     if (nu < Scalar(1)) nu = Scalar(1);
     const Scalar chi = chi2_quantile_wh(nu, z_) / nu;
-    const Scalar thr = chi > factor2_[c] ? chi : factor2_[c];
-    const Scalar ratio = var / ref_.avar[k];
-    if (ratio > thr) raise(c, std::sqrt(ratio), std::sqrt(thr), allan.tau_s(k));
+    const Scalar thr = chi > f2 ? chi : f2;
+    const Scalar ratio = var / ref.avar[k];
+    if (ratio > thr) raise(c, std::sqrt(ratio), std::sqrt(thr), allan.tau_s(k), updates_ + 1U);
   }
 
-  HealthReference<Scalar, Octaves> ref_{};
-  HealthAlarmSettings<Scalar> settings_{};
-  CompensatedSum<Scalar> snap_[Octaves] = {};  // compensated sum at the start of the block
-  std::uint32_t snap_terms_[Octaves] = {};     // term count there (modulo 2^32)
-  std::uint64_t arw_mask_ = 0;
-  std::uint64_t rrw_mask_ = 0;
+  // Octave class masks: 32 bits where they hold every octave.
+  using Mask = std::conditional_t<(Octaves <= 32), std::uint32_t, std::uint64_t>;
+
+  detail::HealthAlarmStore<Scalar, Octaves, Records> store_{};
+  Scalar block_[Octaves] = {};  // sum of the squared differences of the current block per octave
   std::uint64_t updates_ = 0;
-  std::uint64_t last_samples_ = 0;
-  Scalar factor2_[3] = {};
+  Mask arw_mask_ = 0;
+  Mask rrw_mask_ = 0;
   Scalar z_ = Scalar(0);
   std::uint32_t stuck_run_ = 0;
   std::uint32_t saturated_run_ = 0;
-  std::uint32_t raised_[kHealthAlarmCount] = {};
-  std::uint32_t exceedances_[kHealthAlarmCount] = {};
-  HealthTrip<Scalar> trip_[kHealthAlarmCount] = {};
   std::uint16_t latched_ = 0;
 };
 

@@ -53,6 +53,7 @@
 #include "../filters/ar2_model.hpp"
 #include "../filters/ar2_steady_state.hpp"
 #include "config_schema.hpp"
+#include "../filters/shared_drift_identifier.hpp"
 #include "gyro_monitor.hpp"
 
 namespace gyrodrift {
@@ -253,15 +254,22 @@ inline constexpr std::size_t kImuGyroChannels = 3;  // gx gy gz: the channels a 
 namespace detail {
 
 // The gyro monitors of a processor built with MonitorOctaves > 0: MonitorSlots monitors, each
-// serving the gyro channel configure_monitor() gave it (slot[c], -1: none); an empty base
-// otherwise, so a build without the monitor pays no RAM for it (empty base optimisation).
+// serving the gyro channel configure_monitor() gave it (slot[c], -1: none), and (with
+// MonitorReidentify) one re-identification time-shared among them, slot i its channel i; an
+// empty base otherwise, so a build without the monitor pays no RAM for it (empty base
+// optimisation). The monitors keep no trip records and refer to the caller's references: the
+// processor reports the latched bits (kFlagHealthAlarm) and counts raises and retunes itself.
 template <class Scalar, std::size_t MonitorOctaves, std::size_t MonitorSlots, bool MonitorReidentify = true>
 struct ImuMonitorBank {
-  std::array<GyroMonitor<Scalar, MonitorOctaves, MonitorReidentify>, MonitorSlots> monitors{};
+  std::array<GyroMonitor<Scalar, MonitorOctaves, false, false>, MonitorSlots> monitors{};
+  std::conditional_t<MonitorReidentify, SharedDriftIdentifier<Scalar, MonitorSlots>, NoDriftIdentifier>
+      identifier{};
   std::array<std::int8_t, kImuGyroChannels> slot{{-1, -1, -1}};
   std::array<bool, MonitorSlots> retune_stage{};  // the channel's steady-state stage takes retunes
   std::array<std::uint16_t, MonitorSlots> latched{};
   std::array<std::uint32_t, MonitorSlots> refused{};
+  HealthAlarmSettings<Scalar> alarm_settings{};  // one copy, which every monitor's alarms refer to
+  bool reidentify = false;
 };
 template <class Scalar, std::size_t MonitorSlots, bool MonitorReidentify>
 struct ImuMonitorBank<Scalar, 0, MonitorSlots, MonitorReidentify> {};
@@ -278,7 +286,9 @@ struct ImuMonitorBank<Scalar, 0, MonitorSlots, MonitorReidentify> {};
 // at most) for the gyro channels configure_monitor() names (a firmware build watching one gyro
 // pays for one); 0 (the default) builds none and the processor is the same as without the
 // monitor, bit for bit. MonitorReidentify false builds the monitors without the online
-// re-identification (less RAM; configure_monitor() then refuses settings.reidentify).
+// re-identification (less RAM; configure_monitor() then refuses settings.reidentify); with it,
+// one re-identification serves every watched gyro in turns of one block
+// (filters/shared_drift_identifier.hpp: with n watched gyros its time constants are n times longer).
 template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels,
           std::size_t MonitorOctaves = 0, std::size_t MonitorSlots = kImuGyroChannels,
           bool MonitorReidentify = true>
@@ -289,7 +299,8 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
  public:
   static constexpr std::size_t kMonitorOctaves = MonitorOctaves;
   static constexpr std::size_t kMonitorSlots = MonitorOctaves > 0 ? MonitorSlots : 0;
-  using Monitor = GyroMonitor<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1), MonitorReidentify>;
+  using Monitor = GyroMonitor<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1), false, false>;
+  using MonitorIdentifier = SharedDriftIdentifier<Scalar, MonitorSlots>;
   using MonitorReference = HealthReference<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
 
   static constexpr std::uint32_t kResyncAfter = kImuResyncAfter;
@@ -442,6 +453,9 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
         this->latched[i] = 0;
         this->refused[i] = 0;
       }
+      if constexpr (MonitorReidentify) {
+        if (this->reidentify) this->identifier.reset();
+      }
     }
   }
 
@@ -452,27 +466,51 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
   // settings.reidentify is on and the channel's first stage is a steady-state ar2_kalman, a
   // retune of the re-identification replaces that stage's model and gain. Returns ok, or the
   // first channel's failure (no monitor is started then). Call it after construction, before
-  // the first step() (it resets the monitors, not the filters).
+  // the first step() (it resets the monitors, not the filters). The monitors refer to
+  // `references` (they keep no copy): it must outlive the processor's use of them, e.g. a
+  // constant table (a temporary is refused at compile time).
+  template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
+  GyroMonitorStatus configure_monitor(const GyroMonitorSettings<Scalar>& settings,
+                                      std::array<MonitorReference, kImuGyroChannels>&& references,
+                                      const std::array<bool, kImuGyroChannels>& channels) = delete;
   template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
   GyroMonitorStatus configure_monitor(const GyroMonitorSettings<Scalar>& settings,
                                       const std::array<MonitorReference, kImuGyroChannels>& references,
                                       const std::array<bool, kImuGyroChannels>& channels) noexcept {
     for (std::size_t c = 0; c < kImuGyroChannels; ++c) this->slot[c] = -1;
+    this->reidentify = false;
     if (status_ != ImuStatus::ok) return GyroMonitorStatus::bad_settings;
+    if (settings.reidentify && !MonitorReidentify) return GyroMonitorStatus::bad_settings;
+    this->alarm_settings = settings.alarms;
+    GyroMonitorSettings<Scalar> per_gyro = settings;
+    per_gyro.reidentify = false;  // the monitors' statistics and alarms; the processor re-identifies
     std::array<std::int8_t, kImuGyroChannels> slots{{-1, -1, -1}};
+    std::array<DriftModelParams<Scalar>, MonitorSlots> models{};
     std::size_t used = 0;
     for (std::size_t c = 0; c < kImuGyroChannels; ++c) {
       if (!channels[c]) continue;
       if (used == MonitorSlots) return GyroMonitorStatus::bad_settings;
       const ImuChannelConfig<Scalar>& cc = config_.channels[c];
       if (cc.filter != ChannelFilter::ar2_kalman) return GyroMonitorStatus::bad_model;
-      const DriftModelParams<Scalar> model{cc.model.a1, cc.model.a2, cc.q, cc.r, cc.model.mean};
-      const GyroMonitorStatus st = this->monitors[used].configure(settings, model, references[c]);
+      models[used] = DriftModelParams<Scalar>{cc.model.a1, cc.model.a2, cc.q, cc.r, cc.model.mean};
+      const GyroMonitorStatus st = this->monitors[used].configure(per_gyro, this->alarm_settings, models[used],
+                                                                   references[c]);
       if (st != GyroMonitorStatus::ok) return st;
       this->retune_stage[used] = settings.reidentify && cc.steady_state;
       this->latched[used] = 0;
       this->refused[used] = 0;
       slots[c] = static_cast<std::int8_t>(used++);
+    }
+    if constexpr (MonitorReidentify) {
+      if (settings.reidentify && used > 0) {
+        std::size_t failed = 0;
+        if (!this->identifier.configure(models.data(), used, settings.drift, &failed)) {
+          // the identifier's own rules: a model with white noise (r > 0), its block and memory
+          const bool white = failed < used && models[failed].r > Scalar(0);
+          return white ? GyroMonitorStatus::bad_settings : GyroMonitorStatus::bad_model;
+        }
+        this->reidentify = true;
+      }
     }
     this->slot = slots;
     return GyroMonitorStatus::ok;
@@ -486,6 +524,16 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
   template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
   bool monitor_active(std::size_t c) const noexcept {
     return c < kImuGyroChannels && this->slot[c] >= 0;
+  }
+  // The re-identification shared by the watched gyros; gyro channel c is its channel
+  // monitor_slot(c) (monitor_active(c) must be true).
+  template <std::size_t O = MonitorOctaves, bool R = MonitorReidentify, class = std::enable_if_t<(O > 0) && R>>
+  const MonitorIdentifier& monitor_identifier() const noexcept {
+    return this->identifier;
+  }
+  template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
+  std::size_t monitor_slot(std::size_t c) const noexcept {
+    return monitor_active(c) ? static_cast<std::size_t>(this->slot[c]) : 0;
   }
   ImuStatus status() const noexcept { return status_; }
   // Index of the first bad channel when status() != ok (else -1).
@@ -569,6 +617,7 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
     if constexpr (MonitorOctaves > 0) {
       const std::size_t i = slot_index;
       Monitor& m = this->monitors[i];
+      [[maybe_unused]] const std::uint64_t used_before = m.used();
       const std::uint16_t now = m.push(x, stuck, saturated);
       const auto raised = static_cast<std::uint16_t>(now & ~this->latched[i]);
       if (raised != 0) {
@@ -579,17 +628,18 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
       this->latched[i] = now;
       if constexpr (!MonitorReidentify) {
         // no re-identification compiled in: no retunes
-      } else if (m.reidentifying()) {
-        const OnlineDriftIdentifier<Scalar>& id = m.identifier();
-        if (id.refused_retunes() != this->refused[i]) {
-          health_.monitor_refused_retunes += id.refused_retunes() - this->refused[i];
-          this->refused[i] = id.refused_retunes();
+      } else if (this->reidentify && m.used() != used_before) {  // a value the statistics took
+        MonitorIdentifier& id = this->identifier;
+        id.push(i, x);
+        if (id.refused_retunes(i) != this->refused[i]) {
+          health_.monitor_refused_retunes += id.refused_retunes(i) - this->refused[i];
+          this->refused[i] = id.refused_retunes(i);
         }
-        if (m.retuned() && this->retune_stage[i]) {
+        if (id.retuned() && this->retune_stage[i]) {
           std::size_t c = 0;  // the channel of slot i
           while (c + 1 < kImuGyroChannels && this->slot[c] != static_cast<std::int8_t>(i)) ++c;
-          const DriftModelParams<Scalar>& p = id.in_use();
-          if (steady_[c].retune(p.a1, p.a2, p.mean, id.gain0(), id.gain1())) ++health_.monitor_retunes;
+          const DriftModelParams<Scalar>& p = id.in_use(i);
+          if (steady_[c].retune(p.a1, p.a2, p.mean, id.gain0(i), id.gain1(i))) ++health_.monitor_retunes;
         }
       }
     } else {

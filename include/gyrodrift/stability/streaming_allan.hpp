@@ -20,7 +20,7 @@
 // partner) and its compensated sum.
 // The error-free transformations need IEEE round-to-nearest without reassociation: do not
 // build this with -ffast-math (-ffp-contract only fuses d * d into the sum, which is harmless).
-// State: 4 Scalars per octave (16 bytes in float) and a fixed 32-byte part (float, 32-bit MCU).
+// State: 4 Scalars per octave (16 bytes in float) and a fixed 24-byte part (float, 32-bit MCU).
 //
 // Precision (float on the MCU, hours at 400 Hz):
 // - the cluster means are pairwise averages carried as unevaluated pairs hi + lo (TwoSum:
@@ -81,7 +81,7 @@ class StreamingAllan {
       return false;
     }
     tau0_s_ = Scalar(1) / rate_hz;
-    octaves_ = octaves;
+    octaves_ = static_cast<std::uint32_t>(octaves);
     reset();
     return true;
   }
@@ -98,9 +98,15 @@ class StreamingAllan {
 
   // One rate sample. False (and counted in rejected()) if it is not finite or the object is
   // not configured.
-  bool push(Scalar y) noexcept {
+  bool push(Scalar y) noexcept { return push(y, [](std::size_t, Scalar) noexcept {}); }
+
+  // The same, calling on_term(k, d2) with each new squared difference d2 of octave k right
+  // after it went into the octave's sum (lowest octave first; terms(k) already counts it):
+  // the health alarms' block statistics take their terms from here.
+  template <class OnTerm>
+  bool push(Scalar y, OnTerm&& on_term) noexcept {
     if (octaves_ == 0 || !std::isfinite(y)) {
-      ++rejected_;
+      if (rejected_ != 0xFFFFFFFFU) ++rejected_;
       return false;
     }
     if (samples_ == 0) origin_ = y;
@@ -113,7 +119,9 @@ class StreamingAllan {
       if (c >= 2) {
         // hi parts of neighbouring means are close, so their difference is (nearly) exact
         const Scalar d = (mean.hi - o.prev.hi) + (mean.lo - o.prev.lo);
-        o.sum_sq.add(d * d);
+        const Scalar d2 = d * d;
+        o.sum_sq.add(d2);
+        on_term(k, d2);
       }
       if ((c & 1U) != 0U) {  // first half of the next octave's cluster: wait for its partner
         o.prev = mean;
@@ -148,6 +156,7 @@ class StreamingAllan {
     return c >= 2 ? c - 1 : 0;
   }
   std::uint64_t samples() const noexcept { return samples_; }
+  // Samples refused (not finite, or not configured); stops at 2^32 - 1.
   std::uint64_t rejected() const noexcept { return rejected_; }
 
   // Allan variance at octave k in (rate units)^2; false if k is out of range or it has no term.
@@ -160,7 +169,7 @@ class StreamingAllan {
 
   // The compensated sum of the squared differences at octave k (sum + comp, about twice the
   // precision of Scalar); {0, 0} out of range. The difference of two of these taken terms
-  // apart is the sum over those terms to a few eps (the health alarms' block statistics).
+  // apart is the sum over those terms to a few eps.
   CompensatedSum<Scalar> sum_sq(std::size_t k) const noexcept {
     return k < octaves_ ? octave_[k].sum_sq : CompensatedSum<Scalar>{};
   }
@@ -192,11 +201,11 @@ class StreamingAllan {
   };
 
   Octave octave_[Octaves]{};
+  std::uint64_t samples_{0};
   Scalar tau0_s_{0};
   Scalar origin_{0};
-  std::size_t octaves_{0};
-  std::uint64_t samples_{0};
-  std::uint64_t rejected_{0};
+  std::uint32_t octaves_{0};
+  std::uint32_t rejected_{0};  // saturating
 };
 
 }  // namespace gyrodrift

@@ -181,9 +181,11 @@ def _terms(text: str) -> list[str]:
 def run(args: argparse.Namespace) -> int:
     """Run ``gyrodrift characterize``; returns the exit code.
 
-    A .npy record (without --drop-nan) is spooled in chunks to one float64 file per
-    channel in a temporary directory, which the Allan analysis reads in chunks: the
-    command's memory does not grow with the record.
+    A .npy record is spooled in chunks to one float64 file per channel in a temporary
+    directory (the rows with a NaN/Inf channel dropped with --drop-nan), which the Allan
+    analysis reads in chunks; a long text record is parsed in blocks of lines into
+    temporary files likewise (gyrodrift.io.imu_data): the command's memory does not grow
+    with the record.
 
     Examples
     --------
@@ -207,7 +209,7 @@ def run(args: argparse.Namespace) -> int:
     from gyrodrift.io.imu_data import input_kind
 
     try:
-        npy = input_kind(Path(args.input)) == "npy" and not args.drop_nan
+        npy = input_kind(Path(args.input)) == "npy"
     except (OSError, ValueError, GyrodriftError):
         npy = False  # the reader reports it
     if not npy:

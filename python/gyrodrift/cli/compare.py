@@ -7,8 +7,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-import numpy as np
-
 from gyrodrift.cli import CliError
 from gyrodrift.cli.common import (
     add_input_args,
@@ -80,8 +78,8 @@ def run(args: argparse.Namespace) -> int:
             else:
                 source = ""
         else:
-            rec = record_from_args(args, mmap=False)
-            x, rate, source = np.asarray(rec.rate_deg_h), rec.rate_hz, rec.source
+            rec = record_from_args(args)  # a long .npy record is read in pieces
+            x, rate, source = rec.rate_deg_h, rec.rate_hz, rec.source
         report = compare.run_compare(x, rate, out_dir=args.out_dir, source=source,
                                      progress=progress_enabled(args))
     except ValueError as exc:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,7 +40,9 @@ __all__ = [
     "FilterResult",
     "KalmanFilter",
     "ar_filter",
+    "ar_filter_pieces",
     "fit_ar2",
+    "fit_ar2_chunks",
     "is_stationary",
     "kalman_filter",
     "kalman_filter_result",
@@ -314,6 +316,141 @@ def fit_ar2(
     return Ar2Model(a1=a1, a2=a2, sigma2=sigma2, mean=mean, method=name, n=int(a.size), r=r)
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> float:
+    # einsum, not the BLAS dot: BLAS starts threads, many times slower on a loaded machine
+    return float(np.einsum("i,i->", a, b))
+
+
+def _lagged(chunks: Iterable[np.ndarray], mean: float) -> Iterator[tuple[np.ndarray, ...]]:
+    """(x_i, x_{i-1}, x_{i-2}) of the demeaned record over consecutive pieces: the indices
+    i >= 0, i >= 1 and i >= 2 of each piece, the previous piece's last two samples carried."""
+    tail = np.empty(0)
+    for p in chunks:
+        d = np.concatenate([tail, np.asarray(p, dtype=np.float64) - mean])
+        t = tail.size
+        yield d[t:], d[max(t, 1) - 1:-1], d[max(t, 1):], d[max(t, 2) - 2:-2], d[max(t, 2):], \
+            d[max(t, 2) - 1:-1]
+        tail = d[-2:]
+
+
+def fit_ar2_chunks(chunks: Callable[[], Iterable[np.ndarray]],
+                   method: str = DEFAULT_AR2_METHOD) -> Ar2Model:
+    """`fit_ar2` of a 1-D record given in consecutive pieces, never held whole (float64).
+
+    The formulas, checks and errors of the core's fit (ar2_model.hpp: the mean, then the
+    lag sums of Yule-Walker, Burg's two reflection coefficients or the forward-backward
+    normal equations, then the one-step prediction-error variance ``r``), each sum taken over
+    the pieces with the previous piece's last two samples carried. The sums are numpy's, in
+    another order than the core's sequential loop: the parameters agree with `fit_ar2` of
+    the whole record to rounding (about 1e-13 relative on 1e6 samples).
+
+    Parameters
+    ----------
+    chunks
+        called once per pass (three or four), returns the record's pieces in order (e.g.
+        ``lambda: gyrodrift.io.records.iter_chunks(mm, 1 << 20)``).
+    method
+        as `fit_ar2`.
+
+    Returns
+    -------
+    Ar2Model
+
+    Raises
+    ------
+    Ar2FitError
+        as `fit_ar2`.
+
+    Examples
+    --------
+    >>> x = np.random.default_rng(0).standard_normal(1000)
+    >>> m = fit_ar2_chunks(lambda: (x[i:i + 300] for i in range(0, x.size, 300)))
+    >>> ref = fit_ar2(x)
+    >>> bool(np.isclose(m.a1, ref.a1, rtol=1e-12, atol=0) and np.isclose(m.r, ref.r, rtol=1e-12))
+    True
+    """
+    name = normalise_method(method)
+    n, total, first, equal, finite = 0, 0.0, None, True, True
+    for p in chunks():
+        a = np.asarray(p, dtype=np.float64)
+        if a.size == 0:
+            continue
+        finite = finite and bool(np.all(np.isfinite(a)))
+        first = float(a[0]) if first is None else first
+        equal = equal and bool(np.all(a == first))
+        total += float(np.sum(a))
+        n += int(a.size)
+    if n < MIN_SAMPLES:
+        raise Ar2FitError("too_short", f"{n} samples, at least {MIN_SAMPLES} needed")
+    if not finite:
+        raise Ar2FitError("non_finite", "the record contains NaN or Inf (or values whose sum "
+                          "overflows)")
+    if equal:
+        raise Ar2FitError("constant", "all samples are equal")
+    mean = total / n
+    if not math.isfinite(mean):
+        raise Ar2FitError("non_finite", "the record contains NaN or Inf (or values whose sum "
+                          "overflows)")
+    non_stationary = ("non_stationary", "the fitted model has a root on or outside the unit "
+                      "circle (or its normal equations are singular)")
+    s0 = s1 = s2 = den1 = 0.0
+    g00 = g01 = g11 = h0 = h1 = yy = 0.0
+    for x0, x1p, x0p, x2, x0q, x1q in _lagged(chunks(), mean):
+        # x0: i >= 0; (x1p, x0p): x_{i-1}, x_i for i >= 1; (x2, x1q, x0q): i >= 2
+        s0 += _dot(x0, x0)
+        s1 += _dot(x0p, x1p)
+        s2 += _dot(x0q, x2)
+        den1 += _dot(x0p, x0p) + _dot(x1p, x1p)
+        if name == "ls":
+            g00 += 2.0 * _dot(x1q, x1q)
+            g01 += _dot(x1q, x2 + x0q)
+            g11 += _dot(x2, x2) + _dot(x0q, x0q)
+            h0 += _dot(x1q, x0q + x2)
+            h1 += 2.0 * _dot(x0q, x2)
+            yy += _dot(x0q, x0q) + _dot(x2, x2)
+    if name == "yule-walker":
+        c0, c1, c2 = s0 / n, s1 / n, s2 / n
+        if not (c0 > 0 and math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)):
+            raise Ar2FitError("constant", "all samples are equal")
+        rho1, rho2 = c1 / c0, c2 / c0
+        det = 1.0 - rho1 * rho1
+        if not det > 0:
+            raise Ar2FitError(*non_stationary)
+        a1 = rho1 * (1.0 - rho2) / det
+        a2 = (rho2 - rho1 * rho1) / det
+        sigma2 = c0 * (1.0 - a1 * rho1 - a2 * rho2)
+    elif name == "burg":
+        if not den1 > 0:
+            raise Ar2FitError("constant", "all samples are equal")
+        k1 = -2.0 * s1 / den1
+        num2 = den2 = 0.0
+        for _x0, _x1p, _x0p, x2, x0q, x1q in _lagged(chunks(), mean):
+            f = x0q + k1 * x1q
+            b = x2 + k1 * x1q
+            num2 += _dot(f, b)
+            den2 += _dot(f, f) + _dot(b, b)
+        if not den2 > 0:
+            raise Ar2FitError(*non_stationary)
+        k2 = -2.0 * num2 / den2
+        a1, a2 = -(k1 * (1.0 + k2)), -k2
+        sigma2 = s0 / n * (1.0 - k1 * k1) * (1.0 - k2 * k2)
+    else:
+        det = g00 * g11 - g01 * g01
+        if not det > float(np.finfo(np.float64).eps) * g00 * g11:
+            raise Ar2FitError(*non_stationary)
+        a1 = (h0 * g11 - g01 * h1) / det
+        a2 = (g00 * h1 - g01 * h0) / det
+        sigma2 = (yy - a1 * h0 - a2 * h1) / (2 * (n - 2))
+    if not (math.isfinite(sigma2) and is_stationary(a1, a2)):
+        raise Ar2FitError(*non_stationary)
+    ss = 0.0
+    for _x0, _x1p, _x0p, x2, x0q, x1q in _lagged(chunks(), mean):
+        e = x0q - a1 * x1q - a2 * x2
+        ss += _dot(e, e)
+    return Ar2Model(a1=a1, a2=a2, sigma2=max(sigma2, 0.0), mean=mean, method=name, n=n,
+                    r=ss / (n - 2))
+
+
 def ar_filter(
     x: object,
     model: Ar2Model | Sequence[Ar2Model],
@@ -337,6 +474,31 @@ def ar_filter(
     out, faults = core("ar2").ar_filter_batch(a, params, out)
     _report_faults(faults, "ar_filter")
     return out
+
+
+def ar_filter_pieces(pieces: Iterable[np.ndarray], model: Ar2Model, dtype: object = np.float64
+                     ) -> Iterator[np.ndarray]:
+    """`ar_filter` of a 1-D record given in consecutive pieces, yielded piece by piece.
+
+    The filter's state is its last two inputs: each piece is filtered behind the previous
+    piece's last two samples, whose outputs are dropped, so that the pieces' outputs are the
+    one-call `ar_filter`'s bit for bit (for finite inputs: a NaN, replaced by the prediction
+    inside the filter, is carried as the sample).
+
+    Examples
+    --------
+    >>> m = Ar2Model(a1=0.5, a2=0.1, sigma2=1.0)
+    >>> x = np.random.default_rng(0).standard_normal(100)
+    >>> y = np.concatenate(list(ar_filter_pieces((x[i:i + 7] for i in range(0, 100, 7)), m)))
+    >>> bool(np.array_equal(y, ar_filter(x, m)))
+    True
+    """
+    dt = np.dtype(dtype)  # type: ignore[call-overload]
+    carry = np.empty(0, dtype=dt)
+    for p in pieces:
+        a = np.concatenate([carry, np.asarray(p, dtype=dt)])
+        yield np.asarray(ar_filter(a, model))[carry.size:]
+        carry = a[-2:]
 
 
 @dataclass(frozen=True)

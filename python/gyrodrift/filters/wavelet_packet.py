@@ -29,6 +29,7 @@ from gyrodrift.filters.wavelet import MAD_TO_SIGMA, pad_symmetric
 __all__ = [
     "PacketDenoiseResult",
     "best_basis",
+    "best_basis_from_costs",
     "shannon_cost",
     "wavelet_packet_denoise",
     "wavelet_packet_denoise_result",
@@ -72,20 +73,35 @@ def _check(x: Any, wavelet: str, level: int) -> np.ndarray:
 
 
 def _best_from_tree(wp: pywt.WaveletPacket, level: int) -> list[str]:
+    costs = {node.path: shannon_cost(node.data)
+             for lev in range(1, level + 1) for node in wp.get_level(lev, order="natural")}
+    return best_basis_from_costs(costs, level)
+
+
+def best_basis_from_costs(costs: dict[str, float], level: int) -> list[str]:
+    """The Shannon best basis (module docstring, step 2) from the cost of every node of the
+    tree below the root (paths of 1 to `level` letters 'a'/'d').
+
+    Examples
+    --------
+    >>> costs = {"a": 5.0, "d": 3.0, "aa": 1.0, "ad": 1.0, "da": 2.0, "dd": 2.0}
+    >>> best_basis_from_costs(costs, 2)  # "a" splits (1 + 1 < 5), "d" does not (3 < 4)
+    ['aa', 'ad', 'd']
+    """
     best: dict[str, tuple[float, list[str]]] = {}
-    for node in wp.get_level(level, order="natural"):  # leaves
-        best[node.path] = (shannon_cost(node.data), [node.path])
+    for path in (p for p in costs if len(p) == level):  # leaves
+        best[path] = (costs[path], [path])
     for lev in range(level - 1, 0, -1):  # bottom-up merge
-        for node in wp.get_level(lev, order="natural"):
-            ca, ba = best[node.path + "a"]
-            cd, bd = best[node.path + "d"]
-            own = shannon_cost(node.data)
+        for path in (p for p in costs if len(p) == lev):
+            ca, ba = best[path + "a"]
+            cd, bd = best[path + "d"]
+            own = costs[path]
             children = ca + cd
             # Ties (to rounding) go to the parent: the coarser basis.
             if own <= children + 1e-12 * max(1.0, abs(children)):
-                best[node.path] = (own, [node.path])
+                best[path] = (own, [path])
             else:
-                best[node.path] = (children, ba + bd)
+                best[path] = (children, ba + bd)
     return sorted(best["a"][1] + best["d"][1])
 
 

@@ -186,9 +186,8 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
     m = cfg.monitor
     rate = cfg.timing.sample_rate_hz
     n = m.samples(rate)
-    octaves = int(m.octaves)
     monitored = cfg.monitored_channels()
-    table, edf_table = [], []
+    table = []
     for ch in CHANNEL_NAMES[:3]:
         if ch in monitored:
             ref = reference_from_config(cfg, ch)
@@ -202,22 +201,21 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
             except GyrodriftValueError as exc:
                 raise ConfigError(f"channels.{ch}", f"the monitor's reference Allan variance "
                                                     f"of this channel's model: {exc}") from None
+            table.append(f"    Processor::MonitorReference{{{{{', '.join(lits)}}}, "
+                         f"kMonitorOctaves,\n"
+                         f"                                {{{', '.join(edf_lits)}}}}},  // {ch}")
         else:
-            lits = edf_lits = ["0.0f"] * octaves
-        table.append(f"    {{{', '.join(lits)}}},  // {ch}")
-        edf_table.append(f"    {{{', '.join(edf_lits)}}},  // {ch}")
+            table.append(f"    Processor::MonitorReference{{}},  // {ch}: not watched")
     flags = ", ".join("true" if ch in monitored else "false" for ch in CHANNEL_NAMES[:3])
     return [
         "// The gyro monitor ([monitor] table): durations in samples at the sample rate, and each",
-        "// monitored gyro's reference (its ar2_kalman model's Allan variance per octave).",
+        "// monitored gyro's reference: its ar2_kalman model's Allan variance per octave and the",
+        "// edf per squared difference of the alarms' block test under the model, a constant",
+        "// table in flash that the monitors read in place (they keep no copy in RAM).",
         "inline constexpr bool kMonitorEnabled = true;",
         f"inline constexpr bool kMonitorChannels[3] = {{{flags}}};",
-        "inline constexpr float kMonitorReferenceAvar[3][kMonitorOctaves] = {",
+        "inline constexpr std::array<Processor::MonitorReference, 3> kMonitorReferences = {",
         *table,
-        "};",
-        "// edf per squared difference of the alarms' block test under the model",
-        "inline constexpr float kMonitorReferenceEdf[3][kMonitorOctaves] = {",
-        *edf_table,
         "};",
         "inline gyrodrift::GyroMonitorSettings<float> monitor_settings() noexcept {",
         "  gyrodrift::GyroMonitorSettings<float> s;",
@@ -240,17 +238,9 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
         "}",
         "// Starts the monitor on the processor (after construction, before the first step).",
         "inline bool start_monitor(Processor& p) noexcept {",
-        "  std::array<Processor::MonitorReference, 3> refs{};",
-        "  for (std::size_t c = 0; c < 3; ++c) {",
-        "    refs[c].octaves = kMonitorChannels[c] ? kMonitorOctaves : 0U;",
-        "    for (std::size_t k = 0; k < kMonitorOctaves; ++k) {",
-        "      refs[c].avar[k] = kMonitorReferenceAvar[c][k];",
-        "      refs[c].edf_per_term[k] = kMonitorReferenceEdf[c][k];",
-        "    }",
-        "  }",
         "  const std::array<bool, 3> on{kMonitorChannels[0], kMonitorChannels[1], "
         "kMonitorChannels[2]};",
-        "  return p.configure_monitor(monitor_settings(), refs, on) == "
+        "  return p.configure_monitor(monitor_settings(), kMonitorReferences, on) == "
         "gyrodrift::GyroMonitorStatus::ok;",
         "}",
     ]

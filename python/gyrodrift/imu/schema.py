@@ -358,8 +358,9 @@ FIELDS: tuple[Field, ...] = (
     Field("monitor", "min_learn_s", "float", "s", 600.0,
           "no retune before this much accepted data", lo=0.0, hi=1e7),
     Field("monitor", "memory_s", "float", "s", 0.0,
-          "forgetting horizon of the re-identification (0: none, converges to the "
-          "maximum-likelihood fit of everything seen; else at least one block)", lo=0.0, hi=1e7),
+          "forgetting horizon of the re-identification (0: none, for a stationary sensor: "
+          "the estimate settles near the maximum-likelihood fit of everything seen; else at "
+          "least one block, to track a change)", lo=0.0, hi=1e7),
     Field("monitor", "max_step", "float", "", 0.1,
           "largest change of one parameter per update (log q, log r; the AR part)",
           lo=0.0, lo_open=True, hi=10.0, float32=True),

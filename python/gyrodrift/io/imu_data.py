@@ -40,7 +40,6 @@ from __future__ import annotations
 import contextlib
 import math
 import re
-import warnings
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,10 +53,13 @@ from gyrodrift.io.records import (
     LOG_SUFFIXES,
     RATE_MAX_HZ,
     RATE_MIN_HZ,
+    is_file_backed,
     is_number,
+    iter_chunks,
     load_npy,
     rate_from_time,
 )
+from gyrodrift.io.spool import BLOCK_ROWS, SampleSpool, iter_text_tables
 from gyrodrift.units import (
     ACCEL_INCREMENT_UNITS,
     DEFAULT_TIME_UNITS,
@@ -289,7 +291,7 @@ def load_imu(
     if kind == "npy":
         if spool_dir is not None:
             return _spool_npy(p, rate_hz, columns, gyro_units, accel_units, Path(spool_dir),
-                              chunk_rows)
+                              chunk_rows, nan_policy)
         return _load_npy(p, rate_hz, columns, gyro_units, accel_units, nan_policy)
     if kind == "text":
         return _load_text(p, rate_hz, columns, time_column, gyro_units, accel_units, nan_policy,
@@ -525,36 +527,57 @@ class NpyChannels:
             self._refuse(n_bad)
         return out
 
-    def spool(self, spool_dir: str | Path) -> ImuData:
-        """Every channel copied to `spool_dir/<name>.npy` (float64), returned as read-only
-        memory maps (which the Allan code reads in chunks: bounded memory)."""
+    def spool(self, spool_dir: str | Path, nan_policy: str = "refuse") -> ImuData:
+        """Every channel copied to `spool_dir/<name>.f64` (raw float64), returned as read-only
+        memory maps (which the Allan code reads in chunks: bounded memory). NaN/Inf:
+        `nan_policy` "refuse" raises with their count; "drop" removes the rows where any
+        used channel has one and reports their count (as `load_imu` does)."""
+        if nan_policy not in ("refuse", "drop"):
+            raise GyrodriftValueError(
+                f"nan_policy must be 'refuse' or 'drop', got {nan_policy!r}")
         spool = Path(spool_dir)
         spool.mkdir(parents=True, exist_ok=True)
-        header_len = {}
-        for name in self._idx:
-            mm = np.lib.format.open_memmap(spool / f"{name}.npy", mode="w+", dtype=np.float64,
-                                           shape=(self.n,))
-            header_len[name] = int(mm.offset)
-            del mm
         rows = min(self.chunk_rows, self.n)
-        scratch, finite = np.empty(rows), np.empty(rows, dtype=bool)
-        n_bad = 0
-        outs = {name: open(spool / f"{name}.npy", "r+b") for name in self._idx}
+        # one buffer per channel only where rows may be dropped (all channels' values are
+        # needed before a row is written); one buffer for all channels otherwise
+        one = np.empty(rows)
+        scratch = {name: np.empty(rows) if nan_policy == "drop" else one for name in self._idx}
+        finite, ok = np.empty(rows, dtype=bool), np.empty(rows, dtype=bool)
+        n_bad = n_rows_bad = n_kept = 0
+        raw = {name: open(spool / f"{name}.f64", "wb") for name in self._idx}
         try:
-            for name, fh in outs.items():
-                fh.seek(header_len[name])
             for _, block in self._blocks():
                 m = block.shape[0]
-                for name, fh in outs.items():
-                    col = self._scaled(block, name, scratch[:m])
-                    n_bad += m - int(np.count_nonzero(np.isfinite(col, out=finite[:m])))
-                    fh.write(col.data)
+                ok[:m] = True
+                for name in self._idx:
+                    col = self._scaled(block, name, scratch[name][:m])
+                    np.isfinite(col, out=finite[:m])
+                    n_bad += m - int(np.count_nonzero(finite[:m]))
+                    ok[:m] &= finite[:m]
+                    if nan_policy != "drop":
+                        raw[name].write(col.data)
+                if nan_policy != "drop":
+                    continue
+                kept = int(np.count_nonzero(ok[:m]))
+                n_rows_bad += m - kept
+                n_kept += kept
+                for name, fh in raw.items():
+                    col = scratch[name][:m]
+                    fh.write((col if kept == m else col[ok[:m]]).data)
         finally:
-            for fh in outs.values():
+            for fh in raw.values():
                 fh.close()
-        self._refuse(n_bad)
-        cols = {name: np.load(spool / f"{name}.npy", mmap_mode="r") for name in self.names}
-        return ImuData(cols, self.rate_hz, str(self.path), "npy", self.n, 0, dict(self.detail))
+        if nan_policy != "drop":
+            self._refuse(n_bad)
+            n_kept = self.n
+        n_dropped = n_rows_bad if nan_policy == "drop" else 0
+        cols: dict[str, np.ndarray] = {}
+        for name in self.names:
+            path = spool / f"{name}.f64"
+            cols[name] = (np.memmap(path, dtype=np.float64, mode="r", shape=(n_kept,))
+                          if n_kept else np.empty(0))
+        return ImuData(cols, self.rate_hz, str(self.path), "npy", self.n, n_dropped,
+                       dict(self.detail))
 
     def summary(self) -> dict[str, object]:
         """What `ImuData.summary` gives for this record (the same dict as `spool`'s)."""
@@ -563,11 +586,11 @@ class NpyChannels:
 
 
 def _spool_npy(p: Path, rate_hz: float | None, columns: Sequence[str] | None, gyro_units: str,
-               accel_units: str, spool: Path, chunk_rows: int) -> ImuData:
-    """Chunked copy of an (n, k) .npy to one float64 .npy per channel; memory ~ chunk_rows x k.
-    NaN/Inf are refused (counted over all chunks first, nothing is half-written silently)."""
+               accel_units: str, spool: Path, chunk_rows: int, nan_policy: str) -> ImuData:
+    """Chunked copy of an (n, k) .npy to one float64 file per channel; memory ~ chunk_rows x
+    k. NaN/Inf are refused (counted over all chunks first) or their rows dropped."""
     return NpyChannels(p, rate_hz=rate_hz, columns=columns, gyro_units=gyro_units,
-                       accel_units=accel_units, chunk_rows=chunk_rows).spool(spool)
+                       accel_units=accel_units, chunk_rows=chunk_rows).spool(spool, nan_policy)
 
 
 def _split(line: str, delim: str | None) -> list[str]:
@@ -588,6 +611,81 @@ def _header_channel(name: str) -> str | None:
 RECOGNISED_NAMES = ("time: t, t_s, time, time_s, timestamp, stamp, sec; gyro: gyro_x, gyr_x, "
                     "gx, wx, omega_x, angular_velocity_x (y, z alike); accelerometer: accel_x, "
                     "acc_x, ax, fx, linear_acceleration_x (y, z alike)")
+
+
+def _read_text_columns(p: Path, delim: str | None, skip: int) -> list[np.ndarray]:
+    """The columns of a text table after its first `skip` lines, parsed in blocks of lines
+    by numpy.genfromtxt (gyrodrift.io.spool.iter_text_tables): rows with a wrong number of
+    fields are an error (never dropped silently), unparseable cells become NaN and go
+    through the NaN policy. Each column is an array, or from SPOOL_MIN_SAMPLES rows on a
+    memory map of a temporary file (8 bytes per row and column)."""
+    source = str(p)
+    spools: list[SampleSpool] = []
+    with contextlib.ExitStack() as stack:
+        try:
+            with p.open(encoding="utf-8-sig") as fh:  # a byte-order mark is not part of a name
+                for _ in range(skip):
+                    next(fh, None)
+                for table, _lines, _no in iter_text_tables(
+                        fh, delimiter=delim, first_line_no=skip + 1,
+                        malformed=f"{source}: malformed text table"):
+                    if table.shape[0] == 0:
+                        continue
+                    if not spools:
+                        spools = [stack.enter_context(SampleSpool(name=f"column{j}"))
+                                  for j in range(table.shape[1])]
+                    for j, sp in enumerate(spools):
+                        sp.append(table[:, j])
+        except UnicodeDecodeError as exc:
+            raise GyrodriftValueError(f"{source}: not a text table (byte {exc.start} of a line "
+                                      "is not UTF-8; a binary file?)") from None
+        if not spools:
+            raise GyrodriftValueError(f"{source}: no data rows")
+        return [sp.finish() for sp in spools]
+
+
+def _strictly_increasing(t: np.ndarray) -> bool:
+    """``numpy.all(numpy.diff(t) > 0)``, read in pieces (a file-backed column too)."""
+    prev: np.ndarray | None = None
+    for piece in iter_chunks(t, BLOCK_ROWS):
+        u = piece if prev is None else np.concatenate((prev, piece))
+        if u.size > 1 and not bool(np.all(np.diff(u) > 0)):
+            return False
+        prev = u[-1:]
+    return True
+
+
+def _finish_scaled(cols: dict[str, tuple[np.ndarray, float]], rate_hz: float, source: str,
+                   fmt: str, nan_policy: str, detail: dict[str, object]) -> ImuData:
+    """`_finish` of the channels `column * factor`: in memory for in-memory columns, else
+    in pieces into temporary files (gyrodrift.io.spool.SampleSpool), the same values and
+    the same NaN policy (rows with a NaN/Inf channel refused with their count, or dropped)."""
+    if not any(is_file_backed(c) for c, _ in cols.values()):
+        return _finish({n: c * f for n, (c, f) in cols.items()}, rate_hz, source, fmt,
+                       nan_policy, detail)
+    ordered = [n for n in CHANNELS if n in cols]
+    n_total = int(cols[ordered[0]][0].shape[0])
+    if n_total < 3:
+        raise GyrodriftValueError(f"{source}: {n_total} samples; too short for analysis")
+    n_bad = 0
+    with contextlib.ExitStack() as stack:
+        out = {n: stack.enter_context(SampleSpool(name=n)) for n in ordered}
+        pieces = zip(*(iter_chunks(cols[n][0], BLOCK_ROWS) for n in ordered), strict=True)
+        for group in pieces:
+            scaled = [piece * cols[n][1] for n, piece in zip(ordered, group, strict=True)]
+            ok = np.logical_and.reduce([np.isfinite(v) for v in scaled])
+            bad = ok.size - int(np.count_nonzero(ok))
+            n_bad += bad
+            if n_bad and nan_policy != "drop":
+                continue  # counted, never kept
+            for n, v in zip(ordered, scaled, strict=True):
+                out[n].append(v if bad == 0 else v[ok])
+        if n_bad and nan_policy != "drop":
+            raise GyrodriftValueError(
+                f"{source}: {n_bad} of {n_total} samples have NaN/Inf channels; "
+                "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
+        channels = {n: out[n].finish() for n in ordered}
+    return ImuData(channels, float(rate_hz), source, fmt, n_total, n_bad, detail)
 
 
 def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
@@ -611,24 +709,8 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
     delim = "," if "," in first else (";" if ";" in first else None)
     cells = _split(first, delim)
     has_header = not all(is_number(c) for c in cells)
-    try:
-        # Rows with a wrong number of fields are an error (never dropped silently);
-        # unparseable cells become NaN and go through the NaN policy.
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # "Empty input file": reported below
-            table = np.genfromtxt(p, delimiter=delim,
-                                  skip_header=skip if has_header else skip - 1, comments="#",
-                                  dtype=np.float64, invalid_raise=True, ndmin=2,
-                                  encoding="utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise GyrodriftValueError(f"{source}: not a text table (byte {exc.start} of a line is "
-                                  "not UTF-8; a binary file?)") from None
-    except ValueError as exc:
-        detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
-        raise GyrodriftValueError(f"{source}: malformed text table: {detail}") from exc
-    if table.size == 0:
-        raise GyrodriftValueError(f"{source}: no data rows")
-    k = table.shape[1]
+    table = _read_text_columns(p, delim, skip if has_header else skip - 1)
+    k = len(table)
     if k != len(cells):
         raise GyrodriftValueError(
             f"{source}: rows have {k} fields, the first line has {len(cells)}")
@@ -639,8 +721,7 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
         t_idx = next((i for i, n in enumerate(header) if _TIME_RE.match(n.lower())), None) \
             if has_header else None
         if t_idx is None and not has_header and k in (4, 7) and columns is None:
-            t = table[:, 0]
-            if t.size > 1 and np.all(np.diff(t) > 0):
+            if table[0].shape[0] > 1 and _strictly_increasing(table[0]):
                 t_idx = 0
     elif str(time_column).lower() == "none":
         t_idx = None
@@ -670,13 +751,14 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
     else:
         names = _default_names(len(data_idx), source)
     if t_idx is not None:
-        t_rate = rate_from_time(table[:, t_idx], source, time_units=time_units)
+        t_rate = rate_from_time(table[t_idx], source, time_units=time_units)
         rate_hz = t_rate if rate_hz is None else rate_hz
     if rate_hz is None:
         raise GyrodriftValueError(f"{source}: no time column to infer the rate; give --rate-hz")
-    cols = {n: table[:, i] * _factor(n, gyro_units, accel_units, rate_hz)
-            for i, n in zip(data_idx, names, strict=True) if n != "-"}
-    return _finish(cols, rate_hz, source, "text", nan_policy,
+    scaled = {n: (table[i], _factor(n, gyro_units, accel_units, rate_hz))
+              for i, n in zip(data_idx, names, strict=True) if n != "-"}
+    del table  # the columns' temporary files go with their last reference
+    return _finish_scaled(scaled, rate_hz, source, "text", nan_policy,
                    {"columns": names, "time_column": None if t_idx is None else header[t_idx],
                     "time_units": time_units,
                     "header": has_header, "delimiter": delim or "whitespace",
@@ -920,7 +1002,10 @@ def units_carried(path: str | Path) -> bool:
 
 def _sample(x: np.ndarray) -> np.ndarray:
     step = max(1, int(x.shape[0]) // _SAMPLE_ROWS)
-    v = np.asarray(x[::step], dtype=np.float64)
+    if is_file_backed(x):  # every step-th sample, read from the file (not through the map)
+        v = np.concatenate([p[::step] for p in iter_chunks(x, step * (BLOCK_ROWS // step + 1))])
+    else:
+        v = np.asarray(x[::step], dtype=np.float64)
     return v[np.isfinite(v)] if v.ndim == 1 else v
 
 

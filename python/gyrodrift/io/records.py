@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import csv
 import math
-import warnings
-from collections.abc import Iterator
+import sys
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +25,13 @@ import numpy as np
 from gyrodrift.defaults import RATE_MAX_HZ as _RATE_MAX_HZ
 from gyrodrift.defaults import RATE_MIN_HZ as _RATE_MIN_HZ
 from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.io.spool import (
+    BLOCK_ROWS,
+    SampleSpool,
+    chunked_median,
+    iter_row_blocks,
+    iter_text_tables,
+)
 from gyrodrift.units import (
     DEFAULT_TIME_UNITS,
     GYRO_INPUT_UNITS,
@@ -46,8 +53,9 @@ GYRO_AXES = {"x": 0, "y": 1, "z": 2}
 class Record:
     """A rate record in deg/h.
 
-    rate_deg_h may be a read-only numpy.memmap (large .npy in deg/h without NaN), which the
-    Allan code reads in chunks; use np.asarray(rate_deg_h) to load it.
+    rate_deg_h may be a read-only numpy.memmap (a 1-D float64 .npy in deg/h without NaN, or
+    a record of 2^20 samples or more normalized into a temporary file: `load_record`), which
+    the analyses read in chunks; use np.asarray(rate_deg_h) to load it.
 
     Examples
     --------
@@ -150,6 +158,8 @@ def rate_from_time(t: np.ndarray, source: str, *, time_units: str | None = None)
     gyrodrift.errors.GyrodriftValueError: log.csv: time step 1e+07 s gives ... looks like
     nanoseconds (100 Hz): give --time-units ns (time_units='ns')
     """
+    if is_file_backed(t):
+        return _rate_from_time_file(t, source, time_units)
     t = np.asarray(t, dtype=np.float64)
     t = t[np.isfinite(t)]
     if t.size < 2:
@@ -163,6 +173,49 @@ def rate_from_time(t: np.ndarray, source: str, *, time_units: str | None = None)
     # 25 % slack covers timestamp rounding (e.g. 6-decimal CSV times, CAN log clocks).
     gaps = int(np.count_nonzero(dt > 1.25 * dt_med))
     backs = int(np.count_nonzero(dt < 0.75 * dt_med))
+    if gaps or backs:
+        raise GyrodriftValueError(
+            f"{source}: non-uniform time column: {gaps} gaps (missing samples) "
+            f"and {backs} short or backward steps against the median step "
+            f"{dt_med:.6g} s; Allan/PSD analysis needs uniform sampling")
+    return 1.0 / dt_med
+
+
+def _rate_from_time_file(t: np.ndarray, source: str, time_units: str | None) -> float:
+    """`rate_from_time` of a file-backed time column (:func:`is_file_backed`), read in
+    pieces: the same steps, median (`gyrodrift.io.spool.chunked_median`, exact), checks and
+    messages, in memory independent of the record's length."""
+    first = last = 0.0
+    n_finite = 0
+    for piece in iter_chunks(t, BLOCK_ROWS):
+        fin = piece[np.isfinite(piece)]
+        if fin.size:
+            first = float(fin[0]) if n_finite == 0 else first
+            last = float(fin[-1])
+            n_finite += int(fin.size)
+    if n_finite < 2:
+        raise GyrodriftValueError(f"{source}: cannot infer the sample rate from the time column")
+    f = TIME_UNITS[time_units or "s"]
+
+    def steps() -> Iterator[np.ndarray]:
+        prev: np.ndarray | None = None  # the last time of the previous piece, minus the first
+        for piece in iter_chunks(t, BLOCK_ROWS):
+            u = piece[np.isfinite(piece)] - first
+            if prev is not None:
+                u = np.concatenate((prev, u))
+            if u.size:
+                prev = u[-1:]
+            if u.size > 1:
+                yield np.diff(u) * f
+
+    dt_med = chunked_median(steps)
+    if not dt_med > 0:
+        raise GyrodriftValueError(f"{source}: time column is not increasing")
+    _check_time_scale(dt_med, max(abs(first), abs(last)) * f, source, time_units)
+    gaps = backs = 0
+    for dt in steps():
+        gaps += int(np.count_nonzero(dt > 1.25 * dt_med))
+        backs += int(np.count_nonzero(dt < 0.75 * dt_med))
     if gaps or backs:
         raise GyrodriftValueError(
             f"{source}: non-uniform time column: {gaps} gaps (missing samples) "
@@ -233,6 +286,14 @@ def load_record(
     nanoseconds read as seconds are refused, naming the units the step suggests. Only
     regular files are read (a FIFO or device would block or never end).
 
+    mmap: a 1-D float64 .npy record in deg/h without NaN/Inf is returned memory-mapped; any
+    other .npy or .csv record of gyrodrift.io.spool.SPOOL_MIN_SAMPLES (2^20) samples or more
+    is converted in blocks of rows (a .csv parsed in blocks of lines) into a float64 file in
+    a temporary directory (8 bytes per sample; a .csv's column and time column too while it
+    is read) and returned memory-mapped; the directory goes when no array refers to the
+    map any more. The values are those of the conversion in memory. With mmap=False every
+    record is returned in memory.
+
     Examples
     --------
     >>> import tempfile, os
@@ -265,7 +326,7 @@ def load_record(
     if suffix == ".csv":
         assert header_names is not None
         return _load_csv_record(p, header_names, delimiter, column, rate_hz, units, nan_policy,
-                                force_rate, time_units)
+                                force_rate, time_units, mmap)
     raise GyrodriftValueError(
         f"{p}: unsupported file type {suffix!r} (use .npy, .csv, PSINS .imu, "
         f"or an IMU log {', '.join(LOG_SUFFIXES)})")
@@ -309,8 +370,10 @@ def _read_csv_header(p: Path) -> tuple[list[str], str]:
 
 def _load_npy_record(p: Path, column: str | int | None, rate_hz: float | None, units: str,
                      nan_policy: str, mmap: bool) -> Record:
-    """One column of a 1-D or 2-D .npy array. A float64 deg/h column without NaN stays
-    memory-mapped (read in chunks by the Allan code); anything else is converted in memory."""
+    """One column of a 1-D or 2-D .npy array. A float64 deg/h 1-D array without NaN stays
+    memory-mapped (read in chunks by the Allan code); anything else is normalized in blocks
+    of rows (`_normalize`): in memory, or with `mmap` and SPOOL_MIN_SAMPLES samples or
+    more, into a temporary file that is memory-mapped in turn."""
     source = str(p)
     arr = load_npy(p, mmap)
     if arr.ndim == 2:
@@ -321,80 +384,128 @@ def _load_npy_record(p: Path, column: str | int | None, rate_hz: float | None, u
                     f"{source}: array of shape {arr.shape}; choose a column")
             idx = _pick_column([str(i) for i in range(arr.shape[1])], column, source)
         col_name = str(idx)
-        values = np.asarray(arr[:, idx])
     elif arr.ndim == 1:
         if column not in (None, 0, "0"):
             raise GyrodriftValueError(f"{source}: 1-D array has no column {column!r}")
-        col_name = "0"
-        values = arr
+        col_name, idx = "0", None
     else:
         raise GyrodriftValueError(
             f"{source}: expected a 1-D or 2-D array, got shape {arr.shape}")
-    if not np.issubdtype(values.dtype, np.floating) and not np.issubdtype(
-            values.dtype, np.integer):
-        raise GyrodriftValueError(f"{source}: expected numbers, got dtype {values.dtype}")
+    if not np.issubdtype(arr.dtype, np.floating) and not np.issubdtype(
+            arr.dtype, np.integer):
+        raise GyrodriftValueError(f"{source}: expected numbers, got dtype {arr.dtype}")
     if rate_hz is None:
         raise GyrodriftValueError(f"{source}: a .npy record carries no sample rate; "
                                   "give --rate-hz (rate_hz=)")
-    n_total = int(values.shape[0])
-    keep_mapped = (isinstance(values, np.memmap) and units == "deg/h"
-                   and values.dtype == np.float64)
+    n_total = int(arr.shape[0])
+    keep_mapped = (isinstance(arr, np.memmap) and idx is None and units == "deg/h"
+                   and arr.dtype == np.float64)
     if keep_mapped:
-        n_bad = _count_nonfinite_chunked(values)
+        n_bad = _count_nonfinite_chunked(arr)
         if n_bad == 0:
-            return Record(values, float(rate_hz), source, col_name, units, n_total, 0)
-    x = to_deg_h(np.asarray(values), units, rate_hz)
-    x, dropped = _apply_nan_policy(x, nan_policy, source)
+            return Record(arr, float(rate_hz), source, col_name, units, n_total, 0)
+        if nan_policy != "drop":
+            _refuse_nonfinite(source, n_bad, n_total)
+    pieces = (block if idx is None else block[:, idx] for block in iter_row_blocks(arr))
+    x, dropped = _normalize(pieces, n_total, units, float(rate_hz), nan_policy, source, mmap)
     return Record(x, float(rate_hz), source, col_name, units, n_total, dropped)
+
+
+def _refuse_nonfinite(source: str, n_bad: int, n_total: int) -> None:
+    raise GyrodriftValueError(
+        f"{source}: {n_bad} of {n_total} samples are NaN/Inf; pass nan_policy='drop' "
+        "(CLI: --drop-nan) to remove them explicitly"
+    )
+
+
+def _normalize(pieces: Iterable[np.ndarray], n_total: int, units: str, rate_hz: float,
+               nan_policy: str, source: str, mmap: bool) -> tuple[np.ndarray, int]:
+    """The record's consecutive pieces converted to deg/h (`to_deg_h`, sample by sample)
+    with the NaN policy applied (`_apply_nan_policy`: refused with their count, or dropped
+    and counted), kept in memory, or with `mmap` from SPOOL_MIN_SAMPLES samples on in a
+    temporary file returned memory-mapped (gyrodrift.io.spool; bounded memory). The same
+    values as converting the whole record at once."""
+    n_bad = 0
+    with SampleSpool(None if mmap else sys.maxsize, name="rate_deg_h") as spool:
+        for piece in pieces:
+            x = to_deg_h(piece, units, rate_hz)
+            good = np.isfinite(x)
+            bad = x.size - int(np.count_nonzero(good))
+            if bad:
+                n_bad += bad
+                x = x[good]
+            if n_bad and nan_policy != "drop":
+                continue  # counted, never kept
+            spool.append(x)
+        if n_bad and nan_policy != "drop":
+            _refuse_nonfinite(source, n_bad, n_total)
+        return spool.finish(), n_bad
 
 
 def _load_csv_record(p: Path, header_names: list[str], delimiter: str,
                      column: str | int | None, rate_hz: float | None, units: str,
-                     nan_policy: str, force_rate: bool, time_units: str) -> Record:
+                     nan_policy: str, force_rate: bool, time_units: str, mmap: bool) -> Record:
     """One column of a .csv (header optional); the rate from its t_s/time/t column (in
-    `time_units`) unless given (and checked against it, _resolve_rate)."""
+    `time_units`) unless given (and checked against it, _resolve_rate). The table is parsed
+    in blocks of lines (gyrodrift.io.spool.iter_text_tables); the column and the time column
+    are kept in memory, or with `mmap` from SPOOL_MIN_SAMPLES rows on in temporary files
+    (8 bytes per row each, while the record is read) that are then normalized like a .npy
+    record's column."""
     source = str(p)
     has_header = not all(is_number(c) for c in header_names)
     names = header_names if has_header else [str(i) for i in range(len(header_names))]
     idx = _pick_column(names, column, source)
-    table = _read_csv_table(p, delimiter, 1 if has_header else 0)
-    if table.shape[1] != len(names):
-        raise GyrodriftValueError(f"{source}: rows have {table.shape[1]} fields, header has "
-                                  f"{len(names)}")
-    values = table[:, idx]
     t_idx = next((i for i, n in enumerate(names) if n.lower() in ("t_s", "time", "t")), None)
-    _check_text_cells(p, table, [i for i in (idx, t_idx) if i is not None], names,
-                      delimiter, 1 if has_header else 0)
+    memory_max = None if mmap else sys.maxsize
+    with SampleSpool(memory_max, name="values") as raw, \
+            SampleSpool(memory_max, name="time") as t_spool:
+        _read_csv_columns(p, delimiter, 1 if has_header else 0, names, idx, t_idx, raw,
+                          t_spool)
+        values, t = raw.finish(), t_spool.finish()
     if t_idx is None:
         if rate_hz is None:
             raise GyrodriftValueError(f"{source}: no t_s/time column to infer the rate; "
                                       "give --rate-hz (rate_hz=)")
     else:
-        rate_hz = _resolve_rate(rate_hz, table[:, t_idx], source, force_rate, time_units)
-    x = to_deg_h(values, units, rate_hz)
-    x, dropped = _apply_nan_policy(x, nan_policy, source)
-    return Record(x, float(rate_hz), source, names[idx], units, int(values.size), dropped)
+        rate_hz = _resolve_rate(rate_hz, t, source, force_rate, time_units)
+    del t  # its temporary file goes with the last reference
+    n_total = int(values.size)
+    x, dropped = _normalize(iter_chunks(values, BLOCK_ROWS), n_total, units, rate_hz,
+                            nan_policy, source, mmap)
+    return Record(x, float(rate_hz), source, names[idx], units, n_total, dropped)
 
 
-def _read_csv_table(p: Path, delimiter: str, skip: int) -> np.ndarray:
-    """The numbers of a .csv as a 2-D float64 table. Rows with a wrong number of fields are an
-    error (never dropped silently); unparseable cells become NaN here and are named by
+def _read_csv_columns(p: Path, delimiter: str, skip: int, names: list[str], idx: int,
+                      t_idx: int | None, out: SampleSpool, t_out: SampleSpool) -> None:
+    """Column `idx` (and the time column `t_idx`) of a .csv's numbers, appended block by
+    block to `out` (`t_out`). Rows with a wrong number of fields are an error (never dropped
+    silently); unparseable cells become NaN in the parse and are named by
     _check_text_cells."""
+    n_rows = 0
     try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # "Empty input file": reported below
-            table = np.genfromtxt(p, delimiter=delimiter, skip_header=skip, dtype=np.float64,
-                                  invalid_raise=True, ndmin=2, encoding="utf-8-sig")
+        with p.open(encoding="utf-8-sig") as fh:
+            for _ in range(skip):
+                next(fh, None)
+            for table, lines, line_no in iter_text_tables(
+                    fh, delimiter=delimiter, first_line_no=skip + 1,
+                    malformed=f"{p}: malformed CSV"):
+                if table.shape[0] == 0:
+                    continue
+                if table.shape[1] != len(names):
+                    raise GyrodriftValueError(f"{p}: rows have {table.shape[1]} fields, header "
+                                              f"has {len(names)}")
+                _check_text_cells(p, table, [i for i in (idx, t_idx) if i is not None], names,
+                                  delimiter, lines, line_no)
+                out.append(table[:, idx])
+                if t_idx is not None:
+                    t_out.append(table[:, t_idx])
+                n_rows += table.shape[0]
     except UnicodeDecodeError as exc:
         raise GyrodriftValueError(
             f"{p}: not a text CSV file (byte {exc.start} of a line is "
             "not UTF-8; a binary file named .csv?)") from None
-    except ValueError as exc:
-        detail = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
-        raise GyrodriftValueError(f"{p}: malformed CSV: {detail}") from exc
-    if table.size == 0:
+    if n_rows == 0:
         raise GyrodriftValueError(f"{p}: no data rows (header only?)")
-    return table
 
 
 #: sample rates accepted from the user or a file (gyrodrift.defaults: outside them the
@@ -459,24 +570,23 @@ def load_npy(path: str | Path, mmap: bool = True) -> np.ndarray:
 
 
 def _check_text_cells(p: Path, table: np.ndarray, cols: list[int], names: list[str],
-                      delimiter: str, skip: int) -> None:
+                      delimiter: str, lines: list[str], first_line_no: int) -> None:
     """Cells genfromtxt turned into NaN although they are not empty or 'nan': name the first
-    one (text in a numeric column is an error, not a missing value)."""
+    one (text in a numeric column is an error, not a missing value). `table` holds the rows
+    of `lines`, the first of which is line `first_line_no` of the file."""
     nan_rows = np.flatnonzero(np.isnan(table[:, cols]).any(axis=1))
     if nan_rows.size == 0:
         return
     want = set(nan_rows.tolist())
-    with p.open(newline="", encoding="utf-8-sig") as fh:
-        for k, row in enumerate(csv.reader(fh, delimiter=delimiter)):
-            r = k - skip
-            if r < 0 or r not in want:
-                continue
-            for c in cols:
-                cell = row[c].strip() if c < len(row) else ""
-                if cell and not is_number(cell):
-                    raise GyrodriftValueError(
-                        f"{p}: line {k + 1}, column {names[c]!r}: {cell!r} is "
-                        "not a number")
+    for r, row in enumerate(csv.reader(lines, delimiter=delimiter)):
+        if r not in want:
+            continue
+        for c in cols:
+            cell = row[c].strip() if c < len(row) else ""
+            if cell and not is_number(cell):
+                raise GyrodriftValueError(
+                    f"{p}: line {first_line_no + r}, column {names[c]!r}: {cell!r} is "
+                    "not a number")
 
 
 def is_number(text: str) -> bool:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import contextlib
 import csv
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,10 +37,18 @@ from typing import Any
 import numpy as np
 
 from gyrodrift.errors import GyrodriftValueError
-from gyrodrift.filters.ar2 import ar_filter, fit_ar2, kalman_filter
+from gyrodrift.filters.ar2 import (
+    KalmanFilter,
+    ar_filter,
+    ar_filter_pieces,
+    fit_ar2,
+    fit_ar2_chunks,
+    kalman_filter,
+)
 from gyrodrift.filters.wavelet import wavelet_denoise
 from gyrodrift.filters.wavelet_packet import wavelet_packet_denoise
 from gyrodrift.io.json_text import json_text
+from gyrodrift.io.records import is_file_backed, iter_chunks
 from gyrodrift.simulation.records import simulate
 from gyrodrift.stability import ieee952
 from gyrodrift.stability.allan import AllanResult, oadev
@@ -69,6 +77,10 @@ PAPER_TABLE1: dict[str, tuple[float, float, float, float]] = {
 PAPER_AR2 = (-0.0340, 0.0252)
 DEFAULT_N_SAMPLES = 1 << 16
 DEFAULT_SEED = 2006
+#: A memory-mapped record longer than this (samples) is compared without holding it or a
+#: filtered copy (`_run_compare_file`), in pieces of _PIECE samples.
+FILE_BACKED_MIN = 1 << 20
+_PIECE = 1 << 20
 
 
 def _ar2_gamma(a1: float, a2: float) -> float:
@@ -219,12 +231,79 @@ def filters(x: np.ndarray) -> list[tuple[str, Callable[[], np.ndarray]]]:
     ]
 
 
-def _row(label: str, y: np.ndarray, rate_hz: float, published_key: str | None) -> CompareRow:
+def _row(label: str, y: np.ndarray, rate_hz: float, published_key: str | None,
+         std: float | None = None) -> CompareRow:
     r = oadev(y, rate_hz, taus="octave", progress=False)
     fit = ieee952.paper_fit(r.tau_s, r.adev)
-    return CompareRow(label, fit.q_paper, fit.n_deg_rt_h, fit.b_deg_h, float(np.std(y)),
+    return CompareRow(label, fit.q_paper, fit.n_deg_rt_h, fit.b_deg_h,
+                      float(np.std(y)) if std is None else std,
                       PAPER_TABLE1.get(published_key) if published_key else None, r,
                       welch_psd(y, rate_hz))
+
+
+def _std_pieces(y: np.ndarray) -> float:
+    """numpy.std of a file-backed record (to rounding), in two passes over its pieces."""
+    n = int(y.shape[0])
+    mean = sum(float(np.sum(p)) for p in iter_chunks(y, _PIECE)) / n
+    return math.sqrt(sum(float(np.sum(np.square(p - mean))) for p in iter_chunks(y, _PIECE))
+                     / n)
+
+
+def _file_filters(x: np.ndarray) -> tuple[Any, list[tuple[str, Callable[[], Iterator[
+        np.ndarray]]]]]:
+    """The AR(2) model and `filters` of a file-backed record, each filter's output in pieces
+    (the same outputs: the offline denoisers from windows of the record,
+    `gyrodrift.filters.wavelet_file`; the AR and Kalman filters with their state carried)."""
+    from gyrodrift.filters.wavelet_file import (
+        wavelet_denoise_pieces,
+        wavelet_packet_denoise_pieces,
+    )
+
+    model = fit_ar2_chunks(lambda: iter_chunks(x, _PIECE), method="yule-walker")
+
+    def kalman() -> Iterator[np.ndarray]:
+        kf = KalmanFilter(model)
+        return (np.asarray(kf.process(p)) for p in iter_chunks(x, _PIECE))
+
+    return model, [
+        ("db8 wavelet", lambda: wavelet_denoise_pieces(x, "db8", 5, "soft", piece=_PIECE)),
+        ("bior3.7 wavelet packet", lambda: wavelet_packet_denoise_pieces(
+            x, "bior3.7", 4, piece=_PIECE)),
+        ("AR model", lambda: ar_filter_pieces(iter_chunks(x, _PIECE), model)),
+        ("AR(2)-Kalman", kalman),
+    ]
+
+
+def _spool(path: Path, n: int, pieces: Iterator[np.ndarray]) -> np.ndarray:
+    """The pieces written to a float64 .npy file of n samples with file writes (a written
+    mapping's pages would stay resident), mapped back read-only."""
+    with open(path, "wb") as fh:
+        np.lib.format.write_array_header_1_0(
+            fh, {"descr": np.lib.format.dtype_to_descr(np.dtype(np.float64)),
+                 "fortran_order": False, "shape": (n,)})
+        for p in pieces:
+            np.asarray(p, dtype=np.float64).tofile(fh)
+    return np.load(path, mmap_mode="r")
+
+
+def _compare_file(x: np.ndarray, rate_hz: float, bar: Any) -> tuple[list[CompareRow], Any]:
+    """The rows of a file-backed record without holding it or a filtered copy: each filtered
+    record is written in pieces to one temporary file (disk: 8 bytes per sample) and
+    analysed from it as the record is (the Allan deviation and the PSD read their input in
+    pieces, the standard deviation in two passes)."""
+    import tempfile
+
+    n = int(x.shape[0])
+    rows = [_row("original", x, rate_hz, "original", _std_pieces(x))]
+    bar.update(1)
+    model, runs = _file_filters(x)
+    with tempfile.TemporaryDirectory(prefix="gyrodrift-compare.") as d:
+        for label, run in runs:
+            y = _spool(Path(d) / "filtered.npy", n, run())
+            rows.append(_row(label, y, rate_hz, label, _std_pieces(y)))
+            del y
+            bar.update(1)
+    return rows, model
 
 
 def run_compare(x: np.ndarray | None = None, rate_hz: float | None = None, *,
@@ -252,15 +331,21 @@ def run_compare(x: np.ndarray | None = None, rate_hz: float | None = None, *,
                             f"seed {DEFAULT_SEED})")
     if rate_hz is None:
         raise GyrodriftValueError("rate_hz is required with an input record")
-    x = np.ascontiguousarray(x, dtype=np.float64)
-    model = fit_ar2(x, method="yule-walker")
+    on_file = (is_file_backed(x) and np.asarray(x).dtype == np.float64
+               and x.shape[0] > FILE_BACKED_MIN)
+    if not on_file:
+        x = np.ascontiguousarray(x, dtype=np.float64)
     with tqdm(total=6, desc="compare", unit="step",
               disable=not progress, leave=False) as bar:
-        rows = [_row("original", x, rate_hz, "original")]
-        bar.update(1)
-        for label, run in filters(x):
-            rows.append(_row(label, np.asarray(run(), dtype=np.float64), rate_hz, label))
+        if on_file:
+            rows, model = _compare_file(x, rate_hz, bar)
+        else:
+            model = fit_ar2(x, method="yule-walker")
+            rows = [_row("original", x, rate_hz, "original")]
             bar.update(1)
+            for label, run in filters(x):
+                rows.append(_row(label, np.asarray(run(), dtype=np.float64), rate_hz, label))
+                bar.update(1)
         report = _finish_report(rows, x, rate_hz, model, source, out_dir, plots)
         bar.update(1)
     return report
@@ -268,7 +353,7 @@ def run_compare(x: np.ndarray | None = None, rate_hz: float | None = None, *,
 
 def _finish_report(rows: list[CompareRow], x: np.ndarray, rate_hz: float, model: Any,
                    source: str, out_dir: str | Path | None, plots: Any) -> CompareReport:
-    report = CompareReport(float(rate_hz), int(x.size), source or "input record",
+    report = CompareReport(float(rate_hz), int(x.shape[0]), source or "input record",
                            (float(model.a1), float(model.a2)), rows)
     if out_dir is not None:
         _write_report(report, rows, Path(out_dir), plots)

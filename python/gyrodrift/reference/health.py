@@ -10,7 +10,8 @@ sigma^2(m) = (4 D(m) - D(2m)) / (2 m^2) + r / m.
 
 Alarms: octave k (m = 2^k) has its t-th squared difference after (t + 1) m accepted samples.
 While t < block_terms the Allan variance of the first t terms, at t a multiple of
-block_terms that of the last block_terms terms, is divided by the reference and compared
+block_terms that of the last block_terms terms (their sum, as the target adds each term to
+the block as it arrives), is divided by the reference and compared
 with max(f^2, chi2_{1-p}(nu) / nu) (Wilson-Hilferty). nu = e_k t for t terms, e_k the edf per
 term of block_terms terms of power-law noise with the reference's local slope mu_k (over two
 octaves, one at the ends): the phase's generalized autocovariance G(t) = t^2 (abs(t)^mu - 1) / mu,
@@ -234,7 +235,8 @@ def health_alarms(y: np.ndarray, rate_hz: float, ref: np.ndarray, *,
             if t < block_terms:
                 var, tested = csum[t] / (2.0 * t), t
             elif t % block_terms == 0:
-                var, tested = (csum[t] - csum[t - block_terms]) / (2.0 * block_terms), block_terms
+                block = float(np.sum(d2[t - block_terms:t]))  # the block's own terms
+                var, tested = block / (2.0 * block_terms), block_terms
             else:
                 continue
             nu = max(e[k] * tested, 1.0)

@@ -71,8 +71,10 @@ RAM_BUDGET_BYTES = 8 * 1024  # data + bss + the stack reserved by the linker scr
 # The gyro monitor ([monitor] enabled) may add at most this much RAM to the image of the same
 # configuration without it.
 MONITOR_RAM_BUDGET_BYTES = 2 * 1024
-# ... and at most this much flash on top of FLASH_BUDGET_BYTES (its streaming statistics, alarms,
-# re-identification and the float math library routines they call; the STM32F405 has 1 MiB).
+# An image whose monitor re-identifies the drift model ([monitor] reidentify) may take this much
+# flash on top of FLASH_BUDGET_BYTES (the re-identification, with the statistics, alarms and float
+# math library routines the monitor calls; the STM32F405 has 1 MiB). Without re-identification the
+# monitor's image fits FLASH_BUDGET_BYTES itself.
 MONITOR_FLASH_BUDGET_BYTES = 16 * 1024
 CORE_CLOCK_HZ = 168_000_000  # STM32F405 at full speed (and QEMU's netduinoplus2 clock)
 # Assumed cycles per instruction of the M4F running this code from flash (5 wait states with
@@ -143,6 +145,7 @@ class FirmwareImage:
     defines: tuple[str, ...] = ()
     config_text: str = ""
     monitor: bool = False  # built with the gyro monitor ([monitor] enabled)
+    reidentify: bool = False  # ... and its re-identification ([monitor] reidentify)
 
     @property
     def flash_bytes(self) -> int:
@@ -154,8 +157,10 @@ class FirmwareImage:
 
     @property
     def flash_budget_bytes(self) -> int:
-        """FLASH_BUDGET_BYTES, plus MONITOR_FLASH_BUDGET_BYTES for an image with the monitor."""
-        return FLASH_BUDGET_BYTES + (MONITOR_FLASH_BUDGET_BYTES if self.monitor else 0)
+        """FLASH_BUDGET_BYTES, plus MONITOR_FLASH_BUDGET_BYTES for an image whose monitor
+        re-identifies the drift model."""
+        return FLASH_BUDGET_BYTES + (MONITOR_FLASH_BUDGET_BYTES
+                                     if self.monitor and self.reidentify else 0)
 
     def as_dict(self) -> dict[str, Any]:
         return {"elf": str(self.elf), "flash_bytes": self.flash_bytes,
@@ -174,6 +179,9 @@ def budget_violations(image: FirmwareImage) -> list[str]:
     >>> budget_violations(FirmwareImage(Path("x.elf"), 20000, 4, 7000, 1536))
     ['flash 20004 B > 16384 B', 'RAM 8540 B (data + bss + stack) > 8192 B']
     >>> budget_violations(FirmwareImage(Path("x.elf"), 20000, 4, 5000, 1536, monitor=True))
+    ['flash 20004 B > 16384 B']
+    >>> budget_violations(FirmwareImage(Path("x.elf"), 20000, 4, 5000, 1536, monitor=True,
+    ...                                 reidentify=True))
     []
     """
     out = []
@@ -292,7 +300,8 @@ def build_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
     text_b, data_b, bss_b = _section_sizes(elf)
     image = FirmwareImage(elf, text_b, data_b, bss_b,
                           _stack_reserved(src / "board" / "stm32f4" / "stm32f405.ld"),
-                          tuple(defines), text, bool(config.monitor.enabled))
+                          tuple(defines), text, bool(config.monitor.enabled),
+                          bool(config.monitor.enabled and config.monitor.reidentify))
     bad = _forbidden_symbols(elf)
     if bad:
         raise FirmwareError(f"{elf}: forbidden symbols ({', '.join(bad)})")
@@ -352,7 +361,8 @@ def cached_firmware(config: ProcessorConfig, defines: tuple[str, ...] = (), *,
     m = json.loads(meta.read_text())
     image = FirmwareImage(out / "build" / "gyrodrift-firmware.elf", m["text"], m["data"],
                           m["bss"], m["stack_reserved"], tuple(m["defines"]),
-                          dumps_config(config), bool(config.monitor.enabled))
+                          dumps_config(config), bool(config.monitor.enabled),
+                          bool(config.monitor.enabled and config.monitor.reidentify))
     if check_budget and budget_violations(image):
         raise FirmwareError("the configuration does not fit the MCU budget: "
                             + "; ".join(budget_violations(image)))

@@ -95,10 +95,15 @@ the taus with edf >= READOFF_MIN_EDF, divided by 0.664, at `b_readoff_tau_s`, wi
 chi-squared interval of the deviation there; it overstates B where N, K or other terms still
 contribute at the minimum. K is reported as identified only where the fitted K line carries at
 least half of the model variance at the longest fitted tau (the record shows the +1/2 slope)
-and its interval spans at most a factor K_MAX_SPAN; otherwise `AllanFit.upper_limits["K"]`
-gives the K whose line alone reaches the upper end of
-the measured interval at some fitted tau (the largest K the curve allows), and the K term, if
-kept, is marked ``identified = False``.
+and the record measures it to K_MAX_REL_ERROR (30 %): its interval, taken at probability
+K_ID_PROB (90 %) from the same standard errors, lies inside [K / 1.3, K / 0.7], so that the
+estimate is within 30 % of the true K with that probability. A wider rule (an interval within
+a factor 3) picked the records whose K came out high (a larger K line carries more of the
+model, so its relative interval is narrower) and reported K 1.29x the generating value as a
+median on the tactical-mems preset. Otherwise `AllanFit.upper_limits["K"]` gives the K whose
+line alone reaches the upper end of the measured interval at some fitted tau (the largest K
+the curve allows), and the K term, if kept, is marked ``identified = False`` (its value and
+interval are still given: an estimate the record does not pin down to 30 %).
 
 Examples
 --------
@@ -127,7 +132,8 @@ from gyrodrift.stability import IEEE952_TERMS, gmwm, ieee952
 from gyrodrift.stability.fit_check import FitCheck, check_fit
 from gyrodrift.units import TERM_UNITS
 
-__all__ = ["ALLAN_TERMS", "EXTRAPOLATION_FACTOR", "MAX_TRIM_SHARE", "MIN_FIT_EDF",
+__all__ = ["ALLAN_TERMS", "EXTRAPOLATION_FACTOR", "K_ID_PROB", "K_MAX_REL_ERROR",
+           "MAX_TRIM_SHARE", "MIN_FIT_EDF",
            "MODEL_DISCREPANCY", "MODEL_SET_DELTA", "READOFF_MIN_EDF", "TRIM_SIGMAS",
            "AllanFit", "AllanTerm", "fit_allan", "parse_fit_range",
            "parse_terms", "slope_readouts"]
@@ -148,8 +154,10 @@ EXTRAPOLATION_FACTOR = 3.0
 READOFF_MIN_EDF = 10.0
 #: Probability of the measured interval the self-check compares against.
 CHECK_CI = 0.95
-#: K counts as identified only if its interval spans at most this factor (high / low).
-K_MAX_SPAN = 3.0
+#: K counts as identified only if the record measures it to this relative error ...
+K_MAX_REL_ERROR = 0.3
+#: ... with this probability (module docstring).
+K_ID_PROB = 0.9
 #: Models whose IC is within this of the selected one's widen its intervals (model
 #: uncertainty; the same margin as GMWM's model set).
 MODEL_SET_DELTA = 4.0
@@ -391,7 +399,9 @@ class AllanFit:
                        f"{MODEL_SET_DELTA:g} of the selected one's IC: "
                        + ", ".join("+".join(m) for m in self.model_set))
         for name, value in self.upper_limits.items():
-            out.append(f"{name} not identified by this record (its slope is not seen): "
+            out.append(f"{name} not identified by this record (its slope is not seen, or not "
+                       f"measured to {100 * K_MAX_REL_ERROR:.0f} % with "
+                       f"{100 * K_ID_PROB:.0f} % probability): "
                        f"{name} <= {value:.4g} {TERM_UNITS['gyro'][name].ieee}")
         if self.approximate:
             out.extend(self.check.warnings or (
@@ -701,12 +711,22 @@ def fit_allan(tau_s: np.ndarray, adev: np.ndarray, edf: np.ndarray, *,
     comps = {t.name: np.sqrt(t.coeff * tau ** ALLAN_TERMS[t.name]) for t in out}
     total = np.sqrt(sum((v**2 for v in comps.values()), np.zeros_like(tau)))
     # K identified only where its line carries half the model variance at the longest tau
+    # and its K_ID_PROB interval lies within K_MAX_REL_ERROR of the value (module docstring)
     upper: dict[str, float] = {}
     if "K" in names:
         k_share = (float(comps["K"][idx[-1]] ** 2 / total[idx[-1]] ** 2)
                    if "K" in comps and total[idx[-1]] > 0 else 0.0)
-        k_span = next((t.ci_high / t.ci_low for t in out if t.name == "K"), math.inf)
-        if k_share < 0.5 or not k_span <= K_MAX_SPAN:
+        k_measured = False
+        k_term = next((t for t in out if t.name == "K"), None)
+        if k_term is not None and k_term.ci_low > 0.0 and math.isfinite(k_term.ci_high):
+            z_id = (float(scipy.stats.t.ppf(0.5 + K_ID_PROB / 2.0, dof)) if dof > 0
+                    else float(scipy.stats.norm.ppf(0.5 + K_ID_PROB / 2.0)))
+            # the same standard errors (each side) at probability K_ID_PROB
+            lo_id = k_term.value * (k_term.ci_low / k_term.value) ** (z_id / z)
+            hi_id = k_term.value * (k_term.ci_high / k_term.value) ** (z_id / z)
+            k_measured = (lo_id >= k_term.value / (1.0 + K_MAX_REL_ERROR)
+                          and hi_id <= k_term.value / (1.0 - K_MAX_REL_ERROR))
+        if k_share < 0.5 or not k_measured:
             _, hi_ci = chi2_interval(dev[idx], e_u, ci)
             upper["K"] = float(np.min(60.0 * np.sqrt(3.0 * hi_ci**2 / t_u)))
             out = [t if t.name != "K" else dataclasses.replace(t, identified=False)

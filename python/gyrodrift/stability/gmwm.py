@@ -116,6 +116,17 @@ fewest parameters among all within 2 of the minimum, nested or not; on the Monte
 tuning seeds it chose N+K+GM over a lower-WIC N+GM+GM; scripts/gmwm_monte_carlo.py and
 the GMWM validation page.)
 
+The random walk a user reads (`GmwmResult.implied`): no candidate has a flicker floor (bias
+instability, a flat wavelet variance), so on flicker records the selected model's random
+walk holds the floor's longest scales (K too high, with an interval that misses the truth)
+or a Gauss-Markov term at its upper bound or a ramp hides it. K is therefore reported only
+where the record resolves it: a linear fit of white noise, K and a flat floor to the
+longest LONG_SCALE_LEVELS scales (`_long_scale_k`) says whether the floor is there; K is
+that fit's if it is, else the selected model's own K term, and is reported only if it
+carries at least K_RESOLVED_SHARE of the fitted wavelet variance at the longest scale and
+its interval is within a factor K_RESOLVED_RATIO (`_resolve_k`); otherwise its upper limit
+is.
+
 Examples
 --------
 >>> import gyrodrift
@@ -130,11 +141,13 @@ True
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import itertools
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Generator
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -199,6 +212,19 @@ MODEL_ERROR_REL = DEFAULT_TOLERANCE / 2.0
 #: within this WIC distance (`_widen_by_model_set`): twice the nested-selection margin, the
 #: distance within which information-criterion weights still give a model real support.
 MODEL_SET_DELTA = 2.0 * WIC_MARGIN
+#: Whether the longest scales show a flicker floor, and K if they do, is read from a fit of
+#: white noise + K + a flat floor (+ the ramp where the selected model has one) to the
+#: longest LONG_SCALE_LEVELS scales (`_long_scale_k`): six octaves, a factor 64 in scale.
+LONG_SCALE_LEVELS = 6
+#: K is reported as resolved only where its random walk carries at least this share of the
+#: fitted wavelet variance at the longest scale (the record shows it) ...
+K_RESOLVED_SHARE = 0.5
+#: ... and its 95 % interval is within this factor (high / low). With an honest interval
+#: that is a standard error of at most ln(2) / (2 * 1.96) = 0.177 on log K, so the estimate
+#: lies within -30 % .. +30 % of the truth with probability >= 0.91 (log 1.3 = 0.262 =
+#: 1.48 se, log 0.7 = -0.357 = -2.02 se); wider, the record does not show K within 30 %
+#: and only the upper limit is reported.
+K_RESOLVED_RATIO = 2.0
 
 
 # --------------------------------------------------------------------------------------
@@ -431,6 +457,8 @@ def _component_wv(term: str, p: np.ndarray, tau: np.ndarray) -> np.ndarray:
         return (tau * tau + 2.0) * p[0] / (12.0 * tau)
     if term == "R":
         return p[0] * tau * tau / 16.0
+    if term == "B":  # flicker floor (the long-scale K fit only): flat
+        return np.full(tau.shape, float(p[0]))
     if term == "GM":
         sigma2, tc = p[0], p[1]
         phi = math.exp(-1.0 / tc)
@@ -1065,8 +1093,15 @@ class GmwmResult:
         "common" (the model-free weight of wv_covariance_nonparametric, model="auto")
         or "efficient" (the fitted model's own, iterated; a named model).
     notes
-        what the fit changed or found (converted Gauss-Markov terms, misfit), one
-        line each.
+        what the fit changed or found (converted Gauss-Markov terms, misfit, K not
+        resolved), one line each.
+    k_long
+        the random walk of the long-scale fit with a flicker floor (`_long_scale_k`): K,
+        its interval (probability ci), and the share of the fitted wavelet variance it
+        carries at the longest scale; None where the record has too few scales.
+    k_resolved
+        the K reported as resolved by the record (`_resolve_k`): value and interval;
+        None where only its upper limit is reported.
 
     Examples
     --------
@@ -1096,6 +1131,8 @@ class GmwmResult:
     approximate: bool = False
     weight: str = "efficient"
     notes: tuple[str, ...] = ()
+    k_long: tuple[float, float, float, float] | None = None
+    k_resolved: tuple[float, float, float] | None = None
 
     def param(self, name: str) -> GmwmParam:
         for p in self.params:
@@ -1107,33 +1144,48 @@ class GmwmResult:
         return self.param(name).value
 
     def implied(self) -> dict[str, float]:
-        """The white-noise density N (deg/sqrt(h)) and random walk K (deg/h/sqrt(h)) the
-        fitted model implies over the fitted scales, with intervals (probability ci): N adds
-        every Gauss-Markov term whose correlation time lies below the smallest scale (white
-        noise there, with its spectral density at zero frequency, sigma^2 (1 + phi) /
-        (1 - phi) per sample); K adds every one whose correlation time exceeds the longest
-        scale (a random walk there, increment variance sigma^2 (1 - phi^2)). 0.0 where the
-        model has neither. Keys N, N_ci_low, N_ci_high, K, K_ci_low, K_ci_high and
-        K_upper_limit (the largest K the measured wavelet variance allows at any fitted
-        scale: the bound to report where K is 0, not resolved). Where the
-        value is the model's own N (K) term alone, its interval is that parameter's;
-        otherwise it follows from param_cov by the delta method on the log scale
-        (d log(1 + phi)/(1 - phi) / d log T_c = 2 phi / (T_c (1 - phi^2)),
-        d log(1 - phi^2) / d log T_c = -2 phi^2 / (T_c (1 - phi^2)), T_c in samples).
+        """The white-noise density N (deg/sqrt(h)) and the random walk K (deg/h/sqrt(h))
+        the fit implies, with intervals (probability ci).
+
+        N adds to the model's N term every Gauss-Markov term whose correlation time lies
+        below the smallest scale (white noise there, with its spectral density at zero
+        frequency, sigma^2 (1 + phi) / (1 - phi) per sample).
+
+        K is reported only where the record resolves it (K_resolved = 1.0; `_resolve_k`):
+        where a fit of white noise, K and a flat flicker floor to the longest scales
+        (`_long_scale_k`) shows the floor, the K of that fit; where it shows none, the
+        selected model's own K term; in both cases only if that random walk carries at least
+        K_RESOLVED_SHARE of the fitted wavelet variance at the longest scale and its interval
+        is within a factor K_RESOLVED_RATIO. Otherwise K, K_ci_low and K_ci_high are 0.0
+        (not resolved) and K_upper_limit is the value to report: the largest K the measured
+        wavelet variance allows at any fitted scale (the random walk's wavelet variance
+        alone, (tau^2 + 2) g2 / (12 tau), reaching the upper end of the measured interval).
+
+        K_model (K_model_ci_low, K_model_ci_high) is the random walk of the selected model
+        itself: its K term plus every Gauss-Markov term whose correlation time stopped at
+        its upper bound, a random walk of increment variance sigma^2 (1 - phi^2) over the
+        scales below it (0.0 where it has neither: the random walk is then in the flicker
+        floor, a slow Gauss-Markov term or a ramp). Intervals of sums follow from
+        param_cov by the delta method on the log scale (d log(1 + phi)/(1 - phi) / d log
+        T_c = 2 phi / (T_c (1 - phi^2)), d log(1 - phi^2) / d log T_c = -2 phi^2 / (T_c
+        (1 - phi^2)), T_c in samples); a term's own interval where it is alone.
 
         Examples
         --------
         >>> x = np.random.default_rng(1).standard_normal(4096) * 30.0
         >>> res = identify_gmwm(x, 100.0, model="N")
         >>> imp = res.implied()
-        >>> imp["N"] == res.value("N"), imp["K"], imp["N_ci_low"] == res.param("N").ci_low
-        (True, 0.0, True)
+        >>> imp["N"] == res.value("N"), imp["K"], imp["K_resolved"]
+        (True, 0.0, 0.0)
+        >>> imp["N_ci_low"] == res.param("N").ci_low
+        True
         """
         dt = 1.0 / self.rate_hz
         terms = parse_model(self.model)
-        lo_s, hi_s = float(self.tau_s[0]), float(self.tau_s[-1])
+        lo_s = float(self.tau_s[0])
+        tc_hi_s = _tc_bounds(self.tau_s / dt)[1] * dt
         z = float(scipy.stats.norm.ppf(0.5 + self.ci / 2.0))
-        # per quantity: [(variance, gradient of its log w.r.t. theta)], own-term-only flag
+        # per quantity: [(variance, gradient of its log w.r.t. theta)]
         parts: dict[str, list[tuple[float, np.ndarray]]] = {"N": [], "K": []}
         npar = _n_params(terms)
         k = 0
@@ -1154,35 +1206,33 @@ class GmwmResult:
                 if tc_s < lo_s:
                     grad[k + 1] = 2.0 * phi / (tc * (1.0 - phi * phi))
                     parts["N"].append((sigma2 * (1.0 + phi) / (1.0 - phi), grad))
-                elif tc_s > hi_s:
+                elif math.log(tc_s) >= math.log(tc_hi_s) - TC_BOUND_LOG_TOL:
                     grad[k + 1] = -2.0 * phi * phi / (tc * (1.0 - phi * phi))
                     parts["K"].append((sigma2 * (1.0 - phi * phi), grad))
             k += 2 if t == "GM" else 1
         out: dict[str, float] = {}
         for name, items in parts.items():
+            key = "N" if name == "N" else "K_model"
             total = sum(v for v, _ in items)
             conv = (lambda v: math.sqrt(v * dt) / 60.0) if name == "N" else (
                 lambda v: 60.0 * math.sqrt(v / dt))
             value = conv(total) if total > 0 else 0.0
-            out[name] = value
+            out[key] = value
             if not items:
-                out[f"{name}_ci_low"] = out[f"{name}_ci_high"] = 0.0
+                out[f"{key}_ci_low"] = out[f"{key}_ci_high"] = 0.0
             elif len(items) == 1 and name in terms and value == self.value(name):
-                out[f"{name}_ci_low"] = self.param(name).ci_low
-                out[f"{name}_ci_high"] = self.param(name).ci_high
+                out[f"{key}_ci_low"] = self.param(name).ci_low
+                out[f"{key}_ci_high"] = self.param(name).ci_high
             else:
                 grad = np.sum([v / total * gr for v, gr in items], axis=0)
                 var = float(grad @ self.param_cov @ grad)
                 half = z * 0.5 * math.sqrt(max(var, 0.0))
-                out[f"{name}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
-                out[f"{name}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
-        # the largest K the measured WV allows: the random walk's WV alone,
-        # (tau^2 + 2) g2 / (12 tau) (tau in samples), reaching the upper end of the measured
-        # interval at some fitted scale; an upper limit whatever the model (K = 0: not
-        # resolved by the record, K <= this)
-        tau_n = self.tau_s / dt
-        g2 = 12.0 * tau_n * self.wv_ci_high / (tau_n * tau_n + 2.0)
-        out["K_upper_limit"] = float(60.0 * math.sqrt(float(np.min(g2)) / dt))
+                out[f"{key}_ci_low"] = value * math.exp(-half) if half < 700 else 0.0
+                out[f"{key}_ci_high"] = value * math.exp(half) if half < 700 else math.inf
+        kr = self.k_resolved if self.k_resolved is not None else (0.0, 0.0, 0.0)
+        out["K"], out["K_ci_low"], out["K_ci_high"] = kr
+        out["K_resolved"] = 0.0 if self.k_resolved is None else 1.0
+        out["K_upper_limit"] = _k_upper_limit(self.tau_s, self.wv_ci_high, dt)
         return out
 
     def as_dict(self) -> dict[str, object]:
@@ -1209,6 +1259,121 @@ class GmwmResult:
             "notes": list(self.notes),
             "implied": self.implied(),
         }
+
+
+def _k_upper_limit(tau_s: np.ndarray, wv_ci_high: np.ndarray, dt: float) -> float:
+    """The largest K (deg/h/sqrt(h)) the measured wavelet variance allows: the random walk's
+    WV alone, (tau^2 + 2) g2 / (12 tau) (tau in samples), reaching the upper end of the
+    measured interval at some fitted scale. An upper limit whatever the model."""
+    tau_n = tau_s / dt
+    g2 = 12.0 * tau_n * wv_ci_high / (tau_n * tau_n + 2.0)
+    return float(60.0 * math.sqrt(float(np.min(g2)) / dt))
+
+
+def _narrow(lo: float, hi: float) -> bool:
+    """An interval of K within the factor K_RESOLVED_RATIO (lower end above 0)."""
+    return bool(lo > 0.0 and math.isfinite(hi) and hi <= K_RESOLVED_RATIO * lo)
+
+
+def _long_scale_k(wv: WaveletVariance, omega: np.ndarray, terms: tuple[str, ...], dt: float,
+                  ci: float) -> tuple[tuple[float, float, float, float], bool] | None:
+    """K from the longest scales, with a flicker floor the candidate models lack.
+
+    Bias instability is flicker noise, whose Haar wavelet variance is flat (B^2 ln 2 / pi,
+    half the Allan variance 2 ln 2 B^2 / pi): no Gauss-Markov term follows it beyond its
+    correlation time, so over the longest scales of a candidate model the floor is taken
+    either by the random walk (K too high, with an interval that does not hold the truth:
+    K+GM on the tactical MEMS preset, 1.4-1.5x) or by a Gauss-Markov term at its upper
+    bound or a ramp (no K). Here white noise (which also holds the tails of faster terms,
+    1 / tau beyond their correlation times), K, a flat floor (and the ramp, where the
+    selected model has one) are fitted to the longest LONG_SCALE_LEVELS scales: a linear
+    model in the variances, fitted by non-negative least squares with the weight omega^-1
+    (the selection's common weight there). The covariance of the variances is the
+    generalised-least-squares sandwich (A' W A)^-1 A' W (S + d^2 V) W A (A' W A)^-1 with
+    S = omega and the model discrepancy d^2 V of `_robust_param_cov`, taken without the
+    non-negativity constraint, so that a term the fit set to 0 still widens the interval of
+    the terms it trades with (a log-scale delta method at a term's bound does not: its
+    derivative vanishes and K's interval came out narrow and wrong). K's interval is
+    g2 +- z sd on the increment variance (lower end at least 0).
+
+    Returns ((K, its interval low and high, K's share of the fitted WV at the longest
+    scale), whether the floor is shown: its variance's lower limit, estimate - z sd, above
+    0); None with fewer than LONG_SCALE_LEVELS scales or when the fit fails."""
+    n_lev = wv.nu2.size
+    if n_lev < LONG_SCALE_LEVELS:
+        return None
+    sl = slice(n_lev - LONG_SCALE_LEVELS, n_lev)
+    nu2 = wv.nu2[sl]
+    tau = 2.0 ** wv.level[sl].astype(np.float64)
+    om = omega[sl, sl]
+    long_terms = ("N", "K", "R", "B") if "R" in terms else ("N", "K", "B")
+    a = _design(long_terms, tau, ())
+    li = _tri_inv(_chol(om))
+    aw = np.einsum("ij,jk->ik", li, a)
+    bw = np.einsum("ij,j->i", li, nu2)
+    scale = np.linalg.norm(aw, axis=0)
+    scale[scale == 0] = 1.0
+    try:
+        v, _ = scipy.optimize.nnls(aw / scale, bw)
+        bread = np.linalg.pinv(aw.T @ aw)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError):
+        return None
+    v = v / scale
+    gw = bread @ aw.T @ li  # (A' W A)^-1 A' W
+    resid = nu2 - a @ v
+    maker = np.eye(tau.size) - a @ gw
+    w_diag = 1.0 / np.diag(om)
+    vc = np.outer(nu2, nu2) * allan_kernel_corr(tau)
+    den = float(np.einsum("i,ij,ji->", w_diag, maker, vc @ maker.T))
+    excess = float(np.sum(w_diag * resid**2)) - float(
+        np.einsum("i,ij,ji->", w_diag, maker, om @ maker.T))
+    d2 = max(0.0, excess / den) if den > 0 else 0.0
+    cov = gw @ (om + d2 * vc) @ gw.T
+    z = float(scipy.stats.norm.ppf(0.5 + ci / 2.0))
+    g2 = float(v[1])
+    sd = math.sqrt(max(float(cov[1, 1]), 0.0))
+    b_sd = math.sqrt(max(float(cov[-1, -1]), 0.0))
+
+    def k_of(g: float) -> float:
+        return 60.0 * math.sqrt(max(g, 0.0) / dt)
+
+    total = float(a[-1] @ v)
+    share = float(a[-1, 1] * g2 / total) if total > 0 else 0.0
+    return (k_of(g2), k_of(g2 - z * sd), k_of(g2 + z * sd), share), \
+        bool(float(v[-1]) - z * b_sd > 0.0)
+
+
+def _resolve_k(res: GmwmResult, long: tuple[tuple[float, float, float, float], bool] | None
+               ) -> tuple[float, float, float] | None:
+    """The K to report (value, interval) where the record resolves it, else None.
+
+    Where the long-scale fit shows a flicker floor (`_long_scale_k`), K is its random walk,
+    resolved if that carries at least K_RESOLVED_SHARE of the fitted WV at the longest scale
+    and its interval is within K_RESOLVED_RATIO. Where it shows none, the candidate models
+    lack nothing on the long scales and K is the selected model's own K term, resolved on
+    the same two conditions (its share of the model's fitted WV at the longest scale). A
+    random walk held by a Gauss-Markov term at its upper bound is never resolved: its
+    correlation time is only a lower limit, so its increment variance is not determined
+    (its delta-method interval is too narrow)."""
+    if long is None:
+        return None
+    (value, lo, hi, share), floor = long
+    if floor:
+        ok = value > 0.0 and share >= K_RESOLVED_SHARE and _narrow(lo, hi)
+        return (value, lo, hi) if ok else None
+    terms = parse_model(res.model)
+    if "K" not in terms:
+        return None
+    imp = res.implied()
+    k = res.param("K")
+    if imp["K_model"] != k.value:  # a GM at its upper bound adds to it
+        return None
+    dt = 1.0 / res.rate_hz
+    tau = float(res.tau_s[-1]) / dt
+    g2 = (k.value / 60.0) ** 2 * dt
+    k_share = (tau * tau + 2.0) * g2 / (12.0 * tau) / float(res.wv_fit[-1])
+    ok = k_share >= K_RESOLVED_SHARE and _narrow(k.ci_low, k.ci_high)
+    return (k.value, k.ci_low, k.ci_high) if ok else None
 
 
 def _to_ieee(terms: tuple[str, ...], theta: np.ndarray, dt: float
@@ -1387,32 +1552,131 @@ def select_nested(wics: dict[tuple[str, ...], float], margin: float | None = Non
         cur = min(near, key=lambda c: (wics[c], _n_params(c)))
 
 
+class _ModelStream:
+    """A parametric-bootstrap record of the model (per-sample parameters) in consecutive
+    pieces, each term's generator state carried from one piece to the next (the random walk's
+    running sum, the Gauss-Markov AR(1) filter state, the quantization noise's last draw), so
+    that the record never needs to be held whole.
+
+    The random numbers are those `_simulate_model` draws from `rng` for the whole record at
+    once, term after term (Q: n + 1 normals, N and K: n, GM: n, then one for its start; R:
+    none), and the pieces are bit-identical to that record however it is cut: cut into
+    several pieces, the start of each term's draws is found by one pass over the earlier
+    terms' draws (their states recorded, the numbers discarded), after which `rng` stands
+    where the whole-record simulation leaves it.
+    """
+
+    def __init__(self, terms: tuple[str, ...], p: np.ndarray, n: int,
+                 rng: np.random.Generator, piece: int) -> None:
+        self.terms, self.p, self.n, self.piece = terms, p, int(n), max(int(piece), 1)
+        self.pos = 0
+        self._carry: list[Any] = [None] * len(terms)
+        self._zi: list[float | None] = [None] * len(terms)
+        self._gens: list[np.random.Generator | None] = []
+        if self.piece >= self.n:  # one piece: the draws come from rng in order
+            self._gens = [None if t == "R" else rng for t in terms]
+            return
+        for t in terms:
+            if t == "R":
+                self._gens.append(None)
+                continue
+            bit = type(rng.bit_generator)()
+            bit.state = rng.bit_generator.state
+            self._gens.append(np.random.Generator(bit))
+            left = self.n + (1 if t == "Q" else 0)
+            while left:
+                rng.standard_normal(min(left, self.piece))
+                left -= min(left, self.piece)
+            if t == "GM":
+                self._zi[len(self._gens) - 1] = float(rng.standard_normal())
+
+    def next_piece(self) -> np.ndarray:
+        """The next samples (at most `piece`; an empty array at the end)."""
+        import scipy.signal
+
+        a = self.pos
+        b = min(self.n, a + self.piece)
+        m = b - a
+        x = np.zeros(m)
+        if m == 0:
+            return x
+        k = 0
+        for i, t in enumerate(self.terms):
+            g = self._gens[i]
+            carry = self._carry[i]
+            if t == "Q":
+                assert g is not None
+                e = math.sqrt(self.p[k]) * g.standard_normal(m + (1 if carry is None else 0))
+                if carry is not None:
+                    e = np.concatenate(([carry], e))
+                x += np.diff(e)
+                self._carry[i] = float(e[-1])
+            elif t == "N":
+                assert g is not None
+                x += math.sqrt(self.p[k]) * g.standard_normal(m)
+            elif t == "K":
+                assert g is not None
+                steps = math.sqrt(self.p[k]) * g.standard_normal(m)
+                walk = np.cumsum(steps if carry is None else np.concatenate(([carry], steps)))
+                x += walk if carry is None else walk[1:]
+                self._carry[i] = float(walk[-1])
+            elif t == "R":
+                x += math.sqrt(self.p[k]) * np.arange(a, b)
+            else:
+                assert g is not None
+                sigma2, tc = self.p[k], self.p[k + 1]
+                phi = math.exp(-1.0 / tc)
+                u = math.sqrt(sigma2 * (1 - phi * phi)) * g.standard_normal(m)
+                if carry is None:
+                    zi = self._zi[i]
+                    z = zi if zi is not None else float(g.standard_normal())
+                    carry = np.array([phi * math.sqrt(sigma2) * z])
+                y, self._carry[i] = scipy.signal.lfilter([1.0], [1.0, -phi], u, zi=carry)
+                x += y
+                k += 1
+            k += 1
+        self.pos = b
+        return x
+
+
 def _simulate_model(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.random.Generator
                     ) -> np.ndarray:
-    """A record of the model (per-sample parameters) for the parametric bootstrap."""
-    import scipy.signal
+    """A record of the model (per-sample parameters) for the parametric bootstrap (one piece
+    of `_ModelStream`)."""
+    return _ModelStream(terms, p, n, rng, n).next_piece()
 
-    x = np.zeros(n)
-    k = 0
-    for t in terms:
-        if t == "Q":
-            e = math.sqrt(p[k]) * rng.standard_normal(n + 1)
-            x += np.diff(e)
-        elif t == "N":
-            x += math.sqrt(p[k]) * rng.standard_normal(n)
-        elif t == "K":
-            x += np.cumsum(math.sqrt(p[k]) * rng.standard_normal(n))
-        elif t == "R":
-            x += math.sqrt(p[k]) * np.arange(n)
-        else:
-            sigma2, tc = p[k], p[k + 1]
-            phi = math.exp(-1.0 / tc)
-            u = math.sqrt(sigma2 * (1 - phi * phi)) * rng.standard_normal(n)
-            zi = np.array([phi * math.sqrt(sigma2) * rng.standard_normal()])
-            x += scipy.signal.lfilter([1.0], [1.0, -phi], u, zi=zi)[0]
-            k += 1
-        k += 1
-    return x
+
+def _spool_replicate(path: Path, stream: _ModelStream) -> None:
+    """Write the stream's whole record to `path` as a float64 .npy file, piece by piece with
+    file writes (never through a mapping, whose written pages would stay resident)."""
+    with open(path, "wb") as fh:
+        np.lib.format.write_array_header_1_0(
+            fh, {"descr": np.lib.format.dtype_to_descr(np.dtype(np.float64)),
+                 "fortran_order": False, "shape": (stream.n,)})
+        while stream.pos < stream.n:
+            stream.next_piece().tofile(fh)
+
+
+def _bootstrap_wv_file(terms: tuple[str, ...], p: np.ndarray, n: int, rng: np.random.Generator,
+                       rate_hz: float, max_level: int
+                       ) -> Generator[WaveletVariance, None, None]:
+    """Wavelet variances of successive bootstrap records of a file-backed record's length,
+    without holding one: each record is simulated in pieces of _WV_PIECE samples into one
+    temporary .npy file (disk: 8 bytes per sample), and its wavelet variance is streamed from
+    that file as the record's own (`_haar_wv_file`). The records are those of
+    `_simulate_model` with the same generator."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="gyrodrift-bootstrap.") as d:
+        path = Path(d) / "replicate.npy"
+        while True:
+            _spool_replicate(path, _ModelStream(terms, p, n, rng, _WV_PIECE))
+            mm = np.load(path, mmap_mode="r")
+            wb = _haar_wv_file(mm, rate_hz, max_level)
+            if wb is None:  # a replicate of extreme magnitude: in memory, as the record
+                wb = haar_wv(np.array(mm), rate_hz, max_level=max_level)
+            del mm
+            yield wb
 
 
 def _gm_offsets(terms: tuple[str, ...]) -> list[tuple[int, int]]:
@@ -1596,7 +1860,8 @@ def _select_common(top: tuple[str, ...], wv: WaveletVariance, tau: np.ndarray,
             reduced.append(f"{_model_str(cand)} -> {_model_str(f1.terms)}")
         if f1.terms not in fits or f1.objective < fits[f1.terms].objective:
             fits[f1.terms] = f1
-            fit_notes[f1.terms] = conv if f1.terms != cand else []
+            # the notes of a conversion, or of a GM kept at its upper bound
+            fit_notes[f1.terms] = conv
     wics = {c: _wic(f) for c, f in fits.items()}
     failed = {c: _check(wv, lo, hi, fits[c], tau).n_failed for c in fits}
     holding = {c: w for c, w in wics.items() if failed[c] == 0}
@@ -1803,12 +2068,19 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
         p_hat = np.exp(fit.theta)
         chol = _chol(omega)
         boots = []
-        for _ in range(int(bootstrap)):
-            xb = _simulate_model(terms, p_hat, n_samples, rng)
-            wb = haar_wv(xb, rate_hz, max_level=int(wv.level[-1]))
-            if tau_range is not None:
-                wb = _subset(wb, tau_range)
-            boots.append(_fit_model(terms, wb.nu2, tau, chol, start=fit.theta).theta)
+        # a file-backed record's replicates are simulated and analysed in pieces, as the
+        # record itself (the same random numbers as in memory)
+        top_level = int(wv.level[-1])
+        replicates: Generator[WaveletVariance, None, None] = (
+            _bootstrap_wv_file(terms, p_hat, n_samples, rng, rate_hz, top_level)
+            if wv_file is not None else
+            (haar_wv(_simulate_model(terms, p_hat, n_samples, rng), rate_hz, max_level=top_level)
+             for _ in itertools.repeat(None)))
+        with contextlib.closing(replicates):  # removes the temporary file now
+            for wb in itertools.islice(replicates, int(bootstrap)):
+                if tau_range is not None:
+                    wb = _subset(wb, tau_range)
+                boots.append(_fit_model(terms, wb.nu2, tau, chol, start=fit.theta).theta)
         boot = np.array(boots)
     params = _make_params(terms, fit.theta, cov, dt, ci, boot, inflate)
     if model == "auto" and near:
@@ -1843,13 +2115,33 @@ def identify_gmwm(x: np.ndarray, rate_hz: float, model: str = "auto", *,
             name = f"GM{g}"
         comps[name] = _component_wv(t, p_nat[k:k + width], tau)
         k += width
-    return GmwmResult(
+    res = GmwmResult(
         model=_model_str(terms), params=params, rate_hz=float(rate_hz), n_samples=n_samples,
         tau_s=wv.tau_s, wv=wv.nu2, wv_ci_low=lo, wv_ci_high=hi,
         wv_fit=theoretical_wv(terms, p_nat, tau), wv_components=comps,
         objective=fit.objective, wic=wic, candidates=candidates, ci=float(ci),
         ci_method="bootstrap" if bootstrap else "asymptotic", param_cov=cov, check=check,
         approximate=approximate, weight=weight, notes=tuple(notes))
+    long = _long_scale_k(wv, omega_data, terms, dt, ci)
+    res = replace(res, k_long=None if long is None else long[0])
+    res = replace(res, k_resolved=_resolve_k(res, long))
+    imp = res.implied()
+    if imp["K_resolved"] and long is not None and long[1]:
+        notes.append(
+            f"K = {imp['K']:.4g} [{imp['K_ci_low']:.4g}, {imp['K_ci_high']:.4g}] "
+            f"deg/h/sqrt(h) from the longest {LONG_SCALE_LEVELS} scales with a flicker floor "
+            f"(the model's own random walk: {imp['K_model']:.4g})")
+    elif not imp["K_resolved"] and imp["K_model"] > 0.0:
+        kl = res.k_long
+        notes.append(
+            f"K is not resolved by the record (the random walk's interval is not within a "
+            f"factor {K_RESOLVED_RATIO:g}, or it carries less than "
+            f"{100 * K_RESOLVED_SHARE:g} % of the longest scale"
+            + ("" if kl is None else f"; the long-scale fit with a flicker floor gives "
+               f"{kl[0]:.4g} [{kl[1]:.4g}, {kl[2]:.4g}], {100 * kl[3]:.0f} %")
+            + f"); report the upper limit K <= {imp['K_upper_limit']:.4g} deg/h/sqrt(h), "
+              f"not the model's {imp['K_model']:.4g}")
+    return replace(res, notes=tuple(notes))
 
 
 
@@ -1871,7 +2163,12 @@ def _scaled_back(res: GmwmResult, c: float) -> GmwmResult:
 
     c2 = c * c
     with np.errstate(over="ignore"):
+        kl = None if res.k_long is None else (
+            res.k_long[0] * c, res.k_long[1] * c, res.k_long[2] * c, res.k_long[3])
+        kr = None if res.k_resolved is None else (
+            res.k_resolved[0] * c, res.k_resolved[1] * c, res.k_resolved[2] * c)
         return replace(res, params=tuple(param(p) for p in res.params), wv=res.wv * c2,
+                       k_long=kl, k_resolved=kr,
                        wv_ci_low=res.wv_ci_low * c2, wv_ci_high=res.wv_ci_high * c2,
                        wv_fit=res.wv_fit * c2,
                        wv_components={k: v * c2 for k, v in res.wv_components.items()})

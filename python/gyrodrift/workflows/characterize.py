@@ -385,8 +385,19 @@ def _gmwm_channel(x: np.ndarray, rate_hz: float, channel: str, a: AllanResult,
             extra[prm.name] = {"value": prm.value, "ci_low": prm.ci_low, "ci_high": prm.ci_high,
                                "unit": prm.unit if not prm.name.endswith("sigma")
                                else ("rad/s" if sensor == "gyro" else "m/s^2") + " (x 1/s)"}
-    for name in ("N", "K"):
-        est.setdefault(name, TermEstimate(name, 0.0, 0.0, 0.0, TERM_UNITS[sensor][name].si))
+    # N and K as the fit implies them (GMWM's implied()): a Gauss-Markov term faster than the
+    # shortest scale is white noise, one at its upper correlation-time bound a random walk;
+    # K only where the record resolves it, else 0 with its upper limit as the interval's top.
+    imp = res.implied()
+    est["N"] = TermEstimate("N", imp["N"] * back["N"], imp["N_ci_low"] * back["N"],
+                            imp["N_ci_high"] * back["N"], TERM_UNITS[sensor]["N"].si)
+    if imp["K_resolved"]:
+        est["K"] = TermEstimate("K", imp["K"] * back["K"], imp["K_ci_low"] * back["K"],
+                                imp["K_ci_high"] * back["K"], TERM_UNITS[sensor]["K"].si)
+    else:
+        est["K"] = TermEstimate("K", 0.0, 0.0, imp["K_upper_limit"] * back["K"],
+                                TERM_UNITS[sensor]["K"].si)
+    extra["k_upper_limit"] = imp["K_upper_limit"] * back["K"]
     fit_adev = np.full(a.tau_s.shape, np.nan)
     unit = "rad/s" if sensor == "gyro" else "m/s^2"
     return ChannelResult(channel, sensor, unit, a, est, fit_adev, "gmwm", extra,

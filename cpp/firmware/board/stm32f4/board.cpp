@@ -266,3 +266,12 @@ extern "C" void USART1_IRQHandler(void) {
   if ((reg(kCr1) & kCr1Txeie) != 0U && (sr & kSrTxe) != 0U) tx_pump_locked();
   g_isr_cycles = g_isr_cycles + cycles_since(t0);
 }
+
+// errno of the C library's float math routines (logf, expf, ... set it on a domain or range
+// error; the image never reads it): one int of .bss, instead of newlib's reentrancy structure
+// (about 100 bytes of .data) that its own __errno returns a member of. The image is
+// single-threaded and its interrupts call no library routine, so one errno is right.
+extern "C" int* __errno(void) {
+  static int error_number = 0;
+  return &error_number;
+}
