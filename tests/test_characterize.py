@@ -48,6 +48,7 @@ def avr_result():
     return characterize(rec, ci=0.95)
 
 
+@pytest.mark.xdist_group("characterize_avr")
 def test_kalibr_values_recover_allan_variance_ros_settings(avr_result) -> None:
     vals = kalibr_values(avr_result)
     truth = {"gyroscope_noise_density": (GYRO_N, 0.10), "gyroscope_random_walk": (GYRO_K, 0.25),
@@ -64,6 +65,7 @@ def test_kalibr_values_recover_allan_variance_ros_settings(avr_result) -> None:
         assert c.terms["K"].contains(rw), c.channel
 
 
+@pytest.mark.xdist_group("characterize_avr")
 def test_self_check_recovers_identified_terms(avr_result) -> None:
     sc = self_check(avr_result, seed=11)
     assert len(sc.rows) == 6 * 5

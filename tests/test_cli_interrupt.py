@@ -72,23 +72,31 @@ def test_ctrl_c_during_start_up_is_one_line(record: Path, tmp_path: Path, comman
                       "--json"],
             "characterize": ["characterize", str(record), "--rate-hz", "100", "--gyro-units",
                              "rad/s", "--out-dir", str(tmp_path / "ch")]}[command]
-    handled = 0
-    for delay_s in DELAYS_S:
+    handled, finished = 0, False
+    delays = list(DELAYS_S)
+    while delays:
+        delay_s = delays.pop(0)
         code, err = _interrupt(argv, delay_s)
         lines = err.strip().splitlines()
         where = f"{command} interrupted after {delay_s} s: exit {code}\n{err[-3000:]}"
         assert _before_the_handler(err), where
-        if code in (130, -signal.SIGINT) and lines:
+        if code in (130, -signal.SIGINT) and lines and "Traceback" not in err:
             assert len(lines) == 1 and lines[0].endswith("interrupted"), where
             assert lines[0].startswith("gyrodrift"), where
             handled += 1
         elif code == 0:
             assert "Traceback" not in err, where
+            finished = True
         else:
             # Before the package's code ran: killed by the default disposition, or CPython's
-            # own start-up trace (no frame of the package: checked above).
+            # own start-up trace (no frame of the package: checked above). CPython ends by
+            # SIGINT after printing that trace, so exit -2 with a trace is this case too.
             assert code in (-signal.SIGINT, 1), where
             assert not lines or "Traceback" in err, where
+        if not delays and handled < 3 and not finished and delay_s < 30.0:
+            # A loaded machine (a parallel test run) can take longer than the spread above to
+            # start: interrupt later until three reach the command, or it ends first.
+            delays.append(delay_s * 1.5)
     assert handled >= 3, f"only {handled} interrupts reached the command"
 
 

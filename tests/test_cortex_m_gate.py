@@ -294,6 +294,7 @@ def test_toolchain_present() -> None:
 
 
 # With no use_*.cpp at all the single None case fails (an empty parameter set would skip).
+@pytest.mark.xdist_group("cortex_m_gate")
 @pytest.mark.parametrize("src", gate_units() or [None], ids=lambda p: p.stem if p else "none")
 def test_unit_passes_gate(src: Path | None, gate_results: dict[str, GateResult]) -> None:
     assert src is not None, f"no use_*.cpp in {CM_DIR}: no filter is covered by the gate"
@@ -303,6 +304,7 @@ def test_unit_passes_gate(src: Path | None, gate_results: dict[str, GateResult])
     assert 0 < result.ram_bytes <= RAM_BYTES
 
 
+@pytest.mark.xdist_group("cortex_m_gate")
 def test_size_report(gate_results: dict[str, GateResult]) -> None:
     baseline = gate_results[BASELINE]
     assert baseline.ok, baseline.reasons

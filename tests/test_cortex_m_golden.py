@@ -86,6 +86,7 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, np.ndarray]:
     return {**mcu, "host": np.frombuffer((host_dir / "golden_out.bin").read_bytes(), OUT)}
 
 
+@pytest.mark.xdist_group("cortex_m_golden")
 def test_mcu_output_is_bit_identical_to_host(runs: dict[str, np.ndarray]) -> None:
     mcu, host = runs["mcu"], runs["host"]
     assert mcu.size == host.size == N
@@ -96,6 +97,7 @@ def test_mcu_output_is_bit_identical_to_host(runs: dict[str, np.ndarray]) -> Non
         assert diff.size == 0, f"{name}: {diff.size} samples differ, first {diff[:5]}"
 
 
+@pytest.mark.xdist_group("cortex_m_golden")
 def test_fused_multiply_add_build_within_bound(runs: dict[str, np.ndarray]) -> None:
     """The gate's default build lets GCC contract a*b+c into the M4F's VFMA (one rounding
     instead of two): outputs then differ from the host in the last bits. Bound: 1e-6 of the
@@ -113,6 +115,7 @@ def test_fused_multiply_add_build_within_bound(runs: dict[str, np.ndarray]) -> N
     print(f"\nFMA build vs host: largest difference {worst:.3g} of the signal scale")
 
 
+@pytest.mark.xdist_group("cortex_m_golden")
 def test_outputs_match_the_double_reference(runs: dict[str, np.ndarray]) -> None:
     from gyrodrift.filters.ar2 import Ar2Model
     from gyrodrift.reference.ar2 import kalman_filter

@@ -47,9 +47,17 @@ def _env() -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def site() -> Path:
-    """The site built by ``bash scripts/docs`` (incremental: only what changed is redone)."""
-    r = subprocess.run(["bash", str(ROOT / "scripts" / "docs")], cwd=ROOT, env=_env(),
-                       capture_output=True, text=True, timeout=1800, check=False)
+    """The site built by ``bash scripts/docs`` (incremental: only what changed is redone).
+
+    The tests that read the site share one xdist group (one worker builds it once); the file
+    lock keeps any other process building into the same docs/_build (a second test run in this
+    tree) from interleaving with this build."""
+    from filelock import FileLock
+
+    (DOCS / "_build").mkdir(exist_ok=True)
+    with FileLock(DOCS / "_build" / "build.lock"):
+        r = subprocess.run(["bash", str(ROOT / "scripts" / "docs")], cwd=ROOT, env=_env(),
+                           capture_output=True, text=True, timeout=1800, check=False)
     assert r.returncode == 0, f"docs build failed:\n{r.stdout[-4000:]}\n{r.stderr[-6000:]}"
     assert (HTML / "index.html").is_file()
     return HTML
@@ -107,6 +115,7 @@ def test_site_configuration_fails_on_a_broken_reference(tmp_path: Path) -> None:
         assert any(needle in ln for ln in warnings), (needle, bad.stderr[-3000:])
 
 
+@pytest.mark.xdist_group("docs_site")
 def test_site_builds_with_warnings_as_errors(site: Path) -> None:
     for page in ("index.html", "cli.html", "api/index.html", "cpp/index.html",
                  "auto_tutorials/index.html", "changelog.html", "contributing.html"):
@@ -132,6 +141,7 @@ def _ids(text: str) -> set[str]:
     return set(re.findall(r'\bid="([^"]+)"', text))
 
 
+@pytest.mark.xdist_group("docs_site")
 def test_every_public_name_is_in_the_api_reference(site: Path) -> None:
     """Each public module has a page listing every name of its ``__all__``, and each name is
     documented (an anchor ``module.name`` holding the same object) on some API page."""
@@ -240,6 +250,7 @@ def test_docstrings_are_valid_numpydoc_and_rest() -> None:
     assert not problems, "\n".join(problems)
 
 
+@pytest.mark.xdist_group("docs_site")
 def test_every_subcommand_and_flag_is_in_the_cli_reference(site: Path) -> None:
     import argparse
 
@@ -268,6 +279,7 @@ def test_every_subcommand_and_flag_is_in_the_cli_reference(site: Path) -> None:
     assert not problems, f"not in the command line reference: {problems}"
 
 
+@pytest.mark.xdist_group("docs_site")
 def test_every_header_is_in_the_cpp_reference(site: Path) -> None:
     """Each header of every folder of include/gyrodrift (generated coefficient tables aside)
     has its section on its area's page, with at least one documented declaration."""
@@ -328,6 +340,7 @@ def _probe_page(exe: str, page: Path, profile: Path) -> tuple[str, list[int]]:
     return dom, [int(w) for w in m.group(1).split(",") if w]
 
 
+@pytest.mark.xdist_group("docs_site")
 def test_site_renders_in_headless_chromium(site: Path, tmp_path: Path) -> None:
     exe = _chromium()
     profile = tmp_path / "profile"

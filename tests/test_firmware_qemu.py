@@ -99,6 +99,7 @@ def assert_equal_to_host_loop(res: ReplayResult) -> None:
     assert h["host_loop_ok"]
 
 
+@pytest.mark.xdist_group("firmware_default_image")
 def test_default_image_fits_the_budget(default_image: FirmwareImage) -> None:
     assert default_image.flash_bytes <= FLASH_BUDGET_BYTES
     assert default_image.ram_bytes <= RAM_BUDGET_BYTES
@@ -106,6 +107,7 @@ def test_default_image_fits_the_budget(default_image: FirmwareImage) -> None:
     assert default_image.bss >= 3 * 256 * 4
 
 
+@pytest.mark.xdist_group("firmware_default_image")
 def test_default_image_10s_every_fault_equals_host_loop(default_run: ReplayResult,
                                                         default_image: FirmwareImage) -> None:
     assert_equal_to_host_loop(default_run)
@@ -123,6 +125,7 @@ def test_default_image_10s_every_fault_equals_host_loop(default_run: ReplayResul
     assert 0 < loop["firmware"]["stack_bytes"] <= default_image.stack_reserved
 
 
+@pytest.mark.xdist_group("firmware_default_image")
 def test_default_image_cost_is_reported(default_run: ReplayResult) -> None:
     cost = default_run.report["firmware"]["step_cost"]
     assert cost["steps"] == default_run.loop_stats["frames_in"]  # type: ignore[index]
@@ -213,6 +216,7 @@ def test_build_refuses_what_does_not_fit(tmp_path: Path) -> None:
         build_firmware(soft, tmp_path / "soft")
 
 
+@pytest.mark.xdist_group("firmware_default_image")
 def test_command_line_target_qemu(tmp_path: Path, cpp_build_dir: Path,
                                   capsys: pytest.CaptureFixture[str]) -> None:
     """`gyrodrift replay --target qemu`: the table, report.json and report.png name the target

@@ -56,6 +56,7 @@ def _results(out: Path) -> dict[str, dict]:
             for p in sorted((out / "units").glob("*/result.json"))}
 
 
+@pytest.mark.xdist_group("fleet_cluster")
 def test_fleet_on_two_workers_equals_serial(client, logs: list[Path], tmp_path: Path) -> None:
     seen: list[str] = []
     dask_sum = run_fleet(logs, tmp_path / "dask", opts=OPTS, client=client,
@@ -81,6 +82,7 @@ def test_fleet_on_two_workers_equals_serial(client, logs: list[Path], tmp_path: 
     assert "unit5" in html and "data:image/png;base64," in html
 
 
+@pytest.mark.xdist_group("fleet_cluster")
 def test_resumed_run_skips_finished_logs(client, logs: list[Path], tmp_path: Path) -> None:
     out = tmp_path / "out"
     first = run_fleet(logs, out, opts=NO_PLOTS, client=client, root=logs[0].parent)
@@ -112,6 +114,7 @@ def test_spec_flags_units_outside_limits(logs: list[Path], tmp_path: Path) -> No
         load_spec(spec_path)
 
 
+@pytest.mark.xdist_group("fleet_cluster")
 def test_cli_on_an_existing_scheduler(client, logs: list[Path], tmp_path: Path,
                                       capsys: pytest.CaptureFixture[str]) -> None:
     from gyrodrift.cli import main
@@ -127,6 +130,7 @@ def test_cli_on_an_existing_scheduler(client, logs: list[Path], tmp_path: Path,
 
 
 
+@pytest.mark.xdist_group("fleet_cluster")
 def test_existing_scheduler_workers_with_malloc_trim_threshold_are_reported(
         client, logs: list[Path], tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """Workers the fleet does not start (`--scheduler`; here the module's default

@@ -38,6 +38,7 @@ def test_default_identifier_is_the_allan_fit() -> None:
     assert DEFAULT_IDENTIFIER == "allan-nnls"
 
 
+@pytest.mark.xdist_group("noise_presets_mc")
 @pytest.mark.parametrize("name", list(PRESETS))
 def test_accuracy_on_presets(small_mc, name: str) -> None:
     res, truth = small_mc[name]
@@ -81,6 +82,7 @@ def test_identified_k_is_within_30_percent() -> None:
             assert abs(fit.value("K") / k_true - 1.0) <= 0.3, (seed, fit.value("K"))
 
 
+@pytest.mark.xdist_group("noise_presets_mc")
 def test_coverage_on_presets(small_mc) -> None:
     # 95 % intervals pooled over the 3 x 6 records: binomial sd at p = 0.95, n = 18 is 5.1
     # points, so >= 80 % (2.9 sd below 95 %; P(at most 14 of 18) = 1.1 %) rarely fails when
@@ -98,6 +100,7 @@ def test_coverage_on_presets(small_mc) -> None:
     assert np.mean(b_cover) >= 0.80, b_cover
 
 
+@pytest.mark.xdist_group("noise_presets_mc")
 def test_intervals_not_inflated_on_presets(small_mc) -> None:
     # Over-coverage: the standardised errors z = log(estimate / truth) / se_log of N and of
     # the fitted B (se_log = log(high / value) / 1.96, scripts/noise_id_presets_mc.py)
