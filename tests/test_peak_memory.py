@@ -21,15 +21,19 @@ from pathlib import Path
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "peak_memory.py"
 
 
-def test_analysis_commands_stay_under_their_memory_budget() -> None:
-    commands = ["allan", "identify", "identify-gmwm", "fit", "characterize", "psd"]
+def _rows(commands: list[str]) -> list[dict]:
+    """The script's rows for `commands` on a 2e7-sample record, each command run."""
     run = subprocess.run([sys.executable, str(SCRIPT), "--samples", "2e7", "--commands",
                           ",".join(commands), "--json"], capture_output=True,
                          text=True, env=os.environ.copy(), timeout=900)
     assert run.returncode == 0, run.stderr[-2000:]
     rows = json.loads(run.stdout)
     assert [r["command"] for r in rows] == commands
-    for r in rows:
+    return rows
+
+
+def test_analysis_commands_stay_under_their_memory_budget() -> None:
+    for r in _rows(["allan", "identify", "identify-gmwm", "fit", "characterize", "psd"]):
         assert r["exit"] == 0, r
         # 160 MB of record: a whole-record copy alone would be over half of the largest
         # budget; the budgets sit below the libraries (~120 MB) plus that copy, or at most
@@ -44,14 +48,7 @@ def test_filter_and_the_gmwm_bootstrap_stay_under_their_memory_budget() -> None:
     at this size before they read the record and wrote or simulated their outputs in pieces.
     `compare` (2074 MB before, the same pieces for its four filters) takes minutes at this
     size and is measured by the script only (docs/validation/memory.md)."""
-    commands = ["filter", "identify-gmwm-bootstrap"]
-    run = subprocess.run([sys.executable, str(SCRIPT), "--samples", "2e7", "--commands",
-                          ",".join(commands), "--json"], capture_output=True,
-                         text=True, env=os.environ.copy(), timeout=900)
-    assert run.returncode == 0, run.stderr[-2000:]
-    rows = json.loads(run.stdout)
-    assert [r["command"] for r in rows] == commands
-    for r in rows:
+    for r in _rows(["filter", "identify-gmwm-bootstrap"]):
         assert r["exit"] == 0, r
         assert r["budget_mb"] <= 160.0 + 140.0, r  # as above
         assert r["peak_mb"] <= r["budget_mb"], r
