@@ -291,3 +291,26 @@ def test_gmwm_white_noise_in_a_short_gauss_markov_term_is_exported_as_density() 
     assert identify_gmwm(x * s, rate_hz, model="GM").implied()["N"] > 0.0
     c = characterize_channel(x, rate_hz, "gyro_x", method="gmwm", ci=0.95)
     assert c.terms["N"].value == pytest.approx(n_true, rel=0.10)
+
+
+def test_kalibr_warns_when_an_axis_has_no_white_noise_term() -> None:
+    """An axis whose fitted model has no white-noise term (N = 0) drops out of the worst-axis
+    choice: the exported density came from the other axes without a word (seen with GMWM on
+    the shared laser-gyro record, whose x and y white noise sat in a 6-sample Gauss-Markov
+    term). The export now says so."""
+    import dataclasses
+
+    from gyrodrift.workflows.characterize import characterize, kalibr_warnings
+
+    rng = np.random.default_rng(4)
+    rec = ImuData({"gyro_x": rng.normal(0, 1e-4, 4096), "gyro_z": rng.normal(0, 3e-5, 4096)},
+                  rate_hz=100.0, source="bench", fmt="npy", n_total=4096)
+    res = characterize(rec)
+    assert kalibr_warnings(res) == []
+    x = res.channel("gyro_x")
+    no_n = dataclasses.replace(x, terms={**x.terms, "N": dataclasses.replace(
+        x.terms["N"], value=0.0, ci_low=0.0, ci_high=0.0)})
+    hidden = dataclasses.replace(res, channels=(no_n, res.channel("gyro_z")))
+    warns = kalibr_warnings(hidden)
+    assert any("gyro_x's model has no white-noise term" in w for w in warns), warns
+    assert kalibr_warnings(hidden, axis="z") == []

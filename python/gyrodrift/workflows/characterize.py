@@ -551,6 +551,17 @@ def kalibr_warnings(res: CharacterizeResult, axis: str = "worst") -> list[str]:
             out.append(f"{c.channel}: no model of the chosen terms fits inside the Allan "
                        f"interval band; it was widened {scale:.3g}x (far beyond the measured "
                        "curve's interval): the terms are approximate")
+    for (sensor, term), key in KALIBR_KEYS.items():
+        if term != "N":
+            continue
+        # An axis whose model holds no white noise cannot be the worst axis: the density
+        # then comes from the others, which may understate this axis's noise.
+        for c in res.channels:
+            if (c.sensor == sensor and term in c.terms and c.terms[term].value == 0.0
+                    and (axis == "worst" or c.channel.endswith("_" + axis))):
+                out.append(f"{key}: {c.channel}'s model has no white-noise term (0); the "
+                           "exported density comes from the other axes and may understate "
+                           f"{c.channel}'s noise")
     for (_sensor, term), key in KALIBR_KEYS.items():
         if term != "K":
             continue
