@@ -3,7 +3,7 @@
 //   GyroMonitorSettings(*, rate_hz, octaves, arw_factor, bias_instability_factor,
 //       rate_random_walk_factor, false_alarm_probability, stuck_samples, saturated_samples,
 //       reidentify, block_samples, retune_blocks, min_samples, memory_blocks, max_step,
-//       max_rel_stderr)                       durations in samples (the caller converts seconds)
+//       max_rel_stderr, adapt_ar)             durations in samples (the caller converts seconds)
 //   GyroMonitorRun(settings, model, reference_avar, reference_edf)      double state
 //   GyroMonitorRunF32(settings, model, reference_avar, reference_edf)   float state, as on the target
 //     model: (a1, a2, q, r, mean); reference_avar: expected Allan variance per octave;
@@ -48,6 +48,7 @@ struct MonitorSettingsPy {
   double memory_blocks = 0.0;
   double max_step = 0.1;
   double max_rel_stderr = 0.5;
+  bool adapt_ar = true;  // false: a1, a2 held, q and r tracked
 
   void check() const {
     auto bad = [](const std::string& what) { throw py::value_error("GyroMonitorSettings." + what); };
@@ -93,6 +94,7 @@ struct MonitorSettingsPy {
     s.drift.memory_blocks = static_cast<Scalar>(memory_blocks);
     s.drift.max_step = static_cast<Scalar>(max_step);
     s.drift.max_rel_stderr = static_cast<Scalar>(max_rel_stderr);
+    s.drift.adapt_ar = adapt_ar;
     return s;
   }
 };
@@ -310,10 +312,10 @@ void bind_monitor(pybind11::module_& m) {
                        double rate_random_walk_factor, double false_alarm_probability, std::int64_t stuck_samples,
                        std::int64_t saturated_samples, bool reidentify, std::int64_t block_samples,
                        std::int64_t retune_blocks, std::int64_t min_samples, double memory_blocks, double max_step,
-                       double max_rel_stderr) {
+                       double max_rel_stderr, bool adapt_ar) {
              S s{rate_hz, octaves, arw_factor, bias_instability_factor, rate_random_walk_factor,
                  false_alarm_probability, stuck_samples, saturated_samples, reidentify, block_samples,
-                 retune_blocks, min_samples, memory_blocks, max_step, max_rel_stderr};
+                 retune_blocks, min_samples, memory_blocks, max_step, max_rel_stderr, adapt_ar};
              s.check();
              return s;
            }),
@@ -325,7 +327,7 @@ void bind_monitor(pybind11::module_& m) {
            py::arg("reidentify") = d.reidentify, py::arg("block_samples") = d.block_samples,
            py::arg("retune_blocks") = d.retune_blocks, py::arg("min_samples") = d.min_samples,
            py::arg("memory_blocks") = d.memory_blocks, py::arg("max_step") = d.max_step,
-           py::arg("max_rel_stderr") = d.max_rel_stderr)
+           py::arg("max_rel_stderr") = d.max_rel_stderr, py::arg("adapt_ar") = d.adapt_ar)
       .def_readwrite("rate_hz", &S::rate_hz)
       .def_readwrite("octaves", &S::octaves)
       .def_readwrite("arw_factor", &S::arw_factor)
@@ -340,7 +342,8 @@ void bind_monitor(pybind11::module_& m) {
       .def_readwrite("min_samples", &S::min_samples)
       .def_readwrite("memory_blocks", &S::memory_blocks)
       .def_readwrite("max_step", &S::max_step)
-      .def_readwrite("max_rel_stderr", &S::max_rel_stderr);
+      .def_readwrite("max_rel_stderr", &S::max_rel_stderr)
+      .def_readwrite("adapt_ar", &S::adapt_ar);
   bind_run<double>(m, "GyroMonitorRun", "The gyro monitor with double state over whole records.");
   bind_run<float>(m, "GyroMonitorRunF32", "The gyro monitor with float state (as on the target).");
   py::list names;

@@ -283,6 +283,23 @@ def test_reidentification_retunes_on_a_long_record(rng: np.random.Generator) -> 
     assert np.all(np.isfinite(tr.gain0))
 
 
+def test_reidentify_ar_false_holds_the_ar_coefficients(rng: np.random.Generator) -> None:
+    """[monitor] reidentify_ar = false reaches the re-identification: a1 and a2 of its running
+    estimate stay at the configured model's while q moves; with the default (true) the AR
+    part is estimated too (the same record and settings otherwise)."""
+    true = (1.2, -0.3, 4e-10, 1e-8, 0.0)
+    y = _ar2_record(rng, 200_000, *true[:4])
+    ref = reference_from_model((1.1, -0.25, 1e-10, 1e-8, 0.0), RATE_HZ, 12)
+    held = run_monitor(y, RATE_HZ, ref, report_every_s=60.0, settings=MonitorConfig(
+        octaves=12, reidentify=True, reidentify_ar=False, min_learn_s=100.0, retune_s=60.0))
+    free = run_monitor(y, RATE_HZ, ref, report_every_s=60.0, settings=MonitorConfig(
+        octaves=12, reidentify=True, min_learn_s=100.0, retune_s=60.0))
+    assert np.all(held.est_a1 == held.est_a1[0]) and np.all(held.est_a2 == held.est_a2[0])
+    assert held.est_a1[0] == pytest.approx(1.1, rel=1e-12)
+    assert held.est_q[-1] != pytest.approx(1e-10, rel=1e-3)
+    assert free.est_a1[-1] != pytest.approx(1.1, rel=1e-3)
+
+
 # ----------------------------------------------------------------------------- configuration
 
 

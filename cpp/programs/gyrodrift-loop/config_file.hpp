@@ -69,6 +69,7 @@ struct MonitorSpec {
   double false_alarm_probability = 0.0;
   std::uint32_t stuck_samples = 0, saturated_samples = 0;
   bool reidentify = false;
+  bool reidentify_ar = true;  // false: a1, a2 held, q and r tracked
   std::uint32_t block_samples = 0, retune_blocks = 0;
   std::uint64_t min_samples = 0;
   double memory_blocks = 0.0, max_step = 0.0, max_rel_stderr = 0.0;
@@ -551,6 +552,7 @@ inline void build(const std::array<ChannelRead, kImuChannels>& chans, const Sect
     m.stuck_samples = static_cast<std::uint32_t>(lround_nonneg(num(schema::kMonitorStuckAlarmS) * rate));
     m.saturated_samples = static_cast<std::uint32_t>(lround_nonneg(num(schema::kMonitorSaturatedAlarmS) * rate));
     m.reidentify = monitor.value(schema::kMonitorReidentify).boolean;
+    m.reidentify_ar = monitor.value(schema::kMonitorReidentifyAr).boolean;
     const double block_s = num(schema::kMonitorBlockS);
     m.block_samples = static_cast<std::uint32_t>(std::max(8LL, lround_nonneg(block_s * rate)));  // MIN_BLOCK_SAMPLES
     m.retune_blocks = static_cast<std::uint32_t>(std::max(1LL, lround_nonneg(num(schema::kMonitorRetuneS) / block_s)));

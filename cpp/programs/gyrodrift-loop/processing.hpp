@@ -67,6 +67,7 @@ class Processing {
     s.drift.retune_blocks = m.retune_blocks;
     s.drift.min_samples = m.min_samples;
     s.drift.memory_blocks = static_cast<float>(m.memory_blocks);
+    s.drift.adapt_ar = m.reidentify_ar;
     s.drift.max_step = static_cast<float>(m.max_step);
     s.drift.max_rel_stderr = static_cast<float>(m.max_rel_stderr);
     std::array<Proc::MonitorReference, kImuGyroChannels>& refs = monitor_references_;  // the monitors read it

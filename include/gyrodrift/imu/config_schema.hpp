@@ -215,6 +215,12 @@ inline constexpr FieldSpec kMonitorReidentify{
     -kInf, false, kInf, false, true, false, false,
     "", "finite", "",
     "re-identify the drift model online and retune the steady-state AR(2)-Kalman gain"};
+inline constexpr FieldSpec kMonitorReidentifyAr{
+    "monitor", "reidentify_ar", false, FieldKind::boolean,
+    false, true, 1.0, "",
+    -kInf, false, kInf, false, true, false, false,
+    "", "finite", "",
+    "re-identify the drift's AR coefficients a1, a2 too (false: hold them at the configured model and track q and r only, which follows a change of the noise levels in a shorter memory)"};
 inline constexpr FieldSpec kMonitorBlockS{
     "monitor", "block_s", false, FieldKind::number,
     false, true, 1.0, "",
@@ -282,6 +288,7 @@ inline constexpr const FieldSpec* kFields[] = {
     &kMonitorStuckAlarmS,
     &kMonitorSaturatedAlarmS,
     &kMonitorReidentify,
+    &kMonitorReidentifyAr,
     &kMonitorBlockS,
     &kMonitorRetuneS,
     &kMonitorMinLearnS,
@@ -289,7 +296,7 @@ inline constexpr const FieldSpec* kFields[] = {
     &kMonitorMaxStep,
     &kMonitorIdentifiedMaxRelStderr,
 };
-inline constexpr std::size_t kFieldCount = 35;
+inline constexpr std::size_t kFieldCount = 36;
 
 inline constexpr const char* kSchema = "gyrodrift.processor";
 inline constexpr int kVersion = 1;

@@ -274,6 +274,7 @@ class MonitorConfig:
     stuck_alarm_s: float = _monitor_default("stuck_alarm_s")
     saturated_alarm_s: float = _monitor_default("saturated_alarm_s")
     reidentify: bool = _monitor_default("reidentify")
+    reidentify_ar: bool = _monitor_default("reidentify_ar")
     block_s: float = _monitor_default("block_s")
     retune_s: float = _monitor_default("retune_s")
     min_learn_s: float = _monitor_default("min_learn_s")

@@ -234,6 +234,7 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
         f"  s.drift.memory_blocks = {float_literal(n['memory_blocks'])};",
         f"  s.drift.max_step = {float_literal(m.max_step)};",
         f"  s.drift.max_rel_stderr = {float_literal(m.identified_max_rel_stderr)};",
+        f"  s.drift.adapt_ar = {'true' if m.reidentify_ar else 'false'};",
         "  return s;",
         "}",
         "// Starts the monitor on the processor (after construction, before the first step).",

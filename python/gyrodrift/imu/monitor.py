@@ -410,7 +410,7 @@ def _settings(native: Any, cfg: MonitorConfig, rate_hz: float, octaves: int) -> 
         reidentify=cfg.reidentify, block_samples=n["block_samples"],
         retune_blocks=n["retune_blocks"], min_samples=n["min_samples"],
         memory_blocks=n["memory_blocks"], max_step=cfg.max_step,
-        max_rel_stderr=cfg.identified_max_rel_stderr)
+        max_rel_stderr=cfg.identified_max_rel_stderr, adapt_ar=cfg.reidentify_ar)
 
 
 def run_monitor(y_rad_s: ArrayLike, rate_hz: float, reference: MonitorReference, *,

@@ -349,6 +349,10 @@ FIELDS: tuple[Field, ...] = (
           lo=0.0, hi=86400.0),
     Field("monitor", "reidentify", "bool", "", False,
           "re-identify the drift model online and retune the steady-state AR(2)-Kalman gain"),
+    Field("monitor", "reidentify_ar", "bool", "", True,
+          "re-identify the drift's AR coefficients a1, a2 too (false: hold them at the "
+          "configured model and track q and r only, which follows a change of the noise "
+          "levels in a shorter memory)"),
     Field("monitor", "block_s", "float", "s", 1.0,
           "samples per update of the re-identified parameters, in seconds (at least 8 samples)",
           lo=0.0, lo_open=True, hi=3600.0),
