@@ -56,6 +56,8 @@ BUDGET_MB: dict[str, float] = {
     "compare": 300.0,
     # two parametric-bootstrap replicates of the record's length
     "identify-gmwm-bootstrap": 250.0,
+    # the offline db8 wavelet denoiser in the float32 lifting core (the MCU build's)
+    "filter-wavelet-float": 250.0,
 }
 #: The commands run when --commands is not given (fit-full-rate takes half an hour at 1e8
 #: samples on a loaded 2-core machine).
@@ -98,6 +100,9 @@ def command_args(command: str, record: Path, out: Path, variant: str = "npy") ->
                     "--json"],
         "identify-gmwm-bootstrap": ["identify", str(record), *rate, "--identifier", "gmwm",
                                     "--bootstrap", "2", "--json"],
+        "filter-wavelet-float": ["filter", str(record), *rate, "-o",
+                                 str(out.with_name("filtered.npy")), "--filter", "wavelet",
+                                 "--core", "float", "--json"],
     }[command]
 
 
