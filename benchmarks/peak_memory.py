@@ -19,7 +19,7 @@ in pieces into a temporary file: ``rad-s`` (1-D float64 in rad/s, ``--gyro-units
 ``float32`` (1-D float32 in deg/h), ``2d`` ((n, 3) float64 in deg/h, the middle column:
 ``--column 1``, characterize ``--column-channels=-,gyro_z,-``), ``drop-nan`` (1-D float64
 with every 1000th sample NaN, ``--drop-nan``) and ``text`` (CSV ``t_s,gyro_z``, the rate from
-its time column; parsing it takes about 5 us per line).
+its time column; parsing it takes about 0.5-1 us per line).
 
 Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit:rad-s,...]
 [--variants npy,rad-s,...] [--json]

@@ -168,3 +168,22 @@ def test_filter_in_pieces_refuses_a_record_with_nan(
     err = capsys.readouterr().err
     assert code == 2 and "error:" in err and "Traceback" not in err
     assert not (tmp_path / "f.npy").exists()
+
+
+@pytest.mark.parametrize("piece_path", [True, False])
+def test_wpacket_refuses_the_float_core_in_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch, piece_path: bool) -> None:
+    """wpacket has no float core (PyWavelets, float64): --core float is refused with one
+    line on the piece path as on the in-memory one, and nothing is written."""
+    np.save(tmp_path / "r.npy", _record())
+    monkeypatch.setattr(filter_cli, "FILE_BACKED_MIN", 4096 if piece_path else 1 << 30)
+    code = cli.main(with_units(["filter", str(tmp_path / "r.npy"), "--rate-hz", "100", "-o",
+                                str(tmp_path / "f.npy"), "--filter", "wpacket", "--core",
+                                "float"]))
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.strip().splitlines() == [
+        "gyrodrift filter: error: wpacket runs in Python (PyWavelets, float64) only; drop "
+        "--core float"]
+    assert not (tmp_path / "f.npy").exists()

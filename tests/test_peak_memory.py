@@ -65,7 +65,7 @@ VARIANT_COMMANDS = ["allan:rad-s", "allan:2d", "allan:drop-nan"]
 #: 1e7 samples: characterize with --drop-nan read its record whole before (about 24 bytes
 #: per sample: the column, its conversion and the row mask, 380 MB at this size).
 CHARACTERIZE_COMMANDS = ["characterize:drop-nan"]
-#: Text records are parsed at about 5 us per line: 1.1e6 rows (above the 2^20 samples from
+#: Text records are parsed at about 0.5-1 us per line: 1.1e6 rows (above the 2^20 samples from
 #: which the columns go to temporary files). numpy.genfromtxt over the whole file holds
 #: about 300 bytes per line (its per-line lists; 390 MB at 1e6 rows), above every budget;
 #: in blocks of lines the parse holds a few MB.

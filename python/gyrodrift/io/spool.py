@@ -42,8 +42,8 @@ __all__ = ["BLOCK_ROWS", "SPOOL_MIN_SAMPLES", "TEXT_BLOCK_LINES", "SampleSpool",
 SPOOL_MIN_SAMPLES = 1 << 20
 #: Rows of a .npy array read at a time.
 BLOCK_ROWS = 1 << 18
-#: Lines of a text table parsed at a time (``numpy.genfromtxt`` holds a few hundred bytes
-#: per line while it parses: about 20 MB per block).
+#: Lines of a text table parsed at a time (``numpy.genfromtxt``, where it parses a block,
+#: holds a few hundred bytes per line: about 20 MB per block).
 TEXT_BLOCK_LINES = 1 << 16
 
 
