@@ -27,7 +27,8 @@ is computed the same way: each window is rounded to float32 as the whole record 
 coefficients are the whole float32 transform's (each is the same float32 lifting arithmetic
 on the same float32 samples, whatever the window), the median is taken of the float32
 level-1 details (the mean of the middle two in float32, as ``numpy.median`` of float32
-values), and the threshold is applied to the float32 coefficients by the same function.
+values), and the threshold is applied to the float32 coefficients with the same float32
+operations.
 
 Memory: a window of about `piece` + 2 `margin` samples and its transforms, and the counts
 (65536 per pass); the record is read once per pass (4-8 passes).
@@ -42,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.io.records import is_file_backed, iter_chunks
 
 __all__ = ["wavelet_denoise_pieces", "wavelet_packet_denoise_pieces"]
@@ -227,13 +228,7 @@ def wavelet_denoise_pieces(x: Any, wavelet: str = "db8", level: int = 5, mode: s
     ...                             rtol=0, atol=1e-5))
     (dtype('float32'), True)
     """
-    from gyrodrift.filters.wavelet import (
-        SUPPORTED_WAVELETS,
-        _check_dtype,
-        _threshold,
-        wavedec,
-        waverec,
-    )
+    from gyrodrift.filters.wavelet import SUPPORTED_WAVELETS, wavedec, waverec
 
     def wavelet_ok() -> None:
         if wavelet not in SUPPORTED_WAVELETS:
@@ -244,7 +239,9 @@ def wavelet_denoise_pieces(x: Any, wavelet: str = "db8", level: int = 5, mode: s
     modes = ("soft", "hard", "forced")
     if mode not in modes:
         raise GyrodriftValueError(f"mode must be one of {modes}, got {mode!r}")
-    dt = _check_dtype(dtype)
+    dt = np.dtype(dtype)
+    if dt not in (np.dtype(np.float64), np.dtype(np.float32)):
+        raise GyrodriftTypeError(f"dtype must be float64 or float32, got {dt}")
     level = int(level)
     pad = _Padded(arr, level)
     step, margin = _pieces_plan(level, piece)
@@ -270,8 +267,11 @@ def wavelet_denoise_pieces(x: Any, wavelet: str = "db8", level: int = 5, mode: s
         n_approx = w.size >> level
         if mode == "forced":
             c[n_approx:] = 0
-        else:  # the whole-record denoiser's thresholding (float32 stays float32)
-            c[n_approx:] = _threshold(c[n_approx:], t, mode)
+        else:  # as the whole-record denoiser thresholds (float32 stays float32)
+            d = c[n_approx:]
+            mag = np.maximum(np.abs(d) - t, 0.0)
+            c[n_approx:] = (np.where(np.abs(d) < t, 0.0, d) if mode == "hard"
+                            else np.sign(d) * mag).astype(d.dtype, copy=False)
         y = waverec(c, wavelet, level, dtype=dt)[margin:margin + b - a]
         if not np.all(np.isfinite(y)):
             raise GyrodriftValueError(
