@@ -120,6 +120,23 @@ def test_a_gyro_estimate_does_not_depend_on_the_other_gyros(dtype: type) -> None
     assert not np.array_equal(b[0].estimate, a[0].estimate)
 
 
+def test_a_gyro_without_samples_does_not_stop_the_others() -> None:
+    # Gyro 0 delivers only NaN from sample 10000 on (a failed gyro; the processor does the same
+    # with values its checks refuse). Its turn passes on after a block's worth of missed
+    # samples, so gyros 1 and 2 keep a third of the blocks each and keep retuning; they used
+    # to stop at the 17 blocks they had when gyro 0's turn came.
+    n = 60000
+    y = _gyros(n, seed=7)
+    y[10000:, 0] = np.nan
+    shared = SharedDriftIdentifier([DriftParams(0.18, 0.1, 1.5, 0.7, MEAN)] * 3, SMALL)
+    traces = shared.push(y)
+    assert shared.rejected(0) == n - 10000 and shared.samples(0) == 10000
+    assert traces[0].samples[-1] <= 10000  # no block from missing samples
+    for c in (1, 2):
+        assert shared.blocks(c) >= n // (3 * SMALL.block_samples) - 2
+        assert shared.retunes(c) > 0 and shared.status(c) == "tracking"
+
+
 def test_three_gyros_track_a_step_change_within_three_times_the_single_time() -> None:
     # q = r = 1, then r x2 halfway; memory_blocks 100, a1, a2 held (the single-gyro tracking
     # test's settings and bounds: within 20 % from 40000 samples, 100 s at 400 Hz, after the
