@@ -23,6 +23,7 @@ import math
 import time
 
 import gyrodrift
+import numpy as np
 from gyrodrift._native import core
 from gyrodrift.reference.lag_drift import LagStatisticsReference, lag_drift_fit, lag_loglike
 from online_drift_mc import PAIRS, RATIOS, Case, simulate
@@ -38,11 +39,21 @@ def main() -> None:
     ap.add_argument("--lags", type=int, default=32, help="L (default 32)")
     ap.add_argument("--kind", choices=("exact", "whittle"), default="exact",
                     help="likelihood from the lag statistics (default exact)")
+    ap.add_argument("--float32", action="store_true",
+                    help="round the statistics to float32 before the fit (what compensated "
+                         "float sums on the target hold at best)")
+    ap.add_argument("--no-head", action="store_true",
+                    help="with --kind whittle: the first L samples replaced by the record's "
+                         "mean in the mean's correction (a target that keeps no first samples)")
     ap.add_argument("--check", action="store_true",
                     help="also print the lag likelihood against the core's at the ML fit")
     args = ap.parse_args()
+    if args.no_head and args.kind != "whittle":
+        ap.error("--no-head needs --kind whittle (the exact likelihood uses the first samples)")
     loglike = core("drift").drift_loglike
-    print(f"# kind {args.kind}, L = {args.lags}; z = (lag fit - ML) / offline stderr; "
+    f32 = (", statistics rounded to float32" if args.float32 else "") + (
+        ", no first samples" if args.no_head else "")
+    print(f"# kind {args.kind}, L = {args.lags}{f32}; z = (lag fit - ML) / offline stderr; "
           "d_LL = sign(D) sqrt(|D|), D = 2 (logL_ML - logL_lag) (exact likelihoods)")
     print(f"{'n':>7} {'a1':>7} {'a2':>7} {'r/q':>4} {'seed':>4} {'z_a1':>6} {'z_a2':>6} "
           f"{'z_q':>6} {'z_r':>6} {'z_mean':>6} {'d_LL':>6} {'a2_ML':>7} {'a2_lag':>7} "
@@ -57,6 +68,13 @@ def main() -> None:
                     st = LagStatisticsReference(args.lags)
                     for i in range(0, n, 4096):
                         st.push(y[i:i + 4096])
+                    if args.no_head:
+                        st.head = np.full(st.lags, st.total / st.n)
+                    if args.float32:
+                        st.total = float(np.float32(st.total))
+                        for name in ("products", "head", "tail"):
+                            setattr(st, name, getattr(st, name).astype(np.float32)
+                                    .astype(np.float64))
                     est = lag_drift_fit(st, args.kind)
                     fit = gyrodrift.fit_drift_model(y, rate_hz=400.0)
                     z = [(getattr(est, k) - getattr(fit, k)) / fit.stderr[k] for k in NAMES]

@@ -31,9 +31,12 @@ From these, for any (a1, a2, q, r, mean), with z_t = y_t - mean:
 Both are quadratic in the mean and scale as 1/s with a common factor s of (q, r), so the fit
 (`lag_drift_fit`) maximises the profile log-likelihood over (u1, u2, u3) only
 (a2 = tanh u2, a1 = tanh u1 (1 - a2), q / (q + r) = logistic u3, as `fit_drift_model`), with
-scipy's BFGS from a multi-start on a grid of partial autocorrelations that has both signs of
-a2 (the likelihood of a pair next to a2 = 0 can have a maximum on each side) and three
-variance splits. The steady state is the Riccati recursion continued from the filter over the
+scipy's BFGS from the two best points on each side of a2 = 0 of a grid of partial
+autocorrelations ((-0.5, 0.3, 0.7, 0.95) x (+-0.05, +-0.3)) and splits (0.2, 0.5, 0.8).
+Next to a2 = 0 the likelihood can have a maximum on each side of the fold, and which one a
+start reaches is set by its split as much as by its a2: when every run ends on one side, the
+maximum over (u1, u3) with u2 held at the mirror of the best one's starts one more run on the
+other side. The steady state is the Riccati recursion continued from the filter over the
 first L samples until the innovation variance stops changing.
 
 Choice of L: the neglected terms are of order rho^L per sample; L >= ln(1e-10) / ln(rho)
@@ -322,12 +325,19 @@ def lag_drift_fit(st: LagStatisticsReference, kind: str = "exact") -> LagDriftFi
     ranked = sorted(starts, key=negll)
     # the two best starts on each side of a2 = 0
     chosen = [u for u in ranked if u[1] < 0][:2] + [u for u in ranked if u[1] > 0][:2]
-    best: scipy.optimize.OptimizeResult | None = None
-    for u in chosen:
-        res = scipy.optimize.minimize(negll, u, method="BFGS", options={"gtol": 1e-10})
-        if best is None or res.fun < best.fun:
-            best = res
-    assert best is not None
+    modes = [scipy.optimize.minimize(negll, u, method="BFGS", options={"gtol": 1e-10})
+             for u in chosen]
+    best = min(modes, key=lambda res: float(res.fun))
+    if all(np.sign(m.x[1]) == np.sign(best.x[1]) for m in modes):
+        # Across the fold: every start ended on one side of a2 = 0 (which side is set by
+        # the split as much as by the start's a2). Maximise over (u1, u3) with a2 held at
+        # the mirror of the best mode's, then over all three from there.
+        u2 = -float(best.x[1])
+        side = scipy.optimize.minimize(lambda v: negll(np.array([v[0], u2, v[1]])),
+                                       best.x[[0, 2]], method="BFGS", options={"gtol": 1e-10})
+        other = scipy.optimize.minimize(negll, np.array([side.x[0], u2, side.x[1]]),
+                                        method="BFGS", options={"gtol": 1e-10})
+        best = min((best, other), key=lambda res: float(res.fun))
     a1, a2, lam = natural(best.x)
     ll, d, scale = profile(a1, a2, lam)
     q, r = float(lam * scale), float((1.0 - lam) * scale)
