@@ -89,13 +89,17 @@ def test_whittle_form_equals_the_frequency_grid() -> None:
     assert lag_loglike(st, a1, a2, q, r, mean, kind="whittle") == pytest.approx(want, rel=1e-12)
 
 
-@pytest.mark.parametrize(("a1", "a2", "seed"), [(*PAIRS[0], 1), (*PAIRS[1], 1)])
-def test_fit_reaches_the_offline_ml_fit(a1: float, a2: float, seed: int) -> None:
+@pytest.mark.parametrize(("a1", "a2", "n", "seed"),
+                         [(*PAIRS[0], 60000, 1), (*PAIRS[1], 60000, 1), (*PAIRS[0], 240000, 5)])
+def test_fit_reaches_the_offline_ml_fit(a1: float, a2: float, n: int, seed: int) -> None:
     """From the statistics alone the fit lands on the offline ML fit of the same record:
     every parameter and the mean within 0.05 of the offline standard error (the two
     optimisers' stopping rules; the requirement is 1), and its exact log-likelihood within
-    0.01 of the offline maximum."""
-    y = _record(a1, a2, 1.0, 60000, seed)
+    0.01 of the offline maximum. The third record has a maximum on each side of a2 = 0
+    (a2 +0.059 and -0.070, the second 0.3 log-likelihood units lower, 8 standard errors
+    away) and every start of the grid ranked best runs to the lower one: the run across the
+    fold finds the other."""
+    y = _record(a1, a2, 1.0, n, seed)
     est = lag_drift_fit(_stats(y, 32))
     fit = gyrodrift.fit_drift_model(y, rate_hz=400.0)
     for k in ("a1", "a2", "q", "r", "mean"):
