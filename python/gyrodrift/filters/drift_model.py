@@ -212,8 +212,8 @@ class DriftModelFit:
     >>> fit = fit_drift_model(x, 100.0, "white")
     >>> fit.model, round(fit.r, 3), round(fit.mean, 3), fit.n
     ('white', 0.954, 0.452, 1000)
-    >>> sorted(fit.as_dict())[:4]
-    ['a1', 'a2', 'aic', 'bic']
+    >>> sorted(fit.as_dict())[:5]
+    ['a1', 'a2', 'aic', 'ar_identified', 'bic']
     """
 
     model: str
