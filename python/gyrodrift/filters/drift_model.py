@@ -19,7 +19,11 @@ drift), four moment fits that give 30, 60, 85, 95 % of the variance to the white
 grid of partial autocorrelations (+-0.9, 0) with 95 % white noise; each is optimised coarsely and
 the best optimum finely. On long records the multi-start runs on the first 2^14 samples and its
 distinct modes (within 3 log-likelihood units) warm-start quasi-Newton refinements on the full
-record.
+record. Next to a2 = 0 (the fold, where the Fisher information is singular) the likelihood can
+have a maximum on each side, and which one a run reaches is set by its start's split as much as
+by its a2: when the estimate is within _FOLD_Z expected standard errors of a2 = 0, one more run
+starts from its mirror (u2 -> -u2, first with u2 held, then free) and the higher maximum is
+kept; the other is reported, and a tie within _FOLD_TIE_LL as the AR part not identified.
 
 A record memory-mapped from a .npy file (1-D float64, as `numpy.load(..., mmap_mode="r")` gives
 it) longer than 2^20 samples is never held in memory: every pass over the whole record (its
