@@ -113,12 +113,12 @@ _SPLIT_DROP_MIN = 4.0
 _PROFILE_N = 1 << 16
 #: The fold a2 = 0 (ar2+white): the fit runs across it from its estimate's mirror when the
 #: estimate is within _FOLD_Z expected standard errors of it (the lower of two maxima seen on
-#: either side was 4.7 away, on a 10 h record of 0.6868/-0.0213; the papers' 0.2297/0.1638
-#: is 10 away at 3e4 samples and more on longer records), and calls the two maxima tied, the
-#: AR part not identified by the record, when their log-likelihoods differ by at most
+#: either side was about 4.7 away, on a 10 h record of 0.6868/-0.0213; the papers'
+#: 0.2297/0.1638 is 10 away at 3e4 samples and more on longer records) and not on it
+#: (|u2| < _ON_FOLD, about |a2|: its mirror is itself), and calls the two maxima tied, the AR
+#: part not identified by the record, when their log-likelihoods differ by at most
 #: _FOLD_TIE_LL: 20 times the optimisers' stopping tolerance (1e-4 log-likelihood units,
-#: _optimise), so a tie is a tie to the optimiser, and maxima 0.024 and more apart, as seen
-#: next to the fold, are not.
+#: _optimise), a tie to the optimiser (maxima 0.002 to 0.6 apart were seen next to the fold).
 _FOLD_Z = 10.0
 _ON_FOLD = 1e-3
 _FOLD_TIE_LL = 2e-3
