@@ -21,6 +21,14 @@ in pieces into a temporary file: ``rad-s`` (1-D float64 in rad/s, ``--gyro-units
 with every 1000th sample NaN, ``--drop-nan``) and ``text`` (CSV ``t_s,gyro_z``, the rate from
 its time column; parsing it takes about 5 us per line).
 
+IMU log variants (LOG_VARIANTS; they carry their rate and units, so no ``--rate-hz`` or units
+flag is given, and the single-channel commands read gyro z): ``bin`` (the replay harness's
+binary frame log, 42 bytes per sample), ``blf`` (a Vector BLF CAN log written by python-can,
+four frames per sample: about 0.1 ms per sample to write and as much to read), ``replay-csv``
+(the harness's IMU CSV) and ``psins`` (a PSINS ``.imu`` text log of integer counts). The gyro
+holds the same white-noise level as the other variants (30 deg/h per sample, in rad/s), the
+accelerometer white noise around 1 g on z.
+
 Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit:rad-s,...]
 [--variants npy,rad-s,...] [--json]
 """
@@ -34,6 +42,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -73,16 +82,21 @@ VARIANTS: dict[str, tuple[list[str], list[str]]] = {
     "drop-nan": (["--drop-nan"], ["--drop-nan"]),
     "text": ([], []),
 }
+#: IMU log variants (module docstring) and their file suffixes.
+LOG_VARIANTS: dict[str, str] = {"bin": ".bin", "blf": ".blf", "replay-csv": ".csv",
+                                "psins": ".imu"}
 
 
 def command_args(command: str, record: Path, out: Path, variant: str = "npy") -> list[str]:
     """The command line run for `command` (its JSON output, no plots or reports) on the
     record of `variant` (VARIANTS; its units flag replaces deg/h)."""
-    single, multi = VARIANTS[variant]
+    single, multi = VARIANTS.get(variant, ([], []))
     extra = multi if command == "characterize" else single
     units = "rad/s" if variant == "rad-s" else "deg/h"
     rate = ["--rate-hz", f"{RATE_HZ:g}", "--gyro-units", units,
             *[a for a in extra if a not in ("--gyro-units", "rad/s")]]
+    if variant in LOG_VARIANTS:
+        rate = []  # the log's own time base and units
     walk = str(record.with_name("walk.npy"))
     return {
         "allan": ["allan", str(record), *rate, "--json"],
@@ -122,6 +136,9 @@ def write_record(path: Path, n: int, walk: bool = False, chunk: int = 1 << 22) -
 def write_variant(path: Path, n: int, variant: str, chunk: int = 1 << 22) -> None:
     """The white-noise record of `write_record` (the same samples, 30 deg/h per sample) in
     the form of `variant` (VARIANTS), written piece by piece."""
+    if variant in LOG_VARIANTS:
+        write_log_variant(path, n, variant)
+        return
     rng = np.random.default_rng(0)
     if variant == "text":
         with open(path, "w") as fh:
@@ -150,6 +167,60 @@ def write_variant(path: Path, n: int, variant: str, chunk: int = 1 << 22) -> Non
             mm[start:stop] = piece
         mm.flush()
     del mm
+
+
+def write_log_variant(path: Path, n: int, variant: str, chunk: int = 1 << 16) -> None:
+    """N samples of the IMU log `variant` (LOG_VARIANTS), written piece by piece: gyro white
+    noise of 30 deg/h per sample (in rad/s), accelerometer white noise of 0.01 m/s^2 around
+    1 g on z, 400 Hz. The binary log and the CSV through the package's frame encoder and
+    column layout, the BLF log through python-can's writer (the DBC encoding of each sample's
+    four frames), the PSINS log as integer counts (0.01 arcsec and 1 ug*s per count)."""
+    from gyrodrift.codecs import encode_sample
+    from gyrodrift.codecs.wire import encode_frames, make_samples
+    from gyrodrift.io.imu_log import CSV_COLUMNS
+
+    rng = np.random.default_rng(0)
+    arcsec = np.pi / 180.0 / 3600.0
+    dt = 1.0 / RATE_HZ
+
+    def pieces() -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+        for start in range(0, n, chunk):
+            m = min(n, start + chunk) - start
+            gyro = rng.standard_normal((m, 3)) * 30.0 * arcsec  # 30 deg/h = 30 arcsec/s
+            accel = rng.standard_normal((m, 3)) * 1e-2 + np.array([0.0, 0.0, 9.80665])
+            yield start, (start + np.arange(m)) * dt, gyro, accel
+
+    if variant == "blf":
+        import can
+
+        with can.Logger(str(path)) as w:
+            for start, t, gyro, accel in pieces():
+                values = np.concatenate([gyro, accel], axis=1).astype(np.float32)
+                for k in range(t.size):
+                    for msg in encode_sample((start + k) % 65536, values[k]):
+                        msg.timestamp = float(t[k])
+                        msg.channel = 0
+                        w.on_message_received(msg)
+        return
+    with open(path, "wb") as fh:
+        if variant == "psins":
+            fh.write(b"% PSINS IMU log (benchmark)\n0 0 0 0 0 0\n"
+                     + f"34.2 108.9 380 0 {1e3 * dt:g} 9.79\n".encode()
+                     + b"0.01 0.01 0.01 1 1 1\n")
+        elif variant == "replay-csv":
+            fh.write((",".join(CSV_COLUMNS) + "\n").encode())
+        for start, t, gyro, accel in pieces():
+            if variant == "psins":
+                counts = np.column_stack([np.round(gyro * dt / (0.01 * arcsec)),
+                                          np.round(accel * dt / 9.80665e-6)])
+                np.savetxt(fh, counts, fmt="%d")
+                continue
+            s = make_samples(t, gyro, accel, seq0=start)
+            if variant == "bin":
+                fh.write(encode_frames(s).tobytes())
+            else:  # the columns of the harness's CSV; %.9g gives a float32 back exactly
+                np.savetxt(fh, np.column_stack([s.t_s, s.seq, s.flags, s.channels]),
+                           fmt=["%.6f", "%d", "%d"] + ["%.9g"] * 6, delimiter=",")
 
 
 def peak_mb(argv: list[str], cwd: Path) -> tuple[float, int, float, str]:
@@ -200,6 +271,8 @@ def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
 
 
 def _variant_path(d: Path, variant: str) -> Path:
+    if variant in LOG_VARIANTS:
+        return d / f"record-{variant}{LOG_VARIANTS[variant]}"
     return d / (f"record-{variant}.csv" if variant == "text" else f"record-{variant}.npy")
 
 
