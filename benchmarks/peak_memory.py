@@ -66,6 +66,12 @@ BUDGET_MB: dict[str, float] = {
     # two parametric-bootstrap replicates of the record's length
     "identify-gmwm-bootstrap": 250.0,
 }
+#: Tighter budgets for a command on one record variant, MB: `allan` on a BLF CAN log reads
+#: it at about 60 us per sample (python-can and cantools, four frames per sample), so the
+#: test runs it on 2.5e5 samples, where the whole-log read (about 450 bytes of Python
+#: objects per sample: 178 MB peak) stays under the command's 250 MB; 160 MB is above the
+#: read in blocks (129 MB) and below that.
+VARIANT_BUDGET_MB: dict[tuple[str, str], float] = {("allan", "blf"): 160.0}
 #: The commands run when --commands is not given (fit-full-rate takes half an hour at 1e8
 #: samples on a loaded 2-core machine).
 DEFAULT_COMMANDS = ("allan", "identify", "identify-gmwm", "fit", "characterize", "psd")
@@ -276,7 +282,7 @@ def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
             argv = [sys.executable, "-m", "gyrodrift",
                     *command_args(cmd, path, d / "out", variant)]
             peak, code, wall, last = peak_mb(argv, d)
-            budget = BUDGET_MB[cmd]
+            budget = VARIANT_BUDGET_MB.get((cmd, variant), BUDGET_MB[cmd])
             rows.append({"command": cmd, "samples": samples, "peak_mb": round(peak, 1),
                          "budget_mb": budget, "ok": code == 0 and peak <= budget,
                          "exit": code, "wall_s": round(wall, 1), "stderr": last,

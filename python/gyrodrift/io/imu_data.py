@@ -16,6 +16,10 @@ m/s^2) from:
   `gyrodrift.io.psins`), converted to rates by dividing by the sample interval.
 - the replay harness's IMU logs (``.bin``/``.gdf``, candump ``.log``, ``.asc``, ``.blf`` and
   its CSV; `gyrodrift.io.imu_log`), with their sequence numbers checked for lost samples.
+
+Text records, PSINS and IMU logs are read in blocks, and their channels kept in memory or,
+from ``gyrodrift.io.spool.SPOOL_MIN_SAMPLES`` samples on, in temporary files returned as
+memory maps (bounded memory whatever the record's length).
 - ROS bags (``.bag`` rosbag1; a rosbag2 directory or its ``.db3``/``.mcap`` file), read with
   the pure-Python ``rosbags`` package: one ``sensor_msgs/msg/Imu`` topic (``topic=``; the
   error lists the Imu topics when it is missing or ambiguous), timestamps from the message

@@ -2,7 +2,8 @@
 CSV, and CAN logs (candump `.log`, Vector `.asc`, `.blf`) through python-can's writers/readers.
 
 `write_imu_log` is also what `gyrodrift simulate` calls, so that a replay works with no
-recorded input.
+recorded input. `read_imu_log` returns a whole log; `ImuLogBlocks` gives the same samples in
+blocks, in bounded memory (what the analysis readers use).
 """
 
 from __future__ import annotations
