@@ -53,6 +53,7 @@ import numpy as np
 
 from gyrodrift import units
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
+from gyrodrift.io import spool as _spool
 from gyrodrift.io.records import (
     LOG_SUFFIXES,
     RATE_MAX_HZ,
@@ -774,11 +775,15 @@ class _ChannelSpool:
     :class:`gyrodrift.io.spool.SampleSpool` each, with `_finish`'s NaN policy applied row by
     row as they come: rows with a NaN/Inf channel are counted, and dropped ("drop") or, once
     there is one, no row is kept any more ("refuse": the caller raises after its other
-    checks, with the count)."""
+    checks, with the count). The six channels together stay in memory up to
+    SPOOL_MIN_SAMPLES samples (8 MB), as one column does: a record of six channels just
+    below SPOOL_MIN_SAMPLES samples would otherwise hold 48 MB."""
 
     def __init__(self, stack: contextlib.ExitStack, nan_policy: str) -> None:
         self.nan_policy = nan_policy
-        self.spools = [stack.enter_context(SampleSpool(name=name)) for name in CHANNELS]
+        memory_max = _spool.SPOOL_MIN_SAMPLES // len(CHANNELS)
+        self.spools = [stack.enter_context(SampleSpool(memory_max, name=name))
+                       for name in CHANNELS]
         self.n_total = 0
         self.n_bad = 0
 
