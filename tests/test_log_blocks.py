@@ -451,3 +451,17 @@ def test_sequence_breaks_across_blocks_are_counted(tmp_path: Path, rng: np.rando
     imu_log.write_samples(path, s.take(np.flatnonzero(keep)))
     with pytest.raises(GyrodriftValueError, match="2 breaks in the sequence numbers"):
         load_imu(path)
+
+
+def test_six_channels_stay_in_memory_up_to_one_columns_threshold(
+        tmp_path: Path, rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch) -> None:
+    """load_imu keeps a log's six channels in memory up to SPOOL_MIN_SAMPLES samples
+    together (one column's 8 MB), not each: characterize on a BLF log of 1e6 samples held
+    48 MB of channels and exceeded its budget (253 MB)."""
+    monkeypatch.setattr(spool, "SPOOL_MIN_SAMPLES", 600)
+    t_s, gyro, accel = _record(rng, 150)  # 150 x 6 channels > 600 samples
+    path = write_imu_log(tmp_path / "rec.bin", t_s, gyro, accel)
+    rec = load_imu(path)
+    assert all(isinstance(v, np.memmap) for v in rec.channels.values())
+    short = write_imu_log(tmp_path / "short.bin", t_s[:90], gyro[:90], accel[:90])
+    assert not any(isinstance(v, np.memmap) for v in load_imu(short).channels.values())
