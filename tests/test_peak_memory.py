@@ -100,10 +100,10 @@ def test_record_variants_stay_under_their_memory_budget() -> None:
 #: at which the whole-file read of the package before exceeded the budget (its peaks, same
 #: script, load average 7: allan bin 301 MB at 5e5 samples, characterize replay-csv 342 MB
 #: at 3e5, characterize psins 307 MB at 1e6, allan blf 178 MB at 2.5e5 against that
-#: variant's 160 MB budget, VARIANT_BUDGET_MB); read in blocks they peaked at 140, 180, 208
-#: and 129 MB. Below 2^20 samples the channels are kept in memory (8 bytes per sample and
-#: channel), above it in files: the peaks at 1e7 samples are in docs/validation/memory.md.
-#: The BLF run takes about half a minute (python-can and cantools read 60 us per sample).
+#: variant's 160 MB budget, VARIANT_BUDGET_MB); read in blocks they peaked at 141, 164, 158
+#: and 129 MB. The peaks at 1e6 and 1e7 samples are in docs/validation/memory.md. The test
+#: took 34 s at load average 3-4 (the BLF log is read at about 60 us per sample by python-can
+#: and cantools), 162 s at load average 7-8 beside another benchmark.
 LOG_COMMANDS: dict[str, list[str]] = {"5e5": ["allan:bin"], "3e5": ["characterize:replay-csv"],
                                       "1e6": ["characterize:psins"], "2.5e5": ["allan:blf"]}
 
