@@ -20,6 +20,9 @@ m/s^2) from:
   the pure-Python ``rosbags`` package: one ``sensor_msgs/msg/Imu`` topic (``topic=``; the
   error lists the Imu topics when it is missing or ambiguous), timestamps from the message
   headers (the bag's receive time where a header stamp is zero), checked like a time column.
+  The messages are read in blocks (BAG_BLOCK_MESSAGES), each block's columns appended to
+  temporary float64 files from BAG_SPOOL_MIN_MESSAGES messages on (bounded memory whatever
+  the bag's length; a rosbag1 index is read one chunk's record at a time).
 
 NaN/Inf samples follow `nan_policy` as in `gyrodrift.io.records`: "refuse" (default) raises with
 their
@@ -60,7 +63,7 @@ from gyrodrift.io.records import (
     load_npy,
     rate_from_time,
 )
-from gyrodrift.io.spool import BLOCK_ROWS, SampleSpool, iter_text_tables
+from gyrodrift.io.spool import BLOCK_ROWS, SPOOL_MIN_SAMPLES, SampleSpool, iter_text_tables
 from gyrodrift.units import (
     ACCEL_INCREMENT_UNITS,
     DEFAULT_TIME_UNITS,
@@ -893,9 +896,12 @@ def _typestore() -> Any:
 
 
 #: Messages of a ROS bag deserialized per block: each block's values go to the record's
-#: SampleSpool objects (memory, or from SPOOL_MIN_SAMPLES messages on temporary files)
-#: before the next block is read.
+#: SampleSpool objects before the next block is read.
 BAG_BLOCK_MESSAGES = 1 << 16
+#: Messages from which a ROS bag's seven columns (six channels and the time stamps) go to
+#: temporary files: together they keep in memory what one column of SPOOL_MIN_SAMPLES
+#: samples would (8 MB).
+BAG_SPOOL_MIN_MESSAGES = SPOOL_MIN_SAMPLES // 7
 
 _LEAN_READER1: type | None = None
 
@@ -991,10 +997,10 @@ def _open_bag(bag: Path) -> Iterator[Any]:
 
 def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
               nan_policy: str, *, block_messages: int = BAG_BLOCK_MESSAGES,
-              memory_max: int | None = None) -> ImuData:
+              memory_max: int = BAG_SPOOL_MIN_MESSAGES) -> ImuData:
     """The bag's Imu topic read `block_messages` messages at a time into SampleSpool
-    objects (`memory_max`: SampleSpool's; from it on, temporary files), the rate from the
-    stamps' file, NaN/Inf refused or their rows dropped as `_finish` does."""
+    objects (from `memory_max` messages on, temporary files), the rate from the stamps,
+    NaN/Inf refused or their rows dropped as `_finish` does."""
     source = str(p)
     bag = _bag_paths(p, kind)
     if kind == "rosbag2":
