@@ -295,6 +295,27 @@ def test_rosbag1_out_of_order_bag_times_read_in_time_order(tmp_path: Path) -> No
                               memory_max=0), vals)
 
 
+def test_rosbag1_topic_of_two_connections_read_in_time_order(tmp_path: Path) -> None:
+    """Two publishers on one topic (two rosbag1 connections, alternate messages): their
+    messages merged in time order, as rosbags merges them."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    _, vals = _data(n=100)
+    t0 = 1_700_000_000 * 10**9
+    path = tmp_path / "two.bag"
+    with Writer(path) as w:
+        conns = [w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts,
+                                  callerid=f"/node{k}") for k in range(2)]
+        for i in range(100):
+            t_ns = t0 + i * 10_000_000
+            w.write(conns[i % 2], t_ns, ts.serialize_ros1(_imu_msg(ts, i, t_ns, vals[i]),
+                                                          "sensor_msgs/msg/Imu"))
+    _check(imu_data._load_bag(path, "rosbag1", None, None, "refuse", block_messages=3,
+                              memory_max=0), vals)
+
+
 def test_characterize_cli_lists_bag_topics(tmp_path: Path,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     _, vals = _data(n=50)
