@@ -25,7 +25,7 @@ ROS bag variants, for ``characterize`` only (BAG_VARIANTS): ``rosbag1`` (a ``.ba
 ``sensor_msgs/msg/Imu`` topic at 400 Hz (gyro white noise of 30 deg/h per sample in rad/s, the
 accelerometer 1 g on z plus noise); `write_bag_variant` patches the varying fields into one
 message serialized by rosbags (about 6 us per message; the reader deserializes each message,
-about 30 us).
+20-30 us).
 
 Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit:rad-s,...]
 [--variants npy,rad-s,...] [--json]
@@ -123,10 +123,10 @@ def bag_command_args(command: str, record: Path) -> list[str]:
             "--json"]
 
 
-def _imu_template(ts: object, ros1: bool) -> tuple[bytes, int, list[int]]:
+def _imu_template(ts: Any, ros1: bool) -> tuple[bytes, int, list[int]]:
     """One sensor_msgs/msg/Imu serialized by rosbags with marker values, and the byte offsets
     of its header stamp (sec, nanosec) and of its six values."""
-    types = ts.types  # type: ignore[attr-defined]
+    types = ts.types
     vec, marks = types["geometry_msgs/msg/Vector3"], [1.0e300 + k * 1.0e290 for k in range(6)]
     header = {"stamp": types["builtin_interfaces/msg/Time"](sec=0x11223344,
                                                             nanosec=0x05667788),
@@ -139,7 +139,7 @@ def _imu_template(ts: object, ros1: bool) -> tuple[bytes, int, list[int]]:
         angular_velocity_covariance=z9,
         linear_acceleration=vec(x=marks[3], y=marks[4], z=marks[5]),
         linear_acceleration_covariance=z9)
-    serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr  # type: ignore[attr-defined]
+    serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
     raw = bytes(serialize(msg, "sensor_msgs/msg/Imu"))
     at_t = raw.find(np.array([0x11223344, 0x05667788], dtype="<u4").tobytes())
     at_v = [raw.find(np.array([m], dtype="<f8").tobytes()) for m in marks]

@@ -93,7 +93,7 @@ def test_record_variants_stay_under_their_memory_budget() -> None:
 
 
 #: ROS bags (read by characterize): a rosbag1 `.bag` and a rosbag2 MCAP directory of
-#: sensor_msgs/msg/Imu messages at 400 Hz. rosbags deserializes about 30 us per message, so
+#: sensor_msgs/msg/Imu messages at 400 Hz. rosbags deserializes 20-30 us per message, so
 #: the records are small: 4e5 messages, against the same command on a bag of 1e3 messages
 #: (the interpreter, rosbags and the analysis: 164-165 MB here).
 BAG_COMMANDS = ["characterize:rosbag1", "characterize:mcap"]
@@ -104,10 +104,10 @@ BAG_GROWTH_MB = 12.0
 
 
 def test_ros_bags_stay_within_a_small_bags_peak() -> None:
-    """A bag read whole grew the peak with its length: at 4.5e5 messages by 29 MB (rosbag1:
-    rosbags' index of every message, about 140 bytes each, and the values) and 26 MB
-    (MCAP), at 3e5 by 19 and 18 MB; read in blocks into temporary files, by 3 MB at either
-    length (docs/validation/memory.md)."""
+    """A bag read whole grew the peak with its length: at 4e5 messages by 22 MB (rosbag1:
+    rosbags' index of every message and the values) and 21 MB (MCAP) over the 1e3 bag, at
+    2e6 by 378 and 139 MB; read in blocks into temporary files, by 3 and 0 MB at 4e5
+    (docs/validation/memory.md)."""
     small = _run("1e3", BAG_COMMANDS)
     large = _run("4e5", BAG_COMMANDS)
     for s, r in zip(small, large, strict=True):
