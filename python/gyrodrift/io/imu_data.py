@@ -619,8 +619,9 @@ RECOGNISED_NAMES = ("time: t, t_s, time, time_s, timestamp, stamp, sec; gyro: gy
 
 def _read_text_columns(p: Path, delim: str | None, skip: int) -> list[np.ndarray]:
     """The columns of a text table after its first `skip` lines, parsed in blocks of lines
-    by numpy.genfromtxt (gyrodrift.io.spool.iter_text_tables): rows with a wrong number of
-    fields are an error (never dropped silently), unparseable cells become NaN and go
+    as numpy.genfromtxt parses them (gyrodrift.io.spool.iter_text_tables: by numpy.loadtxt
+    where it accepts the block): rows with a wrong number of fields are an error (never
+    dropped silently), unparseable cells become NaN and go
     through the NaN policy. Each column is an array, or from SPOOL_MIN_SAMPLES rows on a
     memory map of a temporary file (8 bytes per row and column)."""
     source = str(p)
