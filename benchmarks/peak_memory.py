@@ -19,7 +19,13 @@ in pieces into a temporary file: ``rad-s`` (1-D float64 in rad/s, ``--gyro-units
 ``float32`` (1-D float32 in deg/h), ``2d`` ((n, 3) float64 in deg/h, the middle column:
 ``--column 1``, characterize ``--column-channels=-,gyro_z,-``), ``drop-nan`` (1-D float64
 with every 1000th sample NaN, ``--drop-nan``) and ``text`` (CSV ``t_s,gyro_z``, the rate from
-its time column; parsing it takes about 5 us per line).
+its time column; parsing it takes about 0.5-1 us per line).
+ROS bag variants, for ``characterize`` only (BAG_VARIANTS): ``rosbag1`` (a ``.bag``),
+``mcap`` and ``db3`` (a rosbag2 directory with MCAP or SQLite storage), one
+``sensor_msgs/msg/Imu`` topic at 400 Hz (gyro white noise of 30 deg/h per sample in rad/s, the
+accelerometer 1 g on z plus noise); `write_bag_variant` patches the varying fields into one
+message serialized by rosbags (about 6 us per message; the reader deserializes each message,
+20-30 us).
 
 IMU log variants (LOG_VARIANTS; they carry their rate and units, so no ``--rate-hz`` or units
 flag is given, and the single-channel commands read gyro z): ``bin`` (the replay harness's
@@ -44,6 +50,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -65,6 +72,8 @@ BUDGET_MB: dict[str, float] = {
     "compare": 300.0,
     # two parametric-bootstrap replicates of the record's length
     "identify-gmwm-bootstrap": 250.0,
+    # the offline db8 wavelet denoiser in the float32 lifting core (the MCU build's)
+    "filter-wavelet-float": 250.0,
 }
 #: Tighter budgets for a command on one record variant, MB: `allan` on a BLF CAN log reads
 #: it at about 60 us per sample (python-can and cantools, four frames per sample), so the
@@ -88,6 +97,9 @@ VARIANTS: dict[str, tuple[list[str], list[str]]] = {
     "drop-nan": (["--drop-nan"], ["--drop-nan"]),
     "text": ([], []),
 }
+#: ROS bag variants (module docstring): the record's file or directory name.
+BAG_VARIANTS: dict[str, str] = {"rosbag1": "record.bag", "mcap": "record-mcap",
+                                "db3": "record-db3"}
 #: IMU log variants (module docstring) and their file suffixes.
 LOG_VARIANTS: dict[str, str] = {"bin": ".bin", "blf": ".blf", "replay-csv": ".csv",
                                 "psins": ".imu"}
@@ -96,6 +108,8 @@ LOG_VARIANTS: dict[str, str] = {"bin": ".bin", "blf": ".blf", "replay-csv": ".cs
 def command_args(command: str, record: Path, out: Path, variant: str = "npy") -> list[str]:
     """The command line run for `command` (its JSON output, no plots or reports) on the
     record of `variant` (VARIANTS; its units flag replaces deg/h)."""
+    if variant in BAG_VARIANTS:
+        return bag_command_args(command, record)
     single, multi = VARIANTS.get(variant, ([], []))
     extra = multi if command == "characterize" else single
     units = "rad/s" if variant == "rad-s" else "deg/h"
@@ -118,7 +132,81 @@ def command_args(command: str, record: Path, out: Path, variant: str = "npy") ->
                     "--json"],
         "identify-gmwm-bootstrap": ["identify", str(record), *rate, "--identifier", "gmwm",
                                     "--bootstrap", "2", "--json"],
+        "filter-wavelet-float": ["filter", str(record), *rate, "-o",
+                                 str(out.with_name("filtered.npy")), "--filter", "wavelet",
+                                 "--core", "float", "--json"],
     }[command]
+
+
+def bag_command_args(command: str, record: Path) -> list[str]:
+    """The command line of `command` on a ROS bag variant: characterize only (the
+    single-channel commands read no bags), the rate from the messages' time stamps, the units
+    sensor_msgs/msg/Imu carries."""
+    if command != "characterize":
+        raise SystemExit(f"{command}: ROS bag variants are read by characterize only")
+    return ["characterize", str(record), "--gyro-units", "rad/s", "--accel-units", "m/s^2",
+            "--json"]
+
+
+def _imu_template(ts: Any, ros1: bool) -> tuple[bytes, int, list[int]]:
+    """One sensor_msgs/msg/Imu serialized by rosbags with marker values, and the byte offsets
+    of its header stamp (sec, nanosec) and of its six values."""
+    types = ts.types
+    vec, marks = types["geometry_msgs/msg/Vector3"], [1.0e300 + k * 1.0e290 for k in range(6)]
+    header = {"stamp": types["builtin_interfaces/msg/Time"](sec=0x11223344,
+                                                            nanosec=0x05667788),
+              "frame_id": "imu", **({"seq": 0} if ros1 else {})}
+    z9 = np.zeros(9)
+    msg = types["sensor_msgs/msg/Imu"](
+        header=types["std_msgs/msg/Header"](**header),
+        orientation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+        orientation_covariance=z9, angular_velocity=vec(x=marks[0], y=marks[1], z=marks[2]),
+        angular_velocity_covariance=z9,
+        linear_acceleration=vec(x=marks[3], y=marks[4], z=marks[5]),
+        linear_acceleration_covariance=z9)
+    serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+    raw = bytes(serialize(msg, "sensor_msgs/msg/Imu"))
+    at_t = raw.find(np.array([0x11223344, 0x05667788], dtype="<u4").tobytes())
+    at_v = [raw.find(np.array([m], dtype="<f8").tobytes()) for m in marks]
+    assert at_t >= 0 and min(at_v) >= 0, "marker not found in the serialized message"
+    return raw, at_t, at_v
+
+
+def write_bag_variant(path: Path, n: int, variant: str, chunk: int = 1 << 16) -> None:
+    """N sensor_msgs/msg/Imu messages on /imu at RATE_HZ in the ROS bag of `variant`
+    (BAG_VARIANTS), written by rosbags' writers piece by piece; bag time = header stamp."""
+    from rosbags.typesys import Stores, get_typestore
+
+    ros1 = variant == "rosbag1"
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if ros1:
+        from rosbags.rosbag1 import Writer as Writer1
+
+        writer: Any = Writer1(path)
+    else:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP
+                        if variant == "mcap" else StoragePlugin.SQLITE3)
+    raw, at_t, at_v = _imu_template(ts, ros1)
+    rng = np.random.default_rng(0)
+    to_rad_s = np.pi / 180.0 / 3600.0
+    t0_ns, step_ns = 1_700_000_000 * 10**9, round(1e9 / RATE_HZ)
+    with writer as w:
+        conn = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
+        for start in range(0, n, chunk):
+            m = min(chunk, n - start)
+            msgs = np.frombuffer(raw * m, dtype=np.uint8).reshape(m, len(raw)).copy()
+            t_ns = t0_ns + (start + np.arange(m, dtype=np.int64)) * step_ns
+            stamp = np.column_stack([t_ns // 10**9, t_ns % 10**9]).astype("<u4")
+            msgs[:, at_t:at_t + 8] = stamp.view(np.uint8).reshape(m, 8)
+            vals = np.empty((m, 6))
+            vals[:, :3] = rng.standard_normal((m, 3)) * 30.0 * to_rad_s
+            vals[:, 3:] = rng.standard_normal((m, 3)) * 1e-3 + [0.0, 0.0, 9.80665]
+            for j, at in enumerate(at_v):
+                msgs[:, at:at + 8] = vals[:, j].astype("<f8").view(np.uint8).reshape(m, 8)
+            for k in range(m):
+                w.write(conn, int(t_ns[k]), msgs[k].tobytes())
 
 
 def write_record(path: Path, n: int, walk: bool = False, chunk: int = 1 << 22) -> None:
@@ -142,6 +230,9 @@ def write_record(path: Path, n: int, walk: bool = False, chunk: int = 1 << 22) -
 def write_variant(path: Path, n: int, variant: str, chunk: int = 1 << 22) -> None:
     """The white-noise record of `write_record` (the same samples, 30 deg/h per sample) in
     the form of `variant` (VARIANTS), written piece by piece."""
+    if variant in BAG_VARIANTS:
+        write_bag_variant(path, n, variant)
+        return
     if variant in LOG_VARIANTS:
         write_log_variant(path, n, variant)
         return
@@ -291,6 +382,8 @@ def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
 
 
 def _variant_path(d: Path, variant: str) -> Path:
+    if variant in BAG_VARIANTS:
+        return d / BAG_VARIANTS[variant]
     if variant in LOG_VARIANTS:
         return d / f"record-{variant}{LOG_VARIANTS[variant]}"
     return d / (f"record-{variant}.csv" if variant == "text" else f"record-{variant}.npy")

@@ -29,6 +29,26 @@ Prints one row per case (averaged over seeds) with the ratios to the optimum.
 (--samples), no forgetting, the configured model as above; prints (online - ML) / (the offline
 fit's standard error) for a1, a2, q, r, mean after the last sample, the likelihood distance
 sqrt(2 (log L(ML) - log L(online))) on the same record, and the offline fit's a2.
+
+--shared: what sharing one identifier among three gyros costs, measured on the identifier
+the processor's monitor runs (gyrodrift.filters.online.SharedDriftIdentifier, each row of
+samples in channel order as the processor steps its gyros), one watched gyro against three
+fed independent records of the same model:
+  cadence      - the sample index of every retune per gyro at the identifier's defaults
+                 (blocks of 400, a retune every 60 blocks, min_samples 240000; 960000 samples);
+  convergence  - as --convergence, on records of --samples (default 720000) per gyro: the
+                 single-gyro estimate after N/3 and after N samples and the three-gyro one after
+                 N, against the offline ML fit of the samples each ran over, and their error
+                 against the true parameters in units of the expected standard errors of N
+                 samples (the inverse Fisher information at the truth); "turns": a single
+                 identifier fed only the samples of the gyro's turns (what the shared estimate
+                 has seen, without its restarts and its mean of every sample);
+  tracking     - q = r = 1, then r x2 (or q x2) halfway through --tracking-samples (default
+                 480000) and three times that, memory_blocks 100, adapt_ar off: the time from
+                 the change until the changed variance's estimate (and the gain's model) stays
+                 within 20 %, and the largest error over the last 100000 samples.
+
+    python scripts/online_drift_mc.py --shared                # the docs run
 """
 
 from __future__ import annotations
@@ -42,7 +62,14 @@ import gyrodrift
 import numpy as np
 import scipy.linalg
 from gyrodrift._native import core
-from gyrodrift.filters.online import DriftParams, OnlineDriftIdentifier, OnlineDriftSettings
+from gyrodrift.filters.drift_model import drift_fisher_information
+from gyrodrift.filters.online import (
+    DriftParams,
+    OnlineDriftIdentifier,
+    OnlineDriftSettings,
+    OnlineDriftTrace,
+    SharedDriftIdentifier,
+)
 from scipy.signal import lfilter
 
 PAIRS = ((0.6868, -0.0213), (0.2297, 0.1638))
@@ -212,20 +239,241 @@ def convergence(seeds: int = 3, n: int = 240000, extra: dict[str, float] | None 
     print(f"# {time.monotonic() - t0:.0f} s")
 
 
+RATE_HZ = 400.0
+GYROS = 3
+
+
+def gyro_records(a1: float, a2: float, ratio: float, change: str, n: int, seed: int
+                 ) -> np.ndarray:
+    """Independent records of one model for the three gyros, shape (n, 3): gyro g is the
+    record of seed + 100 g (gyro 0 is the single-gyro study's record)."""
+    return np.stack([simulate(Case(a1, a2, ratio, change, n, seed + 100 * g))[0]
+                     for g in range(GYROS)], axis=1)
+
+
+def run_single_and_shared(y: np.ndarray, configured: DriftParams, settings: OnlineDriftSettings
+                          ) -> tuple[list[OnlineDriftTrace], list[DriftParams],
+                                     list[OnlineDriftTrace], list[DriftParams]]:
+    """Each gyro's record through its own identifier (one watched gyro), and all three through
+    one shared identifier: (traces, final estimates) of each."""
+    single_t, single_e = [], []
+    for g in range(y.shape[1]):
+        ident = OnlineDriftIdentifier(configured, settings)
+        single_t.append(ident.push(y[:, g]))
+        single_e.append(ident.estimate)
+    shared = SharedDriftIdentifier([configured] * y.shape[1], settings)
+    shared_t = shared.push(y)
+    return single_t, single_e, shared_t, [shared.estimate(g) for g in range(y.shape[1])]
+
+
+def retune_points(trace: OnlineDriftTrace, retune_blocks: int
+                  ) -> tuple[np.ndarray, np.ndarray, int]:
+    """Sample indices (the gyro's samples at the end of the block) of every retune attempt and
+    of every accepted retune (status tracking after a retune that changed the gain), and the
+    number of refused retunes (status not_identified or fallback after an attempt)."""
+    blocks = np.arange(1, len(trace.samples) + 1)
+    attempt = blocks % retune_blocks == 0
+    accepted = attempt & trace.retuned & (trace.status == 2)
+    refused = attempt & np.isin(trace.status, (3, 4))
+    return trace.samples[attempt], trace.samples[accepted], int(np.count_nonzero(refused))
+
+
+def shared_cadence(seed: int) -> None:
+    """Retune sample indices per gyro at the identifier's defaults, 1 gyro against 3."""
+    settings = OnlineDriftSettings()
+    n = 960000
+    a1, a2 = PAIRS[1]
+    y = gyro_records(a1, a2, 1.0, "none", n, seed)
+    configured = DriftParams(0.8 * a1, 0.5 * a2 + 0.03, 1.5, 0.7, MEAN)
+    single_t, _, shared_t, _ = run_single_and_shared(y, configured, settings)
+    print(f"# cadence: pair ({a1}, {a2}), r/q = 1, {n} samples ({n / RATE_HZ / 60:.0f} min at "
+          f"{RATE_HZ:.0f} Hz), blocks of {settings.block_samples}, a retune every "
+          f"{settings.retune_blocks} blocks, min_samples {settings.min_samples}")
+    print(f"{'gyros':>5} {'gyro':>4} {'blocks':>6} {'attempt interval':>16} {'first attempts':>24} "
+          f"{'first accepted':>14} {'accepted':>8} {'refused':>7}")
+    for mode, traces in (("1", single_t[:1]), ("3", shared_t)):
+        for g, t in enumerate(traces):
+            att, acc, refused = retune_points(t, settings.retune_blocks)
+            gaps = sorted(set(np.diff(att).tolist()))
+            gap = "/".join(str(v) for v in gaps)
+            first_acc = f"{int(acc[0])}" if len(acc) else "none"
+            interval = f"{gap} ({gaps[0] / RATE_HZ:.1f} s)"
+            firsts = ",".join(str(int(v)) for v in att[:3])
+            print(f"{mode:>5} {g:4d} {len(t.samples):6d} {interval:>16} {firsts:>24} "
+                  f"{first_acc:>14} {len(acc):8d} {refused:7d}")
+
+
+def turn_samples(n: int, channel: int, channels: int, block: int) -> np.ndarray:
+    """Indices of the samples of `channel` that ran through the shared identifier's filters
+    (its turns) in a record of n rows: each row's samples go in channel order, so a turn passed
+    on at the end of a block starts with the next channel's sample of the same row, and a cycle
+    of turns takes channels (block - 1) + 1 rows."""
+    cycle = channels * (block - 1) + 1
+    starts = np.arange(channel * (block - 1), n - block + 1, cycle)
+    return (starts[:, None] + np.arange(block)[None, :]).ravel()
+
+
+def expected_stderr(a1: float, a2: float, q: float, r: float, n: int) -> np.ndarray:
+    """Expected standard errors of (a1, a2, q, r) from n samples: the inverse Fisher
+    information at the true parameters."""
+    info = drift_fisher_information(a1, a2, q, r, n)
+    return np.sqrt(np.diag(np.linalg.inv(info)))
+
+
+def shared_convergence(seeds: int, n: int) -> None:
+    """One gyro against three: distance to the offline ML fit and to the truth."""
+    settings = OnlineDriftSettings(block_samples=400, retune_blocks=50, min_samples=100000)
+    loglike = core("drift").drift_loglike
+    names = ("a1", "a2", "q", "r")
+    third = n // GYROS
+    print(f"# convergence: {n} samples per gyro; z: max abs (online - ML) / offline stderr over "
+          "a1, a2, q, r, against the ML fit of the samples the estimate ran over (N/3: the "
+          "first third); d_LL as --convergence; err: RMS over a1, a2, q, r of (estimate - "
+          f"truth) / expected stderr of {n} samples")
+    print(f"{'a1':>7} {'a2':>7} {'r/q':>4} {'seed':>4} {'gyro':>4} | {'z 1@N/3':>7} {'z 1@N':>6} "
+          f"{'z 3@N':>6} {'z turns':>7} | {'d 1@N/3':>7} {'d 1@N':>6} {'d 3@N':>6} | "
+          f"{'err ML N/3':>10} {'1@N/3':>6} {'ML N':>6} {'1@N':>6} {'3@N':>6} {'turns':>6} | "
+          f"{'status 3@N':>10}")
+    summary: dict[tuple[float, float], list[list[float]]] = {}
+    t0 = time.monotonic()
+    for a1, a2 in PAIRS:
+        for ratio in RATIOS:
+            truth = np.array([a1, a2, 1.0, ratio])
+            se_true = expected_stderr(a1, a2, 1.0, ratio, n)
+            configured = DriftParams(0.8 * a1, 0.5 * a2 + 0.03, 1.5, 0.7 * ratio, 0.0)
+            for seed in range(1, seeds + 1):
+                y = gyro_records(a1, a2, ratio, "none", n, seed)
+                _, single_n, _, shared_n = run_single_and_shared(y, configured, settings)
+                _, single_3, _, _ = run_single_and_shared(y[:third], configured, settings)
+                shared = SharedDriftIdentifier([configured] * GYROS, settings)
+                shared.push(y)
+                for g in range(GYROS):
+                    turns = OnlineDriftIdentifier(configured, settings)
+                    turns.push(y[turn_samples(n, g, GYROS, settings.block_samples), g])
+                    fit_n = gyrodrift.fit_drift_model(y[:, g], rate_hz=RATE_HZ)
+                    fit_3 = gyrodrift.fit_drift_model(y[:third, g], rate_hz=RATE_HZ)
+
+                    def z(est: DriftParams, fit: object) -> float:
+                        return max(abs((getattr(est, k) - getattr(fit, k)) / fit.stderr[k])  # type: ignore[attr-defined]
+                                   for k in names)
+
+                    def d_ll(est: DriftParams, fit: object, rec: np.ndarray) -> float:
+                        ll_ml = loglike(rec, fit.a1, fit.a2, fit.q, fit.r, fit.mean)[0]  # type: ignore[attr-defined]
+                        ll_on = loglike(rec, est.a1, est.a2, est.q, est.r, est.mean)[0]
+                        return math.sqrt(max(2.0 * (ll_ml - ll_on), 0.0))
+
+                    def err(p: object, truth: np.ndarray = truth,
+                            se: np.ndarray = se_true) -> float:
+                        v = np.array([getattr(p, k) for k in names])
+                        return float(np.sqrt(np.mean(((v - truth) / se) ** 2)))
+
+                    row = [z(single_3[g], fit_3), z(single_n[g], fit_n), z(shared_n[g], fit_n),
+                           z(turns.estimate, fit_n),
+                           d_ll(single_3[g], fit_3, y[:third, g]),
+                           d_ll(single_n[g], fit_n, y[:, g]), d_ll(shared_n[g], fit_n, y[:, g]),
+                           err(fit_3), err(single_3[g]), err(fit_n), err(single_n[g]),
+                           err(shared_n[g]), err(turns.estimate)]
+                    summary.setdefault((a1, a2), []).append(row)
+                    print(f"{a1:7.4f} {a2:7.4f} {ratio:4.1f} {seed:4d} {g:4d} | {row[0]:7.2f} "
+                          f"{row[1]:6.2f} {row[2]:6.2f} {row[3]:7.2f} | {row[4]:7.2f} "
+                          f"{row[5]:6.2f} {row[6]:6.2f} | {row[7]:10.2f} {row[8]:6.2f} "
+                          f"{row[9]:6.2f} {row[10]:6.2f} {row[11]:6.2f} {row[12]:6.2f} | "
+                          f"{shared.status(g):>10}")
+    print("# mean over the records of each pair (and the share within 1 standard error)")
+    for (a1, a2), rows in summary.items():
+        m = np.nanmean(np.array(rows), axis=0)
+        w = [sum(r[i] <= 1.0 for r in rows) for i in range(4)]
+        undefined = sum(not np.isfinite(r[1]) for r in rows)
+        print(f"# ({a1}, {a2}), {len(rows)} records ({undefined} without offline standard errors "
+              f"of N samples: z nan, left out of the means): z 1@N/3 {m[0]:.2f}, 1@N {m[1]:.2f}, "
+              f"3@N {m[2]:.2f}, turns {m[3]:.2f} (within 1: {w[0]} / {w[1]} / {w[2]} / {w[3]}); "
+              f"d_LL {m[4]:.2f} / {m[5]:.2f} / {m[6]:.2f}; err ML N/3 {m[7]:.2f}, "
+              f"1@N/3 {m[8]:.2f}, ML N {m[9]:.2f}, 1@N {m[10]:.2f}, 3@N {m[11]:.2f}, "
+              f"turns {m[12]:.2f}")
+    print(f"# {time.monotonic() - t0:.0f} s")
+
+
+def settle_time(samples: np.ndarray, values: np.ndarray, target: float, start: int,
+                tol: float = 0.2) -> float:
+    """Samples from `start` until `values` (one per block end) stays within tol of target for
+    every later block (inf if it does not by the end)."""
+    after = samples > start
+    bad = after & (np.abs(values / target - 1.0) >= tol)
+    if bad[-1]:
+        return math.inf
+    idx = np.flatnonzero(bad)
+    first_ok = idx[-1] + 1 if len(idx) else int(np.flatnonzero(after)[0])
+    return float(samples[first_ok] - start)
+
+
+def shared_tracking(seeds: int, n: int) -> None:
+    """One gyro against three: tracking a 2x step of r or q with forgetting."""
+    settings = OnlineDriftSettings(block_samples=400, retune_blocks=25, min_samples=100000,
+                                   memory_blocks=100.0, adapt_ar=False)
+    print(f"# tracking: q = r = 1, the change halfway; memory_blocks {settings.memory_blocks:g}, "
+          f"adapt_ar off, blocks of {settings.block_samples}, a retune every "
+          f"{settings.retune_blocks} blocks; t20: seconds at {RATE_HZ:.0f} Hz from the change "
+          "until the changed variance stays within 20 % (estimate; the gain's model); last: "
+          "largest relative error over the last 100000 samples (changed; other variance)")
+    print(f"{'a1':>7} {'a2':>7} {'change':>6} {'samples':>7} {'seed':>4} {'gyros':>5} {'gyro':>4} "
+          f"{'t20 est':>7} {'t20 use':>7} {'last chg':>8} {'last oth':>8}")
+    t0 = time.monotonic()
+    summary: dict[tuple[str, float, int, str], list[list[float]]] = {}
+    for change in ("r x2", "q x2"):
+        col, other = (3, 2) if change == "r x2" else (2, 3)
+        for a1, a2 in PAIRS:
+            configured = DriftParams(a1, a2, 1.0, 1.0, MEAN)
+            for length in (n, 3 * n):
+                h = length // 2
+                for seed in range(1, seeds + 1):
+                    y = gyro_records(a1, a2, 1.0, change, length, seed)
+                    single_t, _, shared_t, _ = run_single_and_shared(y, configured, settings)
+                    for mode, traces in (("1", single_t[:1]), ("3", shared_t)):
+                        for g, t in enumerate(traces):
+                            t_est = settle_time(t.samples, t.estimate[:, col], 2.0, h)
+                            t_use = settle_time(t.samples, t.in_use[:, col], 2.0, h)
+                            last = t.samples > length - 100000
+                            e_chg = float(np.max(np.abs(t.estimate[last, col] / 2.0 - 1.0)))
+                            e_oth = float(np.max(np.abs(t.estimate[last, other] - 1.0)))
+                            print(f"{a1:7.4f} {a2:7.4f} {change:>6} {length:7d} {seed:4d} "
+                                  f"{mode:>5} {g:4d} {t_est / RATE_HZ:7.0f} "
+                                  f"{t_use / RATE_HZ:7.0f} {e_chg:8.3f} {e_oth:8.3f}")
+                            summary.setdefault((change, a1, length, mode), []).append(
+                                [t_est / RATE_HZ, t_use / RATE_HZ, e_chg, e_oth])
+    print("# range over the seeds and gyros: t20 est, t20 use (s); largest last chg, last oth")
+    for (change, a1, length, mode), rows in summary.items():
+        v = np.array(rows)
+        print(f"# {change} a1 {a1} {length} samples, {mode} gyro(s), {len(rows)} runs: "
+              f"t20 est {v[:, 0].min():.0f}-{v[:, 0].max():.0f}, t20 use "
+              f"{v[:, 1].min():.0f}-{v[:, 1].max():.0f}, last {v[:, 2].max():.3f} / "
+              f"{v[:, 3].max():.3f}")
+    print(f"# {time.monotonic() - t0:.0f} s")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--full", action="store_true", help="5 seeds, 480000 samples (docs run)")
     ap.add_argument("--seed", type=int, default=1, help="first seed")
     ap.add_argument("--convergence", action="store_true",
                     help="the online estimate against the offline ML fit instead")
-    ap.add_argument("--samples", type=int, default=240000,
-                    help="--convergence: record length (default 240000)")
+    ap.add_argument("--samples", type=int, default=None,
+                    help="--convergence: record length (default 240000; --shared: 720000)")
     ap.add_argument("--seeds", type=int, default=3,
                     help="--convergence: seeds 1..SEEDS per pair and r/q (default 3)")
     ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                     help="--convergence: an OnlineDriftSettings field changed from the study's "
                          "(repeatable), e.g. --set warmup_blocks=25")
+    ap.add_argument("--shared", action="store_true",
+                    help="one gyro against three sharing one identifier: cadence, convergence "
+                         "(--samples, default 720000; --seeds) and tracking (--tracking-samples)")
+    ap.add_argument("--tracking-samples", type=int, default=480000,
+                    help="--shared: length of the tracking records (and three times it)")
     args = ap.parse_args()
+    if args.shared:
+        shared_cadence(args.seed)
+        shared_convergence(args.seeds, args.samples or 720000)
+        shared_tracking(args.seeds, args.tracking_samples)
+        return
     if args.convergence:
         extra: dict[str, float] = {}
         defaults = OnlineDriftSettings().as_dict()
@@ -239,7 +487,7 @@ def main() -> None:
                 extra[name] = (value.lower() in ("1", "true")) if kind is bool else kind(value)
             except ValueError:
                 ap.error(f"--set: {name} expects a {kind.__name__}, got {value!r}")
-        convergence(seeds=args.seeds, n=args.samples, extra=extra)
+        convergence(seeds=args.seeds, n=args.samples or 240000, extra=extra)
         return
     seeds, n = (5, 480000) if args.full else (1, 240000)
     t0 = time.monotonic()

@@ -81,8 +81,13 @@ def _run(argv: list[object], capsys: pytest.CaptureFixture[str]) -> dict:
     ["--filter", "kalman", "--steady-state", "--ar-method", "burg"],
     ["--filter", "kalman", "--core", "float", "--kalman-q", "0.05"],
     ["--filter", "ar", "--ar-method", "ls"],
+    ["--filter", "ar", "--core", "float"],
     ["--filter", "realtime-wavelet", "--wavelet", "db4", "--window", "64", "--level", "3"],
+    ["--filter", "realtime-wavelet", "--wavelet", "db4", "--window", "64", "--level", "3",
+     "--core", "float"],
     ["--filter", "wavelet", "--wavelet", "db4", "--level", "3", "--threshold", "hard"],
+    ["--filter", "wavelet", "--wavelet", "db4", "--level", "3", "--threshold", "hard",
+     "--core", "float"],
     ["--filter", "wpacket", "--level", "3"],
 ])
 def test_filter_of_a_mapped_record_in_pieces_is_the_one_call_filter(
@@ -104,9 +109,12 @@ def test_filter_of_a_mapped_record_in_pieces_is_the_one_call_filter(
     f32 = "float" in extra
     dtype = np.float32 if f32 else np.float64
     if method == "realtime-wavelet":
-        expected = gyrodrift.RealtimeWavelet("db4", window=64, level=3).filter(x)
+        expected = gyrodrift.RealtimeWavelet("db4", window=64, level=3, dtype=dtype).filter(x)
     elif method == "wavelet":
-        expected = gyrodrift.wavelet_denoise(x, "db4", 3, "hard")
+        expected = gyrodrift.wavelet_denoise(x, "db4", 3, "hard", dtype=dtype)
+        if f32:  # float32 windows: 1e-5 of the scale (tests/test_wavelet_file.py)
+            np.testing.assert_allclose(y, expected, rtol=0, atol=1e-5 * np.max(np.abs(x)))
+            expected = y
     elif method == "wpacket":
         # PyWavelets' reconstruction near a window's edge sums in another order: 1e-15
         # absolute on O(1) values (tests/test_wavelet_file.py)
@@ -118,7 +126,7 @@ def test_filter_of_a_mapped_record_in_pieces_is_the_one_call_filter(
                                if "--ar-method" in extra else "yule-walker")
         assert out["filter"]["ar2"]["a1"] == model.a1
         if method == "ar":
-            expected = gyrodrift.ar_filter(x, model)
+            expected = gyrodrift.ar_filter(x.astype(dtype), model)
         else:
             expected = gyrodrift.kalman_filter(x.astype(dtype), model,
                                                q=0.05 if "--kalman-q" in extra else None,
@@ -159,4 +167,23 @@ def test_filter_in_pieces_refuses_a_record_with_nan(
                                 str(tmp_path / "f.npy")]))
     err = capsys.readouterr().err
     assert code == 2 and "error:" in err and "Traceback" not in err
+    assert not (tmp_path / "f.npy").exists()
+
+
+@pytest.mark.parametrize("piece_path", [True, False])
+def test_wpacket_refuses_the_float_core_in_one_line(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str],
+        monkeypatch: pytest.MonkeyPatch, piece_path: bool) -> None:
+    """wpacket has no float core (PyWavelets, float64): --core float is refused with one
+    line on the piece path as on the in-memory one, and nothing is written."""
+    np.save(tmp_path / "r.npy", _record())
+    monkeypatch.setattr(filter_cli, "FILE_BACKED_MIN", 4096 if piece_path else 1 << 30)
+    code = cli.main(with_units(["filter", str(tmp_path / "r.npy"), "--rate-hz", "100", "-o",
+                                str(tmp_path / "f.npy"), "--filter", "wpacket", "--core",
+                                "float"]))
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.strip().splitlines() == [
+        "gyrodrift filter: error: wpacket runs in Python (PyWavelets, float64) only; drop "
+        "--core float"]
     assert not (tmp_path / "f.npy").exists()

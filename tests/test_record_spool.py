@@ -291,3 +291,80 @@ def test_every_number_dtype_is_spooled_as_numpy_converts_it(tmp_path: Path, spoo
         assert isinstance(rec.rate_deg_h, np.memmap) and rec.rate_deg_h.dtype == np.float64
         np.testing.assert_array_equal(
             rec.rate_deg_h, col.astype(np.float64) * RATE_UNITS["deg/s"].to_deg_h)
+
+
+#: Cells of the text-table property test below: numbers in every syntax either parser reads
+#: (or only Python's float reads: underscores, non-ASCII digits), cells genfromtxt turns into
+#: NaN (text, hex, Fortran exponents, quotes, empty and blank cells), comments inside a row.
+_CELLS = ["1", "-2.5", " 3 ", "4.", ".5", "+.5e-3", "1e400", "1e-400", "nan", "NaN", "-nan",
+          "inf", "-Infinity", "1_0", "0x10", "1d5", "\u0661", "True", "x", '"1"', "", " ",
+          "7 # note"]
+_BLANK_LINES = ["\n", "   \n", "\t\n", "# comment\n", "  # indented comment\n"]
+
+
+def _random_table(rng: np.random.Generator, delimiter: str | None) -> list[str]:
+    """20-80 lines: mostly rows of two cells, some of one or three, some blank or comment
+    lines; plain numbers in most rows, so that many blocks are all numbers."""
+    lines = []
+    for _ in range(int(rng.integers(20, 80))):
+        if rng.random() < 0.08:
+            lines.append(str(rng.choice(_BLANK_LINES)))
+            continue
+        k = 2 if rng.random() < 0.97 else int(rng.choice([1, 3]))
+        cells = [f"{rng.normal():.6g}" if rng.random() < 0.9 else str(rng.choice(_CELLS))
+                 for _ in range(k)]
+        if delimiter is None:  # whitespace: cells without blanks, joined by spaces or tabs
+            cells = [c.strip().replace(" ", "") or "0" for c in cells]
+            lines.append(str(rng.choice([" ", "\t", "  "])).join(cells) + "\n")
+        else:
+            lines.append(delimiter.join(cells) + ("," if rng.random() < 0.02 else "") + "\n")
+    return lines
+
+
+def test_text_blocks_parse_as_genfromtxt_parses_them(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A block goes to numpy.loadtxt's parser first and to genfromtxt when loadtxt refuses
+    it: every table of random lines (hostile cells, blank and comment lines, wrong field
+    counts; comma and whitespace delimited, several block sizes) gives the tables, NaN and
+    the error message genfromtxt alone gives for each block (the same values exactly: both
+    parsers round each decimal number correctly)."""
+    rng = np.random.default_rng(5)
+
+    def parse(lines: list[str], delimiter: str | None, block: int) -> list[object]:
+        try:
+            return [(t.shape, t.tolist(), n) for t, _, n in iter_text_tables(
+                iter(lines), delimiter=delimiter, first_line_no=2, lines=block,
+                malformed="t.csv: malformed")]
+        except GyrodriftValueError as exc:
+            return [str(exc)]
+
+    fast_blocks = 0
+    for case in range(300):
+        delimiter = None if case % 3 == 0 else ","
+        lines = _random_table(rng, delimiter)
+        block = int(rng.choice([1, 7, 16, 1000]))
+        with monkeypatch.context() as m:
+            m.setattr(spool, "_parse_plain", lambda *a: None)  # genfromtxt alone
+            want = parse(lines, delimiter, block)
+        got = parse(lines, delimiter, block)
+        assert repr(got) == repr(want), (case, lines)  # repr: NaN equal to NaN
+        fast_blocks += sum(spool._parse_plain(lines[i:i + block], delimiter, "#") is not None
+                           for i in range(0, len(lines), block))
+    assert fast_blocks > 300  # most blocks were read by loadtxt, not only by the fallback
+
+
+def test_a_plain_text_table_is_read_without_genfromtxt(monkeypatch: pytest.MonkeyPatch
+                                                       ) -> None:
+    """Blocks of plain numbers go to numpy.loadtxt's C parser (a quarter of genfromtxt's
+    time per line, which made text records of 1e8 rows take hours)."""
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise AssertionError("genfromtxt called")
+
+    monkeypatch.setattr(np, "genfromtxt", refuse)
+    lines = ["# t_s,gyro_z\n", *(f"{i / 400:.4f},{(-1) ** i * 0.25 * i:.6f}\n"
+                                 for i in range(1000)), "\n"]
+    tables = [t for t, _, _ in iter_text_tables(iter(lines), delimiter=",", first_line_no=2,
+                                                lines=64)]
+    table = np.concatenate(tables)
+    np.testing.assert_array_equal(table[:, 0], np.arange(1000) / 400)  # 4 decimals: exact
+    np.testing.assert_array_equal(table[:, 1], (-1.0) ** np.arange(1000) * 0.25
+                                  * np.arange(1000))

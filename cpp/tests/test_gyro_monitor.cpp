@@ -263,6 +263,60 @@ TEST_CASE("a retune of the re-identification reaches the steady-state stage") {
   CHECK(proc.health().monitor_refused_retunes == id.refused_retunes(slot));
 }
 
+TEST_CASE("a stuck gyro does not stop the other gyros' re-identification") {
+  // Three watched gyros sharing one re-identification in turns of one block; gx sticks at
+  // 20 s (its values are then not used by its monitor, so they never reach the
+  // re-identification). Its turn passes on after a block's worth of missed samples, and gy and
+  // gz keep being re-identified and retuned: each of them takes about a third of the 400 s in
+  // blocks (133 by the turns' schedule), where they stopped at the 7 they had when gx's turn
+  // came while it was stuck.
+  constexpr std::size_t kOct = 12;
+  using Watched = gyrodrift::ImuProcessor<float, gyrodrift::NoWavelet<float>, gyrodrift::kImuChannels, kOct, 3>;
+  gyrodrift::ImuConfig<float> cfg;
+  for (std::size_t c = 0; c < 3; ++c) {
+    cfg.channels[c].filter = gyrodrift::ChannelFilter::ar2_kalman;
+    cfg.channels[c].steady_state = true;
+    cfg.channels[c].model = gyrodrift::Ar2Model<float>{0.99F, 0.0F, 1e-10F, 0.0F};
+    cfg.channels[c].q = 1e-10F;
+    cfg.channels[c].r = 1e-8F;
+    cfg.channels[c].stuck_samples = 50;
+  }
+  static Watched proc(cfg);
+  std::array<Watched::MonitorReference, 3> refs{};
+  for (auto& r : refs) r = white_reference<float, kOct>(1e-8F, kOct);
+  auto s = settings<float>(kOct, true);
+  s.drift.block_samples = 400;
+  s.drift.retune_blocks = 10;
+  s.drift.min_samples = 24000;
+  REQUIRE(proc.configure_monitor(s, refs, {true, true, true}) == gyrodrift::GyroMonitorStatus::ok);
+  Noise w{13, 0.0, 1.0};
+  double x[3] = {0.0, 0.0, 0.0};
+  gyrodrift::ImuSample<float> in{};
+  gyrodrift::ImuOutput<float> out{};
+  const auto& id = proc.monitor_identifier();
+  std::uint32_t gx_blocks_when_stuck = 0;
+  for (std::size_t i = 0; i < 160000; ++i) {  // 400 s at 400 Hz
+    for (std::size_t c = 0; c < 3; ++c) {
+      x[c] = 0.99 * x[c] + 2e-5 * std::sqrt(3.0) * w.next();  // q = 4e-10
+      in.values[c] = static_cast<float>(x[c] + 1e-4 * std::sqrt(3.0) * w.next());  // r = 1e-8
+    }
+    if (i >= 8000) in.values[0] = 1e-3F;  // gx stuck from 20 s on
+    if (i == 8000) gx_blocks_when_stuck = id.blocks(proc.monitor_slot(0));
+    in.seq = static_cast<std::uint16_t>(i);
+    in.t_us = 2500ULL * i;
+    proc.step(in, out);
+  }
+  CHECK(proc.health().stuck_values > 0);
+  CHECK(id.blocks(proc.monitor_slot(0)) == gx_blocks_when_stuck);  // no block from stuck values
+  for (std::size_t c = 1; c < 3; ++c) {
+    CAPTURE(c);
+    const std::size_t slot = proc.monitor_slot(c);
+    CHECK(id.blocks(slot) >= 130);
+    CHECK(id.retunes(slot) >= 1);
+  }
+  CHECK(proc.health().monitor_retunes == id.retunes(1) + id.retunes(2));
+}
+
 TEST_CASE("a monitor built without the re-identification equals one with it off, and refuses it") {
   constexpr std::size_t kOct = 12;
   using Lean = gyrodrift::GyroMonitor<float, kOct, false>;

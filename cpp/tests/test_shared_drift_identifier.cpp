@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <gyrodrift/filters/online_drift_identifier.hpp>
 #include <gyrodrift/filters/shared_drift_identifier.hpp>
+#include <limits>
 #include <vector>
 
 #include "alloc_counter.hpp"
@@ -118,6 +119,54 @@ TEST_CASE("three channels take turns of one block, and each converges to its own
     CHECK(id.blocks(c) == 0);
     CHECK(id.status(c) == OnlineDriftStatus::learning);
   }
+}
+
+TEST_CASE("a channel in turn without samples passes its turn on after a block's worth") {
+  // Channel 0 delivers nothing from sample 1000 on (NaN pushed, or skip(): the caller refused
+  // the value). While it holds the turn the others only move their means; after block_samples
+  // missed samples its partial block is dropped and the turn passes on, so channels 1 and 2
+  // keep taking blocks. A few missing samples within a turn are skipped as if absent.
+  const auto s = small_settings();  // blocks of 200
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const DriftModelParams<double> cfg{0.18, 0.1, 1.5, 0.7, 0.0};
+  const DriftModelParams<double> cfgs[3] = {cfg, cfg, cfg};
+  std::vector<double> y[3];
+  for (std::size_t c = 0; c < 3; ++c) y[c] = record(0.2297, 0.1638, 1.0, 1.0, 0.0, 30000, 31 + c);
+  for (int mode = 0; mode < 2; ++mode) {
+    CAPTURE(mode);
+    SharedDriftIdentifier<double, 3> id;
+    REQUIRE(id.configure(cfgs, 3, s));
+    for (std::size_t k = 0; k < 30000; ++k) {
+      for (std::size_t c = 0; c < 3; ++c) {
+        if (c == 0 && k >= 1000) {
+          if (mode == 0) id.push(c, nan);
+          else id.skip(c);
+        } else {
+          id.push(c, y[c][k]);
+        }
+      }
+    }
+    CHECK(id.blocks(0) == 2);  // samples 0-199 and 598-797; its later turns had none
+    CHECK(id.samples(0) == 1000);
+    CHECK(id.rejected(0) == (mode == 0 ? 29000U : 0U));
+    for (std::size_t c = 1; c < 3; ++c) {
+      CAPTURE(c);
+      CHECK(id.blocks(c) >= 45);  // a third of the 150 blocks' worth of samples
+      CHECK(id.samples(c) == 30000);
+    }
+  }
+  // one channel: nothing to pass the turn to, a missing sample is skipped as if absent
+  SharedDriftIdentifier<double, 1> one;
+  OnlineDriftIdentifier<double> single;
+  REQUIRE(one.configure(&cfg, 1, s));
+  REQUIRE(single.configure(cfg, s));
+  for (std::size_t k = 0; k < 30000; ++k) {
+    const double v = (k % 1000) < 300 ? nan : y[0][k];
+    one.push(0, v);
+    single.push(v);
+  }
+  CHECK(one.blocks(0) == single.blocks());
+  CHECK(one.estimate(0).q == single.estimate().q);
 }
 
 TEST_CASE("refused configurations and channels out of range") {

@@ -13,6 +13,12 @@
 // start of a record), so a block is the same statistic as in the single-channel estimator,
 // whose filters run on from the previous block.
 //
+// A channel in turn that delivers no usable sample (a NaN/Inf pushed, or skip(): the caller's
+// checks refused the value, e.g. a stuck or saturated gyro) keeps the turn only until it has
+// missed block_samples samples during it; then its partial block is dropped (no parameter
+// update) and the turn passes on, so a failed gyro cannot stop the others' re-identification.
+// A few missing samples within a turn are skipped as if absent, as in OnlineDriftIdentifier.
+//
 // Effect: with n channels each one's estimate advances by one block every n blocks of samples,
 // so every time constant counted in blocks (the start-up schedule warmup_blocks, the memory
 // memory_blocks and info_blocks, the retune cadence retune_blocks) is n times longer in time,
@@ -54,6 +60,7 @@ class SharedDriftIdentifier {
                  std::size_t* failed = nullptr) noexcept {
     n_ = 0;
     turn_ = 0;
+    missed_ = 0;
     retuned_ = false;
     if (n < 1 || n > Channels) {
       if (failed != nullptr) *failed = n;
@@ -74,6 +81,7 @@ class SharedDriftIdentifier {
   // Every channel back to its configured model, counters cleared, the turn at channel 0.
   void reset() noexcept {
     retuned_ = false;
+    missed_ = 0;
     if (n_ == 0) return;
     for (std::size_t k = 0; k < n_; ++k) {
       id_.reset();
@@ -84,7 +92,8 @@ class SharedDriftIdentifier {
   }
 
   // One sample of channel c (after the caller's bad-value checks). Returns false for a
-  // channel out of range, an unconfigured one, or NaN/Inf (counted in its rejected count).
+  // channel out of range, an unconfigured one, or NaN/Inf (counted in its rejected count and,
+  // for the channel in turn, towards passing its turn on).
   bool push(std::size_t c, Scalar y) noexcept {
     retuned_ = false;
     if (c >= n_) return false;
@@ -94,8 +103,20 @@ class SharedDriftIdentifier {
     }
     const bool ok = id_.push(y);
     retuned_ = id_.retuned();
-    if (id_.block_updated() && n_ > 1) rotate(true);
+    if (id_.block_updated()) {
+      if (n_ > 1) rotate(true);
+    } else if (!ok) {
+      miss();
+    }
     return ok;
+  }
+
+  // Channel c has no usable sample at this step (the caller's checks refused its value: stuck,
+  // saturated, non-finite). Nothing of the channel's state changes; for the channel in turn it
+  // counts towards passing the turn on, as a rejected push() does.
+  void skip(std::size_t c) noexcept {
+    retuned_ = false;
+    if (c < n_ && c == turn_) miss();
   }
 
   std::size_t channels() const noexcept { return n_; }
@@ -127,9 +148,17 @@ class SharedDriftIdentifier {
     return parked_[park_index(c)];
   }
 
+  // A sample of the channel in turn missing: after block_samples of them in one turn (and
+  // with another channel to take it) its partial block is dropped and the turn passes on.
+  void miss() noexcept {
+    if (n_ > 1 && ++missed_ >= id_.settings_.block_samples) rotate(true);
+  }
+
   // The turn passes to the next channel: the one in turn is parked last, the first parked
-  // one comes in (and, with `start`, its working state is started).
+  // one comes in (and, with `start`, its working state is started: a partial block of the
+  // channel parked is dropped).
   void rotate(bool start) noexcept {
+    missed_ = 0;
     if (n_ > 1) {
       const Track out = id_.t_;
       id_.t_ = parked_[0];
@@ -144,6 +173,7 @@ class SharedDriftIdentifier {
   std::array<Track, Channels - 1> parked_{};        // the others
   std::size_t n_ = 0;
   std::size_t turn_ = 0;
+  std::uint32_t missed_ = 0;  // samples the channel in turn missed during this turn
   bool retuned_ = false;
 };
 

@@ -628,7 +628,12 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
       this->latched[i] = now;
       if constexpr (!MonitorReidentify) {
         // no re-identification compiled in: no retunes
-      } else if (this->reidentify && m.used() != used_before) {  // a value the statistics took
+      } else if (this->reidentify && m.used() == used_before) {
+        // a value the statistics did not take (stuck, saturated, non-finite): it counts towards
+        // passing slot i's turn of the shared re-identification on, so that a failed gyro does
+        // not stop the others'
+        this->identifier.skip(i);
+      } else if (this->reidentify) {  // a value the statistics took
         MonitorIdentifier& id = this->identifier;
         id.push(i, x);
         if (id.refused_retunes(i) != this->refused[i]) {

@@ -9,7 +9,7 @@ to .npy or .csv (t_s, rate_deg_h).
 A memory-mapped .npy record longer than 2^20 samples is filtered in pieces (the ar, kalman and
 realtime-wavelet filters' state carried from piece to piece; the offline wavelet and wpacket
 denoisers from windows of the record, the whole record's output), the output written piece
-by piece: the memory does not grow with the record (wavelet with --core float excepted)."""
+by piece: the memory does not grow with the record, with either --core."""
 
 from __future__ import annotations
 
@@ -207,8 +207,9 @@ def _denoised_pieces(x: np.ndarray, args: argparse.Namespace
             raise CliError("--threshold forced is the real-time prefilter's mode: use "
                            "--filter realtime-wavelet, or soft/hard")
         info |= {"wavelet": args.wavelet, "level": level, "threshold": mode}
+        dtype = np.float32 if args.core == "float" else np.float64
         return wavelet_file.wavelet_denoise_pieces(x, args.wavelet, level, mode,
-                                                   piece=_PIECE), info
+                                                   piece=_PIECE, dtype=dtype), info
     if args.core == "float":
         raise CliError("wpacket runs in Python (PyWavelets, float64) only; drop --core float")
     if mode == "forced":
@@ -297,8 +298,7 @@ def run(args: argparse.Namespace) -> int:
     rec = record_from_args(args)
     raw = rec.rate_deg_h
     if (args.filter in PIECEWISE_METHODS and is_file_backed(raw) and raw.dtype == np.float64
-            and raw.shape[0] > FILE_BACKED_MIN
-            and not (args.filter == "wavelet" and args.core == "float")):
+            and raw.shape[0] > FILE_BACKED_MIN):
         try:
             info, std_in, std_out = _run_piecewise(raw, args, out, rec.rate_hz)
         except ValueError as exc:

@@ -13,6 +13,7 @@ from gyrodrift.filters.online import DriftParams as DriftParams
 from gyrodrift.filters.online import OnlineDriftIdentifier as OnlineDriftIdentifier
 from gyrodrift.filters.online import OnlineDriftSettings as OnlineDriftSettings
 from gyrodrift.filters.online import OnlineDriftTrace as OnlineDriftTrace
+from gyrodrift.filters.online import SharedDriftIdentifier as SharedDriftIdentifier
 
 __all__: list[str] = ["DriftParams", "OnlineDriftIdentifier", "OnlineDriftSettings",
-                      "OnlineDriftTrace"]
+                      "OnlineDriftTrace", "SharedDriftIdentifier"]

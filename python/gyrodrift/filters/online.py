@@ -19,12 +19,17 @@ drift/white split is identified (relative standard errors of q and r at most
 data (normalised innovation power within ``max_innovation_ratio``); otherwise the configured
 model and its gain are in use. Measurements: docs/validation/online-identification.md.
 
+:class:`SharedDriftIdentifier` is the identifier the processor's gyro monitor runs for several
+watched gyros: one estimator shared in turns of one block among up to three channels
+(include/gyrodrift/filters/shared_drift_identifier.hpp).
+
 ``dtype=np.float32`` runs the float state the microcontroller uses.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -40,6 +45,7 @@ __all__ = [
     "OnlineDriftIdentifier",
     "OnlineDriftSettings",
     "OnlineDriftTrace",
+    "SharedDriftIdentifier",
 ]
 
 #: Status names by code (the C++ OnlineDriftStatus).
@@ -437,4 +443,185 @@ class OnlineDriftIdentifier:
     @property
     def state_bytes(self) -> int:
         """Size of the C++ identifier's state in this precision (bytes)."""
+        return int(self._impl.state_bytes)
+
+
+class SharedDriftIdentifier:
+    """One online identifier shared among 1 to 3 gyro channels in turns of one block, as the
+    processor's gyro monitor re-identifies its watched gyros (the C++ SharedDriftIdentifier).
+
+    The channels take turns of one block each, in channel order: during its turn a channel's
+    samples run through the estimator's filters and block sums, at the end of the block come
+    its parameter update and, every ``retune_blocks`` of its blocks, its gain retune; the other
+    channels' samples only move their running means and sample counts. Each channel keeps its
+    own configured model, estimate, gain, status and counters.
+
+    Parameters
+    ----------
+    configured : sequence of DriftParams
+        One configured model per channel (1 to :attr:`capacity`), the start and fallback of
+        that channel's estimate.
+    settings : OnlineDriftSettings, optional
+        One setting for all channels; defaults as in the C++ core.
+    dtype : numpy dtype, optional
+        ``np.float64`` (default) or ``np.float32`` (the float state of the target).
+
+    Raises
+    ------
+    GyrodriftValueError
+        No channel, more than :attr:`capacity`, a refused model (named by its channel) or
+        another dtype.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from scipy.signal import lfilter
+    >>> rng = np.random.default_rng(1)
+    >>> y = np.stack([lfilter([1.0], [1.0, -0.2297, -0.1638], rng.normal(size=6000))
+    ...               + rng.normal(size=6000) for _ in range(3)], axis=1)
+    >>> cfg = DriftParams(0.2, 0.1, 1.5, 0.7, 0.0)
+    >>> ident = SharedDriftIdentifier([cfg] * 3, OnlineDriftSettings(block_samples=200))
+    >>> traces = ident.push(y)   # rows of (gx, gy, gz) samples, one trace per channel
+    >>> [len(t.samples) for t in traces]   # each channel ran one block in three
+    [10, 10, 10]
+    >>> [int(v) for v in traces[1].samples[:2]]   # its blocks end 3 * 200 - 2 samples apart
+    [399, 997]
+    """
+
+    #: Channels one shared identifier serves (the processor's gyro monitor slots).
+    capacity = 3
+
+    def __init__(self, configured: Sequence[DriftParams],
+                 settings: OnlineDriftSettings | None = None, *,
+                 dtype: DTypeLike = np.float64) -> None:
+        models = list(configured)
+        if not models or not all(isinstance(m, DriftParams) for m in models):
+            raise GyrodriftTypeError("configured must be a non-empty sequence of DriftParams")
+        if len(models) > self.capacity:
+            raise GyrodriftValueError(
+                f"SharedDriftIdentifier: at most {self.capacity} channels, got {len(models)}")
+        self._settings = settings if settings is not None else OnlineDriftSettings()
+        if not isinstance(self._settings, OnlineDriftSettings):
+            raise GyrodriftTypeError(
+                f"settings must be an OnlineDriftSettings, got {type(settings).__name__}")
+        self._dtype = np.dtype(dtype)
+        lib = core("drift")
+        if self._dtype == np.float64:
+            cls = lib.SharedDriftIdentifier
+        elif self._dtype == np.float32:
+            cls = lib.SharedDriftIdentifierF32
+        else:
+            raise GyrodriftValueError(f"dtype must be float64 or float32, got {self._dtype}")
+        table = np.array([[m.a1, m.a2, m.q, m.r, m.mean] for m in models], dtype=np.float64)
+        try:
+            self._impl: Any = cls(models=table, settings=self._settings._native(lib))
+        except ValueError as exc:
+            raise GyrodriftValueError(str(exc)) from None
+        self._n = len(models)
+
+    def push(self, y: ArrayLike) -> list[OnlineDriftTrace]:
+        """Run rows of samples, one column per channel, in time order (GIL released).
+
+        Each row's samples go in channel order, as the processor steps its watched gyros.
+        Non-finite samples are skipped and counted in :meth:`rejected`. Returns one trace per
+        channel with the state after each of its blocks completed during this call (``samples``:
+        the channel's accepted samples at the end of the block; ``stderr`` is NaN: the shared
+        identifier does not report standard errors).
+
+        Raises
+        ------
+        GyrodriftValueError
+            y is not of shape (samples, channels).
+        """
+        arr = np.ascontiguousarray(y, dtype=self._dtype)
+        if arr.ndim == 1 and self._n == 1:
+            arr = arr.reshape(-1, 1)
+        if arr.ndim != 2 or arr.shape[1] != self._n:
+            raise GyrodriftValueError(
+                f"y: expected shape (samples, {self._n}), got shape {arr.shape}")
+        channel, samples, est, use, gain, status, retuned = self._impl.push(arr)
+        channel = np.asarray(channel)
+        out = []
+        for c in range(self._n):
+            sel = channel == c
+            nb = int(np.count_nonzero(sel))
+            out.append(OnlineDriftTrace(np.asarray(samples)[sel], np.asarray(est)[sel],
+                                        np.asarray(use)[sel], np.asarray(gain)[sel],
+                                        np.asarray(status)[sel], np.full((nb, 5), np.nan),
+                                        np.asarray(retuned)[sel]))
+        return out
+
+    def reset(self) -> None:
+        """Every channel back to its configured model, counters cleared, the turn at channel 0."""
+        self._impl.reset()
+
+    @property
+    def channels(self) -> int:
+        """Channels configured."""
+        return self._n
+
+    @property
+    def turn(self) -> int:
+        """The channel whose block runs now."""
+        return int(self._impl.turn)
+
+    @property
+    def settings(self) -> OnlineDriftSettings:
+        """The settings (one for all channels)."""
+        return self._settings
+
+    @property
+    def dtype(self) -> np.dtype[Any]:
+        """The precision of the state (float64 or float32)."""
+        return self._dtype
+
+    def _check(self, c: int) -> int:
+        if isinstance(c, bool) or not isinstance(c, (int, np.integer)) or not 0 <= c < self._n:
+            raise GyrodriftValueError(f"channel {c!r} out of range (0 to {self._n - 1})")
+        return int(c)
+
+    def status(self, c: int) -> str:
+        """Channel c's status, one of ``ONLINE_DRIFT_STATUS``."""
+        return ONLINE_DRIFT_STATUS[int(self._impl.status(self._check(c)))]
+
+    def configured(self, c: int) -> DriftParams:
+        """Channel c's configured model (as stored in the state's precision)."""
+        return DriftParams(*self._impl.configured(self._check(c)))
+
+    def estimate(self, c: int) -> DriftParams:
+        """Channel c's running estimate."""
+        return DriftParams(*self._impl.estimate(self._check(c)))
+
+    def in_use(self, c: int) -> DriftParams:
+        """The model of channel c's current gain."""
+        return DriftParams(*self._impl.in_use(self._check(c)))
+
+    def gain(self, c: int) -> tuple[float, float]:
+        """Steady-state Kalman gain (k0, k1) of channel c's :meth:`in_use`."""
+        k0, k1 = self._impl.gain(self._check(c))
+        return float(k0), float(k1)
+
+    def samples(self, c: int) -> int:
+        """Samples of channel c accepted so far (all of them, not only its turns')."""
+        return int(self._impl.samples(self._check(c)))
+
+    def rejected(self, c: int) -> int:
+        """Non-finite samples of channel c skipped so far."""
+        return int(self._impl.rejected(self._check(c)))
+
+    def blocks(self, c: int) -> int:
+        """Channel c's parameter updates (its turns) so far."""
+        return int(self._impl.blocks(self._check(c)))
+
+    def retunes(self, c: int) -> int:
+        """Channel c's accepted gain retunes."""
+        return int(self._impl.retunes(self._check(c)))
+
+    def refused_retunes(self, c: int) -> int:
+        """Channel c's retunes refused by a guard (its configured model then in use)."""
+        return int(self._impl.refused_retunes(self._check(c)))
+
+    @property
+    def state_bytes(self) -> int:
+        """Size of the C++ shared identifier's state (three channels) in this precision (bytes)."""
         return int(self._impl.state_bytes)

@@ -22,6 +22,14 @@ from windows of the padded record:
   whole record's sum: equal to rounding; the best basis already settles ties within 1e-12 of
   the cost for the parent).
 
+`wavelet_denoise` in float32 (the lifting core of the MCU build, ``dtype=numpy.float32``)
+is computed the same way: each window is rounded to float32 as the whole record is, its
+coefficients are the whole float32 transform's (each is the same float32 lifting arithmetic
+on the same float32 samples, whatever the window), the median is taken of the float32
+level-1 details (the mean of the middle two in float32, as ``numpy.median`` of float32
+values), and the threshold is applied to the float32 coefficients with the same float32
+operations.
+
 Memory: a window of about `piece` + 2 `margin` samples and its transforms, and the counts
 (65536 per pass); the record is read once per pass (4-8 passes).
 """
@@ -35,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 from gyrodrift.io.records import is_file_backed, iter_chunks
 
 __all__ = ["wavelet_denoise_pieces", "wavelet_packet_denoise_pieces"]
@@ -111,11 +119,13 @@ def _checked(x: Any, level: int, max_level: int, wavelet_ok: Callable[[], None])
     return arr
 
 
-def _scan(x: np.ndarray, piece: int) -> float:
-    """The largest |x|; a NaN or Inf is refused with its index (as `wavelet_denoise`)."""
+def _scan(x: np.ndarray, piece: int, dtype: Any = np.float64) -> float:
+    """The largest |x| in `dtype`; a NaN or Inf (in `dtype`: float32 overflows beyond about
+    3.4e38) is refused with its index (as `wavelet_denoise`)."""
     peak, start = 0.0, 0
     for p in iter_chunks(x, piece):
-        a = np.asarray(p, dtype=np.float64)
+        with np.errstate(over="ignore"):  # beyond float32's range: Inf, refused below
+            a = np.asarray(p, dtype=dtype)
         ok = np.isfinite(a)
         if not np.all(ok):
             raise GyrodriftValueError(
@@ -151,19 +161,20 @@ def _order_statistic(values: Callable[[], Iterator[np.ndarray]], rank: int) -> f
             return float(keep[rank:rank + 1].view(np.float64)[0])
 
 
-def _median(values: Callable[[], Iterator[np.ndarray]], count: int) -> float:
-    """numpy.median of the non-negative values (the mean of the middle two for an even
-    count), from passes over them."""
+def _median(values: Callable[[], Iterator[np.ndarray]], count: int,
+            dtype: Any = np.float64) -> float:
+    """numpy.median of the non-negative values of `dtype` (the mean of the middle two in
+    `dtype` for an even count), from passes over them."""
     lo = _order_statistic(values, (count - 1) // 2)
     if count % 2:
         return lo
-    return float(np.mean([lo, _order_statistic(values, count // 2)]))
+    return float(np.mean(np.array([lo, _order_statistic(values, count // 2)], dtype=dtype)))
 
 
 def _sigma_t(pad: _Padded, step: int, margin: int,
-             level1: Callable[[np.ndarray], np.ndarray]) -> float:
+             level1: Callable[[np.ndarray], np.ndarray], dtype: Any = np.float64) -> float:
     """The universal threshold sigma sqrt(2 ln n), sigma = median(|d1|) / MAD_TO_SIGMA of the
-    level-1 details of the whole padded record."""
+    level-1 details (of `dtype`) of the whole padded record."""
     from gyrodrift.filters.wavelet import MAD_TO_SIGMA
 
     def details() -> Iterator[np.ndarray]:
@@ -172,15 +183,16 @@ def _sigma_t(pad: _Padded, step: int, margin: int,
             d = level1(pad.window(a - margin, b + margin))  # the window's level-1 details
             yield np.abs(d[margin // 2:(margin + b - a) // 2])
 
-    sigma = _median(details, pad.m // 2) / MAD_TO_SIGMA
+    sigma = _median(details, pad.m // 2, dtype) / MAD_TO_SIGMA
     return sigma * math.sqrt(2 * math.log(pad.n))
 
 
 def wavelet_denoise_pieces(x: Any, wavelet: str = "db8", level: int = 5, mode: str = "soft", *,
-                           piece: int = DEFAULT_PIECE) -> Iterator[np.ndarray]:
-    """`gyrodrift.filters.wavelet.wavelet_denoise` (float64, one sigma from the level-1
-    details) of a 1-D record read in pieces, yielded in consecutive pieces of about `piece`
-    samples (module docstring): the whole record's output, never the whole record in memory.
+                           piece: int = DEFAULT_PIECE, dtype: Any = np.float64
+                           ) -> Iterator[np.ndarray]:
+    """`gyrodrift.filters.wavelet.wavelet_denoise` (one sigma from the level-1 details) of a
+    1-D record read in pieces, yielded in consecutive pieces of about `piece` samples
+    (module docstring): the whole record's output, never the whole record in memory.
 
     Parameters
     ----------
@@ -190,11 +202,13 @@ def wavelet_denoise_pieces(x: Any, wavelet: str = "db8", level: int = 5, mode: s
         as `wavelet_denoise`.
     piece
         samples per output piece (rounded down to a multiple of 2^level).
+    dtype
+        scalar type of the lifting core: float64, or float32 (the MCU build's).
 
     Yields
     ------
     numpy.ndarray
-        the denoised record's next samples (float64).
+        the denoised record's next samples (of `dtype`).
 
     Raises
     ------
@@ -208,6 +222,11 @@ def wavelet_denoise_pieces(x: Any, wavelet: str = "db8", level: int = 5, mode: s
     >>> y = np.concatenate(list(wavelet_denoise_pieces(x, "db8", 3, piece=1024)))
     >>> bool(np.allclose(y, wavelet_denoise(x, "db8", 3), rtol=0, atol=1e-12))
     True
+    >>> y32 = np.concatenate(list(wavelet_denoise_pieces(x, "db8", 3, piece=1024,
+    ...                                                  dtype=np.float32)))
+    >>> y32.dtype, bool(np.allclose(y32, wavelet_denoise(x, "db8", 3, dtype=np.float32),
+    ...                             rtol=0, atol=1e-5))
+    (dtype('float32'), True)
     """
     from gyrodrift.filters.wavelet import SUPPORTED_WAVELETS, wavedec, waverec
 
@@ -220,40 +239,44 @@ def wavelet_denoise_pieces(x: Any, wavelet: str = "db8", level: int = 5, mode: s
     modes = ("soft", "hard", "forced")
     if mode not in modes:
         raise GyrodriftValueError(f"mode must be one of {modes}, got {mode!r}")
+    dt = np.dtype(dtype)
+    if dt not in (np.dtype(np.float64), np.dtype(np.float32)):
+        raise GyrodriftTypeError(f"dtype must be float64 or float32, got {dt}")
     level = int(level)
     pad = _Padded(arr, level)
     step, margin = _pieces_plan(level, piece)
-    peak = _scan(arr, step)
+    peak = _scan(arr, step, dt)
     if pad.m <= step + 2 * margin:  # short: one window is the whole record
         from gyrodrift.filters.wavelet import wavelet_denoise
 
-        yield wavelet_denoise(np.asarray(arr, dtype=np.float64), wavelet, level, mode)
+        yield wavelet_denoise(np.asarray(arr, dtype=np.float64), wavelet, level, mode,
+                              dtype=dt)
         return
     t = 0.0
     if mode != "forced":
         t = _sigma_t(pad, step, margin,
-                     lambda w: wavedec(w, wavelet, 1)[w.size // 2:])
+                     lambda w: wavedec(w, wavelet, 1, dtype=dt)[w.size // 2:], dt)
     for a in range(0, pad.m, step):
         b = min(pad.m, a + step)
-        w = pad.window(a - margin, b + margin)
-        c = wavedec(w, wavelet, level)
+        w = pad.window(a - margin, b + margin).astype(dt, copy=False)
+        c = wavedec(w, wavelet, level, dtype=dt)
         if not np.all(np.isfinite(c)):
             raise GyrodriftValueError(
-                f"x: values up to {peak:.3g} overflow the float64 wavelet transform (its "
-                f"largest value is {float(np.finfo(np.float64).max):.3g}); scale the record")
+                f"x: values up to {peak:.3g} overflow the {dt.name} wavelet transform (its "
+                f"largest value is {float(np.finfo(dt).max):.3g}); scale the record")
         n_approx = w.size >> level
         if mode == "forced":
             c[n_approx:] = 0
-        else:
+        else:  # as the whole-record denoiser thresholds (float32 stays float32)
             d = c[n_approx:]
             mag = np.maximum(np.abs(d) - t, 0.0)
             c[n_approx:] = (np.where(np.abs(d) < t, 0.0, d) if mode == "hard"
-                            else np.sign(d) * mag)
-        y = waverec(c, wavelet, level)[margin:margin + b - a]
+                            else np.sign(d) * mag).astype(d.dtype, copy=False)
+        y = waverec(c, wavelet, level, dtype=dt)[margin:margin + b - a]
         if not np.all(np.isfinite(y)):
             raise GyrodriftValueError(
-                f"x: values up to {peak:.3g} overflow the float64 inverse wavelet transform; "
-                "scale the record")
+                f"x: values up to {peak:.3g} overflow the {dt.name} inverse wavelet "
+                "transform; scale the record")
         yield y[:max(0, min(b, pad.n) - a)]
 
 

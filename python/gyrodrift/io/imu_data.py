@@ -16,14 +16,17 @@ m/s^2) from:
   `gyrodrift.io.psins`), converted to rates by dividing by the sample interval.
 - the replay harness's IMU logs (``.bin``/``.gdf``, candump ``.log``, ``.asc``, ``.blf`` and
   its CSV; `gyrodrift.io.imu_log`), with their sequence numbers checked for lost samples.
-
-Text records, PSINS and IMU logs are read in blocks, and their channels kept in memory or,
-from ``gyrodrift.io.spool.SPOOL_MIN_SAMPLES`` samples on, in temporary files returned as
-memory maps (bounded memory whatever the record's length).
+  Text records, PSINS and IMU logs are read in blocks, their channels kept in memory or,
+  from ``gyrodrift.io.spool.SPOOL_MIN_SAMPLES`` samples on (six channels: a sixth of it
+  each), in temporary files returned as memory maps (bounded memory whatever the record's
+  length).
 - ROS bags (``.bag`` rosbag1; a rosbag2 directory or its ``.db3``/``.mcap`` file), read with
   the pure-Python ``rosbags`` package: one ``sensor_msgs/msg/Imu`` topic (``topic=``; the
   error lists the Imu topics when it is missing or ambiguous), timestamps from the message
   headers (the bag's receive time where a header stamp is zero), checked like a time column.
+  The messages are read in blocks (BAG_BLOCK_MESSAGES), each block's columns appended to
+  temporary float64 files from BAG_SPOOL_MIN_MESSAGES messages on (bounded memory whatever
+  the bag's length; a rosbag1 index is read one chunk's record at a time).
 
 NaN/Inf samples follow `nan_policy` as in `gyrodrift.io.records`: "refuse" (default) raises with
 their
@@ -42,6 +45,7 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import re
 from collections.abc import Iterator, Sequence
@@ -64,7 +68,7 @@ from gyrodrift.io.records import (
     load_npy,
     rate_from_time,
 )
-from gyrodrift.io.spool import BLOCK_ROWS, SampleSpool, iter_text_tables
+from gyrodrift.io.spool import BLOCK_ROWS, SPOOL_MIN_SAMPLES, SampleSpool, iter_text_tables
 from gyrodrift.units import (
     ACCEL_INCREMENT_UNITS,
     DEFAULT_TIME_UNITS,
@@ -620,8 +624,9 @@ RECOGNISED_NAMES = ("time: t, t_s, time, time_s, timestamp, stamp, sec; gyro: gy
 
 def _read_text_columns(p: Path, delim: str | None, skip: int) -> list[np.ndarray]:
     """The columns of a text table after its first `skip` lines, parsed in blocks of lines
-    by numpy.genfromtxt (gyrodrift.io.spool.iter_text_tables): rows with a wrong number of
-    fields are an error (never dropped silently), unparseable cells become NaN and go
+    as numpy.genfromtxt parses them (gyrodrift.io.spool.iter_text_tables: by numpy.loadtxt
+    where it accepts the block): rows with a wrong number of fields are an error (never
+    dropped silently), unparseable cells become NaN and go
     through the NaN policy. Each column is an array, or from SPOOL_MIN_SAMPLES rows on a
     memory map of a temporary file (8 bytes per row and column)."""
     source = str(p)
@@ -940,8 +945,6 @@ def bag_imu_topics(path: str | Path) -> dict[str, int]:
     ...     print(bag_imu_topics(path))  # the Imu topics only, with their message counts
     {'/imu': 0}
     """
-    from rosbags.highlevel import AnyReader
-
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"no such file: {p}")
@@ -950,8 +953,7 @@ def bag_imu_topics(path: str | Path) -> dict[str, int]:
                                   "a record file")
     kind = input_kind(p)
     out: dict[str, int] = {}
-    with _bag_errors(str(p), kind), \
-            AnyReader([_bag_paths(p, kind)], default_typestore=_typestore()) as reader:
+    with _bag_errors(str(p), kind), _open_bag(_bag_paths(p, kind)) as reader:
         for c in reader.connections:
             if c.msgtype in IMU_MSGTYPES:
                 out[c.topic] = out.get(c.topic, 0) + int(c.msgcount)
@@ -964,33 +966,149 @@ def _typestore() -> Any:
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
+#: Messages of a ROS bag deserialized per block: each block's values go to the record's
+#: SampleSpool objects before the next block is read.
+BAG_BLOCK_MESSAGES = 1 << 16
+#: Messages from which a ROS bag's seven columns (six channels and the time stamps) go to
+#: temporary files: together they keep in memory what one column of SPOOL_MIN_SAMPLES
+#: samples would (8 MB).
+BAG_SPOOL_MIN_MESSAGES = SPOOL_MIN_SAMPLES // 7
+
+_LEAN_READER1: type | None = None
+
+
+def _lean_rosbag1_reader() -> type:
+    """rosbags' rosbag1 ``Reader`` without its in-memory index of every message (about 140
+    bytes per message). It reads and checks every index record at opening as rosbags does
+    (the message counts come from them), but keeps only where each record is; `messages`
+    of one connection whose index times never decrease (their sorted order is the index
+    order, so rosbags would yield the same messages in the same order) reads one chunk's
+    index record at a time and lets rosbags' own `messages` read those messages. Any other
+    request reads the whole index first and is rosbags' `messages` unchanged."""
+    global _LEAN_READER1
+    if _LEAN_READER1 is not None:
+        return _LEAN_READER1
+    from collections import defaultdict
+    from collections.abc import Collection, Generator
+
+    from rosbags.interfaces import Connection
+    from rosbags.rosbag1 import Reader
+
+    class LeanReader1(Reader):
+        def open(self) -> None:
+            # connection id -> (chunk position, file position of its index record) in the
+            # order rosbags reads them; message count; time order; last time
+            self._records: dict[int, list[tuple[int, int]]] = defaultdict(list)
+            self._counts: dict[int, int] = defaultdict(int)
+            self._ordered: dict[int, bool] = defaultdict(lambda: True)
+            self._last: dict[int, int] = {}
+            super().open()
+            self.connections = [c._replace(msgcount=self._counts[c.id])
+                                for c in self.connections]
+
+        def read_index_data(self, pos: int, indexes: dict[int, list[Any]]) -> None:
+            assert self.bio is not None
+            where = self.bio.tell()
+            got: dict[int, list[Any]] = defaultdict(list)
+            super().read_index_data(pos, got)  # rosbags' own parse and checks
+            for conn, entries in got.items():
+                self._records[conn].append((pos, where))
+                self._counts[conn] += len(entries)
+                times = [e.time for e in entries]
+                if conn in self._last:
+                    times.insert(0, self._last[conn])
+                if times:
+                    self._last[conn] = times[-1]
+                if any(b < a for a, b in itertools.pairwise(times)):
+                    self._ordered[conn] = False
+
+        def _read_index(self, conn: int) -> list[Any]:
+            assert self.bio is not None
+            got: dict[int, list[Any]] = defaultdict(list)
+            for pos, where in self._records.get(conn, []):
+                self.bio.seek(where)
+                super().read_index_data(pos, got)
+            return got[conn]
+
+        def messages(self, connections: Collection[Connection] = (),
+                     start: int | None = None, stop: int | None = None
+                     ) -> Generator[tuple[Connection, int, bytes], None, None]:
+            self._check_open()
+            conns = list(connections) or list(self.connections)
+            if len(conns) != 1 or not self._ordered[conns[0].id]:
+                self.indexes = {c.id: sorted(self._read_index(c.id)) for c in conns}
+                yield from super().messages(connections, start, stop)
+                return
+            cid = conns[0].id
+            for pos, where in list(self._records.get(cid, [])):
+                assert self.bio is not None
+                self.bio.seek(where)
+                got: dict[int, list[Any]] = defaultdict(list)
+                super().read_index_data(pos, got)
+                self.indexes = {cid: got[cid]}
+                yield from super().messages(conns, start, stop)
+            self.indexes = {}
+
+    _LEAN_READER1 = LeanReader1
+    return LeanReader1
+
+
+@contextlib.contextmanager
+def _open_bag(bag: Path) -> Iterator[Any]:
+    """rosbags' ``AnyReader`` on `bag`, open; a rosbag1 bag through `_lean_rosbag1_reader`
+    (the same connections, counts, messages and errors, without a per-message index)."""
+    from rosbags.highlevel import AnyReader
+
+    reader = AnyReader([bag], default_typestore=_typestore())
+    if not reader.is2:
+        reader.readers = [_lean_rosbag1_reader()(bag)]
+    with reader:
+        yield reader
+
+
 def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
-              nan_policy: str) -> ImuData:
+              nan_policy: str, *, block_messages: int = BAG_BLOCK_MESSAGES,
+              memory_max: int = BAG_SPOOL_MIN_MESSAGES) -> ImuData:
+    """The bag's Imu topic read `block_messages` messages at a time into SampleSpool
+    objects (from `memory_max` messages on, temporary files), the rate from the stamps,
+    NaN/Inf refused or their rows dropped as `_finish` does."""
     source = str(p)
     bag = _bag_paths(p, kind)
     if kind == "rosbag2":
         _check_sqlite_complete(bag, source)
-    with _bag_errors(source, kind):
-        topic, n, vals, t_ns = _read_bag_imu(bag, source, topic)
-    if n < 3:
-        raise GyrodriftValueError(f"{source}: {topic}: {n} messages; too short for analysis")
-    # Gaps and reordering are checked on the header stamps in bag order (the same check as a
-    # CSV time column); relative times keep the nanoseconds exact in float64.
-    t_rate = rate_from_time((t_ns - t_ns[0]).astype(np.float64) * 1e-9, f"{source} {topic}")
-    rate = t_rate if rate_hz is None else rate_hz
-    cols = {CHANNELS[j]: vals[:, j] for j in range(6)}
-    return _finish(cols, rate, source, kind, nan_policy,
+    with contextlib.ExitStack() as stack:
+        spools = {name: stack.enter_context(SampleSpool(memory_max, name))
+                  for name in (*CHANNELS, "t_s")}
+        with _bag_errors(source, kind):
+            topic, n, n_bad = _read_bag_imu(bag, source, topic, spools, nan_policy,
+                                            block_messages)
+        if n < 3:
+            raise GyrodriftValueError(f"{source}: {topic}: {n} messages; too short for analysis")
+        # Gaps and reordering are checked on the header stamps in bag order (the same check
+        # as a CSV time column); times relative to the first keep the nanoseconds exact.
+        t_rate = rate_from_time(spools["t_s"].finish(), f"{source} {topic}")
+        rate = t_rate if rate_hz is None else rate_hz
+        if n_bad and nan_policy != "drop":
+            raise GyrodriftValueError(
+                f"{source}: {n_bad} of {n} samples have NaN/Inf channels; "
+                "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
+        cols = {name: spools[name].finish() for name in CHANNELS}
+    return ImuData(cols, float(rate), source, kind, n, n_bad,
                    {"topic": topic, "units_in": "rad/s, m/s^2 (sensor_msgs/Imu)"})
 
 
-def _read_bag_imu(bag: Path, source: str, topic: str | None
-                  ) -> tuple[str, int, np.ndarray, np.ndarray]:
-    """(topic, message count, (n, 6) gyro and accelerometer values, header stamps in ns) of
-    the bag's one (or the chosen) sensor_msgs/msg/Imu topic; every message the index counts
-    must be read and deserialize as an Imu."""
-    from rosbags.highlevel import AnyReader
-
-    with AnyReader([bag], default_typestore=_typestore()) as reader:
+def _read_bag_imu(bag: Path, source: str, topic: str | None, spools: dict[str, SampleSpool],
+                  nan_policy: str, block_messages: int = BAG_BLOCK_MESSAGES
+                  ) -> tuple[str, int, int]:
+    """(topic, message count, rows with a NaN/Inf value) of the bag's one (or the chosen)
+    sensor_msgs/msg/Imu topic, its messages deserialized `block_messages` at a time and
+    appended to `spools`: the gyro and accelerometer channels (CHANNELS; the rows with a
+    NaN/Inf value left out under nan_policy "drop", no row once one is found otherwise) and
+    "t_s", the header stamps (the bag's receive time where a stamp is zero) in seconds from
+    the first. Every message the index counts must be read and deserialize as an Imu."""
+    if block_messages < 1:
+        raise GyrodriftValueError(f"block_messages must be >= 1, got {block_messages}")
+    with _open_bag(bag) as reader:
         imu: dict[str, list[Any]] = {}
         for c in reader.connections:
             if c.msgtype in IMU_MSGTYPES:
@@ -1010,9 +1128,28 @@ def _read_bag_imu(bag: Path, source: str, topic: str | None
             raise GyrodriftValueError(f"{source}: {what}; the bag's Imu topics: {listing}")
         conns = imu[topic]
         n = sum(int(c.msgcount) for c in conns)
-        vals = np.empty((n, 6))
-        t_ns = np.empty(n, dtype=np.int64)
-        i = 0
+        rows = max(1, min(block_messages, n))
+        vals = np.empty((rows, 6))
+        t_ns = np.empty(rows, dtype=np.int64)
+        t0: list[np.int64] = []  # the first message's time
+        n_bad = 0
+
+        def flush(m: int) -> None:
+            nonlocal n_bad
+            if m == 0:
+                return
+            if not t0:
+                t0.append(t_ns[0])
+            spools["t_s"].append((t_ns[:m] - t0[0]).astype(np.float64) * 1e-9)
+            ok = np.all(np.isfinite(vals[:m]), axis=1)
+            bad = m - int(np.count_nonzero(ok))
+            n_bad += bad
+            if n_bad and nan_policy != "drop":
+                return  # counted, never kept: the record is refused
+            for j, name in enumerate(CHANNELS):
+                spools[name].append(vals[:m, j] if bad == 0 else vals[:m, j][ok])
+
+        i = k = 0
         for conn, bag_t_ns, raw in reader.messages(connections=conns):
             if i >= n:
                 raise GyrodriftValueError(
@@ -1022,17 +1159,22 @@ def _read_bag_imu(bag: Path, source: str, topic: str | None
                 st = msg.header.stamp
                 stamp = int(st.sec) * 1_000_000_000 + int(st.nanosec)
                 w, a = msg.angular_velocity, msg.linear_acceleration
-                vals[i] = (w.x, w.y, w.z, a.x, a.y, a.z)
+                vals[k] = (w.x, w.y, w.z, a.x, a.y, a.z)
             except Exception as exc:  # any parser error: the message is not an Imu
                 detail = (str(exc).strip().splitlines() or [""])[0] or type(exc).__name__
                 raise GyrodriftValueError(
                     f"{source}: {topic}: message {i} is not a valid {conn.msgtype} "
                     f"({detail})") from exc
-            t_ns[i] = stamp if stamp > 0 else int(bag_t_ns)
+            t_ns[k] = stamp if stamp > 0 else int(bag_t_ns)
             i += 1
+            k += 1
+            if k == rows:
+                flush(k)
+                k = 0
+        flush(k)
     if i != n:
         raise GyrodriftValueError(f"{source}: {topic}: read {i} messages, the bag index says {n}")
-    return topic, n, vals, t_ns
+    return topic, n, n_bad
 
 
 # ------------------------------------------------------------------------ units plausibility
