@@ -334,7 +334,7 @@ class ImuLogBlocks:
         self.chunk_bytes = int(CHUNK_BYTES if chunk_bytes is None else chunk_bytes)
         if self.block_samples < 1 or self.chunk_bytes < 1:
             raise GyrodriftValueError("block_samples and chunk_bytes must be >= 1")
-        #: the CAN log's frame accounting, once the iteration ended (None for other logs)
+        # the CAN log's frame accounting, once the iteration ended (None for other logs)
         self.report: CanLogReport | None = None
 
     def __iter__(self) -> Iterator[Samples]:
