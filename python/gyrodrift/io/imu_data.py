@@ -16,6 +16,10 @@ m/s^2) from:
   `gyrodrift.io.psins`), converted to rates by dividing by the sample interval.
 - the replay harness's IMU logs (``.bin``/``.gdf``, candump ``.log``, ``.asc``, ``.blf`` and
   its CSV; `gyrodrift.io.imu_log`), with their sequence numbers checked for lost samples.
+  Text records, PSINS and IMU logs are read in blocks, their channels kept in memory or,
+  from ``gyrodrift.io.spool.SPOOL_MIN_SAMPLES`` samples on (six channels: a sixth of it
+  each), in temporary files returned as memory maps (bounded memory whatever the record's
+  length).
 - ROS bags (``.bag`` rosbag1; a rosbag2 directory or its ``.db3``/``.mcap`` file), read with
   the pure-Python ``rosbags`` package: one ``sensor_msgs/msg/Imu`` topic (``topic=``; the
   error lists the Imu topics when it is missing or ambiguous), timestamps from the message
@@ -53,6 +57,7 @@ import numpy as np
 
 from gyrodrift import units
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
+from gyrodrift.io import spool as _spool
 from gyrodrift.io.records import (
     LOG_SUFFIXES,
     RATE_MAX_HZ,
@@ -770,35 +775,100 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
                     "gyro_units_in": gyro_units, "accel_units_in": accel_units})
 
 
-def _load_psins(p: Path, nan_policy: str) -> ImuData:
-    from gyrodrift.io.psins import read_psins_imu
+class _ChannelSpool:
+    """The six channels of a log or PSINS record, appended in blocks of rows to one
+    :class:`gyrodrift.io.spool.SampleSpool` each, with `_finish`'s NaN policy applied row by
+    row as they come: rows with a NaN/Inf channel are counted, and dropped ("drop") or, once
+    there is one, no row is kept any more ("refuse": the caller raises after its other
+    checks, with the count). The six channels together stay in memory up to
+    SPOOL_MIN_SAMPLES samples (8 MB), as one column does: a record of six channels just
+    below SPOOL_MIN_SAMPLES samples would otherwise hold 48 MB."""
 
-    rec = read_psins_imu(p)
-    rate = 1.0 / rec.dt_s
-    cols = {CHANNELS[j]: rec.dtheta[:, j] * rate for j in range(3)}
-    cols.update({CHANNELS[3 + j]: rec.dv[:, j] * rate for j in range(3)})
-    return _finish(cols, rate, str(p), "psins", nan_policy,
+    def __init__(self, stack: contextlib.ExitStack, nan_policy: str) -> None:
+        self.nan_policy = nan_policy
+        memory_max = _spool.SPOOL_MIN_SAMPLES // len(CHANNELS)
+        self.spools = [stack.enter_context(SampleSpool(memory_max, name=name))
+                       for name in CHANNELS]
+        self.n_total = 0
+        self.n_bad = 0
+
+    def append(self, block: np.ndarray) -> None:
+        """Rows of an (m, 6) float64 block in CHANNELS order."""
+        ok = np.isfinite(block).all(axis=1)
+        bad = int(block.shape[0] - np.count_nonzero(ok))
+        self.n_total += int(block.shape[0])
+        self.n_bad += bad
+        if self.n_bad and self.nan_policy != "drop":
+            return  # counted, never kept
+        kept = block if bad == 0 else block[ok]
+        for j, sp in enumerate(self.spools):
+            sp.append(kept[:, j])
+
+    def finish(self, source: str) -> dict[str, np.ndarray]:
+        """The channels (arrays, or memory maps of temporary files from SPOOL_MIN_SAMPLES
+        samples on), after `_finish`'s checks: at least 3 samples, NaN/Inf refused or
+        dropped."""
+        if self.n_total < 3:
+            raise GyrodriftValueError(f"{source}: {self.n_total} samples; too short for "
+                                      "analysis")
+        if self.n_bad and self.nan_policy != "drop":
+            raise GyrodriftValueError(
+                f"{source}: {self.n_bad} of {self.n_total} samples have NaN/Inf channels; "
+                "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
+        return {name: sp.finish() for name, sp in zip(CHANNELS, self.spools, strict=True)}
+
+
+def _load_psins(p: Path, nan_policy: str) -> ImuData:
+    """A PSINS .imu log read in blocks of lines (gyrodrift.io.psins.PsinsBlocks): the
+    increments divided by the sample interval, each channel kept in memory, or from
+    SPOOL_MIN_SAMPLES samples on in a temporary file (memory map)."""
+    from gyrodrift.io.psins import PsinsBlocks
+
+    blocks = PsinsBlocks(p)
+    rate = 1.0 / blocks.dt_s
+    with contextlib.ExitStack() as stack:
+        out = _ChannelSpool(stack, nan_policy)
+        for dtheta, dv in blocks:
+            out.append(np.concatenate([dtheta * rate, dv * rate], axis=1))
+        channels = out.finish(str(p))
+    return ImuData(channels, float(rate), str(p), "psins", out.n_total, out.n_bad,
                    {"units_in": "angle increments (arcsec counts) and velocity increments "
                                 "(ug*s counts) per sample, divided by dt"})
 
 
 def _load_replay_log(p: Path, rate_hz: float | None, nan_policy: str) -> ImuData:
-    from gyrodrift.io.imu_log import read_imu_log
+    """A replay harness log read in blocks (gyrodrift.io.imu_log.ImuLogBlocks): sequence
+    numbers checked across the blocks, times and channels kept in memory, or from
+    SPOOL_MIN_SAMPLES samples on in temporary files (memory maps)."""
+    from gyrodrift.io.imu_log import ImuLogBlocks
 
-    samples = read_imu_log(p, "csv" if p.suffix.lower() == ".csv" else None)
-    if len(samples) < 3:
-        raise GyrodriftValueError(f"{p}: {len(samples)} samples; too short for analysis")
-    seq = np.asarray(samples.seq, dtype=np.int64)
-    steps = np.diff(seq) % 65536
-    lost = int(np.count_nonzero(steps != 1))
-    if lost:
-        raise GyrodriftValueError(f"{p}: {lost} breaks in the sequence numbers (lost, repeated or "
-                         "reordered samples); Allan/PSD analysis needs uniform sampling")
-    t_rate = rate_from_time(np.asarray(samples.t_s, dtype=np.float64), str(p))
+    blocks = ImuLogBlocks(p, "csv" if p.suffix.lower() == ".csv" else None)
+    lost = 0
+    prev: np.ndarray | None = None  # the last sequence number of the previous block
+    with contextlib.ExitStack() as stack:
+        t_spool = stack.enter_context(SampleSpool(name="t_s"))
+        out = _ChannelSpool(stack, nan_policy)
+        for s in blocks:
+            seq = np.asarray(s.seq, dtype=np.int64)
+            if prev is not None:
+                seq = np.concatenate((prev, seq))
+            lost += int(np.count_nonzero(np.diff(seq) % 65536 != 1))
+            prev = seq[-1:]
+            t_spool.append(s.t_s)
+            out.append(np.asarray(s.channels, dtype=np.float64))
+        if out.n_total < 3:
+            raise GyrodriftValueError(f"{p}: {out.n_total} samples; too short for analysis")
+        if lost:
+            raise GyrodriftValueError(
+                f"{p}: {lost} breaks in the sequence numbers (lost, repeated or "
+                "reordered samples); Allan/PSD analysis needs uniform sampling")
+        t_s = t_spool.finish()
+        t_rate = rate_from_time(t_s, str(p))
+        del t_s  # its temporary file goes with the last reference
+        channels = out.finish(str(p))
     rate = t_rate if rate_hz is None else rate_hz
-    ch = np.asarray(samples.channels, dtype=np.float64)
-    cols = {CHANNELS[j]: ch[:, j] for j in range(6)}
-    return _finish(cols, rate, str(p), "replay-log", nan_policy, {"units_in": "rad/s, m/s^2"})
+    return ImuData(channels, float(rate), str(p), "replay-log", out.n_total, out.n_bad,
+                   {"units_in": "rad/s, m/s^2"})
 
 
 def _bag_paths(p: Path, kind: str) -> Path:
