@@ -316,6 +316,36 @@ def test_rosbag1_topic_of_two_connections_read_in_time_order(tmp_path: Path) -> 
                               memory_max=0), vals)
 
 
+def test_rosbag1_topic_of_two_connections_never_holds_the_whole_index(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two publishers on one topic, messages in time order: the lean reader merges their
+    index records in blocks (here of 7 entries) instead of reading the whole index (about
+    140 bytes per message); before, a topic of several connections always read it whole."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    _, vals = _data(n=100)
+    t0 = 1_700_000_000 * 10**9
+    path = tmp_path / "two.bag"
+    with Writer(path) as w:
+        conns = [w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts,
+                                  callerid=f"/node{k}") for k in range(2)]
+        for i in range(100):
+            t_ns = t0 + i * 10_000_000
+            w.write(conns[(i // 3) % 2], t_ns, ts.serialize_ros1(
+                _imu_msg(ts, i, t_ns, vals[i]), "sensor_msgs/msg/Imu"))
+    lean = imu_data._lean_rosbag1_reader()
+
+    def whole_index(self: object, conn: int) -> list[object]:
+        raise AssertionError("the whole index was read")
+
+    monkeypatch.setattr(lean, "_read_index", whole_index)
+    monkeypatch.setattr(imu_data, "LEAN_INDEX_BLOCK", 7)
+    _check(imu_data._load_bag(path, "rosbag1", None, None, "refuse", block_messages=5,
+                              memory_max=0), vals)
+
+
 def test_characterize_cli_lists_bag_topics(tmp_path: Path,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     _, vals = _data(n=50)

@@ -45,6 +45,7 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import heapq
 import itertools
 import math
 import re
@@ -974,17 +975,21 @@ BAG_BLOCK_MESSAGES = 1 << 16
 #: samples would (8 MB).
 BAG_SPOOL_MIN_MESSAGES = SPOOL_MIN_SAMPLES // 7
 
+#: Index entries of a rosbag1 topic held at a time by the lean reader (each about 140 bytes).
+LEAN_INDEX_BLOCK = 1 << 14
+
 _LEAN_READER1: type | None = None
 
 
 def _lean_rosbag1_reader() -> type:
     """rosbags' rosbag1 ``Reader`` without its in-memory index of every message (about 140
     bytes per message). It reads and checks every index record at opening as rosbags does
-    (the message counts come from them), but keeps only where each record is; `messages`
-    of one connection whose index times never decrease (their sorted order is the index
-    order, so rosbags would yield the same messages in the same order) reads one chunk's
-    index record at a time and lets rosbags' own `messages` read those messages. Any other
-    request reads the whole index first and is rosbags' `messages` unchanged."""
+    (the message counts come from them), but keeps only where each record is. `messages`
+    of connections whose index times never decrease (each one's sorted order is its index
+    order, so their merge is the order rosbags yields) merges the connections' index records
+    as it reads them and lets rosbags' own `messages` read `LEAN_INDEX_BLOCK` merged entries
+    at a time. A connection whose times decrease somewhere reads the whole index first, and
+    the request is rosbags' `messages` unchanged."""
     global _LEAN_READER1
     if _LEAN_READER1 is not None:
         return _LEAN_READER1
@@ -1030,23 +1035,37 @@ def _lean_rosbag1_reader() -> type:
                 super().read_index_data(pos, got)
             return got[conn]
 
-        def messages(self, connections: Collection[Connection] = (),
-                     start: int | None = None, stop: int | None = None
-                     ) -> Generator[tuple[Connection, int, bytes], None, None]:
-            self._check_open()
-            conns = list(connections) or list(self.connections)
-            if len(conns) != 1 or not self._ordered[conns[0].id]:
-                self.indexes = {c.id: sorted(self._read_index(c.id)) for c in conns}
-                yield from super().messages(connections, start, stop)
-                return
-            cid = conns[0].id
+        def _entries(self, cid: int) -> Iterator[tuple[Any, int]]:
+            """Connection `cid`'s index entries (with `cid`) in file order, one index
+            record at a time."""
             for pos, where in list(self._records.get(cid, [])):
                 assert self.bio is not None
                 self.bio.seek(where)
                 got: dict[int, list[Any]] = defaultdict(list)
                 super().read_index_data(pos, got)
-                self.indexes = {cid: got[cid]}
+                for entry in got[cid]:
+                    yield entry, cid
+
+        def messages(self, connections: Collection[Connection] = (),
+                     start: int | None = None, stop: int | None = None
+                     ) -> Generator[tuple[Connection, int, bytes], None, None]:
+            self._check_open()
+            conns = list(connections) or list(self.connections)
+            if not all(self._ordered[c.id] for c in conns):
+                self.indexes = {c.id: sorted(self._read_index(c.id)) for c in conns}
+                yield from super().messages(connections, start, stop)
+                return
+            # each connection's entries are sorted, so their merge is rosbags' order; a
+            # block of it split by connection is what rosbags' own merge yields in turn
+            merged = heapq.merge(*(self._entries(c.id) for c in conns))
+            while block := list(itertools.islice(merged, LEAN_INDEX_BLOCK)):
+                split: dict[int, list[Any]] = {c.id: [] for c in conns}
+                for entry, cid in block:
+                    split[cid].append(entry)
+                self.indexes = split
                 yield from super().messages(conns, start, stop)
+                if stop is not None and block[-1][0].time >= stop:
+                    break
             self.indexes = {}
 
     _LEAN_READER1 = LeanReader1
