@@ -20,6 +20,20 @@ in pieces into a temporary file: ``rad-s`` (1-D float64 in rad/s, ``--gyro-units
 ``--column 1``, characterize ``--column-channels=-,gyro_z,-``), ``drop-nan`` (1-D float64
 with every 1000th sample NaN, ``--drop-nan``) and ``text`` (CSV ``t_s,gyro_z``, the rate from
 its time column; parsing it takes about 0.5-1 us per line).
+ROS bag variants, for ``characterize`` only (BAG_VARIANTS): ``rosbag1`` (a ``.bag``),
+``mcap`` and ``db3`` (a rosbag2 directory with MCAP or SQLite storage), one
+``sensor_msgs/msg/Imu`` topic at 400 Hz (gyro white noise of 30 deg/h per sample in rad/s, the
+accelerometer 1 g on z plus noise); `write_bag_variant` patches the varying fields into one
+message serialized by rosbags (about 6 us per message; the reader deserializes each message,
+20-30 us).
+
+IMU log variants (LOG_VARIANTS; they carry their rate and units, so no ``--rate-hz`` or units
+flag is given, and the single-channel commands read gyro z): ``bin`` (the replay harness's
+binary frame log, 42 bytes per sample), ``blf`` (a Vector BLF CAN log written by python-can,
+four frames per sample: about 25 us per sample to write, 60 us to read), ``replay-csv``
+(the harness's IMU CSV) and ``psins`` (a PSINS ``.imu`` text log of integer counts). The gyro
+holds the same white-noise level as the other variants (30 deg/h per sample, in rad/s), the
+accelerometer white noise around 1 g on z.
 
 Usage: python benchmarks/peak_memory.py [--samples N ...] [--commands allan,fit:rad-s,...]
 [--variants npy,rad-s,...] [--json]
@@ -34,7 +48,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -59,6 +75,12 @@ BUDGET_MB: dict[str, float] = {
     # the offline db8 wavelet denoiser in the float32 lifting core (the MCU build's)
     "filter-wavelet-float": 250.0,
 }
+#: Tighter budgets for a command on one record variant, MB: `allan` on a BLF CAN log reads
+#: it at about 60 us per sample (python-can and cantools, four frames per sample), so the
+#: test runs it on 2.5e5 samples, where the whole-log read (about 450 bytes of Python
+#: objects per sample: 178 MB peak) stays under the command's 250 MB; 160 MB is above the
+#: read in blocks (129 MB) and below that.
+VARIANT_BUDGET_MB: dict[tuple[str, str], float] = {("allan", "blf"): 160.0}
 #: The commands run when --commands is not given (fit-full-rate takes half an hour at 1e8
 #: samples on a loaded 2-core machine).
 DEFAULT_COMMANDS = ("allan", "identify", "identify-gmwm", "fit", "characterize", "psd")
@@ -75,16 +97,26 @@ VARIANTS: dict[str, tuple[list[str], list[str]]] = {
     "drop-nan": (["--drop-nan"], ["--drop-nan"]),
     "text": ([], []),
 }
+#: ROS bag variants (module docstring): the record's file or directory name.
+BAG_VARIANTS: dict[str, str] = {"rosbag1": "record.bag", "mcap": "record-mcap",
+                                "db3": "record-db3"}
+#: IMU log variants (module docstring) and their file suffixes.
+LOG_VARIANTS: dict[str, str] = {"bin": ".bin", "blf": ".blf", "replay-csv": ".csv",
+                                "psins": ".imu"}
 
 
 def command_args(command: str, record: Path, out: Path, variant: str = "npy") -> list[str]:
     """The command line run for `command` (its JSON output, no plots or reports) on the
     record of `variant` (VARIANTS; its units flag replaces deg/h)."""
-    single, multi = VARIANTS[variant]
+    if variant in BAG_VARIANTS:
+        return bag_command_args(command, record)
+    single, multi = VARIANTS.get(variant, ([], []))
     extra = multi if command == "characterize" else single
     units = "rad/s" if variant == "rad-s" else "deg/h"
     rate = ["--rate-hz", f"{RATE_HZ:g}", "--gyro-units", units,
             *[a for a in extra if a not in ("--gyro-units", "rad/s")]]
+    if variant in LOG_VARIANTS:
+        rate = []  # the log's own time base and units
     walk = str(record.with_name("walk.npy"))
     return {
         "allan": ["allan", str(record), *rate, "--json"],
@@ -104,6 +136,77 @@ def command_args(command: str, record: Path, out: Path, variant: str = "npy") ->
                                  str(out.with_name("filtered.npy")), "--filter", "wavelet",
                                  "--core", "float", "--json"],
     }[command]
+
+
+def bag_command_args(command: str, record: Path) -> list[str]:
+    """The command line of `command` on a ROS bag variant: characterize only (the
+    single-channel commands read no bags), the rate from the messages' time stamps, the units
+    sensor_msgs/msg/Imu carries."""
+    if command != "characterize":
+        raise SystemExit(f"{command}: ROS bag variants are read by characterize only")
+    return ["characterize", str(record), "--gyro-units", "rad/s", "--accel-units", "m/s^2",
+            "--json"]
+
+
+def _imu_template(ts: Any, ros1: bool) -> tuple[bytes, int, list[int]]:
+    """One sensor_msgs/msg/Imu serialized by rosbags with marker values, and the byte offsets
+    of its header stamp (sec, nanosec) and of its six values."""
+    types = ts.types
+    vec, marks = types["geometry_msgs/msg/Vector3"], [1.0e300 + k * 1.0e290 for k in range(6)]
+    header = {"stamp": types["builtin_interfaces/msg/Time"](sec=0x11223344,
+                                                            nanosec=0x05667788),
+              "frame_id": "imu", **({"seq": 0} if ros1 else {})}
+    z9 = np.zeros(9)
+    msg = types["sensor_msgs/msg/Imu"](
+        header=types["std_msgs/msg/Header"](**header),
+        orientation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+        orientation_covariance=z9, angular_velocity=vec(x=marks[0], y=marks[1], z=marks[2]),
+        angular_velocity_covariance=z9,
+        linear_acceleration=vec(x=marks[3], y=marks[4], z=marks[5]),
+        linear_acceleration_covariance=z9)
+    serialize = ts.serialize_ros1 if ros1 else ts.serialize_cdr
+    raw = bytes(serialize(msg, "sensor_msgs/msg/Imu"))
+    at_t = raw.find(np.array([0x11223344, 0x05667788], dtype="<u4").tobytes())
+    at_v = [raw.find(np.array([m], dtype="<f8").tobytes()) for m in marks]
+    assert at_t >= 0 and min(at_v) >= 0, "marker not found in the serialized message"
+    return raw, at_t, at_v
+
+
+def write_bag_variant(path: Path, n: int, variant: str, chunk: int = 1 << 16) -> None:
+    """N sensor_msgs/msg/Imu messages on /imu at RATE_HZ in the ROS bag of `variant`
+    (BAG_VARIANTS), written by rosbags' writers piece by piece; bag time = header stamp."""
+    from rosbags.typesys import Stores, get_typestore
+
+    ros1 = variant == "rosbag1"
+    ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if ros1:
+        from rosbags.rosbag1 import Writer as Writer1
+
+        writer: Any = Writer1(path)
+    else:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+
+        writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP
+                        if variant == "mcap" else StoragePlugin.SQLITE3)
+    raw, at_t, at_v = _imu_template(ts, ros1)
+    rng = np.random.default_rng(0)
+    to_rad_s = np.pi / 180.0 / 3600.0
+    t0_ns, step_ns = 1_700_000_000 * 10**9, round(1e9 / RATE_HZ)
+    with writer as w:
+        conn = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
+        for start in range(0, n, chunk):
+            m = min(chunk, n - start)
+            msgs = np.frombuffer(raw * m, dtype=np.uint8).reshape(m, len(raw)).copy()
+            t_ns = t0_ns + (start + np.arange(m, dtype=np.int64)) * step_ns
+            stamp = np.column_stack([t_ns // 10**9, t_ns % 10**9]).astype("<u4")
+            msgs[:, at_t:at_t + 8] = stamp.view(np.uint8).reshape(m, 8)
+            vals = np.empty((m, 6))
+            vals[:, :3] = rng.standard_normal((m, 3)) * 30.0 * to_rad_s
+            vals[:, 3:] = rng.standard_normal((m, 3)) * 1e-3 + [0.0, 0.0, 9.80665]
+            for j, at in enumerate(at_v):
+                msgs[:, at:at + 8] = vals[:, j].astype("<f8").view(np.uint8).reshape(m, 8)
+            for k in range(m):
+                w.write(conn, int(t_ns[k]), msgs[k].tobytes())
 
 
 def write_record(path: Path, n: int, walk: bool = False, chunk: int = 1 << 22) -> None:
@@ -127,6 +230,12 @@ def write_record(path: Path, n: int, walk: bool = False, chunk: int = 1 << 22) -
 def write_variant(path: Path, n: int, variant: str, chunk: int = 1 << 22) -> None:
     """The white-noise record of `write_record` (the same samples, 30 deg/h per sample) in
     the form of `variant` (VARIANTS), written piece by piece."""
+    if variant in BAG_VARIANTS:
+        write_bag_variant(path, n, variant)
+        return
+    if variant in LOG_VARIANTS:
+        write_log_variant(path, n, variant)
+        return
     rng = np.random.default_rng(0)
     if variant == "text":
         with open(path, "w") as fh:
@@ -155,6 +264,74 @@ def write_variant(path: Path, n: int, variant: str, chunk: int = 1 << 22) -> Non
             mm[start:stop] = piece
         mm.flush()
     del mm
+
+
+def write_log_variant(path: Path, n: int, variant: str, chunk: int = 1 << 16) -> None:
+    """N samples of the IMU log `variant` (LOG_VARIANTS), written piece by piece: gyro white
+    noise of 30 deg/h per sample (in rad/s), accelerometer white noise of 0.01 m/s^2 around
+    1 g on z, 400 Hz. The binary log and the CSV through the package's frame encoder and
+    column layout, the BLF log through python-can's writer (each sample's four frames in the
+    DBC's layout, checked against the package's encoder), the PSINS log as integer counts
+    (0.01 arcsec and 1 ug*s per count)."""
+    from gyrodrift.codecs import encode_sample
+    from gyrodrift.codecs.wire import encode_frames, make_samples
+    from gyrodrift.io.imu_log import CSV_COLUMNS
+
+    rng = np.random.default_rng(0)
+    arcsec = np.pi / 180.0 / 3600.0
+    dt = 1.0 / RATE_HZ
+
+    def pieces() -> Iterator[tuple[int, np.ndarray, np.ndarray, np.ndarray]]:
+        for start in range(0, n, chunk):
+            m = min(n, start + chunk) - start
+            gyro = rng.standard_normal((m, 3)) * 30.0 * arcsec  # 30 deg/h = 30 arcsec/s
+            accel = rng.standard_normal((m, 3)) * 1e-2 + np.array([0.0, 0.0, 9.80665])
+            yield start, (start + np.arange(m)) * dt, gyro, accel
+
+    if variant == "blf":
+        import can
+
+        with can.Logger(str(path)) as w:
+            for start, t, gyro, accel in pieces():
+                values = np.concatenate([gyro, accel], axis=1).astype("<f4")
+                seq = ((start + np.arange(t.size)) % 65536).astype("<u2")
+                # the DBC layout of the four frames (little-endian: X, Y as float32; Z as
+                # float32, then Seq and Flags as uint16), checked against the package's
+                # encoder (cantools) on the piece's first sample
+                data = np.zeros((t.size, 4, 8), dtype=np.uint8)
+                for role, half in enumerate((0, 0, 3, 3)):
+                    if role % 2 == 0:
+                        data[:, role] = values[:, half:half + 2].view(np.uint8)
+                    else:
+                        data[:, role, :4] = values[:, half + 2:half + 3].view(np.uint8)
+                        data[:, role, 4:6] = seq[:, None].view(np.uint8)
+                want = [bytes(m.data) for m in encode_sample(int(seq[0]), values[0])]
+                assert [data[0, r].tobytes() for r in range(4)] == want
+                for k in range(t.size):
+                    for role in range(4):
+                        w.on_message_received(can.Message(
+                            timestamp=float(t[k]), arbitration_id=0x100 + role,
+                            is_extended_id=False, data=data[k, role].tobytes(), channel=0))
+        return
+    with open(path, "wb") as fh:
+        if variant == "psins":
+            fh.write(b"% PSINS IMU log (benchmark)\n0 0 0 0 0 0\n"
+                     + f"34.2 108.9 380 0 {1e3 * dt:g} 9.79\n".encode()
+                     + b"0.01 0.01 0.01 1 1 1\n")
+        elif variant == "replay-csv":
+            fh.write((",".join(CSV_COLUMNS) + "\n").encode())
+        for start, t, gyro, accel in pieces():
+            if variant == "psins":
+                counts = np.column_stack([np.round(gyro * dt / (0.01 * arcsec)),
+                                          np.round(accel * dt / 9.80665e-6)])
+                np.savetxt(fh, counts, fmt="%d")
+                continue
+            s = make_samples(t, gyro, accel, seq0=start)
+            if variant == "bin":
+                fh.write(encode_frames(s).tobytes())
+            else:  # the columns of the harness's CSV; %.9g gives a float32 back exactly
+                np.savetxt(fh, np.column_stack([s.t_s, s.seq, s.flags, s.channels]),
+                           fmt=["%.6f", "%d", "%d"] + ["%.9g"] * 6, delimiter=",")
 
 
 def peak_mb(argv: list[str], cwd: Path) -> tuple[float, int, float, str]:
@@ -196,7 +373,7 @@ def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
             argv = [sys.executable, "-m", "gyrodrift",
                     *command_args(cmd, path, d / "out", variant)]
             peak, code, wall, last = peak_mb(argv, d)
-            budget = BUDGET_MB[cmd]
+            budget = VARIANT_BUDGET_MB.get((cmd, variant), BUDGET_MB[cmd])
             rows.append({"command": cmd, "samples": samples, "peak_mb": round(peak, 1),
                          "budget_mb": budget, "ok": code == 0 and peak <= budget,
                          "exit": code, "wall_s": round(wall, 1), "stderr": last,
@@ -205,6 +382,10 @@ def measure(samples: int, commands: list[str]) -> list[dict[str, object]]:
 
 
 def _variant_path(d: Path, variant: str) -> Path:
+    if variant in BAG_VARIANTS:
+        return d / BAG_VARIANTS[variant]
+    if variant in LOG_VARIANTS:
+        return d / f"record-{variant}{LOG_VARIANTS[variant]}"
     return d / (f"record-{variant}.csv" if variant == "text" else f"record-{variant}.npy")
 
 

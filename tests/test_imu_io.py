@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from gyrodrift.io import imu_data
 from gyrodrift.io.imu_data import CHANNELS, load_imu
 
 RATE = 100.0
@@ -242,6 +243,107 @@ def test_ros_bag_topics_and_reordering(tmp_path: Path, kind: str) -> None:
                     order=np.delete(np.arange(100), 30))
     with pytest.raises(ValueError, match="1 gaps"):
         load_imu(gap)
+
+
+@pytest.mark.parametrize("kind", ["rosbag1", "sqlite3", "mcap"])
+def test_ros_bag_read_in_blocks_equals_the_whole_read(tmp_path: Path, kind: str) -> None:
+    """Blocks of 7 messages (200 = 28 x 7 + 4: blocks split the record) appended to
+    temporary files (memory_max=0) give the bits one block in memory gives, and the values
+    written; NaN rows (in two blocks) are refused with the same count or dropped alike."""
+    _, vals = _data(n=200)
+    vals[[13, 150], [2, 4]] = np.nan
+    path = write_bag(tmp_path / ("imu.bag" if kind == "rosbag1" else "imu_bag"), kind, vals)
+    fmt = "rosbag1" if kind == "rosbag1" else "rosbag2"
+    whole = imu_data._load_bag(path, fmt, None, None, "drop", block_messages=10**6)
+    split = imu_data._load_bag(path, fmt, None, None, "drop", block_messages=7, memory_max=0)
+    assert all(isinstance(v, np.memmap) for v in split.channels.values())
+    assert not any(isinstance(v, np.memmap) for v in whole.channels.values())
+    keep = np.all(np.isfinite(vals), axis=1)
+    for rec in (whole, split):
+        assert (rec.n_total, rec.n, rec.n_dropped, rec.fmt) == (200, 198, 2, fmt)
+        assert rec.rate_hz == whole.rate_hz and rec.detail == whole.detail
+        for j, name in enumerate(CHANNELS):
+            np.testing.assert_array_equal(rec.channels[name], vals[keep, j])
+    assert whole.rate_hz == pytest.approx(RATE, rel=1e-9)
+    for block in (7, 10**6):
+        with pytest.raises(ValueError, match="2 of 200 samples have NaN/Inf"):
+            imu_data._load_bag(path, fmt, None, None, "refuse", block_messages=block,
+                               memory_max=0)
+
+
+def test_rosbag1_out_of_order_bag_times_read_in_time_order(tmp_path: Path) -> None:
+    """A rosbag1 bag whose messages are stored out of their receive-time order is read in
+    that time order (rosbags' order): the per-chunk index read falls back to the whole
+    index there. Stored in file order, message 41 before 40 would be a backward step."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    _, vals = _data(n=100)
+    order = np.arange(100)
+    order[[40, 41]] = order[[41, 40]]
+    t0 = 1_700_000_000 * 10**9
+    path = tmp_path / "late.bag"
+    with Writer(path) as w:
+        conn = w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts)
+        for i in order:
+            t_ns = t0 + int(i) * 10_000_000
+            w.write(conn, t_ns, ts.serialize_ros1(_imu_msg(ts, int(i), t_ns, vals[i]),
+                                                  "sensor_msgs/msg/Imu"))
+    _check(load_imu(path), vals)
+    _check(imu_data._load_bag(path, "rosbag1", None, None, "refuse", block_messages=3,
+                              memory_max=0), vals)
+
+
+def test_rosbag1_topic_of_two_connections_read_in_time_order(tmp_path: Path) -> None:
+    """Two publishers on one topic (two rosbag1 connections, alternate messages): their
+    messages merged in time order, as rosbags merges them."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    _, vals = _data(n=100)
+    t0 = 1_700_000_000 * 10**9
+    path = tmp_path / "two.bag"
+    with Writer(path) as w:
+        conns = [w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts,
+                                  callerid=f"/node{k}") for k in range(2)]
+        for i in range(100):
+            t_ns = t0 + i * 10_000_000
+            w.write(conns[i % 2], t_ns, ts.serialize_ros1(_imu_msg(ts, i, t_ns, vals[i]),
+                                                          "sensor_msgs/msg/Imu"))
+    _check(imu_data._load_bag(path, "rosbag1", None, None, "refuse", block_messages=3,
+                              memory_max=0), vals)
+
+
+def test_rosbag1_topic_of_two_connections_never_holds_the_whole_index(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Two publishers on one topic, messages in time order: the lean reader merges their
+    index records in blocks (here of 7 entries) instead of reading the whole index (about
+    140 bytes per message); before, a topic of several connections always read it whole."""
+    from rosbags.rosbag1 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS1_NOETIC)
+    _, vals = _data(n=100)
+    t0 = 1_700_000_000 * 10**9
+    path = tmp_path / "two.bag"
+    with Writer(path) as w:
+        conns = [w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts,
+                                  callerid=f"/node{k}") for k in range(2)]
+        for i in range(100):
+            t_ns = t0 + i * 10_000_000
+            w.write(conns[(i // 3) % 2], t_ns, ts.serialize_ros1(
+                _imu_msg(ts, i, t_ns, vals[i]), "sensor_msgs/msg/Imu"))
+    lean = imu_data._lean_rosbag1_reader()
+
+    def whole_index(self: object, conn: int) -> list[object]:
+        raise AssertionError("the whole index was read")
+
+    monkeypatch.setattr(lean, "_read_index", whole_index)
+    monkeypatch.setattr(imu_data, "LEAN_INDEX_BLOCK", 7)
+    _check(imu_data._load_bag(path, "rosbag1", None, None, "refuse", block_messages=5,
+                              memory_max=0), vals)
 
 
 def test_characterize_cli_lists_bag_topics(tmp_path: Path,

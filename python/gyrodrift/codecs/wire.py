@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 __all__ = [
     "DecodedStream",
     "Samples",
+    "StreamDecoder",
     "decode_stream",
     "encode_frames",
     "make_samples",
@@ -141,7 +142,8 @@ class DecodedStream:
 def decode_stream(data: bytes) -> DecodedStream:
     """Find every valid frame in a byte stream (resynchronising on the sync word): a frame
     is accepted where sync, length and CRC check; elsewhere the search moves to the next
-    sync word. The accepted frames are then decoded together with numpy.
+    sync word. The accepted frames are then decoded together with numpy. (One
+    :class:`StreamDecoder` fed the whole stream.)
 
     Examples
     --------
@@ -152,38 +154,91 @@ def decode_stream(data: bytes) -> DecodedStream:
     >>> dec.samples.seq, dec.crc_errors, dec.truncated_bytes
     (array([0], dtype=uint16), 1, 37)
     """
-    buf = memoryview(data)
-    n = len(buf)
-    starts: list[int] = []
-    crc_errors = 0
-    garbage = 0
-    i = 0
-    while i + FRAME_SIZE <= n:
-        if buf[i] == SYNC0 and buf[i + 1] == SYNC1 and buf[i + 3] == PAYLOAD_LEN:
-            crc = buf[i + CRC_OFFSET] | (buf[i + CRC_OFFSET + 1] << 8)
-            if crc16_ccitt_false(buf[i + 2:i + CRC_OFFSET]) == crc:
-                starts.append(i)
-                i += FRAME_SIZE
-                continue
-            crc_errors += 1
-        # Not a frame here: skip to the next candidate sync word.
-        nxt = data.find(_SYNC_WORD, i + 1)
-        if nxt < 0 or nxt + FRAME_SIZE > n:
-            stop = n if nxt < 0 else nxt
-            garbage += stop - i
-            i = stop
-            break
-        garbage += nxt - i
-        i = nxt
-    truncated = n - i
-    idx = np.asarray(starts, dtype=np.int64)
-    if idx.size:
-        raw = np.frombuffer(data, dtype=np.uint8)
-        rows = raw[idx[:, None] + np.arange(FRAME_SIZE)[None, :]]
-        rec = np.ascontiguousarray(rows).view(FRAME_DTYPE).reshape(-1)
-    else:
-        rec = np.zeros(0, dtype=FRAME_DTYPE)
-    samples = Samples(rec["seq"].copy(), rec["flags"].copy(), rec["t_us"].copy(),
-                      rec["values"].astype(np.float32))
-    return DecodedStream(rec["type"].copy(), samples, idx + FRAME_SIZE, crc_errors, garbage,
-                         truncated)
+    return StreamDecoder().feed(data, final=True)
+
+
+class StreamDecoder:
+    """:func:`decode_stream` of a stream given in pieces: every piece's call returns the
+    frames completed by it, and the counters (CRC errors, garbage, truncated tail) end
+    equal to those of one call on the whole stream, however it is cut. Besides the frames
+    it returns, the decoder holds fewer than ``FRAME_SIZE`` bytes between calls.
+
+    Examples
+    --------
+    >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.zeros((3, 3)))
+    >>> raw = b"junk" + encode_frames(s).tobytes()
+    >>> dec = StreamDecoder()
+    >>> [dec.feed(raw[k:k + 50]).samples.seq.tolist() for k in range(0, 100, 50)]
+    [[0], [1]]
+    >>> last = dec.feed(raw[100:], final=True)
+    >>> last.samples.seq, last.end_offset, last.garbage_bytes
+    (array([2], dtype=uint16), array([130]), 4)
+    """
+
+    def __init__(self) -> None:
+        self._carry = b""  # the bytes from the resume position on
+        self._base = 0  # stream offset of _carry[0]
+        # True when the resume position was reached by skipping bytes that hold no sync word
+        # (a sync word may start at the last byte of a piece), not yet checked as a frame
+        self._unchecked = False
+        self._done = False
+        self.crc_errors = 0
+        self.garbage_bytes = 0
+        self.truncated_bytes = 0
+
+    def feed(self, data: bytes | bytearray | memoryview, final: bool = False) -> DecodedStream:
+        """The frames completed by `data` (end offsets counted from the stream's start),
+        with the counters so far; `final`: `data` ends the stream (the truncated tail is
+        counted then)."""
+        if self._done:
+            raise GyrodriftValueError("StreamDecoder: the stream has ended (final=True)")
+        buf = self._carry + bytes(data) if self._carry else bytes(data)
+        n = len(buf)
+        starts: list[int] = []
+        i = 0
+        while i + FRAME_SIZE <= n:
+            self._unchecked = False
+            if buf[i] == SYNC0 and buf[i + 1] == SYNC1 and buf[i + 3] == PAYLOAD_LEN:
+                crc = buf[i + CRC_OFFSET] | (buf[i + CRC_OFFSET + 1] << 8)
+                if crc16_ccitt_false(buf[i + 2:i + CRC_OFFSET]) == crc:
+                    starts.append(i)
+                    i += FRAME_SIZE
+                    continue
+                self.crc_errors += 1
+            # Not a frame here: skip to the next candidate sync word.
+            nxt = buf.find(_SYNC_WORD, i + 1)
+            if nxt < 0 and not final:
+                # none in this piece; one may start at its last byte
+                self.garbage_bytes += n - 1 - i
+                i = n - 1
+                self._unchecked = True
+                break
+            if nxt < 0 or nxt + FRAME_SIZE > n:
+                stop = n if nxt < 0 else nxt
+                self.garbage_bytes += stop - i
+                i = stop
+                break
+            self.garbage_bytes += nxt - i
+            i = nxt
+        if final:
+            if self._unchecked:  # the resume position was never checked: search from it
+                nxt = buf.find(_SYNC_WORD, i)
+                stop = n if nxt < 0 else nxt
+                self.garbage_bytes += stop - i
+                i = stop
+            self.truncated_bytes = n - i
+            self._done = True
+        idx = np.asarray(starts, dtype=np.int64)
+        if idx.size:
+            raw = np.frombuffer(buf, dtype=np.uint8)
+            rows = raw[idx[:, None] + np.arange(FRAME_SIZE)[None, :]]
+            rec = np.ascontiguousarray(rows).view(FRAME_DTYPE).reshape(-1)
+        else:
+            rec = np.zeros(0, dtype=FRAME_DTYPE)
+        samples = Samples(rec["seq"].copy(), rec["flags"].copy(), rec["t_us"].copy(),
+                          rec["values"].astype(np.float32))
+        end = self._base + idx + FRAME_SIZE
+        self._carry = buf[i:] if not final else b""
+        self._base += i
+        return DecodedStream(rec["type"].copy(), samples, end, self.crc_errors,
+                             self.garbage_bytes, self.truncated_bytes)

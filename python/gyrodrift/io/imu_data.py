@@ -16,10 +16,17 @@ m/s^2) from:
   `gyrodrift.io.psins`), converted to rates by dividing by the sample interval.
 - the replay harness's IMU logs (``.bin``/``.gdf``, candump ``.log``, ``.asc``, ``.blf`` and
   its CSV; `gyrodrift.io.imu_log`), with their sequence numbers checked for lost samples.
+  Text records, PSINS and IMU logs are read in blocks, their channels kept in memory or,
+  from ``gyrodrift.io.spool.SPOOL_MIN_SAMPLES`` samples on (six channels: a sixth of it
+  each), in temporary files returned as memory maps (bounded memory whatever the record's
+  length).
 - ROS bags (``.bag`` rosbag1; a rosbag2 directory or its ``.db3``/``.mcap`` file), read with
   the pure-Python ``rosbags`` package: one ``sensor_msgs/msg/Imu`` topic (``topic=``; the
   error lists the Imu topics when it is missing or ambiguous), timestamps from the message
   headers (the bag's receive time where a header stamp is zero), checked like a time column.
+  The messages are read in blocks (BAG_BLOCK_MESSAGES), each block's columns appended to
+  temporary float64 files from BAG_SPOOL_MIN_MESSAGES messages on (bounded memory whatever
+  the bag's length; a rosbag1 index is read one chunk's record at a time).
 
 NaN/Inf samples follow `nan_policy` as in `gyrodrift.io.records`: "refuse" (default) raises with
 their
@@ -38,6 +45,8 @@ Examples
 from __future__ import annotations
 
 import contextlib
+import heapq
+import itertools
 import math
 import re
 from collections.abc import Iterator, Sequence
@@ -49,6 +58,7 @@ import numpy as np
 
 from gyrodrift import units
 from gyrodrift.errors import GyrodriftError, GyrodriftValueError
+from gyrodrift.io import spool as _spool
 from gyrodrift.io.records import (
     LOG_SUFFIXES,
     RATE_MAX_HZ,
@@ -59,7 +69,7 @@ from gyrodrift.io.records import (
     load_npy,
     rate_from_time,
 )
-from gyrodrift.io.spool import BLOCK_ROWS, SampleSpool, iter_text_tables
+from gyrodrift.io.spool import BLOCK_ROWS, SPOOL_MIN_SAMPLES, SampleSpool, iter_text_tables
 from gyrodrift.units import (
     ACCEL_INCREMENT_UNITS,
     DEFAULT_TIME_UNITS,
@@ -766,35 +776,100 @@ def _load_text(p: Path, rate_hz: float | None, columns: Sequence[str] | None,
                     "gyro_units_in": gyro_units, "accel_units_in": accel_units})
 
 
-def _load_psins(p: Path, nan_policy: str) -> ImuData:
-    from gyrodrift.io.psins import read_psins_imu
+class _ChannelSpool:
+    """The six channels of a log or PSINS record, appended in blocks of rows to one
+    :class:`gyrodrift.io.spool.SampleSpool` each, with `_finish`'s NaN policy applied row by
+    row as they come: rows with a NaN/Inf channel are counted, and dropped ("drop") or, once
+    there is one, no row is kept any more ("refuse": the caller raises after its other
+    checks, with the count). The six channels together stay in memory up to
+    SPOOL_MIN_SAMPLES samples (8 MB), as one column does: a record of six channels just
+    below SPOOL_MIN_SAMPLES samples would otherwise hold 48 MB."""
 
-    rec = read_psins_imu(p)
-    rate = 1.0 / rec.dt_s
-    cols = {CHANNELS[j]: rec.dtheta[:, j] * rate for j in range(3)}
-    cols.update({CHANNELS[3 + j]: rec.dv[:, j] * rate for j in range(3)})
-    return _finish(cols, rate, str(p), "psins", nan_policy,
+    def __init__(self, stack: contextlib.ExitStack, nan_policy: str) -> None:
+        self.nan_policy = nan_policy
+        memory_max = _spool.SPOOL_MIN_SAMPLES // len(CHANNELS)
+        self.spools = [stack.enter_context(SampleSpool(memory_max, name=name))
+                       for name in CHANNELS]
+        self.n_total = 0
+        self.n_bad = 0
+
+    def append(self, block: np.ndarray) -> None:
+        """Rows of an (m, 6) float64 block in CHANNELS order."""
+        ok = np.isfinite(block).all(axis=1)
+        bad = int(block.shape[0] - np.count_nonzero(ok))
+        self.n_total += int(block.shape[0])
+        self.n_bad += bad
+        if self.n_bad and self.nan_policy != "drop":
+            return  # counted, never kept
+        kept = block if bad == 0 else block[ok]
+        for j, sp in enumerate(self.spools):
+            sp.append(kept[:, j])
+
+    def finish(self, source: str) -> dict[str, np.ndarray]:
+        """The channels (arrays, or memory maps of temporary files from SPOOL_MIN_SAMPLES
+        samples on), after `_finish`'s checks: at least 3 samples, NaN/Inf refused or
+        dropped."""
+        if self.n_total < 3:
+            raise GyrodriftValueError(f"{source}: {self.n_total} samples; too short for "
+                                      "analysis")
+        if self.n_bad and self.nan_policy != "drop":
+            raise GyrodriftValueError(
+                f"{source}: {self.n_bad} of {self.n_total} samples have NaN/Inf channels; "
+                "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
+        return {name: sp.finish() for name, sp in zip(CHANNELS, self.spools, strict=True)}
+
+
+def _load_psins(p: Path, nan_policy: str) -> ImuData:
+    """A PSINS .imu log read in blocks of lines (gyrodrift.io.psins.PsinsBlocks): the
+    increments divided by the sample interval, each channel kept in memory, or from
+    SPOOL_MIN_SAMPLES samples on in a temporary file (memory map)."""
+    from gyrodrift.io.psins import PsinsBlocks
+
+    blocks = PsinsBlocks(p)
+    rate = 1.0 / blocks.dt_s
+    with contextlib.ExitStack() as stack:
+        out = _ChannelSpool(stack, nan_policy)
+        for dtheta, dv in blocks:
+            out.append(np.concatenate([dtheta * rate, dv * rate], axis=1))
+        channels = out.finish(str(p))
+    return ImuData(channels, float(rate), str(p), "psins", out.n_total, out.n_bad,
                    {"units_in": "angle increments (arcsec counts) and velocity increments "
                                 "(ug*s counts) per sample, divided by dt"})
 
 
 def _load_replay_log(p: Path, rate_hz: float | None, nan_policy: str) -> ImuData:
-    from gyrodrift.io.imu_log import read_imu_log
+    """A replay harness log read in blocks (gyrodrift.io.imu_log.ImuLogBlocks): sequence
+    numbers checked across the blocks, times and channels kept in memory, or from
+    SPOOL_MIN_SAMPLES samples on in temporary files (memory maps)."""
+    from gyrodrift.io.imu_log import ImuLogBlocks
 
-    samples = read_imu_log(p, "csv" if p.suffix.lower() == ".csv" else None)
-    if len(samples) < 3:
-        raise GyrodriftValueError(f"{p}: {len(samples)} samples; too short for analysis")
-    seq = np.asarray(samples.seq, dtype=np.int64)
-    steps = np.diff(seq) % 65536
-    lost = int(np.count_nonzero(steps != 1))
-    if lost:
-        raise GyrodriftValueError(f"{p}: {lost} breaks in the sequence numbers (lost, repeated or "
-                         "reordered samples); Allan/PSD analysis needs uniform sampling")
-    t_rate = rate_from_time(np.asarray(samples.t_s, dtype=np.float64), str(p))
+    blocks = ImuLogBlocks(p, "csv" if p.suffix.lower() == ".csv" else None)
+    lost = 0
+    prev: np.ndarray | None = None  # the last sequence number of the previous block
+    with contextlib.ExitStack() as stack:
+        t_spool = stack.enter_context(SampleSpool(name="t_s"))
+        out = _ChannelSpool(stack, nan_policy)
+        for s in blocks:
+            seq = np.asarray(s.seq, dtype=np.int64)
+            if prev is not None:
+                seq = np.concatenate((prev, seq))
+            lost += int(np.count_nonzero(np.diff(seq) % 65536 != 1))
+            prev = seq[-1:]
+            t_spool.append(s.t_s)
+            out.append(np.asarray(s.channels, dtype=np.float64))
+        if out.n_total < 3:
+            raise GyrodriftValueError(f"{p}: {out.n_total} samples; too short for analysis")
+        if lost:
+            raise GyrodriftValueError(
+                f"{p}: {lost} breaks in the sequence numbers (lost, repeated or "
+                "reordered samples); Allan/PSD analysis needs uniform sampling")
+        t_s = t_spool.finish()
+        t_rate = rate_from_time(t_s, str(p))
+        del t_s  # its temporary file goes with the last reference
+        channels = out.finish(str(p))
     rate = t_rate if rate_hz is None else rate_hz
-    ch = np.asarray(samples.channels, dtype=np.float64)
-    cols = {CHANNELS[j]: ch[:, j] for j in range(6)}
-    return _finish(cols, rate, str(p), "replay-log", nan_policy, {"units_in": "rad/s, m/s^2"})
+    return ImuData(channels, float(rate), str(p), "replay-log", out.n_total, out.n_bad,
+                   {"units_in": "rad/s, m/s^2"})
 
 
 def _bag_paths(p: Path, kind: str) -> Path:
@@ -871,8 +946,6 @@ def bag_imu_topics(path: str | Path) -> dict[str, int]:
     ...     print(bag_imu_topics(path))  # the Imu topics only, with their message counts
     {'/imu': 0}
     """
-    from rosbags.highlevel import AnyReader
-
     p = Path(path)
     if not p.exists():
         raise FileNotFoundError(f"no such file: {p}")
@@ -881,8 +954,7 @@ def bag_imu_topics(path: str | Path) -> dict[str, int]:
                                   "a record file")
     kind = input_kind(p)
     out: dict[str, int] = {}
-    with _bag_errors(str(p), kind), \
-            AnyReader([_bag_paths(p, kind)], default_typestore=_typestore()) as reader:
+    with _bag_errors(str(p), kind), _open_bag(_bag_paths(p, kind)) as reader:
         for c in reader.connections:
             if c.msgtype in IMU_MSGTYPES:
                 out[c.topic] = out.get(c.topic, 0) + int(c.msgcount)
@@ -895,33 +967,167 @@ def _typestore() -> Any:
     return get_typestore(Stores.ROS2_HUMBLE)
 
 
+#: Messages of a ROS bag deserialized per block: each block's values go to the record's
+#: SampleSpool objects before the next block is read.
+BAG_BLOCK_MESSAGES = 1 << 16
+#: Messages from which a ROS bag's seven columns (six channels and the time stamps) go to
+#: temporary files: together they keep in memory what one column of SPOOL_MIN_SAMPLES
+#: samples would (8 MB).
+BAG_SPOOL_MIN_MESSAGES = SPOOL_MIN_SAMPLES // 7
+
+#: Index entries of a rosbag1 topic held at a time by the lean reader (each about 140 bytes).
+LEAN_INDEX_BLOCK = 1 << 14
+
+_LEAN_READER1: type | None = None
+
+
+def _lean_rosbag1_reader() -> type:
+    """rosbags' rosbag1 ``Reader`` without its in-memory index of every message (about 140
+    bytes per message). It reads and checks every index record at opening as rosbags does
+    (the message counts come from them), but keeps only where each record is. `messages`
+    of connections whose index times never decrease (each one's sorted order is its index
+    order, so their merge is the order rosbags yields) merges the connections' index records
+    as it reads them and lets rosbags' own `messages` read `LEAN_INDEX_BLOCK` merged entries
+    at a time. A connection whose times decrease somewhere reads the whole index first, and
+    the request is rosbags' `messages` unchanged."""
+    global _LEAN_READER1
+    if _LEAN_READER1 is not None:
+        return _LEAN_READER1
+    from collections import defaultdict
+    from collections.abc import Collection, Generator
+
+    from rosbags.interfaces import Connection
+    from rosbags.rosbag1 import Reader
+
+    class LeanReader1(Reader):
+        def open(self) -> None:
+            # connection id -> (chunk position, file position of its index record) in the
+            # order rosbags reads them; message count; time order; last time
+            self._records: dict[int, list[tuple[int, int]]] = defaultdict(list)
+            self._counts: dict[int, int] = defaultdict(int)
+            self._ordered: dict[int, bool] = defaultdict(lambda: True)
+            self._last: dict[int, int] = {}
+            super().open()
+            self.connections = [c._replace(msgcount=self._counts[c.id])
+                                for c in self.connections]
+
+        def read_index_data(self, pos: int, indexes: dict[int, list[Any]]) -> None:
+            assert self.bio is not None
+            where = self.bio.tell()
+            got: dict[int, list[Any]] = defaultdict(list)
+            super().read_index_data(pos, got)  # rosbags' own parse and checks
+            for conn, entries in got.items():
+                self._records[conn].append((pos, where))
+                self._counts[conn] += len(entries)
+                times = [e.time for e in entries]
+                if conn in self._last:
+                    times.insert(0, self._last[conn])
+                if times:
+                    self._last[conn] = times[-1]
+                if any(b < a for a, b in itertools.pairwise(times)):
+                    self._ordered[conn] = False
+
+        def _read_index(self, conn: int) -> list[Any]:
+            assert self.bio is not None
+            got: dict[int, list[Any]] = defaultdict(list)
+            for pos, where in self._records.get(conn, []):
+                self.bio.seek(where)
+                super().read_index_data(pos, got)
+            return got[conn]
+
+        def _entries(self, cid: int) -> Iterator[tuple[Any, int]]:
+            """Connection `cid`'s index entries (with `cid`) in file order, one index
+            record at a time."""
+            for pos, where in list(self._records.get(cid, [])):
+                assert self.bio is not None
+                self.bio.seek(where)
+                got: dict[int, list[Any]] = defaultdict(list)
+                super().read_index_data(pos, got)
+                for entry in got[cid]:
+                    yield entry, cid
+
+        def messages(self, connections: Collection[Connection] = (),
+                     start: int | None = None, stop: int | None = None
+                     ) -> Generator[tuple[Connection, int, bytes], None, None]:
+            self._check_open()
+            conns = list(connections) or list(self.connections)
+            if not all(self._ordered[c.id] for c in conns):
+                self.indexes = {c.id: sorted(self._read_index(c.id)) for c in conns}
+                yield from super().messages(connections, start, stop)
+                return
+            # each connection's entries are sorted, so their merge is rosbags' order; a
+            # block of it split by connection is what rosbags' own merge yields in turn
+            merged = heapq.merge(*(self._entries(c.id) for c in conns))
+            while block := list(itertools.islice(merged, LEAN_INDEX_BLOCK)):
+                split: dict[int, list[Any]] = {c.id: [] for c in conns}
+                for entry, cid in block:
+                    split[cid].append(entry)
+                self.indexes = split
+                yield from super().messages(conns, start, stop)
+                if stop is not None and block[-1][0].time >= stop:
+                    break
+            self.indexes = {}
+
+    _LEAN_READER1 = LeanReader1
+    return LeanReader1
+
+
+@contextlib.contextmanager
+def _open_bag(bag: Path) -> Iterator[Any]:
+    """rosbags' ``AnyReader`` on `bag`, open; a rosbag1 bag through `_lean_rosbag1_reader`
+    (the same connections, counts, messages and errors, without a per-message index)."""
+    from rosbags.highlevel import AnyReader
+
+    reader = AnyReader([bag], default_typestore=_typestore())
+    if not reader.is2:
+        reader.readers = [_lean_rosbag1_reader()(bag)]
+    with reader:
+        yield reader
+
+
 def _load_bag(p: Path, kind: str, topic: str | None, rate_hz: float | None,
-              nan_policy: str) -> ImuData:
+              nan_policy: str, *, block_messages: int = BAG_BLOCK_MESSAGES,
+              memory_max: int = BAG_SPOOL_MIN_MESSAGES) -> ImuData:
+    """The bag's Imu topic read `block_messages` messages at a time into SampleSpool
+    objects (from `memory_max` messages on, temporary files), the rate from the stamps,
+    NaN/Inf refused or their rows dropped as `_finish` does."""
     source = str(p)
     bag = _bag_paths(p, kind)
     if kind == "rosbag2":
         _check_sqlite_complete(bag, source)
-    with _bag_errors(source, kind):
-        topic, n, vals, t_ns = _read_bag_imu(bag, source, topic)
-    if n < 3:
-        raise GyrodriftValueError(f"{source}: {topic}: {n} messages; too short for analysis")
-    # Gaps and reordering are checked on the header stamps in bag order (the same check as a
-    # CSV time column); relative times keep the nanoseconds exact in float64.
-    t_rate = rate_from_time((t_ns - t_ns[0]).astype(np.float64) * 1e-9, f"{source} {topic}")
-    rate = t_rate if rate_hz is None else rate_hz
-    cols = {CHANNELS[j]: vals[:, j] for j in range(6)}
-    return _finish(cols, rate, source, kind, nan_policy,
+    with contextlib.ExitStack() as stack:
+        spools = {name: stack.enter_context(SampleSpool(memory_max, name))
+                  for name in (*CHANNELS, "t_s")}
+        with _bag_errors(source, kind):
+            topic, n, n_bad = _read_bag_imu(bag, source, topic, spools, nan_policy,
+                                            block_messages)
+        if n < 3:
+            raise GyrodriftValueError(f"{source}: {topic}: {n} messages; too short for analysis")
+        # Gaps and reordering are checked on the header stamps in bag order (the same check
+        # as a CSV time column); times relative to the first keep the nanoseconds exact.
+        t_rate = rate_from_time(spools["t_s"].finish(), f"{source} {topic}")
+        rate = t_rate if rate_hz is None else rate_hz
+        if n_bad and nan_policy != "drop":
+            raise GyrodriftValueError(
+                f"{source}: {n_bad} of {n} samples have NaN/Inf channels; "
+                "pass nan_policy='drop' (CLI: --drop-nan) to remove them")
+        cols = {name: spools[name].finish() for name in CHANNELS}
+    return ImuData(cols, float(rate), source, kind, n, n_bad,
                    {"topic": topic, "units_in": "rad/s, m/s^2 (sensor_msgs/Imu)"})
 
 
-def _read_bag_imu(bag: Path, source: str, topic: str | None
-                  ) -> tuple[str, int, np.ndarray, np.ndarray]:
-    """(topic, message count, (n, 6) gyro and accelerometer values, header stamps in ns) of
-    the bag's one (or the chosen) sensor_msgs/msg/Imu topic; every message the index counts
-    must be read and deserialize as an Imu."""
-    from rosbags.highlevel import AnyReader
-
-    with AnyReader([bag], default_typestore=_typestore()) as reader:
+def _read_bag_imu(bag: Path, source: str, topic: str | None, spools: dict[str, SampleSpool],
+                  nan_policy: str, block_messages: int = BAG_BLOCK_MESSAGES
+                  ) -> tuple[str, int, int]:
+    """(topic, message count, rows with a NaN/Inf value) of the bag's one (or the chosen)
+    sensor_msgs/msg/Imu topic, its messages deserialized `block_messages` at a time and
+    appended to `spools`: the gyro and accelerometer channels (CHANNELS; the rows with a
+    NaN/Inf value left out under nan_policy "drop", no row once one is found otherwise) and
+    "t_s", the header stamps (the bag's receive time where a stamp is zero) in seconds from
+    the first. Every message the index counts must be read and deserialize as an Imu."""
+    if block_messages < 1:
+        raise GyrodriftValueError(f"block_messages must be >= 1, got {block_messages}")
+    with _open_bag(bag) as reader:
         imu: dict[str, list[Any]] = {}
         for c in reader.connections:
             if c.msgtype in IMU_MSGTYPES:
@@ -941,9 +1147,28 @@ def _read_bag_imu(bag: Path, source: str, topic: str | None
             raise GyrodriftValueError(f"{source}: {what}; the bag's Imu topics: {listing}")
         conns = imu[topic]
         n = sum(int(c.msgcount) for c in conns)
-        vals = np.empty((n, 6))
-        t_ns = np.empty(n, dtype=np.int64)
-        i = 0
+        rows = max(1, min(block_messages, n))
+        vals = np.empty((rows, 6))
+        t_ns = np.empty(rows, dtype=np.int64)
+        t0: list[np.int64] = []  # the first message's time
+        n_bad = 0
+
+        def flush(m: int) -> None:
+            nonlocal n_bad
+            if m == 0:
+                return
+            if not t0:
+                t0.append(t_ns[0])
+            spools["t_s"].append((t_ns[:m] - t0[0]).astype(np.float64) * 1e-9)
+            ok = np.all(np.isfinite(vals[:m]), axis=1)
+            bad = m - int(np.count_nonzero(ok))
+            n_bad += bad
+            if n_bad and nan_policy != "drop":
+                return  # counted, never kept: the record is refused
+            for j, name in enumerate(CHANNELS):
+                spools[name].append(vals[:m, j] if bad == 0 else vals[:m, j][ok])
+
+        i = k = 0
         for conn, bag_t_ns, raw in reader.messages(connections=conns):
             if i >= n:
                 raise GyrodriftValueError(
@@ -953,17 +1178,22 @@ def _read_bag_imu(bag: Path, source: str, topic: str | None
                 st = msg.header.stamp
                 stamp = int(st.sec) * 1_000_000_000 + int(st.nanosec)
                 w, a = msg.angular_velocity, msg.linear_acceleration
-                vals[i] = (w.x, w.y, w.z, a.x, a.y, a.z)
+                vals[k] = (w.x, w.y, w.z, a.x, a.y, a.z)
             except Exception as exc:  # any parser error: the message is not an Imu
                 detail = (str(exc).strip().splitlines() or [""])[0] or type(exc).__name__
                 raise GyrodriftValueError(
                     f"{source}: {topic}: message {i} is not a valid {conn.msgtype} "
                     f"({detail})") from exc
-            t_ns[i] = stamp if stamp > 0 else int(bag_t_ns)
+            t_ns[k] = stamp if stamp > 0 else int(bag_t_ns)
             i += 1
+            k += 1
+            if k == rows:
+                flush(k)
+                k = 0
+        flush(k)
     if i != n:
         raise GyrodriftValueError(f"{source}: {topic}: read {i} messages, the bag index says {n}")
-    return topic, n, vals, t_ns
+    return topic, n, n_bad
 
 
 # ------------------------------------------------------------------------ units plausibility

@@ -2,12 +2,14 @@
 CSV, and CAN logs (candump `.log`, Vector `.asc`, `.blf`) through python-can's writers/readers.
 
 `write_imu_log` is also what `gyrodrift simulate` calls, so that a replay works with no
-recorded input.
+recorded input. `read_imu_log` returns a whole log; `ImuLogBlocks` gives the same samples in
+blocks, in bounded memory (what the analysis readers use).
 """
 
 from __future__ import annotations
 
 import csv
+import os
 from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -25,7 +27,7 @@ from gyrodrift.codecs.can_signals import (
 )
 from gyrodrift.codecs.wire import (
     Samples,
-    decode_stream,
+    StreamDecoder,
     encode_frames,
     make_samples,
 )
@@ -33,10 +35,13 @@ from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.io.atomic import atomic_output, atomic_write_text
 
 __all__ = [
+    "BLOCK_SAMPLES",
     "CAN_FORMATS",
+    "CHUNK_BYTES",
     "CSV_COLUMNS",
     "FORMATS",
     "SUFFIX_FORMATS",
+    "ImuLogBlocks",
     "log_format",
     "read_imu_log",
     "write_decode_table",
@@ -249,6 +254,8 @@ def read_imu_log(path: str | Path, fmt: str | None = None, *,
     the map instead of the project's DBC; t_us is the IMU's own timestamp when the map has
     one, else the log's time.
 
+    The whole log in memory: :class:`ImuLogBlocks` gives the same samples in blocks.
+
     Examples
     --------
     >>> import tempfile, os
@@ -258,31 +265,116 @@ def read_imu_log(path: str | Path, fmt: str | None = None, *,
     >>> len(s), s.channels.shape, float(s.channels[0, 0])
     (5, (5, 6), 1.0)
     """
-    path = Path(path)
-    if not path.exists():
-        raise FileNotFoundError(f"no such log: {path}")
-    kind = log_format(path, fmt)
-    if signals is not None and kind not in CAN_FORMATS:
-        raise GyrodriftValueError(f"{path}: a DBC signal map applies to CAN logs "
-                                  f"({', '.join(CAN_FORMATS)}), not to {kind}")
-    if kind == "bin":
-        data = path.read_bytes()
-        if len(data) < FRAME_SIZE:
-            raise GyrodriftValueError(f"{path}: {len(data)} bytes, shorter than one "
-                                      f"{FRAME_SIZE}-byte frame")
-        dec = decode_stream(data)
+    blocks = ImuLogBlocks(path, fmt, signals=signals)
+    parts = list(blocks)
+    return Samples(np.concatenate([b.seq for b in parts]),
+                   np.concatenate([b.flags for b in parts]),
+                   np.concatenate([b.t_us for b in parts]),
+                   np.concatenate([b.channels for b in parts]).reshape(-1, 6),
+                   log_report=blocks.report)
+
+
+#: Bytes of a binary frame log read at a time (about 25000 frames).
+CHUNK_BYTES = 1 << 20
+#: Samples of a CAN log or CSV log per block (a CAN log's decoded frames and a CSV's rows
+#: are Python objects while a block is made: a few hundred bytes per sample).
+BLOCK_SAMPLES = 1 << 13
+
+
+class ImuLogBlocks:
+    """The samples of an IMU log (:func:`read_imu_log`'s formats and checks) in blocks of
+    wire samples, in bounded memory whatever the log's length: a binary log decoded
+    `chunk_bytes` at a time (frames cut by a chunk's end carried to the next,
+    :class:`gyrodrift.codecs.wire.StreamDecoder`), a CAN log's frames reassembled and
+    handed on every `block_samples` samples, a CSV log parsed `block_samples` rows at a
+    time. The blocks put together are :func:`read_imu_log`'s samples, and every count and
+    error is the same: a damaged binary log, a CSV whose times go back and a CAN log without
+    a sample raise when the iteration reaches the end of the file (after the last block);
+    a row of a CSV that is not 9 numbers raises when its block is parsed.
+
+    After the iteration, `report` is the CAN log's :class:`CanLogReport` (None for a
+    binary or CSV log). The path, format and signal map are checked when the object is
+    made; every iteration reads the file again.
+
+    Parameters
+    ----------
+    path, fmt, signals
+        as :func:`read_imu_log`.
+    block_samples
+        samples per block of a CAN or CSV log (default :data:`BLOCK_SAMPLES`).
+    chunk_bytes
+        bytes of a binary log decoded at a time (default :data:`CHUNK_BYTES`).
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> path = os.path.join(tempfile.mkdtemp(), "imu.log")
+    >>> _ = write_imu_log(path, np.arange(5) / 400.0, np.ones((5, 3)), np.zeros((5, 3)))
+    >>> blocks = ImuLogBlocks(path, block_samples=2)
+    >>> [b.seq.tolist() for b in blocks]
+    [[0, 1], [2, 3], [4]]
+    >>> blocks.report.imu_frames_used
+    20
+    """
+
+    def __init__(self, path: str | Path, fmt: str | None = None, *,
+                 signals: SignalMap | str | Path | None = None,
+                 block_samples: int | None = None, chunk_bytes: int | None = None) -> None:
+        self.path = Path(path)
+        if not self.path.exists():
+            raise FileNotFoundError(f"no such log: {self.path}")
+        self.kind = log_format(self.path, fmt)
+        if signals is not None and self.kind not in CAN_FORMATS:
+            raise GyrodriftValueError(f"{self.path}: a DBC signal map applies to CAN logs "
+                                      f"({', '.join(CAN_FORMATS)}), not to {self.kind}")
+        self._smap: SignalMap | None = None
+        if signals is not None:
+            self._smap = signals if isinstance(signals, SignalMap) else load_signal_map(signals)
+        self.block_samples = int(BLOCK_SAMPLES if block_samples is None else block_samples)
+        self.chunk_bytes = int(CHUNK_BYTES if chunk_bytes is None else chunk_bytes)
+        if self.block_samples < 1 or self.chunk_bytes < 1:
+            raise GyrodriftValueError("block_samples and chunk_bytes must be >= 1")
+        # the CAN log's frame accounting, once the iteration ended (None for other logs)
+        self.report: CanLogReport | None = None
+
+    def __iter__(self) -> Iterator[Samples]:
+        self.report = None
+        if self.kind == "bin":
+            return self._bin()
+        if self.kind == "csv":
+            return _csv_blocks(self.path, self.block_samples)
+        if self._smap is not None:
+            return self._can(self._smap)
+        return self._can(None)
+
+    def _bin(self) -> Iterator[Samples]:
+        path = self.path
+        dec = StreamDecoder()
+        non_input = 0
+        with path.open("rb") as fh:
+            size = os.fstat(fh.fileno()).st_size
+            if size < FRAME_SIZE:
+                raise GyrodriftValueError(f"{path}: {size} bytes, shorter than one "
+                                          f"{FRAME_SIZE}-byte frame")
+            while True:
+                data = fh.read(self.chunk_bytes)
+                part = dec.feed(data, final=not data)
+                non_input += int(np.count_nonzero(part.frame_type != TYPE_INPUT))
+                if len(part.samples):
+                    yield part.samples
+                if not data:
+                    break
         bad = {"crc_errors": dec.crc_errors, "garbage_bytes": dec.garbage_bytes,
-               "truncated_bytes": dec.truncated_bytes,
-               "non_input_frames": int(np.count_nonzero(dec.frame_type != TYPE_INPUT))}
+               "truncated_bytes": dec.truncated_bytes, "non_input_frames": non_input}
         if any(bad.values()):
             raise GyrodriftValueError(f"{path}: corrupted binary frame log: {bad}")
-        return dec.samples
-    if kind == "csv":
-        return _read_csv(path)
-    if signals is not None:
-        smap = signals if isinstance(signals, SignalMap) else load_signal_map(signals)
-        return _read_can_log_with_map(path, smap)
-    return _read_can_log(path)
+
+    def _can(self, smap: SignalMap | None) -> Iterator[Samples]:
+        rep = CanLogReport()
+        blocks = (_can_log_blocks(self.path, rep, self.block_samples) if smap is None
+                  else _can_log_blocks_with_map(self.path, smap, rep, self.block_samples))
+        yield from blocks
+        self.report = rep
 
 
 def _frame_key(m: can.Message) -> str:
@@ -309,25 +401,58 @@ def _imu_frames(path: Path, rep: CanLogReport,
             yield m
 
 
-def _read_can_log(path: Path) -> Samples:
-    """IMU samples of a CAN log; every other frame is skipped and counted (a bus capture
-    normally carries other nodes' traffic). Refused only when no IMU sample is found."""
+class _SampleBlock:
+    """Completed samples of a CAN log, collected until a block is full."""
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.n = 0
+        self.seq: list[int] = []
+        self.flags: list[int] = []
+        self.values: list[tuple[float, ...]] = []
+        self.stamps: list[float] = []  # the CAN-log reader: the log's times, in s
+        self.stamps_us: list[int] = []  # the signal-map reader: the sample times, in us
+
+    @property
+    def full(self) -> bool:
+        return len(self.seq) >= self.size
+
+    def take(self, with_map: bool) -> Samples:
+        """The collected samples as wire samples (the lists emptied), typed as the whole-log
+        readers type them."""
+        if with_map:
+            out = Samples(np.asarray(self.seq, np.uint16), np.zeros(len(self.seq), np.uint16),
+                          np.asarray(self.stamps_us, np.uint64),
+                          np.asarray(self.values, np.float64).astype(np.float32)
+                          .reshape(-1, 6))
+        else:
+            out = Samples(np.asarray(self.seq, np.uint16), np.asarray(self.flags, np.uint16),
+                          np.round(np.asarray(self.stamps, np.float64) * 1e6).astype(np.uint64),
+                          np.asarray(self.values, np.float32).reshape(-1, 6))
+        self.n += len(self.seq)
+        self.seq, self.flags, self.values, self.stamps, self.stamps_us = [], [], [], [], []
+        return out
+
+
+def _can_log_blocks(path: Path, rep: CanLogReport, block_samples: int) -> Iterator[Samples]:
+    """IMU samples of a CAN log in blocks; every other frame is skipped and counted in `rep`
+    (a bus capture normally carries other nodes' traffic). Refused only when no IMU sample
+    is found."""
     asm = SampleAssembler(base_id=INPUT_BASE_ID)
-    rep = CanLogReport()
-    seq: list[int] = []
-    flags: list[int] = []
-    values: list[tuple[float, ...]] = []
-    stamps: list[float] = []
+    block = _SampleBlock(block_samples)
+
     def is_imu(m: can.Message) -> bool:
         return not m.is_extended_id and 0 <= m.arbitration_id - INPUT_BASE_ID < 4
 
     for m in _imu_frames(path, rep, is_imu):
         s = asm.push(m)
         if s is not None:
-            seq.append(s.seq)
-            flags.append(s.flags)
-            values.append(s.values)
-            stamps.append(m.timestamp)  # CAN carries no sample time: the log's time is it
+            block.seq.append(s.seq)
+            block.flags.append(s.flags)
+            block.values.append(s.values)
+            block.stamps.append(m.timestamp)  # CAN carries no sample time: the log's time is it
+            if block.full:
+                yield block.take(with_map=False)
     asm.finish()
     st = asm.stats
     rep.imu_frames_used = st.frames_used
@@ -336,30 +461,30 @@ def _read_can_log(path: Path) -> Samples:
     rep.orphan_frames = st.orphan_frames
     rep.duplicate_frames = st.duplicate_frames
     rep.bad_dlc = st.bad_dlc
-    rep.imu_samples = len(seq)
+    rep.imu_samples = block.n + len(block.seq)
     if rep.unaccounted:  # an internal error, never a property of the input
         raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
-    if not seq:
+    if not rep.imu_samples:
         raise GyrodriftValueError(f"{path}: no IMU samples (CAN IDs 0x100..0x103) in the log; "
                                   f"{rep.summary()}")
-    return Samples(np.asarray(seq, np.uint16), np.asarray(flags, np.uint16),
-                   np.round(np.asarray(stamps) * 1e6).astype(np.uint64),
-                   np.asarray(values, np.float32).reshape(-1, 6), log_report=rep)
+    if block.seq:
+        yield block.take(with_map=False)
 
 
-def _read_can_log_with_map(path: Path, smap: SignalMap) -> Samples:
-    """IMU samples of a CAN log through a user's DBC and signal map (same accounting)."""
+def _can_log_blocks_with_map(path: Path, smap: SignalMap, rep: CanLogReport,
+                             block_samples: int) -> Iterator[Samples]:
+    """IMU samples of a CAN log through a user's DBC and signal map, in blocks (the same
+    accounting)."""
     asm = SignalSampleAssembler(smap)
-    rep = CanLogReport()
-    seq: list[int] = []
-    values: list[tuple[float, ...]] = []
-    stamps_us: list[int] = []
+    block = _SampleBlock(block_samples)
     for m in _imu_frames(path, rep, asm.is_mapped):
         s = asm.push(m)
         if s is not None:
-            seq.append(s.seq)
-            values.append(s.values)
-            stamps_us.append(s.t_us if s.t_us is not None else round(m.timestamp * 1e6))
+            block.seq.append(s.seq)
+            block.values.append(s.values)
+            block.stamps_us.append(s.t_us if s.t_us is not None else round(m.timestamp * 1e6))
+            if block.full:
+                yield block.take(with_map=True)
     asm.finish()
     st = asm.stats
     rep.imu_frames_used = st.frames_used
@@ -367,36 +492,76 @@ def _read_can_log_with_map(path: Path, smap: SignalMap) -> Samples:
     rep.imu_frames_ignored = st.ignored_frames
     rep.incomplete_samples = st.incomplete_samples
     rep.bad_dlc = st.bad_dlc
-    rep.imu_samples = len(seq)
+    rep.imu_samples = block.n + len(block.seq)
     if rep.unaccounted:
         raise AssertionError(f"{path}: CAN log accounting does not balance: {rep.as_dict()}")
-    if not seq:
+    if not rep.imu_samples:
         raise GyrodriftValueError(f"{path}: no IMU samples through the signal map {smap.source}; "
                                   f"{rep.summary()}")
-    return Samples(np.asarray(seq, np.uint16), np.zeros(len(seq), np.uint16),
-                   np.asarray(stamps_us, np.uint64),
-                   np.asarray(values, np.float64).astype(np.float32).reshape(-1, 6),
-                   log_report=rep)
+    if block.seq:
+        yield block.take(with_map=True)
 
 
-def _read_csv(path: Path) -> Samples:
-    with path.open(newline="") as fh:
-        reader = csv.reader(fh)
-        header = next(reader, None)
-        if header is None or tuple(h.strip() for h in header) != CSV_COLUMNS:
-            raise GyrodriftValueError(f"{path}: expected CSV header {','.join(CSV_COLUMNS)}")
-        rows = [r for r in reader if r]
-    if not rows:
-        raise GyrodriftValueError(f"{path}: no data rows")
+def _csv_rows_array(path: Path, rows: list[list[str]], lines: list[int]) -> np.ndarray:
+    """The rows of a CSV log block as an (m, 9) float64 array. The first row (in file order)
+    that is not 9 numbers is refused, naming its line: the verdict does not depend on how
+    the file is cut into blocks."""
+    width = len(CSV_COLUMNS)
+    wrong = next((k for k, r in enumerate(rows) if len(r) != width), len(rows))
     try:
-        arr = np.asarray(rows, dtype=np.float64)
-    except ValueError as exc:
-        raise GyrodriftValueError(f"{path}: non-numeric CSV field ({exc})") from None
-    if arr.shape[1] != len(CSV_COLUMNS):
-        raise GyrodriftValueError(f"{path}: expected {len(CSV_COLUMNS)} columns, got "
-                                  f"{arr.shape[1]}")
-    t_s = arr[:, 0]
-    if not np.all(np.isfinite(t_s)) or t_s[0] < 0 or np.any(np.diff(t_s) < 0):
+        arr = np.asarray(rows[:wrong], dtype=np.float64).reshape(-1, width)
+    except ValueError:
+        for k, r in enumerate(rows[:wrong]):
+            try:
+                np.asarray(r, dtype=np.float64)
+            except ValueError as exc:
+                raise GyrodriftValueError(f"{path}: line {lines[k]}: non-numeric CSV field "
+                                          f"({exc})") from None
+        raise
+    if wrong < len(rows):
+        raise GyrodriftValueError(f"{path}: line {lines[wrong]}: expected {width} columns, "
+                                  f"got {len(rows[wrong])}")
+    return arr
+
+
+def _csv_blocks(path: Path, block_samples: int) -> Iterator[Samples]:
+    """The harness's CSV log in blocks of rows. Times that are not finite, negative or go
+    back are refused after the last row (a malformed row later in the file is named
+    first, as the whole-file parse does)."""
+    n = 0
+    bad_time = False
+    last_t = -np.inf
+    try:
+        with path.open(newline="", encoding="utf-8-sig") as fh:
+            reader = csv.reader(fh)
+            header = next(reader, None)
+            if header is None or tuple(h.strip() for h in header) != CSV_COLUMNS:
+                raise GyrodriftValueError(f"{path}: expected CSV header {','.join(CSV_COLUMNS)}")
+            while True:
+                rows: list[list[str]] = []
+                lines: list[int] = []
+                for r in reader:
+                    if r:
+                        rows.append(r)
+                        lines.append(reader.line_num)
+                        if len(rows) >= block_samples:
+                            break
+                if not rows:
+                    break
+                arr = _csv_rows_array(path, rows, lines)
+                t_s = arr[:, 0]
+                if not bad_time:
+                    bad_time = (not np.all(np.isfinite(t_s)) or (n == 0 and t_s[0] < 0)
+                                or t_s[0] < last_t or bool(np.any(np.diff(t_s) < 0)))
+                    last_t = float(t_s[-1])
+                n += arr.shape[0]
+                yield Samples(arr[:, 1].astype(np.uint16), arr[:, 2].astype(np.uint16),
+                              np.round(t_s * 1e6).astype(np.uint64),
+                              arr[:, 3:9].astype(np.float32))
+    except UnicodeDecodeError as exc:
+        raise GyrodriftValueError(f"{path}: not a text CSV log (byte {exc.start} of a line "
+                                  "is not UTF-8; a binary file?)") from None
+    if n == 0:
+        raise GyrodriftValueError(f"{path}: no data rows")
+    if bad_time:
         raise GyrodriftValueError(f"{path}: t_s must be finite, >= 0 and non-decreasing")
-    return Samples(arr[:, 1].astype(np.uint16), arr[:, 2].astype(np.uint16),
-                   np.round(t_s * 1e6).astype(np.uint64), arr[:, 3:9].astype(np.float32))

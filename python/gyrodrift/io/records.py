@@ -287,12 +287,13 @@ def load_record(
     regular files are read (a FIFO or device would block or never end).
 
     mmap: a 1-D float64 .npy record in deg/h without NaN/Inf is returned memory-mapped; any
-    other .npy or .csv record of gyrodrift.io.spool.SPOOL_MIN_SAMPLES (2^20) samples or more
-    is converted in blocks of rows (a .csv parsed in blocks of lines) into a float64 file in
-    a temporary directory (8 bytes per sample; a .csv's column and time column too while it
-    is read) and returned memory-mapped; the directory goes when no array refers to the
-    map any more. The values are those of the conversion in memory. With mmap=False every
-    record is returned in memory.
+    other .npy or .csv record, IMU log or PSINS .imu log of
+    gyrodrift.io.spool.SPOOL_MIN_SAMPLES (2^20) samples or more is converted in blocks of
+    rows (a .csv or .imu parsed in blocks of lines, a log decoded in blocks) into a float64
+    file in a temporary directory (8 bytes per sample; a .csv's or log's column and time
+    column too while it is read) and returned memory-mapped; the directory goes when no
+    array refers to the map any more. The values are those of the conversion in memory.
+    With mmap=False every record is returned in memory.
 
     Examples
     --------
@@ -318,9 +319,9 @@ def load_record(
         raise GyrodriftValueError(f"{p}: --time-units (time_units=) applies to the time column "
                                   "of a text record; this file carries its own time base")
     if suffix in LOG_SUFFIXES or is_replay_csv:
-        return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate)
+        return _load_log(p, column, rate_hz, units, nan_policy, can_signals, force_rate, mmap)
     if suffix == ".imu":
-        return _load_psins(p, column, rate_hz, units, nan_policy)
+        return _load_psins(p, column, rate_hz, units, nan_policy, mmap)
     if suffix == ".npy":
         return _load_npy_record(p, column, rate_hz, units, nan_policy, mmap)
     if suffix == ".csv":
@@ -655,27 +656,41 @@ def iter_chunks(values: np.ndarray, chunk: int) -> Iterator[np.ndarray]:
 
 def _load_log(p: Path, column: str | int | None, rate_hz: float | None, units: str,
               nan_policy: str, can_signals: str | Path | None = None,
-              force_rate: bool = False) -> Record:
-    from gyrodrift.io.imu_log import read_imu_log  # the "replay" area's reader
+              force_rate: bool = False, mmap: bool = True) -> Record:
+    """One gyro axis of a replay harness log, read in blocks
+    (gyrodrift.io.imu_log.ImuLogBlocks): the axis and the times kept in memory, or with
+    `mmap` from SPOOL_MIN_SAMPLES samples on in temporary files, then normalized like a
+    .npy record's column."""
+    from gyrodrift.io.imu_log import ImuLogBlocks  # the "replay" area's reader
 
     axis_name = "z" if column is None else str(column).lower()
     if axis_name not in GYRO_AXES:
         raise GyrodriftValueError(f"{p}: IMU logs hold gyro axes x, y, z; got column {column!r}")
-    samples = read_imu_log(p, signals=can_signals)
-    gyro_rad_s = samples.channels[:, GYRO_AXES[axis_name]].astype(np.float64)
-    rate_hz = _resolve_rate(rate_hz, samples.t_s, str(p), force_rate)
+    blocks = ImuLogBlocks(p, signals=can_signals)
+    memory_max = None if mmap else sys.maxsize
+    with SampleSpool(memory_max, name="gyro_rad_s") as raw, \
+            SampleSpool(memory_max, name="time") as t_spool:
+        for s in blocks:
+            raw.append(s.channels[:, GYRO_AXES[axis_name]])
+            t_spool.append(s.t_s)
+        gyro_rad_s, t = raw.finish(), t_spool.finish()
+    rate_hz = _resolve_rate(rate_hz, t, str(p), force_rate)
+    del t  # its temporary file goes with the last reference
     log_units = "rad/s" if units == "deg/h" else units  # logs carry rad/s unless told
-    x = to_deg_h(gyro_rad_s, log_units, rate_hz)
-    x, dropped = _apply_nan_policy(x, nan_policy, str(p))
+    n_total = int(gyro_rad_s.size)
+    x, dropped = _normalize(iter_chunks(gyro_rad_s, BLOCK_ROWS), n_total, log_units,
+                            rate_hz, nan_policy, str(p), mmap)
     return Record(x, float(rate_hz), str(p), f"gyro_{axis_name}", log_units,
-                  int(gyro_rad_s.size), dropped,
-                  samples.log_report.summary() if samples.log_report is not None else "")
+                  n_total, dropped,
+                  blocks.report.summary() if blocks.report is not None else "")
 
 
 def _load_psins(p: Path, column: str | int | None, rate_hz: float | None, units: str,
-                nan_policy: str) -> Record:
-    """One gyro axis of a PSINS .imu log (angle increments in rad per sample, divided by dt)."""
-    from gyrodrift.io.psins import read_psins_imu  # the "align" area's reader
+                nan_policy: str, mmap: bool = True) -> Record:
+    """One gyro axis of a PSINS .imu log (angle increments in rad per sample, divided by dt),
+    read in blocks of lines (gyrodrift.io.psins.PsinsBlocks), kept as `_load_log` keeps
+    its axis."""
+    from gyrodrift.io.psins import PsinsBlocks  # the "align" area's reader
 
     axis_name = "z" if column is None else str(column).lower()
     if axis_name not in GYRO_AXES:
@@ -684,12 +699,17 @@ def _load_psins(p: Path, column: str | int | None, rate_hz: float | None, units:
     if units not in ("deg/h", "rad"):
         raise GyrodriftValueError(f"{p}: PSINS .imu logs carry their own units (angle increments); "
                          f"--gyro-units {units} does not apply")
-    rec = read_psins_imu(p)
-    file_rate = 1.0 / rec.dt_s
+    blocks = PsinsBlocks(p)
+    with SampleSpool(None if mmap else sys.maxsize, name="dtheta_rad") as raw:
+        for dtheta, _ in blocks:
+            raw.append(dtheta[:, GYRO_AXES[axis_name]])
+        dtheta_rad = raw.finish()
+    file_rate = 1.0 / blocks.dt_s
     if rate_hz is not None and not math.isclose(rate_hz, file_rate, rel_tol=1e-9):
         raise GyrodriftValueError(
             f"{p}: the file says {file_rate:g} Hz, --rate-hz says {rate_hz:g}")
-    x = to_deg_h(rec.dtheta[:, GYRO_AXES[axis_name]], "rad", file_rate)
-    x, dropped = _apply_nan_policy(x, nan_policy, str(p))
+    n_total = int(dtheta_rad.size)
+    x, dropped = _normalize(iter_chunks(dtheta_rad, BLOCK_ROWS), n_total, "rad", file_rate,
+                            nan_policy, str(p), mmap)
     return Record(x, float(file_rate), str(p), f"gyro_{axis_name}", "rad (increments)",
-                  int(rec.dtheta.shape[0]), dropped)
+                  n_total, dropped)
