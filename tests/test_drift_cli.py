@@ -120,3 +120,25 @@ def test_config_uses_the_minimax_tuning_when_not_identified() -> None:
     assert stage["a1"] == a1 and stage["a2"] == a2
     assert stage["q"] == pytest.approx(q * k * k, rel=1e-15)
     assert stage["r"] == pytest.approx(stage["q"], rel=1e-9)  # q = r
+
+
+def test_fit_reports_the_maximum_across_a2_zero(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    # 0.6868/-0.0213, r/q = 1, 6000 samples (short enough that fit does not decimate), seed 6:
+    # AIC chooses AR(2) + white at a2 about +0.12, with a second maximum across a2 = 0 near
+    # -0.16, 0.64 log-likelihood units lower: the table says so, the JSON carries it.
+    rng = np.random.default_rng(6)
+    x = lfilter([1.0], [1.0, -0.6868, 0.0213], rng.normal(size=8000))[2000:]
+    path = tmp_path / "fold.npy"
+    np.save(path, 9.7 + x + rng.normal(0.0, 1.0, 6000))
+    args = ["fit", str(path), "--rate-hz", "100", "--gyro-units", "deg/h"]
+    assert main(args) == 0
+    text = capsys.readouterr().out
+    assert "chosen: ar2+white" in text
+    assert "a2 next to the fold a2 = 0: a second maximum across it at a2 -0.1" in text
+    assert "NOT identified: maxima on both sides" not in text
+    assert main([*args, "--json"]) == 0
+    ar2 = json.loads(capsys.readouterr().out)["fits"][0]
+    assert ar2["model"] == "ar2+white" and ar2["ar_identified"] is True
+    assert ar2["a2"] > 0.05 and ar2["fold_a2"] < -0.05
+    assert 0.3 < ar2["loglike"] - ar2["fold_loglike"] < 1.0

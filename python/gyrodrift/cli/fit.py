@@ -270,6 +270,17 @@ def _report(args: argparse.Namespace, rec: Any, cmp_: Any, best: Any, resp: Any,
                   "record cannot tell "
                   f"drift from white noise; filter tuned at q = r (minimax over all splits): "
                   f"a1 {a1:.5g}, a2 {a2:.5g}, q = r = {q:.5g}")
+    if math.isfinite(best.fold_loglike):
+        gap = best.loglike - best.fold_loglike
+        if best.ar_identified:
+            print(f"a2 next to the fold a2 = 0: a second maximum across it at a2 "
+                  f"{best.fold_a2:.4g}, {gap:.3g} log-likelihood units lower; the fit is the "
+                  "higher one")
+        else:
+            print(f"AR part NOT identified: maxima on both sides of a2 = 0 (a2 {best.a2:.4g} "
+                  f"and {best.fold_a2:.4g}) within {gap:.2g} log-likelihood units; the record "
+                  "does not tell the sign of a2 and the standard errors describe the first "
+                  "one only")
     if factor > 1:
         a1, a2, q, r = best.filter_params
         print(f"filter at {rec.rate_hz:g} Hz: a1 {a1:.6g}, a2 {a2:.6g}, q {q:.5g}, r {r:.5g} "

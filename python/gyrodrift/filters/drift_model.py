@@ -19,7 +19,11 @@ drift), four moment fits that give 30, 60, 85, 95 % of the variance to the white
 grid of partial autocorrelations (+-0.9, 0) with 95 % white noise; each is optimised coarsely and
 the best optimum finely. On long records the multi-start runs on the first 2^14 samples and its
 distinct modes (within 3 log-likelihood units) warm-start quasi-Newton refinements on the full
-record.
+record. Next to a2 = 0 (the fold, where the Fisher information is singular) the likelihood can
+have a maximum on each side, and which one a run reaches is set by its start's split as much as
+by its a2: when the estimate is within _FOLD_Z expected standard errors of a2 = 0, one more run
+starts from its mirror (u2 -> -u2, first with u2 held, then free) and the higher maximum is
+kept; the other is reported, and a tie within _FOLD_TIE_LL as the AR part not identified.
 
 A record memory-mapped from a .npy file (1-D float64, as `numpy.load(..., mmap_mode="r")` gives
 it) longer than 2^20 samples is never held in memory: every pass over the whole record (its
@@ -98,6 +102,8 @@ _U_AR_BOUND = 7.5  # |tanh(u)| <= 1 - 6e-7: stays inside the core's stationarity
 _U_SPLIT_BOUND = 30.0
 _WARM_START_N = 1 << 14
 _MODE_KEEP_LL = 3.0
+#: Two optima are distinct modes when they differ by more than this in some u.
+_MODE_DISTINCT_U = 0.05
 #: The split check (_split_check): profile likelihood at these r/q, the drop that counts as a
 #: rejection (chi2_1 at 99.5 % is 7.88 = 2 x 3.94; near-white records at 2e4-6e4 samples give
 #: drops up to ~3 and occasionally 6 when the fit sits in a spurious mode, correlated ones 5-470
@@ -105,6 +111,17 @@ _MODE_KEEP_LL = 3.0
 _SPLIT_PROBES = (0.1, 10.0)
 _SPLIT_DROP_MIN = 4.0
 _PROFILE_N = 1 << 16
+#: The fold a2 = 0 (ar2+white): the fit runs across it from its estimate's mirror when the
+#: estimate is within _FOLD_Z expected standard errors of it (the lower of two maxima seen on
+#: either side was about 4.7 away, on a 10 h record of 0.6868/-0.0213; the papers'
+#: 0.2297/0.1638 is 10 away at 3e4 samples and more on longer records) and not on it
+#: (|u2| < _ON_FOLD, about |a2|: its mirror is itself), and calls the two maxima tied, the AR
+#: part not identified by the record, when their log-likelihoods differ by at most
+#: _FOLD_TIE_LL: 20 times the optimisers' stopping tolerance (1e-4 log-likelihood units,
+#: _optimise), a tie to the optimiser (maxima 0.002 to 0.6 apart were seen next to the fold).
+_FOLD_Z = 10.0
+_ON_FOLD = 1e-3
+_FOLD_TIE_LL = 2e-3
 
 
 
@@ -187,6 +204,11 @@ class DriftModelFit:
     the profile fit at q = r, whose gain minimises the worst-case error over all splits; see
     the drift model validation page).
     filter_params: (a1, a2, q, r) of the filter that `kalman()` and `response()` use.
+    fold_a2, fold_loglike: ar2+white next to the fold a2 = 0, where the likelihood can have a
+    maximum on each side: a2 and the log-likelihood of the lower maximum, on the other side of
+    the fold from a2 (NaN when the fit found none there). ar_identified: False when the two
+    maxima are tied (log-likelihoods within 2e-3): the record does not tell the sign of a2,
+    and the standard errors describe one maximum only.
 
     Examples
     --------
@@ -194,8 +216,8 @@ class DriftModelFit:
     >>> fit = fit_drift_model(x, 100.0, "white")
     >>> fit.model, round(fit.r, 3), round(fit.mean, 3), fit.n
     ('white', 0.954, 0.452, 1000)
-    >>> sorted(fit.as_dict())[:4]
-    ['a1', 'a2', 'aic', 'bic']
+    >>> sorted(fit.as_dict())[:5]
+    ['a1', 'a2', 'aic', 'ar_identified', 'bic']
     """
 
     model: str
@@ -217,6 +239,13 @@ class DriftModelFit:
     identified: bool
     tuning: str
     filter_params: tuple[float, float, float, float]
+    fold_a2: float = math.nan
+    fold_loglike: float = math.nan
+
+    @property
+    def ar_identified(self) -> bool:
+        """False when the maximum on the other side of the fold a2 = 0 ties with this one."""
+        return not self.loglike - self.fold_loglike <= _FOLD_TIE_LL
 
     @property
     def n_params(self) -> int:
@@ -256,6 +285,8 @@ class DriftModelFit:
             "split_drop": [_nan_to_none(v) for v in self.split_drop],
             "identified": self.identified,
             "tuning": self.tuning, "filter_params": list(self.filter_params),
+            "fold_a2": _nan_to_none(self.fold_a2), "fold_loglike": _nan_to_none(self.fold_loglike),
+            "ar_identified": self.ar_identified,
         }
 
 
@@ -565,12 +596,58 @@ def _best_of(prof: _Profile, starts: list[np.ndarray]) -> np.ndarray:
     return u if prof.negll(u) <= prof.negll(best) else best
 
 
+def _next_to_fold(a1: float, a2: float, q: float, r: float, n: int) -> bool:
+    """Is a2 within _FOLD_Z expected standard errors of the fold a2 = 0?
+
+    From the expected information (`drift_fisher_information`) at the estimate: it is
+    singular on the fold itself, so next to it a2's expected standard error is large; a
+    singular matrix anywhere (e.g. q = 0) counts as next to the fold too (the run across it is
+    then only a cost)."""
+    try:
+        cov = np.linalg.inv(drift_fisher_information(a1, a2, q, r, n))
+    except np.linalg.LinAlgError:
+        return True
+    var = float(cov[1, 1])
+    return not (math.isfinite(var) and var > 0.0) or abs(a2) < _FOLD_Z * math.sqrt(var)
+
+
+def _across_fold(prof: _Profile, u: np.ndarray, pre: _Profile | None) -> np.ndarray:
+    """A run from the mirror of u across the fold a2 = 0 (ar2+white; u = (u1, u2, u3)).
+
+    The profile likelihood maximised over (u1, u3) with u2 held at -u2, then over all three
+    from there: next to a2 = 0 the likelihood can have a maximum on each side, and which one a
+    run from the multi-start's points reaches is set by the start's split as much as by its
+    a2. The full run is L-BFGS-B (_optimise) on a short record and quasi-Newton steps
+    (_newton_refine, curvature from the prefix profile pre) on a long one. Returns the point
+    it ends at, which may be back on u's side."""
+    u2 = -float(u[1])
+
+    def held(v: np.ndarray) -> float:
+        return prof.negll(np.array([v[0], u2, v[1]]))
+
+    res = scipy.optimize.minimize(held, u[[0, 2]], method="L-BFGS-B", jac="2-point",
+                                  bounds=[(-_U_AR_BOUND, _U_AR_BOUND),
+                                          (-_U_SPLIT_BOUND, _U_SPLIT_BOUND)],
+                                  options={"ftol": 1e-3 / prof.n, "maxiter": 100})
+    side = np.array([res.x[0], u2, res.x[1]])
+    if pre is None:
+        return _optimise(prof, side, tight=True)
+    _, _, hess_pre = _fd_gradient_hessian(pre.negll, side, 1e-4, hessian=True)
+    assert hess_pre is not None
+    cand, f_c, status = _newton_refine(prof, side, hess_pre)
+    if status == "failed":
+        other = _optimise(prof, cand, tight=True)
+        cand = other if prof.negll(other) <= f_c else cand
+    return cand
+
+
 def _prefix_modes(prof: _Profile, starts: list[np.ndarray], max_modes: int = 3
                   ) -> list[np.ndarray]:
     """Distinct local optima of the prefix likelihood worth refining on the full record.
 
     A coarse optimisation from every start; the optima within _MODE_KEEP_LL log-likelihood
-    units of the best that differ by more than 0.05 in u (at most max_modes, best first).
+    units of the best that differ by more than _MODE_DISTINCT_U in u (at most max_modes, best
+    first).
     They need no tight optimisation here: the Newton steps on the full record do that."""
     coarse = sorted([_optimise(prof, u0, tight=False) for u0 in starts] + starts,
                     key=prof.negll)
@@ -579,7 +656,7 @@ def _prefix_modes(prof: _Profile, starts: list[np.ndarray], max_modes: int = 3
     for u in coarse:
         if (prof.negll(u) - best_f) * prof.n > _MODE_KEEP_LL or len(modes) == max_modes:
             break
-        if all(np.max(np.abs(u - m)) > 0.05 for m in modes):
+        if all(np.max(np.abs(u - m)) > _MODE_DISTINCT_U for m in modes):
             modes.append(u)
     return modes
 
@@ -931,8 +1008,8 @@ def _prepare(x: object) -> np.ndarray:
 
 def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float, mean: float,
             rate_hz: float, start_ll: float,
-            split: tuple[tuple[float, float], tuple[float, float, float, float] | None]
-            ) -> DriftModelFit:
+            split: tuple[tuple[float, float], tuple[float, float, float, float] | None],
+            fold: tuple[float, float] = (math.nan, math.nan)) -> DriftModelFit:
     n = prof.n
     q, r = s * w, s * (1.0 - w)
     lags = max(1, min(10, n // 5))
@@ -968,7 +1045,8 @@ def _finish(prof: _Profile, model: str, a1: float, a2: float, w: float, s: float
         rate_hz=rate_hz, ljung_box=lb,
         start_loglike=start_ll, n_evaluations=prof.evaluations, split_drop=split_drop,
         identified=identified, tuning="ml" if identified else "minimax-split",
-        filter_params=tuple(float(v) for v in filter_params))  # type: ignore[arg-type]
+        filter_params=tuple(float(v) for v in filter_params),  # type: ignore[arg-type]
+        fold_a2=float(fold[0]), fold_loglike=float(fold[1]))
 
 
 def _fit_1d(a: np.ndarray | _Pieces, rate_hz: float, model: str) -> DriftModelFit:
@@ -1011,14 +1089,34 @@ def _fit_1d(a: np.ndarray | _Pieces, rate_hz: float, model: str) -> DriftModelFi
         if status == "failed":  # the general optimiser from the best point reached
             cand = _optimise(prof, u, tight=True)
             u = cand if prof.negll(cand) <= f_u else u
-        prof.evaluations += pre.evaluations
+        fold_pre: _Profile | None = pre
     else:
         start_ll = -min(prof.negll(u) for u in starts) * prof.n
         u = _best_of(prof, starts)
+        fold_pre = None
+    fold = (math.nan, math.nan)
+    # (an estimate on the fold itself, |a2| < _ON_FOLD, is its own mirror: no run)
+    if model == "ar2+white" and abs(u[1]) >= _ON_FOLD:
+        # Across the fold a2 = 0 (module docstring): when the estimate is next to it, one more
+        # run from its mirror; the higher maximum is the fit, the other one is reported
+        # (DriftModelFit.fold_a2, fold_loglike).
+        a1, a2, w = prof.natural(u)
+        _, s, _ = prof.concentrated(a1, a2, w)
+        if _next_to_fold(a1, a2, s * w, s * (1.0 - w), prof.n):
+            other = _across_fold(prof, u, fold_pre)
+            f_u, f_o = prof.negll(u), prof.negll(other)
+            if f_o < f_u:
+                u, other, f_u, f_o = other, u, f_o, f_u
+            # a distinct maximum on the other side, not the same one on the fold itself
+            if (np.sign(other[1]) * np.sign(u[1]) < 0.0
+                    and np.max(np.abs(other - u)) > _MODE_DISTINCT_U):
+                fold = (prof.natural(other)[1], -f_o * prof.n)
+    if fold_pre is not None:
+        prof.evaluations += fold_pre.evaluations
     a1, a2, w = prof.natural(u)
     _, s, mean = prof.concentrated(a1, a2, w)
     split = _split_check(prof, model, u)
-    return _finish(prof, model, a1, a2, w, s, mean, rate_hz, start_ll, split)
+    return _finish(prof, model, a1, a2, w, s, mean, rate_hz, start_ll, split, fold)
 
 
 def fit_drift_model(
@@ -1111,6 +1209,7 @@ def _fit_normalised(a: np.ndarray, rate_hz: float, model: str) -> DriftModelFit:
     return replace(
         fit, q=fit.q * c2, r=fit.r * c2, mean=fit.mean * c, loglike=fit.loglike - dll,
         aic=fit.aic + 2.0 * dll, bic=fit.bic + 2.0 * dll, start_loglike=fit.start_loglike - dll,
+        fold_loglike=fit.fold_loglike - dll,
         stderr={k: v * scale.get(k, 1.0) for k, v in fit.stderr.items()},
         filter_params=(a1, a2, q * c2, r * c2))
 
