@@ -63,6 +63,8 @@ __all__ = ["LagDriftFit", "LagStatisticsReference", "innovation_pole", "lag_drif
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _RICCATI_TOL = 1e-15
+#: rho^L below which the neglected terms of the likelihood count as negligible (`lags_needed`).
+TRUNCATION_TOL = 1e-10
 _KINDS = ("exact", "whittle")
 
 
@@ -147,7 +149,7 @@ def innovation_pole(a1: float, a2: float, q: float, r: float) -> float:
     return float(max(abs(np.linalg.eigvals(closed))))
 
 
-def lags_needed(a1: float, a2: float, q: float, r: float, tol: float = 1e-10) -> int:
+def lags_needed(a1: float, a2: float, q: float, r: float, tol: float = TRUNCATION_TOL) -> int:
     """The smallest L with rho^L <= tol (`innovation_pole`; module docstring).
 
     Examples
