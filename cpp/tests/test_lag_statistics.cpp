@@ -142,15 +142,13 @@ TEST_CASE("non-finite samples are refused and leave the statistics unchanged") {
   CHECK(st.rejected() == 3 + 3 * 6 + 1);
   CHECK(ref.rejected() == 0);
   // the refused samples changed nothing but the count
-  gyrodrift::LagStatistics<float, 4> same = st;
-  CHECK(same.rejected() == 22);
-  CHECK(same.samples() == ref.samples());
-  CHECK(same.centre() == ref.centre());
-  CHECK(same.total().value() == ref.total().value());
-  for (std::size_t k = 0; k <= 4; ++k) CHECK(same.product(k).value() == ref.product(k).value());
+  CHECK(st.samples() == ref.samples());
+  CHECK(st.centre() == ref.centre());
+  CHECK(st.total().value() == ref.total().value());
+  for (std::size_t k = 0; k <= 4; ++k) CHECK(st.product(k).value() == ref.product(k).value());
   for (std::size_t i = 0; i < 4; ++i) {
-    CHECK(same.head(i) == ref.head(i));
-    CHECK(same.tail(i) == ref.tail(i));
+    CHECK(st.head(i) == ref.head(i));
+    CHECK(st.tail(i) == ref.tail(i));
   }
   st.reset();
   CHECK(st.samples() == 0);
