@@ -163,6 +163,7 @@ void bind_drift(py::module_& m) {
   def_loglike<float>(m);
   def_stream(m);
   bind_online_drift(m);  // bind_online_drift.cpp: OnlineDriftIdentifier, OnlineDriftIdentifierF32
+  bind_lag_statistics(m);  // bind_lag_statistics.cpp: LagStatistics, LagStatisticsF32
 }
 
 }  // namespace gyrodrift::py_bindings

@@ -20,6 +20,7 @@ void bind_monitor(pybind11::module_& m);  // gyro monitor over records (imu area
 void bind_align(pybind11::module_& m);    // strapdown navigation and alignment
 void bind_drift(pybind11::module_& m);    // drift-model likelihood (ML identification)
 void bind_online_drift(pybind11::module_& m);  // online drift-model identifier (drift area)
+void bind_lag_statistics(pybind11::module_& m);  // whole-record lag statistics (drift area)
 
 // Per-object serialisation for bound objects whose methods release the GIL while they step
 // their own state (ImuProcessor, RealtimeWaveletBank, OadevStream): without it, one object

@@ -7,7 +7,9 @@ y_k = mean + x_k + v_k (var r); spectrum S(w) = q / ``|A(e^iw)|^2`` + r.
 Streaming state of a record y_0..y_{n-1} (`LagStatisticsReference`), with w_t = y_t - c and
 c the first sample: n, sum_t w_t, the lag products P_k = sum_{t>=k} w_t w_{t-k} for
 k = 0..L, the first L and the last L values of w. Memory and work per sample do not depend
-on n (L + 1 multiply-adds per sample).
+on n (L + 1 multiply-adds per sample). The likelihood and the fit take any object with the
+same attributes (`LagStatisticsLike`: lags, n, centre, total, products, head, tail), e.g. the
+C++ statistics `gyrodrift.filters.lag_statistics.LagStatistics`.
 
 From these, for any (a1, a2, q, r, mean), with z_t = y_t - mean:
 
@@ -52,20 +54,69 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import scipy.optimize
 
 from gyrodrift.errors import GyrodriftValueError
 
-__all__ = ["LagDriftFit", "LagStatisticsReference", "innovation_pole", "lag_drift_fit",
-           "lag_loglike", "lags_needed"]
+__all__ = ["LagDriftFit", "LagStatisticsLike", "LagStatisticsReference", "innovation_pole",
+           "lag_drift_fit", "lag_loglike", "lags_needed"]
 
 _LOG_2PI = math.log(2.0 * math.pi)
 _RICCATI_TOL = 1e-15
 #: rho^L below which the neglected terms of the likelihood count as negligible (`lags_needed`).
 TRUNCATION_TOL = 1e-10
 _KINDS = ("exact", "whittle")
+
+
+class LagStatisticsLike(Protocol):
+    """The statistics the likelihood and the fit read (module docstring): L (``lags``), n,
+    the centre c, sum w (``total``), P_0..P_L (``products``), the first and the last
+    min(n, L) values of w (``head``, ``tail``, oldest first).
+
+    Examples
+    --------
+    >>> st: LagStatisticsLike = LagStatisticsReference(4)
+    >>> st.push([2.0, 3.0]); st.products.tolist()
+    [1.0, 0.0, 0.0, 0.0, 0.0]
+    """
+
+    @property
+    def lags(self) -> int:
+        """L."""
+        ...
+
+    @property
+    def n(self) -> int:
+        """Samples."""
+        ...
+
+    @property
+    def centre(self) -> float:
+        """c, the first sample."""
+        ...
+
+    @property
+    def total(self) -> float:
+        """sum_t w_t."""
+        ...
+
+    @property
+    def products(self) -> np.ndarray:
+        """P_0 .. P_L."""
+        ...
+
+    @property
+    def head(self) -> np.ndarray:
+        """The first min(n, L) values of w."""
+        ...
+
+    @property
+    def tail(self) -> np.ndarray:
+        """The last min(n, L) values of w, oldest first."""
+        ...
 
 
 class LagStatisticsReference:
@@ -97,6 +148,35 @@ class LagStatisticsReference:
         self.products = np.zeros(lags + 1)
         self.head = np.zeros(0)
         self.tail = np.zeros(0)
+
+    @classmethod
+    def from_statistics(cls, st: LagStatisticsLike) -> LagStatisticsReference:
+        """A copy of statistics kept elsewhere (e.g. by the C++ core), in float64, to push
+        on or to take `lag_sums` from.
+
+        Examples
+        --------
+        >>> a = LagStatisticsReference(2); a.push([1.0, 2.0, 4.0])
+        >>> b = LagStatisticsReference.from_statistics(a); b.push([3.0])
+        >>> b.n, b.products.tolist(), a.n
+        (4, [14.0, 9.0, 2.0], 3)
+        """
+        lags = int(st.lags)
+        out = cls(lags)
+        out.n = int(st.n)
+        kept = min(out.n, lags)
+        out.centre = float(st.centre)
+        out.total = float(st.total)
+        out.products = np.array(st.products, dtype=np.float64).reshape(-1)
+        out.head = np.array(st.head, dtype=np.float64).reshape(-1)
+        out.tail = np.array(st.tail, dtype=np.float64).reshape(-1)
+        if (out.products.size != lags + 1 or out.head.size != kept or out.tail.size != kept
+                or out.n < 0):
+            raise GyrodriftValueError(
+                f"inconsistent statistics: {out.n} samples, {lags} lags, "
+                f"{out.products.size} products, {out.head.size} first and "
+                f"{out.tail.size} last values")
+        return out
 
     def push(self, y: object) -> None:
         """Add samples (1-D, finite)."""
@@ -195,7 +275,7 @@ def _steady(a1: float, a2: float, q: float, r: float, lags: int
     return fs, gains, np.array([k0, k1]), f
 
 
-def _form(st: LagStatisticsReference, a1: float, a2: float, q: float, r: float, kind: str
+def _form(st: LagStatisticsLike, a1: float, a2: float, q: float, r: float, kind: str
           ) -> tuple[float, np.ndarray]:
     """(log det, M): the quadratic form is Q(d) = v M v^T with v = (1, -d), d = mean - c."""
     lags, n = st.lags, st.n
@@ -233,7 +313,7 @@ def _form(st: LagStatisticsReference, a1: float, a2: float, q: float, r: float, 
     return float(np.log(fs).sum()) + (n - lags) * math.log(s2), m
 
 
-def _check(st: LagStatisticsReference, kind: str) -> None:
+def _check(st: LagStatisticsLike, kind: str) -> None:
     if kind not in _KINDS:
         raise GyrodriftValueError(f"kind must be one of {', '.join(_KINDS)}, got {kind!r}")
     if st.n < 2 * st.lags + 2:
@@ -241,7 +321,7 @@ def _check(st: LagStatisticsReference, kind: str) -> None:
             f"{st.n} samples, at least {2 * st.lags + 2} needed for {st.lags} lags")
 
 
-def lag_loglike(st: LagStatisticsReference, a1: float, a2: float, q: float, r: float,
+def lag_loglike(st: LagStatisticsLike, a1: float, a2: float, q: float, r: float,
                 mean: float, kind: str = "exact") -> float:
     """Log-likelihood of the model from the lag statistics (module docstring).
 
@@ -281,7 +361,7 @@ class LagDriftFit:
     truncation: float
 
 
-def lag_drift_fit(st: LagStatisticsReference, kind: str = "exact") -> LagDriftFit:
+def lag_drift_fit(st: LagStatisticsLike, kind: str = "exact") -> LagDriftFit:
     """Maximise the profile log-likelihood from the lag statistics (module docstring).
 
     Examples

@@ -1,0 +1,107 @@
+// Whole-record lag statistics (include/gyrodrift/filters/lag_statistics.hpp) for
+// gyrodrift.filters.lag_statistics (part of the drift area), at L = 32 lags:
+//   LagStatistics()      double state, push(float64 array)
+//   LagStatisticsF32()   float state (as on the target), push(float32 array)
+// push(y) runs every sample through the statistics (GIL released, the object's lock held) and
+// returns the number accepted (non-finite samples are refused and counted in `rejected`).
+// The sums are read out in double: hi + lo of the C++ pair sums.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <gyrodrift/filters/lag_statistics.hpp>
+#include <string>
+
+#include "array_checks.hpp"
+#include "bindings.hpp"
+
+namespace gyrodrift::py_bindings {
+
+namespace {
+
+constexpr std::size_t kLags = 32;
+
+template <class Scalar>
+class LagStatisticsPy {
+ public:
+  using Core = LagStatistics<Scalar, kLags>;
+
+  std::int64_t push(const CArray<Scalar>& y) {
+    if (y.ndim() != 1) throw py::value_error("y: expected a 1-D array, got ndim=" + std::to_string(y.ndim()));
+    const auto n = static_cast<std::size_t>(y.shape(0));
+    const Scalar* data = y.data();
+    ReleasedAndLocked guard(this);
+    return static_cast<std::int64_t>(core_.push(data, n));
+  }
+
+  void reset() {
+    ReleasedAndLocked guard(this);
+    core_.reset();
+  }
+
+  // A copy of the state, taken under the object's lock (the readers below work on it).
+  Core snapshot() const {
+    ReleasedAndLocked guard(this);
+    return core_;
+  }
+
+  static double value(const typename Core::Sum& s) { return static_cast<double>(s.hi) + static_cast<double>(s.lo); }
+
+  std::int64_t samples() const { return static_cast<std::int64_t>(snapshot().samples()); }
+  std::int64_t rejected() const { return static_cast<std::int64_t>(snapshot().rejected()); }
+  double centre() const { return static_cast<double>(snapshot().centre()); }
+  double total() const { return value(snapshot().total()); }
+
+  py::array_t<double> products() const {
+    const Core c = snapshot();
+    py::array_t<double> out(static_cast<py::ssize_t>(kLags + 1));
+    double* o = out.mutable_data();
+    for (std::size_t k = 0; k <= kLags; ++k) o[k] = value(c.product(k));
+    return out;
+  }
+
+  template <bool Head>
+  py::array_t<double> ends() const {
+    const Core c = snapshot();
+    const std::size_t m = c.kept();
+    py::array_t<double> out(static_cast<py::ssize_t>(m));
+    double* o = out.mutable_data();
+    for (std::size_t i = 0; i < m; ++i) o[i] = static_cast<double>(Head ? c.head(i) : c.tail(i));
+    return out;
+  }
+
+ private:
+  Core core_{};
+};
+
+template <class Scalar>
+void bind_one(py::module_& m, const char* name, const char* doc) {
+  using T = LagStatisticsPy<Scalar>;
+  py::class_<T>(m, name, doc)
+      .def(py::init<>())
+      .def("push", &T::push, py::arg("y").noconvert(),
+           "Push rate samples (1-D, C-contiguous) in time order; returns the number accepted. GIL released.")
+      .def("reset", &T::reset, "Forget every sample and the rejected count.")
+      .def_property_readonly("n", &T::samples, "accepted samples")
+      .def_property_readonly("rejected", &T::rejected, "refused (non-finite) samples")
+      .def_property_readonly("centre", &T::centre, "c, the first accepted sample")
+      .def_property_readonly("total", &T::total, "sum of w = y - c")
+      .def_property_readonly("products", &T::products, "lag products P_0..P_L (float64)")
+      .def_property_readonly("head", &T::template ends<true>, "first min(n, L) values of w (float64)")
+      .def_property_readonly("tail", &T::template ends<false>, "last min(n, L) values of w, oldest first (float64)")
+      .def_property_readonly_static("lags", [](const py::object&) { return std::int64_t{kLags}; }, "L")
+      .def_property_readonly_static(
+          "state_bytes", [](const py::object&) { return static_cast<std::int64_t>(sizeof(typename T::Core)); },
+          "sizeof the C++ statistics (bytes)");
+}
+
+}  // namespace
+
+void bind_lag_statistics(py::module_& m) {
+  bind_one<double>(m, "LagStatistics", "Whole-record lag statistics of the drift model (L = 32), double state; "
+                                       "push(float64 array).");
+  bind_one<float>(m, "LagStatisticsF32", "LagStatistics with float state, as on the target; push(float32 array).");
+}
+
+}  // namespace gyrodrift::py_bindings
