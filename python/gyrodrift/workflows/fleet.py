@@ -333,7 +333,9 @@ def _characterize_record(path: str, d: Path, opts: FleetOptions) -> tuple[Any, s
     """The analysis of one log and how it was read: "memory" (a .npy log whose channel fits
     opts.memory_budget_mib: one channel at a time in memory), "spool" (a larger .npy log:
     float64 files per channel in a temporary directory under d, read in chunks), or "whole"
-    (text, logs, bags: parsed into memory). "memory" and "spool" give the same numbers."""
+    (text, logs, bags: read by load_imu, which parses them in blocks into temporary files
+    from 2^20 samples on, outside the fleet's channel budget). "memory" and "spool" give the
+    same numbers."""
     from gyrodrift.io.imu_data import NpyChannels, check_reader_options, load_imu
     from gyrodrift.workflows import characterize as ch
 
