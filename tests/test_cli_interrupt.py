@@ -49,6 +49,14 @@ def _before_the_handler(err: str) -> bool:
     return True
 
 
+def _swallowed_by_cpython(err: str) -> bool:
+    """CPython's own report of a KeyboardInterrupt raised in a callback it ignores the
+    exceptions of (the interrupt is then lost and the program runs on)."""
+    lines = err.strip().splitlines()
+    return bool(lines) and lines[0].startswith("Exception ignored in") \
+        and lines[-1].strip() == "KeyboardInterrupt:"
+
+
 @pytest.fixture(scope="module")
 def record(tmp_path_factory: pytest.TempPathFactory) -> Path:
     p = tmp_path_factory.mktemp("rec") / "r.npy"
@@ -85,7 +93,10 @@ def test_ctrl_c_during_start_up_is_one_line(record: Path, tmp_path: Path, comman
             assert lines[0].startswith("gyrodrift"), where
             handled += 1
         elif code == 0:
-            assert "Traceback" not in err, where
+            # finished; CPython may have swallowed the interrupt in a callback it was running
+            # (an import lock's weakref callback), which it reports as "Exception ignored"
+            # with no frame of the package (checked above) and then runs on
+            assert "Traceback" not in err or _swallowed_by_cpython(err), where
             finished = True
         else:
             # Before the package's code ran: killed by the default disposition, or CPython's
