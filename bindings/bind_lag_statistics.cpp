@@ -46,7 +46,7 @@ class LagStatisticsPy {
     return core_;
   }
 
-  static double value(const typename Core::Sum& s) { return static_cast<double>(s.hi) + static_cast<double>(s.lo); }
+  static double value(const typename Core::Sum& s) { return static_cast<double>(s.sum) + static_cast<double>(s.comp); }
 
   std::int64_t samples() const { return static_cast<std::int64_t>(snapshot().samples()); }
   std::int64_t rejected() const { return static_cast<std::int64_t>(snapshot().rejected()); }

@@ -29,11 +29,11 @@ extern "C" int app_main(void) {
     const Stats& s = axis(a);
     if (s.samples() != 4096 || s.kept() != Stats::lags) return 2;
     sink(s.centre());
-    sink(s.total().hi);
-    sink(s.total().lo);
+    sink(s.total().sum);
+    sink(s.total().comp);
     for (std::size_t k = 0; k <= Stats::lags; ++k) {
-      sink(s.product(k).hi);
-      sink(s.product(k).lo);
+      sink(s.product(k).sum);
+      sink(s.product(k).comp);
     }
     for (std::size_t i = 0; i < s.kept(); ++i) {
       sink(s.head(i));

@@ -13,4 +13,5 @@
 #include "stability/deviation_total.hpp"
 #include "stability/model_allan.hpp"
 #include "stability/online_noise.hpp"
+#include "stability/compensated_sum.hpp"
 #include "stability/streaming_allan.hpp"

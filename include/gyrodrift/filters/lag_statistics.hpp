@@ -14,8 +14,8 @@
 // for sum w. No heap, no exceptions, no double unless Scalar is double.
 //
 // Precision (float on the MCU, hours at 400 Hz): every sum is carried as a renormalised pair
-// hi + lo ("double-Scalar": TwoSum of hi and the term, the error added to lo, then lo folded
-// back into hi by Fast2Sum, as the sum of squares in streaming_allan.hpp). After 10^7 terms
+// sum + comp ("double-Scalar": TwoSum of sum and the term, the error added to comp, then comp
+// folded back into sum by Fast2Sum; stability/compensated_sum.hpp). After 10^7 terms
 // of about one ulp of the sum each, a plain float sum has lost a fair part of them, and
 // Kahan/Neumaier's correction term, itself summed plainly, grows to a fair part of the sum;
 // the pair's own rounding is at most of order n u^2 of the sum (u the unit roundoff, 2^-24 in
@@ -25,7 +25,7 @@
 // observed 3e-11 to 3e-8 of P_0 on the records measured (6e4 to 1.44e7 samples), nearly all
 // from the rounding of w_t: at most u |w_t| <= u (|y_t| + |c|), the order of the rounding of
 // the float samples themselves, and larger the farther c lies from the record's mean.
-// A float pair added in double (double(hi) + double(lo)) is its value to double precision, so
+// A float pair added in double (double(sum) + double(comp)) is its value to double precision, so
 // a double fit on the target's float statistics reads them at that accuracy.
 // The error-free transformations need IEEE round-to-nearest without reassociation: do not
 // build this with -ffast-math.
@@ -40,6 +40,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "../stability/compensated_sum.hpp"
+
 namespace gyrodrift {
 
 template <class Scalar, std::size_t Lags>
@@ -49,21 +51,8 @@ class LagStatistics {
  public:
   static constexpr std::size_t lags = Lags;
 
-  // A sum carried as the unevaluated pair hi + lo (|lo| at most half an ulp of hi).
-  struct Sum {
-    Scalar hi{0};
-    Scalar lo{0};
-
-    void add(Scalar x) noexcept {
-      const Scalar t = hi + x;
-      const Scalar xx = t - hi;
-      const Scalar err = (hi - (t - xx)) + (x - xx);  // TwoSum: hi + x = t + err exactly
-      const Scalar c = lo + err;
-      hi = t + c;  // Fast2Sum: renormalise
-      lo = c - (hi - t);
-    }
-    Scalar value() const noexcept { return hi + lo; }
-  };
+  // A sum carried as the renormalised pair sum + comp (|comp| at most half an ulp of sum).
+  using Sum = CompensatedSum<Scalar>;
 
   LagStatistics() noexcept = default;
 
