@@ -295,9 +295,9 @@ def test_rosbag1_out_of_order_bag_times_read_in_time_order(tmp_path: Path) -> No
                               memory_max=0), vals)
 
 
-def test_rosbag1_topic_of_two_connections_read_in_time_order(tmp_path: Path) -> None:
-    """Two publishers on one topic (two rosbag1 connections, alternate messages): their
-    messages merged in time order, as rosbags merges them."""
+def _two_publisher_bag(tmp_path: Path, run: int) -> tuple[Path, np.ndarray]:
+    """A rosbag1 bag of 100 Imu messages in time order on one topic from two publishers
+    (connections), alternating every `run` messages; its values."""
     from rosbags.rosbag1 import Writer
     from rosbags.typesys import Stores, get_typestore
 
@@ -310,8 +310,15 @@ def test_rosbag1_topic_of_two_connections_read_in_time_order(tmp_path: Path) -> 
                                   callerid=f"/node{k}") for k in range(2)]
         for i in range(100):
             t_ns = t0 + i * 10_000_000
-            w.write(conns[i % 2], t_ns, ts.serialize_ros1(_imu_msg(ts, i, t_ns, vals[i]),
-                                                          "sensor_msgs/msg/Imu"))
+            w.write(conns[(i // run) % 2], t_ns, ts.serialize_ros1(
+                _imu_msg(ts, i, t_ns, vals[i]), "sensor_msgs/msg/Imu"))
+    return path, vals
+
+
+def test_rosbag1_topic_of_two_connections_read_in_time_order(tmp_path: Path) -> None:
+    """Two publishers on one topic (two rosbag1 connections, alternate messages): their
+    messages merged in time order, as rosbags merges them."""
+    path, vals = _two_publisher_bag(tmp_path, 1)
     _check(imu_data._load_bag(path, "rosbag1", None, None, "refuse", block_messages=3,
                               memory_max=0), vals)
 
@@ -321,20 +328,7 @@ def test_rosbag1_topic_of_two_connections_never_holds_the_whole_index(
     """Two publishers on one topic, messages in time order: the lean reader merges their
     index records in blocks (here of 7 entries) instead of reading the whole index (about
     140 bytes per message); before, a topic of several connections always read it whole."""
-    from rosbags.rosbag1 import Writer
-    from rosbags.typesys import Stores, get_typestore
-
-    ts = get_typestore(Stores.ROS1_NOETIC)
-    _, vals = _data(n=100)
-    t0 = 1_700_000_000 * 10**9
-    path = tmp_path / "two.bag"
-    with Writer(path) as w:
-        conns = [w.add_connection("/imu", "sensor_msgs/msg/Imu", typestore=ts,
-                                  callerid=f"/node{k}") for k in range(2)]
-        for i in range(100):
-            t_ns = t0 + i * 10_000_000
-            w.write(conns[(i // 3) % 2], t_ns, ts.serialize_ros1(
-                _imu_msg(ts, i, t_ns, vals[i]), "sensor_msgs/msg/Imu"))
+    path, vals = _two_publisher_bag(tmp_path, 3)
     lean = imu_data._lean_rosbag1_reader()
 
     def whole_index(self: object, conn: int) -> list[object]:
