@@ -290,6 +290,20 @@ class OnlineDriftTrace:
                 "retuned": self.retuned.tolist()}
 
 
+
+def _settings_dtype_class(settings: OnlineDriftSettings | None, dtype: DTypeLike,
+                          name: str) -> tuple[OnlineDriftSettings, np.dtype[Any], Any]:
+    """The settings (the defaults for None), the state's dtype and the bound class `name`
+    (its F32 twin for float32), each checked."""
+    chosen = settings if settings is not None else OnlineDriftSettings()
+    if not isinstance(chosen, OnlineDriftSettings):
+        raise GyrodriftTypeError(
+            f"settings must be an OnlineDriftSettings, got {type(settings).__name__}")
+    dt = np.dtype(dtype)
+    if dt not in (np.float64, np.float32):
+        raise GyrodriftValueError(f"dtype must be float64 or float32, got {dt}")
+    return chosen, dt, getattr(core("drift"), name if dt == np.float64 else name + "F32")
+
 class OnlineDriftIdentifier:
     """Online identifier of the drift model with guarded retunes of the steady-state gain.
 
@@ -330,23 +344,13 @@ class OnlineDriftIdentifier:
         if not isinstance(configured, DriftParams):
             raise GyrodriftTypeError(
                 f"configured must be a DriftParams, got {type(configured).__name__}")
-        self._settings = settings if settings is not None else OnlineDriftSettings()
-        if not isinstance(self._settings, OnlineDriftSettings):
-            raise GyrodriftTypeError(
-                f"settings must be an OnlineDriftSettings, got {type(settings).__name__}")
-        self._dtype = np.dtype(dtype)
-        lib = core("drift")
-        if self._dtype == np.float64:
-            cls = lib.OnlineDriftIdentifier
-        elif self._dtype == np.float32:
-            cls = lib.OnlineDriftIdentifierF32
-        else:
-            raise GyrodriftValueError(f"dtype must be float64 or float32, got {self._dtype}")
+        self._settings, self._dtype, cls = _settings_dtype_class(settings, dtype,
+                                                                 "OnlineDriftIdentifier")
         try:
             self._impl: Any = cls(a1=float(configured.a1), a2=float(configured.a2),
                                   q=float(configured.q), r=float(configured.r),
                                   mean=float(configured.mean),
-                                  settings=self._settings._native(lib))
+                                  settings=self._settings._native(core("drift")))
         except ValueError as exc:
             raise GyrodriftValueError(str(exc)) from None
 
@@ -500,21 +504,11 @@ class SharedDriftIdentifier:
         if len(models) > self.capacity:
             raise GyrodriftValueError(
                 f"SharedDriftIdentifier: at most {self.capacity} channels, got {len(models)}")
-        self._settings = settings if settings is not None else OnlineDriftSettings()
-        if not isinstance(self._settings, OnlineDriftSettings):
-            raise GyrodriftTypeError(
-                f"settings must be an OnlineDriftSettings, got {type(settings).__name__}")
-        self._dtype = np.dtype(dtype)
-        lib = core("drift")
-        if self._dtype == np.float64:
-            cls = lib.SharedDriftIdentifier
-        elif self._dtype == np.float32:
-            cls = lib.SharedDriftIdentifierF32
-        else:
-            raise GyrodriftValueError(f"dtype must be float64 or float32, got {self._dtype}")
+        self._settings, self._dtype, cls = _settings_dtype_class(settings, dtype,
+                                                                 "SharedDriftIdentifier")
         table = np.array([[m.a1, m.a2, m.q, m.r, m.mean] for m in models], dtype=np.float64)
         try:
-            self._impl: Any = cls(models=table, settings=self._settings._native(lib))
+            self._impl: Any = cls(models=table, settings=self._settings._native(core("drift")))
         except ValueError as exc:
             raise GyrodriftValueError(str(exc)) from None
         self._n = len(models)
