@@ -582,7 +582,10 @@ LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags>& s
   for (const Scalar p1 : pacf1) {
     for (const Scalar p2 : pacf2) {
       for (const Scalar lam : split) {
-        const Scalar u[3] = {std::atanh(p1), std::atanh(p2), std::log(lam / (Scalar(1) - lam))};
+        // atanh p = log((1 + p) / (1 - p)) / 2 (one log routine for the whole fit)
+        const Scalar u[3] = {Scalar(0.5) * std::log((Scalar(1) + p1) / (Scalar(1) - p1)),
+                             Scalar(0.5) * std::log((Scalar(1) + p2) / (Scalar(1) - p2)),
+                             std::log(lam / (Scalar(1) - lam))};
         const Scalar f = obj(u);
         const int side = p2 > Scalar(0) ? 1 : 0;
         int rank = -1;
@@ -639,7 +642,13 @@ LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags>& s
   }
   res.model = DriftModelParams<Scalar>{a1, a2, p.q, p.r, p.mean};
   res.loglike = p.loglike;
-  res.truncation = std::pow(form.pole(a1, a2), static_cast<Scalar>(Lags));
+  // rho^L by squaring (no pow routine on the target)
+  Scalar power = Scalar(1), base = form.pole(a1, a2);
+  for (std::size_t e = Lags; e > 0; e >>= 1U) {
+    if ((e & 1U) != 0U) power *= base;
+    base *= base;
+  }
+  res.truncation = power;
   if (!chosen.converged) {
     res.status = LagDriftFitStatus::not_converged;
   } else if (!(res.truncation <= static_cast<Scalar>(kLagDriftTruncationTol))) {
