@@ -100,6 +100,34 @@ def test_fit_equals_the_reference_and_reaches_the_offline_fit(
         assert fit.a2 < 0.0 < offline.fold_a2 and fit.runs == 6
 
 
+def test_whittle_fit_equals_the_reference() -> None:
+    """Whittle's kind: the C++ fit against the reference's on the same statistics, within
+    0.01 offline standard errors and 1e-6 log-likelihood units of its maximum (the same
+    reasoning as the exact kind's)."""
+    y = _record(*PAIRS[1], 1.0, 60000, 6)
+    st = LagStatistics()
+    st.push(y)
+    fit, ref = lag_drift_fit(st, kind="whittle"), reference_fit(st, kind="whittle")
+    se = gyrodrift.fit_drift_model(y, rate_hz=400.0).stderr
+    assert fit.status == "ok"
+    for k in PARAMS:
+        assert abs(getattr(fit, k) - getattr(ref, k)) <= 0.01 * se[k], k
+    on_ref = lag_loglike(st, fit.a1, fit.a2, fit.q, fit.r, fit.mean, kind="whittle")
+    assert abs(on_ref - ref.loglike) <= 1e-6
+
+
+def test_truncation_is_reported() -> None:
+    """AR(1) drift at 0.9 with r/q = 10: rho is about 0.71 and rho^32 about 2e-5, so L = 32
+    is too short for the model; the estimate comes back with the status truncation, as
+    the reference's rho^L says."""
+    y = _record(0.9, 0.0, 10.0, 20000, 7)
+    st = LagStatistics()
+    st.push(y)
+    fit, ref = lag_drift_fit(st), reference_fit(st)
+    assert fit.status == "truncation" and ref.truncation > 1e-10
+    assert fit.truncation == pytest.approx(ref.truncation, rel=0.1)
+
+
 def test_fit_on_float_statistics() -> None:
     """The fit on the float state (as on the target) against the fit on the double state of
     the same float32 samples: the statistics differ by about 1e-8 of their scale, which

@@ -125,6 +125,33 @@ TEST_CASE("refusals are status codes and leave the statistics usable") {
         Fit::non_finite);
 }
 
+TEST_CASE("a model the lags are too short for is reported as truncation") {
+  // AR(1) drift at 0.9 with r/q = 10: the innovation filter's pole is about 0.71, so
+  // rho^32 is about 2e-5, far above 1e-10. The estimate is still returned.
+  const auto y = drift_test::record(0.9, 0.0, 1.0, 10.0, 0.0, 20000, 6);
+  gyrodrift::LagStatistics<double, kLags> st;
+  st.push(y.data(), y.size());
+  const auto fit = gyrodrift::lag_drift_fit<double>(st);
+  CHECK(fit.status == Fit::truncation);
+  CHECK(fit.truncation > 1e-7);
+  CHECK(fit.truncation < 1.0);
+  CHECK(std::fabs(fit.model.a1 + fit.model.a2 - 0.9) < 0.1);
+}
+
+TEST_CASE("a float fit compiles and refuses like the double one") {
+  // The fit's scalar is meant to be double; a float instantiation builds and keeps its
+  // contract (status codes, no crash), whatever its accuracy.
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 1.0, 0.0, 5000, 7);
+  std::vector<float> yf(y.begin(), y.end());
+  gyrodrift::LagStatistics<float, kLags> st;
+  st.push(yf.data(), 40);
+  CHECK(gyrodrift::lag_drift_fit<float>(st).status == Fit::too_few_samples);
+  st.push(yf.data() + 40, yf.size() - 40);
+  const auto fit = gyrodrift::lag_drift_fit<float>(st);
+  CHECK(fit.status != Fit::too_few_samples);
+  CHECK(fit.evaluations > 0);
+}
+
 TEST_CASE("no allocation during a fit") {
   const auto y = drift_test::record(0.6868, -0.0213, 1.0, 1.0, 0.0, 20000, 4);
   std::vector<float> yf(y.begin(), y.end());

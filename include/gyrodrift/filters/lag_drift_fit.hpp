@@ -184,7 +184,7 @@ class LagLikelihoodForm {
     // L samples with the time-varying gain; their contribution sum e e^T / F.
     Scalar xh0 = zero, xh1 = zero, xo0 = zero, xo1 = zero;
     Scalar ehh = zero, eho = zero, eoo = zero;
-    const Scalar riccati_tol(1e-15);
+    const Scalar riccati_tol = Scalar(1e-15);
     const std::size_t max_steps = 64U * Lags + 256U;
     Scalar f = zero, f_prev = std::numeric_limits<Scalar>::infinity(), k0 = zero, k1 = zero;
     for (std::size_t t = 0;; ++t) {
@@ -377,7 +377,8 @@ BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_
   BfgsRun<Scalar> run;
   for (int i = 0; i < 3; ++i) run.u[i] = u0[i];
   const Scalar n = obj.samples();
-  const Scalar fd_step(1e-5), armijo(1e-4), gain_tol(1e-8), stall_tol(1e-5), max_step(1);
+  const Scalar fd_step = Scalar(1e-5), armijo = Scalar(1e-4), gain_tol = Scalar(1e-8), stall_tol = Scalar(1e-5),
+               max_step = Scalar(1);
   Scalar u[3] = {u0[0], u0[1], u0[2]};
   auto gradient = [&](Scalar* g) noexcept {
     bool ok = true;
