@@ -24,7 +24,7 @@
 //     (last samples);
 //   - log det = sum_{t<L} log F_t + (n - L) log sigma^2.
 // Exact up to terms of order rho^L per sample, rho the pole modulus of the steady-state
-// innovation filter (lag_drift_truncation). The "whittle" kind keeps only the steady part:
+// innovation filter (the fit reports rho^L of its estimate as `truncation`). The "whittle" kind keeps only the steady part:
 // log det = n log sigma^2, M from sum_k g_k S_k / sigma^2 (Whittle's approximation truncated at L).
 //
 // Profile: scaling q and r by s scales every F and sigma^2 by s, and Q is quadratic in d, so
@@ -63,11 +63,11 @@
 // steady state, the two end convolutions); a fit takes 600 to 900 evaluations on realistic
 // records (evaluations of the result): about 1.3 ms on a desktop core, 3.5e8 instructions in
 // software double on a Cortex-M4F with about 3 KB of stack (cpp/cortex_m/use_lag_drift_fit.cpp;
-// docs/validation/online-identification.md). Memory: the statistics are read in place (a float pair as
-// Scalar(sum) + Scalar(comp), the first and the last L values of w copied once); working state
-// on the stack, about 3 L + 50 Scalars, no heap, no exceptions. The statistics must not
-// change during a fit (a target that pushes on while it fits spreads the fit over loop steps
-// on a copy).
+// docs/validation/online-identification.md). Memory: the statistics are read in place (a
+// float pair as Scalar(sum) + Scalar(comp), the first and the last L values of w copied
+// once); working state on the stack, about 3 L + 50 Scalars, no heap, no exceptions. The
+// statistics must not change during a fit (a target that pushes on while it fits runs the
+// fit on a copy).
 // Scalar is the fit's precision: double. The likelihood must resolve differences of 0.1 on a
 // value of order n (1e-7 relative at 10^6 samples), below float's resolution; a float
 // instantiation compiles but cannot be relied on.
@@ -95,7 +95,7 @@ enum class LagDriftFitStatus : std::uint8_t {
   truncation,       // rho^L of the fit above kLagDriftTruncationTol: L too short for this model
   not_converged,    // the best run hit kLagDriftMaxIterations
   non_finite,       // NaN or Inf in the statistics or in the fit
-  bad_model,        // (likelihood only) parameters outside the model: q < 0, r < 0, q + r = 0, non-stationary
+  bad_model,        // (likelihood, profile) parameters outside the model: q < 0, r <= 0, non-stationary
 };
 
 inline const char* to_string(LagDriftFitStatus s) noexcept {
@@ -116,8 +116,8 @@ inline constexpr double kLagDriftTruncationTol = 1e-10;
 // Largest number of BFGS iterations of one run (a fit makes at most 6 runs).
 inline constexpr std::uint32_t kLagDriftMaxIterations = 200;
 
-// The fewest samples the likelihood is defined on: the first L samples, at least one sample
-// of the steady part on each side of them, and the last L samples.
+// The fewest samples the likelihood is taken from (the reference's minimum): the first L and
+// the last L samples apart, and two of the steady part between them.
 constexpr std::uint64_t lag_drift_min_samples(std::size_t lags) noexcept { return 2U * lags + 2U; }
 
 // The profile at (a1, a2, lam): the log-likelihood maximised over the mean and the scale s,
