@@ -21,7 +21,8 @@ Cortex-M4 (cpp/cortex_m/use_lag_drift_fit.cpp, built and checked as the gate bui
 run on QEMU netduinoplus2 with -icount shift=0, one instruction per virtual ns): the unit's
 float statistics of a simulated 60000-sample record, one fit in double, timed by SysTick on the
 reference clock and calibrated by a loop of known length. Prints the fit's instructions, its
-evaluations, the unit's stack high-water mark, flash and RAM, and the time one fit takes when
+evaluations, the unit's stack high-water mark, flash and RAM, the same record's fit on this
+host (MCU against host: the evaluations and a1, a2 to 1e-6), and the time one fit takes when
 spread over the spare instructions of 400 Hz loop steps (budget 14000 a step; the three-gyro
 monitor image's median step 4619 and worst step 10488, docs/validation/monitor-firmware.md).
 
@@ -63,7 +64,8 @@ STEP_WORST = 10488
 RATE_HZ = 400.0
 FIT_LINE = re.compile(r"lag-drift-fit status=(?P<status>\d+) evaluations=(?P<ev>\d+) "
                       r"iterations=(?P<it>\d+) runs=(?P<runs>\d+) systick=(?P<counts>-?\d+) "
-                      r"calibration=(?P<cal>-?\d+) turns=(?P<turns>\d+)")
+                      r"calibration=(?P<cal>-?\d+) turns=(?P<turns>\d+) a1_e6=(?P<a1>-?\d+) "
+                      r"a2_e6=(?P<a2>-?\d+)")
 
 
 def record(a1: float, a2: float, ratio: float, n: int, seed: int) -> np.ndarray:
@@ -107,6 +109,39 @@ def host(repeats: int) -> None:
               flush=True)
 
 
+def unit_record() -> np.ndarray:
+    """The gate unit's record, as it computes it in float32 (LCG uniforms, sums of 12, the
+    AR(2) recursion, the mean from the unit's first input sample, 0.51)."""
+    f32 = np.float32
+
+    def uniforms(seed: int, count: int) -> np.ndarray:
+        out = np.empty(count, dtype=np.uint32)
+        s = seed
+        for i in range(count):
+            s = (s * 1664525 + 1013904223) % 2**32
+            out[i] = s >> 8
+        return out.astype(np.float32) * f32(2.0**-24)
+
+    def normals(u: np.ndarray) -> np.ndarray:
+        v = np.full(u.shape[0], f32(-6.0), dtype=np.float32)
+        for i in range(12):
+            v = v + u[:, i]
+        return v
+
+    n, burn = 60000, 2000
+    w = normals(uniforms(12345, 12 * (n + burn)).reshape(-1, 12))
+    v = normals(uniforms(67890, 12 * n).reshape(-1, 12))
+    a1, a2, mean = f32(0.6868), f32(0.0213), f32(0.51)
+    x1 = x2 = f32(0.0)
+    y = np.empty(n, dtype=np.float32)
+    for k in range(n + burn):
+        x = f32(f32(a1 * x1) - f32(a2 * x2)) + w[k]
+        x2, x1 = x1, x
+        if k >= burn:
+            y[k - burn] = f32(mean + x) + v[k - burn]
+    return y
+
+
 def _gate() -> ModuleType:
     spec = importlib.util.spec_from_file_location(
         "cortex_m_gate", ROOT / "tests" / "test_cortex_m_gate.py")
@@ -145,6 +180,12 @@ def m4() -> None:
           f"evaluation); SysTick {m['counts']} counts at {per_count:.3f} instructions a count")
     print(f"  unit: stack high-water {int(rep['stack'], 16)} B (largest frame "
           f"{unit.max_frame_bytes} B), flash {unit.flash_bytes} B, RAM {unit.ram_bytes} B")
+    st = LagStatistics(dtype=np.float32)
+    st.push(unit_record())
+    fit = lag_drift_fit(st)
+    print(f"  the same record and fit on this host: {fit.evaluations} evaluations, "
+          f"{fit.iterations} iterations, {fit.runs} runs, a1 x 1e6 {int(fit.a1 * 1e6)} "
+          f"(M4 {m['a1']}), a2 x 1e6 {int(fit.a2 * 1e6)} (M4 {m['a2']})")
     for label, used in (("median", STEP_MEDIAN), ("worst", STEP_WORST)):
         spare = STEP_BUDGET - used
         steps = instructions / spare
