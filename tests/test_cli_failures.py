@@ -194,6 +194,22 @@ def test_psd_of_a_constant_record_is_refused(tmp_path: Path, capsys) -> None:
     assert not (tmp_path / "p.png").exists()
 
 
+@pytest.mark.filterwarnings("error")
+def test_float_wavelet_filter_refuses_a_value_beyond_float32_in_one_line(
+        tmp_path: Path, capsys) -> None:
+    """filter --filter wavelet --core float on a record holding 1e39 (finite in float64,
+    beyond float32): one line naming the value and its index, no numpy overflow warning
+    (warnings are errors here), no output."""
+    p = tmp_path / "big.npy"
+    x = np.random.default_rng(3).normal(size=4000)
+    x[1234] = 1e39
+    np.save(p, x)
+    code, _, err = run(capsys, "filter", p, "--rate-hz", RATE_HZ, "--gyro-units", "deg/h",
+                       "--filter", "wavelet", "--core", "float", "-o", tmp_path / "y.npy")
+    one_line_error(code, err, "1e+39 at index 1234", "beyond the float32 range")
+    assert not (tmp_path / "y.npy").exists()
+
+
 def test_simulate_without_noise_is_refused(tmp_path: Path, capsys) -> None:
     code, _, err = run(capsys, "simulate", "-o", tmp_path / "z.npy", "--samples", "100")
     one_line_error(code, err, "no noise term")

@@ -199,3 +199,24 @@ def test_offline_wavelet_extreme_values_clean_error_or_finite(dtype: type, patte
             assert "overflow" in str(exc) and "scale the record" in str(exc)
         else:
             assert np.all(np.isfinite(out))
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("shape", [(1024,), (1024, 3)])
+def test_offline_float32_wavelet_refuses_values_beyond_float32_without_a_warning(
+        shape: tuple[int, ...]) -> None:
+    """A finite float64 value beyond float32's largest (about 3.4e38) is refused by the
+    whole-record float32 denoiser with its value and index, before it is rounded to Inf
+    (before: numpy's "overflow encountered in cast" warning, then a message calling the
+    finite value non-finite). Warnings are errors here."""
+    from gyrodrift import wavelet_denoise
+    from gyrodrift.errors import GyrodriftValueError
+
+    x = np.random.default_rng(2).normal(size=shape)
+    x[700] = -1e39
+    with pytest.raises(GyrodriftValueError) as exc:
+        wavelet_denoise(x, "db4", 4, dtype=np.float32)
+    where = "700" if len(shape) == 1 else "(700, 0)"
+    assert str(exc.value) == (f"x: value -1e+39 at index {where} is beyond the float32 range "
+                              "(largest 3.4e+38); scale the record")
+    assert np.all(np.isfinite(wavelet_denoise(x, "db4", 4)))  # float64 holds it
