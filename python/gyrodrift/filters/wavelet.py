@@ -279,7 +279,8 @@ class RealtimeWavelet:
     takes (n,) or (n, 3) and continues the same stream. The channel count is fixed by the
     first call. Start-up: the first ``window - 1`` samples pass through unfiltered
     (``ready`` is False). NaN/Inf samples are counted (``fault_counts``), left out of the
-    window, and the previous output of that channel is repeated.
+    window, and the previous output of that channel is repeated; so are, in float32, values
+    beyond its range and samples whose window sums it cannot hold.
 
     Examples
     --------
@@ -328,7 +329,8 @@ class RealtimeWavelet:
     def filter(self, x: Any, *, recompute: bool = False) -> np.ndarray:
         """Filter (n,) or (n, 3) samples; recompute=True uses the full-window recompute path
         (the C++ reference algorithm, slow) instead of the streaming one."""
-        arr = _as_float_array(x, self.dtype)
+        with np.errstate(over="ignore"):  # beyond float32: Inf, counted as a fault
+            arr = _as_float_array(x, self.dtype)
         if arr.ndim == 1:
             channels = 1
         elif arr.ndim == 2 and arr.shape[1] == 3:
@@ -338,7 +340,8 @@ class RealtimeWavelet:
         return self._get_bank(channels).filter(arr, recompute)
 
     def step(self, sample: Any) -> Any:
-        arr = _as_float_array(sample, self.dtype, "sample")
+        with np.errstate(over="ignore"):  # beyond float32: Inf, counted as a fault
+            arr = _as_float_array(sample, self.dtype, "sample")
         if arr.ndim == 0:
             return self.dtype.type(self.filter(arr.reshape(1))[0])
         if arr.shape == (3,):
