@@ -182,7 +182,16 @@ def _piecewise_filter(x: np.ndarray, args: argparse.Namespace
                                        mode=mode, dtype=dtype)
         return (lambda ps: (np.asarray(rt.filter(p)) for p in ps)), info, (
             lambda: int(np.sum(rt.fault_counts)))
-    model = fit_ar2_chunks(lambda: iter_chunks(x, _PIECE), args.ar_method)
+
+    def checked_pieces() -> Iterator[np.ndarray]:
+        start = 0
+        for p in iter_chunks(x, _PIECE):  # float core: a value it cannot hold, named first
+            if dtype == np.float32:
+                as_core_dtype(p, dtype, start=start)
+            start += p.size
+            yield p
+
+    model = fit_ar2_chunks(checked_pieces, args.ar_method)
     info["ar2"] = {"a1": model.a1, "a2": model.a2, "sigma2": model.sigma2,
                    "mean": model.mean, "method": args.ar_method}
     if args.filter == "ar":
