@@ -8,11 +8,13 @@ code need a real child process (`python -m gyrodrift`).
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -192,6 +194,67 @@ def test_psd_of_a_constant_record_is_refused(tmp_path: Path, capsys) -> None:
     code, _, err = run(capsys, "psd", p, "--rate-hz", RATE_HZ, "--png", tmp_path / "p.png")
     one_line_error(code, err, "constant")
     assert not (tmp_path / "p.png").exists()
+
+
+@pytest.mark.filterwarnings("error")
+def test_float_wavelet_filter_refuses_a_value_beyond_float32_in_one_line(
+        tmp_path: Path, capsys) -> None:
+    """filter --filter wavelet --core float on a record holding 1e39 (finite in float64,
+    beyond float32): one line naming the value and its index, no numpy overflow warning
+    (warnings are errors here), no output."""
+    p = tmp_path / "big.npy"
+    x = np.random.default_rng(3).normal(size=4000)
+    x[1234] = 1e39
+    np.save(p, x)
+    code, _, err = run(capsys, "filter", p, "--rate-hz", RATE_HZ, "--gyro-units", "deg/h",
+                       "--filter", "wavelet", "--core", "float", "-o", tmp_path / "y.npy")
+    one_line_error(code, err, "1e+39 at index 1234", "beyond the float32 range")
+    assert not (tmp_path / "y.npy").exists()
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("method", ["ar", "kalman"])
+def test_float_ar_filters_refuse_what_float32_cannot_hold_in_one_line(
+        tmp_path: Path, capsys, method: str) -> None:
+    """filter --filter ar/kalman --core float: a value beyond float32, and a record whose
+    AR(2) model's variance (about 1e66 (deg/h)^2 here, fitted in double) float32 cannot hold,
+    are each refused in one line that says so, with no numpy warning and no output (before:
+    numpy's overflow warning, then "ar_filter_batch: bad argument" or "...: non-finite")."""
+    x = np.random.default_rng(3).normal(size=4000)
+    big = x.copy()
+    big[1234] = 1e39
+    for y, needles in ((big, ("1e+39 at index 1234", "beyond the float32 range")),
+                       (x * 1e33, ("float32", "float64"))):
+        p = tmp_path / "big.npy"
+        np.save(p, y)
+        code, _, err = run(capsys, "filter", p, "--rate-hz", RATE_HZ, "--gyro-units", "deg/h",
+                           "--filter", method, "--core", "float", "-o", tmp_path / "y.npy")
+        one_line_error(code, err, *needles)
+        assert not (tmp_path / "y.npy").exists()
+
+
+def test_float_realtime_wavelet_reports_the_samples_it_skipped(tmp_path: Path, capsys) -> None:
+    """filter --filter realtime-wavelet --core float on a record at 1e33 deg/h, whose window
+    sums float32 cannot hold: the filter skips those samples and repeats its last output, and
+    the command says how many (warning and JSON), instead of writing a silent run of zeros.
+    A record float32 holds reports none."""
+    x = np.random.default_rng(3).normal(size=4000)
+    for scale, skipped in ((1e33, True), (1.0, False)):
+        p = tmp_path / "rec.npy"
+        np.save(p, x * scale)
+        argv = ("filter", p, "--rate-hz", RATE_HZ, "--gyro-units", "deg/h", "--filter",
+                "realtime-wavelet", "--core", "float", "--json", "-o", tmp_path / "y.npy")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            code, out, err = run(capsys, *argv)
+        assert code == 0, err
+        faults = json.loads(out)["filter"]["faults"]
+        said = [str(w.message) for w in caught if "skipped" in str(w.message)]
+        if skipped:
+            assert faults > 2000, faults
+            assert len(said) == 1 and f"{faults} sample(s)" in said[0], said
+        else:
+            assert faults == 0 and not said, said
 
 
 def test_simulate_without_noise_is_refused(tmp_path: Path, capsys) -> None:

@@ -33,6 +33,8 @@ import pytest
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 CM_DIR = REPO_ROOT / "cpp" / "cortex_m"
+# cortex_m_start.hpp: the C runtime start startup.cpp shares with the reference firmware.
+START_DIR = REPO_ROOT / "cpp" / "firmware" / "board"
 INCLUDE_DIR = REPO_ROOT / "include"
 EIGEN_DIR = Path("/usr/include/eigen3")
 REPORT_DIR = REPO_ROOT / "build" / "cortex_m"
@@ -70,6 +72,8 @@ CXX_FLAGS = [
     str(INCLUDE_DIR),
     "-I",
     str(CM_DIR),
+    "-I",
+    str(START_DIR),
 ]
 LD_FLAGS = [
     *ARCH_FLAGS,

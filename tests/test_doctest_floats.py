@@ -6,6 +6,12 @@ between machines (a fresh machine failed on ``...7761489e-06`` vs ``...7761487e-
 scan reads every docstring of the package and fails on an expected output holding a float
 literal of 12 or more significant digits, also when an ellipsis cuts it
 (``9.9339075777614...e-06``): such an example must round or format what it prints.
+
+Nor does an example expect numpy 2's repr of a numpy scalar (``np.float32(9.8)``,
+``np.True_``): numpy 1 prints the same value as ``9.8`` and ``True``. tests/test_api.py runs
+the examples with the installed numpy's own print options, so an example printing a numpy
+scalar the numpy 1 way fails there; together the two checks leave examples that print
+Python values, the same under every supported numpy.
 """
 
 from __future__ import annotations
@@ -20,6 +26,12 @@ PACKAGE = Path(__file__).resolve().parent.parent / "python" / "gyrodrift"
 MAX_DIGITS = 12
 # A decimal literal with a fraction or an exponent; an ellipsis may follow the digits.
 _FLOAT = re.compile(r"(?<![\w.])[-+]?(?P<mant>\d+\.\d*|\.\d+)(?:\.\.\.)?(?:[eE][-+]?\d+)?")
+
+
+# numpy 2's repr of a numpy scalar: np.float32(9.8), np.int64(3), np.str_('a'), np.True_.
+_NUMPY_SCALAR = re.compile(
+    r"\bnp\.(?:(?:float|int|uint|complex|bool|str|bytes|longdouble|clongdouble|datetime64"
+    r"|timedelta64|void)\w*\(|True_|False_)")
 
 
 def long_floats(text: str) -> list[str]:
@@ -72,3 +84,19 @@ def test_the_scan_catches_the_case_that_failed() -> None:
     assert long_floats("gyroscope_noise_density: 9.9339075777614...e-06  # rad/s")
     assert not long_floats("('9.934e-06', 'rad/s/sqrt(Hz)') (1.414214, 6) 0.1 100.0 1e-07")
     assert not long_floats("update_rate: 100.0\nseed 20261121, 4096 samples")
+
+
+def test_no_expected_output_holds_a_numpy_2_scalar_repr() -> None:
+    bad = [f"{where}: {src[:60]!r} expects {_NUMPY_SCALAR.findall(want)}"
+           for where, src, want in _expected_outputs() if _NUMPY_SCALAR.search(want)]
+    assert not bad, ("examples that expect numpy 2's repr of a numpy scalar (print a Python "
+                     "value: float(), bool(), str(), .tolist()):\n" + "\n".join(bad))
+
+
+def test_the_numpy_scalar_scan_catches_numpy_2_reprs() -> None:
+    for text in ("np.float32(9.8)", "(1, np.int64(3))", "np.True_", "[np.str_('acf')]",
+                 "np.uint16(65535)", "np.bool(False)"):
+        assert _NUMPY_SCALAR.search(text), text
+    for text in ("9.8", "array([1, 2], dtype=uint16)", "dtype('float32')", "True",
+                 "np.random.default_rng(0)"):
+        assert not _NUMPY_SCALAR.search(text), text

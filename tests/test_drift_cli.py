@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -142,3 +143,37 @@ def test_fit_reports_the_maximum_across_a2_zero(tmp_path: Path,
     assert ar2["model"] == "ar2+white" and ar2["ar_identified"] is True
     assert ar2["a2"] > 0.05 and ar2["fold_a2"] < -0.05
     assert 0.3 < ar2["loglike"] - ar2["fold_loglike"] < 1.0
+
+
+def test_fit_configuration_records_the_fold(tmp_path: Path, cpp_build_dir: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """The configuration's [meta] carries what `gyrodrift fit` prints about the fold a2 = 0
+    (ar_identified, fold_a2, fold_loglike: the JSON's values, exact through TOML's shortest
+    round-trip floats), and both readers (Python's and the loop's) still accept the file; a
+    fit with no second maximum writes ar_identified alone."""
+    from gyrodrift.cli.fit import config_toml
+    from gyrodrift.filters.drift_model import fit_drift_model
+    from gyrodrift.imu.config import load_config
+    from gyrodrift.replay.harness import LOOP_RELATIVE
+
+    rng = np.random.default_rng(6)  # the record of test_fit_reports_the_maximum_across_a2_zero
+    x = lfilter([1.0], [1.0, -0.6868, 0.0213], rng.normal(size=8000))[2000:]
+    path = tmp_path / "fold.npy"
+    np.save(path, 9.7 + x + rng.normal(0.0, 1.0, 6000))
+    out = tmp_path / "fold.toml"
+    assert main(["fit", str(path), "--rate-hz", "100", "--gyro-units", "deg/h", "--json",
+                 "-o", str(out)]) == 0
+    ar2 = json.loads(capsys.readouterr().out)["fits"][0]
+    assert ar2["model"] == "ar2+white" and math.isfinite(ar2["fold_a2"])
+    meta = tomllib.loads(out.read_text())["meta"]
+    assert meta["ar_identified"] is True
+    assert (meta["fold_a2"], meta["fold_loglike"]) == (ar2["fold_a2"], ar2["fold_loglike"])
+    assert dict(load_config(out).meta)["fold_a2"] == ar2["fold_a2"]
+    loop = subprocess.run([str(cpp_build_dir / LOOP_RELATIVE), "--check-config", str(out)],
+                          capture_output=True, text=True, timeout=10)
+    assert (loop.returncode, loop.stdout, loop.stderr) == (0, f"{out}: ok\n", "")
+
+    white = fit_drift_model(np.random.default_rng(0).normal(0.5, 1.0, 1000), 100.0, "white")
+    assert math.isnan(white.fold_loglike)
+    meta = tomllib.loads(config_toml(white, 100.0, "gx", "white.npy"))["meta"]
+    assert meta["ar_identified"] is True and "fold_a2" not in meta

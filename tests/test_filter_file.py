@@ -187,3 +187,25 @@ def test_wpacket_refuses_the_float_core_in_one_line(
         "gyrodrift filter: error: wpacket runs in Python (PyWavelets, float64) only; drop "
         "--core float"]
     assert not (tmp_path / "f.npy").exists()
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("method", ["ar", "kalman"])
+def test_float_pieces_refuse_a_value_beyond_float32_with_its_index_in_the_record(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
+        method: str) -> None:
+    """In pieces too, --core float refuses a finite value float32 cannot hold, naming its
+    index in the whole record (a later piece's), with no numpy warning and no output; before,
+    each piece was cast to float32 and the value became Inf."""
+    x = _record()
+    x[2345] = -1e39
+    np.save(tmp_path / "r.npy", x)
+    monkeypatch.setattr(filter_cli, "FILE_BACKED_MIN", 4096)
+    monkeypatch.setattr(filter_cli, "_PIECE", PIECE)
+    code = cli.main(with_units(["filter", tmp_path / "r.npy", "--rate-hz", 100, "--filter",
+                                method, "--core", "float", "-o", tmp_path / "f.npy"]))
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "-1e+39 at index 2345" in err and "float32" in err, err
+    assert len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "f.npy").exists()

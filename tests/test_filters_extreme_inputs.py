@@ -15,7 +15,8 @@ import warnings
 import numpy as np
 import pytest
 from gyrodrift import _core
-from gyrodrift.filters.ar2 import Ar2Model, kalman_filter_result
+from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.filters.ar2 import Ar2Model, KalmanFilter, ar_filter, kalman_filter_result
 from gyrodrift.filters.wavelet import RealtimeWavelet
 from gyrodrift.imu.processor import ImuChannelConfig, ImuConfig, ImuProcessor, WaveletSettings
 from hypothesis import given, settings
@@ -199,3 +200,55 @@ def test_offline_wavelet_extreme_values_clean_error_or_finite(dtype: type, patte
             assert "overflow" in str(exc) and "scale the record" in str(exc)
         else:
             assert np.all(np.isfinite(out))
+
+
+@pytest.mark.filterwarnings("error")
+@pytest.mark.parametrize("shape", [(1024,), (1024, 3)])
+def test_offline_float32_wavelet_refuses_values_beyond_float32_without_a_warning(
+        shape: tuple[int, ...]) -> None:
+    """A finite float64 value beyond float32's largest (about 3.4e38) is refused by the
+    whole-record float32 denoiser with its value and index, before it is rounded to Inf
+    (before: numpy's "overflow encountered in cast" warning, then a message calling the
+    finite value non-finite). Warnings are errors here."""
+    from gyrodrift import wavelet_denoise
+    from gyrodrift.errors import GyrodriftValueError
+
+    x = np.random.default_rng(2).normal(size=shape)
+    x[700] = -1e39
+    with pytest.raises(GyrodriftValueError) as exc:
+        wavelet_denoise(x, "db4", 4, dtype=np.float32)
+    where = "700" if len(shape) == 1 else "(700, 0)"
+    assert str(exc.value) == (f"x: value -1e+39 at index {where} is beyond the float32 range "
+                              "(largest 3.4e+38); scale the record")
+    assert np.all(np.isfinite(wavelet_denoise(x, "db4", 4)))  # float64 holds it
+
+
+def test_float32_filters_refuse_a_model_float32_cannot_hold() -> None:
+    """A model fitted in float64 whose variance float32 cannot hold (1e66 here: a record at
+    1e33 in its units) is refused for the float32 core with the parameter named, instead of
+    the core's "bad argument" or a run of non-finite outputs; float64 takes it."""
+    big = Ar2Model(a1=0.5, a2=0.1, sigma2=1e66, mean=0.0, r=1e66)
+    x = np.random.default_rng(0).normal(0.0, 1e33, 64)
+    for call in (lambda: ar_filter(x, big, dtype=np.float32),
+                 lambda: kalman_filter_result(x, big, dtype=np.float32),
+                 lambda: KalmanFilter(big, dtype=np.float32)):
+        with pytest.raises(GyrodriftValueError, match=r"sigma2 = 1e\+66 is beyond what the "
+                                                      r"float32 core holds"):
+            call()
+    assert np.all(np.isfinite(ar_filter(x, big, dtype=np.float64)))
+
+
+@pytest.mark.filterwarnings("error")
+def test_float32_realtime_wavelet_counts_a_value_beyond_float32_without_a_warning() -> None:
+    """The streaming float32 filter counts a finite float64 value beyond float32 as a fault
+    (it becomes Inf, is left out of the window, the previous output repeats) without numpy's
+    overflow warning, per sample and per block."""
+    x = np.random.default_rng(1).normal(size=600)
+    x[300] = 1e39
+    f = RealtimeWavelet("db4", 64, 3, dtype=np.float32)
+    y = f.filter(x)
+    assert int(f.fault_counts.sum()) == 1 and np.all(np.isfinite(y))
+    g = RealtimeWavelet("db4", 64, 3, dtype=np.float32)
+    for v in x:
+        g.step(v)
+    assert int(g.fault_counts.sum()) == 1

@@ -1,20 +1,12 @@
-// Minimal Cortex-M4F start-up: vector table, reset handler that initialises .data/.bss,
-// enables the FPU (CP10/CP11 full access) and runs static constructors before app_main().
+// Minimal Cortex-M4F start-up for the build gate: vector table, reset handler that runs the
+// C runtime start (cpp/firmware/board/cortex_m_start.hpp: .data/.bss, the stack paint, FPU
+// on, static constructors) before app_main(), then reports its exit code.
 #include <cstdint>
 
+#include "cortex_m_start.hpp"
 #include "support.hpp"
 
 extern "C" {
-// Symbols from stm32f4.ld.
-extern std::uint32_t _sidata, _sdata, _edata, _sbss, _ebss;
-// Top of the stack. Declared as a function so it can be placed in the (function-pointer)
-// vector table without a cast that would make the table dynamically initialised.
-void _estack(void);
-extern void (*__preinit_array_start[])(void);
-extern void (*__preinit_array_end[])(void);
-extern void (*__init_array_start[])(void);
-extern void (*__init_array_end[])(void);
-
 // Exit status of app_main, observable with a debugger.
 volatile int gyrodrift_cm_exit_code = -1;
 // Deepest stack use in bytes (painted-RAM high-water mark), valid after app_main returns.
@@ -25,19 +17,7 @@ volatile std::uint32_t gyrodrift_cm_stack_bytes = 0;
 }
 
 namespace {
-constexpr std::uintptr_t kCpacr = 0xE000ED88u;  // Coprocessor Access Control Register (SCB)
-
-constexpr std::uint32_t kStackPaint = 0x5AC3A55Cu;
-
-// Free RAM between .bss and the stack pointer is painted at reset; the lowest overwritten word
-// after app_main() gives the deepest stack use (high-water mark) in bytes.
-std::uint32_t stack_high_water_bytes() {
-  const std::uint32_t* word = &_ebss;
-  const auto* top = reinterpret_cast<const std::uint32_t*>(&_estack);
-  while (word < top && *word == kStackPaint) ++word;
-  return static_cast<std::uint32_t>(reinterpret_cast<std::uintptr_t>(top) -
-                                    reinterpret_cast<std::uintptr_t>(word));
-}
+using gyrodrift::cortex_m_start::stack_high_water_bytes;
 
 #if defined(GYRODRIFT_CM_SEMIHOSTING)
 // ARM semihosting call (Semihosting for AArch32 and AArch64, v2: BKPT 0xAB on M-profile):
@@ -99,19 +79,7 @@ extern "C" [[noreturn]] void Default_Handler(void) {
 }
 
 extern "C" [[noreturn]] void Reset_Handler(void) {
-  // Copy initialised data from flash, zero .bss (word loops: memcpy may not be usable yet).
-  const std::uint32_t* src = &_sidata;
-  for (std::uint32_t* dst = &_sdata; dst < &_edata;) *dst++ = *src++;
-  for (std::uint32_t* dst = &_sbss; dst < &_ebss;) *dst++ = 0u;
-  // Paint the free RAM below the current stack frame (64-byte margin) for the high-water mark.
-  std::uint32_t* sp = nullptr;
-  __asm volatile("mov %0, sp" : "=r"(sp));
-  for (volatile std::uint32_t* w = &_ebss; w < sp - 16;) *w++ = kStackPaint;
-  // FPU on before any float instruction (ARMv7-M ARM, B3.2.20): CP10 and CP11 full access.
-  *reinterpret_cast<volatile std::uint32_t*>(kCpacr) |= (0xFu << 20);
-  __asm volatile("dsb\n\tisb" ::: "memory");
-  for (auto** f = __preinit_array_start; f < __preinit_array_end; ++f) (**f)();
-  for (auto** f = __init_array_start; f < __init_array_end; ++f) (**f)();
+  gyrodrift::cortex_m_start::run_c_runtime_start();
   gyrodrift_cm_exit_code = app_main();
   gyrodrift_cm_stack_bytes = stack_high_water_bytes();
 #if defined(GYRODRIFT_CM_SEMIHOSTING)

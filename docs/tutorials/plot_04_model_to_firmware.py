@@ -90,7 +90,8 @@ cxx = ["arm-none-eabi-g++", "-std=c++17", *arch, "-Os", "-fno-exceptions", "-fno
        "-fno-threadsafe-statics", "-ffunction-sections", "-fdata-sections", "-Wall", "-Wextra",
        "-Wdouble-promotion", "-Werror", "-DNDEBUG", "-DEIGEN_NO_MALLOC",
        "-DEIGEN_DONT_VECTORIZE", "-DGYRODRIFT_CM_SEMIHOSTING", "-isystem", "/usr/include/eigen3",
-       "-I", str(repo / "include"), "-I", str(cm), "-I", str(work)]
+       "-I", str(repo / "include"), "-I", str(cm), "-I", str(repo / "cpp" / "firmware" / "board"),
+       "-I", str(work)]
 objects = []
 for src in (cm / "startup.cpp", cm / "support.cpp", work / "app.cpp"):
     obj = work / (src.stem + ".o")

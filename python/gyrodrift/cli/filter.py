@@ -101,13 +101,13 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
         info["ar2"] = {"a1": model.a1, "a2": model.a2, "sigma2": model.sigma2,
                        "mean": model.mean, "method": args.ar_method}
         if args.filter == "ar":
-            return np.asarray(gyrodrift.ar_filter(x.astype(dtype), model)), info
+            return np.asarray(gyrodrift.ar_filter(x, model, dtype=dtype)), info
         info["kalman"] = {"q": model.sigma2 if args.kalman_q is None else args.kalman_q,
                           "r": model.measurement_variance if args.kalman_r is None
                           else args.kalman_r, "steady_state": bool(args.steady_state)}
-        return np.asarray(gyrodrift.kalman_filter(x.astype(dtype), model, q=args.kalman_q,
-                                                  r=args.kalman_r,
-                                                  steady_state=args.steady_state)), info
+        return np.asarray(gyrodrift.kalman_filter(x, model, q=args.kalman_q, r=args.kalman_r,
+                                                  steady_state=args.steady_state,
+                                                  dtype=dtype)), info
     if args.filter == "wavelet":
         level = args.level or 5
         mode = args.threshold or "soft"
@@ -132,7 +132,9 @@ def _run_filter(x: np.ndarray, args: argparse.Namespace) -> tuple[np.ndarray, di
     info |= {"wavelet": args.wavelet, "level": level, "window": args.window, "threshold": mode}
     rt = gyrodrift.RealtimeWavelet(args.wavelet, window=args.window, level=level, mode=mode,
                                    dtype=dtype)
-    return np.asarray(rt.filter(x)), info
+    y = np.asarray(rt.filter(x))
+    info["faults"] = int(np.sum(rt.fault_counts))
+    return y, info
 
 
 class _Moments:
@@ -167,6 +169,7 @@ def _piecewise_filter(x: np.ndarray, args: argparse.Namespace
     from one piece to the next, so that the pieces' outputs are the one-call path's."""
     import gyrodrift
     from gyrodrift.filters.ar2 import ar_filter_pieces, fit_ar2_chunks
+    from gyrodrift.filters.wavelet import as_core_dtype
 
     dtype = np.float32 if args.core == "float" else np.float64
     info: dict[str, Any] = {"method": args.filter, "core": args.core}
@@ -179,7 +182,16 @@ def _piecewise_filter(x: np.ndarray, args: argparse.Namespace
                                        mode=mode, dtype=dtype)
         return (lambda ps: (np.asarray(rt.filter(p)) for p in ps)), info, (
             lambda: int(np.sum(rt.fault_counts)))
-    model = fit_ar2_chunks(lambda: iter_chunks(x, _PIECE), args.ar_method)
+
+    def checked_pieces() -> Iterator[np.ndarray]:
+        start = 0
+        for p in iter_chunks(x, _PIECE):  # float core: a value it cannot hold, named first
+            if dtype == np.float32:
+                as_core_dtype(p, dtype, start=start)
+            start += p.size
+            yield p
+
+    model = fit_ar2_chunks(checked_pieces, args.ar_method)
     info["ar2"] = {"a1": model.a1, "a2": model.a2, "sigma2": model.sigma2,
                    "mean": model.mean, "method": args.ar_method}
     if args.filter == "ar":
@@ -189,8 +201,13 @@ def _piecewise_filter(x: np.ndarray, args: argparse.Namespace
                       else args.kalman_r, "steady_state": bool(args.steady_state)}
     kf = gyrodrift.KalmanFilter(model, q=args.kalman_q, r=args.kalman_r,
                                 steady_state=args.steady_state, dtype=dtype)
-    return (lambda ps: (np.asarray(kf.process(p.astype(dtype))) for p in ps)), info, (
-        lambda: kf.fault_count)
+    def kalman_pieces(ps: Iterator[np.ndarray]) -> Iterator[np.ndarray]:
+        start = 0
+        for p in ps:  # a value beyond float32 is refused with its index in the record
+            yield np.asarray(kf.process(as_core_dtype(p, dtype, start=start)))
+            start += p.size
+
+    return kalman_pieces, info, lambda: kf.fault_count
 
 
 def _denoised_pieces(x: np.ndarray, args: argparse.Namespace
@@ -268,7 +285,9 @@ def _run_piecewise(x: np.ndarray, args: argparse.Namespace, out: Path, rate_hz: 
             yield y
 
     _write_pieces(out, int(x.shape[0]), rate_hz, filtered())
-    if faults() and args.filter != "realtime-wavelet":
+    if args.filter == "realtime-wavelet":
+        info["faults"] = faults()
+    elif faults():
         warnings.warn(f"{args.filter}: {faults()} non-finite or out-of-range sample(s) were "
                       "replaced by the filter's prediction", RuntimeWarning, stacklevel=2)
     return info, m_in.std, m_out.std
@@ -316,6 +335,10 @@ def run(args: argparse.Namespace) -> int:
         else:
             write_csv(out, ["t_s", "rate_deg_h"], [np.arange(y.size) / rec.rate_hz, y])
         std_in, std_out = float(np.std(x)), float(np.std(y))
+    if info.get("faults"):
+        warnings.warn(f"{args.filter} ({args.core}): {info['faults']} sample(s) skipped by "
+                      "the filter (non-finite, or beyond what its arithmetic holds); each "
+                      "repeats the previous output", RuntimeWarning, stacklevel=2)
     result = {"record": rec.summary(), "filter": info, "output": str(out),
               "std_in_deg_h": std_in, "std_out_deg_h": std_out}
     if args.json:

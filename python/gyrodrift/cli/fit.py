@@ -77,6 +77,10 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str,
     AR(2)-Kalman stage on `channel` (values converted from deg/h to rad/s), the other channels
     passed through.
 
+    Its ``[meta]`` table (read by no processor) records the fit: model, tuning, identified,
+    fit_rate_hz, loglike, ar_identified, and, when the fit found a second maximum across the
+    fold a2 = 0, fold_a2 and fold_loglike (as ``gyrodrift fit`` prints them, at fit_rate_hz).
+
     Examples
     --------
     >>> import numpy as np
@@ -91,18 +95,23 @@ def config_toml(fit: Any, rate_hz: float, channel: str, source: str,
     >>> from gyrodrift.imu.config import parse_config
     >>> parse_config(text).channels[2].stages[0].steady_state
     True
+    >>> dict(parse_config(text).meta)["ar_identified"]
+    True
     """
     from gyrodrift.imu.config import drift_filter_config, dumps_config
 
     # The filter's parameters: the fit's, or the minimax q = r tuning when the fit could not
     # tell drift from white noise (fit.tuning).
     a1, a2, q, r = fit.filter_params
-    meta = (("written_by", "gyrodrift fit"), ("record", os.path.basename(source)),
-            ("model", str(fit.model)), ("tuning", str(fit.tuning)),
-            ("identified", "yes" if fit.identified else
-             "no: the record cannot tell drift from white noise (filter tuned at q = r)"),
-            ("fit_rate_hz", float(rate_hz if fit_rate_hz is None else fit_rate_hz)),
-            ("loglike", float(fit.loglike)))
+    meta: tuple[tuple[str, Any], ...] = (
+        ("written_by", "gyrodrift fit"), ("record", os.path.basename(source)),
+        ("model", str(fit.model)), ("tuning", str(fit.tuning)),
+        ("identified", "yes" if fit.identified else
+         "no: the record cannot tell drift from white noise (filter tuned at q = r)"),
+        ("fit_rate_hz", float(rate_hz if fit_rate_hz is None else fit_rate_hz)),
+        ("loglike", float(fit.loglike)), ("ar_identified", bool(fit.ar_identified)))
+    if math.isfinite(fit.fold_loglike):  # the other maximum across a2 = 0, when there is one
+        meta += (("fold_a2", float(fit.fold_a2)), ("fold_loglike", float(fit.fold_loglike)))
     cfg = drift_filter_config(channel, a1=a1, a2=a2, mean=fit.mean * DPH, q=q * DPH * DPH,
                               r=max(r, 1e-12 * (q + r)) * DPH * DPH, sample_rate_hz=rate_hz,
                               meta=meta)

@@ -83,8 +83,10 @@ def make_samples(t_s: np.ndarray, gyro_rad_s: np.ndarray, accel_m_s2: np.ndarray
     --------
     >>> s = make_samples(np.arange(3) / 400.0, np.zeros((3, 3)), np.tile([0.0, 0.0, 9.8], (3, 1)),
     ...                  seq0=65535)
-    >>> s.seq, s.t_us, s.channels[0, 5]
-    (array([65535,     0,     1], dtype=uint16), array([   0, 2500, 5000], dtype=uint64), 9.8)
+    >>> s.seq.tolist(), s.t_us.tolist(), s.seq.dtype, s.t_us.dtype, s.channels.dtype
+    ([65535, 0, 1], [0, 2500, 5000], dtype('uint16'), dtype('uint64'), dtype('float32'))
+    >>> round(float(s.channels[0, 5]), 6)  # 9.8 rounded to float32
+    9.8
     """
     t_s = np.asarray(t_s, dtype=np.float64)
     gyro = np.asarray(gyro_rad_s, dtype=np.float64)

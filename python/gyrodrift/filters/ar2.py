@@ -202,7 +202,30 @@ def _float_array(x: object, name: str, dtype: object = None) -> np.ndarray:
             f"{name}: dtype {a.dtype} is not supported; use float32 or float64")
     if dtype is None:
         dt = a.dtype if a.dtype in (np.float32, np.float64) else np.dtype(np.float64)
+    if dt == np.float32 and a.dtype == np.float64:
+        from gyrodrift.filters.wavelet import as_core_dtype
+
+        return as_core_dtype(a, dt, what=name)  # a value beyond float32: refused, not Inf
     return np.ascontiguousarray(a, dtype=dt)
+
+
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+_FLOAT32_TINY = float(np.finfo(np.float32).tiny)
+
+
+def _check_core_model(settings: Any, dtype: np.dtype, what: str) -> None:
+    """Refuse, for the float32 core, a model whose mean or variances float32 cannot hold
+    (they would reach the filter as Inf or 0): e.g. a model fitted in float64 to a record in
+    units that make its variance 1e66."""
+    if dtype != np.float32:
+        return
+    for name in ("mean", "sigma2", "q", "r"):
+        v = float(getattr(settings, name))
+        if abs(v) > _FLOAT32_MAX or (name != "mean" and 0.0 < v < _FLOAT32_TINY):
+            raise GyrodriftValueError(
+                f"{what}: the model's {name} = {v:.3g} is beyond what the float32 core holds "
+                f"(from {_FLOAT32_TINY:.2g} to {_FLOAT32_MAX:.2g}); use float64, or scale the "
+                "record")
 
 
 def _check_shape(a: np.ndarray, name: str) -> None:
@@ -471,6 +494,8 @@ def ar_filter(
     _check_shape(a, "x")
     axes = 1 if a.ndim == 1 else 3
     params = [_settings(m, None, None) for m in _models_for(model, axes)]
+    for p in params:
+        _check_core_model(p, a.dtype, "ar_filter")
     out, faults = core("ar2").ar_filter_batch(a, params, out)
     _report_faults(faults, "ar_filter")
     return out
@@ -493,10 +518,15 @@ def ar_filter_pieces(pieces: Iterable[np.ndarray], model: Ar2Model, dtype: objec
     >>> bool(np.array_equal(y, ar_filter(x, m)))
     True
     """
+    from gyrodrift.filters.wavelet import as_core_dtype
+
     dt = np.dtype(dtype)  # type: ignore[call-overload]
     carry = np.empty(0, dtype=dt)
+    start = 0
     for p in pieces:
-        a = np.concatenate([carry, np.asarray(p, dtype=dt)])
+        piece = as_core_dtype(p, dt, start=start)  # a value beyond float32: refused
+        start += piece.size
+        a = np.concatenate([carry, piece])
         yield np.asarray(ar_filter(a, model))[carry.size:]
         carry = a[-2:]
 
@@ -567,6 +597,8 @@ def kalman_filter_result(
     _check_shape(a, "x")
     axes = 1 if a.ndim == 1 else 3
     params = [_settings(m, q, r) for m in _models_for(model, axes)]
+    for p in params:
+        _check_core_model(p, a.dtype, "kalman_filter")
     p0 = _variance(p0, 1.0, "p0", positive=False)
     y, faults = core("ar2").ar2_kalman_batch(a, params, p0, bool(steady_state), out)
     return FilterResult(y, np.asarray(faults))
@@ -626,6 +658,7 @@ class KalmanFilter:
         self.dtype = dt
         self.steady_state = bool(steady_state)
         settings = _settings(model, q, r)
+        _check_core_model(settings, dt, "KalmanFilter")
         self.q, self.r = float(settings.q), float(settings.r)
         lib = core("ar2")
         f32 = dt == np.float32

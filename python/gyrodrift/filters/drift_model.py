@@ -67,7 +67,7 @@ from threadpoolctl import threadpool_limits
 from gyrodrift._native import core
 from gyrodrift._scale import normalising_scale, scale_for_peak
 from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
-from gyrodrift.filters.ar2 import MIN_SAMPLES, Ar2FitError, Ar2Model, KalmanFilter, fit_ar2
+from gyrodrift.filters.ar2 import Ar2FitError, Ar2Model, KalmanFilter, fit_ar2, fit_ar2_chunks
 from gyrodrift.io.records import is_file_backed, iter_chunks
 
 __all__ = [
@@ -339,7 +339,7 @@ class _Pieces:
         self.mm = mm
         self.scale = scale
         self.shape = (int(mm.shape[0]),)
-        self._stats: tuple[Ar2Model, list[float], float] | None = None
+        self._stats: tuple[Ar2Model, list[float]] | None = None
 
     def pieces(self) -> Any:
         for p in iter_chunks(self.mm, _PIECE):
@@ -350,63 +350,16 @@ class _Pieces:
         p = next(iter_chunks(self.mm, max(1, min(m, self.shape[0]))))
         return np.array(p if self.scale == 1.0 else p / self.scale, dtype=np.float64)
 
-    def stats(self) -> tuple[Ar2Model, list[float], float]:
-        """(Burg's AR(2) of the record with its mean, [c0, c1, c2] around that mean, sum of
-        squares around it); the checks and formulas of the core's fit_ar2 (ar2_model.hpp), in
-        three passes."""
-        if self._stats is not None:
-            return self._stats
-        n = self.shape[0]
-        if n < MIN_SAMPLES:
-            raise Ar2FitError("too_short", f"{n} samples, at least {MIN_SAMPLES} needed")
-        total, first, equal = 0.0, None, True
-        for p in self.pieces():
-            if not np.all(np.isfinite(p)):
-                raise Ar2FitError("non_finite", "the record contains NaN or Inf (or values "
-                                  "whose sum overflows)")
-            first = float(p[0]) if first is None else first
-            equal = equal and bool(np.all(p == first))
-            total += float(np.sum(p))
-        if equal:
-            raise Ar2FitError("constant", "all samples are equal")
-        mean = total / n
-        if not math.isfinite(mean):
-            raise Ar2FitError("non_finite", "the record contains NaN or Inf (or values whose "
-                              "sum overflows)")
-        e0 = s1 = s2 = 0.0
-        prev = np.empty(0)
-        for p in self.pieces():
-            d = np.concatenate([prev, p - mean])
-            t = prev.size
-            e0 += float(d[t:] @ d[t:])
-            s1 += float(d[max(t, 1) - 1:-1] @ d[max(t, 1):])
-            s2 += float(d[max(t, 2) - 2:-2] @ d[max(t, 2):])
-            prev = d[-2:]
-        head = self.head(2) - mean
-        tail = prev
-        den1 = 2.0 * e0 - head[0] ** 2 - tail[-1] ** 2
-        if not den1 > 0:
-            raise Ar2FitError("constant", "all samples are equal")
-        k1 = -2.0 * s1 / den1
-        num2 = den2 = 0.0
-        prev = np.empty(0)
-        for p in self.pieces():
-            d = np.concatenate([prev, p - mean])
-            t0 = max(prev.size, 2)
-            x0, x1, x2 = d[t0:], d[t0 - 1:-1], d[t0 - 2:-2]
-            f = x0 + k1 * x1
-            b = x2 + k1 * x1
-            num2 += float(f @ b)
-            den2 += float(f @ f + b @ b)
-            prev = d[-2:]
-        if not den2 > 0:
-            raise Ar2FitError("non_stationary", "the fitted model has a root on or outside the "
-                              "unit circle (or its normal equations are singular)")
-        k2 = -2.0 * num2 / den2
-        sigma2 = e0 / n * (1.0 - k1 * k1) * (1.0 - k2 * k2)
-        burg = Ar2Model(a1=-(k1 * (1.0 + k2)), a2=-k2, sigma2=max(sigma2, 0.0), mean=mean,
-                        method="burg", n=n)
-        self._stats = (burg, [e0 / n, s1 / n, s2 / n], e0)
+    def stats(self) -> tuple[Ar2Model, list[float]]:
+        """(Burg's AR(2) of the record with its mean, `fit_ar2_chunks`: the checks, errors and
+        formulas of the core's fit_ar2; [c0, c1, c2] around that mean, one more pass)."""
+        if self._stats is None:
+            burg = fit_ar2_chunks(self.pieces, "burg")
+            sums = _LagSums(2)  # its raw sums of the centred pieces: n c0, n c1, n c2
+            for p in self.pieces():
+                sums.add(p - burg.mean)
+            n = self.shape[0]
+            self._stats = (burg, [sums.sq / n, *(float(v) / n for v in sums.prod)])
         return self._stats
 
     def moments(self, center: float) -> tuple[float, float]:
@@ -428,7 +381,7 @@ def _autocov(d: np.ndarray) -> list[float]:
 
 def _autocov_around(x: np.ndarray | _Pieces, center: float) -> list[float]:
     if isinstance(x, _Pieces):
-        burg, c, _ = x.stats()
+        burg, c = x.stats()
         assert burg.mean == center  # the profile's center is the record's mean (_fit_1d)
         return c
     return _autocov(x - center)

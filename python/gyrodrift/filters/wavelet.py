@@ -35,6 +35,7 @@ __all__ = [
     "MAD_TO_SIGMA",
     "SUPPORTED_WAVELETS",
     "RealtimeWavelet",
+    "as_core_dtype",
     "max_level",
     "pad_symmetric",
     "wavedec",
@@ -89,6 +90,65 @@ def _as_float_array(x: Any, dtype: np.dtype, what: str = "x") -> np.ndarray:
     return np.ascontiguousarray(arr, dtype=dtype)
 
 
+def as_core_dtype(x: Any, dtype: Any = np.float64, *, what: str = "x",
+                  start: int = 0) -> np.ndarray:
+    """`x` as a contiguous array of the lifting core's scalar type, refusing a finite value
+    that the type cannot hold (beyond float32's largest value, about 3.4e38) before it
+    becomes an infinity, and without numpy's overflow warning.
+
+    NaN and Inf in `x` pass through: the caller refuses or counts them.
+
+    Parameters
+    ----------
+    x
+        real numeric array (any shape).
+    dtype
+        float64 or float32.
+    what
+        the array's name in error messages.
+    start
+        index of ``x[0]`` in the whole record (for a piece of it), added to the index an
+        error names.
+
+    Returns
+    -------
+    numpy.ndarray
+        `x` in `dtype`.
+
+    Raises
+    ------
+    GyrodriftValueError
+        a finite value of `x` overflows `dtype`, naming the first one and its index.
+    GyrodriftTypeError
+        `x` is not real numeric, or `dtype` is not float64 or float32.
+
+    Examples
+    --------
+    >>> as_core_dtype([1.0, 2.5], np.float32).dtype
+    dtype('float32')
+    >>> try:
+    ...     as_core_dtype([1.0, 1e39], np.float32)
+    ... except GyrodriftValueError as exc:
+    ...     print(exc)
+    x: value 1e+39 at index 1 is beyond the float32 range (largest 3.4e+38); scale the record
+    """
+    dt = _check_dtype(dtype)
+    arr = np.asarray(x)
+    with np.errstate(over="ignore"):  # a value beyond the range becomes Inf: refused below
+        out = _as_float_array(arr, dt, what)
+    if arr.dtype.kind == "f" and arr.dtype.itemsize > dt.itemsize:
+        lost = np.isinf(out) & np.isfinite(arr)
+        if np.any(lost):
+            flat = int(np.argmax(lost))
+            pos = np.unravel_index(flat, arr.shape) if arr.ndim else ()
+            where = (str(start + flat) if arr.ndim <= 1
+                     else str((start + int(pos[0]), *(int(i) for i in pos[1:]))))
+            raise GyrodriftValueError(
+                f"{what}: value {float(arr.flat[flat]):.3g} at index {where} is beyond the "
+                f"{dt.name} range (largest {float(np.finfo(dt).max):.3g}); scale the record")
+    return out
+
+
 def max_level(window: int, wavelet: str = "db8") -> int:
     """Largest level the real-time filter accepts: pywt.dwt_max_level(2*window, filter_len).
 
@@ -111,7 +171,7 @@ def wavedec(x: Any, wavelet: str = "db8", level: int = 5, dtype: Any = np.float6
     (64,)
     """
     _check_wavelet(wavelet)
-    arr = _as_float_array(x, _check_dtype(dtype))
+    arr = as_core_dtype(x, dtype)
     return core("wavelet").wavedec_periodization(arr, wavelet, int(level))
 
 
@@ -125,7 +185,7 @@ def waverec(c: Any, wavelet: str = "db8", level: int = 5, dtype: Any = np.float6
     True
     """
     _check_wavelet(wavelet)
-    arr = _as_float_array(c, _check_dtype(dtype), "c")
+    arr = as_core_dtype(c, dtype, what="c")
     return core("wavelet").wavedec_periodization(arr, wavelet, int(level), inverse=True)
 
 
@@ -158,7 +218,7 @@ def wavelet_denoise(
     if mode not in _MODES:
         raise GyrodriftValueError(f"mode must be one of {_MODES}, got {mode!r}")
     dt = _check_dtype(dtype)
-    arr = _as_float_array(x, dt)
+    arr = as_core_dtype(x, dt)
     if arr.ndim == 2 and arr.shape[1] == 3:
         return np.stack(
             [
@@ -219,7 +279,8 @@ class RealtimeWavelet:
     takes (n,) or (n, 3) and continues the same stream. The channel count is fixed by the
     first call. Start-up: the first ``window - 1`` samples pass through unfiltered
     (``ready`` is False). NaN/Inf samples are counted (``fault_counts``), left out of the
-    window, and the previous output of that channel is repeated.
+    window, and the previous output of that channel is repeated; so are, in float32, values
+    beyond its range and samples whose window sums it cannot hold.
 
     Examples
     --------
@@ -268,7 +329,8 @@ class RealtimeWavelet:
     def filter(self, x: Any, *, recompute: bool = False) -> np.ndarray:
         """Filter (n,) or (n, 3) samples; recompute=True uses the full-window recompute path
         (the C++ reference algorithm, slow) instead of the streaming one."""
-        arr = _as_float_array(x, self.dtype)
+        with np.errstate(over="ignore"):  # beyond float32: Inf, counted as a fault
+            arr = _as_float_array(x, self.dtype)
         if arr.ndim == 1:
             channels = 1
         elif arr.ndim == 2 and arr.shape[1] == 3:
@@ -278,7 +340,8 @@ class RealtimeWavelet:
         return self._get_bank(channels).filter(arr, recompute)
 
     def step(self, sample: Any) -> Any:
-        arr = _as_float_array(sample, self.dtype, "sample")
+        with np.errstate(over="ignore"):  # beyond float32: Inf, counted as a fault
+            arr = _as_float_array(sample, self.dtype, "sample")
         if arr.ndim == 0:
             return self.dtype.type(self.filter(arr.reshape(1))[0])
         if arr.shape == (3,):

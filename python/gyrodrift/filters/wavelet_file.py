@@ -120,12 +120,13 @@ def _checked(x: Any, level: int, max_level: int, wavelet_ok: Callable[[], None])
 
 
 def _scan(x: np.ndarray, piece: int, dtype: Any = np.float64) -> float:
-    """The largest |x| in `dtype`; a NaN or Inf (in `dtype`: float32 overflows beyond about
-    3.4e38) is refused with its index (as `wavelet_denoise`)."""
+    """The largest |x| in `dtype`; a NaN or Inf, or a value `dtype` cannot hold (float32:
+    beyond about 3.4e38), is refused with its index (as `wavelet_denoise`)."""
+    from gyrodrift.filters.wavelet import as_core_dtype
+
     peak, start = 0.0, 0
     for p in iter_chunks(x, piece):
-        with np.errstate(over="ignore"):  # beyond float32's range: Inf, refused below
-            a = np.asarray(p, dtype=dtype)
+        a = as_core_dtype(p, dtype, start=start)
         ok = np.isfinite(a)
         if not np.all(ok):
             raise GyrodriftValueError(

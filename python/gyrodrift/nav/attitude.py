@@ -165,11 +165,11 @@ def dcm2euler(c: np.ndarray) -> np.ndarray:
 
 
 def wrap_pi(a: np.ndarray | float) -> np.ndarray | float:
-    """
+    """The angle `a` (rad) wrapped into [-pi, pi).
 
     Examples
     --------
-    >>> round(wrap_pi(3 * np.pi / 2), 6)
+    >>> round(float(wrap_pi(3 * np.pi / 2)), 6)
     -1.570796
     """
     return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi

@@ -82,7 +82,7 @@ def earth_rate_n_rad_s(lat_rad: float) -> np.ndarray:
 
     Examples
     --------
-    >>> earth_rate_n_rad_s(0.0)[1] == EARTH_RATE_RAD_S
+    >>> bool(earth_rate_n_rad_s(0.0)[1] == EARTH_RATE_RAD_S)
     True
     """
     return np.array([0.0, EARTH_RATE_RAD_S * math.cos(lat_rad),

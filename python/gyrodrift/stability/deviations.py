@@ -186,7 +186,7 @@ def deviation(
     --------
     >>> x = np.random.default_rng(0).standard_normal(4096)  # white rate noise, 100 Hz
     >>> r = deviation(x, 100.0, "mdev")
-    >>> r.deviation, r.tau_s[:3].tolist(), r.noise_id[0]
+    >>> r.deviation, r.tau_s[:3].tolist(), str(r.noise_id[0])
     ('mdev', [0.01, 0.02, 0.04], 'acf')
     """
     if name not in DEVIATIONS:

@@ -11,10 +11,9 @@
 #include <cstdint>
 
 #include "board.hpp"
+#include "cortex_m_start.hpp"
 
 extern "C" {
-extern std::uint32_t _ebss;
-void _estack(void);
 void USART1_IRQHandler(void);
 void SysTick_Handler(void);
 }
@@ -217,11 +216,7 @@ std::uint32_t interrupt_cycles() noexcept { return g_isr_cycles; }
 const LinkCounters& link_counters() noexcept { return g_link; }
 
 std::uint32_t stack_high_water_bytes() noexcept {
-  constexpr std::uint32_t kPaint = 0x5AC3A55CU;  // startup.cpp paints free RAM with this
-  const std::uint32_t* word = &_ebss;
-  const auto* top = reinterpret_cast<const std::uint32_t*>(&_estack);
-  while (word < top && *word == kPaint) ++word;
-  return static_cast<std::uint32_t>(reinterpret_cast<std::uintptr_t>(top) - reinterpret_cast<std::uintptr_t>(word));
+  return gyrodrift::cortex_m_start::stack_high_water_bytes();  // painted by startup.cpp
 }
 
 }  // namespace gyrodrift::firmware::board
