@@ -5,11 +5,19 @@
 // push(y) runs every sample through the statistics (GIL released, the object's lock held) and
 // returns the number accepted (non-finite samples are refused and counted in `rejected`).
 // The sums are read out in double: hi + lo of the C++ pair sums.
+// The fit from them (include/gyrodrift/filters/lag_drift_fit.hpp), in double on either state:
+//   lag_drift_fit(stats, kind)   -> (status, a1, a2, q, r, mean, loglike, truncation,
+//                                    iterations, evaluations, runs); the numbers are 0 for
+//                                    too_few_samples and non_finite
+//   lag_drift_loglike(stats, a1, a2, q, r, mean, kind) -> (status, loglike)
+//   lag_drift_profile(stats, a1, a2, lam, kind)        -> (status, loglike, mean, q, r)
+// each on a snapshot of the statistics taken under the object's lock, the GIL released.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 
 #include <cstddef>
 #include <cstdint>
+#include <gyrodrift/filters/lag_drift_fit.hpp>
 #include <gyrodrift/filters/lag_statistics.hpp>
 #include <string>
 
@@ -94,11 +102,68 @@ void bind_one(py::module_& m, const char* name, const char* doc) {
       .def_property_readonly_static(
           "state_bytes", [](const py::object&) { return static_cast<std::int64_t>(sizeof(typename T::Core)); },
           "sizeof the C++ statistics (bytes)");
+  m.def(
+      "lag_drift_fit",
+      [](const T& stats, LagLikelihoodKind kind) {
+        const typename T::Core snap = stats.snapshot();
+        LagDriftFitResult<double> r;
+        {
+          py::gil_scoped_release release;
+          r = gyrodrift::lag_drift_fit<double>(snap, kind);
+        }
+        return py::make_tuple(r.status, r.model.a1, r.model.a2, r.model.q, r.model.r, r.model.mean, r.loglike,
+                              r.truncation, r.iterations, r.evaluations, r.runs);
+      },
+      py::arg("stats"), py::arg("kind") = LagLikelihoodKind::exact,
+      "Fit the drift model from the statistics (double; GIL released): (status, a1, a2, q, r, mean, loglike, "
+      "truncation, iterations, evaluations, runs), status a LagDriftFitStatus.");
+  m.def(
+      "lag_drift_loglike",
+      [](const T& stats, double a1, double a2, double q, double r, double mean, LagLikelihoodKind kind) {
+        const typename T::Core snap = stats.snapshot();
+        double ll = 0.0;
+        LagDriftFitStatus s;
+        {
+          py::gil_scoped_release release;
+          s = gyrodrift::lag_drift_loglike(snap, DriftModelParams<double>{a1, a2, q, r, mean}, ll, kind);
+        }
+        return py::make_tuple(s, ll);
+      },
+      py::arg("stats"), py::arg("a1"), py::arg("a2"), py::arg("q"), py::arg("r"), py::arg("mean"),
+      py::arg("kind") = LagLikelihoodKind::exact,
+      "Log-likelihood of the model from the statistics: (status, loglike), loglike 0 unless status is ok.");
+  m.def(
+      "lag_drift_profile",
+      [](const T& stats, double a1, double a2, double lam, LagLikelihoodKind kind) {
+        const typename T::Core snap = stats.snapshot();
+        LagDriftProfile<double> p;
+        LagDriftFitStatus s;
+        {
+          py::gil_scoped_release release;
+          s = gyrodrift::lag_drift_profile(snap, a1, a2, lam, p, kind);
+        }
+        return py::make_tuple(s, p.loglike, p.mean, p.q, p.r);
+      },
+      py::arg("stats"), py::arg("a1"), py::arg("a2"), py::arg("lam"), py::arg("kind") = LagLikelihoodKind::exact,
+      "Profile log-likelihood at (a1, a2, lam = q / (q + r)) over the mean and the scale: (status, loglike, "
+      "mean, q, r).");
 }
 
 }  // namespace
 
 void bind_lag_statistics(py::module_& m) {
+  py::enum_<LagLikelihoodKind>(m, "LagLikelihoodKind")
+      .value("exact", LagLikelihoodKind::exact)
+      .value("whittle", LagLikelihoodKind::whittle);
+  py::enum_<LagDriftFitStatus>(m, "LagDriftFitStatus")
+      .value("ok", LagDriftFitStatus::ok)
+      .value("too_few_samples", LagDriftFitStatus::too_few_samples)
+      .value("truncation", LagDriftFitStatus::truncation)
+      .value("not_converged", LagDriftFitStatus::not_converged)
+      .value("non_finite", LagDriftFitStatus::non_finite)
+      .value("bad_model", LagDriftFitStatus::bad_model);
+  m.attr("LAG_DRIFT_TRUNCATION_TOL") = kLagDriftTruncationTol;
+  m.attr("LAG_DRIFT_MIN_SAMPLES") = static_cast<std::int64_t>(lag_drift_min_samples(kLags));
   bind_one<double>(m, "LagStatistics", "Whole-record lag statistics of the drift model (L = 32), double state; "
                                        "push(float64 array).");
   bind_one<float>(m, "LagStatisticsF32", "LagStatistics with float state, as on the target; push(float32 array).");

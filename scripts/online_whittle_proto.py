@@ -14,6 +14,11 @@ the higher one.
 
     python scripts/online_whittle_proto.py                       # 240000 samples, 5 seeds
     python scripts/online_whittle_proto.py --samples 240000 480000 960000 --kind whittle
+    python scripts/online_whittle_proto.py --samples 240000 480000 960000 --cpp --float32
+
+--cpp: the statistics and the fit of the C++ core instead (`gyrodrift.filters.LagStatistics`
+at L = 32, `gyrodrift.filters.lag_drift_fit`, the fit in double); with --float32 the float
+state the target keeps.
 """
 
 from __future__ import annotations
@@ -25,6 +30,8 @@ import time
 import gyrodrift
 import numpy as np
 from gyrodrift._native import core
+from gyrodrift.filters import LagStatistics
+from gyrodrift.filters import lag_drift_fit as cpp_fit
 from gyrodrift.reference.lag_drift import LagStatisticsReference, lag_drift_fit, lag_loglike
 from online_drift_mc import PAIRS, RATIOS, Case, simulate
 
@@ -45,14 +52,20 @@ def main() -> None:
     ap.add_argument("--no-head", action="store_true",
                     help="with --kind whittle: the first L samples replaced by the record's "
                          "mean in the mean's correction (a target that keeps no first samples)")
+    ap.add_argument("--cpp", action="store_true",
+                    help="the C++ core's statistics (L = 32) and fit; --float32: its float state")
     ap.add_argument("--check", action="store_true",
                     help="also print the lag likelihood against the core's at the ML fit")
     args = ap.parse_args()
     if args.no_head and args.kind != "whittle":
         ap.error("--no-head needs --kind whittle (the exact likelihood uses the first samples)")
+    if args.cpp and (args.no_head or args.lags != LagStatistics.lags):
+        ap.error(f"--cpp keeps L = {LagStatistics.lags} and the first samples")
     loglike = core("drift").drift_loglike
     f32 = (", statistics rounded to float32" if args.float32 else "") + (
         ", no first samples" if args.no_head else "")
+    if args.cpp:
+        f32 = ", C++ statistics" + (" (float state)" if args.float32 else "") + " and fit"
     print(f"# kind {args.kind}, L = {args.lags}{f32}; z = (lag fit - ML) / offline stderr; "
           "d_LL = sign(D) sqrt(|D|), D = 2 (logL_ML - logL_lag) (exact likelihoods)")
     print(f"{'n':>7} {'a1':>7} {'a2':>7} {'r/q':>4} {'seed':>4} {'z_a1':>6} {'z_a2':>6} "
@@ -65,17 +78,23 @@ def main() -> None:
             for ratio in RATIOS:
                 for seed in range(1, args.seeds + 1):
                     y = simulate(Case(a1, a2, ratio, "none", n, seed))[0]
-                    st = LagStatisticsReference(args.lags)
-                    for i in range(0, n, 4096):
-                        st.push(y[i:i + 4096])
-                    if args.no_head:
-                        st.head = np.full(st.lags, st.total / st.n)
-                    if args.float32:
-                        st.total = float(np.float32(st.total))
-                        for name in ("products", "head", "tail"):
-                            setattr(st, name, getattr(st, name).astype(np.float32)
-                                    .astype(np.float64))
-                    est = lag_drift_fit(st, args.kind)
+                    if args.cpp:
+                        st = LagStatistics(dtype=np.float32 if args.float32 else np.float64)
+                        for i in range(0, n, 4096):
+                            st.push(y[i:i + 4096])
+                        est = cpp_fit(st, kind=args.kind)
+                    else:
+                        st = LagStatisticsReference(args.lags)
+                        for i in range(0, n, 4096):
+                            st.push(y[i:i + 4096])
+                        if args.no_head:
+                            st.head = np.full(st.lags, st.total / st.n)
+                        if args.float32:
+                            st.total = float(np.float32(st.total))
+                            for name in ("products", "head", "tail"):
+                                setattr(st, name, getattr(st, name).astype(np.float32)
+                                        .astype(np.float64))
+                        est = lag_drift_fit(st, args.kind)
                     fit = gyrodrift.fit_drift_model(y, rate_hz=400.0)
                     z = [(getattr(est, k) - getattr(fit, k)) / fit.stderr[k] for k in NAMES]
                     ll_ml = loglike(y, fit.a1, fit.a2, fit.q, fit.r, fit.mean)[0]

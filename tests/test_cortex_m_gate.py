@@ -101,6 +101,14 @@ FORBIDDEN_SYMBOLS: list[tuple[re.Pattern[str], str]] = [
     ),
 ]
 
+# The units allowed to link software double, each with its reason; every other unit is held
+# to float. The lag-statistics fit runs in double by design: its likelihood must resolve
+# differences of 0.1 on a value of order n (1e-7 relative at 1e6 samples), below float's
+# resolution (include/gyrodrift/filters/lag_drift_fit.hpp); its statistics stay float.
+SOFTWARE_DOUBLE_UNITS: dict[str, str] = {
+    "use_lag_drift_fit": "the drift-model fit from float lag statistics runs in double",
+}
+
 
 @dataclass
 class GateResult:
@@ -195,7 +203,9 @@ def build_unit(src: Path, workdir: Path, extra_flags: list[str] | None = None) -
         result.log += proc.stderr
         return result
     nm = _run([tools["nm"], str(elf)], workdir)
-    result.reasons.extend(forbidden_symbols(nm.stdout))
+    allowed = "software double:" if src.stem in SOFTWARE_DOUBLE_UNITS else None
+    result.reasons.extend(r for r in forbidden_symbols(nm.stdout)
+                          if allowed is None or not r.startswith(allowed))
     size = _run([tools["size"], "-A", str(elf)], workdir)
     sections = {}
     for line in size.stdout.splitlines():
@@ -516,6 +526,13 @@ def test_gate_rejects_bad_unit(name: str, tmp_path: Path) -> None:
         result.reasons,
         result.log[-2000:],
     )
+
+
+def test_software_double_allowance_names_existing_units_only() -> None:
+    """The allowance is by unit name: each allowed name is a unit of the gate (a renamed or
+    removed unit does not leave a name another unit could take)."""
+    assert set(SOFTWARE_DOUBLE_UNITS) <= {p.stem for p in gate_units()}
+    assert "explicit_double" not in SOFTWARE_DOUBLE_UNITS
 
 
 def test_forbidden_symbol_patterns() -> None:

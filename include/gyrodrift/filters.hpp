@@ -1,5 +1,5 @@
 // Drift filters: AR(2) model + Kalman filters, AR filter, real-time wavelet, drift likelihood,
-// the whole-record lag statistics of the drift model.
+// the whole-record lag statistics of the drift model and the fit from them.
 #pragma once
 
 #include "filters/ar2_kalman.hpp"
@@ -10,6 +10,7 @@
 #include "filters/drift_likelihood.hpp"
 #include "filters/fir_prefilter.hpp"
 #include "filters/input_range.hpp"
+#include "filters/lag_drift_fit.hpp"
 #include "filters/lag_statistics.hpp"
 #include "filters/lifting_transform.hpp"
 #include "filters/online_drift_identifier.hpp"

@@ -4,7 +4,8 @@
 // rho^Lags (rho the pole modulus of the model's steady-state innovation filter). The
 // equations, the likelihood and the fit from these statistics are those of the numpy reference
 // gyrodrift.reference.lag_drift (docs/validation/online-identification.md, "Whole-record
-// statistics"); this header keeps the statistics on the target, the fit is not here.
+// statistics"); this header keeps the statistics on the target, the fit from them is
+// lag_drift_fit.hpp.
 //
 // State of the accepted samples y_0 .. y_{n-1}, with w_t = y_t - c and c = y_0 (the centre):
 //   n; sum_t w_t; the lag products P_k = sum_{t>=k} w_t w_{t-k} for k = 0..Lags;

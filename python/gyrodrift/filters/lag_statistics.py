@@ -14,19 +14,31 @@ The attribute names are those of the numpy reference's statistics
 docs/validation/online-identification.md, "Whole-record statistics".
 
 ``dtype=np.float32`` runs the float state the microcontroller uses.
+
+`lag_drift_fit` fits the drift model from them in the C++ core (double, on either state;
+include/gyrodrift/filters/lag_drift_fit.hpp): the exact likelihood from the statistics
+maximised over (a1, a2, q / (q + r)) with the mean and the scale in closed form, from a grid
+of starts on both sides of a2 = 0 and across that fold, as the numpy reference's
+``lag_drift_fit``; `lag_drift_loglike` is the likelihood itself.
 """
 
 from __future__ import annotations
 
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, DTypeLike
 
 from gyrodrift._native import core
-from gyrodrift.errors import GyrodriftValueError
+from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 
-__all__ = ["LagStatistics"]
+__all__ = ["LAG_LIKELIHOOD_KINDS", "LagDriftFitError", "LagDriftFitResult", "LagStatistics",
+           "lag_drift_fit", "lag_drift_loglike"]
+
+#: The likelihoods the fit can maximise: the exact one (up to terms of order rho^L) and
+#: Whittle's approximation truncated at L.
+LAG_LIKELIHOOD_KINDS = ("exact", "whittle")
 
 
 class LagStatistics:
@@ -135,3 +147,169 @@ class LagStatistics:
     def state_bytes(self) -> int:
         """Size of the C++ statistics' state in this precision (bytes)."""
         return int(self._impl.state_bytes)
+
+
+class LagDriftFitError(GyrodriftValueError):
+    """The statistics cannot be fitted, or the model is outside its domain.
+
+    ``cause`` is the C++ status name: too_few_samples (fewer than 2 L + 2 = 66 samples),
+    non_finite (statistics or parameters not finite) or bad_model (q < 0, r <= 0, or a
+    non-stationary AR part; `lag_drift_loglike` only).
+
+    Examples
+    --------
+    >>> st = LagStatistics(); _ = st.push(np.arange(10.0))
+    >>> try:
+    ...     lag_drift_fit(st)
+    ... except LagDriftFitError as exc:
+    ...     print(exc.cause)
+    too_few_samples
+    """
+
+    def __init__(self, cause: str, detail: str) -> None:
+        self.cause = cause
+        super().__init__(f"lag-statistics fit refused ({cause.replace('_', ' ')}): {detail}")
+
+
+@dataclass(frozen=True)
+class LagDriftFitResult:
+    """The drift model fitted from the lag statistics.
+
+    ``status``: ok; truncation (rho^L of the fit above 1e-10, rho the pole modulus of the
+    model's steady-state innovation filter: L = 32 is too short for this model and the
+    likelihood's neglected terms are not negligible); not_converged (the best run stopped at
+    its iteration bound). a1, a2, q, r (record units squared) and mean (record units) are the
+    estimate, ``loglike`` its log-likelihood of the kind fitted, ``truncation`` its rho^L;
+    ``iterations``, ``evaluations`` and ``runs`` the maximiser's work.
+
+    Examples
+    --------
+    >>> r = LagDriftFitResult("ok", 0.5, 0.0, 1.0, 1.0, 0.0, -10.0, 1e-20, 50, 400, 4)
+    >>> r.as_dict()["status"], r.q / r.r
+    ('ok', 1.0)
+    """
+
+    status: str
+    a1: float
+    a2: float
+    q: float
+    r: float
+    mean: float
+    loglike: float
+    truncation: float
+    iterations: int
+    evaluations: int
+    runs: int
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready values.
+
+        Examples
+        --------
+        >>> fit = LagDriftFitResult("ok", 0.5, 0.0, 1.0, 1.0, 0.0, -1.0, 0.0, 1, 1, 4)
+        >>> sorted(fit.as_dict())[:3]
+        ['a1', 'a2', 'evaluations']
+        """
+        return asdict(self)
+
+
+def _kind(kind: str) -> Any:
+    if kind not in LAG_LIKELIHOOD_KINDS:
+        raise GyrodriftValueError(
+            f"kind must be one of {', '.join(LAG_LIKELIHOOD_KINDS)}, got {kind!r}")
+    return getattr(core("drift").LagLikelihoodKind, kind)
+
+
+def _impl(stats: LagStatistics) -> Any:
+    if not isinstance(stats, LagStatistics):
+        raise GyrodriftTypeError(
+            f"stats must be a gyrodrift.filters.LagStatistics, got {type(stats).__name__}")
+    return stats._impl
+
+
+def _refused(status: Any, stats: LagStatistics) -> LagDriftFitError:
+    name = str(status.name)
+    detail = {"too_few_samples": f"{stats.n} samples, at least {2 * stats.lags + 2} needed "
+                                 f"for {stats.lags} lags",
+              "non_finite": "the statistics or the parameters are not finite",
+              "bad_model": "q < 0, r <= 0 or a non-stationary AR part"}.get(name, name)
+    return LagDriftFitError(name, detail)
+
+
+def lag_drift_fit(stats: LagStatistics, *, kind: str = "exact") -> LagDriftFitResult:
+    """Fit the drift model (AR(2) drift + white noise) from the lag statistics in the C++
+    core, in double on either state (GIL released).
+
+    Parameters
+    ----------
+    stats : LagStatistics
+        The statistics of the record (float64 or float32 state); not changed.
+    kind : {"exact", "whittle"}
+        The likelihood maximised (module docstring).
+
+    Returns
+    -------
+    LagDriftFitResult
+        The estimate, with the status ok, truncation or not_converged.
+
+    Raises
+    ------
+    LagDriftFitError
+        Fewer than 2 L + 2 samples, or statistics that are not finite (``cause``).
+
+    Examples
+    --------
+    >>> from scipy.signal import lfilter
+    >>> rng = np.random.default_rng(1)
+    >>> y = lfilter([1.0], [1.0, -0.6868, 0.0213], rng.normal(size=20000)) \\
+    ...     + rng.normal(size=20000)
+    >>> st = LagStatistics(dtype=np.float32); _ = st.push(y)
+    >>> fit = lag_drift_fit(st)
+    >>> fit.status, bool(abs(fit.a1 - 0.6868) < 0.2 and abs(fit.q / fit.r - 1.0) < 0.5)
+    ('ok', True)
+    """
+    out = core("drift").lag_drift_fit(_impl(stats), _kind(kind))
+    status = out[0]
+    if status.name in ("too_few_samples", "non_finite"):
+        raise _refused(status, stats)
+    a1, a2, q, r, mean, loglike, truncation = (float(v) for v in out[1:8])
+    iterations, evaluations, runs = (int(v) for v in out[8:11])
+    return LagDriftFitResult(str(status.name), a1, a2, q, r, mean, loglike, truncation,
+                             iterations, evaluations, runs)
+
+
+def lag_drift_loglike(stats: LagStatistics, a1: float, a2: float, q: float, r: float,
+                      mean: float, *, kind: str = "exact") -> float:
+    """Log-likelihood of the drift model from the lag statistics (C++ core, double).
+
+    Parameters
+    ----------
+    stats : LagStatistics
+        The statistics of the record.
+    a1, a2 : float
+        AR coefficients of the drift (stationary).
+    q, r : float
+        Driving-noise and white-noise variances (record units squared; q >= 0, r > 0).
+    mean : float
+        The record's constant offset (record units).
+    kind : {"exact", "whittle"}
+        The likelihood (module docstring).
+
+    Raises
+    ------
+    LagDriftFitError
+        Too few samples, non-finite statistics or parameters, or a model outside its domain.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> y = rng.normal(size=1000); st = LagStatistics(); _ = st.push(y)
+    >>> white = -0.5 * (1000 * np.log(2 * np.pi) + float(np.sum(y * y)))
+    >>> bool(abs(lag_drift_loglike(st, 0.0, 0.0, 1e-12, 1.0, 0.0) - white) < 1e-6)
+    True
+    """
+    status, ll = core("drift").lag_drift_loglike(_impl(stats), float(a1), float(a2), float(q),
+                                                 float(r), float(mean), _kind(kind))
+    if status.name != "ok":
+        raise _refused(status, stats)
+    return float(ll)

@@ -1,0 +1,168 @@
+// The drift-model fit from whole-record lag statistics (include/gyrodrift/filters/lag_drift_fit.hpp):
+// the likelihood from the statistics against the exact Kalman likelihood on the samples
+// (drift_likelihood.hpp), the fit recovering a simulated model and beating the truth's
+// likelihood, the refusals (too few samples, non-finite statistics, bad parameters) as
+// status codes with the statistics left usable, and no allocation during a fit. The equality
+// with the numpy reference (likelihood and fit) is tested in tests/test_lag_drift_fit.py.
+#define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <gyrodrift/filters/drift_likelihood.hpp>
+#include <gyrodrift/filters/lag_drift_fit.hpp>
+#include <gyrodrift/filters/lag_statistics.hpp>
+#include <vector>
+
+#include "alloc_counter.hpp"
+#include "drift_test_support.hpp"
+
+namespace {
+
+constexpr std::size_t kLags = 32;
+using Fit = gyrodrift::LagDriftFitStatus;
+
+double exact_loglike(const std::vector<double>& y, const gyrodrift::DriftModelParams<double>& p) {
+  gyrodrift::DriftLikelihoodSums<double> sums;
+  REQUIRE(gyrodrift::drift_likelihood(y.data(), y.size(), 1, p, sums) == gyrodrift::Ar2Status::ok);
+  return sums.loglike();
+}
+
+}  // namespace
+
+TEST_CASE("likelihood from the statistics equals the exact Kalman likelihood of the samples") {
+  // At L = 32 the neglected terms are of order rho^32 per sample, rho <= 0.44 for these
+  // models (r/q <= 3): 4e-12 per sample, 1e-7 in all against a log-likelihood of order
+  // 3e4 here; the sums themselves agree to about 1e-15 relative. So 1e-11 relative.
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 3.0, 9.7, 20000, 1);
+  gyrodrift::LagStatistics<double, kLags> st;
+  REQUIRE(st.push(y.data(), y.size()) == y.size());
+  const gyrodrift::DriftModelParams<double> models[] = {
+      {0.6868, -0.0213, 1.0, 3.0, 9.7}, {0.5, 0.1, 2.0, 1.0, 9.5}, {0.9, -0.2, 0.5, 4.0, 10.0}};
+  for (const auto& p : models) {
+    double ll = 0.0;
+    REQUIRE(gyrodrift::lag_drift_loglike(st, p, ll) == Fit::ok);
+    const double want = exact_loglike(y, p);
+    CHECK(std::fabs(ll - want) <= 1e-11 * std::fabs(want));
+    // The profile at the same (a1, a2, split) is the maximum over the mean and the scale:
+    // at least the likelihood at these q, r and mean.
+    gyrodrift::LagDriftProfile<double> prof;
+    REQUIRE(gyrodrift::lag_drift_profile(st, p.a1, p.a2, p.q / (p.q + p.r), prof) == Fit::ok);
+    CHECK(prof.loglike >= ll);
+    double at_profile = 0.0;
+    REQUIRE(gyrodrift::lag_drift_loglike(st, gyrodrift::DriftModelParams<double>{p.a1, p.a2, prof.q, prof.r, prof.mean},
+                                         at_profile) == Fit::ok);
+    CHECK(std::fabs(at_profile - prof.loglike) <= 1e-12 * std::fabs(prof.loglike));
+  }
+}
+
+TEST_CASE("the fit recovers a simulated model") {
+  // 60000 samples of the pair (0.2297, 0.1638) at r/q = 1: the offline standard errors are
+  // about 0.03 for a1 and a2 and 5 % for q and r, so 0.15 and 30 % are 5 or more of them.
+  // The fit is a maximum: its exact likelihood on the samples is at least the truth's.
+  const auto y = drift_test::record(0.2297, 0.1638, 1.0, 1.0, 9.7, 60000, 2);
+  gyrodrift::LagStatistics<float, kLags> st;
+  std::vector<float> yf(y.begin(), y.end());
+  REQUIRE(st.push(yf.data(), yf.size()) == yf.size());
+  const auto fit = gyrodrift::lag_drift_fit<double>(st);
+  REQUIRE(fit.status == Fit::ok);
+  MESSAGE("a1 " << fit.model.a1 << " a2 " << fit.model.a2 << " q " << fit.model.q << " r " << fit.model.r
+                << " iterations " << fit.iterations << " evaluations " << fit.evaluations);
+  CHECK(std::fabs(fit.model.a1 - 0.2297) < 0.15);
+  CHECK(std::fabs(fit.model.a2 - 0.1638) < 0.15);
+  CHECK(std::fabs(fit.model.q - 1.0) < 0.3);
+  CHECK(std::fabs(fit.model.r - 1.0) < 0.3);
+  CHECK(std::fabs(fit.model.mean - 9.7) < 0.1);
+  CHECK(fit.truncation < gyrodrift::kLagDriftTruncationTol);
+  CHECK(fit.runs >= 4);
+  CHECK(fit.evaluations > 100);
+  std::vector<double> yd(yf.begin(), yf.end());
+  CHECK(exact_loglike(yd, fit.model) >= exact_loglike(yd, {0.2297, 0.1638, 1.0, 1.0, 9.7}));
+  double ll = 0.0;
+  REQUIRE(gyrodrift::lag_drift_loglike(st, fit.model, ll) == Fit::ok);
+  CHECK(std::fabs(ll - fit.loglike) <= 1e-12 * std::fabs(ll));
+}
+
+TEST_CASE("refusals are status codes and leave the statistics usable") {
+  gyrodrift::LagStatistics<float, kLags> st;
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 1.0, 0.0, 4000, 3);
+  // 2 L + 2 = 66 samples are the minimum.
+  for (std::size_t i = 0; i < 65; ++i) st.push(static_cast<float>(y[i]));
+  auto fit = gyrodrift::lag_drift_fit<double>(st);
+  CHECK(fit.status == Fit::too_few_samples);
+  CHECK(fit.evaluations == 0);
+  double ll = 0.0;
+  CHECK(gyrodrift::lag_drift_loglike(st, gyrodrift::DriftModelParams<double>{0.5, 0.0, 1.0, 1.0, 0.0}, ll) ==
+        Fit::too_few_samples);
+  st.push(static_cast<float>(y[65]));
+  CHECK(gyrodrift::lag_drift_loglike(st, gyrodrift::DriftModelParams<double>{0.5, 0.0, 1.0, 1.0, 0.0}, ll) == Fit::ok);
+  // Parameters outside the model.
+  CHECK(gyrodrift::lag_drift_loglike(st, gyrodrift::DriftModelParams<double>{1.2, 0.0, 1.0, 1.0, 0.0}, ll) ==
+        Fit::bad_model);
+  CHECK(gyrodrift::lag_drift_loglike(st, gyrodrift::DriftModelParams<double>{0.5, 0.0, 1.0, 0.0, 0.0}, ll) ==
+        Fit::bad_model);
+  CHECK(gyrodrift::lag_drift_loglike(st, gyrodrift::DriftModelParams<double>{0.5, 0.0, NAN, 1.0, 0.0}, ll) ==
+        Fit::non_finite);
+  gyrodrift::LagDriftProfile<double> prof;
+  CHECK(gyrodrift::lag_drift_profile(st, 0.5, 0.0, 1.0, prof) == Fit::bad_model);
+  // The statistics are untouched: pushing on and fitting works.
+  for (std::size_t i = 66; i < y.size(); ++i) st.push(static_cast<float>(y[i]));
+  fit = gyrodrift::lag_drift_fit<double>(st);
+  CHECK((fit.status == Fit::ok || fit.status == Fit::truncation));
+  CHECK(std::isfinite(fit.model.a1));
+  // Statistics whose sums overflowed in float (every sample finite, every w^2 finite, their
+  // sum not): non_finite, no fit attempted.
+  gyrodrift::LagStatistics<float, kLags> big;
+  big.push(0.0F);
+  for (int i = 0; i < 100; ++i) big.push(i % 2 == 0 ? 1.5e19F : -1.5e19F);
+  REQUIRE(big.samples() == 101);
+  REQUIRE(!std::isfinite(big.product(0).value()));
+  fit = gyrodrift::lag_drift_fit<double>(big);
+  CHECK(fit.status == Fit::non_finite);
+  CHECK(fit.evaluations == 0);
+  CHECK(gyrodrift::lag_drift_loglike(big, gyrodrift::DriftModelParams<double>{0.5, 0.0, 1.0, 1.0, 0.0}, ll) ==
+        Fit::non_finite);
+}
+
+TEST_CASE("a model the lags are too short for is reported as truncation") {
+  // AR(1) drift at 0.9 with r/q = 10: the innovation filter's pole is about 0.71, so
+  // rho^32 is about 2e-5, far above 1e-10. The estimate is still returned.
+  const auto y = drift_test::record(0.9, 0.0, 1.0, 10.0, 0.0, 20000, 6);
+  gyrodrift::LagStatistics<double, kLags> st;
+  st.push(y.data(), y.size());
+  const auto fit = gyrodrift::lag_drift_fit<double>(st);
+  CHECK(fit.status == Fit::truncation);
+  CHECK(fit.truncation > 1e-7);
+  CHECK(fit.truncation < 1.0);
+  CHECK(std::fabs(fit.model.a1 + fit.model.a2 - 0.9) < 0.1);
+}
+
+TEST_CASE("a float fit compiles and refuses like the double one") {
+  // The fit's scalar is meant to be double; a float instantiation builds and keeps its
+  // contract (status codes, no crash), whatever its accuracy.
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 1.0, 0.0, 5000, 7);
+  std::vector<float> yf(y.begin(), y.end());
+  gyrodrift::LagStatistics<float, kLags> st;
+  st.push(yf.data(), 40);
+  CHECK(gyrodrift::lag_drift_fit<float>(st).status == Fit::too_few_samples);
+  st.push(yf.data() + 40, yf.size() - 40);
+  const auto fit = gyrodrift::lag_drift_fit<float>(st);
+  CHECK(fit.status != Fit::too_few_samples);
+  CHECK(fit.evaluations > 0);
+}
+
+TEST_CASE("no allocation during a fit") {
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 1.0, 0.0, 20000, 4);
+  std::vector<float> yf(y.begin(), y.end());
+  gyrodrift::LagStatistics<float, kLags> st;
+  st.push(yf.data(), yf.size());
+  gyrodrift::test::AllocationScope scope;
+  const auto fit = gyrodrift::lag_drift_fit<double>(st);
+  double ll = 0.0;
+  const Fit ls = gyrodrift::lag_drift_loglike(st, fit.model, ll, gyrodrift::LagLikelihoodKind::whittle);
+  const long allocations = scope.allocations();
+  CHECK(fit.status != Fit::non_finite);
+  CHECK(ls == Fit::ok);
+  CHECK(allocations == 0);
+}

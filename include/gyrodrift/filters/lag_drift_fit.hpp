@@ -1,0 +1,665 @@
+// The drift model "AR(2) drift + white noise" (drift_likelihood.hpp, the offline fit
+// gyrodrift.filters.fit_drift_model) fitted from the whole-record lag statistics a target keeps
+// while streaming (lag_statistics.hpp): the exact log-likelihood from the statistics, its
+// profile over the mean and the common scale of q and r, and its maximisation. The equations
+// and the algorithm are those of the numpy reference gyrodrift.reference.lag_drift
+// (lag_loglike, lag_drift_fit; docs/validation/online-identification.md, "Whole-record
+// statistics"), which the tests hold this header to.
+//
+// Model: x_t = a1 x_{t-1} + a2 x_{t-2} + w_t (var q), y_t = mean + x_t + v_t (var r).
+// Statistics (lag_statistics.hpp): n, c, sum w, P_0..P_L, the first and the last L values of
+// w = y - c. With z = y - mean = w - d (d = mean - c) and the lag sums
+//   S_k = P_k - d lin_k + (n - k) d^2,   lin_k = 2 sum w - sum_{t<k} w_t - sum_{t>=n-k} w_t,
+// the log-likelihood is
+//   log L = -(n log 2 pi + log det + Q) / 2,   Q = v M v^T, v = (1, -d),
+// a quadratic form in the mean with the 2 x 2 matrix M built from:
+//   - the Kalman filter (prediction form, stationary start) over the first L samples: its
+//     innovation variances F_t, and the innovations of the first L values of w and of the
+//     constant 1 (the innovations are linear in z): sum e e^T / F;
+//   - from t = L on the steady-state filter (Riccati recursion continued until F changes by
+//     at most 1e-15 relative, sigma^2 its F): the innovations are e_t = sum_{j<=L} pi_j z_{t-j}
+//     (pi its impulse response), whose squares over t = L..n-1 sum to
+//     sum_k g_k S_k / sigma^2 (g_0 = sum pi_j^2, g_k = 2 sum pi_j pi_{j+k}) minus the squares
+//     of the zero-padded convolution pi * z at t = 0..L-1 (first samples) and t = n..n+L-1
+//     (last samples);
+//   - log det = sum_{t<L} log F_t + (n - L) log sigma^2.
+// Exact up to terms of order rho^L per sample, rho the pole modulus of the steady-state
+// innovation filter (the fit reports rho^L of its estimate as `truncation`). The "whittle" kind keeps only the steady part:
+// log det = n log sigma^2, M from sum_k g_k S_k / sigma^2 (Whittle's approximation truncated at L).
+//
+// Profile: scaling q and r by s scales every F and sigma^2 by s, and Q is quadratic in d, so
+// for a1, a2 and the split lam = q / (q + r) the maximum over the mean and the scale is in
+// closed form: d = M01 / M11, s = (M00 - M01 d) / n (M at q = lam, r = 1 - lam),
+//   log L = -(n log 2 pi + log det + n log s + n) / 2.
+//
+// Fit (lag_drift_fit; the reference's algorithm, with its own maximiser):
+//   - parameters u = (u1, u2, u3): a2 = tanh u2, a1 = tanh u1 (1 - a2) (every u is
+//     stationary, as in fit_drift_model), lam = 1 / (1 + exp(-u3)); f(u) = -log L / n (the
+//     profile; +inf where it is not finite);
+//   - a grid of 48 starts: partial autocorrelations (-0.5, 0.3, 0.7, 0.95) x
+//     (-0.3, -0.05, 0.05, 0.3), splits (0.2, 0.5, 0.8); the two best on each side of a2 = 0
+//     (ties: the earlier in grid order) are each maximised;
+//   - next to a2 = 0 the likelihood can have a maximum on each side, and the side a run ends
+//     on is set by its start's split as much as by its a2: when every run ends on the side of
+//     the best one, f is minimised over (u1, u3) with u2 held at the mirror of the best one's,
+//     then over all three from there, and the better of the two ends is kept;
+//   - maximiser: BFGS (Nocedal & Wright 2006, Numerical Optimization, alg. 6.1 with the
+//     initial scaling of eq. 6.20), central-difference gradients (step 1e-5 max(1, |u_i|):
+//     rounding and truncation errors about 1e-9 of f's per-sample scale each), a
+//     backtracking line search with Armijo's condition (c1 = 1e-4, steps interpolated
+//     quadratically within [0.1, 0.5] of the last one) and steps no longer than 1 in any u.
+//     A run stops when the predicted gain of the next step, n g^T H g / 2 in log-likelihood
+//     units (H the inverse-Hessian estimate), is at most 1e-8: converged; when the line
+//     search finds no decrease (the precision of f is reached): converged if that gain is at
+//     most 1e-5; after kLagDriftMaxIterations iterations: not converged.
+// Status: too_few_samples below lag_drift_min_samples (2 L + 2) samples; non_finite for
+// statistics that are not finite (or a fit that is not); not_converged when the best run did
+// not converge; truncation when rho^L of the fit exceeds kLagDriftTruncationTol (L too short
+// for this model: the neglected terms are not negligible). The estimate is set for ok,
+// not_converged and truncation.
+//
+// Work: one likelihood evaluation is about 6000 flops at L = 32 (the impulse response and its
+// autocorrelation, the Kalman filter over the first samples, the Riccati recursion to the
+// steady state, the two end convolutions); a fit takes 600 to 900 evaluations on realistic
+// records (evaluations of the result): about 1.3 ms on a desktop core, 3.5e8 instructions in
+// software double on a Cortex-M4F with about 3 KB of stack (cpp/cortex_m/use_lag_drift_fit.cpp;
+// docs/validation/online-identification.md). Memory: the statistics are read in place (a
+// float pair as Scalar(sum) + Scalar(comp), the first and the last L values of w copied
+// once); working state on the stack, about 3 L + 50 Scalars, no heap, no exceptions. The
+// statistics must not change during a fit (a target that pushes on while it fits runs the
+// fit on a copy).
+// Scalar is the fit's precision: double. The likelihood must resolve differences of 0.1 on a
+// value of order n (1e-7 relative at 10^6 samples), below float's resolution; a float
+// instantiation compiles but cannot be relied on.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+
+#include "ar2_model.hpp"
+#include "drift_likelihood.hpp"
+#include "lag_statistics.hpp"
+
+namespace gyrodrift {
+
+enum class LagLikelihoodKind : std::uint8_t {
+  exact = 0,    // the exact Gaussian likelihood up to terms of order rho^L
+  whittle = 1,  // Whittle's approximation truncated at L
+};
+
+enum class LagDriftFitStatus : std::uint8_t {
+  ok = 0,
+  too_few_samples,  // fewer than lag_drift_min_samples(L) samples
+  truncation,       // rho^L of the fit above kLagDriftTruncationTol: L too short for this model
+  not_converged,    // the best run hit kLagDriftMaxIterations
+  non_finite,       // NaN or Inf in the statistics or in the fit
+  bad_model,        // (likelihood, profile) parameters outside the model: q < 0, r <= 0, non-stationary
+};
+
+inline const char* to_string(LagDriftFitStatus s) noexcept {
+  switch (s) {
+    case LagDriftFitStatus::ok: return "ok";
+    case LagDriftFitStatus::too_few_samples: return "too few samples";
+    case LagDriftFitStatus::truncation: return "truncation not negligible";
+    case LagDriftFitStatus::not_converged: return "not converged";
+    case LagDriftFitStatus::non_finite: return "non-finite";
+    case LagDriftFitStatus::bad_model: return "bad model";
+  }
+  return "unknown";
+}
+
+// rho^L above which the neglected terms of the likelihood are not negligible (the reference's
+// TRUNCATION_TOL: n rho^L < 2e-3 log-likelihood units at 10 h at 400 Hz).
+inline constexpr double kLagDriftTruncationTol = 1e-10;
+// Largest number of BFGS iterations of one run (a fit makes at most 6 runs).
+inline constexpr std::uint32_t kLagDriftMaxIterations = 200;
+
+// The fewest samples the likelihood is taken from (the reference's minimum): the first L and
+// the last L samples apart, and two of the steady part between them.
+constexpr std::uint64_t lag_drift_min_samples(std::size_t lags) noexcept { return 2U * lags + 2U; }
+
+// The profile at (a1, a2, lam): the log-likelihood maximised over the mean and the scale s,
+// the mean and q = lam s, r = (1 - lam) s there.
+template <class Scalar>
+struct LagDriftProfile {
+  Scalar loglike = Scalar(0);
+  Scalar mean = Scalar(0);
+  Scalar q = Scalar(0);
+  Scalar r = Scalar(0);
+};
+
+template <class Scalar>
+struct LagDriftFitResult {
+  LagDriftFitStatus status = LagDriftFitStatus::non_finite;
+  DriftModelParams<Scalar> model{};  // a1, a2, q, r, mean (0 unless ok, truncation or not_converged)
+  Scalar loglike = Scalar(0);        // of the kind fitted, at the estimate
+  Scalar truncation = Scalar(0);     // rho^L of the estimate
+  std::uint32_t iterations = 0;      // BFGS iterations, all runs
+  std::uint32_t evaluations = 0;     // likelihood evaluations (grid, line searches, gradients)
+  std::uint8_t runs = 0;             // BFGS runs: 4, or 6 with the run across the fold
+};
+
+namespace detail {
+
+// The likelihood's ingredients for one model, from the statistics (see the header comment).
+template <class Scalar, class StatScalar, std::size_t Lags>
+class LagLikelihoodForm {
+ public:
+  using Stats = LagStatistics<StatScalar, Lags>;
+
+  // The first and the last L values of w are read once, in Scalar (the end convolutions read
+  // each L times an evaluation).
+  explicit LagLikelihoodForm(const Stats& st) noexcept : st_(st) {
+    for (std::size_t i = 0; i < Lags; ++i) {
+      head_[i] = static_cast<Scalar>(st.head(i));
+      tail_[i] = static_cast<Scalar>(st.tail(i));
+    }
+  }
+
+  static Scalar value(const typename Stats::Sum& s) noexcept {
+    return static_cast<Scalar>(s.sum) + static_cast<Scalar>(s.comp);
+  }
+
+  // Every statistic finite?
+  bool finite() const noexcept {
+    bool ok = std::isfinite(st_.centre()) && std::isfinite(value(st_.total()));
+    for (std::size_t k = 0; k <= Lags; ++k) ok = ok && std::isfinite(value(st_.product(k)));
+    for (std::size_t i = 0; i < st_.kept(); ++i) ok = ok && std::isfinite(st_.head(i)) && std::isfinite(st_.tail(i));
+    return ok;
+  }
+
+  // log det and M (m00, m01, m11) at (a1, a2, q, r), and the steady gain (k0, k1); false when
+  // the recursion is not finite. The model must be stationary with q >= 0, r > 0.
+  bool build(Scalar a1, Scalar a2, Scalar q, Scalar r, LagLikelihoodKind kind) noexcept {
+    const Scalar n = static_cast<Scalar>(st_.samples());
+    const Scalar zero(0), one(1);
+    Scalar g0, g1;
+    drift_stationary_covariance(a1, a2, q, g0, g1);
+    Scalar p00 = g0, p01 = g1, p11 = g0;
+    // sum_{t<L} log F_t as the log of their product, kept as mantissa * 2^exponent (frexp
+    // after each factor: exact, no overflow), so one log a evaluation instead of L.
+    Scalar prod_f = one;
+    int exp_f = 0;
+    // Innovations of the first L values of w (h) and of the constant 1 (o), over the first
+    // L samples with the time-varying gain; their contribution sum e e^T / F.
+    Scalar xh0 = zero, xh1 = zero, xo0 = zero, xo1 = zero;
+    Scalar ehh = zero, eho = zero, eoo = zero;
+    const Scalar riccati_tol = Scalar(1e-15);
+    const std::size_t max_steps = 64U * Lags + 256U;
+    Scalar f = zero, f_prev = std::numeric_limits<Scalar>::infinity(), k0 = zero, k1 = zero;
+    for (std::size_t t = 0;; ++t) {
+      f = p00 + r;
+      if (!(f > zero) || !std::isfinite(f)) return false;
+      k0 = p00 / f;
+      k1 = p01 / f;
+      if (t < Lags) {
+        int e2 = 0;
+        prod_f = std::frexp(prod_f * f, &e2);
+        exp_f += e2;
+        const Scalar eh = head_[t] - xh0;
+        const Scalar eo = one - xo0;
+        ehh += eh * eh / f;
+        eho += eh * eo / f;
+        eoo += eo * eo / f;
+        const Scalar uh0 = xh0 + k0 * eh, uh1 = xh1 + k1 * eh;
+        xh0 = a1 * uh0 + a2 * uh1;
+        xh1 = uh0;
+        const Scalar uo0 = xo0 + k0 * eo, uo1 = xo1 + k1 * eo;
+        xo0 = a1 * uo0 + a2 * uo1;
+        xo1 = uo0;
+      } else if (std::fabs(f - f_prev) <= riccati_tol * f || t >= max_steps) {
+        break;
+      }
+      f_prev = f;
+      // Filtered covariance P - K H P, then predicted A P A^T + Q.
+      const Scalar u00 = p00 - k0 * p00, u01 = p01 - k0 * p01, u11 = p11 - k1 * p01;
+      p00 = a1 * a1 * u00 + Scalar(2) * a1 * a2 * u01 + a2 * a2 * u11 + q;
+      p01 = a1 * u00 + a2 * u01;
+      p11 = u00;
+    }
+    const Scalar s2 = f;
+    k0_ = k0;
+    k1_ = k1;
+    // Impulse response of the steady-state innovation filter.
+    Scalar x0 = zero, x1 = zero;
+    for (std::size_t t = 0; t <= Lags; ++t) {
+      const Scalar e = (t == 0 ? one : zero) - x0;
+      pi_[t] = e;
+      const Scalar u0 = x0 + k0 * e, u1 = x1 + k1 * e;
+      x0 = a1 * u0 + a2 * u1;
+      x1 = u0;
+    }
+    // sum_k g_k (P_k, lin_k, n - k) with the running sums of the first and the last values.
+    Scalar sp = zero, sl = zero, sn = zero;
+    const Scalar total2 = Scalar(2) * value(st_.total());
+    Scalar head_cum = zero, tail_cum = zero;
+    for (std::size_t k = 0; k <= Lags; ++k) {
+      Scalar g = zero;
+      for (std::size_t j = 0; j + k <= Lags; ++j) g += pi_[j] * pi_[j + k];
+      if (k > 0) {
+        g *= Scalar(2);
+        head_cum += head_[k - 1];
+        tail_cum += tail_[Lags - k];
+      }
+      sp += value(st_.product(k)) * g;
+      sl += (total2 - head_cum - tail_cum) * g;
+      sn += (n - static_cast<Scalar>(k)) * g;
+    }
+    m00_ = sp / s2;
+    m01_ = Scalar(0.5) * sl / s2;
+    m11_ = sn / s2;
+    if (kind == LagLikelihoodKind::whittle) {
+      log_det_ = n * std::log(s2);
+      return std::isfinite(log_det_) && std::isfinite(m00_) && std::isfinite(m01_) && std::isfinite(m11_);
+    }
+    // The zero-padded convolution pi * z at t = 0..L-1 (first samples) and t = n..n+L-1
+    // (last samples, ct_s = sum_{j>s} pi_j tail_{L+s-j}), of w and of the constant 1 (whose
+    // convolutions are the partial sums of pi).
+    Scalar pi_total = zero;
+    for (std::size_t j = 0; j <= Lags; ++j) pi_total += pi_[j];
+    Scalar chh = zero, cho = zero, coo = zero, co = zero;
+    for (std::size_t t = 0; t < Lags; ++t) {
+      Scalar ch = zero;
+      for (std::size_t j = 0; j <= t; ++j) ch += pi_[j] * head_[t - j];
+      co += pi_[t];
+      chh += ch * ch;
+      cho += ch * co;
+      coo += co * co;
+      Scalar ct = zero;
+      for (std::size_t j = t + 1; j <= Lags; ++j) ct += pi_[j] * tail_[Lags + t - j];
+      const Scalar cto = pi_total - co;
+      chh += ct * ct;
+      cho += ct * cto;
+      coo += cto * cto;
+    }
+    m00_ += ehh - chh / s2;
+    m01_ += eho - cho / s2;
+    m11_ += eoo - coo / s2;
+    const Scalar sum_log_f = std::log(prod_f) + static_cast<Scalar>(exp_f) * ln2();
+    log_det_ = sum_log_f + (n - static_cast<Scalar>(Lags)) * std::log(s2);
+    return std::isfinite(log_det_) && std::isfinite(m00_) && std::isfinite(m01_) && std::isfinite(m11_);
+  }
+
+  // After build(): log L at d = mean - c.
+  Scalar loglike(Scalar d) const noexcept {
+    const Scalar n = static_cast<Scalar>(st_.samples());
+    const Scalar q = m00_ - Scalar(2) * d * m01_ + d * d * m11_;
+    return Scalar(-0.5) * (n * log_2pi() + log_det_ + q);
+  }
+
+  // After build() at (q, r) = (lam, 1 - lam): the profile; false when it is not finite.
+  bool profile(Scalar lam, LagDriftProfile<Scalar>& out) const noexcept {
+    const Scalar n = static_cast<Scalar>(st_.samples());
+    if (!(m11_ > Scalar(0))) return false;
+    const Scalar d = m01_ / m11_;
+    const Scalar scale = (m00_ - m01_ * d) / n;
+    if (!(scale > Scalar(0)) || !std::isfinite(scale)) return false;
+    out.loglike = Scalar(-0.5) * (n * log_2pi() + log_det_ + n * std::log(scale) + n);
+    out.mean = static_cast<Scalar>(st_.centre()) + d;
+    out.q = lam * scale;
+    out.r = (Scalar(1) - lam) * scale;
+    return std::isfinite(out.loglike) && std::isfinite(out.mean);
+  }
+
+  // After build(): the pole modulus rho of the steady-state innovation filter, the larger
+  // eigenvalue modulus of A (I - K H) = [[a1 (1 - k0) - a2 k1, a2], [1 - k0, 0]].
+  Scalar pole(Scalar a1, Scalar a2) const noexcept {
+    const Scalar tr = a1 * (Scalar(1) - k0_) - a2 * k1_;
+    const Scalar bc = a2 * (Scalar(1) - k0_);  // lambda^2 - tr lambda - bc = 0
+    const Scalar disc = Scalar(0.25) * tr * tr + bc;
+    if (disc >= Scalar(0)) return Scalar(0.5) * std::fabs(tr) + std::sqrt(disc);
+    return std::sqrt(-bc);
+  }
+
+  const Stats& stats() const noexcept { return st_; }
+
+ private:
+  static Scalar log_2pi() noexcept { return Scalar(1.8378770664093454835606594728112353L); }
+  static Scalar ln2() noexcept { return Scalar(0.6931471805599453094172321214581765681L); }
+
+  const Stats& st_;
+  Scalar head_[Lags] = {}, tail_[Lags] = {};
+  Scalar pi_[Lags + 1] = {};
+  Scalar log_det_ = Scalar(0), m00_ = Scalar(0), m01_ = Scalar(0), m11_ = Scalar(0);
+  Scalar k0_ = Scalar(0), k1_ = Scalar(0);
+};
+
+template <class Scalar>
+inline void lag_natural(const Scalar* u, Scalar& a1, Scalar& a2, Scalar& lam) noexcept {
+  a2 = std::tanh(u[1]);
+  a1 = std::tanh(u[0]) * (Scalar(1) - a2);
+  lam = Scalar(1) / (Scalar(1) + std::exp(-u[2]));
+}
+
+// f(u) = -(profile log-likelihood) / n, +inf where it is not finite; counts evaluations.
+template <class Scalar, class StatScalar, std::size_t Lags>
+class LagFitObjective {
+ public:
+  LagFitObjective(const LagStatistics<StatScalar, Lags>& st, LagLikelihoodKind kind) noexcept
+      : form_(st), kind_(kind) {}
+
+  Scalar operator()(const Scalar* u) noexcept {
+    Scalar a1, a2, lam;
+    lag_natural(u, a1, a2, lam);
+    if (!(lam > Scalar(0) && lam < Scalar(1)) || !ar2_is_stationary(a1, a2)) {
+      return std::numeric_limits<Scalar>::infinity();
+    }
+    ++evaluations_;
+    LagDriftProfile<Scalar> p;
+    if (!form_.build(a1, a2, lam, Scalar(1) - lam, kind_) || !form_.profile(lam, p)) {
+      return std::numeric_limits<Scalar>::infinity();
+    }
+    return -p.loglike / static_cast<Scalar>(form_.stats().samples());
+  }
+
+  LagLikelihoodForm<Scalar, StatScalar, Lags>& form() noexcept { return form_; }
+  std::uint32_t evaluations() const noexcept { return evaluations_; }
+  Scalar samples() const noexcept { return static_cast<Scalar>(form_.stats().samples()); }
+
+ private:
+  LagLikelihoodForm<Scalar, StatScalar, Lags> form_;
+  LagLikelihoodKind kind_;
+  std::uint32_t evaluations_ = 0;
+};
+
+template <class Scalar>
+struct BfgsRun {
+  Scalar u[3] = {Scalar(0), Scalar(0), Scalar(0)};
+  Scalar f = std::numeric_limits<Scalar>::infinity();
+  std::uint32_t iterations = 0;
+  bool converged = false;
+};
+
+// BFGS over the D coordinates of u listed in free_idx (the others held), from u0; objective
+// per sample, its n = samples (the stopping rule is in log-likelihood units).
+template <std::size_t D, class Scalar, class Objective>
+BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_idx)[D]) noexcept {
+  BfgsRun<Scalar> run;
+  for (int i = 0; i < 3; ++i) run.u[i] = u0[i];
+  const Scalar n = obj.samples();
+  const Scalar fd_step = Scalar(1e-5), armijo = Scalar(1e-4), gain_tol = Scalar(1e-8), stall_tol = Scalar(1e-5),
+               max_step = Scalar(1);
+  Scalar u[3] = {u0[0], u0[1], u0[2]};
+  auto gradient = [&](Scalar* g) noexcept {
+    bool ok = true;
+    for (std::size_t i = 0; i < D; ++i) {
+      const std::size_t c = free_idx[i];
+      const Scalar keep = u[c];
+      const Scalar h = fd_step * (std::fabs(keep) > Scalar(1) ? std::fabs(keep) : Scalar(1));
+      u[c] = keep + h;
+      const Scalar fp = obj(u);
+      u[c] = keep - h;
+      const Scalar fm = obj(u);
+      u[c] = keep;
+      g[i] = (fp - fm) / (Scalar(2) * h);
+      ok = ok && std::isfinite(g[i]);
+    }
+    return ok;
+  };
+  Scalar f = obj(u);
+  run.f = f;
+  Scalar g[D] = {}, h[D][D] = {};
+  if (!std::isfinite(f) || !gradient(g)) return run;
+  for (std::size_t i = 0; i < D; ++i)
+    for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? Scalar(1) : Scalar(0);
+  bool scaled = false;
+  for (; run.iterations < kLagDriftMaxIterations; ++run.iterations) {
+    Scalar p[D];
+    Scalar slope = Scalar(0), gain = Scalar(0);
+    for (std::size_t i = 0; i < D; ++i) {
+      Scalar v = Scalar(0);
+      for (std::size_t j = 0; j < D; ++j) v += h[i][j] * g[j];
+      p[i] = -v;
+      slope += g[i] * p[i];
+    }
+    gain = Scalar(-0.5) * n * slope;  // n g^T H g / 2
+    if (!(slope < Scalar(0))) {
+      // Not a descent direction (H lost positive definiteness to rounding): restart.
+      for (std::size_t i = 0; i < D; ++i) {
+        for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? Scalar(1) : Scalar(0);
+        p[i] = -g[i];
+      }
+      scaled = false;
+      slope = Scalar(0);
+      for (std::size_t i = 0; i < D; ++i) slope += g[i] * p[i];
+      gain = Scalar(-0.5) * n * slope;
+      if (!(slope < Scalar(0))) {
+        run.converged = true;  // zero gradient
+        break;
+      }
+    }
+    if (gain <= gain_tol) {
+      run.converged = true;
+      break;
+    }
+    Scalar longest = Scalar(0);
+    for (std::size_t i = 0; i < D; ++i) longest = std::fabs(p[i]) > longest ? std::fabs(p[i]) : longest;
+    if (longest > max_step) {
+      const Scalar shrink = max_step / longest;
+      for (std::size_t i = 0; i < D; ++i) p[i] *= shrink;
+      slope *= shrink;
+    }
+    // Backtracking line search (Armijo), quadratic interpolation within [0.1, 0.5].
+    Scalar alpha = Scalar(1), f_new = f;
+    Scalar u_new[3] = {u[0], u[1], u[2]};
+    bool accepted = false;
+    for (int trial = 0; trial < 40; ++trial) {
+      for (std::size_t i = 0; i < D; ++i) u_new[free_idx[i]] = u[free_idx[i]] + alpha * p[i];
+      f_new = obj(u_new);
+      if (std::isfinite(f_new) && f_new <= f + armijo * alpha * slope) {
+        accepted = true;
+        break;
+      }
+      Scalar next = Scalar(0.1) * alpha;
+      if (std::isfinite(f_new)) {
+        const Scalar denom = Scalar(2) * (f_new - f - slope * alpha);
+        if (denom > Scalar(0)) {
+          const Scalar aq = -slope * alpha * alpha / denom;
+          next = aq < Scalar(0.1) * alpha ? Scalar(0.1) * alpha : (aq > Scalar(0.5) * alpha ? Scalar(0.5) * alpha : aq);
+        }
+      }
+      alpha = next;
+    }
+    if (!accepted || !(f_new < f)) {
+      run.converged = gain <= stall_tol;  // no decrease left within f's precision
+      break;
+    }
+    Scalar s[D] = {}, y[D] = {}, g_new[D] = {};
+    Scalar keep_u[3] = {u[0], u[1], u[2]};
+    for (int i = 0; i < 3; ++i) u[i] = u_new[i];
+    if (!gradient(g_new)) {
+      for (int i = 0; i < 3; ++i) u[i] = keep_u[i];
+      break;
+    }
+    Scalar sy = Scalar(0), yy = Scalar(0), ss = Scalar(0);
+    for (std::size_t i = 0; i < D; ++i) {
+      s[i] = alpha * p[i];
+      y[i] = g_new[i] - g[i];
+      sy += s[i] * y[i];
+      yy += y[i] * y[i];
+      ss += s[i] * s[i];
+      g[i] = g_new[i];
+    }
+    f = f_new;
+    // Curvature condition; skip the update when it fails (Nocedal & Wright, sec. 6.1).
+    if (sy > std::sqrt(std::numeric_limits<Scalar>::epsilon() * ss * yy) && sy > Scalar(0)) {
+      if (!scaled) {
+        const Scalar gamma = sy / yy;  // eq. 6.20
+        for (std::size_t i = 0; i < D; ++i)
+          for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? gamma : Scalar(0);
+        scaled = true;
+      }
+      // H' = (I - rho s y^T) H (I - rho y s^T) + rho s s^T, rho = 1 / y^T s.
+      const Scalar rho = Scalar(1) / sy;
+      Scalar hy[D];
+      Scalar yhy = Scalar(0);
+      for (std::size_t i = 0; i < D; ++i) {
+        Scalar v = Scalar(0);
+        for (std::size_t j = 0; j < D; ++j) v += h[i][j] * y[j];
+        hy[i] = v;
+        yhy += y[i] * v;
+      }
+      for (std::size_t i = 0; i < D; ++i) {
+        for (std::size_t j = 0; j < D; ++j) {
+          h[i][j] += -rho * (hy[i] * s[j] + s[i] * hy[j]) + (rho * rho * yhy + rho) * s[i] * s[j];
+        }
+      }
+    }
+  }
+  for (int i = 0; i < 3; ++i) run.u[i] = u[i];
+  run.f = f;
+  return run;
+}
+
+template <class Scalar>
+inline int sign_of(Scalar v) noexcept {
+  return v > Scalar(0) ? 1 : (v < Scalar(0) ? -1 : 0);
+}
+
+}  // namespace detail
+
+// Log-likelihood of the model p from the statistics (kind exact or whittle). ok, or
+// too_few_samples (n < lag_drift_min_samples), non_finite (statistics, parameters or the
+// recursion), bad_model (q < 0, r <= 0 or non-stationary); `loglike` is only written on ok.
+// r = 0 is refused: the steady-state filter of a noise-free drift is not defined by the
+// statistics' recursion here.
+template <class Scalar, class StatScalar, std::size_t Lags>
+LagDriftFitStatus lag_drift_loglike(const LagStatistics<StatScalar, Lags>& st, const DriftModelParams<Scalar>& p,
+                                    Scalar& loglike, LagLikelihoodKind kind = LagLikelihoodKind::exact) noexcept {
+  if (st.samples() < lag_drift_min_samples(Lags)) return LagDriftFitStatus::too_few_samples;
+  const Ar2Status ps = drift_params_status(p);
+  if (ps == Ar2Status::non_finite) return LagDriftFitStatus::non_finite;
+  if (ps != Ar2Status::ok || !(p.r > Scalar(0))) return LagDriftFitStatus::bad_model;
+  detail::LagLikelihoodForm<Scalar, StatScalar, Lags> form(st);
+  if (!form.finite() || !form.build(p.a1, p.a2, p.q, p.r, kind)) return LagDriftFitStatus::non_finite;
+  const Scalar v = form.loglike(p.mean - static_cast<Scalar>(st.centre()));
+  if (!std::isfinite(v)) return LagDriftFitStatus::non_finite;
+  loglike = v;
+  return LagDriftFitStatus::ok;
+}
+
+// The profile log-likelihood at (a1, a2, lam = q / (q + r), 0 < lam < 1): maximised over the
+// mean and the common scale of q and r (header comment). Statuses as lag_drift_loglike;
+// `out` is only written on ok.
+template <class Scalar, class StatScalar, std::size_t Lags>
+LagDriftFitStatus lag_drift_profile(const LagStatistics<StatScalar, Lags>& st, Scalar a1, Scalar a2, Scalar lam,
+                                    LagDriftProfile<Scalar>& out,
+                                    LagLikelihoodKind kind = LagLikelihoodKind::exact) noexcept {
+  if (st.samples() < lag_drift_min_samples(Lags)) return LagDriftFitStatus::too_few_samples;
+  if (!std::isfinite(a1) || !std::isfinite(a2) || !std::isfinite(lam)) return LagDriftFitStatus::non_finite;
+  if (!(lam > Scalar(0) && lam < Scalar(1)) || !ar2_is_stationary(a1, a2)) return LagDriftFitStatus::bad_model;
+  detail::LagLikelihoodForm<Scalar, StatScalar, Lags> form(st);
+  LagDriftProfile<Scalar> p;
+  if (!form.finite() || !form.build(a1, a2, lam, Scalar(1) - lam, kind) || !form.profile(lam, p)) {
+    return LagDriftFitStatus::non_finite;
+  }
+  out = p;
+  return LagDriftFitStatus::ok;
+}
+
+// Maximises the profile log-likelihood from the statistics (header comment: the grid, the two
+// best starts on each side of a2 = 0, BFGS, the run across the fold).
+template <class Scalar, class StatScalar, std::size_t Lags>
+LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags>& st,
+                                        LagLikelihoodKind kind = LagLikelihoodKind::exact) noexcept {
+  LagDriftFitResult<Scalar> res;
+  if (st.samples() < lag_drift_min_samples(Lags)) {
+    res.status = LagDriftFitStatus::too_few_samples;
+    return res;
+  }
+  detail::LagFitObjective<Scalar, StatScalar, Lags> obj(st, kind);
+  if (!obj.form().finite()) {
+    res.status = LagDriftFitStatus::non_finite;
+    return res;
+  }
+  // The grid, in the reference's order; the two best starts on each side of a2 = 0 (the
+  // earlier one wins a tie, as a stable sort).
+  const Scalar pacf1[4] = {Scalar(-0.5), Scalar(0.3), Scalar(0.7), Scalar(0.95)};
+  const Scalar pacf2[4] = {Scalar(-0.3), Scalar(-0.05), Scalar(0.05), Scalar(0.3)};
+  const Scalar split[3] = {Scalar(0.2), Scalar(0.5), Scalar(0.8)};
+  Scalar best_u[2][2][3] = {};  // [side: a2 < 0, a2 > 0][rank][u]
+  Scalar best_f[2][2] = {};
+  bool have[2][2] = {{false, false}, {false, false}};
+  for (const Scalar p1 : pacf1) {
+    for (const Scalar p2 : pacf2) {
+      for (const Scalar lam : split) {
+        // atanh p = log((1 + p) / (1 - p)) / 2 (one log routine for the whole fit)
+        const Scalar u[3] = {Scalar(0.5) * std::log((Scalar(1) + p1) / (Scalar(1) - p1)),
+                             Scalar(0.5) * std::log((Scalar(1) + p2) / (Scalar(1) - p2)),
+                             std::log(lam / (Scalar(1) - lam))};
+        const Scalar f = obj(u);
+        const int side = p2 > Scalar(0) ? 1 : 0;
+        int rank = -1;
+        if (!have[side][0] || f < best_f[side][0]) {
+          rank = 0;
+        } else if (!have[side][1] || f < best_f[side][1]) {
+          rank = 1;
+        }
+        if (rank == 0 && have[side][0]) {
+          for (int i = 0; i < 3; ++i) best_u[side][1][i] = best_u[side][0][i];
+          best_f[side][1] = best_f[side][0];
+          have[side][1] = true;
+        }
+        if (rank >= 0) {
+          for (int i = 0; i < 3; ++i) best_u[side][rank][i] = u[i];
+          best_f[side][rank] = f;
+          have[side][rank] = true;
+        }
+      }
+    }
+  }
+  const std::size_t all3[3] = {0, 1, 2};
+  detail::BfgsRun<Scalar> modes[4];
+  int best = 0;
+  for (int m = 0; m < 4; ++m) {
+    modes[m] = detail::bfgs<3>(obj, best_u[m / 2][m % 2], all3);
+    res.iterations += modes[m].iterations;
+    if (modes[m].f < modes[best].f) best = m;
+  }
+  res.runs = 4;
+  detail::BfgsRun<Scalar> chosen = modes[best];
+  bool one_side = true;
+  for (const auto& m : modes) one_side = one_side && detail::sign_of(m.u[1]) == detail::sign_of(chosen.u[1]);
+  if (one_side) {
+    // Across the fold: (u1, u3) with u2 at the mirror of the best one's, then all three.
+    const Scalar start[3] = {chosen.u[0], -chosen.u[1], chosen.u[2]};
+    const std::size_t two[2] = {0, 2};
+    const detail::BfgsRun<Scalar> side = detail::bfgs<2>(obj, start, two);
+    const detail::BfgsRun<Scalar> other = detail::bfgs<3>(obj, side.u, all3);
+    res.iterations += side.iterations + other.iterations;
+    res.runs = 6;
+    if (other.f < chosen.f) chosen = other;
+  }
+  Scalar a1, a2, lam;
+  detail::lag_natural(chosen.u, a1, a2, lam);
+  LagDriftProfile<Scalar> p;
+  auto& form = obj.form();
+  const bool ok = std::isfinite(chosen.f) && ar2_is_stationary(a1, a2) && lam > Scalar(0) && lam < Scalar(1) &&
+                  form.build(a1, a2, lam, Scalar(1) - lam, kind) && form.profile(lam, p);
+  res.evaluations = obj.evaluations() + 1U;
+  if (!ok) {
+    res.status = LagDriftFitStatus::non_finite;
+    return res;
+  }
+  res.model = DriftModelParams<Scalar>{a1, a2, p.q, p.r, p.mean};
+  res.loglike = p.loglike;
+  // rho^L by squaring (no pow routine on the target)
+  Scalar power = Scalar(1), base = form.pole(a1, a2);
+  for (std::size_t e = Lags; e > 0; e >>= 1U) {
+    if ((e & 1U) != 0U) power *= base;
+    base *= base;
+  }
+  res.truncation = power;
+  if (!chosen.converged) {
+    res.status = LagDriftFitStatus::not_converged;
+  } else if (!(res.truncation <= static_cast<Scalar>(kLagDriftTruncationTol))) {
+    res.status = LagDriftFitStatus::truncation;
+  } else {
+    res.status = LagDriftFitStatus::ok;
+  }
+  return res;
+}
+
+}  // namespace gyrodrift
