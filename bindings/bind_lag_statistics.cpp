@@ -2,9 +2,10 @@
 // gyrodrift.filters.lag_statistics (part of the drift area), at L = 32 lags:
 //   LagStatistics()      double state, push(float64 array)
 //   LagStatisticsF32()   float state (as on the target), push(float32 array)
-// and without the first values (LagStatisticsNoHead) at L = 12, for Whittle's likelihood
-// without them (the kind whittle_no_head, their fit's default; no `head` attribute):
-//   LagStatisticsNoHead12(), LagStatisticsNoHead12F32()
+// and without the first values (LagStatisticsNoHead) at L = 12 and 8, for Whittle's
+// likelihood without them (the kind whittle_no_head, their fit's default; no `head`):
+//   LagStatisticsNoHead12(), LagStatisticsNoHead12F32(), LagStatisticsNoHead8(),
+//   LagStatisticsNoHead8F32()
 // push(y) runs every sample through the statistics (GIL released, the object's lock held) and
 // returns the number accepted (non-finite samples are refused and counted in `rejected`).
 // The sums are read out in double: hi + lo of the C++ pair sums.
@@ -32,7 +33,6 @@ namespace gyrodrift::py_bindings {
 namespace {
 
 constexpr std::size_t kLags = 32;
-constexpr std::size_t kNoHeadLags = 12;
 
 template <class Scalar, std::size_t Lags, bool KeepHead>
 class LagStatisticsPy {
@@ -186,11 +186,14 @@ void bind_lag_statistics(py::module_& m) {
                                 "push(float64 array).");
   bind_one<float, kLags, true>(m, "LagStatisticsF32",
                                "LagStatistics with float state, as on the target; push(float32 array).");
-  bind_one<double, kNoHeadLags, false>(m, "LagStatisticsNoHead12",
-                                       "Lag statistics without the first values (L = 12), double state; "
-                                       "push(float64 array).");
-  bind_one<float, kNoHeadLags, false>(m, "LagStatisticsNoHead12F32",
-                                      "LagStatisticsNoHead12 with float state, as on the target; push(float32 array).");
+  bind_one<double, 12, false>(m, "LagStatisticsNoHead12",
+                              "Lag statistics without the first values (L = 12), double state; push(float64 array).");
+  bind_one<float, 12, false>(m, "LagStatisticsNoHead12F32",
+                             "LagStatisticsNoHead12 with float state, as on the target; push(float32 array).");
+  bind_one<double, 8, false>(m, "LagStatisticsNoHead8",
+                             "Lag statistics without the first values (L = 8), double state; push(float64 array).");
+  bind_one<float, 8, false>(m, "LagStatisticsNoHead8F32",
+                            "LagStatisticsNoHead8 with float state, as on the target; push(float32 array).");
 }
 
 }  // namespace gyrodrift::py_bindings

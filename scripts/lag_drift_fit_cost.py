@@ -165,7 +165,7 @@ def _gate() -> ModuleType:
 
 def _host_fit(lags: int, no_head: bool, y: np.ndarray) -> tuple[int, int, int, int, int] | None:
     """The same record's fit on this host: (evaluations, iterations, runs, a1 x 1e6,
-    a2 x 1e6), or None where the form is not bound (L = 8 without the first samples)."""
+    a2 x 1e6), or None where the form is not bound."""
     if not no_head:
         st = LagStatistics(dtype=np.float32)
         st.push(y)

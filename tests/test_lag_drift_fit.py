@@ -219,14 +219,16 @@ def test_whittle_no_head_is_the_reference_with_the_mean_as_first_values() -> Non
 def test_no_head_likelihood_equals_the_reference(a1: float, a2: float) -> None:
     """The C++ whittle_no_head log-likelihood equals the reference's on the same statistics,
     to 1e-12 relative (the reasoning of test_likelihood_equals_the_reference): on the bound
-    statistics without the first values (L = 12, double and float state) and on the full
-    ones (L = 32) through the wrapper."""
+    statistics without the first values (L = 12 and 8, double and float state) and on the
+    full ones (L = 32) through the wrapper."""
     y = _record(a1, a2, 3.0, 20000, 3)
     lib = core("drift")
     kind = lib.LagLikelihoodKind.whittle_no_head
     params = ((a1, a2, 1.0, 3.0, 9.7), (0.9, -0.2, 0.5, 4.0, 10.0))
     for cls, dtype in ((lib.LagStatisticsNoHead12, np.float64),
-                       (lib.LagStatisticsNoHead12F32, np.float32)):
+                       (lib.LagStatisticsNoHead12F32, np.float32),
+                       (lib.LagStatisticsNoHead8, np.float64),
+                       (lib.LagStatisticsNoHead8F32, np.float32)):
         bound = cls()
         bound.push(y.astype(dtype))
         assert not hasattr(bound, "head")
