@@ -20,14 +20,20 @@ double ones). Prints:
 Cortex-M4 (cpp/cortex_m/use_lag_drift_fit.cpp, built and checked as the gate builds it, then
 run on QEMU netduinoplus2 with -icount shift=0, one instruction per virtual ns): the unit's
 float statistics of a simulated 60000-sample record, one fit in double, timed by SysTick on the
-reference clock and calibrated by a loop of known length. Prints the fit's instructions, its
-evaluations, the unit's stack high-water mark, flash and RAM, the same record's fit on this
-host (MCU against host: the evaluations and a1, a2 to 1e-6), and the time one fit takes when
-spread over the spare instructions of 400 Hz loop steps (budget 14000 a step; the three-gyro
-monitor image's median step 4619 and worst step 10488, docs/validation/monitor-firmware.md).
+reference clock and calibrated by a loop of known length. For each form: the gate's (L = 32,
+the first samples kept, the exact likelihood) and the statistics without the first samples
+at L = 12 and L = 8 with Whittle's likelihood without them (the unit built with
+-DGYRODRIFT_LAG_FIT_LAGS=L -DGYRODRIFT_LAG_FIT_NO_HEAD=1). Prints the fit's instructions, its
+evaluations, the statistics' sizeof on the M4, the fit's own stack (the free stack painted
+again before the fit), the unit's stack high-water mark, flash and RAM, the same record's fit
+on this host where the form is bound (MCU against host: the evaluations and a1, a2 to 1e-6),
+and the time one fit takes when spread over the spare instructions of 400 Hz loop steps
+(budget 14000 a step; the three-gyro monitor image's median step 4619 and worst step 10488,
+docs/validation/monitor-firmware.md).
 
     python scripts/lag_drift_fit_cost.py              # the docs run
     python scripts/lag_drift_fit_cost.py --no-m4      # host only
+    python scripts/lag_drift_fit_cost.py --no-host    # Cortex-M4 only
 """
 
 from __future__ import annotations
@@ -46,6 +52,7 @@ from types import ModuleType
 
 import gyrodrift
 import numpy as np
+from gyrodrift._native import core
 from gyrodrift.filters import LagStatistics, lag_drift_fit, lag_drift_loglike
 from gyrodrift.reference.lag_drift import lag_drift_fit as reference_fit
 from gyrodrift.reference.lag_drift import lag_loglike
@@ -65,7 +72,10 @@ RATE_HZ = 400.0
 FIT_LINE = re.compile(r"lag-drift-fit status=(?P<status>\d+) evaluations=(?P<ev>\d+) "
                       r"iterations=(?P<it>\d+) runs=(?P<runs>\d+) systick=(?P<counts>-?\d+) "
                       r"calibration=(?P<cal>-?\d+) turns=(?P<turns>\d+) a1_e6=(?P<a1>-?\d+) "
-                      r"a2_e6=(?P<a2>-?\d+)")
+                      r"a2_e6=(?P<a2>-?\d+) lags=(?P<lags>\d+) no_head=(?P<no_head>\d) "
+                      r"state_bytes=(?P<state>\d+) fit_stack=(?P<fit_stack>-?\d+)")
+# (L, without the first samples): the gate's form, then the compact ones.
+M4_FORMS = ((32, False), (12, True), (8, True))
 
 
 def record(a1: float, a2: float, ratio: float, n: int, seed: int) -> np.ndarray:
@@ -153,52 +163,77 @@ def _gate() -> ModuleType:
     return mod
 
 
+def _host_fit(lags: int, no_head: bool, y: np.ndarray) -> tuple[int, int, int, int, int] | None:
+    """The same record's fit on this host: (evaluations, iterations, runs, a1 x 1e6,
+    a2 x 1e6), or None where the form is not bound."""
+    if not no_head:
+        st = LagStatistics(dtype=np.float32)
+        st.push(y)
+        fit = lag_drift_fit(st)
+        return fit.evaluations, fit.iterations, fit.runs, int(fit.a1 * 1e6), int(fit.a2 * 1e6)
+    lib = core("drift")
+    cls = getattr(lib, f"LagStatisticsNoHead{lags}F32", None)
+    if cls is None:
+        return None
+    bound = cls()
+    bound.push(y)
+    out = lib.lag_drift_fit(bound)
+    return int(out[9]), int(out[8]), int(out[10]), int(out[1] * 1e6), int(out[2] * 1e6)
+
+
 def m4() -> None:
     gate = _gate()
-    work = Path(tempfile.mkdtemp(prefix="lag_fit_m4_"))
-    unit = gate.build_unit(gate.CM_DIR / "use_lag_drift_fit.cpp", work)
-    if not unit.ok:
-        raise SystemExit(f"the unit failed the gate: {unit.reasons}\n{unit.log}")
-    elf = work / "use_lag_drift_fit.elf"
-    t0 = time.monotonic()
-    proc = subprocess.run(
-        [gate.toolchain()["qemu"], "-M", gate.QEMU_MACHINE, "-nographic", "-monitor", "none",
-         "-serial", "none", "-semihosting-config", "enable=on,target=native",
-         "-icount", "shift=0", "-kernel", str(elf)],
-        capture_output=True, text=True, timeout=600, check=False, cwd=work)
-    wall = time.monotonic() - t0
-    out = proc.stdout + proc.stderr
-    m, rep = FIT_LINE.search(out), gate.REPORT_LINE.search(out)
-    if m is None or rep is None or int(m["counts"]) < 0 or int(m["cal"]) <= 0:
-        raise SystemExit(f"no valid measurement in the unit's output:\n{out}")
-    per_count = 2 * int(m["turns"]) / int(m["cal"])
-    instructions = int(m["counts"]) * per_count
-    evals = int(m["ev"])
-    print(f"Cortex-M4 (QEMU {gate.QEMU_MACHINE}, -icount shift=0, {wall:.1f} s wall): status "
-          f"{m['status']}, {evals} evaluations, {m['it']} iterations, {m['runs']} runs")
-    print(f"  instructions per fit: {instructions:.4g} ({instructions / evals:.3g} an "
-          f"evaluation); SysTick {m['counts']} counts at {per_count:.3f} instructions a count")
-    print(f"  unit: stack high-water {int(rep['stack'], 16)} B (largest frame "
-          f"{unit.max_frame_bytes} B), flash {unit.flash_bytes} B, RAM {unit.ram_bytes} B")
-    st = LagStatistics(dtype=np.float32)
-    st.push(unit_record())
-    fit = lag_drift_fit(st)
-    print(f"  the same record and fit on this host: {fit.evaluations} evaluations, "
-          f"{fit.iterations} iterations, {fit.runs} runs, a1 x 1e6 {int(fit.a1 * 1e6)} "
-          f"(M4 {m['a1']}), a2 x 1e6 {int(fit.a2 * 1e6)} (M4 {m['a2']})")
-    for label, used in (("median", STEP_MEDIAN), ("worst", STEP_WORST)):
-        spare = STEP_BUDGET - used
-        steps = instructions / spare
-        print(f"  spread over the spare {spare} instructions of a step ({label} step {used}): "
-              f"{steps:.3g} steps, {steps / RATE_HZ:.0f} s at {RATE_HZ:.0f} Hz")
+    y = unit_record()
+    print("| L | first samples | likelihood | status | evaluations (iterations, runs) "
+          "| instructions a fit | an evaluation | statistics sizeof B | fit stack B "
+          "| unit stack high-water B | largest frame B | unit flash B | unit RAM B "
+          "| s a fit at the median / worst step's spare | host: evaluations, a1, a2 x 1e6 |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- "
+          "| --- |")
+    for lags, no_head in M4_FORMS:
+        work = Path(tempfile.mkdtemp(prefix="lag_fit_m4_"))
+        flags = [f"-DGYRODRIFT_LAG_FIT_LAGS={lags}", f"-DGYRODRIFT_LAG_FIT_NO_HEAD={int(no_head)}"]
+        unit = gate.build_unit(gate.CM_DIR / "use_lag_drift_fit.cpp", work, flags)
+        if not unit.ok:
+            raise SystemExit(f"the unit failed the gate: {unit.reasons}\n{unit.log}")
+        elf = work / "use_lag_drift_fit.elf"
+        proc = subprocess.run(
+            [gate.toolchain()["qemu"], "-M", gate.QEMU_MACHINE, "-nographic", "-monitor", "none",
+             "-serial", "none", "-semihosting-config", "enable=on,target=native",
+             "-icount", "shift=0", "-kernel", str(elf)],
+            capture_output=True, text=True, timeout=600, check=False, cwd=work)
+        out = proc.stdout + proc.stderr
+        m, rep = FIT_LINE.search(out), gate.REPORT_LINE.search(out)
+        if m is None or rep is None or int(m["counts"]) < 0 or int(m["cal"]) <= 0:
+            raise SystemExit(f"no valid measurement in the unit's output:\n{out}")
+        per_count = 2 * int(m["turns"]) / int(m["cal"])
+        instructions = int(m["counts"]) * per_count
+        evals = int(m["ev"])
+        seconds = [instructions / (STEP_BUDGET - used) / RATE_HZ
+                   for used in (STEP_MEDIAN, STEP_WORST)]
+        host_fit = _host_fit(lags, no_head, y)
+        host_text = "-" if host_fit is None else (
+            f"{host_fit[0]} ({host_fit[1]}, {host_fit[2]}), {host_fit[3]}, {host_fit[4]}")
+        print(f"| {m['lags']} | {'no' if m['no_head'] == '1' else 'yes'} "
+              f"| {'Whittle, no first samples' if no_head else 'exact'} | {m['status']} "
+              f"| {evals} ({m['it']}, {m['runs']}) | {instructions:.3g} "
+              f"| {instructions / evals:.3g} | {m['state']} | {m['fit_stack']} "
+              f"| {int(rep['stack'], 16)} | {unit.max_frame_bytes} | {unit.flash_bytes} "
+              f"| {unit.ram_bytes} | {seconds[0]:.0f} / {seconds[1]:.0f} "
+              f"| {host_text}; M4 {m['a1']}, {m['a2']} |", flush=True)
+    print(f"(SysTick at {per_count:.3f} instructions a count; spare instructions a step: "
+          f"{STEP_BUDGET - STEP_MEDIAN} at the median step, {STEP_BUDGET - STEP_WORST} at the "
+          f"worst, at {RATE_HZ:.0f} Hz)")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=5, help="C++ fits timed per record")
     ap.add_argument("--no-m4", action="store_true", help="skip the Cortex-M4 measurement")
+    ap.add_argument("--no-host", action="store_true", help="skip the host measurement")
     args = ap.parse_args()
-    host(args.repeats)
+    if not args.no_host:
+        host(args.repeats)
     if not args.no_m4:
         m4()
 

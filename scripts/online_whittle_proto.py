@@ -18,7 +18,11 @@ the higher one.
 
 --cpp: the statistics and the fit of the C++ core instead (`gyrodrift.filters.LagStatistics`
 at L = 32, `gyrodrift.filters.lag_drift_fit`, the fit in double); with --float32 the float
-state the target keeps.
+state the target keeps. --cpp --no-head --kind whittle --lags 12: the C++ statistics without
+the first samples (bound at L = 12) and their fit (Whittle's likelihood without them).
+
+    python scripts/online_whittle_proto.py --samples 240000 960000 --kind whittle --no-head \
+        --lags 12 --cpp --float32
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from types import SimpleNamespace
 
 import gyrodrift
 import numpy as np
@@ -53,19 +58,26 @@ def main() -> None:
                     help="with --kind whittle: the first L samples replaced by the record's "
                          "mean in the mean's correction (a target that keeps no first samples)")
     ap.add_argument("--cpp", action="store_true",
-                    help="the C++ core's statistics (L = 32) and fit; --float32: its float state")
+                    help="the C++ core's statistics (L = 32, or 12 with --no-head) and fit; "
+                         "--float32: its float state")
     ap.add_argument("--check", action="store_true",
                     help="also print the lag likelihood against the core's at the ML fit")
     args = ap.parse_args()
     if args.no_head and args.kind != "whittle":
         ap.error("--no-head needs --kind whittle (the exact likelihood uses the first samples)")
-    if args.cpp and (args.no_head or args.lags != LagStatistics.lags):
-        ap.error(f"--cpp keeps L = {LagStatistics.lags} and the first samples")
+    no_head_cls = f"LagStatisticsNoHead{args.lags}" + ("F32" if args.float32 else "")
+    if args.cpp and args.no_head and not hasattr(core("drift"), no_head_cls):
+        ap.error(f"--cpp --no-head: no C++ statistics without the first samples at L = {args.lags}")
+    if args.cpp and args.no_head and args.check:
+        ap.error("--check reads the statistics with the reference: not with --cpp --no-head")
+    if args.cpp and not args.no_head and args.lags != LagStatistics.lags:
+        ap.error(f"--cpp keeps L = {LagStatistics.lags} with the first samples")
     loglike = core("drift").drift_loglike
     f32 = (", statistics rounded to float32" if args.float32 else "") + (
         ", no first samples" if args.no_head else "")
     if args.cpp:
-        f32 = ", C++ statistics" + (" (float state)" if args.float32 else "") + " and fit"
+        f32 = (", C++ statistics" + (" without the first samples" if args.no_head else "")
+               + (" (float state)" if args.float32 else "") + " and fit")
     print(f"# kind {args.kind}, L = {args.lags}{f32}; z = (lag fit - ML) / offline stderr; "
           "d_LL = sign(D) sqrt(|D|), D = 2 (logL_ML - logL_lag) (exact likelihoods)")
     print(f"{'n':>7} {'a1':>7} {'a2':>7} {'r/q':>4} {'seed':>4} {'z_a1':>6} {'z_a2':>6} "
@@ -78,7 +90,16 @@ def main() -> None:
             for ratio in RATIOS:
                 for seed in range(1, args.seeds + 1):
                     y = simulate(Case(a1, a2, ratio, "none", n, seed))[0]
-                    if args.cpp:
+                    if args.cpp and args.no_head:
+                        lib = core("drift")
+                        bound = getattr(lib, no_head_cls)()
+                        yy = y.astype(np.float32) if args.float32 else y
+                        for i in range(0, n, 4096):
+                            bound.push(yy[i:i + 4096])
+                        out = lib.lag_drift_fit(bound)  # Whittle's without the first samples
+                        est = SimpleNamespace(**dict(zip(NAMES, out[1:6], strict=True)),
+                                              truncation=out[7], status=out[0].name)
+                    elif args.cpp:
                         st = LagStatistics(dtype=np.float32 if args.float32 else np.float64)
                         for i in range(0, n, 4096):
                             st.push(y[i:i + 4096])

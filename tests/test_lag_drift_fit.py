@@ -7,6 +7,8 @@ record with a maximum on each side of the fold a2 = 0 among others, and its refu
 from __future__ import annotations
 
 import math
+from types import SimpleNamespace
+from typing import Any
 
 import gyrodrift
 import numpy as np
@@ -187,3 +189,87 @@ def test_refusals_do_not_throw_and_leave_the_statistics_usable() -> None:
         lag_drift_fit(st, kind="nope")
     with pytest.raises(GyrodriftTypeError, match="LagStatistics"):
         lag_drift_fit(LagStatisticsReference(32))  # type: ignore[arg-type]
+
+
+def _no_head_view(bound: Any) -> Any:
+    """The bound statistics without the first values as the reference reads statistics
+    (its whittle_no_head kind reads no ``head``; an empty one stands in)."""
+    return SimpleNamespace(lags=int(bound.lags), n=int(bound.n), centre=float(bound.centre),
+                           total=float(bound.total), products=np.asarray(bound.products),
+                           tail=np.asarray(bound.tail), head=np.empty(0))
+
+
+def test_whittle_no_head_is_the_reference_with_the_mean_as_first_values() -> None:
+    """The reference's whittle_no_head kind is its Whittle's kind on statistics whose first L
+    values are the record's mean of w (scripts/online_whittle_proto.py --no-head), to
+    1e-12 relative (the same sums, the head's running sum against a constant's); and it is
+    not Whittle's with the first values (the mean's correction differs)."""
+    y = _record(*PAIRS[0], 3.0, 20000, 2)
+    st = LagStatisticsReference(12)
+    st.push(y)
+    as_mean = LagStatisticsReference.from_statistics(st)
+    as_mean.head = np.full(12, st.total / st.n)
+    for params in ((PAIRS[0][0], PAIRS[0][1], 1.0, 3.0, 9.7), (0.5, 0.1, 2.0, 1.0, 9.5)):
+        want = lag_loglike(as_mean, *params, kind="whittle")
+        assert lag_loglike(st, *params, kind="whittle_no_head") == pytest.approx(want, rel=1e-12)
+        assert lag_loglike(st, *params, kind="whittle") != want
+
+
+@pytest.mark.parametrize(("a1", "a2"), PAIRS)
+def test_no_head_likelihood_equals_the_reference(a1: float, a2: float) -> None:
+    """The C++ whittle_no_head log-likelihood equals the reference's on the same statistics,
+    to 1e-12 relative (the reasoning of test_likelihood_equals_the_reference): on the bound
+    statistics without the first values (L = 12 and 8, double and float state) and on the
+    full ones (L = 32) through the wrapper."""
+    y = _record(a1, a2, 3.0, 20000, 3)
+    lib = core("drift")
+    kind = lib.LagLikelihoodKind.whittle_no_head
+    params = ((a1, a2, 1.0, 3.0, 9.7), (0.9, -0.2, 0.5, 4.0, 10.0))
+    for cls, dtype in ((lib.LagStatisticsNoHead12, np.float64),
+                       (lib.LagStatisticsNoHead12F32, np.float32),
+                       (lib.LagStatisticsNoHead8, np.float64),
+                       (lib.LagStatisticsNoHead8F32, np.float32)):
+        bound = cls()
+        bound.push(y.astype(dtype))
+        assert not hasattr(bound, "head")
+        view = _no_head_view(bound)
+        for p in params:
+            status, got = lib.lag_drift_loglike(bound, *p)  # whittle_no_head: their default
+            assert status == lib.LagDriftFitStatus.ok
+            assert got == pytest.approx(lag_loglike(view, *p, kind="whittle_no_head"), rel=1e-12)
+            assert lib.lag_drift_loglike(bound, *p, kind)[1] == got
+            assert (lib.lag_drift_loglike(bound, *p, lib.LagLikelihoodKind.exact)[0]
+                    == lib.LagDriftFitStatus.needs_head)
+    st = LagStatistics()
+    st.push(y)
+    for p in params:
+        want = lag_loglike(st, *p, kind="whittle_no_head")
+        assert lag_drift_loglike(st, *p, kind="whittle_no_head") == pytest.approx(want, rel=1e-12)
+
+
+def test_no_head_fit_equals_the_reference() -> None:
+    """The C++ fit from the float statistics without the first values (L = 12, as a target
+    would keep them) against the reference's whittle_no_head fit on the same statistics:
+    within 0.01 offline standard errors and 1e-6 log-likelihood units of its maximum (the
+    reasoning of test_fit_equals_the_reference_and_reaches_the_offline_fit); status ok, with
+    rho^L within the kind's 3e-3. And within 1 standard error of the offline ML fit."""
+    y = _record(*PAIRS[1], 3.0, 60000, 5)
+    lib = core("drift")
+    bound = lib.LagStatisticsNoHead12F32()
+    bound.push(y.astype(np.float32))
+    assert bound.state_bytes == 184
+    out = lib.lag_drift_fit(bound)
+    assert out[0] == lib.LagDriftFitStatus.ok
+    fit = dict(zip(PARAMS, (float(v) for v in out[1:6]), strict=True))
+    loglike, truncation = float(out[6]), float(out[7])
+    assert 1e-10 < truncation <= lib.LAG_DRIFT_WHITTLE_NO_HEAD_TRUNCATION_TOL
+    view = _no_head_view(bound)
+    ref = reference_fit(view, kind="whittle_no_head")
+    offline = gyrodrift.fit_drift_model(y.astype(np.float32).astype(np.float64), rate_hz=400.0)
+    for k in PARAMS:
+        assert abs(fit[k] - getattr(ref, k)) <= 0.01 * offline.stderr[k], k
+        assert abs(fit[k] - getattr(offline, k)) <= offline.stderr[k], k
+    on_ref = lag_loglike(view, *(fit[k] for k in PARAMS), kind="whittle_no_head")
+    assert abs(on_ref - ref.loglike) <= 1e-6
+    assert loglike == pytest.approx(on_ref, rel=1e-12)
+    assert ref.truncation == pytest.approx(truncation, rel=0.1)

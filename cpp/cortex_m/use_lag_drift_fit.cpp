@@ -4,6 +4,11 @@
 // 1e-7 of its value, below float's resolution; lag_drift_fit.hpp). This unit is the one the
 // gate allows to link software double (tests/test_cortex_m_gate.py).
 //
+// The gate builds it at 32 lags with the first samples and the exact likelihood; the cost
+// script (scripts/lag_drift_fit_cost.py) also builds it with -DGYRODRIFT_LAG_FIT_LAGS=L and
+// -DGYRODRIFT_LAG_FIT_NO_HEAD=1: the statistics without the first samples at L lags and
+// Whittle's likelihood without them (lag_drift_fit.hpp, whittle_no_head).
+//
 // Record: 60000 samples (150 s at 400 Hz) of the papers' pair (0.6868, -0.0213) with q = r
 // (the pair next to the fold a2 = 0), Gaussian-like noise from an LCG (the sum of 12
 // uniforms), in float, on the volatile input's first sample as its mean.
@@ -11,17 +16,31 @@
 // firmware's step timer calibration) turns counts into instructions under QEMU with
 // -icount shift=0 (scripts/lag_drift_fit_cost.py). With semihosting the unit prints one line
 //   lag-drift-fit status=S evaluations=E iterations=I runs=R systick=C calibration=K turns=T
-//   a1_e6=A a2_e6=B
+//   a1_e6=A a2_e6=B lags=L no_head=H state_bytes=Z fit_stack=F
+// (Z the statistics' sizeof, F the bytes of stack the fit used below its caller's frame: the
+// free stack is painted again just before the fit, as the start-up paints it, and the lowest
+// overwritten word found after it)
 // and returns 0 when the fit is ok and near the simulated model.
 #include <gyrodrift/filters/lag_drift_fit.hpp>
 #include <gyrodrift/filters/lag_statistics.hpp>
 #include <cstddef>
 #include <cstdint>
 
+#include "cortex_m_start.hpp"
 #include "support.hpp"
 
+#ifndef GYRODRIFT_LAG_FIT_LAGS
+#define GYRODRIFT_LAG_FIT_LAGS 32
+#endif
+#ifndef GYRODRIFT_LAG_FIT_NO_HEAD
+#define GYRODRIFT_LAG_FIT_NO_HEAD 0
+#endif
+
 namespace {
-using Stats = gyrodrift::LagStatistics<float, 32>;
+constexpr bool kNoHead = GYRODRIFT_LAG_FIT_NO_HEAD != 0;
+using Stats = gyrodrift::LagStatistics<float, GYRODRIFT_LAG_FIT_LAGS, !kNoHead>;
+constexpr gyrodrift::LagLikelihoodKind kKind =
+    kNoHead ? gyrodrift::LagLikelihoodKind::whittle_no_head : gyrodrift::LagLikelihoodKind::exact;
 constexpr std::size_t kSamples = 60000;
 constexpr std::uint32_t kCalibrationTurns = 1000000;
 
@@ -116,9 +135,17 @@ extern "C" int app_main(void) {
   __asm volatile("1: subs %0, %0, #1\n\tbne 1b" : "+r"(turns) : : "cc");
   const std::uint32_t c1 = reg(kSystCvr);
   const bool calibration_wrapped = (reg(kSystCsr) & kCountFlag) != 0U;
+  // The free stack below this frame painted again (cortex_m_start.hpp's word).
+  std::uint32_t* sp = nullptr;
+  __asm volatile("mov %0, sp" : "=r"(sp));
+  for (volatile std::uint32_t* w = &_ebss; w < sp;) *w++ = gyrodrift::cortex_m_start::kStackPaint;
   const std::uint32_t t0 = reg(kSystCvr);
-  const gyrodrift::LagDriftFitResult<double> fit = gyrodrift::lag_drift_fit<double>(statistics());
+  const gyrodrift::LagDriftFitResult<double> fit = gyrodrift::lag_drift_fit<double>(statistics(), kKind);
   const std::uint32_t t1 = reg(kSystCvr);
+  const volatile std::uint32_t* low = &_ebss;
+  while (low < sp && *low == gyrodrift::cortex_m_start::kStackPaint) ++low;
+  const auto fit_stack = static_cast<std::int64_t>(reinterpret_cast<std::uintptr_t>(sp) -
+                                                   reinterpret_cast<std::uintptr_t>(low));
   const bool wrapped = calibration_wrapped || (reg(kSystCsr) & kCountFlag) != 0U;
   reg(kSystCsr) = 0U;
   // A count that wrapped is reported as -1.
@@ -131,6 +158,7 @@ extern "C" int app_main(void) {
   sink(static_cast<float>(fit.model.mean));
   sink(static_cast<std::int32_t>(fit.evaluations));
   sink(static_cast<std::int32_t>(counts));
+  sink(static_cast<std::int32_t>(fit_stack));
 #if defined(GYRODRIFT_CM_SEMIHOSTING)
   char line[256];
   char* p = put_text(line, "lag-drift-fit status=");
@@ -151,6 +179,14 @@ extern "C" int app_main(void) {
   p = put_int(p, static_cast<std::int64_t>(fit.model.a1 * 1e6));
   p = put_text(p, " a2_e6=");
   p = put_int(p, static_cast<std::int64_t>(fit.model.a2 * 1e6));
+  p = put_text(p, " lags=");
+  p = put_int(p, static_cast<std::int64_t>(Stats::lags));
+  p = put_text(p, " no_head=");
+  p = put_int(p, kNoHead ? 1 : 0);
+  p = put_text(p, " state_bytes=");
+  p = put_int(p, static_cast<std::int64_t>(sizeof(Stats)));
+  p = put_text(p, " fit_stack=");
+  p = put_int(p, fit_stack);
   p = put_text(p, "\n");
   *p = '\0';
   report(line);

@@ -1,7 +1,7 @@
 // Cortex-M4F gate unit: three float whole-record lag statistics (one per gyro axis, 32 lags),
 // fed sample by sample as the navigation computer would, with one refused (NaN) sample; then
 // each axis's count, centre, sum, lag products and first and last values read out, with the
-// state size.
+// state size. The form without the first values is checked for its size on this target too.
 #include <gyrodrift/filters/lag_statistics.hpp>
 #include <cstddef>
 #include <cstdint>
@@ -11,6 +11,9 @@
 
 namespace {
 using Stats = gyrodrift::LagStatistics<float, 32>;
+// The statistics without the first values (lag_statistics.hpp): the same sizes as on x86-64.
+static_assert(sizeof(gyrodrift::LagStatisticsNoHead<float, 8>) == 136, "no-head statistics, L = 8");
+static_assert(sizeof(gyrodrift::LagStatisticsNoHead<float, 12>) == 184, "no-head statistics, L = 12");
 // Static storage, no heap.
 Stats& axis(int i) noexcept {
   static Stats stats[3];

@@ -2,8 +2,11 @@
 // the likelihood from the statistics against the exact Kalman likelihood on the samples
 // (drift_likelihood.hpp), the fit recovering a simulated model and beating the truth's
 // likelihood, the refusals (too few samples, non-finite statistics, bad parameters) as
-// status codes with the statistics left usable, and no allocation during a fit. The equality
-// with the numpy reference (likelihood and fit) is tested in tests/test_lag_drift_fit.py.
+// status codes with the statistics left usable, and no allocation during a fit; Whittle's
+// likelihood without the first values (whittle_no_head) on the statistics without them
+// against the full ones, the kinds those statistics refuse, and that kind's truncation guard.
+// The equality with the numpy reference (likelihood and fit) is tested in
+// tests/test_lag_drift_fit.py.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
@@ -13,6 +16,7 @@
 #include <gyrodrift/filters/drift_likelihood.hpp>
 #include <gyrodrift/filters/lag_drift_fit.hpp>
 #include <gyrodrift/filters/lag_statistics.hpp>
+#include <string>
 #include <vector>
 
 #include "alloc_counter.hpp"
@@ -164,5 +168,95 @@ TEST_CASE("no allocation during a fit") {
   const long allocations = scope.allocations();
   CHECK(fit.status != Fit::non_finite);
   CHECK(ls == Fit::ok);
+  CHECK(allocations == 0);
+}
+
+TEST_CASE("without the first values: the same likelihood and fit as the full statistics") {
+  // whittle_no_head reads no first values, and the two forms hold the same sums and last
+  // values bit for bit (test_lag_statistics.cpp): the same numbers, exactly.
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 3.0, 9.7, 30000, 8);
+  std::vector<float> yf(y.begin(), y.end());
+  gyrodrift::LagStatistics<float, 12> full;
+  gyrodrift::LagStatisticsNoHead<float, 12> compact;
+  full.push(yf.data(), yf.size());
+  compact.push(yf.data(), yf.size());
+  const auto kind = gyrodrift::LagLikelihoodKind::whittle_no_head;
+  const gyrodrift::DriftModelParams<double> p{0.6, 0.05, 1.2, 2.5, 9.6};
+  double ll_full = 0.0, ll_compact = 0.0;
+  REQUIRE(gyrodrift::lag_drift_loglike(full, p, ll_full, kind) == Fit::ok);
+  REQUIRE(gyrodrift::lag_drift_loglike(compact, p, ll_compact) == Fit::ok);  // the default kind there
+  CHECK(ll_full == ll_compact);
+  // Not Whittle's with the first values: the mean's correction differs.
+  double ll_whittle = 0.0;
+  REQUIRE(gyrodrift::lag_drift_loglike(full, p, ll_whittle, gyrodrift::LagLikelihoodKind::whittle) == Fit::ok);
+  CHECK(ll_whittle != ll_full);
+  const auto a = gyrodrift::lag_drift_fit<double>(full, kind);
+  const auto b = gyrodrift::lag_drift_fit<double>(compact);
+  CHECK(a.status == Fit::ok);
+  CHECK(b.status == a.status);
+  CHECK(b.model.a1 == a.model.a1);
+  CHECK(b.model.a2 == a.model.a2);
+  CHECK(b.model.q == a.model.q);
+  CHECK(b.model.r == a.model.r);
+  CHECK(b.model.mean == a.model.mean);
+  CHECK(b.loglike == a.loglike);
+  CHECK(b.evaluations == a.evaluations);
+  // 30000 samples at r/q = 3: standard errors of about 0.07 for a1 and a2, 10 % for q and r.
+  CHECK(std::fabs(b.model.a1 - 0.6868) < 0.25);
+  CHECK(std::fabs(b.model.r - 3.0) < 0.9);
+}
+
+TEST_CASE("without the first values: the kinds that need them are refused") {
+  const auto y = drift_test::record(0.2297, 0.1638, 1.0, 1.0, 0.0, 2000, 9);
+  gyrodrift::LagStatisticsNoHead<double, 8> st;
+  st.push(y.data(), y.size());
+  const gyrodrift::DriftModelParams<double> p{0.2, 0.1, 1.0, 1.0, 0.0};
+  double ll = 0.0;
+  gyrodrift::LagDriftProfile<double> prof;
+  for (const auto kind : {gyrodrift::LagLikelihoodKind::exact, gyrodrift::LagLikelihoodKind::whittle}) {
+    CHECK(gyrodrift::lag_drift_loglike(st, p, ll, kind) == Fit::needs_head);
+    CHECK(gyrodrift::lag_drift_profile(st, 0.2, 0.1, 0.5, prof, kind) == Fit::needs_head);
+    const auto fit = gyrodrift::lag_drift_fit<double>(st, kind);
+    CHECK(fit.status == Fit::needs_head);
+    CHECK(fit.evaluations == 0);
+  }
+  // Refused before the sample count is looked at.
+  gyrodrift::LagStatisticsNoHead<double, 8> empty;
+  CHECK(gyrodrift::lag_drift_fit<double>(empty, gyrodrift::LagLikelihoodKind::exact).status == Fit::needs_head);
+  CHECK(gyrodrift::lag_drift_fit<double>(empty).status == Fit::too_few_samples);
+  CHECK(gyrodrift::lag_drift_profile(st, 0.2, 0.1, 0.5, prof) == Fit::ok);
+  CHECK(std::string(gyrodrift::to_string(Fit::needs_head)) == "needs the first samples");
+}
+
+TEST_CASE("whittle_no_head: its truncation tolerance") {
+  // The pair (0.6868, -0.0213) at r/q = 3: rho about 0.43, so rho^4 is about 0.03 (over the
+  // kind's 3e-3: refused, the estimate still returned) and rho^8 about 1.2e-3 (under it).
+  // The exact kind's 1e-10 would refuse both.
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 3.0, 0.0, 60000, 10);
+  gyrodrift::LagStatisticsNoHead<double, 4> short_lags;
+  gyrodrift::LagStatisticsNoHead<double, 8> enough;
+  short_lags.push(y.data(), y.size());
+  enough.push(y.data(), y.size());
+  const auto a = gyrodrift::lag_drift_fit<double>(short_lags);
+  const auto b = gyrodrift::lag_drift_fit<double>(enough);
+  CHECK(a.status == Fit::truncation);
+  CHECK(a.truncation > gyrodrift::kLagDriftWhittleNoHeadTruncationTol);
+  CHECK(std::isfinite(a.model.a1));
+  CHECK(b.status == Fit::ok);
+  CHECK(b.truncation <= gyrodrift::kLagDriftWhittleNoHeadTruncationTol);
+  CHECK(b.truncation > gyrodrift::kLagDriftTruncationTol);
+  CHECK(gyrodrift::lag_drift_truncation_tol(gyrodrift::LagLikelihoodKind::whittle) ==
+        gyrodrift::kLagDriftTruncationTol);
+}
+
+TEST_CASE("no allocation during a fit without the first values") {
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 1.0, 0.0, 20000, 4);
+  std::vector<float> yf(y.begin(), y.end());
+  gyrodrift::LagStatisticsNoHead<float, 8> st;
+  st.push(yf.data(), yf.size());
+  gyrodrift::test::AllocationScope scope;
+  const auto fit = gyrodrift::lag_drift_fit<double>(st);
+  const long allocations = scope.allocations();
+  CHECK(fit.status == Fit::ok);
   CHECK(allocations == 0);
 }

@@ -1,7 +1,8 @@
 // Whole-record lag statistics (include/gyrodrift/filters/lag_statistics.hpp) against their
 // definition (sums over the whole record in long double), a hand-checked short record, chunked
 // pushes against single pushes, refusal of non-finite samples, float against double on a long
-// record (and against a plain float sum), state size, and no allocation. The equality with the
+// record (and against a plain float sum), state size, and no allocation; the form without the
+// first values against the full one. The equality with the
 // numpy reference and the fit on these statistics are tested in tests/test_lag_statistics.py.
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
@@ -37,6 +38,58 @@ bool same_state(const gyrodrift::LagStatistics<Scalar, L>& a, const gyrodrift::L
 TEST_CASE("state size") {
   CHECK(sizeof(gyrodrift::LagStatistics<float, kLags>) <= 552);
   CHECK(sizeof(gyrodrift::LagStatistics<double, kLags>) <= 1080);
+}
+
+TEST_CASE("state size without the first values") {
+  // 2 (L + 1) + 2 + L + 1 floats and 16 bytes of counters, padded to 8: at L = 8,
+  // 18 + 2 + 8 + 1 = 29 floats (116 B) + 16 = 132 -> 136; at L = 12, 41 floats (164 B) + 16 =
+  // 180 -> 184. The Cortex-M4 gate's cost unit prints the same sizes there
+  // (scripts/lag_drift_fit_cost.py).
+  CHECK(sizeof(gyrodrift::LagStatisticsNoHead<float, 8>) == 136);
+  CHECK(sizeof(gyrodrift::LagStatisticsNoHead<float, 12>) == 184);
+  CHECK(sizeof(gyrodrift::LagStatistics<float, 8>) == 168);  // the full form: 8 more floats
+  CHECK(!gyrodrift::LagStatisticsNoHead<float, 8>::keeps_head);
+  CHECK(gyrodrift::LagStatistics<float, 8>::keeps_head);
+}
+
+TEST_CASE("without the first values: the same sums and last values as the full form") {
+  // The same operations in the same order, so bitwise equal, in float and double, also with
+  // fewer samples than lags and with a refused sample.
+  const auto y = drift_test::record(0.6868, -0.0213, 1.0, 3.0, 9.7, 3000, 5);
+  std::vector<float> yf(y.begin(), y.end());
+  gyrodrift::LagStatistics<float, 8> full;
+  gyrodrift::LagStatisticsNoHead<float, 8> compact;
+  gyrodrift::LagStatistics<double, 12> full_d;
+  gyrodrift::LagStatisticsNoHead<double, 12> compact_d;
+  auto same = [](const auto& a, const auto& b) {
+    bool eq = a.samples() == b.samples() && a.rejected() == b.rejected() && a.kept() == b.kept() &&
+              a.centre() == b.centre() && a.total().sum == b.total().sum && a.total().comp == b.total().comp;
+    for (std::size_t k = 0; k <= a.lags; ++k) {
+      eq = eq && a.product(k).sum == b.product(k).sum && a.product(k).comp == b.product(k).comp;
+    }
+    for (std::size_t i = 0; i < a.kept(); ++i) eq = eq && a.tail(i) == b.tail(i);
+    return eq;
+  };
+  for (std::size_t i = 0; i < 5; ++i) {
+    full.push(yf[i]);
+    compact.push(yf[i]);
+    full_d.push(y[i]);
+    compact_d.push(y[i]);
+  }
+  CHECK(compact.kept() == 5);
+  CHECK(same(full, compact));
+  CHECK(same(full_d, compact_d));
+  CHECK(!compact.push(std::numeric_limits<float>::quiet_NaN()));
+  full.push(std::numeric_limits<float>::quiet_NaN());
+  CHECK(full.push(yf.data() + 5, yf.size() - 5) == compact.push(yf.data() + 5, yf.size() - 5));
+  CHECK(full_d.push(y.data() + 5, y.size() - 5) == compact_d.push(y.data() + 5, y.size() - 5));
+  CHECK(compact.rejected() == 1);
+  CHECK(same(full, compact));
+  CHECK(same(full_d, compact_d));
+  compact.reset();
+  CHECK(compact.samples() == 0);
+  CHECK(compact.rejected() == 0);
+  CHECK(compact.product(0).value() == 0.0F);
 }
 
 TEST_CASE("a short record by hand: w = 0, 1, 3, 2") {

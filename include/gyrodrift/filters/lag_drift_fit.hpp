@@ -26,6 +26,12 @@
 // Exact up to terms of order rho^L per sample, rho the pole modulus of the steady-state
 // innovation filter (the fit reports rho^L of its estimate as `truncation`). The "whittle" kind keeps only the steady part:
 // log det = n log sigma^2, M from sum_k g_k S_k / sigma^2 (Whittle's approximation truncated at L).
+// The "whittle_no_head" kind is Whittle's with the first L values of w replaced by the record's
+// mean of w, sum w / n, in lin_k (sum_{t<k} w_t = k sum w / n): the only place Whittle's form
+// reads them, so it needs no first values and is the one kind the statistics without them
+// (LagStatisticsNoHead, lag_statistics.hpp) can give; the others answer needs_head there.
+// It is the numpy reference's Whittle likelihood on statistics whose head is that mean
+// (scripts/online_whittle_proto.py --no-head).
 //
 // Profile: scaling q and r by s scales every F and sigma^2 by s, and Q is quadratic in d, so
 // for a1, a2 and the split lam = q / (q + r) the maximum over the mean and the scale is in
@@ -54,20 +60,27 @@
 //     most 1e-5; after kLagDriftMaxIterations iterations: not converged.
 // Status: too_few_samples below lag_drift_min_samples (2 L + 2) samples; non_finite for
 // statistics that are not finite (or a fit that is not); not_converged when the best run did
-// not converge; truncation when rho^L of the fit exceeds kLagDriftTruncationTol (L too short
-// for this model: the neglected terms are not negligible). The estimate is set for ok,
+// not converge; truncation when rho^L of the fit exceeds lag_drift_truncation_tol(kind)
+// (kLagDriftTruncationTol, or kLagDriftWhittleNoHeadTruncationTol for whittle_no_head: L too
+// short for this model, the neglected terms are not negligible); needs_head for a kind other
+// than whittle_no_head on statistics without the first values. The estimate is set for ok,
 // not_converged and truncation.
 //
 // Work: one likelihood evaluation is about 6000 flops at L = 32 (the impulse response and its
 // autocorrelation, the Kalman filter over the first samples, the Riccati recursion to the
 // steady state, the two end convolutions); a fit takes 600 to 900 evaluations on realistic
 // records (evaluations of the result): about 1.3 ms on a desktop core, 3.5e8 instructions in
-// software double on a Cortex-M4F with about 3 KB of stack (cpp/cortex_m/use_lag_drift_fit.cpp;
-// docs/validation/online-identification.md). Memory: the statistics are read in place (a
-// float pair as Scalar(sum) + Scalar(comp), the first and the last L values of w copied
-// once); working state on the stack, about 3 L + 50 Scalars, no heap, no exceptions. The
-// statistics must not change during a fit (a target that pushes on while it fits runs the
-// fit on a copy).
+// software double on a Cortex-M4F; Whittle's kind without the first values at L = 12 and 8,
+// 6.7e7 and 5.9e7 (nearly all of it the Riccati recursion to its steady state)
+// (cpp/cortex_m/use_lag_drift_fit.cpp; docs/validation/online-identification.md).
+// Memory: the statistics are read in place (a float pair as Scalar(sum) + Scalar(comp); with
+// the first values kept, those and the last L values copied once); working state on the
+// stack: the grid's four best starts as indices, one finished run at a time, the BFGS state
+// (3 x 3 inverse Hessian and a few 3-vectors) and the impulse response (L + 1 Scalars): on
+// the Cortex-M4 2112 B of stack below the caller at L = 32 (exact), 1336 B at L = 12 and
+// 1304 B at L = 8 (whittle_no_head), software double's routines included; no heap, no
+// exceptions. The statistics must not change during a fit (a target that pushes on while it
+// fits runs the fit on a copy).
 // Scalar is the fit's precision: double. The likelihood must resolve differences of 0.1 on a
 // value of order n (1e-7 relative at 10^6 samples), below float's resolution; a float
 // instantiation compiles but cannot be relied on.
@@ -87,6 +100,7 @@ namespace gyrodrift {
 enum class LagLikelihoodKind : std::uint8_t {
   exact = 0,    // the exact Gaussian likelihood up to terms of order rho^L
   whittle = 1,  // Whittle's approximation truncated at L
+  whittle_no_head = 2,  // Whittle's with the first L samples replaced by the record's mean
 };
 
 enum class LagDriftFitStatus : std::uint8_t {
@@ -96,6 +110,7 @@ enum class LagDriftFitStatus : std::uint8_t {
   not_converged,    // the best run hit kLagDriftMaxIterations
   non_finite,       // NaN or Inf in the statistics or in the fit
   bad_model,        // (likelihood, profile) parameters outside the model: q < 0, r <= 0, non-stationary
+  needs_head,       // the kind needs the first L values, which the statistics do not keep
 };
 
 inline const char* to_string(LagDriftFitStatus s) noexcept {
@@ -106,6 +121,7 @@ inline const char* to_string(LagDriftFitStatus s) noexcept {
     case LagDriftFitStatus::not_converged: return "not converged";
     case LagDriftFitStatus::non_finite: return "non-finite";
     case LagDriftFitStatus::bad_model: return "bad model";
+    case LagDriftFitStatus::needs_head: return "needs the first samples";
   }
   return "unknown";
 }
@@ -113,6 +129,20 @@ inline const char* to_string(LagDriftFitStatus s) noexcept {
 // rho^L above which the neglected terms of the likelihood are not negligible (the reference's
 // TRUNCATION_TOL: n rho^L < 2e-3 log-likelihood units at 10 h at 400 Hz).
 inline constexpr double kLagDriftTruncationTol = 1e-10;
+// rho^L above which the whittle_no_head kind's fit is refused as truncation. That kind is an
+// approximation whatever L (log det without the first samples' excess, the first values
+// replaced by the mean), so the exact kind's 1e-10 is not what it needs. Measured on the 40
+// convergence records (both of the papers' pairs, r/q 1 and 3, seeds 1-5, 240000 and 960000
+// samples; docs/validation/online-identification.md) at L = 4, 6, 8 and 12: every fit with
+// rho^L <= 3e-3 (all 80 at L = 8 and 12, whose rho^L is at most 2.1e-3, and 21 at L = 6) is
+// within 0.12 offline standard errors of the offline maximum-likelihood fit; the 6 fits that
+// left one standard error (at L = 4, up to 2.4) all have rho^L >= 6.1e-3, and so does no fit
+// this tolerance accepts.
+inline constexpr double kLagDriftWhittleNoHeadTruncationTol = 3e-3;
+// The truncation tolerance of a kind.
+constexpr double lag_drift_truncation_tol(LagLikelihoodKind kind) noexcept {
+  return kind == LagLikelihoodKind::whittle_no_head ? kLagDriftWhittleNoHeadTruncationTol : kLagDriftTruncationTol;
+}
 // Largest number of BFGS iterations of one run (a fit makes at most 6 runs).
 inline constexpr std::uint32_t kLagDriftMaxIterations = 200;
 
@@ -143,20 +173,44 @@ struct LagDriftFitResult {
 
 namespace detail {
 
-// The likelihood's ingredients for one model, from the statistics (see the header comment).
-template <class Scalar, class StatScalar, std::size_t Lags>
-class LagLikelihoodForm {
- public:
-  using Stats = LagStatistics<StatScalar, Lags>;
-
-  // The first and the last L values of w are read once, in Scalar (the end convolutions read
-  // each L times an evaluation).
-  explicit LagLikelihoodForm(const Stats& st) noexcept : st_(st) {
+// The first and the last L values of w in Scalar, for statistics that keep the first ones
+// (the exact kind's end convolutions read each L times an evaluation); nothing otherwise
+// (Whittle's form without them reads the last values once an evaluation, in place).
+template <class Scalar, std::size_t Lags, bool KeepHead>
+struct LagEndValues {
+  template <class Stats>
+  explicit LagEndValues(const Stats& st) noexcept {
     for (std::size_t i = 0; i < Lags; ++i) {
-      head_[i] = static_cast<Scalar>(st.head(i));
-      tail_[i] = static_cast<Scalar>(st.tail(i));
+      head[i] = static_cast<Scalar>(st.head(i));
+      tail[i] = static_cast<Scalar>(st.tail(i));
     }
   }
+  Scalar head[Lags] = {}, tail[Lags] = {};
+};
+template <class Scalar, std::size_t Lags>
+struct LagEndValues<Scalar, Lags, false> {
+  template <class Stats>
+  explicit LagEndValues(const Stats&) noexcept {}
+};
+
+// The kind a fit takes by default: the exact one, or Whittle's without the first values when
+// the statistics do not keep them.
+constexpr LagLikelihoodKind lag_default_kind(bool keeps_head) noexcept {
+  return keeps_head ? LagLikelihoodKind::exact : LagLikelihoodKind::whittle_no_head;
+}
+
+// Whether the kind can be computed from statistics that do (not) keep the first values.
+constexpr bool lag_kind_available(LagLikelihoodKind kind, bool keeps_head) noexcept {
+  return keeps_head || kind == LagLikelihoodKind::whittle_no_head;
+}
+
+// The likelihood's ingredients for one model, from the statistics (see the header comment).
+template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead = true>
+class LagLikelihoodForm {
+ public:
+  using Stats = LagStatistics<StatScalar, Lags, KeepHead>;
+
+  explicit LagLikelihoodForm(const Stats& st) noexcept : st_(st), ends_(st) {}
 
   static Scalar value(const typename Stats::Sum& s) noexcept {
     return static_cast<Scalar>(s.sum) + static_cast<Scalar>(s.comp);
@@ -166,13 +220,15 @@ class LagLikelihoodForm {
   bool finite() const noexcept {
     bool ok = std::isfinite(st_.centre()) && std::isfinite(value(st_.total()));
     for (std::size_t k = 0; k <= Lags; ++k) ok = ok && std::isfinite(value(st_.product(k)));
-    for (std::size_t i = 0; i < st_.kept(); ++i) ok = ok && std::isfinite(st_.head(i)) && std::isfinite(st_.tail(i));
+    for (std::size_t i = 0; i < st_.kept(); ++i) ok = ok && std::isfinite(st_.tail(i)) && head_finite(i);
     return ok;
   }
 
   // log det and M (m00, m01, m11) at (a1, a2, q, r), and the steady gain (k0, k1); false when
   // the recursion is not finite. The model must be stationary with q >= 0, r > 0.
   bool build(Scalar a1, Scalar a2, Scalar q, Scalar r, LagLikelihoodKind kind) noexcept {
+    if (!lag_kind_available(kind, KeepHead)) return false;
+    const bool exact = kind == LagLikelihoodKind::exact && KeepHead;
     const Scalar n = static_cast<Scalar>(st_.samples());
     const Scalar zero(0), one(1);
     Scalar g0, g1;
@@ -195,20 +251,24 @@ class LagLikelihoodForm {
       k0 = p00 / f;
       k1 = p01 / f;
       if (t < Lags) {
-        int e2 = 0;
-        prod_f = std::frexp(prod_f * f, &e2);
-        exp_f += e2;
-        const Scalar eh = head_[t] - xh0;
-        const Scalar eo = one - xo0;
-        ehh += eh * eh / f;
-        eho += eh * eo / f;
-        eoo += eo * eo / f;
-        const Scalar uh0 = xh0 + k0 * eh, uh1 = xh1 + k1 * eh;
-        xh0 = a1 * uh0 + a2 * uh1;
-        xh1 = uh0;
-        const Scalar uo0 = xo0 + k0 * eo, uo1 = xo1 + k1 * eo;
-        xo0 = a1 * uo0 + a2 * uo1;
-        xo1 = uo0;
+        // The first samples' filter: the exact kind only (Whittle's reads sigma^2 alone; the
+        // recursion runs the same steps for every kind, so sigma^2 is the same).
+        if (exact) {
+          int e2 = 0;
+          prod_f = std::frexp(prod_f * f, &e2);
+          exp_f += e2;
+          const Scalar eh = head_value(t) - xh0;
+          const Scalar eo = one - xo0;
+          ehh += eh * eh / f;
+          eho += eh * eo / f;
+          eoo += eo * eo / f;
+          const Scalar uh0 = xh0 + k0 * eh, uh1 = xh1 + k1 * eh;
+          xh0 = a1 * uh0 + a2 * uh1;
+          xh1 = uh0;
+          const Scalar uo0 = xo0 + k0 * eo, uo1 = xo1 + k1 * eo;
+          xo0 = a1 * uo0 + a2 * uo1;
+          xo1 = uo0;
+        }
       } else if (std::fabs(f - f_prev) <= riccati_tol * f || t >= max_steps) {
         break;
       }
@@ -231,17 +291,21 @@ class LagLikelihoodForm {
       x0 = a1 * u0 + a2 * u1;
       x1 = u0;
     }
-    // sum_k g_k (P_k, lin_k, n - k) with the running sums of the first and the last values.
+    // sum_k g_k (P_k, lin_k, n - k) with the running sums of the first and the last values
+    // (the first ones the record's mean of w for whittle_no_head).
     Scalar sp = zero, sl = zero, sn = zero;
-    const Scalar total2 = Scalar(2) * value(st_.total());
+    const Scalar total = value(st_.total());
+    const Scalar total2 = Scalar(2) * total;
+    const bool no_head = kind == LagLikelihoodKind::whittle_no_head;
+    const Scalar mean_w = total / n;
     Scalar head_cum = zero, tail_cum = zero;
     for (std::size_t k = 0; k <= Lags; ++k) {
       Scalar g = zero;
       for (std::size_t j = 0; j + k <= Lags; ++j) g += pi_[j] * pi_[j + k];
       if (k > 0) {
         g *= Scalar(2);
-        head_cum += head_[k - 1];
-        tail_cum += tail_[Lags - k];
+        head_cum += no_head ? mean_w : head_value(k - 1);
+        tail_cum += tail_value(Lags - k);
       }
       sp += value(st_.product(k)) * g;
       sl += (total2 - head_cum - tail_cum) * g;
@@ -250,7 +314,7 @@ class LagLikelihoodForm {
     m00_ = sp / s2;
     m01_ = Scalar(0.5) * sl / s2;
     m11_ = sn / s2;
-    if (kind == LagLikelihoodKind::whittle) {
+    if (!exact) {
       log_det_ = n * std::log(s2);
       return std::isfinite(log_det_) && std::isfinite(m00_) && std::isfinite(m01_) && std::isfinite(m11_);
     }
@@ -262,13 +326,13 @@ class LagLikelihoodForm {
     Scalar chh = zero, cho = zero, coo = zero, co = zero;
     for (std::size_t t = 0; t < Lags; ++t) {
       Scalar ch = zero;
-      for (std::size_t j = 0; j <= t; ++j) ch += pi_[j] * head_[t - j];
+      for (std::size_t j = 0; j <= t; ++j) ch += pi_[j] * head_value(t - j);
       co += pi_[t];
       chh += ch * ch;
       cho += ch * co;
       coo += co * co;
       Scalar ct = zero;
-      for (std::size_t j = t + 1; j <= Lags; ++j) ct += pi_[j] * tail_[Lags + t - j];
+      for (std::size_t j = t + 1; j <= Lags; ++j) ct += pi_[j] * tail_value(Lags + t - j);
       const Scalar cto = pi_total - co;
       chh += ct * ct;
       cho += ct * cto;
@@ -319,8 +383,34 @@ class LagLikelihoodForm {
   static Scalar log_2pi() noexcept { return Scalar(1.8378770664093454835606594728112353L); }
   static Scalar ln2() noexcept { return Scalar(0.6931471805599453094172321214581765681L); }
 
+  // The first values (0 without them: never read then, the kinds that read them refused) and
+  // the last ones, in Scalar.
+  Scalar head_value(std::size_t i) const noexcept {
+    if constexpr (KeepHead) {
+      return ends_.head[i];
+    } else {
+      static_cast<void>(i);
+      return Scalar(0);
+    }
+  }
+  Scalar tail_value(std::size_t i) const noexcept {
+    if constexpr (KeepHead) {
+      return ends_.tail[i];
+    } else {
+      return static_cast<Scalar>(st_.tail(i));
+    }
+  }
+  bool head_finite(std::size_t i) const noexcept {
+    if constexpr (KeepHead) {
+      return std::isfinite(st_.head(i));
+    } else {
+      static_cast<void>(i);
+      return true;
+    }
+  }
+
   const Stats& st_;
-  Scalar head_[Lags] = {}, tail_[Lags] = {};
+  LagEndValues<Scalar, Lags, KeepHead> ends_;
   Scalar pi_[Lags + 1] = {};
   Scalar log_det_ = Scalar(0), m00_ = Scalar(0), m01_ = Scalar(0), m11_ = Scalar(0);
   Scalar k0_ = Scalar(0), k1_ = Scalar(0);
@@ -334,10 +424,10 @@ inline void lag_natural(const Scalar* u, Scalar& a1, Scalar& a2, Scalar& lam) no
 }
 
 // f(u) = -(profile log-likelihood) / n, +inf where it is not finite; counts evaluations.
-template <class Scalar, class StatScalar, std::size_t Lags>
+template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead>
 class LagFitObjective {
  public:
-  LagFitObjective(const LagStatistics<StatScalar, Lags>& st, LagLikelihoodKind kind) noexcept
+  LagFitObjective(const LagStatistics<StatScalar, Lags, KeepHead>& st, LagLikelihoodKind kind) noexcept
       : form_(st), kind_(kind) {}
 
   Scalar operator()(const Scalar* u) noexcept {
@@ -354,15 +444,31 @@ class LagFitObjective {
     return -p.loglike / static_cast<Scalar>(form_.stats().samples());
   }
 
-  LagLikelihoodForm<Scalar, StatScalar, Lags>& form() noexcept { return form_; }
+  LagLikelihoodForm<Scalar, StatScalar, Lags, KeepHead>& form() noexcept { return form_; }
   std::uint32_t evaluations() const noexcept { return evaluations_; }
   Scalar samples() const noexcept { return static_cast<Scalar>(form_.stats().samples()); }
 
  private:
-  LagLikelihoodForm<Scalar, StatScalar, Lags> form_;
+  LagLikelihoodForm<Scalar, StatScalar, Lags, KeepHead> form_;
   LagLikelihoodKind kind_;
   std::uint32_t evaluations_ = 0;
 };
+
+// The 48 starts of the fit, in the reference's order: partial autocorrelations
+// (-0.5, 0.3, 0.7, 0.95) x (-0.3, -0.05, 0.05, 0.3), splits (0.2, 0.5, 0.8), the split the
+// fastest; point i as u = (atanh p1, atanh p2, logit lam).
+inline constexpr int kLagGridPoints = 48;
+template <class Scalar>
+inline void lag_grid_point(int i, Scalar* u) noexcept {
+  static constexpr Scalar pacf1[4] = {Scalar(-0.5), Scalar(0.3), Scalar(0.7), Scalar(0.95)};
+  static constexpr Scalar pacf2[4] = {Scalar(-0.3), Scalar(-0.05), Scalar(0.05), Scalar(0.3)};
+  static constexpr Scalar split[3] = {Scalar(0.2), Scalar(0.5), Scalar(0.8)};
+  const Scalar p1 = pacf1[i / 12], p2 = pacf2[(i / 3) % 4], lam = split[i % 3];
+  // atanh p = log((1 + p) / (1 - p)) / 2 (one log routine for the whole fit)
+  u[0] = Scalar(0.5) * std::log((Scalar(1) + p1) / (Scalar(1) - p1));
+  u[1] = Scalar(0.5) * std::log((Scalar(1) + p2) / (Scalar(1) - p2));
+  u[2] = std::log(lam / (Scalar(1) - lam));
+}
 
 template <class Scalar>
 struct BfgsRun {
@@ -382,17 +488,18 @@ BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_
   const Scalar fd_step = Scalar(1e-5), armijo = Scalar(1e-4), gain_tol = Scalar(1e-8), stall_tol = Scalar(1e-5),
                max_step = Scalar(1);
   Scalar u[3] = {u0[0], u0[1], u0[2]};
-  auto gradient = [&](Scalar* g) noexcept {
+  // The central-difference gradient at x (x restored).
+  auto gradient = [&](Scalar* x, Scalar* g) noexcept {
     bool ok = true;
     for (std::size_t i = 0; i < D; ++i) {
       const std::size_t c = free_idx[i];
-      const Scalar keep = u[c];
+      const Scalar keep = x[c];
       const Scalar h = fd_step * (std::fabs(keep) > Scalar(1) ? std::fabs(keep) : Scalar(1));
-      u[c] = keep + h;
-      const Scalar fp = obj(u);
-      u[c] = keep - h;
-      const Scalar fm = obj(u);
-      u[c] = keep;
+      x[c] = keep + h;
+      const Scalar fp = obj(x);
+      x[c] = keep - h;
+      const Scalar fm = obj(x);
+      x[c] = keep;
       g[i] = (fp - fm) / (Scalar(2) * h);
       ok = ok && std::isfinite(g[i]);
     }
@@ -401,7 +508,7 @@ BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_
   Scalar f = obj(u);
   run.f = f;
   Scalar g[D] = {}, h[D][D] = {};
-  if (!std::isfinite(f) || !gradient(g)) return run;
+  if (!std::isfinite(f) || !gradient(u, g)) return run;
   for (std::size_t i = 0; i < D; ++i)
     for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? Scalar(1) : Scalar(0);
   bool scaled = false;
@@ -466,21 +573,20 @@ BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_
       run.converged = gain <= stall_tol;  // no decrease left within f's precision
       break;
     }
-    Scalar s[D] = {}, y[D] = {}, g_new[D] = {};
-    Scalar keep_u[3] = {u[0], u[1], u[2]};
+    // The step s (in p) and the change of the gradient y (in y), in place.
+    Scalar y[D] = {};
+    if (!gradient(u_new, y)) break;
     for (int i = 0; i < 3; ++i) u[i] = u_new[i];
-    if (!gradient(g_new)) {
-      for (int i = 0; i < 3; ++i) u[i] = keep_u[i];
-      break;
-    }
+    Scalar* const s = p;
     Scalar sy = Scalar(0), yy = Scalar(0), ss = Scalar(0);
     for (std::size_t i = 0; i < D; ++i) {
       s[i] = alpha * p[i];
-      y[i] = g_new[i] - g[i];
+      const Scalar g_new = y[i];
+      y[i] = g_new - g[i];
+      g[i] = g_new;
       sy += s[i] * y[i];
       yy += y[i] * y[i];
       ss += s[i] * s[i];
-      g[i] = g_new[i];
     }
     f = f_new;
     // Curvature condition; skip the update when it fails (Nocedal & Wright, sec. 6.1).
@@ -525,14 +631,16 @@ inline int sign_of(Scalar v) noexcept {
 // recursion), bad_model (q < 0, r <= 0 or non-stationary); `loglike` is only written on ok.
 // r = 0 is refused: the steady-state filter of a noise-free drift is not defined by the
 // statistics' recursion here.
-template <class Scalar, class StatScalar, std::size_t Lags>
-LagDriftFitStatus lag_drift_loglike(const LagStatistics<StatScalar, Lags>& st, const DriftModelParams<Scalar>& p,
-                                    Scalar& loglike, LagLikelihoodKind kind = LagLikelihoodKind::exact) noexcept {
+template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead>
+LagDriftFitStatus lag_drift_loglike(const LagStatistics<StatScalar, Lags, KeepHead>& st,
+                                    const DriftModelParams<Scalar>& p, Scalar& loglike,
+                                    LagLikelihoodKind kind = detail::lag_default_kind(KeepHead)) noexcept {
+  if (!detail::lag_kind_available(kind, KeepHead)) return LagDriftFitStatus::needs_head;
   if (st.samples() < lag_drift_min_samples(Lags)) return LagDriftFitStatus::too_few_samples;
   const Ar2Status ps = drift_params_status(p);
   if (ps == Ar2Status::non_finite) return LagDriftFitStatus::non_finite;
   if (ps != Ar2Status::ok || !(p.r > Scalar(0))) return LagDriftFitStatus::bad_model;
-  detail::LagLikelihoodForm<Scalar, StatScalar, Lags> form(st);
+  detail::LagLikelihoodForm<Scalar, StatScalar, Lags, KeepHead> form(st);
   if (!form.finite() || !form.build(p.a1, p.a2, p.q, p.r, kind)) return LagDriftFitStatus::non_finite;
   const Scalar v = form.loglike(p.mean - static_cast<Scalar>(st.centre()));
   if (!std::isfinite(v)) return LagDriftFitStatus::non_finite;
@@ -543,14 +651,15 @@ LagDriftFitStatus lag_drift_loglike(const LagStatistics<StatScalar, Lags>& st, c
 // The profile log-likelihood at (a1, a2, lam = q / (q + r), 0 < lam < 1): maximised over the
 // mean and the common scale of q and r (header comment). Statuses as lag_drift_loglike;
 // `out` is only written on ok.
-template <class Scalar, class StatScalar, std::size_t Lags>
-LagDriftFitStatus lag_drift_profile(const LagStatistics<StatScalar, Lags>& st, Scalar a1, Scalar a2, Scalar lam,
-                                    LagDriftProfile<Scalar>& out,
-                                    LagLikelihoodKind kind = LagLikelihoodKind::exact) noexcept {
+template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead>
+LagDriftFitStatus lag_drift_profile(const LagStatistics<StatScalar, Lags, KeepHead>& st, Scalar a1, Scalar a2,
+                                    Scalar lam, LagDriftProfile<Scalar>& out,
+                                    LagLikelihoodKind kind = detail::lag_default_kind(KeepHead)) noexcept {
+  if (!detail::lag_kind_available(kind, KeepHead)) return LagDriftFitStatus::needs_head;
   if (st.samples() < lag_drift_min_samples(Lags)) return LagDriftFitStatus::too_few_samples;
   if (!std::isfinite(a1) || !std::isfinite(a2) || !std::isfinite(lam)) return LagDriftFitStatus::non_finite;
   if (!(lam > Scalar(0) && lam < Scalar(1)) || !ar2_is_stationary(a1, a2)) return LagDriftFitStatus::bad_model;
-  detail::LagLikelihoodForm<Scalar, StatScalar, Lags> form(st);
+  detail::LagLikelihoodForm<Scalar, StatScalar, Lags, KeepHead> form(st);
   LagDriftProfile<Scalar> p;
   if (!form.finite() || !form.build(a1, a2, lam, Scalar(1) - lam, kind) || !form.profile(lam, p)) {
     return LagDriftFitStatus::non_finite;
@@ -561,74 +670,67 @@ LagDriftFitStatus lag_drift_profile(const LagStatistics<StatScalar, Lags>& st, S
 
 // Maximises the profile log-likelihood from the statistics (header comment: the grid, the two
 // best starts on each side of a2 = 0, BFGS, the run across the fold).
-template <class Scalar, class StatScalar, std::size_t Lags>
-LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags>& st,
-                                        LagLikelihoodKind kind = LagLikelihoodKind::exact) noexcept {
+template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead>
+LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags, KeepHead>& st,
+                                        LagLikelihoodKind kind = detail::lag_default_kind(KeepHead)) noexcept {
   LagDriftFitResult<Scalar> res;
+  if (!detail::lag_kind_available(kind, KeepHead)) {
+    res.status = LagDriftFitStatus::needs_head;
+    return res;
+  }
   if (st.samples() < lag_drift_min_samples(Lags)) {
     res.status = LagDriftFitStatus::too_few_samples;
     return res;
   }
-  detail::LagFitObjective<Scalar, StatScalar, Lags> obj(st, kind);
+  detail::LagFitObjective<Scalar, StatScalar, Lags, KeepHead> obj(st, kind);
   if (!obj.form().finite()) {
     res.status = LagDriftFitStatus::non_finite;
     return res;
   }
   // The grid, in the reference's order; the two best starts on each side of a2 = 0 (the
-  // earlier one wins a tie, as a stable sort).
-  const Scalar pacf1[4] = {Scalar(-0.5), Scalar(0.3), Scalar(0.7), Scalar(0.95)};
-  const Scalar pacf2[4] = {Scalar(-0.3), Scalar(-0.05), Scalar(0.05), Scalar(0.3)};
-  const Scalar split[3] = {Scalar(0.2), Scalar(0.5), Scalar(0.8)};
-  Scalar best_u[2][2][3] = {};  // [side: a2 < 0, a2 > 0][rank][u]
+  // earlier one wins a tie, as a stable sort), kept as grid indices (the point recomputed
+  // when its run starts), so that little of the fit's state lives beside its runs.
   Scalar best_f[2][2] = {};
-  bool have[2][2] = {{false, false}, {false, false}};
-  for (const Scalar p1 : pacf1) {
-    for (const Scalar p2 : pacf2) {
-      for (const Scalar lam : split) {
-        // atanh p = log((1 + p) / (1 - p)) / 2 (one log routine for the whole fit)
-        const Scalar u[3] = {Scalar(0.5) * std::log((Scalar(1) + p1) / (Scalar(1) - p1)),
-                             Scalar(0.5) * std::log((Scalar(1) + p2) / (Scalar(1) - p2)),
-                             std::log(lam / (Scalar(1) - lam))};
-        const Scalar f = obj(u);
-        const int side = p2 > Scalar(0) ? 1 : 0;
-        int rank = -1;
-        if (!have[side][0] || f < best_f[side][0]) {
-          rank = 0;
-        } else if (!have[side][1] || f < best_f[side][1]) {
-          rank = 1;
-        }
-        if (rank == 0 && have[side][0]) {
-          for (int i = 0; i < 3; ++i) best_u[side][1][i] = best_u[side][0][i];
-          best_f[side][1] = best_f[side][0];
-          have[side][1] = true;
-        }
-        if (rank >= 0) {
-          for (int i = 0; i < 3; ++i) best_u[side][rank][i] = u[i];
-          best_f[side][rank] = f;
-          have[side][rank] = true;
-        }
-      }
+  int best_i[2][2] = {{-1, -1}, {-1, -1}};  // [side: a2 < 0, a2 > 0][rank], -1: none
+  for (int i = 0; i < detail::kLagGridPoints; ++i) {
+    Scalar u[3];
+    detail::lag_grid_point(i, u);
+    const Scalar f = obj(u);
+    const int side = u[1] > Scalar(0) ? 1 : 0;
+    if (best_i[side][0] < 0 || f < best_f[side][0]) {
+      best_i[side][1] = best_i[side][0];
+      best_f[side][1] = best_f[side][0];
+      best_i[side][0] = i;
+      best_f[side][0] = f;
+    } else if (best_i[side][1] < 0 || f < best_f[side][1]) {
+      best_i[side][1] = i;
+      best_f[side][1] = f;
     }
   }
+  // Each of the four runs; the best one (the first on a tie) and the sides they ended on.
   const std::size_t all3[3] = {0, 1, 2};
-  detail::BfgsRun<Scalar> modes[4];
-  int best = 0;
+  detail::BfgsRun<Scalar> chosen;
+  int sides[4] = {};
   for (int m = 0; m < 4; ++m) {
-    modes[m] = detail::bfgs<3>(obj, best_u[m / 2][m % 2], all3);
-    res.iterations += modes[m].iterations;
-    if (modes[m].f < modes[best].f) best = m;
+    Scalar u[3] = {Scalar(0), Scalar(0), Scalar(0)};
+    if (best_i[m / 2][m % 2] >= 0) detail::lag_grid_point(best_i[m / 2][m % 2], u);
+    const detail::BfgsRun<Scalar> run = detail::bfgs<3>(obj, u, all3);
+    res.iterations += run.iterations;
+    sides[m] = detail::sign_of(run.u[1]);
+    if (m == 0 || run.f < chosen.f) chosen = run;
   }
   res.runs = 4;
-  detail::BfgsRun<Scalar> chosen = modes[best];
   bool one_side = true;
-  for (const auto& m : modes) one_side = one_side && detail::sign_of(m.u[1]) == detail::sign_of(chosen.u[1]);
+  for (const int side : sides) one_side = one_side && side == detail::sign_of(chosen.u[1]);
   if (one_side) {
     // Across the fold: (u1, u3) with u2 at the mirror of the best one's, then all three.
-    const Scalar start[3] = {chosen.u[0], -chosen.u[1], chosen.u[2]};
+    Scalar start[3] = {chosen.u[0], -chosen.u[1], chosen.u[2]};
     const std::size_t two[2] = {0, 2};
-    const detail::BfgsRun<Scalar> side = detail::bfgs<2>(obj, start, two);
-    const detail::BfgsRun<Scalar> other = detail::bfgs<3>(obj, side.u, all3);
-    res.iterations += side.iterations + other.iterations;
+    detail::BfgsRun<Scalar> other = detail::bfgs<2>(obj, start, two);
+    res.iterations += other.iterations;
+    for (int i = 0; i < 3; ++i) start[i] = other.u[i];
+    other = detail::bfgs<3>(obj, start, all3);
+    res.iterations += other.iterations;
     res.runs = 6;
     if (other.f < chosen.f) chosen = other;
   }
@@ -654,7 +756,7 @@ LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags>& s
   res.truncation = power;
   if (!chosen.converged) {
     res.status = LagDriftFitStatus::not_converged;
-  } else if (!(res.truncation <= static_cast<Scalar>(kLagDriftTruncationTol))) {
+  } else if (!(res.truncation <= static_cast<Scalar>(lag_drift_truncation_tol(kind)))) {
     res.status = LagDriftFitStatus::truncation;
   } else {
     res.status = LagDriftFitStatus::ok;

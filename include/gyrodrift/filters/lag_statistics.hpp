@@ -34,23 +34,46 @@
 // State: 2 (Lags + 1) + 2 + 2 Lags + 1 Scalars and 16 bytes of counters, padded: sizeof is 552 bytes
 // for LagStatistics<float, 32> and 1080 for <double, 32> on x86-64 (checked in
 // cpp/tests/test_lag_statistics.cpp); 552 on Cortex-M4 (cpp/cortex_m/use_lag_statistics.cpp).
+// Without the first values (KeepHead = false, LagStatisticsNoHead: for Whittle's likelihood
+// with the first samples replaced by the record's mean, lag_drift_fit.hpp) the state is
+// 2 (Lags + 1) + 2 + Lags + 1 Scalars and the counters: 136 bytes for <float, 8> and 184 for
+// <float, 12>, on x86-64 and on the Cortex-M4 alike; the sums and the tail are those of the
+// full form on the same samples, bit for bit.
 // Non-finite samples (and a sample whose w_t^2 overflows) are not used: push() returns false,
 // the statistics are untouched and rejected() counts them.
 #pragma once
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 
 #include "../stability/compensated_sum.hpp"
 
 namespace gyrodrift {
 
+namespace detail {
+// The first min(n, Lags) values of w, kept or not (an empty base when not: no bytes).
+template <class Scalar, std::size_t Lags, bool Keep>
+struct LagHeadStore {
+  void keep(std::size_t i, Scalar w) noexcept { values_[i] = w; }
+  Scalar values_[Lags]{};
+};
 template <class Scalar, std::size_t Lags>
-class LagStatistics {
+struct LagHeadStore<Scalar, Lags, false> {
+  void keep(std::size_t, Scalar) noexcept {}
+};
+}  // namespace detail
+
+// KeepHead: whether the first min(n, Lags) values of w are kept (the exact likelihood needs
+// them; Whittle's with the first samples replaced by the mean does not).
+template <class Scalar, std::size_t Lags, bool KeepHead = true>
+class LagStatistics : private detail::LagHeadStore<Scalar, Lags, KeepHead> {
   static_assert(Lags >= 1 && Lags <= 1024, "Lags must be in 1..1024");
+  using HeadStore = detail::LagHeadStore<Scalar, Lags, KeepHead>;
 
  public:
   static constexpr std::size_t lags = Lags;
+  static constexpr bool keeps_head = KeepHead;
 
   // A sum carried as the renormalised pair sum + comp (|comp| at most half an ulp of sum).
   using Sum = CompensatedSum<Scalar>;
@@ -78,7 +101,7 @@ class LagStatistics {
     for (std::size_t j = next_; j > 0 && k <= back; ++k) products_[k].add(w * ring_[--j]);
     for (std::size_t j = Lags; k <= back; ++k) products_[k].add(w * ring_[--j]);
     total_.add(w);
-    if (n_ < Lags) head_[n_] = w;
+    if (n_ < Lags) HeadStore::keep(static_cast<std::size_t>(n_), w);
     ring_[next_] = w;
     next_ = next_ + 1 == Lags ? 0U : next_ + 1;
     ++n_;
@@ -105,8 +128,11 @@ class LagStatistics {
   Sum product(std::size_t k) const noexcept { return k <= Lags ? products_[k] : Sum{}; }
   // min(n, Lags): the number of head and of tail values.
   std::size_t kept() const noexcept { return n_ < Lags ? static_cast<std::size_t>(n_) : Lags; }
-  // w_i, i < kept() (0 beyond): the first values of w.
-  Scalar head(std::size_t i) const noexcept { return i < kept() ? head_[i] : Scalar(0); }
+  // w_i, i < kept() (0 beyond): the first values of w (only when they are kept).
+  template <bool Kept = KeepHead, typename std::enable_if<Kept, int>::type = 0>
+  Scalar head(std::size_t i) const noexcept {
+    return i < kept() ? HeadStore::values_[i] : Scalar(0);
+  }
   // w_{n - kept() + i}, i < kept() (0 beyond): the last values of w, oldest first.
   Scalar tail(std::size_t i) const noexcept {
     const std::size_t m = kept();
@@ -120,12 +146,15 @@ class LagStatistics {
  private:
   Sum products_[Lags + 1]{};
   Sum total_{};
-  Scalar head_[Lags]{};
   Scalar ring_[Lags]{};  // ring_[next_ - 1] (wrapping) is the newest w
   std::uint64_t n_{0};
   Scalar centre_{0};
   std::uint32_t next_{0};      // ring slot of the next sample
   std::uint32_t rejected_{0};  // saturating
 };
+
+// The statistics without the first values: n, c, sum w, P_0..P_L and the last L values.
+template <class Scalar, std::size_t Lags>
+using LagStatisticsNoHead = LagStatistics<Scalar, Lags, false>;
 
 }  // namespace gyrodrift

@@ -19,7 +19,9 @@ docs/validation/online-identification.md, "Whole-record statistics".
 include/gyrodrift/filters/lag_drift_fit.hpp): the exact likelihood from the statistics
 maximised over (a1, a2, q / (q + r)) with the mean and the scale in closed form, from a grid
 of starts on both sides of a2 = 0 and across that fold, as the numpy reference's
-``lag_drift_fit``; `lag_drift_loglike` is the likelihood itself.
+``lag_drift_fit``; `lag_drift_loglike` is the likelihood itself. ``kind="whittle_no_head"``
+is the form a target can keep without the first samples (the C++ core's
+``LagStatisticsNoHead``; docs/validation/online-identification.md).
 """
 
 from __future__ import annotations
@@ -36,9 +38,11 @@ from gyrodrift.errors import GyrodriftTypeError, GyrodriftValueError
 __all__ = ["LAG_LIKELIHOOD_KINDS", "LagDriftFitError", "LagDriftFitResult", "LagStatistics",
            "lag_drift_fit", "lag_drift_loglike"]
 
-#: The likelihoods the fit can maximise: the exact one (up to terms of order rho^L) and
-#: Whittle's approximation truncated at L.
-LAG_LIKELIHOOD_KINDS = ("exact", "whittle")
+#: The likelihoods the fit can maximise: the exact one (up to terms of order rho^L),
+#: Whittle's approximation truncated at L, and Whittle's with the first L samples replaced by
+#: the record's mean (what statistics without the first samples give; its fit is refused as
+#: truncation above rho^L = 3e-3 instead of 1e-10).
+LAG_LIKELIHOOD_KINDS = ("exact", "whittle", "whittle_no_head")
 
 
 class LagStatistics:
@@ -175,9 +179,10 @@ class LagDriftFitError(GyrodriftValueError):
 class LagDriftFitResult:
     """The drift model fitted from the lag statistics.
 
-    ``status``: ok; truncation (rho^L of the fit above 1e-10, rho the pole modulus of the
-    model's steady-state innovation filter: L = 32 is too short for this model and the
-    likelihood's neglected terms are not negligible); not_converged (the best run stopped at
+    ``status``: ok; truncation (rho^L of the fit above 1e-10, or 3e-3 for the kind
+    whittle_no_head; rho the pole modulus of the model's steady-state innovation filter:
+    L = 32 is too short for this model and the likelihood's neglected terms are not
+    negligible); not_converged (the best run stopped at
     its iteration bound). a1, a2, q, r (record units squared) and mean (record units) are the
     estimate, ``loglike`` its log-likelihood of the kind fitted, ``truncation`` its rho^L;
     ``iterations``, ``evaluations`` and ``runs`` the maximiser's work.
@@ -244,8 +249,8 @@ def lag_drift_fit(stats: LagStatistics, *, kind: str = "exact") -> LagDriftFitRe
     ----------
     stats : LagStatistics
         The statistics of the record (float64 or float32 state); not changed.
-    kind : {"exact", "whittle"}
-        The likelihood maximised (module docstring).
+    kind : {"exact", "whittle", "whittle_no_head"}
+        The likelihood maximised (module docstring, `LAG_LIKELIHOOD_KINDS`).
 
     Returns
     -------
@@ -292,8 +297,8 @@ def lag_drift_loglike(stats: LagStatistics, a1: float, a2: float, q: float, r: f
         Driving-noise and white-noise variances (record units squared; q >= 0, r > 0).
     mean : float
         The record's constant offset (record units).
-    kind : {"exact", "whittle"}
-        The likelihood (module docstring).
+    kind : {"exact", "whittle", "whittle_no_head"}
+        The likelihood (module docstring, `LAG_LIKELIHOOD_KINDS`).
 
     Raises
     ------

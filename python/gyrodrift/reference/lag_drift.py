@@ -29,6 +29,10 @@ From these, for any (a1, a2, q, r, mean), with z_t = y_t - mean:
   sum_``|k|<=L`` S_``|k|`` d_k) / 2, d_k = sum_j pi_j pi_{j+k} / sigma^2 the Fourier
   coefficients of 1 / S(w) truncated at L (sigma^2 = exp of the mean of log S, the
   steady-state innovation variance).
+- ``"whittle_no_head"``: Whittle's with the first L values of w replaced by the record's
+  mean of w, sum w / n, in the mean's correction (the only place Whittle's form reads
+  them): what a target that keeps no first samples can evaluate; the statistics' ``head``
+  is not read.
 
 Both are quadratic in the mean and scale as 1/s with a common factor s of (q, r), so the fit
 (`lag_drift_fit`) maximises the profile log-likelihood over (u1, u2, u3) only
@@ -68,7 +72,7 @@ _LOG_2PI = math.log(2.0 * math.pi)
 _RICCATI_TOL = 1e-15
 #: rho^L below which the neglected terms of the likelihood count as negligible (`lags_needed`).
 TRUNCATION_TOL = 1e-10
-_KINDS = ("exact", "whittle")
+_KINDS = ("exact", "whittle", "whittle_no_head")
 
 
 class LagStatisticsLike(Protocol):
@@ -290,12 +294,13 @@ def _form(st: LagStatisticsLike, a1: float, a2: float, q: float, r: float, kind:
     g = np.array([pi[: lags + 1 - m] @ pi[m:] for m in range(lags + 1)])
     g[1:] *= 2.0
     k = np.arange(lags + 1)
-    head_cum = np.r_[0.0, np.cumsum(st.head)]
+    head = np.full(lags, st.total / n) if kind == "whittle_no_head" else st.head
+    head_cum = np.r_[0.0, np.cumsum(head)]
     tail_cum = np.r_[0.0, np.cumsum(st.tail[::-1])]
     lin = 2.0 * st.total - head_cum[k] - tail_cum[k]
     m = np.array([[st.products @ g, 0.5 * (lin @ g)],
                   [0.5 * (lin @ g), (n - k) @ g]]) / s2
-    if kind == "whittle":
+    if kind != "exact":
         return n * math.log(s2), m
     ones = np.ones(lags)
     eh = np.empty((2, lags))  # innovations are linear in z = w - d: those of w and of 1
