@@ -70,17 +70,20 @@
 //
 // Work: one likelihood evaluation is about 6000 flops at L = 32 (the impulse response and its
 // autocorrelation, the Kalman filter over the first samples, the Riccati recursion to the
-// steady state, the two end convolutions); a fit takes 600 to 900 evaluations on realistic
-// records (evaluations of the result): about 1.3 ms on a desktop core, 3.5e8 instructions in
-// software double on a Cortex-M4F; Whittle's kind without the first values at L = 12 and 8,
-// 6.7e7 and 5.9e7 (nearly all of it the Riccati recursion to its steady state)
+// steady state, the two end convolutions); Whittle's kinds skip the recursion (the steady
+// state in closed form) and the first samples' filter: the impulse response's
+// autocorrelation, (L + 1)(L + 2) / 2 products, is most of what is left. A fit takes 600 to
+// 900 evaluations on realistic records (evaluations of the result): about 1.3 ms on a desktop
+// core (exact), 0.13 to 0.21 ms (whittle_no_head at L = 12 and 8); in software double on a
+// Cortex-M4F 3.5e8 instructions (exact, L = 32), 4.1e7 and 3.3e7 (whittle_no_head at L = 12
+// and 8: 5.2e4 and 4.2e4 an evaluation; 6.7e7 and 5.9e7 when they iterated the recursion)
 // (cpp/cortex_m/use_lag_drift_fit.cpp; docs/validation/online-identification.md).
 // Memory: the statistics are read in place (a float pair as Scalar(sum) + Scalar(comp); with
 // the first values kept, those and the last L values copied once); working state on the
 // stack: the grid's four best starts as indices, one finished run at a time, the BFGS state
 // (3 x 3 inverse Hessian and a few 3-vectors) and the impulse response (L + 1 Scalars): on
-// the Cortex-M4 2112 B of stack below the caller at L = 32 (exact), 1336 B at L = 12 and
-// 1304 B at L = 8 (whittle_no_head), software double's routines included; no heap, no
+// the Cortex-M4 2120 B of stack below the caller at L = 32 (exact), 1320 B at L = 12 and
+// 1288 B at L = 8 (whittle_no_head), software double's routines included; no heap, no
 // exceptions. The statistics must not change during a fit (a target that pushes on while it
 // fits runs the fit on a copy).
 // Scalar is the fit's precision: double. The likelihood must resolve differences of 0.1 on a
