@@ -10,6 +10,7 @@
 #define DOCTEST_CONFIG_IMPLEMENT_WITH_MAIN
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -17,6 +18,7 @@
 #include <gyrodrift/filters/lag_drift_fit.hpp>
 #include <gyrodrift/filters/lag_statistics.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "alloc_counter.hpp"
@@ -140,6 +142,102 @@ TEST_CASE("a model the lags are too short for is reported as truncation") {
   CHECK(fit.truncation > 1e-7);
   CHECK(fit.truncation < 1.0);
   CHECK(std::fabs(fit.model.a1 + fit.model.a2 - 0.9) < 0.1);
+}
+
+namespace {
+
+// The steady state by iterating the Riccati recursion (prediction form, stationary start) in
+// long double, until the innovation variance F changes by at most 1e-18 relative on two
+// steps in a row (with a1 = 0 the even and odd samples are two independent chains and F can
+// stay the same for one step), at most 10^6 steps: F and the gain (k0, k1) there.
+struct IteratedSteady {
+  long double f = 0.0L, k0 = 0.0L, k1 = 0.0L;
+};
+IteratedSteady iterate_riccati(long double a1, long double a2, long double q, long double r) {
+  IteratedSteady out;
+  long double p00 = 0.0L, p01 = 0.0L, p11 = 0.0L;
+  if (q > 0.0L) {
+    p00 = q * (1.0L - a2) / ((1.0L + a2) * ((1.0L - a2) * (1.0L - a2) - a1 * a1));
+    p01 = a1 * p00 / (1.0L - a2);
+    p11 = p00;
+  }
+  long double f_prev = -1.0L;
+  bool small_before = false;
+  for (long step = 0; step < 1000000; ++step) {
+    out.f = p00 + r;
+    out.k0 = p00 / out.f;
+    out.k1 = p01 / out.f;
+    const bool small = std::fabs(out.f - f_prev) <= 1e-18L * out.f;
+    if (small && small_before) break;
+    small_before = small;
+    f_prev = out.f;
+    const long double u00 = p00 - out.k0 * p00, u01 = p01 - out.k0 * p01, u11 = p11 - out.k1 * p01;
+    p00 = a1 * a1 * u00 + 2.0L * a1 * a2 * u01 + a2 * a2 * u11 + q;
+    p01 = a1 * u00 + a2 * u01;
+    p11 = u00;
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("the steady state in closed form equals the iterated Riccati recursion") {
+  // lag_innovation_factor (Whittle's kinds' sigma^2 and B, hence the innovation filter's
+  // impulse response A / B) against the recursion the exact kind iterates, run to its fixed
+  // point in long double, on a grid of (a1, a2): the stationary triangle in steps (a2 = 0
+  // included, a1 = 0 too), complex pole pairs of modulus 0.99 and 0.995 at four angles, a
+  // real double pole at +-0.99 and real poles 0.995 and -0.3; with q/r from 0 (q = 0: B = A,
+  // sigma^2 = r) through 1e-6 to 100, and r = 0 (B = 1, sigma^2 = q). sigma^2 to 1e-12
+  // relative and pi_0..pi_32 (pi_0 = 1) to 1e-12 absolute. Double rounding of the closed form
+  // is some eps amplified by 1 / s_i (s_i down to about 0.005 on this grid, where the poles
+  // of B come within 0.01 of the unit circle): observed 5e-14 against this recursion, and the
+  // same against the closed form in 50-digit arithmetic (a numpy/mpmath check of the formula,
+  // not kept). 190 models, 1330 cases.
+  std::vector<std::pair<double, double>> models;
+  for (int i = -9; i <= 9; ++i) {
+    for (int j = -9; j <= 9; ++j) {
+      const double a1 = 0.22 * i, a2 = 0.105 * j;
+      if (std::fabs(a1) < 1.0 - a2 - 1e-9 && a2 > -1.0 + 1e-9) models.emplace_back(a1, a2);
+    }
+  }
+  for (const double rho : {0.99, 0.995}) {
+    for (const double angle : {0.3, 1.0, 2.0, 3.0}) models.emplace_back(2.0 * rho * std::cos(angle), -rho * rho);
+  }
+  models.emplace_back(1.98, -0.9801);
+  models.emplace_back(-1.98, -0.9801);
+  models.emplace_back(0.995 - 0.3, 0.995 * 0.3);
+  for (const double a1 : {-0.9, -0.3, 0.0, 0.3, 0.6868, 0.99}) models.emplace_back(a1, 0.0);
+  REQUIRE(models.size() > 180);
+  double worst_s2 = 0.0, worst_pi = 0.0;
+  for (const auto& [a1, a2] : models) {
+    REQUIRE(gyrodrift::ar2_is_stationary(a1, a2));
+    for (const double ratio : {0.0, 1e-6, 1e-4, 1e-2, 1.0, 100.0, -1.0}) {
+      const double q = ratio < 0.0 ? 1.0 : ratio, r = ratio < 0.0 ? 0.0 : 1.0;  // -1: r = 0
+      double s2 = 0.0, b1 = 0.0, b2 = 0.0;
+      REQUIRE(gyrodrift::detail::lag_innovation_factor(a1, a2, q, r, s2, b1, b2));
+      const IteratedSteady it = iterate_riccati(a1, a2, q, r);
+      worst_s2 = std::max(worst_s2, static_cast<double>(std::fabs(s2 - it.f) / it.f));
+      // Impulse responses: A / B from (b1, b2), and the steady filter's from its gain.
+      long double x0 = 0.0L, x1 = 0.0L;
+      double p1 = 0.0, p2 = 0.0;
+      for (int t = 0; t <= 32; ++t) {
+        const long double e = (t == 0 ? 1.0L : 0.0L) - x0;
+        const long double u0 = x0 + it.k0 * e, u1 = x1 + it.k1 * e;
+        x0 = a1 * u0 + a2 * u1;
+        x1 = u0;
+        const double alpha = t == 0 ? 1.0 : (t == 1 ? -a1 : (t == 2 ? -a2 : 0.0));
+        const double v = alpha - b1 * p1 - b2 * p2;
+        p2 = p1;
+        p1 = v;
+        worst_pi = std::max(worst_pi, static_cast<double>(std::fabs(v - e)));
+      }
+    }
+  }
+  CHECK(worst_s2 <= 1e-12);
+  CHECK(worst_pi <= 1e-12);
+  // Not a model: q = r = 0.
+  double s2 = 0.0, b1 = 0.0, b2 = 0.0;
+  CHECK_FALSE(gyrodrift::detail::lag_innovation_factor(0.5, 0.1, 0.0, 0.0, s2, b1, b2));
 }
 
 TEST_CASE("a float fit compiles and refuses like the double one") {

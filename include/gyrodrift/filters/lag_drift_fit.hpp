@@ -25,7 +25,9 @@
 //   - log det = sum_{t<L} log F_t + (n - L) log sigma^2.
 // Exact up to terms of order rho^L per sample, rho the pole modulus of the steady-state
 // innovation filter (the fit reports rho^L of its estimate as `truncation`). The "whittle" kind keeps only the steady part:
-// log det = n log sigma^2, M from sum_k g_k S_k / sigma^2 (Whittle's approximation truncated at L).
+// log det = n log sigma^2, M from sum_k g_k S_k / sigma^2 (Whittle's approximation truncated at L);
+// it needs no recursion: sigma^2 and pi, the impulse response of A(z) / B(z), come from the
+// spectral factorisation q + r |A|^2 = sigma^2 |B|^2 in closed form (detail::lag_innovation_factor).
 // The "whittle_no_head" kind is Whittle's with the first L values of w replaced by the record's
 // mean of w, sum w / n, in lin_k (sum_{t<k} w_t = k sum w / n): the only place Whittle's form
 // reads them, so it needs no first values and is the one kind the statistics without them
@@ -68,17 +70,20 @@
 //
 // Work: one likelihood evaluation is about 6000 flops at L = 32 (the impulse response and its
 // autocorrelation, the Kalman filter over the first samples, the Riccati recursion to the
-// steady state, the two end convolutions); a fit takes 600 to 900 evaluations on realistic
-// records (evaluations of the result): about 1.3 ms on a desktop core, 3.5e8 instructions in
-// software double on a Cortex-M4F; Whittle's kind without the first values at L = 12 and 8,
-// 6.7e7 and 5.9e7 (nearly all of it the Riccati recursion to its steady state)
+// steady state, the two end convolutions); Whittle's kinds skip the recursion (the steady
+// state in closed form) and the first samples' filter: the impulse response's
+// autocorrelation, (L + 1)(L + 2) / 2 products, is most of what is left. A fit takes 600 to
+// 900 evaluations on realistic records (evaluations of the result): about 1.3 ms on a desktop
+// core (exact), 0.13 to 0.21 ms (whittle_no_head at L = 12 and 8); in software double on a
+// Cortex-M4F 3.5e8 instructions (exact, L = 32), 4.1e7 and 3.3e7 (whittle_no_head at L = 12
+// and 8: 5.2e4 and 4.2e4 an evaluation; 6.7e7 and 5.9e7 when they iterated the recursion)
 // (cpp/cortex_m/use_lag_drift_fit.cpp; docs/validation/online-identification.md).
 // Memory: the statistics are read in place (a float pair as Scalar(sum) + Scalar(comp); with
 // the first values kept, those and the last L values copied once); working state on the
 // stack: the grid's four best starts as indices, one finished run at a time, the BFGS state
 // (3 x 3 inverse Hessian and a few 3-vectors) and the impulse response (L + 1 Scalars): on
-// the Cortex-M4 2112 B of stack below the caller at L = 32 (exact), 1336 B at L = 12 and
-// 1304 B at L = 8 (whittle_no_head), software double's routines included; no heap, no
+// the Cortex-M4 2120 B of stack below the caller at L = 32 (exact), 1320 B at L = 12 and
+// 1288 B at L = 8 (whittle_no_head), software double's routines included; no heap, no
 // exceptions. The statistics must not change during a fit (a target that pushes on while it
 // fits runs the fit on a copy).
 // Scalar is the fit's precision: double. The likelihood must resolve differences of 0.1 on a
@@ -204,6 +209,47 @@ constexpr bool lag_kind_available(LagLikelihoodKind kind, bool keeps_head) noexc
   return keeps_head || kind == LagLikelihoodKind::whittle_no_head;
 }
 
+// The steady-state innovation form of the model without iterating the Riccati recursion. Its
+// spectrum S(w) = q / |A(e^iw)|^2 + r, A(z) = 1 - a1 z^-1 - a2 z^-2, factors as
+//   q + r |A(e^iw)|^2 = sigma^2 |B(e^iw)|^2,   B(z) = 1 + b1 z^-1 + b2 z^-2, roots inside the
+// unit circle: sigma^2 the steady-state innovation variance, A / B the steady-state innovation
+// filter (the roots of B are the eigenvalues of the Kalman filter's A (I - K H)). With
+// x = z + 1/z the left side is c2 x^2 + c1 x + e = e (1 - t1 x)(1 - t2 x), c1 = -r a1 (1 - a2),
+// c2 = -r a2, e = q + r ((1 + a2)^2 + a1^2), so t1 + t2 = -c1 / e and t1 t2 = c2 / e; each t_i
+// gives the root beta_i = 2 t_i / (1 + s_i) of B, s_i = sqrt(1 - 4 t_i^2) (the principal root,
+// real part > 0), and sigma^2 = c2 / (beta_1 beta_2) = e (1 + s_1)(1 + s_2) / 4. Only symmetric
+// functions of the pair are needed, and they are real whether the t_i are real or complex
+// conjugates (both s_i >= 0, or s_2 the conjugate of s_1):
+//   s_1 s_2 = sqrt(S(0) S(pi)) / e, with the spectrum's numerator at w = 0 and pi,
+//             S(0) = q + r (1 - a1 - a2)^2 and S(pi) = q + r (1 + a1 - a2)^2 (free of the
+//             cancellation in 1 - 4 t^2 next to the unit circle, where s_i is small);
+//   s_1 + s_2 = sqrt(s_1^2 + s_2^2 + 2 s_1 s_2), s_1^2 + s_2^2 = 2 - 4 ((t1 + t2)^2 - 2 t1 t2);
+// then b2 = c2 / sigma^2 and b1 = c1 / (sigma^2 + c2) (the factorisation's lag-2 and lag-1
+// coefficients: sigma^2 b2 = c2, sigma^2 b1 (1 + b2) = c1). Defined for every stationary
+// (a1, a2) and q, r >= 0 with q + r > 0 (r = 0: B = 1 and sigma^2 = q; q = 0: B = A and
+// sigma^2 = r); false when e is not positive or the result is not finite. About 30 operations
+// and two square roots, against some tens of Riccati steps to 1e-15; next to the unit circle
+// it is the more accurate of the two (the recursion stops on a change of 1e-15 while it
+// converges as rho^2t).
+template <class Scalar>
+bool lag_innovation_factor(Scalar a1, Scalar a2, Scalar q, Scalar r, Scalar& sigma2, Scalar& b1,
+                           Scalar& b2) noexcept {
+  const Scalar zero(0), one(1), two(2), four(4);
+  const Scalar e = q + r * ((one + a2) * (one + a2) + a1 * a1);
+  if (!(e > zero) || !std::isfinite(e)) return false;
+  const Scalar c1 = -r * a1 * (one - a2), c2 = -r * a2;
+  const Scalar sum_t = -c1 / e, prod_t = c2 / e;
+  const Scalar s_lo = one - a1 - a2, s_hi = one + a1 - a2;
+  const Scalar spec0 = q + r * s_lo * s_lo, spec_pi = q + r * s_hi * s_hi;
+  const Scalar s_prod = std::sqrt(spec0 * spec_pi) / e;
+  const Scalar s_sq = two - four * (sum_t * sum_t - two * prod_t) + two * s_prod;
+  const Scalar s_sum = std::sqrt(s_sq > zero ? s_sq : zero);
+  sigma2 = e * (one + s_sum + s_prod) / four;
+  b2 = c2 / sigma2;
+  b1 = c1 / (sigma2 + c2);
+  return sigma2 > zero && std::isfinite(sigma2) && std::isfinite(b1) && std::isfinite(b2);
+}
+
 // The likelihood's ingredients for one model, from the statistics (see the header comment).
 template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead = true>
 class LagLikelihoodForm {
@@ -224,36 +270,40 @@ class LagLikelihoodForm {
     return ok;
   }
 
-  // log det and M (m00, m01, m11) at (a1, a2, q, r), and the steady gain (k0, k1); false when
-  // the recursion is not finite. The model must be stationary with q >= 0, r > 0.
+  // log det and M (m00, m01, m11) at (a1, a2, q, r), and the steady-state innovation filter's
+  // denominator (b1, b2); false when they are not finite. The model must be stationary with
+  // q >= 0, r > 0. The exact kind runs the Kalman filter over the first L samples and the
+  // Riccati recursion on to the steady state (until F changes by at most 1e-15 relative);
+  // Whittle's kinds read only the steady state, in closed form (lag_innovation_factor).
   bool build(Scalar a1, Scalar a2, Scalar q, Scalar r, LagLikelihoodKind kind) noexcept {
     if (!lag_kind_available(kind, KeepHead)) return false;
     const bool exact = kind == LagLikelihoodKind::exact && KeepHead;
     const Scalar n = static_cast<Scalar>(st_.samples());
     const Scalar zero(0), one(1);
-    Scalar g0, g1;
-    drift_stationary_covariance(a1, a2, q, g0, g1);
-    Scalar p00 = g0, p01 = g1, p11 = g0;
     // sum_{t<L} log F_t as the log of their product, kept as mantissa * 2^exponent (frexp
     // after each factor: exact, no overflow), so one log a evaluation instead of L.
     Scalar prod_f = one;
     int exp_f = 0;
     // Innovations of the first L values of w (h) and of the constant 1 (o), over the first
     // L samples with the time-varying gain; their contribution sum e e^T / F.
-    Scalar xh0 = zero, xh1 = zero, xo0 = zero, xo1 = zero;
     Scalar ehh = zero, eho = zero, eoo = zero;
-    const Scalar riccati_tol = Scalar(1e-15);
-    const std::size_t max_steps = 64U * Lags + 256U;
-    Scalar f = zero, f_prev = std::numeric_limits<Scalar>::infinity(), k0 = zero, k1 = zero;
-    for (std::size_t t = 0;; ++t) {
-      f = p00 + r;
-      if (!(f > zero) || !std::isfinite(f)) return false;
-      k0 = p00 / f;
-      k1 = p01 / f;
-      if (t < Lags) {
-        // The first samples' filter: the exact kind only (Whittle's reads sigma^2 alone; the
-        // recursion runs the same steps for every kind, so sigma^2 is the same).
-        if (exact) {
+    Scalar s2 = zero;
+    if (exact) {
+      Scalar k0 = zero, k1 = zero;
+      Scalar g0, g1;
+      drift_stationary_covariance(a1, a2, q, g0, g1);
+      Scalar p00 = g0, p01 = g1, p11 = g0;
+      Scalar xh0 = zero, xh1 = zero, xo0 = zero, xo1 = zero;
+      const Scalar riccati_tol = Scalar(1e-15);
+      const std::size_t max_steps = 64U * Lags + 256U;
+      Scalar f = zero, f_prev = std::numeric_limits<Scalar>::infinity();
+      for (std::size_t t = 0;; ++t) {
+        f = p00 + r;
+        if (!(f > zero) || !std::isfinite(f)) return false;
+        k0 = p00 / f;
+        k1 = p01 / f;
+        if (t < Lags) {
+          // The first samples' filter.
           int e2 = 0;
           prod_f = std::frexp(prod_f * f, &e2);
           exp_f += e2;
@@ -268,28 +318,40 @@ class LagLikelihoodForm {
           const Scalar uo0 = xo0 + k0 * eo, uo1 = xo1 + k1 * eo;
           xo0 = a1 * uo0 + a2 * uo1;
           xo1 = uo0;
+        } else if (std::fabs(f - f_prev) <= riccati_tol * f || t >= max_steps) {
+          break;
         }
-      } else if (std::fabs(f - f_prev) <= riccati_tol * f || t >= max_steps) {
-        break;
+        f_prev = f;
+        // Filtered covariance P - K H P, then predicted A P A^T + Q.
+        const Scalar u00 = p00 - k0 * p00, u01 = p01 - k0 * p01, u11 = p11 - k1 * p01;
+        p00 = a1 * a1 * u00 + Scalar(2) * a1 * a2 * u01 + a2 * a2 * u11 + q;
+        p01 = a1 * u00 + a2 * u01;
+        p11 = u00;
       }
-      f_prev = f;
-      // Filtered covariance P - K H P, then predicted A P A^T + Q.
-      const Scalar u00 = p00 - k0 * p00, u01 = p01 - k0 * p01, u11 = p11 - k1 * p01;
-      p00 = a1 * a1 * u00 + Scalar(2) * a1 * a2 * u01 + a2 * a2 * u11 + q;
-      p01 = a1 * u00 + a2 * u01;
-      p11 = u00;
-    }
-    const Scalar s2 = f;
-    k0_ = k0;
-    k1_ = k1;
-    // Impulse response of the steady-state innovation filter.
-    Scalar x0 = zero, x1 = zero;
-    for (std::size_t t = 0; t <= Lags; ++t) {
-      const Scalar e = (t == 0 ? one : zero) - x0;
-      pi_[t] = e;
-      const Scalar u0 = x0 + k0 * e, u1 = x1 + k1 * e;
-      x0 = a1 * u0 + a2 * u1;
-      x1 = u0;
+      s2 = f;
+      b1_ = -(a1 * (one - k0) - a2 * k1);  // A (I - K H)'s characteristic polynomial
+      b2_ = -a2 * (one - k0);
+      // Impulse response of the steady-state innovation filter.
+      Scalar x0 = zero, x1 = zero;
+      for (std::size_t t = 0; t <= Lags; ++t) {
+        const Scalar e = (t == 0 ? one : zero) - x0;
+        pi_[t] = e;
+        const Scalar u0 = x0 + k0 * e, u1 = x1 + k1 * e;
+        x0 = a1 * u0 + a2 * u1;
+        x1 = u0;
+      }
+    } else {
+      if (!lag_innovation_factor(a1, a2, q, r, s2, b1_, b2_)) return false;
+      // Impulse response of A(z) / B(z): pi_t = alpha_t - b1 pi_{t-1} - b2 pi_{t-2}, alpha =
+      // (1, -a1, -a2, 0, ...).
+      Scalar p1 = zero, p2 = zero;
+      for (std::size_t t = 0; t <= Lags; ++t) {
+        const Scalar alpha = t == 0 ? one : (t == 1 ? -a1 : (t == 2 ? -a2 : zero));
+        const Scalar v = alpha - b1_ * p1 - b2_ * p2;
+        pi_[t] = v;
+        p2 = p1;
+        p1 = v;
+      }
     }
     // sum_k g_k (P_k, lin_k, n - k) with the running sums of the first and the last values
     // (the first ones the record's mean of w for whittle_no_head).
@@ -368,10 +430,10 @@ class LagLikelihoodForm {
   }
 
   // After build(): the pole modulus rho of the steady-state innovation filter, the larger
-  // eigenvalue modulus of A (I - K H) = [[a1 (1 - k0) - a2 k1, a2], [1 - k0, 0]].
-  Scalar pole(Scalar a1, Scalar a2) const noexcept {
-    const Scalar tr = a1 * (Scalar(1) - k0_) - a2 * k1_;
-    const Scalar bc = a2 * (Scalar(1) - k0_);  // lambda^2 - tr lambda - bc = 0
+  // root modulus of z^2 + b1 z + b2 (the eigenvalues of A (I - K H)).
+  Scalar pole() const noexcept {
+    const Scalar tr = -b1_;
+    const Scalar bc = -b2_;  // lambda^2 - tr lambda - bc = 0
     const Scalar disc = Scalar(0.25) * tr * tr + bc;
     if (disc >= Scalar(0)) return Scalar(0.5) * std::fabs(tr) + std::sqrt(disc);
     return std::sqrt(-bc);
@@ -413,7 +475,7 @@ class LagLikelihoodForm {
   LagEndValues<Scalar, Lags, KeepHead> ends_;
   Scalar pi_[Lags + 1] = {};
   Scalar log_det_ = Scalar(0), m00_ = Scalar(0), m01_ = Scalar(0), m11_ = Scalar(0);
-  Scalar k0_ = Scalar(0), k1_ = Scalar(0);
+  Scalar b1_ = Scalar(0), b2_ = Scalar(0);  // the steady-state innovation filter A(z) / B(z)'s B
 };
 
 template <class Scalar>
@@ -748,7 +810,7 @@ LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags, Ke
   res.model = DriftModelParams<Scalar>{a1, a2, p.q, p.r, p.mean};
   res.loglike = p.loglike;
   // rho^L by squaring (no pow routine on the target)
-  Scalar power = Scalar(1), base = form.pole(a1, a2);
+  Scalar power = Scalar(1), base = form.pole();
   for (std::size_t e = Lags; e > 0; e >>= 1U) {
     if ((e & 1U) != 0U) power *= base;
     base *= base;
