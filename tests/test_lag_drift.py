@@ -122,3 +122,22 @@ def test_bad_input_is_a_clear_error() -> None:
     st.push(np.arange(10.0))
     with pytest.raises(GyrodriftValueError, match="kind must be"):
         lag_loglike(st, 0.5, 0.0, 1.0, 1.0, 0.0, kind="nope")
+
+
+@pytest.mark.parametrize(("a2", "q", "lags"), [(-0.9, 1.0, 8), (0.99, 0.01, 32),
+                                               (-0.99, 0.01, 32)])
+def test_steady_state_with_a1_zero_is_the_riccati_fixed_point(a2: float, q: float,
+                                                             lags: int) -> None:
+    """With a1 = 0 the even and the odd samples are two chains and the innovation variance F
+    moves every other step only. The recursion used to stop at the first step F did not move,
+    short of the steady state by up to 0.5 % of sigma^2 (a2 = 0.99, q/r = 0.01, L = 32); it
+    must equal the DARE's (scipy) to 1e-12 relative (the recursion stops at a change of
+    1e-15 relative, a contraction of at least about 0.9 a step leaves ~1e-14)."""
+    import scipy.linalg
+    from gyrodrift.reference.lag_drift import _steady
+
+    r = 1.0
+    a = np.array([[0.0, a2], [1.0, 0.0]])
+    p = scipy.linalg.solve_discrete_are(a.T, np.array([[1.0], [0.0]]), np.diag([q, 0.0]),
+                                        np.array([[r]]))
+    assert _steady(0.0, a2, q, r, lags)[3] == pytest.approx(p[0, 0] + r, rel=1e-12)

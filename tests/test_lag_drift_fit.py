@@ -70,6 +70,19 @@ def test_likelihood_equals_the_reference(a1: float, a2: float, ratio: float) -> 
                 assert got == pytest.approx(want, rel=1e-12), (dtype, params, kind)
 
 
+def test_exact_likelihood_with_a1_zero_reaches_the_steady_state() -> None:
+    """The C++ exact kind at a1 = 0 (even and odd samples two chains: the innovation
+    variance moves every other step) equals the reference, whose steady state is checked
+    against the DARE (tests/test_lag_drift.py), to 1e-12 relative. Before, both stopped the
+    Riccati recursion at the first step it did not move: 0.5 % of sigma^2 short at
+    (0, 0.99, q/r 0.01)."""
+    st = LagStatistics()
+    st.push(_record(0.2297, 0.1638, 1.0, 20000, 1))
+    for params in ((0.0, 0.99, 0.01, 1.0, 9.7), (0.0, -0.9, 1.0, 1.0, 9.7)):
+        want = lag_loglike(st, *params, kind="exact")
+        assert lag_drift_loglike(st, *params, kind="exact") == pytest.approx(want, rel=1e-12)
+
+
 # (pair, r/q, samples, seed): the fold record is 60000 samples, r/q 0.3, seed 9 (the offline
 # fit's regression record, docs/validation/drift-model.md): its likelihood has a maximum at
 # a2 = -0.069 and one at a2 = +0.0445, 0.102 log-likelihood units lower, where every run of a

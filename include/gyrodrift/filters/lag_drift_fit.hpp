@@ -17,10 +17,10 @@
 //     innovation variances F_t, and the innovations of the first L values of w and of the
 //     constant 1 (the innovations are linear in z): sum e e^T / F;
 //   - from t = L on the steady-state filter (Riccati recursion continued until F changes by
-//     at most 1e-15 relative, sigma^2 its F): the innovations are e_t = sum_{j<=L} pi_j z_{t-j}
-//     (pi its impulse response), whose squares over t = L..n-1 sum to
-//     sum_k g_k S_k / sigma^2 (g_0 = sum pi_j^2, g_k = 2 sum pi_j pi_{j+k}) minus the squares
-//     of the zero-padded convolution pi * z at t = 0..L-1 (first samples) and t = n..n+L-1
+//     at most 1e-15 relative on two steps running, sigma^2 its F): the innovations are
+//     e_t = sum_{j<=L} pi_j z_{t-j} (pi its impulse response), whose squares over
+//     t = L..n-1 sum to sum_k g_k S_k / sigma^2 (g_0 = sum pi_j^2,
+//     g_k = 2 sum pi_j pi_{j+k}) minus the squares of the zero-padded convolution pi * z at t = 0..L-1 (first samples) and t = n..n+L-1
 //     (last samples);
 //   - log det = sum_{t<L} log F_t + (n - L) log sigma^2.
 // Exact up to terms of order rho^L per sample, rho the pole modulus of the steady-state
@@ -273,7 +273,8 @@ class LagLikelihoodForm {
   // log det and M (m00, m01, m11) at (a1, a2, q, r), and the steady-state innovation filter's
   // denominator (b1, b2); false when they are not finite. The model must be stationary with
   // q >= 0, r > 0. The exact kind runs the Kalman filter over the first L samples and the
-  // Riccati recursion on to the steady state (until F changes by at most 1e-15 relative);
+  // Riccati recursion on to the steady state (until F changes by at most 1e-15 relative on
+  // two steps running);
   // Whittle's kinds read only the steady state, in closed form (lag_innovation_factor).
   bool build(Scalar a1, Scalar a2, Scalar q, Scalar r, LagLikelihoodKind kind) noexcept {
     if (!lag_kind_available(kind, KeepHead)) return false;
@@ -297,11 +298,15 @@ class LagLikelihoodForm {
       const Scalar riccati_tol = Scalar(1e-15);
       const std::size_t max_steps = 64U * Lags + 256U;
       Scalar f = zero, f_prev = std::numeric_limits<Scalar>::infinity();
+      // Steady when F has not moved on two steps running: with a1 = 0 the even and the odd
+      // samples are two chains and F moves every other step only.
+      int calm = 0;
       for (std::size_t t = 0;; ++t) {
         f = p00 + r;
         if (!(f > zero) || !std::isfinite(f)) return false;
         k0 = p00 / f;
         k1 = p01 / f;
+        calm = std::fabs(f - f_prev) <= riccati_tol * f ? calm + 1 : 0;
         if (t < Lags) {
           // The first samples' filter.
           int e2 = 0;
@@ -318,7 +323,7 @@ class LagLikelihoodForm {
           const Scalar uo0 = xo0 + k0 * eo, uo1 = xo1 + k1 * eo;
           xo0 = a1 * uo0 + a2 * uo1;
           xo1 = uo0;
-        } else if (std::fabs(f - f_prev) <= riccati_tol * f || t >= max_steps) {
+        } else if (calm >= 2 || t >= max_steps) {
           break;
         }
         f_prev = f;

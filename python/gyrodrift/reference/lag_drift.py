@@ -43,7 +43,7 @@ Next to a2 = 0 the likelihood can have a maximum on each side of the fold, and w
 start reaches is set by its split as much as by its a2: when every run ends on one side, the
 maximum over (u1, u3) with u2 held at the mirror of the best one's starts one more run on the
 other side. The steady state is the Riccati recursion continued from the filter over the
-first L samples until the innovation variance stops changing.
+first L samples until the innovation variance stops changing (on two steps running).
 
 Choice of L: the neglected terms are of order rho^L per sample; L >= ln(1e-10) / ln(rho)
 (`lags_needed`) makes them negligible against one log-likelihood unit at any record length
@@ -255,20 +255,24 @@ def _steady(a1: float, a2: float, q: float, r: float, lags: int
             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """Kalman filter (prediction form, stationary start) over `lags` steps: innovation
     variances F_t, gains K_t; then the Riccati recursion on until F stops changing: the
-    steady gain and innovation variance sigma^2. P = [[p00, p01], [p01, p11]]:
+    steady gain and innovation variance sigma^2 (F unchanged to 1e-15 on two steps
+    running). P = [[p00, p01], [p01, p11]]:
     U = P - K P[0, :] with K = P[:, 0] / F, F = p00 + r; P' = A U A^T + diag(q, 0)."""
     c = _stationary_cov(a1, a2, q)
     p00, p01, p11 = float(c[0, 0]), float(c[0, 1]), float(c[1, 1])
     fs = np.empty(lags)
     gains = np.empty((lags, 2))
-    t, f_prev = 0, math.inf
+    t, f_prev, calm = 0, math.inf, 0
     while True:
         f = p00 + r
         k0, k1 = p00 / f, p01 / f
+        # Steady when F has stopped changing on two steps running: with a1 = 0 the even and
+        # odd samples are two chains, F moves every other step only.
+        calm = calm + 1 if abs(f - f_prev) <= _RICCATI_TOL * f else 0
         if t < lags:
             fs[t] = f
             gains[t] = (k0, k1)
-        elif abs(f - f_prev) <= _RICCATI_TOL * f or t >= 64 * lags + 256:
+        elif calm >= 2 or t >= 64 * lags + 256:
             break
         f_prev = f
         u00, u01, u11 = p00 - k0 * p00, p01 - k0 * p01, p11 - k1 * p01
