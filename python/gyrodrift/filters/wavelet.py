@@ -92,7 +92,7 @@ def _as_float_array(x: Any, dtype: np.dtype, what: str = "x") -> np.ndarray:
 
 def as_core_dtype(x: Any, dtype: Any = np.float64, *, what: str = "x",
                   start: int = 0) -> np.ndarray:
-    """`x` as a contiguous array of the lifting core's scalar type, refusing a finite value
+    """`x` as a contiguous array of the C++ core's scalar type, refusing a finite value
     that the type cannot hold (beyond float32's largest value, about 3.4e38) before it
     becomes an infinity, and without numpy's overflow warning.
 
