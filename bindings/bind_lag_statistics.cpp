@@ -118,19 +118,21 @@ void bind_one(py::module_& m, const char* name, const char* doc) {
   }
   m.def(
       "lag_drift_fit",
-      [](const T& stats, LagLikelihoodKind kind) {
+      [](const T& stats, LagLikelihoodKind kind, std::uint32_t max_iterations) {
         const typename T::Core snap = stats.snapshot();
         LagDriftFitResult<double> r;
         {
           py::gil_scoped_release release;
-          r = gyrodrift::lag_drift_fit<double>(snap, kind);
+          r = gyrodrift::lag_drift_fit<double>(snap, kind, max_iterations);
         }
         return py::make_tuple(r.status, r.model.a1, r.model.a2, r.model.q, r.model.r, r.model.mean, r.loglike,
                               r.truncation, r.iterations, r.evaluations, r.runs);
       },
       py::arg("stats"), py::arg("kind") = default_kind,
-      "Fit the drift model from the statistics (double; GIL released): (status, a1, a2, q, r, mean, loglike, "
-      "truncation, iterations, evaluations, runs), status a LagDriftFitStatus.");
+      py::arg("max_iterations") = gyrodrift::kLagDriftMaxIterations,
+      "Fit the drift model from the statistics (double; GIL released; at most max_iterations BFGS "
+      "iterations a run): (status, a1, a2, q, r, mean, loglike, truncation, iterations, evaluations, "
+      "runs), status a LagDriftFitStatus.");
   m.def(
       "lag_drift_loglike",
       [](const T& stats, double a1, double a2, double q, double r, double mean, LagLikelihoodKind kind) {

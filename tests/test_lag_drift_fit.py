@@ -83,6 +83,23 @@ def test_exact_likelihood_with_a1_zero_reaches_the_steady_state() -> None:
         assert lag_drift_loglike(st, *params, kind="exact") == pytest.approx(want, rel=1e-12)
 
 
+def test_a_run_stopped_by_its_iteration_limit_is_not_converged() -> None:
+    """The fit reports not_converged (with its estimate and iteration count) when its best
+    run stops at the iteration limit: at 2 iterations a run the record's fit (about 15 a run
+    unlimited) stops short; unlimited it is ok. A bad limit is refused."""
+    st = LagStatistics()
+    st.push(_record(0.6868, -0.0213, 1.0, 20000, 1))
+    full = lag_drift_fit(st)
+    assert full.status == "ok" and full.iterations > 4 * 2
+    short = lag_drift_fit(st, max_iterations=2)
+    assert short.status == "not_converged", short
+    assert short.iterations <= 6 * 2 and math.isfinite(short.loglike)
+    assert short.loglike < full.loglike
+    for bad in (0, -1, 2.5, True):
+        with pytest.raises(GyrodriftValueError, match="max_iterations"):
+            lag_drift_fit(st, max_iterations=bad)  # type: ignore[arg-type]
+
+
 # (pair, r/q, samples, seed): the fold record is 60000 samples, r/q 0.3, seed 9 (the offline
 # fit's regression record, docs/validation/drift-model.md): its likelihood has a maximum at
 # a2 = -0.069 and one at a2 = +0.0445, 0.102 log-likelihood units lower, where every run of a

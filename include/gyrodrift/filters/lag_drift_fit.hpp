@@ -59,7 +59,8 @@
 //     A run stops when the predicted gain of the next step, n g^T H g / 2 in log-likelihood
 //     units (H the inverse-Hessian estimate), is at most 1e-8: converged; when the line
 //     search finds no decrease (the precision of f is reached): converged if that gain is at
-//     most 1e-5; after kLagDriftMaxIterations iterations: not converged.
+//     most 1e-5; after max_iterations iterations (default kLagDriftMaxIterations): not
+//     converged.
 // Status: too_few_samples below lag_drift_min_samples (2 L + 2) samples; non_finite for
 // statistics that are not finite (or a fit that is not); not_converged when the best run did
 // not converge; truncation when rho^L of the fit exceeds lag_drift_truncation_tol(kind)
@@ -112,7 +113,7 @@ enum class LagDriftFitStatus : std::uint8_t {
   ok = 0,
   too_few_samples,  // fewer than lag_drift_min_samples(L) samples
   truncation,       // rho^L of the fit above kLagDriftTruncationTol: L too short for this model
-  not_converged,    // the best run hit kLagDriftMaxIterations
+  not_converged,    // the best run hit the iteration limit (kLagDriftMaxIterations by default)
   non_finite,       // NaN or Inf in the statistics or in the fit
   bad_model,        // (likelihood, profile) parameters outside the model: q < 0, r <= 0, non-stationary
   needs_head,       // the kind needs the first L values, which the statistics do not keep
@@ -548,7 +549,8 @@ struct BfgsRun {
 // BFGS over the D coordinates of u listed in free_idx (the others held), from u0; objective
 // per sample, its n = samples (the stopping rule is in log-likelihood units).
 template <std::size_t D, class Scalar, class Objective>
-BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_idx)[D]) noexcept {
+BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_idx)[D],
+                     std::uint32_t max_iterations) noexcept {
   BfgsRun<Scalar> run;
   for (int i = 0; i < 3; ++i) run.u[i] = u0[i];
   const Scalar n = obj.samples();
@@ -579,7 +581,7 @@ BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_
   for (std::size_t i = 0; i < D; ++i)
     for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? Scalar(1) : Scalar(0);
   bool scaled = false;
-  for (; run.iterations < kLagDriftMaxIterations; ++run.iterations) {
+  for (; run.iterations < max_iterations; ++run.iterations) {
     Scalar p[D];
     Scalar slope = Scalar(0), gain = Scalar(0);
     for (std::size_t i = 0; i < D; ++i) {
@@ -739,7 +741,8 @@ LagDriftFitStatus lag_drift_profile(const LagStatistics<StatScalar, Lags, KeepHe
 // best starts on each side of a2 = 0, BFGS, the run across the fold).
 template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead>
 LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags, KeepHead>& st,
-                                        LagLikelihoodKind kind = detail::lag_default_kind(KeepHead)) noexcept {
+                                        LagLikelihoodKind kind = detail::lag_default_kind(KeepHead),
+                                        std::uint32_t max_iterations = kLagDriftMaxIterations) noexcept {
   LagDriftFitResult<Scalar> res;
   if (!detail::lag_kind_available(kind, KeepHead)) {
     res.status = LagDriftFitStatus::needs_head;
@@ -781,7 +784,7 @@ LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags, Ke
   for (int m = 0; m < 4; ++m) {
     Scalar u[3] = {Scalar(0), Scalar(0), Scalar(0)};
     if (best_i[m / 2][m % 2] >= 0) detail::lag_grid_point(best_i[m / 2][m % 2], u);
-    const detail::BfgsRun<Scalar> run = detail::bfgs<3>(obj, u, all3);
+    const detail::BfgsRun<Scalar> run = detail::bfgs<3>(obj, u, all3, max_iterations);
     res.iterations += run.iterations;
     sides[m] = detail::sign_of(run.u[1]);
     if (m == 0 || run.f < chosen.f) chosen = run;
@@ -793,10 +796,10 @@ LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags, Ke
     // Across the fold: (u1, u3) with u2 at the mirror of the best one's, then all three.
     Scalar start[3] = {chosen.u[0], -chosen.u[1], chosen.u[2]};
     const std::size_t two[2] = {0, 2};
-    detail::BfgsRun<Scalar> other = detail::bfgs<2>(obj, start, two);
+    detail::BfgsRun<Scalar> other = detail::bfgs<2>(obj, start, two, max_iterations);
     res.iterations += other.iterations;
     for (int i = 0; i < 3; ++i) start[i] = other.u[i];
-    other = detail::bfgs<3>(obj, start, all3);
+    other = detail::bfgs<3>(obj, start, all3, max_iterations);
     res.iterations += other.iterations;
     res.runs = 6;
     if (other.f < chosen.f) chosen = other;

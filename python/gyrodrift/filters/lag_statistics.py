@@ -241,7 +241,8 @@ def _refused(status: Any, stats: LagStatistics) -> LagDriftFitError:
     return LagDriftFitError(name, detail)
 
 
-def lag_drift_fit(stats: LagStatistics, *, kind: str = "exact") -> LagDriftFitResult:
+def lag_drift_fit(stats: LagStatistics, *, kind: str = "exact",
+                  max_iterations: int | None = None) -> LagDriftFitResult:
     """Fit the drift model (AR(2) drift + white noise) from the lag statistics in the C++
     core, in double on either state (GIL released).
 
@@ -251,6 +252,9 @@ def lag_drift_fit(stats: LagStatistics, *, kind: str = "exact") -> LagDriftFitRe
         The statistics of the record (float64 or float32 state); not changed.
     kind : {"exact", "whittle", "whittle_no_head"}
         The likelihood maximised (module docstring, `LAG_LIKELIHOOD_KINDS`).
+    max_iterations : int, optional
+        BFGS iterations a run at most (None: the core's default, 200); the status is
+        not_converged when the best run stops there.
 
     Returns
     -------
@@ -261,6 +265,8 @@ def lag_drift_fit(stats: LagStatistics, *, kind: str = "exact") -> LagDriftFitRe
     ------
     LagDriftFitError
         Fewer than 2 L + 2 samples, or statistics that are not finite (``cause``).
+    GyrodriftValueError
+        `max_iterations` not an integer in 1..100000.
 
     Examples
     --------
@@ -273,7 +279,15 @@ def lag_drift_fit(stats: LagStatistics, *, kind: str = "exact") -> LagDriftFitRe
     >>> fit.status, bool(abs(fit.a1 - 0.6868) < 0.2 and abs(fit.q / fit.r - 1.0) < 0.5)
     ('ok', True)
     """
-    out = core("drift").lag_drift_fit(_impl(stats), _kind(kind))
+    lib = core("drift")
+    if max_iterations is None:
+        out = lib.lag_drift_fit(_impl(stats), _kind(kind))
+    else:
+        if isinstance(max_iterations, bool) or not isinstance(max_iterations, int) \
+                or not 1 <= max_iterations <= 100000:
+            raise GyrodriftValueError(
+                f"max_iterations must be an integer in 1..100000, got {max_iterations!r}")
+        out = lib.lag_drift_fit(_impl(stats), _kind(kind), max_iterations)
     status = out[0]
     if status.name in ("too_few_samples", "non_finite"):
         raise _refused(status, stats)
