@@ -1,6 +1,8 @@
-// The reference firmware of the IMU loop: every tick of the loop rate it drains the receive
-// ring, decodes serial frames, runs each input sample through the processor built from the
-// generated configuration header, and queues the output frame for transmission. Bad input
+// The reference firmware of the IMU loop: every tick of the loop rate, in the board's
+// tick-work interrupt (below the link's receive interrupt, above thread mode), it drains the
+// receive ring, decodes serial frames, runs each input sample through the processor built from
+// the generated configuration header, and queues the output frame for transmission. Thread
+// mode runs the background work the processor asks for (none today) and sleeps. Bad input
 // never stops the loop: every rejected byte and frame is counted by reason, as the host loop
 // (cpp/programs/gyrodrift-loop) counts it. A health request frame (type 0x02) is answered
 // with the counters as health report frames (type 0x82), one counter per frame, under the
@@ -28,7 +30,7 @@ namespace {
 namespace board = gyrodrift::firmware::board;
 namespace serial = gyrodrift::serial;
 
-// Loop counters, named as in the host loop's statistics.
+// Loop counters, named as in the host loop's statistics (written by the tick work only).
 struct Counters {
   std::uint32_t cycles = 0;
   std::uint32_t overruns = 0;          // the work of a cycle ran past the next tick
@@ -220,7 +222,34 @@ std::uint32_t serve_link() noexcept {
   return samples;
 }
 
+std::uint32_t g_last_tick = 0;  // the tick of the previous tick work
+bool g_started = false;         // the first tick work only sets g_last_tick
+
+// Thread mode's work, run whenever the tick work leaves time: none in this image (the
+// background hook); returns whether it did any.
+bool background_ready() noexcept { return false; }
+bool run_background() noexcept { return false; }
+
 }  // namespace
+
+// One tick of the loop (the board's tick-work interrupt).
+void gyrodrift::firmware::tick_work(std::uint32_t tick) noexcept {
+  if (!g_started) {  // the reference that overruns are counted from
+    g_started = true;
+    g_last_tick = tick;
+    return;
+  }
+  if (tick - g_last_tick > 1U) {
+    ++g_c.overruns;
+    g_c.missed_deadlines += tick - g_last_tick - 1U;
+  }
+  g_last_tick = tick;
+  g_c.ticks = tick;
+  ++g_c.cycles;
+  const std::uint32_t n = serve_link();
+  if (n > g_c.max_frames_per_cycle) g_c.max_frames_per_cycle = n;
+  board::tx_kick();
+}
 
 extern "C" [[noreturn]] void firmware_main(void) {
   static_assert(fw_config::kLoopRateHz >= 1.0F, "loop rate below 1 Hz");
@@ -231,19 +260,10 @@ extern "C" [[noreturn]] void firmware_main(void) {
   send_health();  // start-up announcement
   // A configuration the processor refuses is refused by the build already; should one get
   // here, the loop stops after the announcement (its health shows every sample rejected).
-  while (g_proc.status() != gyrodrift::ImuStatus::ok || !monitor_ok) board::wait_for_tick();
-  std::uint32_t last_tick = board::wait_for_tick();
+  while (g_proc.status() != gyrodrift::ImuStatus::ok || !monitor_ok) board::sleep();
+  // The loop: the tick work from the next tick on, thread mode in the background.
+  board::start_tick_work();
   for (;;) {
-    const std::uint32_t tick = board::wait_for_tick();
-    if (tick - last_tick > 1U) {
-      ++g_c.overruns;
-      g_c.missed_deadlines += tick - last_tick - 1U;
-    }
-    last_tick = tick;
-    g_c.ticks = tick;
-    ++g_c.cycles;
-    const std::uint32_t n = serve_link();
-    if (n > g_c.max_frames_per_cycle) g_c.max_frames_per_cycle = n;
-    board::tx_kick();
+    if (!run_background()) board::sleep(background_ready);
   }
 }

@@ -1,7 +1,13 @@
 // STM32F405 board support for the reference firmware: clock tree, USART1 (interrupt-driven
-// receive into a fixed ring, transmit from another), SysTick at the loop rate, NVIC.
+// receive into a fixed ring, transmit from another), SysTick at the loop rate pending PendSV
+// for the tick work, NVIC and system handler priorities.
 // Register addresses and bits: RM0090 (STM32F405/415/407/417 reference manual), sections
-// RCC (6.3), USART (30.6), and the ARMv7-M ARM for SysTick (B3.3) and the NVIC (B3.4).
+// RCC (6.3), USART (30.6), and the ARMv7-M ARM for SysTick (B3.3), the NVIC (B3.4), the
+// system handler priorities and PendSV (B3.2.4 ICSR, B3.2.12 SHPR3).
+//
+// Priorities (lower number = more urgent): SysTick 0 (counts the tick, pends PendSV), USART1 4
+// (receive and transmit), PendSV 15, the lowest (the tick work: nested by both above), then
+// thread mode (the application's background work, preempted by all of them).
 //
 // Under QEMU's netduinoplus2 board (STM32F405 SoC): USART1 is the first serial port
 // (-serial / serial0), the RCC is not emulated (reads as 0: the PLL never reports lock, so
@@ -16,6 +22,7 @@
 extern "C" {
 void USART1_IRQHandler(void);
 void SysTick_Handler(void);
+void PendSV_Handler(void);
 }
 
 namespace gyrodrift::firmware::board {
@@ -52,6 +59,9 @@ constexpr std::uintptr_t kSystRvr = 0xE000E014U;
 constexpr std::uintptr_t kSystCvr = 0xE000E018U;
 constexpr std::uintptr_t kNvicIser = 0xE000E100U;
 constexpr std::uintptr_t kNvicIpr = 0xE000E400U;
+constexpr std::uintptr_t kScbIcsr = 0xE000ED04U;
+constexpr std::uint32_t kIcsrPendSvSet = 1U << 28;
+constexpr std::uintptr_t kScbShpr3 = 0xE000ED20U;  // bits 23:16 PendSV, 31:24 SysTick
 
 // Core clock: HSE 25 MHz (the Netduino Plus 2 crystal) -> PLL M=25 N=336 P=2 = 168 MHz,
 // APB2 = 84 MHz (USART1), APB1 = 42 MHz.
@@ -85,6 +95,7 @@ Ring g_rx_ring;
 Ring g_tx_ring;
 LinkCounters g_link;
 volatile std::uint32_t g_ticks = 0;
+volatile bool g_tick_work = false;  // SysTick pends the tick work (start_tick_work)
 volatile std::uint32_t g_isr_cycles = 0;
 std::uint32_t g_reload = 0;
 
@@ -126,6 +137,8 @@ void usart_init(std::uint32_t baud) noexcept {
 }
 
 void systick_init(std::uint32_t tick_hz) noexcept {
+  // SysTick 0 (its reset priority), PendSV 0xF0: the lowest of the 16 levels the part has
+  reg(kScbShpr3) = (reg(kScbShpr3) & ~(0xFFU << 16)) | (0xF0U << 16);
   g_reload = kCoreHz / tick_hz - 1U;
   reg(kSystRvr) = g_reload;
   reg(kSystCvr) = 0U;
@@ -153,19 +166,14 @@ void init(std::uint32_t tick_hz, std::uint32_t baud) noexcept {
   irq_on();
 }
 
-std::uint32_t wait_for_tick() noexcept {
-  static std::uint32_t seen = 0;
-  for (;;) {
-    irq_off();  // check and sleep with interrupts masked: a tick cannot slip in between
-    const std::uint32_t now = g_ticks;
-    if (now != seen) {
-      irq_on();
-      seen = now;
-      return now;
-    }
+void start_tick_work() noexcept { g_tick_work = true; }
+
+void sleep(bool (*work_ready)() noexcept) noexcept {
+  irq_off();  // check and sleep with interrupts masked: a request cannot slip in between
+  if (work_ready == nullptr || !work_ready()) {
     __asm volatile("wfi" ::: "memory");  // wakes on a pending interrupt even with PRIMASK set
-    irq_on();                            // the pending interrupt is taken here
   }
+  irq_on();  // the pending interrupt is taken here
 }
 
 std::size_t rx_read(std::uint8_t* dst, std::size_t cap) noexcept {
@@ -223,7 +231,12 @@ std::uint32_t stack_high_water_bytes() noexcept {
 
 using namespace gyrodrift::firmware::board;
 
-extern "C" void SysTick_Handler(void) { g_ticks = g_ticks + 1U; }
+extern "C" void SysTick_Handler(void) {
+  g_ticks = g_ticks + 1U;
+  if (g_tick_work) reg(kScbIcsr) = kIcsrPendSvSet;  // runs once more if already running
+}
+
+extern "C" void PendSV_Handler(void) { gyrodrift::firmware::tick_work(g_ticks); }
 
 extern "C" void USART1_IRQHandler(void) {
   const std::uint32_t t0 = stamp();
@@ -264,8 +277,9 @@ extern "C" void USART1_IRQHandler(void) {
 
 // errno of the C library's float math routines (logf, expf, ... set it on a domain or range
 // error; the image never reads it): one int of .bss, instead of newlib's reentrancy structure
-// (about 100 bytes of .data) that its own __errno returns a member of. The image is
-// single-threaded and its interrupts call no library routine, so one errno is right.
+// (about 100 bytes of .data) that its own __errno returns a member of. The tick work and
+// thread mode (a background fit's double routines) may both set it; nothing reads it, so one
+// errno shared by them is harmless.
 extern "C" int* __errno(void) {
   static int error_number = 0;
   return &error_number;
