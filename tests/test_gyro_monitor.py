@@ -313,15 +313,18 @@ def test_monitor_section_round_trips() -> None:
     cfg = drift_filter_config("gz", a1=0.6, a2=0.2, mean=0.0, q=1e-10, r=1e-8,
                               sample_rate_hz=RATE_HZ).with_monitor(
         enabled=True, octaves=14, reidentify=True, block_s=0.5, retune_s=30.0,
-        stuck_alarm_s=0.25, memory_s=3600.0, identified_max_rel_stderr=0.3)
+        stuck_alarm_s=0.25, memory_s=3600.0, identified_max_rel_stderr=0.3,
+        identifier="lag", fit_delay_s=7.5, restart_after_fit=True)
     text = dumps_config(cfg)
     assert "[monitor]\nenabled = true\noctaves = 14\n" in text
+    assert 'identifier = "lag"\n' in text and "restart_after_fit = true\n" in text
     back = parse_config(text)
     assert back == cfg and back.monitor.samples(RATE_HZ) == {
         "stuck_samples": 100, "saturated_samples": 400, "block_samples": 200,
-        "retune_blocks": 60, "min_samples": 240_000, "memory_blocks": 7200.0,
-        "report_samples": 4000}
+        "retune_blocks": 60, "retune_samples": 12_000, "min_samples": 240_000,
+        "memory_blocks": 7200.0, "report_samples": 4000, "fit_delay_samples": 3000}
     assert cfg.monitored_channels() == ("gz",)
+    assert MonitorConfig().identifier == "recursive" and not MonitorConfig().restart_after_fit
 
 
 @pytest.mark.parametrize("table,key", [
@@ -331,6 +334,11 @@ def test_monitor_section_round_trips() -> None:
     ("[monitor]\nfalse_alarm_probability = 1e-50\n", "monitor.false_alarm_probability"),
     ("[monitor]\nbogus = 1\n", "monitor.bogus"),
     ("[monitor]\nreidentify = 1\n", "monitor.reidentify"),
+    ('[monitor]\nidentifier = "kalman"\n', "monitor.identifier"),
+    ("[monitor]\nfit_delay_s = 0.0\n", "monitor.fit_delay_s"),
+    ("[monitor]\nrestart_after_fit = 1\n", "monitor.restart_after_fit"),
+    # the lag identifier's fit must be applied within one retune interval (one gyro here)
+    ('[monitor]\nidentifier = "lag"\nfit_delay_s = 61.0\n', "monitor.fit_delay_s"),
     ("monitor = 3\n", "monitor"),
 ])
 def test_monitor_section_errors_name_the_key(table: str, key: str) -> None:
