@@ -58,10 +58,22 @@ std::uint32_t core_clock_hz() noexcept;
 // the app subtracts what lands inside a step, so a step's cost is its own.
 std::uint32_t interrupt_cycles() noexcept;
 
+// Core-clock cycles since init (the tick count and the position within the tick), for timing
+// thread mode's work over many ticks; and the cycles spent in the tick work since init without
+// the link interrupt's nested in it. Thread mode's own cycles over an interval: the clock's
+// minus the tick work's minus the link interrupt's (the tick interrupt's few instructions a
+// tick stay in).
+std::uint64_t clock_cycles() noexcept;
+std::uint64_t tick_work_cycles() noexcept;
+
 const LinkCounters& link_counters() noexcept;
 
 // Deepest stack use so far in bytes (painted-RAM high-water mark).
 std::uint32_t stack_high_water_bytes() noexcept;
+
+// Measurement builds only: runs fn with interrupts masked and returns the stack it used below
+// the caller's frame in bytes (the loop stalls meanwhile; stack_high_water_bytes restarts).
+std::uint32_t stack_used_by(void (*fn)()) noexcept;
 
 }  // namespace gyrodrift::firmware::board
 

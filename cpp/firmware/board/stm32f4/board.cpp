@@ -61,6 +61,7 @@ constexpr std::uintptr_t kNvicIser = 0xE000E100U;
 constexpr std::uintptr_t kNvicIpr = 0xE000E400U;
 constexpr std::uintptr_t kScbIcsr = 0xE000ED04U;
 constexpr std::uint32_t kIcsrPendSvSet = 1U << 28;
+constexpr std::uint32_t kIcsrPendStSet = 1U << 26;  // SysTick pending
 constexpr std::uintptr_t kScbShpr3 = 0xE000ED20U;  // bits 23:16 PendSV, 31:24 SysTick
 
 // Core clock: HSE 25 MHz (the Netduino Plus 2 crystal) -> PLL M=25 N=336 P=2 = 168 MHz,
@@ -97,6 +98,7 @@ LinkCounters g_link;
 volatile std::uint32_t g_ticks = 0;
 volatile bool g_tick_work = false;  // SysTick pends the tick work (start_tick_work)
 volatile std::uint32_t g_isr_cycles = 0;
+std::uint64_t g_tick_work_cycles = 0;  // written by the tick work only
 std::uint32_t g_reload = 0;
 
 inline void irq_off() noexcept { __asm volatile("cpsid i" ::: "memory"); }
@@ -221,10 +223,37 @@ std::uint32_t core_clock_hz() noexcept { return kCoreHz; }
 
 std::uint32_t interrupt_cycles() noexcept { return g_isr_cycles; }
 
+std::uint64_t clock_cycles() noexcept {
+  for (;;) {
+    const std::uint32_t ticks = g_ticks;
+    const std::uint32_t now = reg(kSystCvr);
+    // the counter reloaded but its tick not counted yet (the interrupt masked, or a few
+    // cycles before it is taken): that tick is due
+    const bool due = (reg(kScbIcsr) & kIcsrPendStSet) != 0U;
+    if (ticks != g_ticks) continue;
+    const std::uint64_t whole = static_cast<std::uint64_t>(ticks) + (due ? 1U : 0U);
+    return whole * (static_cast<std::uint64_t>(g_reload) + 1U) + (g_reload - now);
+  }
+}
+
+std::uint64_t tick_work_cycles() noexcept {
+  irq_off();  // 64 bits written by the tick work: read them whole
+  const std::uint64_t c = g_tick_work_cycles;
+  irq_on();
+  return c;
+}
+
 const LinkCounters& link_counters() noexcept { return g_link; }
 
 std::uint32_t stack_high_water_bytes() noexcept {
   return gyrodrift::cortex_m_start::stack_high_water_bytes();  // painted by startup.cpp
+}
+
+std::uint32_t stack_used_by(void (*fn)()) noexcept {
+  irq_off();
+  const std::uint32_t used = gyrodrift::cortex_m_start::stack_used_by(fn);
+  irq_on();
+  return used;
 }
 
 }  // namespace gyrodrift::firmware::board
@@ -236,7 +265,14 @@ extern "C" void SysTick_Handler(void) {
   if (g_tick_work) reg(kScbIcsr) = kIcsrPendSvSet;  // runs once more if already running
 }
 
-extern "C" void PendSV_Handler(void) { gyrodrift::firmware::tick_work(g_ticks); }
+extern "C" void PendSV_Handler(void) {
+  const std::uint64_t t0 = clock_cycles();
+  const std::uint32_t isr0 = g_isr_cycles;
+  gyrodrift::firmware::tick_work(g_ticks);
+  const std::uint64_t spent = clock_cycles() - t0;
+  const std::uint32_t nested = g_isr_cycles - isr0;  // the link interrupt's, nested in it
+  g_tick_work_cycles += spent > nested ? spent - nested : 0U;
+}
 
 extern "C" void USART1_IRQHandler(void) {
   const std::uint32_t t0 = stamp();
