@@ -226,11 +226,13 @@ std::uint32_t interrupt_cycles() noexcept { return g_isr_cycles; }
 std::uint64_t clock_cycles() noexcept {
   for (;;) {
     const std::uint32_t ticks = g_ticks;
-    const std::uint32_t now = reg(kSystCvr);
+    const std::uint32_t before = reg(kSystCvr);
     // the counter reloaded but its tick not counted yet (the interrupt masked, or a few
     // cycles before it is taken): that tick is due
     const bool due = (reg(kScbIcsr) & kIcsrPendStSet) != 0U;
-    if (ticks != g_ticks) continue;
+    const std::uint32_t now = reg(kSystCvr);
+    // a tick counted, or a reload (the counter counts down) between the reads: again
+    if (ticks != g_ticks || now > before) continue;
     const std::uint64_t whole = static_cast<std::uint64_t>(ticks) + (due ? 1U : 0U);
     return whole * (static_cast<std::uint64_t>(g_reload) + 1U) + (g_reload - now);
   }
