@@ -1,7 +1,10 @@
 // The loop's processing stage: ImuProcessor<float> (with the real-time wavelet stage, any
-// window of the format, and the monitor's re-identification the file names) configured from a
-// configuration (--config FILE, or the built-in default configuration; config_file.hpp), and
-// its JSON counters (names from imu/imu_processor.hpp, the one list).
+// window of the format) configured from a configuration (--config FILE, or the built-in
+// default configuration; config_file.hpp), and its JSON counters (names from
+// imu/imu_processor.hpp, the one list). The monitor's re-identification is the processor's
+// build choice (imu_processor.hpp, MonitorIdentifierType): the loop holds the processor with
+// the recursive identifier or the one with the lag identifier, chosen by the settings'
+// identifier at start (fits inline: the host runs each at its request).
 #pragma once
 #include <array>
 #include <cstddef>
@@ -9,8 +12,8 @@
 #include <optional>
 #include <string>
 #include <type_traits>
+#include <utility>
 
-#include <gyrodrift/filters/lag_drift_identifier.hpp>
 #include <gyrodrift/filters/realtime_wavelet_windows.hpp>
 #include <gyrodrift/imu/config_schema.hpp>
 #include <gyrodrift/imu/imu_processor.hpp>
@@ -28,13 +31,10 @@ class Processing {
   // window of the format (16..4096), each channel holding the instance it was given.
   using Wavelet = RealtimeWaveletAnyWindow<float>;
   static constexpr std::size_t kMonitorOctaves = kLoopMonitorOctaves;
-  // The processor with the recursive re-identification shared among the gyros, and the one
-  // with the lag-statistics identifier ([monitor] identifier = "lag"): the file chooses at run
-  // time, so the loop holds room for either and builds the one it names.
   using Proc = ImuProcessor<float, Wavelet, kImuChannels, kMonitorOctaves>;
-  using LagProc = ImuProcessor<float, Wavelet, kImuChannels, kMonitorOctaves, kImuGyroChannels, true,
+  using ProcLag = ImuProcessor<float, Wavelet, kImuChannels, kMonitorOctaves, kImuGyroChannels, true,
                                LagDriftIdentifier<float, kImuGyroChannels>>;
-  static_assert(std::is_same_v<Proc::MonitorReference, LagProc::MonitorReference>, "one reference type");
+  static_assert(std::is_same_v<Proc::MonitorReference, ProcLag::MonitorReference>, "one reference type");
 
   // Builds the processor from a configuration's content (already checked key by key); false
   // (with a message) if the processor still refuses it, so a misconfigured loop refuses to
@@ -42,67 +42,33 @@ class Processing {
   // for the file's window.
   bool init(const FileConfig& fc, std::string& error) {
     sample_rate_hz_ = fc.sample_rate_hz;
+    const GyroMonitorSettings<float> s = monitor_settings(fc);
     proc_.reset();
-    lag_proc_.reset();
-    auto make_wavelet = [&fc](std::size_t c) {
+    proc_lag_.reset();
+    const auto make_wavelet = [&fc](std::size_t c) {
       const WaveletSpec& w = fc.wavelets[c];
       return Wavelet(w.window, w.kind, w.level, w.mode);
     };
-    if (fc.monitor.enabled && fc.monitor.reidentify && fc.monitor.lag_identifier) {
-      lag_proc_.emplace(fc.imu, make_wavelet);
-      return finish_init(*lag_proc_, fc, error);
-    }
-    proc_.emplace(fc.imu, make_wavelet);
-    return finish_init(*proc_, fc, error);
-  }
-
-  // One input sample through the processor; true if it produced an output.
-  bool step(const ImuSample<float>& in, ImuOutput<float>& out) noexcept {
-    const std::uint16_t flags = lag_proc_ ? lag_proc_->step(in, out) : proc_->step(in, out);
-    return (flags & kFlagRejected) == 0U;
-  }
-
-  // Processor rejections (samples that produced no output).
-  template <class F>
-  void for_each_rejection(F&& field) const {
-    if (lag_proc_) {
-      for_each_rejection_field(lag_proc_->health(), field);
+    if (fc.monitor.enabled && s.reidentify && s.identifier == DriftIdentifierKind::lag) {
+      proc_lag_.emplace(fc.imu, make_wavelet);
     } else {
-      for_each_rejection_field(proc_->health(), field);
+      proc_.emplace(fc.imu, make_wavelet);
     }
-  }
-
-  template <class F>
-  void for_each_health(F&& field) const {
-    if (lag_proc_) {
-      for_each_health_field(lag_proc_->health(), field);
-    } else {
-      for_each_health_field(proc_->health(), field);
-    }
-  }
-
-  double sample_rate_hz() const noexcept { return sample_rate_hz_; }
-
- private:
-  template <class P>
-  bool finish_init(P& proc, const FileConfig& fc, std::string& error) {
-    if (proc.status() != ImuStatus::ok) {
+    const bool ok = with([&](auto& p) {
+      if (p.status() == ImuStatus::ok) return true;
       // The file's values passed the reader's checks in double; the float processor refuses
       // them (a value that is 0 or not finite in float).
-      const int c = proc.bad_channel();
+      const int c = p.bad_channel();
       error = (c >= 0 ? std::string("channels.") + config_schema::kChannelNames[c] + ": " : std::string()) +
               "invalid processor configuration (a value out of float range?)";
       return false;
-    }
-    return fc.monitor.enabled ? init_monitor(proc, fc, error) : true;
+    });
+    if (!ok) return false;
+    return fc.monitor.enabled ? init_monitor(fc, s, error) : true;
   }
 
-  // The gyro monitor on the channels the file's [monitor] table selects, each compared
-  // against its ar2_kalman model's Allan variance. The host runs the lag identifier's fits
-  // inline, at their request (the target defers them to thread mode; the two agree sample for
-  // sample while no deferred fit is late).
-  template <class P>
-  bool init_monitor(P& proc, const FileConfig& fc, std::string& error) {
+  // The monitor's settings from the file's [monitor] table.
+  static GyroMonitorSettings<float> monitor_settings(const FileConfig& fc) {
     const MonitorSpec& m = fc.monitor;
     GyroMonitorSettings<float> s;
     s.sample_rate_hz = static_cast<float>(fc.sample_rate_hz);
@@ -124,6 +90,13 @@ class Processing {
     s.identifier = m.lag_identifier ? DriftIdentifierKind::lag : DriftIdentifierKind::recursive;
     s.lag.fit_delay_samples = m.fit_delay_samples;
     s.lag.restart_after_fit = m.restart_after_fit;
+    return s;
+  }
+
+  // The gyro monitor on the channels the file's [monitor] table selects, each compared
+  // against its ar2_kalman model's Allan variance.
+  bool init_monitor(const FileConfig& fc, GyroMonitorSettings<float> s, std::string& error) {
+    const MonitorSpec& m = fc.monitor;
     std::array<Proc::MonitorReference, kImuGyroChannels>& refs = monitor_references_;  // the monitors read it
     refs = {};
     std::array<bool, kImuGyroChannels> on{};
@@ -139,16 +112,46 @@ class Processing {
         return false;
       }
     }
-    if (proc.configure_monitor(s, refs, on) != GyroMonitorStatus::ok) {
+    if (with([&](auto& p) { return p.configure_monitor(s, refs, on); }) != GyroMonitorStatus::ok) {
       error = "monitor: the gyro monitor refuses this configuration (a value out of float range?)";
       return false;
     }
     return true;
   }
 
+  // One input sample through the processor; true if it produced an output.
+  bool step(const ImuSample<float>& in, ImuOutput<float>& out) noexcept {
+    return (with([&](auto& p) noexcept { return p.step(in, out); }) & kFlagRejected) == 0U;
+  }
+
+  // Processor rejections (samples that produced no output).
+  template <class F>
+  void for_each_rejection(F&& field) const {
+    for_each_rejection_field(health(), field);
+  }
+
+  template <class F>
+  void for_each_health(F&& field) const {
+    for_each_health_field(health(), field);
+  }
+
+  double sample_rate_hz() const noexcept { return sample_rate_hz_; }
+
+ private:
+  const ImuHealth& health() const noexcept {
+    return proc_lag_ ? proc_lag_->health() : proc_->health();
+  }
+
+  // f on the processor in use.
+  template <class F>
+  auto with(F&& f) -> decltype(f(std::declval<Proc&>())) {
+    if (proc_lag_) return f(*proc_lag_);
+    return f(*proc_);
+  }
+
   double sample_rate_hz_ = config_schema::kDefaultSampleRateHz;
   std::optional<Proc> proc_;
-  std::optional<LagProc> lag_proc_;  // [monitor] identifier = "lag" with reidentify on
+  std::optional<ProcLag> proc_lag_;
   // The monitors' reference curves (they refer to these for the processor's lifetime).
   std::array<Proc::MonitorReference, kImuGyroChannels> monitor_references_{};
 };

@@ -44,8 +44,10 @@
 // cadence + i * cadence / n, then every cadence (staggered, so one fit at a time: configure()
 // refuses n * fit_delay_samples > cadence). One fit's working state exists once; a channel
 // whose request comes while another channel's fit holds it requests again at each of its next
-// samples until it is free (never while the counts of the channels stay equal, as in the
-// processor, which pushes or skips every watched channel on every sample).
+// samples until it is free. While the counts of the channels stay equal (the processor pushes
+// or skips every watched channel on every sample) that happens only at n * fit_delay_samples
+// = cadence, where a request can fall on the sample at which the previous channel's fit
+// applies, and a channel pushed before that one then waits one sample.
 //   - At the request (if the statistics have enough samples) the channel's statistics pause:
 //     its samples from then on are counted (paused(c)) but not pushed. The fit reads the
 //     paused statistics in place, so no copy is needed.
@@ -77,8 +79,9 @@
 // the fit, the guards and the bounded step in double (software double on the Cortex-M4F; the
 // likelihood must resolve 1e-7 of its value); the model in use and the gain in Scalar.
 // Memory: per channel the statistics (136 B for <float, 8>) and its models, gains, counters and
-// schedule; once: the settings, one LagDriftFitResult<double> and the outcome. sizeof is
-// checked in cpp/tests/test_lag_drift_identifier.cpp and on the Cortex-M4 in
+// schedule; once: the settings, one LagDriftFitResult<double> and the outcome.
+// sizeof(LagDriftIdentifier<float, 3>) is 1056 B on the Cortex-M4 (1064 on x86-64), <float, 1>
+// 512 B (520): checked in cpp/tests/test_lag_drift_identifier.cpp and
 // cpp/cortex_m/use_lag_drift_identifier.cpp. The fit's stack (about 1.3 KiB on the M4 at L = 8)
 // is the caller's of push() (inline) or of run_pending_fit() (deferred).
 // Cost: per sample per channel the statistics' L + 1 products and compensated sums; a fit is
@@ -617,13 +620,17 @@ class LagDriftIdentifier {
       big = std::fabs(step[j]) > big ? std::fabs(step[j]) : big;
     }
     const double ms = static_cast<double>(settings_.max_step);
-    const double scale = big > ms ? ms / big : 1.0;
-    double v[4];
-    for (int j = 0; j < 4; ++j) v[j] = big > ms ? from[j] + scale * step[j] : to[j];
-    const double na2 = std::tanh(v[1]);
-    const double na1 = std::tanh(v[0]) * (1.0 - na2);
-    DriftModelParams<Scalar> next{static_cast<Scalar>(na1), static_cast<Scalar>(na2), static_cast<Scalar>(std::exp(v[2])),
-                                  static_cast<Scalar>(std::exp(v[3])), static_cast<Scalar>(m.mean)};
+    const double scale = big > ms ? ms / big : 1.0;  // the step scaled as a whole
+    DriftModelParams<Scalar> next = o.estimate;  // within max_step: the fit itself
+    if (big > ms) {
+      double v[4];
+      for (int j = 0; j < 4; ++j) v[j] = from[j] + scale * step[j];
+      const double na2 = std::tanh(v[1]);
+      const double na1 = std::tanh(v[0]) * (1.0 - na2);
+      next = DriftModelParams<Scalar>{static_cast<Scalar>(na1), static_cast<Scalar>(na2),
+                                      static_cast<Scalar>(std::exp(v[2])), static_cast<Scalar>(std::exp(v[3])),
+                                      static_cast<Scalar>(m.mean)};
+    }
     if (!settings_.adapt_ar) {  // exactly the configured AR part
       next.a1 = cfg.a1;
       next.a2 = cfg.a2;
