@@ -55,7 +55,6 @@ def register(subparsers: Any) -> None:
     >>> args.learn_s, args.report_every_s, args.channel, args.fail_on_alarm, args.reidentify
     (600.0, None, None, False, None)
     """
-
     p = subparsers.add_parser("monitor", help="online noise estimates, drift re-identification "
                               "and health alarms over a record, as the target runs them",
                               description=__doc__.split("\n\n")[0])
