@@ -3,12 +3,15 @@
 //   GyroMonitorSettings(*, rate_hz, octaves, arw_factor, bias_instability_factor,
 //       rate_random_walk_factor, false_alarm_probability, stuck_samples, saturated_samples,
 //       reidentify, block_samples, retune_blocks, min_samples, memory_blocks, max_step,
-//       max_rel_stderr, adapt_ar)             durations in samples (the caller converts seconds)
+//       max_rel_stderr, adapt_ar, min_ar_wald, identifier, fit_delay_samples, restart_after_fit)
+//                                             durations in samples (the caller converts seconds);
+//       identifier "recursive" (online_drift_identifier.hpp) or "lag" (lag_drift_identifier.hpp)
 //   GyroMonitorRun(settings, model, reference_avar, reference_edf)      double state
 //   GyroMonitorRunF32(settings, model, reference_avar, reference_edf)   float state, as on the target
 //     model: (a1, a2, q, r, mean); reference_avar: expected Allan variance per octave;
 //     reference_edf: edf per term of the alarms' block test per octave (0: from the slope)
-//     .run(y, stuck, saturated, report_every, coverage) -> dict of per-report arrays
+//     .run(y, stuck, saturated, report_every, coverage) -> dict of per-report arrays (the lag
+//       identifier's fit status and paused samples too: -1 and 0 with the recursive one)
 //     .latched(y, stuck, saturated) -> u16 latched alarm bits after each sample
 //     .trips() -> {alarm name: {statistic, threshold, tau_s, sample}} for the raised alarms
 //     .reset()
@@ -20,7 +23,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "array_checks.hpp"
@@ -49,6 +55,10 @@ struct MonitorSettingsPy {
   double max_step = 0.1;
   double max_rel_stderr = 0.5;
   bool adapt_ar = true;  // false: a1, a2 held, q and r tracked
+  double min_ar_wald = static_cast<double>(OnlineDriftSettings<double>{}.min_ar_wald);
+  std::string identifier = "recursive";  // or "lag"
+  std::int64_t fit_delay_samples = LagDriftSettings<double>{}.fit_delay_samples;
+  bool restart_after_fit = LagDriftSettings<double>{}.restart_after_fit;
 
   void check() const {
     auto bad = [](const std::string& what) { throw py::value_error("GyroMonitorSettings." + what); };
@@ -73,7 +83,14 @@ struct MonitorSettingsPy {
     }
     if (!(max_step > 0.0) || !std::isfinite(max_step)) bad("max_step: expected a finite number > 0");
     if (!(max_rel_stderr > 0.0) || !std::isfinite(max_rel_stderr)) bad("max_rel_stderr: expected a finite number > 0");
+    if (!(min_ar_wald >= 0.0) || !std::isfinite(min_ar_wald)) bad("min_ar_wald: expected a finite number >= 0");
+    if (identifier != "recursive" && identifier != "lag") {
+      bad("identifier: expected 'recursive' or 'lag', got '" + identifier + "'");
+    }
+    if (fit_delay_samples < 0 || fit_delay_samples > u32) bad("fit_delay_samples: expected 0..2^32-1");
   }
+
+  DriftIdentifierKind kind() const { return identifier == "lag" ? DriftIdentifierKind::lag : DriftIdentifierKind::recursive; }
 
   template <class Scalar>
   GyroMonitorSettings<Scalar> to_core() const {
@@ -95,13 +112,124 @@ struct MonitorSettingsPy {
     s.drift.max_step = static_cast<Scalar>(max_step);
     s.drift.max_rel_stderr = static_cast<Scalar>(max_rel_stderr);
     s.drift.adapt_ar = adapt_ar;
+    s.drift.min_ar_wald = static_cast<Scalar>(min_ar_wald);
+    s.identifier = kind();
+    s.lag.fit_delay_samples = static_cast<std::uint32_t>(fit_delay_samples);
+    s.lag.restart_after_fit = restart_after_fit;
     return s;
   }
 };
 
+// The monitor of one settings object: with the recursive re-identification or with the lag
+// one (GyroMonitor's Kind: the build choice of a target, a run-time choice here).
+template <class Scalar>
+class AnyMonitor {
+ public:
+  using Rec = GyroMonitor<Scalar, kMonitorOctaves>;
+  using Lag = GyroMonitor<Scalar, kMonitorOctaves, true, true, DriftIdentifierKind::lag>;
+  using Reference = typename Rec::Reference;
+  static_assert(std::is_same_v<Reference, typename Lag::Reference>, "one reference type");
+
+  // The identifier's state a report row shows.
+  struct IdView {
+    DriftModelParams<Scalar> use{}, est{};
+    Scalar gain0{0}, gain1{0};
+    int status = 0;
+    std::uint32_t retunes = 0, refused = 0;
+    int fit_status = -1;  // the lag identifier's last applied fit (-1: the recursive one)
+    std::uint64_t paused = 0;
+    std::uint32_t late_fits = 0;
+  };
+
+  GyroMonitorStatus configure(const GyroMonitorSettings<Scalar>& s, const DriftModelParams<Scalar>& p,
+                              const Reference& ref) {
+    rec_.reset();
+    lag_.reset();
+    if (s.identifier == DriftIdentifierKind::lag) {
+      lag_.emplace();
+      return lag_->configure(s, p, ref);
+    }
+    rec_.emplace();
+    return rec_->configure(s, p, ref);
+  }
+
+  template <class F>
+  auto with(F&& f) -> decltype(f(std::declval<Rec&>())) {
+    if (lag_) return f(*lag_);
+    return f(*rec_);
+  }
+  template <class F>
+  auto with_const(F&& f) const -> decltype(f(std::declval<const Rec&>())) {
+    if (lag_) return f(*lag_);
+    return f(*rec_);
+  }
+
+  std::uint16_t push(Scalar y, bool stuck, bool saturated) noexcept {
+    return with([&](auto& m) noexcept { return m.push(y, stuck, saturated); });
+  }
+  bool retuned() const noexcept {
+    return with_const([](const auto& m) noexcept { return m.retuned(); });
+  }
+  const StreamingAllan<Scalar, kMonitorOctaves>& allan() const noexcept {
+    return with_const([](const auto& m) noexcept -> const StreamingAllan<Scalar, kMonitorOctaves>& { return m.allan(); });
+  }
+  const typename Rec::Alarms& alarms() const noexcept {
+    return with_const([](const auto& m) noexcept -> const typename Rec::Alarms& { return m.alarms(); });
+  }
+  void reset() noexcept {
+    with([](auto& m) noexcept { m.reset(); });
+  }
+  std::uint64_t samples() const noexcept {
+    return with_const([](const auto& m) noexcept { return m.samples(); });
+  }
+  std::uint64_t used() const noexcept {
+    return with_const([](const auto& m) noexcept { return m.used(); });
+  }
+  std::uint16_t latched() const noexcept {
+    return with_const([](const auto& m) noexcept { return m.latched(); });
+  }
+  bool reidentifying() const noexcept {
+    return with_const([](const auto& m) noexcept { return m.reidentifying(); });
+  }
+  bool noise(Scalar coverage, NoiseEstimates<Scalar>& out) const noexcept {
+    return with_const([&](const auto& m) noexcept { return m.noise(coverage, out); });
+  }
+
+  IdView view() const noexcept {
+    IdView v;
+    if (lag_) {
+      const LagDriftIdentifier<Scalar, 1>& id = lag_->identifier();
+      v.use = id.in_use(0);
+      v.est = id.estimate(0);
+      v.gain0 = id.gain0(0);
+      v.gain1 = id.gain1(0);
+      v.status = static_cast<int>(id.status(0));
+      v.retunes = id.retunes(0);
+      v.refused = id.refused_retunes(0);
+      v.fit_status = static_cast<int>(id.fit_status(0));
+      v.paused = id.paused(0);
+      v.late_fits = id.late_fits();
+    } else {
+      const OnlineDriftIdentifier<Scalar>& id = rec_->identifier();
+      v.use = id.in_use();
+      v.est = id.estimate();
+      v.gain0 = id.gain0();
+      v.gain1 = id.gain1();
+      v.status = static_cast<int>(id.status());
+      v.retunes = id.retunes();
+      v.refused = id.refused_retunes();
+    }
+    return v;
+  }
+
+ private:
+  std::optional<Rec> rec_;
+  std::optional<Lag> lag_;
+};
+
 template <class Scalar>
 class GyroMonitorRunPy {
-  using Monitor = GyroMonitor<Scalar, kMonitorOctaves>;
+  using Monitor = AnyMonitor<Scalar>;
 
  public:
   GyroMonitorRunPy(const MonitorSettingsPy& settings, py::tuple model, const CArray<double>& reference_avar,
@@ -171,7 +299,7 @@ class GyroMonitorRunPy {
     const char* names[kCols] = {"sample", "n", "n_lo", "n_hi", "b", "b_lo", "b_hi", "b_tau_s", "k", "k_lo", "k_hi",
                                 "k_upper_limit", "a1", "a2", "q", "r", "mean", "gain0", "gain1", "status",
                                 "health", "est_a1", "est_a2", "est_q", "est_r", "est_mean", "retunes",
-                                "refused_retunes", "used"};
+                                "refused_retunes", "used", "fit_status", "paused", "late_fits"};
     for (std::size_t c = 0; c < kCols; ++c) {
       py::array_t<double> col(static_cast<py::ssize_t>(m));
       double* o = col.mutable_data();
@@ -240,7 +368,7 @@ class GyroMonitorRunPy {
   }
 
  private:
-  static constexpr std::size_t kCols = 29;
+  static constexpr std::size_t kCols = 32;
 
   void append_row(Scalar coverage, std::vector<double>& rows, std::vector<double>& avar, std::size_t octaves) const {
     const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -258,19 +386,22 @@ class GyroMonitorRunPy {
     rows.push_back(e.b.valid ? static_cast<double>(e.b_tau_s) : nan);
     term(e.k);
     rows.push_back(e.k.valid && e.k.upper_limit ? 1.0 : 0.0);
-    const OnlineDriftIdentifier<Scalar>& id = monitor_.identifier();
     const bool reid = monitor_.reidentifying();
-    const DriftModelParams<Scalar>& use = id.in_use();
-    const DriftModelParams<Scalar>& est = id.estimate();
+    const typename Monitor::IdView id = reid ? monitor_.view() : typename Monitor::IdView{};
+    const DriftModelParams<Scalar>& use = id.use;
+    const DriftModelParams<Scalar>& est = id.est;
     for (Scalar v : {use.a1, use.a2, use.q, use.r, use.mean}) rows.push_back(reid ? static_cast<double>(v) : nan);
-    rows.push_back(reid ? static_cast<double>(id.gain0()) : nan);
-    rows.push_back(reid ? static_cast<double>(id.gain1()) : nan);
-    rows.push_back(reid ? static_cast<double>(static_cast<int>(id.status())) : -1.0);
+    rows.push_back(reid ? static_cast<double>(id.gain0) : nan);
+    rows.push_back(reid ? static_cast<double>(id.gain1) : nan);
+    rows.push_back(reid ? static_cast<double>(id.status) : -1.0);
     rows.push_back(static_cast<double>(monitor_.latched()));
     for (Scalar v : {est.a1, est.a2, est.q, est.r, est.mean}) rows.push_back(reid ? static_cast<double>(v) : nan);
-    rows.push_back(reid ? static_cast<double>(id.retunes()) : 0.0);
-    rows.push_back(reid ? static_cast<double>(id.refused_retunes()) : 0.0);
+    rows.push_back(reid ? static_cast<double>(id.retunes) : 0.0);
+    rows.push_back(reid ? static_cast<double>(id.refused) : 0.0);
     rows.push_back(static_cast<double>(monitor_.used()));
+    rows.push_back(reid ? static_cast<double>(id.fit_status) : -1.0);
+    rows.push_back(reid ? static_cast<double>(id.paused) : 0.0);
+    rows.push_back(reid ? static_cast<double>(id.late_fits) : 0.0);
     for (std::size_t k = 0; k < octaves; ++k) {
       Scalar v{0};
       avar.push_back(monitor_.allan().avar(k, v) ? static_cast<double>(v) : nan);
@@ -312,10 +443,12 @@ void bind_monitor(pybind11::module_& m) {
                        double rate_random_walk_factor, double false_alarm_probability, std::int64_t stuck_samples,
                        std::int64_t saturated_samples, bool reidentify, std::int64_t block_samples,
                        std::int64_t retune_blocks, std::int64_t min_samples, double memory_blocks, double max_step,
-                       double max_rel_stderr, bool adapt_ar) {
+                       double max_rel_stderr, bool adapt_ar, double min_ar_wald, std::string identifier,
+                       std::int64_t fit_delay_samples, bool restart_after_fit) {
              S s{rate_hz, octaves, arw_factor, bias_instability_factor, rate_random_walk_factor,
                  false_alarm_probability, stuck_samples, saturated_samples, reidentify, block_samples,
-                 retune_blocks, min_samples, memory_blocks, max_step, max_rel_stderr, adapt_ar};
+                 retune_blocks, min_samples, memory_blocks, max_step, max_rel_stderr, adapt_ar,
+                 min_ar_wald, std::move(identifier), fit_delay_samples, restart_after_fit};
              s.check();
              return s;
            }),
@@ -327,7 +460,9 @@ void bind_monitor(pybind11::module_& m) {
            py::arg("reidentify") = d.reidentify, py::arg("block_samples") = d.block_samples,
            py::arg("retune_blocks") = d.retune_blocks, py::arg("min_samples") = d.min_samples,
            py::arg("memory_blocks") = d.memory_blocks, py::arg("max_step") = d.max_step,
-           py::arg("max_rel_stderr") = d.max_rel_stderr, py::arg("adapt_ar") = d.adapt_ar)
+           py::arg("max_rel_stderr") = d.max_rel_stderr, py::arg("adapt_ar") = d.adapt_ar,
+           py::arg("min_ar_wald") = d.min_ar_wald, py::arg("identifier") = d.identifier, py::arg("fit_delay_samples") = d.fit_delay_samples,
+           py::arg("restart_after_fit") = d.restart_after_fit)
       .def_readwrite("rate_hz", &S::rate_hz)
       .def_readwrite("octaves", &S::octaves)
       .def_readwrite("arw_factor", &S::arw_factor)
@@ -343,7 +478,11 @@ void bind_monitor(pybind11::module_& m) {
       .def_readwrite("memory_blocks", &S::memory_blocks)
       .def_readwrite("max_step", &S::max_step)
       .def_readwrite("max_rel_stderr", &S::max_rel_stderr)
-      .def_readwrite("adapt_ar", &S::adapt_ar);
+      .def_readwrite("adapt_ar", &S::adapt_ar)
+      .def_readwrite("min_ar_wald", &S::min_ar_wald)
+      .def_readwrite("identifier", &S::identifier)
+      .def_readwrite("fit_delay_samples", &S::fit_delay_samples)
+      .def_readwrite("restart_after_fit", &S::restart_after_fit);
   bind_run<double>(m, "GyroMonitorRun", "The gyro monitor with double state over whole records.");
   bind_run<float>(m, "GyroMonitorRunF32", "The gyro monitor with float state (as on the target).");
   py::list names;

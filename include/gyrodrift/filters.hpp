@@ -11,6 +11,7 @@
 #include "filters/fir_prefilter.hpp"
 #include "filters/input_range.hpp"
 #include "filters/lag_drift_fit.hpp"
+#include "filters/lag_drift_identifier.hpp"
 #include "filters/lag_statistics.hpp"
 #include "filters/lifting_transform.hpp"
 #include "filters/online_drift_identifier.hpp"

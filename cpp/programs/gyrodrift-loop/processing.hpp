@@ -1,13 +1,18 @@
 // The loop's processing stage: ImuProcessor<float> (with the real-time wavelet stage, any
 // window of the format) configured from a configuration (--config FILE, or the built-in
 // default configuration; config_file.hpp), and its JSON counters (names from
-// imu/imu_processor.hpp, the one list).
+// imu/imu_processor.hpp, the one list). The monitor's re-identification is the processor's
+// build choice (imu_processor.hpp, MonitorIdentifierType): the loop holds the processor with
+// the recursive identifier or the one with the lag identifier, chosen by the settings'
+// identifier at start (fits inline: the host runs each at its request).
 #pragma once
 #include <array>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <type_traits>
+#include <utility>
 
 #include <gyrodrift/filters/realtime_wavelet_windows.hpp>
 #include <gyrodrift/imu/config_schema.hpp>
@@ -27,6 +32,9 @@ class Processing {
   using Wavelet = RealtimeWaveletAnyWindow<float>;
   static constexpr std::size_t kMonitorOctaves = kLoopMonitorOctaves;
   using Proc = ImuProcessor<float, Wavelet, kImuChannels, kMonitorOctaves>;
+  using ProcLag = ImuProcessor<float, Wavelet, kImuChannels, kMonitorOctaves, kImuGyroChannels, true,
+                               LagDriftIdentifier<float, kImuGyroChannels>>;
+  static_assert(std::is_same_v<Proc::MonitorReference, ProcLag::MonitorReference>, "one reference type");
 
   // Builds the processor from a configuration's content (already checked key by key); false
   // (with a message) if the processor still refuses it, so a misconfigured loop refuses to
@@ -34,24 +42,33 @@ class Processing {
   // for the file's window.
   bool init(const FileConfig& fc, std::string& error) {
     sample_rate_hz_ = fc.sample_rate_hz;
-    proc_.emplace(fc.imu, [&fc](std::size_t c) {
+    const GyroMonitorSettings<float> s = monitor_settings(fc);
+    proc_.reset();
+    proc_lag_.reset();
+    const auto make_wavelet = [&fc](std::size_t c) {
       const WaveletSpec& w = fc.wavelets[c];
       return Wavelet(w.window, w.kind, w.level, w.mode);
-    });
-    if (proc_->status() != ImuStatus::ok) {
+    };
+    if (fc.monitor.enabled && s.reidentify && s.identifier == DriftIdentifierKind::lag) {
+      proc_lag_.emplace(fc.imu, make_wavelet);
+    } else {
+      proc_.emplace(fc.imu, make_wavelet);
+    }
+    const bool ok = with([&](auto& p) {
+      if (p.status() == ImuStatus::ok) return true;
       // The file's values passed the reader's checks in double; the float processor refuses
       // them (a value that is 0 or not finite in float).
-      const int c = proc_->bad_channel();
+      const int c = p.bad_channel();
       error = (c >= 0 ? std::string("channels.") + config_schema::kChannelNames[c] + ": " : std::string()) +
               "invalid processor configuration (a value out of float range?)";
       return false;
-    }
-    return fc.monitor.enabled ? init_monitor(fc, error) : true;
+    });
+    if (!ok) return false;
+    return fc.monitor.enabled ? init_monitor(fc, s, error) : true;
   }
 
-  // The gyro monitor on the channels the file's [monitor] table selects, each compared
-  // against its ar2_kalman model's Allan variance.
-  bool init_monitor(const FileConfig& fc, std::string& error) {
+  // The monitor's settings from the file's [monitor] table.
+  static GyroMonitorSettings<float> monitor_settings(const FileConfig& fc) {
     const MonitorSpec& m = fc.monitor;
     GyroMonitorSettings<float> s;
     s.sample_rate_hz = static_cast<float>(fc.sample_rate_hz);
@@ -70,6 +87,13 @@ class Processing {
     s.drift.adapt_ar = m.reidentify_ar;
     s.drift.max_step = static_cast<float>(m.max_step);
     s.drift.max_rel_stderr = static_cast<float>(m.max_rel_stderr);
+    return s;
+  }
+
+  // The gyro monitor on the channels the file's [monitor] table selects, each compared
+  // against its ar2_kalman model's Allan variance.
+  bool init_monitor(const FileConfig& fc, GyroMonitorSettings<float> s, std::string& error) {
+    const MonitorSpec& m = fc.monitor;
     std::array<Proc::MonitorReference, kImuGyroChannels>& refs = monitor_references_;  // the monitors read it
     refs = {};
     std::array<bool, kImuGyroChannels> on{};
@@ -85,7 +109,7 @@ class Processing {
         return false;
       }
     }
-    if (proc_->configure_monitor(s, refs, on) != GyroMonitorStatus::ok) {
+    if (with([&](auto& p) { return p.configure_monitor(s, refs, on); }) != GyroMonitorStatus::ok) {
       error = "monitor: the gyro monitor refuses this configuration (a value out of float range?)";
       return false;
     }
@@ -94,25 +118,37 @@ class Processing {
 
   // One input sample through the processor; true if it produced an output.
   bool step(const ImuSample<float>& in, ImuOutput<float>& out) noexcept {
-    return (proc_->step(in, out) & kFlagRejected) == 0U;
+    return (with([&](auto& p) noexcept { return p.step(in, out); }) & kFlagRejected) == 0U;
   }
 
   // Processor rejections (samples that produced no output).
   template <class F>
   void for_each_rejection(F&& field) const {
-    for_each_rejection_field(proc_->health(), field);
+    for_each_rejection_field(health(), field);
   }
 
   template <class F>
   void for_each_health(F&& field) const {
-    for_each_health_field(proc_->health(), field);
+    for_each_health_field(health(), field);
   }
 
   double sample_rate_hz() const noexcept { return sample_rate_hz_; }
 
  private:
+  const ImuHealth& health() const noexcept {
+    return proc_lag_ ? proc_lag_->health() : proc_->health();
+  }
+
+  // f on the processor in use.
+  template <class F>
+  auto with(F&& f) -> decltype(f(std::declval<Proc&>())) {
+    if (proc_lag_) return f(*proc_lag_);
+    return f(*proc_);
+  }
+
   double sample_rate_hz_ = config_schema::kDefaultSampleRateHz;
   std::optional<Proc> proc_;
+  std::optional<ProcLag> proc_lag_;
   // The monitors' reference curves (they refer to these for the processor's lifetime).
   std::array<Proc::MonitorReference, kImuGyroChannels> monitor_references_{};
 };

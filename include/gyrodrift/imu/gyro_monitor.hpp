@@ -6,7 +6,10 @@
 //   StreamingAllan<Scalar, Octaves>   stability/streaming_allan.hpp
 //   estimate_noise                    stability/online_noise.hpp (at report time, not per sample)
 //   HealthAlarms<Scalar, Octaves>     imu/health_alarms.hpp (per sample)
-//   OnlineDriftIdentifier<Scalar>     filters/online_drift_identifier.hpp (per sample, optional)
+//   OnlineDriftIdentifier<Scalar>     filters/online_drift_identifier.hpp (per sample, optional;
+//                                     Kind recursive)
+//   LagDriftIdentifier<Scalar, 1>     filters/lag_drift_identifier.hpp (Kind lag: the statistics per
+//                                     sample, a fit at its cadence)
 //
 // push(y, stuck, saturated) once per sample of the channel, after the processor's bad-value
 // checks: a stuck or saturated value (or a non-finite one) is not a statistic's input, but the
@@ -16,7 +19,9 @@
 // may use; Reidentify false: no re-identification state, and configure() refuses
 // settings.reidentify; Records false: the alarms keep no trips or counts and refer to the
 // reference and their settings instead of copying them, HealthAlarms' Records), no heap, no exceptions,
-// deterministic (the same input gives the same state). The processor's monitors are built
+// deterministic (the same input gives the same state). Kind: which re-identification the
+// build holds (one of the two, for its RAM); configure() refuses a settings.identifier that is
+// not it when settings.reidentify is on. The processor's monitors are built
 // with neither (it reports the latched bits and counts alarms itself, and shares one
 // re-identification among its gyros: filters/shared_drift_identifier.hpp).
 #pragma once
@@ -27,6 +32,7 @@
 #include <type_traits>
 
 #include "../filters/drift_likelihood.hpp"
+#include "../filters/lag_drift_identifier.hpp"
 #include "../filters/online_drift_identifier.hpp"
 #include "../stability/online_noise.hpp"
 #include "../stability/streaming_allan.hpp"
@@ -41,6 +47,10 @@ struct GyroMonitorSettings {
   HealthAlarmSettings<Scalar> alarms{};      // alarm factors, false-alarm probability, durations
   bool reidentify = false;                   // run the online re-identification
   OnlineDriftSettings<Scalar> drift{};       // its block, retune cadence, guards
+  // Which re-identification: the recursive estimator or the fit from lag statistics (the
+  // build must hold it: GyroMonitor's Kind, ImuProcessor's MonitorIdentifier).
+  DriftIdentifierKind identifier = DriftIdentifierKind::recursive;
+  LagDriftSettings<Scalar> lag{};            // the lag identifier's schedule (fit delay, restart)
 };
 
 enum class GyroMonitorStatus : std::uint8_t {
@@ -52,14 +62,31 @@ enum class GyroMonitorStatus : std::uint8_t {
 
 namespace detail {
 struct NoDriftIdentifier {};  // the re-identification compiled out
+
+// The kind of a re-identification type (the recursive ones unless specialised).
+template <class T>
+struct DriftIdentifierKindOf {
+  static constexpr DriftIdentifierKind value = DriftIdentifierKind::recursive;
+};
+template <class S, std::size_t C, std::size_t L>
+struct DriftIdentifierKindOf<LagDriftIdentifier<S, C, L>> {
+  static constexpr DriftIdentifierKind value = DriftIdentifierKind::lag;
+};
 }  // namespace detail
 
-template <class Scalar, std::size_t Octaves, bool Reidentify = true, bool Records = true>
+template <class T>
+inline constexpr DriftIdentifierKind drift_identifier_kind_v = detail::DriftIdentifierKindOf<T>::value;
+
+template <class Scalar, std::size_t Octaves, bool Reidentify = true, bool Records = true,
+          DriftIdentifierKind Kind = DriftIdentifierKind::recursive>
 class GyroMonitor {
  public:
   static constexpr std::size_t capacity = Octaves;
   static constexpr bool kReidentify = Reidentify;
   static constexpr bool kRecords = Records;
+  static constexpr DriftIdentifierKind kIdentifierKind = Kind;
+  using Identifier = std::conditional_t<Kind == DriftIdentifierKind::lag, LagDriftIdentifier<Scalar, 1>,
+                                        OnlineDriftIdentifier<Scalar>>;
   using Reference = HealthReference<Scalar, Octaves>;
   using Alarms = HealthAlarms<Scalar, Octaves, Records>;
 
@@ -87,7 +114,7 @@ class GyroMonitor {
                               const DriftModelParams<Scalar>& model, const Reference& reference) noexcept {
     reidentify_ = Reidentify && settings.reidentify;
     status_ = GyroMonitorStatus::bad_settings;
-    if (settings.reidentify && !Reidentify) return status_;
+    if (settings.reidentify && (!Reidentify || settings.identifier != Kind)) return status_;
     if (settings.octaves < 1 || settings.octaves > Octaves || reference.octaves < 1 ||
         reference.octaves > settings.octaves) {
       return status_;
@@ -102,7 +129,13 @@ class GyroMonitor {
     }
     if (!alarms_.configure(reference, alarms)) return status_;
     if constexpr (Reidentify) {
-      if (settings.reidentify && !identifier_.configure(model, settings.drift)) {
+      bool configured = true;
+      if constexpr (Kind == DriftIdentifierKind::lag) {
+        if (settings.reidentify) configured = identifier_.configure(&model, 1, settings.drift, settings.lag);
+      } else {
+        if (settings.reidentify) configured = identifier_.configure(model, settings.drift);
+      }
+      if (!configured) {
         // the identifier's own rules: a model with white noise (r > 0), its block and memory
         status_ = model.r > Scalar(0) ? GyroMonitorStatus::bad_settings : GyroMonitorStatus::bad_model;
         return status_;
@@ -131,10 +164,19 @@ class GyroMonitor {
     // Every sample updates the alarms (their sample count, and the time of a trip, are the
     // monitor's); a non-finite value feeds no statistic and ends a stuck or saturated run.
     const bool bad = stuck || saturated;
-    if (!bad && std::isfinite(y) &&
-        allan_.push(y, [this](std::size_t k, Scalar d2) noexcept { alarms_.term(allan_, k, d2); })) {
-      if constexpr (Reidentify) {
-        if (reidentify_) {
+    const bool used = !bad && std::isfinite(y) &&
+                      allan_.push(y, [this](std::size_t k, Scalar d2) noexcept { alarms_.term(allan_, k, d2); });
+    if constexpr (Reidentify) {
+      if (reidentify_) {
+        if constexpr (Kind == DriftIdentifierKind::lag) {
+          // every sample counts for the fits' schedule; the statistics take the used ones
+          if (used) {
+            identifier_.push(0, y);
+          } else {
+            identifier_.skip(0);
+          }
+          retuned_ = identifier_.retuned();
+        } else if (used) {
           identifier_.push(y);
           retuned_ = identifier_.retuned();
         }
@@ -156,7 +198,7 @@ class GyroMonitor {
   const StreamingAllan<Scalar, Octaves>& allan() const noexcept { return allan_; }
   const Alarms& alarms() const noexcept { return alarms_; }
   template <bool R = Reidentify, class = std::enable_if_t<R>>
-  const OnlineDriftIdentifier<Scalar>& identifier() const noexcept {
+  const Identifier& identifier() const noexcept {
     return identifier_;
   }
   std::uint16_t latched() const noexcept { return alarms_.latched(); }
@@ -169,7 +211,7 @@ class GyroMonitor {
  private:
   StreamingAllan<Scalar, Octaves> allan_{};
   Alarms alarms_{};
-  std::conditional_t<Reidentify, OnlineDriftIdentifier<Scalar>, detail::NoDriftIdentifier> identifier_{};
+  std::conditional_t<Reidentify, Identifier, detail::NoDriftIdentifier> identifier_{};
   GyroMonitorStatus status_ = GyroMonitorStatus::unconfigured;
   bool retuned_ = false;
   bool reidentify_ = false;  // the settings are kept by the parts that use them

@@ -53,6 +53,7 @@
 #include "../filters/ar2_model.hpp"
 #include "../filters/ar2_steady_state.hpp"
 #include "config_schema.hpp"
+#include "../filters/lag_drift_identifier.hpp"
 #include "../filters/shared_drift_identifier.hpp"
 #include "gyro_monitor.hpp"
 
@@ -259,11 +260,11 @@ namespace detail {
 // empty base otherwise, so a build without the monitor pays no RAM for it (empty base
 // optimisation). The monitors keep no trip records and refer to the caller's references: the
 // processor reports the latched bits (kFlagHealthAlarm) and counts raises and retunes itself.
-template <class Scalar, std::size_t MonitorOctaves, std::size_t MonitorSlots, bool MonitorReidentify = true>
+template <class Scalar, std::size_t MonitorOctaves, std::size_t MonitorSlots, bool MonitorReidentify = true,
+          class Identifier = SharedDriftIdentifier<Scalar, MonitorSlots>>
 struct ImuMonitorBank {
   std::array<GyroMonitor<Scalar, MonitorOctaves, false, false>, MonitorSlots> monitors{};
-  std::conditional_t<MonitorReidentify, SharedDriftIdentifier<Scalar, MonitorSlots>, NoDriftIdentifier>
-      identifier{};
+  std::conditional_t<MonitorReidentify, Identifier, NoDriftIdentifier> identifier{};
   std::array<std::int8_t, kImuGyroChannels> slot{{-1, -1, -1}};
   std::array<bool, MonitorSlots> retune_stage{};  // the channel's steady-state stage takes retunes
   std::array<std::uint16_t, MonitorSlots> latched{};
@@ -271,8 +272,8 @@ struct ImuMonitorBank {
   HealthAlarmSettings<Scalar> alarm_settings{};  // one copy, which every monitor's alarms refer to
   bool reidentify = false;
 };
-template <class Scalar, std::size_t MonitorSlots, bool MonitorReidentify>
-struct ImuMonitorBank<Scalar, 0, MonitorSlots, MonitorReidentify> {};
+template <class Scalar, std::size_t MonitorSlots, bool MonitorReidentify, class Identifier>
+struct ImuMonitorBank<Scalar, 0, MonitorSlots, MonitorReidentify, Identifier> {};
 
 }  // namespace detail
 
@@ -287,12 +288,18 @@ struct ImuMonitorBank<Scalar, 0, MonitorSlots, MonitorReidentify> {};
 // pays for one); 0 (the default) builds none and the processor is the same as without the
 // monitor, bit for bit. MonitorReidentify false builds the monitors without the online
 // re-identification (less RAM; configure_monitor() then refuses settings.reidentify); with it,
-// one re-identification serves every watched gyro in turns of one block
-// (filters/shared_drift_identifier.hpp: with n watched gyros its time constants are n times longer).
+// one re-identification serves every watched gyro: MonitorIdentifierType, by default the
+// recursive estimator in turns of one block (filters/shared_drift_identifier.hpp: with n
+// watched gyros its time constants are n times longer), or LagDriftIdentifier<Scalar,
+// MonitorSlots> (filters/lag_drift_identifier.hpp: per gyro lag statistics, one fit at a time).
+// A build holds one of them (RAM); configure_monitor() refuses a settings.identifier that is not
+// its kind. With the lag identifier a target defers its fits to thread mode
+// (defer_monitor_fits, run_pending_monitor_fit).
 template <class Scalar, class Wavelet = NoWavelet<Scalar>, std::size_t WaveletChannels = kImuChannels,
           std::size_t MonitorOctaves = 0, std::size_t MonitorSlots = kImuGyroChannels,
-          bool MonitorReidentify = true>
-class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, MonitorSlots, MonitorReidentify> {
+          bool MonitorReidentify = true, class MonitorIdentifierType = SharedDriftIdentifier<Scalar, MonitorSlots>>
+class ImuProcessor
+    : private detail::ImuMonitorBank<Scalar, MonitorOctaves, MonitorSlots, MonitorReidentify, MonitorIdentifierType> {
   static_assert(WaveletChannels >= 1 && WaveletChannels <= kImuChannels, "WaveletChannels in 1..6");
   static_assert(MonitorSlots >= 1 && MonitorSlots <= kImuGyroChannels, "MonitorSlots in 1..3");
 
@@ -300,7 +307,9 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
   static constexpr std::size_t kMonitorOctaves = MonitorOctaves;
   static constexpr std::size_t kMonitorSlots = MonitorOctaves > 0 ? MonitorSlots : 0;
   using Monitor = GyroMonitor<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1), false, false>;
-  using MonitorIdentifier = SharedDriftIdentifier<Scalar, MonitorSlots>;
+  using MonitorIdentifier = MonitorIdentifierType;
+  static constexpr DriftIdentifierKind kMonitorIdentifierKind = drift_identifier_kind_v<MonitorIdentifierType>;
+  static_assert(MonitorIdentifierType::capacity == MonitorSlots, "the identifier serves MonitorSlots channels");
   using MonitorReference = HealthReference<Scalar, (MonitorOctaves > 0 ? MonitorOctaves : 1)>;
 
   static constexpr std::uint32_t kResyncAfter = kImuResyncAfter;
@@ -480,7 +489,9 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
     for (std::size_t c = 0; c < kImuGyroChannels; ++c) this->slot[c] = -1;
     this->reidentify = false;
     if (status_ != ImuStatus::ok) return GyroMonitorStatus::bad_settings;
-    if (settings.reidentify && !MonitorReidentify) return GyroMonitorStatus::bad_settings;
+    if (settings.reidentify && (!MonitorReidentify || settings.identifier != kMonitorIdentifierKind)) {
+      return GyroMonitorStatus::bad_settings;
+    }
     this->alarm_settings = settings.alarms;
     GyroMonitorSettings<Scalar> per_gyro = settings;
     per_gyro.reidentify = false;  // the monitors' statistics and alarms; the processor re-identifies
@@ -504,7 +515,14 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
     if constexpr (MonitorReidentify) {
       if (settings.reidentify && used > 0) {
         std::size_t failed = 0;
-        if (!this->identifier.configure(models.data(), used, settings.drift, &failed)) {
+        bool configured = false;
+        if constexpr (kMonitorIdentifierKind == DriftIdentifierKind::lag) {
+          configured = this->identifier.configure(models.data(), used, settings.drift, settings.lag, &failed);
+        } else {
+          configured = this->identifier.configure(models.data(), used, settings.drift, &failed);
+        }
+        if (!configured) {
+          if (failed >= used) return GyroMonitorStatus::bad_settings;
           // the identifier's own rules: a model with white noise (r > 0), its block and memory
           const bool white = failed < used && models[failed].r > Scalar(0);
           return white ? GyroMonitorStatus::bad_settings : GyroMonitorStatus::bad_model;
@@ -534,6 +552,27 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
   template <std::size_t O = MonitorOctaves, class = std::enable_if_t<(O > 0)>>
   std::size_t monitor_slot(std::size_t c) const noexcept {
     return monitor_active(c) ? static_cast<std::size_t>(this->slot[c]) : 0;
+  }
+  // The lag identifier's fits (filters/lag_drift_identifier.hpp; no-ops, false and 0 in a build
+  // without it). Deferred (on): step() only marks a fit pending at its request and the caller
+  // runs it with run_pending_monitor_fit() (thread mode on a target, while the interrupt keeps
+  // stepping); its outcome applies a fixed number of samples after the request if done by
+  // then (monitor_late_fits() counts those not done). Switch it after configure_monitor(),
+  // before the first step().
+  void defer_monitor_fits(bool on) noexcept {
+    if constexpr (lag_identifier()) this->identifier.defer_fits(on);
+    (void)on;
+  }
+  bool monitor_fit_pending() const noexcept {
+    if constexpr (lag_identifier()) return this->identifier.fit_pending();
+    return false;
+  }
+  void run_pending_monitor_fit() noexcept {
+    if constexpr (lag_identifier()) this->identifier.run_pending_fit();
+  }
+  std::uint32_t monitor_late_fits() const noexcept {
+    if constexpr (lag_identifier()) return this->identifier.late_fits();
+    return 0;
   }
   ImuStatus status() const noexcept { return status_; }
   // Index of the first bad channel when status() != ok (else -1).
@@ -628,14 +667,16 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
       this->latched[i] = now;
       if constexpr (!MonitorReidentify) {
         // no re-identification compiled in: no retunes
-      } else if (this->reidentify && m.used() == used_before) {
-        // a value the statistics did not take (stuck, saturated, non-finite): it counts towards
-        // passing slot i's turn of the shared re-identification on, so that a failed gyro does
-        // not stop the others'
-        this->identifier.skip(i);
-      } else if (this->reidentify) {  // a value the statistics took
+      } else if (this->reidentify) {
         MonitorIdentifier& id = this->identifier;
-        id.push(i, x);
+        if (m.used() == used_before) {
+          // a value the statistics did not take (stuck, saturated, non-finite): it counts towards
+          // passing slot i's turn of the shared re-identification on, so that a failed gyro does
+          // not stop the others' (the lag identifier: towards its fits' schedule)
+          id.skip(i);
+        } else {  // a value the statistics took
+          id.push(i, x);
+        }
         if (id.refused_retunes(i) != this->refused[i]) {
           health_.monitor_refused_retunes += id.refused_retunes(i) - this->refused[i];
           this->refused[i] = id.refused_retunes(i);
@@ -653,6 +694,10 @@ class ImuProcessor : private detail::ImuMonitorBank<Scalar, MonitorOctaves, Moni
       (void)stuck;
       (void)saturated;
     }
+  }
+
+  static constexpr bool lag_identifier() noexcept {
+    return MonitorOctaves > 0 && MonitorReidentify && kMonitorIdentifierKind == DriftIdentifierKind::lag;
   }
 
   void count_filter_fault(std::uint16_t& flags) noexcept {
