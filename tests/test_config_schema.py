@@ -119,6 +119,50 @@ def relations() -> Iterator[tuple[str, str, str | None]]:
     yield ("fast record, loop rate absent", fast.replace("loop_rate_hz = 400.0\n", ""),
            "timing.loop_rate_hz")
     yield ("fast record, loop rate given", fast, None)
+    # the lag identifier: watched gyros x fit_delay_s <= retune_s, in samples
+    yield from _fit_delay_relations()
+
+
+def _fit_delay_relations() -> Iterator[tuple[str, str, str | None]]:
+    from gyrodrift.imu.config import Ar2KalmanStage, ChannelConfig
+
+    cfg = default_config()
+    for ch in ("gx", "gy", "gz"):  # three watched gyros: ar2_kalman first
+        stage = Ar2KalmanStage(a1=0.5, a2=0.1, mean=0.0, q=1e-9, r=1e-7, steady_state=True)
+        cfg = cfg.with_channel(ch, ChannelConfig(ch, (stage,)))
+    three = dumps_config(cfg.with_monitor(enabled=True, reidentify=True, identifier="lag",
+                                          retune_s=60.0, fit_delay_s=20.0))
+    assert "fit_delay_s = 20.0\n" in three and "retune_s = 60.0\n" in three
+    yield ("lag, three gyros x 20 s in 60 s", three, None)
+    yield ("lag, three gyros x 20 s in 59 s", three.replace("retune_s = 60.0", "retune_s = 59.0"),
+           "monitor.fit_delay_s")
+    yield ("lag, off: one gyro x 20 s in 59 s",
+           three.replace("retune_s = 60.0", "retune_s = 59.0").replace("enabled = true",
+                                                                         "enabled = false"), None)
+    yield ("lag, off: one gyro x 20 s in 19 s",
+           three.replace("retune_s = 60.0", "retune_s = 19.0").replace("enabled = true",
+                                                                         "enabled = false"),
+           "monitor.fit_delay_s")
+    yield ("recursive: fit_delay_s not related",
+           three.replace('identifier = "lag"', 'identifier = "recursive"').replace(
+               "retune_s = 60.0", "retune_s = 19.0"), None)
+    # in samples: at 100.4 Hz a block of 1 s is 100 samples (cadence 6000), 20 s 2008 samples
+    odd = three.replace("sample_rate_hz = 400.0", "sample_rate_hz = 100.4").replace(
+        "time_tolerance_us = 1250\n", "").replace("loop_rate_hz = 400.0\n", "")
+    yield ("lag, three gyros x 2008 samples in 6000", odd, "monitor.fit_delay_s")
+    yield ("lag, three gyros x 1958 samples in 6000", odd.replace("fit_delay_s = 20.0",
+                                                                  "fit_delay_s = 19.5"), None)
+    # the default fit_delay_s: three gyros within the default retune_s at any sample rate
+    dflt = three.replace("fit_delay_s = 20.0\n", "").replace("retune_s = 60.0\n", "")
+    for rate in ("1.0", "7.3", "100.4", "333.3", "999.9", "1000.0"):
+        text = dflt.replace("sample_rate_hz = 400.0", f"sample_rate_hz = {rate}").replace(
+            "time_tolerance_us = 1250\n", "").replace("loop_rate_hz = 400.0\n", "")
+        yield (f"lag, three gyros, default fit delay at {rate} Hz", text, None)
+    # more samples than the target's counter holds
+    big = three.replace("sample_rate_hz = 400.0", "sample_rate_hz = 100000.0").replace(
+        "time_tolerance_us = 1250\n", "").replace("enabled = true", "enabled = false")
+    yield ("lag, fit delay beyond 32 bits", big.replace("retune_s = 60.0", "retune_s = 86400.0")
+           .replace("fit_delay_s = 20.0", "fit_delay_s = 50000.0"), "monitor.fit_delay_s")
 
 
 CASES = list(corpus()) + list(relations())

@@ -73,6 +73,9 @@ struct MonitorSpec {
   std::uint32_t block_samples = 0, retune_blocks = 0;
   std::uint64_t min_samples = 0;
   double memory_blocks = 0.0, max_step = 0.0, max_rel_stderr = 0.0;
+  bool lag_identifier = false;          // identifier = "lag" (else the recursive one)
+  std::uint32_t fit_delay_samples = 0;  // lag: samples from a fit's request to its retune
+  bool restart_after_fit = false;       // lag: each fit from the samples since the previous one
   std::array<bool, kImuChannels> channels{};  // monitored: a gyro whose first stage is ar2_kalman
 };
 
@@ -475,6 +478,33 @@ inline bool check_monitor(const std::array<ChannelRead, kImuChannels>& chans, co
       return false;
     }
   }
+  // MonitorConfig.check_fit_delay: the lag identifier's fits of the watched gyros (the one
+  // `gyrodrift monitor` runs when the monitor is off) within one retune interval, in samples.
+  if (monitor.value(schema::kMonitorIdentifier).text == "lag") {
+    long long gyros = 0;
+    if (monitor.value(schema::kMonitorEnabled).boolean) {
+      for (std::size_t c = 0; c < kImuChannels; ++c) {
+        if (is_gyro(schema::kChannelNames[c]) && chans[c].stages[0].type == "ar2_kalman") ++gyros;
+      }
+    } else {
+      gyros = 1;
+    }
+    const long long fit_delay = std::max(1LL, lround_nonneg(monitor.value(schema::kMonitorFitDelayS).number * rate));
+    const long long cadence =
+        std::max(1LL, lround_nonneg(monitor.value(schema::kMonitorRetuneS).number / block_s)) * std::max(8LL, block);
+    if (static_cast<double>(fit_delay) > u32) {
+      err = "monitor.fit_delay_s: more than 4294967295 samples at " + tomldoc::repr_number(rate) + " Hz";
+      return false;
+    }
+    if (gyros * fit_delay > cadence) {
+      err = "monitor.fit_delay_s: " + std::to_string(gyros) + (gyros == 1 ? " gyro x " : " gyros x ") +
+            std::to_string(fit_delay) + " samples exceed retune_s = " + std::to_string(cadence) + " samples at " +
+            tomldoc::repr_number(rate) +
+            " Hz: the lag identifier needs watched gyros x fit_delay_s <= retune_s (each gyro's fit is applied "
+            "before the next one's starts)";
+      return false;
+    }
+  }
   return true;
 }
 
@@ -561,6 +591,9 @@ inline void build(const std::array<ChannelRead, kImuChannels>& chans, const Sect
     m.memory_blocks = memory > 0.0 ? std::max(1.0, memory) : 0.0;  // 0, or at least one block
     m.max_step = num(schema::kMonitorMaxStep);
     m.max_rel_stderr = num(schema::kMonitorIdentifiedMaxRelStderr);
+    m.lag_identifier = monitor.value(schema::kMonitorIdentifier).text == "lag";
+    m.fit_delay_samples = static_cast<std::uint32_t>(std::max(1LL, lround_nonneg(num(schema::kMonitorFitDelayS) * rate)));
+    m.restart_after_fit = monitor.value(schema::kMonitorRestartAfterFit).boolean;
     for (std::size_t c = 0; c < kImuChannels; ++c) {
       m.channels[c] = m.enabled && is_gyro(schema::kChannelNames[c]) && chans[c].stages[0].type == "ar2_kalman";
     }

@@ -215,48 +215,66 @@ inline constexpr FieldSpec kMonitorReidentify{
     -kInf, false, kInf, false, true, false, false,
     "", "finite", "",
     "re-identify the drift model online and retune the steady-state AR(2)-Kalman gain"};
+inline constexpr FieldSpec kMonitorIdentifier{
+    "monitor", "identifier", false, FieldKind::string,
+    false, true, 0.0, "recursive",
+    -kInf, false, kInf, false, true, false, false,
+    "recursive|lag", "one of recursive, lag", "",
+    "the re-identification's method: recursive (a recursive estimator updated every block, with an optional forgetting memory, memory_s: follows a change, but does not settle on the offline maximum-likelihood fit on every record) or lag (whole-record lag statistics per gyro and their maximum-likelihood fit every retune_s: converges to the offline fit of the samples seen; restart_after_fit to follow a change)"};
 inline constexpr FieldSpec kMonitorReidentifyAr{
     "monitor", "reidentify_ar", false, FieldKind::boolean,
     false, true, 1.0, "",
     -kInf, false, kInf, false, true, false, false,
     "", "finite", "",
-    "re-identify the drift's AR coefficients a1, a2 too (false: hold them at the configured model and track q and r only, which follows a change of the noise levels in a shorter memory)"};
+    "both identifiers: re-identify the drift's AR coefficients a1, a2 too (false: hold them at the configured model and fit q and r only, which follows a change of the noise levels in a shorter memory)"};
 inline constexpr FieldSpec kMonitorBlockS{
     "monitor", "block_s", false, FieldKind::number,
     false, true, 1.0, "",
     0.0, true, 3600.0, false, true, false, false,
     "", "> 0 and <= 3600", "s",
-    "samples per update of the re-identified parameters, in seconds (at least 8 samples)"};
+    "recursive identifier: samples per update of the re-identified parameters, in seconds (at least 8 samples); both identifiers: the unit retune_s is rounded to"};
 inline constexpr FieldSpec kMonitorRetuneS{
     "monitor", "retune_s", false, FieldKind::number,
     false, true, 60.0, "",
     0.0, true, 86400.0, false, true, false, false,
     "", "> 0 and <= 86400", "s",
-    "time between gain retunes (rounded to whole blocks, at least one)"};
+    "both identifiers: time between gain retunes of one gyro (rounded to whole blocks, at least one)"};
 inline constexpr FieldSpec kMonitorMinLearnS{
     "monitor", "min_learn_s", false, FieldKind::number,
     false, true, 600.0, "",
     0.0, false, 10000000.0, false, true, false, false,
     "", "0..10000000", "s",
-    "no retune before this much accepted data"};
+    "both identifiers: no retune before this much accepted data (lag: data in the gyro's statistics)"};
 inline constexpr FieldSpec kMonitorMemoryS{
     "monitor", "memory_s", false, FieldKind::number,
     false, true, 0.0, "",
     0.0, false, 10000000.0, false, true, false, false,
     "", "0..10000000", "s",
-    "forgetting horizon of the re-identification (0: none, for a stationary sensor: the estimate settles near the maximum-likelihood fit of everything seen; else at least one block, to track a change)"};
+    "recursive identifier: forgetting horizon of the re-identification (0: none, for a stationary sensor: the estimate settles near the maximum-likelihood fit of everything seen; else at least one block, to track a change)"};
 inline constexpr FieldSpec kMonitorMaxStep{
     "monitor", "max_step", false, FieldKind::number,
     false, true, 0.1, "",
     0.0, true, 10.0, false, true, false, true,
     "", "> 0 and <= 10", "",
-    "largest change of one parameter per update (log q, log r; the AR part)"};
+    "both identifiers: largest change of one parameter per update (log q, log r; the AR part; lag: per retune)"};
 inline constexpr FieldSpec kMonitorIdentifiedMaxRelStderr{
     "monitor", "identified_max_rel_stderr", false, FieldKind::number,
     false, true, 0.5, "",
     0.0, true, 10.0, false, true, false, true,
     "", "> 0 and <= 10", "",
-    "retune only when the relative standard errors of q and r are at most this (the drift/noise split is identified)"};
+    "both identifiers: retune only when the relative standard errors of q and r are at most this (the drift/noise split is identified)"};
+inline constexpr FieldSpec kMonitorFitDelayS{
+    "monitor", "fit_delay_s", false, FieldKind::number,
+    false, true, 15.0, "",
+    0.0, true, 86400.0, false, true, false, false,
+    "", "> 0 and <= 86400", "s",
+    "lag identifier: time from a fit's start to the retune that applies it; the target runs the fit in the background and must finish it within this time, while the gyro's statistics pause. With n watched gyros n x fit_delay_s must be at most retune_s (in samples). Default: a fit takes about 9 s of the target's spare time at 400 Hz, and three gyros then take their turns within the default retune_s, with room for the rounding to whole samples"};
+inline constexpr FieldSpec kMonitorRestartAfterFit{
+    "monitor", "restart_after_fit", false, FieldKind::boolean,
+    false, true, 0.0, "",
+    -kInf, false, kInf, false, true, false, false,
+    "", "finite", "",
+    "lag identifier: each fit uses only the samples since that gyro's previous fit, to follow a change of the noise (false: everything since the start, converging on a stationary sensor)"};
 
 inline constexpr const FieldSpec* kFields[] = {
     &kTimingSampleRateHz,
@@ -288,6 +306,7 @@ inline constexpr const FieldSpec* kFields[] = {
     &kMonitorStuckAlarmS,
     &kMonitorSaturatedAlarmS,
     &kMonitorReidentify,
+    &kMonitorIdentifier,
     &kMonitorReidentifyAr,
     &kMonitorBlockS,
     &kMonitorRetuneS,
@@ -295,8 +314,10 @@ inline constexpr const FieldSpec* kFields[] = {
     &kMonitorMemoryS,
     &kMonitorMaxStep,
     &kMonitorIdentifiedMaxRelStderr,
+    &kMonitorFitDelayS,
+    &kMonitorRestartAfterFit,
 };
-inline constexpr std::size_t kFieldCount = 36;
+inline constexpr std::size_t kFieldCount = 39;
 
 inline constexpr const char* kSchema = "gyrodrift.processor";
 inline constexpr int kVersion = 1;

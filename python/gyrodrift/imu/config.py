@@ -281,30 +281,70 @@ class MonitorConfig:
     memory_s: float = _monitor_default("memory_s")
     max_step: float = _monitor_default("max_step")
     identified_max_rel_stderr: float = _monitor_default("identified_max_rel_stderr")
+    identifier: str = _monitor_default("identifier")
+    fit_delay_s: float = _monitor_default("fit_delay_s")
+    restart_after_fit: bool = _monitor_default("restart_after_fit")
 
     def samples(self, sample_rate_hz: float) -> dict[str, int | float]:
         """The durations at `sample_rate_hz` as the processor holds them (the C++ reader's
         rounding: lround of seconds times rate): stuck_samples, saturated_samples,
         block_samples (at least MIN_BLOCK_SAMPLES), retune_blocks (whole blocks, at least
-        one), min_samples, memory_blocks (a float: 0, or at least one block), report_samples.
+        one), retune_samples (their product: one gyro's retune cadence, both identifiers),
+        min_samples, memory_blocks (a float: 0, or at least one block), report_samples,
+        fit_delay_samples (at least one).
 
         Examples
         --------
-        >>> d = MonitorConfig(block_s=0.5, retune_s=30.0).samples(400.0)
-        >>> d["block_samples"], d["retune_blocks"], d["report_samples"]
-        (200, 60, 4000)
+        >>> d = MonitorConfig(block_s=0.5, retune_s=30.0, fit_delay_s=10.0).samples(400.0)
+        >>> d["block_samples"], d["retune_blocks"], d["retune_samples"], d["report_samples"]
+        (200, 60, 12000, 4000)
+        >>> d["fit_delay_samples"]
+        4000
         """
         block = max(MIN_BLOCK_SAMPLES, _lround(self.block_s * sample_rate_hz))
+        retune_blocks = max(1, _lround(self.retune_s / self.block_s))
         memory = self.memory_s / self.block_s
         return {
             "stuck_samples": _lround(self.stuck_alarm_s * sample_rate_hz),
             "saturated_samples": _lround(self.saturated_alarm_s * sample_rate_hz),
             "block_samples": block,
-            "retune_blocks": max(1, _lround(self.retune_s / self.block_s)),
+            "retune_blocks": retune_blocks,
+            "retune_samples": retune_blocks * block,
             "min_samples": _lround(self.min_learn_s * sample_rate_hz),
             "memory_blocks": max(1.0, memory) if memory > 0.0 else 0.0,
             "report_samples": max(1, _lround(self.report_interval_s * sample_rate_hz)),
+            "fit_delay_samples": max(1, _lround(self.fit_delay_s * sample_rate_hz)),
         }
+
+    def check_fit_delay(self, sample_rate_hz: float, gyros: int) -> None:
+        """Raise ConfigError (key ``monitor.fit_delay_s``) when the lag identifier's fits of
+        `gyros` watched gyros do not fit one retune interval: each gyro's fit is applied
+        fit_delay_s after it starts, before the next gyro's starts, so gyros x
+        fit_delay_samples must be at most retune_samples (:meth:`samples`). Nothing to check
+        for the recursive identifier.
+
+        Examples
+        --------
+        >>> MonitorConfig(identifier="lag").check_fit_delay(400.0, 3)  # 3 x 15 s <= 60 s
+        >>> MonitorConfig(identifier="lag", fit_delay_s=30.0).check_fit_delay(400.0, 3)
+        Traceback (most recent call last):
+        ...
+        gyrodrift.imu.config.ConfigError: monitor.fit_delay_s: 3 gyros x 12000 samples ...
+        """
+        if self.identifier != "lag":
+            return
+        n = self.samples(sample_rate_hz)
+        fit_delay, cadence = int(n["fit_delay_samples"]), int(n["retune_samples"])
+        if fit_delay > U32_MAX:
+            raise ConfigError("monitor.fit_delay_s",
+                              f"more than {U32_MAX} samples at {sample_rate_hz!r} Hz")
+        if gyros * fit_delay > cadence:
+            raise ConfigError(
+                "monitor.fit_delay_s",
+                f"{gyros} {'gyro' if gyros == 1 else 'gyros'} x {fit_delay} samples exceed "
+                f"retune_s = {cadence} samples at {sample_rate_hz!r} Hz: the lag identifier "
+                "needs watched gyros x fit_delay_s <= retune_s (each gyro's fit is applied "
+                "before the next one's starts)")
 
 
 #: The fewest samples in one update block of the re-identification.
@@ -514,6 +554,8 @@ def _check_monitor(cfg: ProcessorConfig) -> None:
     if m.enabled and not cfg.monitored_channels():
         raise ConfigError("monitor.enabled", "no gyro channel has ar2_kalman as its first "
                                              "stage (the drift model the monitor starts from)")
+    # the gyros the processor watches, or the one `gyrodrift monitor` runs when it is off
+    m.check_fit_delay(rate, len(cfg.monitored_channels()) if m.enabled else 1)
 
 
 # ----------------------------------------------------------------------------- reading

@@ -214,6 +214,11 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
         "// table in flash that the monitors read in place (they keep no copy in RAM).",
         "inline constexpr bool kMonitorEnabled = true;",
         f"inline constexpr bool kMonitorChannels[3] = {{{flags}}};",
+        "// The re-identification's method ([monitor] identifier; with lag a target runs the fits",
+        "// in thread mode: defer_monitor_fits(true), then run_pending_monitor_fit() whenever",
+        "// monitor_fit_pending()).",
+        "inline constexpr gyrodrift::DriftIdentifierKind kMonitorIdentifier = "
+        f"gyrodrift::DriftIdentifierKind::{m.identifier};",
         "inline constexpr std::array<Processor::MonitorReference, 3> kMonitorReferences = {",
         *table,
         "};",
@@ -235,6 +240,9 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
         f"  s.drift.max_step = {float_literal(m.max_step)};",
         f"  s.drift.max_rel_stderr = {float_literal(m.identified_max_rel_stderr)};",
         f"  s.drift.adapt_ar = {'true' if m.reidentify_ar else 'false'};",
+        f"  s.identifier = gyrodrift::DriftIdentifierKind::{m.identifier};",
+        f"  s.lag.fit_delay_samples = {n['fit_delay_samples']}U;",
+        f"  s.lag.restart_after_fit = {'true' if m.restart_after_fit else 'false'};",
         "  return s;",
         "}",
         "// Starts the monitor on the processor (after construction, before the first step).",
@@ -249,27 +257,34 @@ def _monitor_lines(cfg: ProcessorConfig) -> list[str]:
 
 def _processor_type_lines(window: int, wavelet_channels: int, chan_taps: list[str],
                           monitor_octaves: int = 0, monitor_slots: int = 0,
-                          monitor_reidentify: bool = True) -> list[str]:
+                          monitor_reidentify: bool = True,
+                          monitor_identifier: str = "recursive") -> list[str]:
     """The Processor type and make_wavelet: the FIR stage on channels 0..k-1, or none; the
-    gyro monitor's capacity (octaves 0: none), its monitors (one per monitored gyro) and
-    whether they hold the re-identification (its state only when it is configured on)."""
+    gyro monitor's capacity (octaves 0: none), its monitors (one per monitored gyro), whether
+    they hold the re-identification (its state only when it is configured on) and which one
+    (the recursive estimator shared in turns, or the lag-statistics identifier)."""
     octaves = [f"inline constexpr std::size_t kMonitorOctaves = {monitor_octaves};"]
     if monitor_octaves:
+        identifier = ("gyrodrift::LagDriftIdentifier<float, kMonitorSlots>"
+                      if monitor_identifier == "lag" else
+                      "gyrodrift::SharedDriftIdentifier<float, kMonitorSlots>")
         octaves.append(f"inline constexpr std::size_t kMonitorSlots = {monitor_slots};")
         octaves.append("inline constexpr bool kMonitorReidentify = "
                        f"{'true' if monitor_reidentify else 'false'};")
+        octaves.append(f"using MonitorIdentifier = {identifier};")
     if not wavelet_channels:
         return [
             *octaves,
             "inline constexpr std::size_t kWaveletChannels = 1;",
             "using Wavelet = gyrodrift::NoWavelet<float>;",
             "using Processor = gyrodrift::ImuProcessor<float, Wavelet, gyrodrift::kImuChannels, "
-            "kMonitorOctaves, kMonitorSlots, kMonitorReidentify>;" if monitor_octaves else
-            "using Processor = gyrodrift::ImuProcessor<float>;",
+            "kMonitorOctaves, kMonitorSlots, kMonitorReidentify, MonitorIdentifier>;"
+            if monitor_octaves else "using Processor = gyrodrift::ImuProcessor<float>;",
             "inline Wavelet make_wavelet(std::size_t) noexcept { return Wavelet{}; }",
         ]
     processor = ("using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels, "
-                 "kMonitorOctaves, kMonitorSlots, kMonitorReidentify>;" if monitor_octaves else
+                 "kMonitorOctaves, kMonitorSlots, kMonitorReidentify, MonitorIdentifier>;"
+                 if monitor_octaves else
                  "using Processor = gyrodrift::ImuProcessor<float, Wavelet, kWaveletChannels>;")
     return [
         *octaves,
@@ -337,7 +352,8 @@ def emit_cpp(cfg: ProcessorConfig, namespace: str = "gyrodrift_config", source: 
         "};",
         "",
         *_processor_type_lines(window, wavelet_channels, chan_taps, _monitor_octaves(cfg),
-                               len(cfg.monitored_channels()), bool(cfg.monitor.reidentify)),
+                               len(cfg.monitored_channels()), bool(cfg.monitor.reidentify),
+                               cfg.monitor.identifier),
         "",
         *_monitor_lines(cfg),
         "",

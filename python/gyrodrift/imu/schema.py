@@ -54,6 +54,7 @@ __all__ = [
     "FLOAT32_INPUT_LIMIT",
     "FLOAT32_MAX",
     "FLOAT32_MIN_NORMAL",
+    "IDENTIFIERS",
     "MAX_STAGES",
     "MAX_VARIANCE",
     "MONITOR_MAX_OCTAVES",
@@ -91,6 +92,9 @@ THRESHOLDS = ("forced", "soft", "hard")
 SECTIONS = ("timing", "channel", "bias_removal", "wavelet", "ar2_kalman", "monitor")
 #: The most octaves of the monitor's streaming Allan curve (the loop program's capacity).
 MONITOR_MAX_OCTAVES = 24
+#: The monitor's re-identification methods (``[monitor] identifier``): the recursive estimator
+#: and the whole-record lag statistics with their fit.
+IDENTIFIERS = ("recursive", "lag")
 
 
 class _Required:
@@ -349,28 +353,49 @@ FIELDS: tuple[Field, ...] = (
           lo=0.0, hi=86400.0),
     Field("monitor", "reidentify", "bool", "", False,
           "re-identify the drift model online and retune the steady-state AR(2)-Kalman gain"),
+    Field("monitor", "identifier", "str", "", "recursive",
+          "the re-identification's method: recursive (a recursive estimator updated every "
+          "block, with an optional forgetting memory, memory_s: follows a change, but does not "
+          "settle on the offline maximum-likelihood fit on every record) or lag (whole-record "
+          "lag statistics per gyro and their maximum-likelihood fit every retune_s: converges "
+          "to the offline fit of the samples seen; restart_after_fit to follow a change)",
+          choices=IDENTIFIERS),
     Field("monitor", "reidentify_ar", "bool", "", True,
-          "re-identify the drift's AR coefficients a1, a2 too (false: hold them at the "
-          "configured model and track q and r only, which follows a change of the noise "
-          "levels in a shorter memory)"),
+          "both identifiers: re-identify the drift's AR coefficients a1, a2 too (false: hold "
+          "them at the configured model and fit q and r only, which follows a change of the "
+          "noise levels in a shorter memory)"),
     Field("monitor", "block_s", "float", "s", 1.0,
-          "samples per update of the re-identified parameters, in seconds (at least 8 samples)",
+          "recursive identifier: samples per update of the re-identified parameters, in "
+          "seconds (at least 8 samples); both identifiers: the unit retune_s is rounded to",
           lo=0.0, lo_open=True, hi=3600.0),
     Field("monitor", "retune_s", "float", "s", 60.0,
-          "time between gain retunes (rounded to whole blocks, at least one)",
-          lo=0.0, lo_open=True, hi=86400.0),
+          "both identifiers: time between gain retunes of one gyro (rounded to whole blocks, "
+          "at least one)", lo=0.0, lo_open=True, hi=86400.0),
     Field("monitor", "min_learn_s", "float", "s", 600.0,
-          "no retune before this much accepted data", lo=0.0, hi=1e7),
+          "both identifiers: no retune before this much accepted data (lag: data in the "
+          "gyro's statistics)", lo=0.0, hi=1e7),
     Field("monitor", "memory_s", "float", "s", 0.0,
-          "forgetting horizon of the re-identification (0: none, for a stationary sensor: "
-          "the estimate settles near the maximum-likelihood fit of everything seen; else at "
-          "least one block, to track a change)", lo=0.0, hi=1e7),
+          "recursive identifier: forgetting horizon of the re-identification (0: none, for a "
+          "stationary sensor: the estimate settles near the maximum-likelihood fit of "
+          "everything seen; else at least one block, to track a change)", lo=0.0, hi=1e7),
     Field("monitor", "max_step", "float", "", 0.1,
-          "largest change of one parameter per update (log q, log r; the AR part)",
-          lo=0.0, lo_open=True, hi=10.0, float32=True),
+          "both identifiers: largest change of one parameter per update (log q, log r; the AR "
+          "part; lag: per retune)", lo=0.0, lo_open=True, hi=10.0, float32=True),
     Field("monitor", "identified_max_rel_stderr", "float", "", 0.5,
-          "retune only when the relative standard errors of q and r are at most this (the "
-          "drift/noise split is identified)", lo=0.0, lo_open=True, hi=10.0, float32=True),
+          "both identifiers: retune only when the relative standard errors of q and r are at "
+          "most this (the drift/noise split is identified)", lo=0.0, lo_open=True, hi=10.0,
+          float32=True),
+    Field("monitor", "fit_delay_s", "float", "s", 15.0,
+          "lag identifier: time from a fit's start to the retune that applies it; the target "
+          "runs the fit in the background and must finish it within this time, while the "
+          "gyro's statistics pause. With n watched gyros n x fit_delay_s must be at most "
+          "retune_s (in samples). Default: a fit takes about 9 s of the target's spare time "
+          "at 400 Hz, and three gyros then take their turns within the default retune_s, with "
+          "room for the rounding to whole samples", lo=0.0, lo_open=True, hi=86400.0),
+    Field("monitor", "restart_after_fit", "bool", "", False,
+          "lag identifier: each fit uses only the samples since that gyro's previous fit, to "
+          "follow a change of the noise (false: everything since the start, converging on a "
+          "stationary sensor)"),
 )
 
 
