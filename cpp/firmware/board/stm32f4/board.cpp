@@ -303,11 +303,12 @@ extern "C" void USART1_IRQHandler(void) {
       // counts (rx_overrun); a sender that waits (QEMU's serial back-end) loses nothing.
       // Reading the data register is what clears the request: QEMU's USART model keeps its
       // interrupt line raised while a byte waits, whatever RXNEIE says, and the interrupt
-      // would then re-enter forever and starve the ring's reader.
+      // would then re-enter forever and starve the ring's reader. RXNEIE goes off first, so
+      // that a byte the emulator delivers right after the read raises no request either.
+      reg(kCr1) &= ~kCr1Rxneie;
       g_rx_held = static_cast<std::uint8_t>(reg(kDr) & 0xFFU);
       g_rx_held_valid = true;
       ++g_link.rx_bytes;
-      reg(kCr1) &= ~kCr1Rxneie;
       ++g_link.rx_stalls;
 #endif
     } else {
