@@ -93,9 +93,9 @@ READING = """## Reading
   need L = 14 and 28. The estimates the refused fits report sit on the bound a2 = -1, away
   from every offline fit: the truncated likelihood is wrong for this drift, and the guard
   refuses it as designed. The recursive identifier tracks on both axes (on z its sqrt(q) moves
-  from 3.6 to 1.7-1.9 deg/h, toward the offline fits of the later segments, 1.9 and 2.4; on y
-  it moves away from the learned model, one retune refused, where the offline fit of the
-  middle segment is not identified).
+  from 3.6 to 1.5-2.2 deg/h, 1.9 at the end, toward the offline fits of the later segments,
+  1.9 and 2.4; on y it moves away from the learned model, one retune refused, where the
+  offline fit of the middle segment is not identified).
 - **Re-identification, x: the lag identifier accepts, the step bound holds it back.** The
   learned reference is white noise (the offline fit of the learning span does not identify
   the split), so the recursive identifier falls back at every retune. The lag identifier's
@@ -499,7 +499,7 @@ standard deviations of the drift's driving noise and of the white noise, deg/h. 
 {chr(10).join(reid_tables)}
 """
     Path(args.page).write_text(head + "\n".join(sections) + "\n" + reid + READING)
-    print(f"wrote {args.page} and {len(axes)} plots in {IMAGES}")
+    print(f"wrote {args.page}, {len(axes)} plots and {models_png.name} in {IMAGES}")
     return 0
 
 
