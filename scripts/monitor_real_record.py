@@ -92,10 +92,12 @@ READING = """## Reading
   the identifier's L = 8 is 0.03 and 0.18, above the 3e-3 its Whittle fit accepts; they would
   need L = 14 and 28. The estimates the refused fits report sit on the bound a2 = -1, away
   from every offline fit: the truncated likelihood is wrong for this drift, and the guard
-  refuses it as designed. The recursive identifier tracks on both axes (on z its sqrt(q) moves
-  from 3.6 to 1.5-2.2 deg/h, 1.9 at the end, toward the offline fits of the later segments,
-  1.9 and 2.4; on y it moves away from the learned model, one retune refused, where the
-  offline fit of the middle segment is not identified).
+  refuses it as designed (`tests/test_lag_identifier_real.py` checks this on z: every fit
+  refused as truncation, the learned model and gain in use throughout, the same alarms as
+  with the recursive identifier). The recursive identifier tracks on both axes (on z its
+  sqrt(q) moves from 3.6 to 1.5-2.2 deg/h, 1.9 at the end, toward the offline fits of the
+  later segments, 1.9 and 2.4; on y it moves away from the learned model, one retune
+  refused, where the offline fit of the middle segment is not identified).
 - **Re-identification, x: the lag identifier accepts, the step bound holds it back.** The
   learned reference is white noise (the offline fit of the learning span does not identify
   the split), so the recursive identifier falls back at every retune. The lag identifier's
