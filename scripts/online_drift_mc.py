@@ -14,11 +14,23 @@ steady-state AR(2)-Kalman filter tuned five ways; the MSE is against the simulat
                of in_use() applied from the sample after each retune (the configured gain
                before the first); stationary: no forgetting; changing: memory_blocks = 100,
                adapt_ar off (q and r tracked);
+  lag        - the re-identification from lag statistics (the C++ LagDriftIdentifier through
+               the gyro monitor, double state as the host loop's), the gain of the model in use
+               applied from the sample after each fit's apply point (the configured gain before
+               the first): a fit every --lag-cadence samples (default 24000: 60 s at 400 Hz,
+               the configuration's retune_s), each applied --lag-delay samples after its
+               request (default 6000: the configuration's fit_delay_s of 15 s; the statistics
+               pause meanwhile), bounded step --lag-max-step (default 1: every fit is a whole
+               ML fit, so one retune may take it); stationary: min_samples 60000 as the
+               recursive row, the statistics of the whole record (no restart), a1, a2 fitted;
+               changing: restart_after_fit (each fit reads the samples since the previous
+               one), min_samples 12000, adapt_ar off as the recursive row;
   ml         - gyrodrift.fit_drift_model on the whole record (.kalman()): the offline optimum
                a navigation computer cannot have while it runs;
   papers     - the papers' recipe: Yule-Walker AR(2) on the noisy record, q = sigma2, r = its
                prediction-error variance (gyrodrift.fit_ar2 defaults).
-Prints one row per case (averaged over seeds) with the ratios to the optimum.
+Prints one row per case (averaged over seeds) with the ratios to the optimum; --identifier
+recursive or lag runs one of the two online rows only (default both, side by side).
 
     python scripts/online_drift_mc.py            # fast: 1 seed, 240000 samples
     python scripts/online_drift_mc.py --full     # the docs run: 5 seeds, 480000 samples
@@ -70,6 +82,7 @@ from gyrodrift.filters.online import (
     OnlineDriftTrace,
     SharedDriftIdentifier,
 )
+from gyrodrift.imu.monitor import model_avar
 from scipy.signal import lfilter
 
 PAIRS = ((0.6868, -0.0213), (0.2297, 0.1638))
@@ -77,6 +90,7 @@ RATIOS = (1.0, 3.0)
 CHANGES = ("none", "r x2", "q x2")
 MEAN = 9.7
 SKIP = 500
+RATE_HZ = 400.0
 
 
 @dataclass(frozen=True)
@@ -158,9 +172,72 @@ def online_settings(change: str) -> OnlineDriftSettings:
                                memory_blocks=100.0, adapt_ar=False)
 
 
-def run_case(case: Case) -> dict[str, float]:
-    """MSE of each tuning on one record (see the module docstring), plus the online run's
-    retunes, refused retunes and final status."""
+@dataclass(frozen=True)
+class LagSchedule:
+    """The lag identifier's schedule in the study (see the module docstring), in samples."""
+
+    cadence: int = 24000
+    delay: int = 6000
+    max_step: float = 1.0
+    min_samples_stationary: int = 60000
+    min_samples_changing: int = 12000
+
+
+BLOCK = 400
+IDENTIFIERS = ("recursive", "lag")
+
+
+def lag_settings(change: str, lag: LagSchedule) -> dict[str, object]:
+    """The gyro monitor's settings of the lag identifier in the study (stationary: the whole
+    record's statistics; changing: restart after each fit, the AR part held)."""
+    if lag.cadence % BLOCK or lag.cadence < BLOCK:
+        raise ValueError(f"lag cadence: a positive multiple of {BLOCK} samples, got {lag.cadence}")
+    if not 1 <= lag.delay <= lag.cadence:
+        raise ValueError(f"lag delay: 1..cadence samples, got {lag.delay}")
+    stationary = change == "none"
+    return {"block_samples": BLOCK, "retune_blocks": lag.cadence // BLOCK,
+            "min_samples": lag.min_samples_stationary if stationary else lag.min_samples_changing,
+            "max_step": lag.max_step, "fit_delay_samples": lag.delay,
+            "restart_after_fit": not stationary, "adapt_ar": stationary}
+
+
+def run_lag(y: np.ndarray, configured: DriftParams, change: str, lag: LagSchedule
+            ) -> tuple[list[int], list[tuple[float, ...]], dict[str, float]]:
+    """The lag identifier (double state) over y through the gyro monitor: the sample counts at
+    which each fit was applied (its gain in use from the next sample on), the model in use
+    (a1, a2), gain (k0, k1) and mean from there, and its retunes, refused retunes and whether
+    its final status is tracking."""
+    native = core("imu")
+    settings = native.GyroMonitorSettings(rate_hz=RATE_HZ, octaves=8, reidentify=True,
+                                          identifier="lag", **lag_settings(change, lag))
+    model = (configured.a1, configured.a2, configured.q, configured.r, configured.mean)
+    mon = native.GyroMonitorRun(settings, model, model_avar(model, 8), np.zeros(8))
+    flags = np.zeros(y.size, dtype=bool)
+    # A report at every multiple of gcd(cadence, delay): every apply point (a request at a
+    # multiple of the cadence, one gyro, plus the delay) is a report.
+    every = math.gcd(lag.cadence, lag.delay)
+    out = mon.run(np.ascontiguousarray(y, dtype=np.float64), flags, flags, every, 0.6827)
+    applied = np.asarray(out["retunes"]) + np.asarray(out["refused_retunes"])
+    rows = np.flatnonzero(np.diff(np.r_[0.0, applied]) > 0)
+    samples = [int(out["sample"][i]) for i in rows]
+    if np.any(np.diff(np.r_[0.0, applied])[rows] != 1) or any(
+            (s - lag.delay) % lag.cadence for s in samples):
+        raise RuntimeError("lag identifier: a fit applied off the schedule")
+    use = [tuple(float(out[k][i]) for k in ("a1", "a2", "gain0", "gain1", "mean"))
+           for i in rows]
+    last = len(out["sample"]) - 1
+    stats = {"retunes": float(out["retunes"][last]),
+             "refused": float(out["refused_retunes"][last]),
+             "tracking": 1.0 if int(out["status"][last]) == 2 else 0.0}
+    return samples, use, stats
+
+
+def run_case(case: Case, identifiers: tuple[str, ...] = IDENTIFIERS,
+             lag: LagSchedule | None = None) -> dict[str, float]:
+    """MSE of each tuning on one record (see the module docstring), plus each online run's
+    retunes, refused retunes and final status (keys of the lag identifier prefixed "lag_");
+    identifiers: which of the two online rows to run."""
+    lag = lag or LagSchedule()
     y, truth, (q1, r1), (q2, r2) = simulate(case)
     n = len(y)
     h = n // 2
@@ -176,23 +253,31 @@ def run_case(case: Case) -> dict[str, float]:
         configured = true1
     out = {"optimum": mse(model_filter(y, true1, [0, h], [true1, true2])),
            "configured": mse(model_filter(y, configured))}
-    ident = OnlineDriftIdentifier(configured, online_settings(case.change))
-    trace = ident.push(y)
-    # The gain in use from the sample after each block end (the configured one before).
-    starts = [0] + [min(int(s), n) for s in trace.samples]
-    use = [configured] + [DriftParams(*row) for row in trace.in_use.tolist()]
-    k0 = [steady_state_gain(configured)[0]] + [g[0] for g in trace.gain.tolist()]
-    k1 = [steady_state_gain(configured)[1]] + [g[1] for g in trace.gain.tolist()]
-    est = gain_filter(y, piecewise(n, starts, [p.a1 for p in use]),
-                      piecewise(n, starts, [p.a2 for p in use]), piecewise(n, starts, k0),
-                      piecewise(n, starts, k1), piecewise(n, starts, [p.mean for p in use]))
-    out["online"] = mse(est)
+    g0 = steady_state_gain(configured)
+    first = (configured.a1, configured.a2, g0[0], g0[1], configured.mean)
+
+    def retuned_filter(starts: list[int], use: list[tuple[float, ...]]) -> np.ndarray:
+        # The model's a1, a2, gain k0, k1 and mean use[i] from sample starts[i] on.
+        return gain_filter(y, *(piecewise(n, starts, [u[j] for u in use]) for j in range(5)))
+
+    if "recursive" in identifiers:
+        ident = OnlineDriftIdentifier(configured, online_settings(case.change))
+        trace = ident.push(y)
+        # The gain in use from the sample after each block end (the configured one before).
+        starts = [0] + [min(int(s), n) for s in trace.samples]
+        use = [first] + [(p[0], p[1], g[0], g[1], p[4])
+                         for p, g in zip(trace.in_use.tolist(), trace.gain.tolist(), strict=True)]
+        out["online"] = mse(retuned_filter(starts, use))
+        out["retunes"] = float(ident.retunes)
+        out["refused"] = float(ident.refused_retunes)
+        out["tracking"] = 1.0 if ident.status == "tracking" else 0.0
+    if "lag" in identifiers:
+        samples, use, stats = run_lag(y, configured, case.change, lag)
+        out["lag"] = mse(retuned_filter([0, *samples], [first, *use]))
+        out.update({"lag_" + k: v for k, v in stats.items()})
     fit = gyrodrift.fit_drift_model(y, rate_hz=400.0)
     out["ml"] = mse(fit.kalman().process(y))
     out["papers"] = mse(gyrodrift.kalman_filter(y, gyrodrift.fit_ar2(y), steady_state=True))
-    out["retunes"] = float(ident.retunes)
-    out["refused"] = float(ident.refused_retunes)
-    out["tracking"] = 1.0 if ident.status == "tracking" else 0.0
     return out
 
 
@@ -239,7 +324,6 @@ def convergence(seeds: int = 3, n: int = 240000, extra: dict[str, float] | None 
     print(f"# {time.monotonic() - t0:.0f} s")
 
 
-RATE_HZ = 400.0
 GYROS = 3
 
 
@@ -468,6 +552,16 @@ def main() -> None:
                          "(--samples, default 720000; --seeds) and tracking (--tracking-samples)")
     ap.add_argument("--tracking-samples", type=int, default=480000,
                     help="--shared: length of the tracking records (and three times it)")
+    ap.add_argument("--identifier", choices=(*IDENTIFIERS, "both"), default="both",
+                    help="the online row(s) of the MSE study: the recursive identifier, the one "
+                         "from lag statistics, or both side by side (default)")
+    d = LagSchedule()
+    ap.add_argument("--lag-cadence", type=int, default=d.cadence,
+                    help=f"samples between two fits of the lag identifier (default {d.cadence})")
+    ap.add_argument("--lag-delay", type=int, default=d.delay,
+                    help=f"samples from a fit's request to its apply point (default {d.delay})")
+    ap.add_argument("--lag-max-step", type=float, default=d.max_step,
+                    help=f"the lag identifier's bounded step (default {d.max_step:g})")
     args = ap.parse_args()
     if args.shared:
         shared_cadence(args.seed)
@@ -490,22 +584,43 @@ def main() -> None:
         convergence(seeds=args.seeds, n=args.samples or 240000, extra=extra)
         return
     seeds, n = (5, 480000) if args.full else (1, 240000)
+    identifiers = IDENTIFIERS if args.identifier == "both" else (args.identifier,)
+    lag = LagSchedule(cadence=args.lag_cadence, delay=args.lag_delay,
+                      max_step=args.lag_max_step)
+    try:
+        lag_settings("none", lag)
+    except ValueError as exc:
+        ap.error(str(exc))
     t0 = time.monotonic()
     print(f"# {n} samples, {seeds} seed(s) per row, q = 1 before the change; MSE against the "
           "true drift, ratio to the optimum")
+    if "lag" in identifiers:
+        print(f"# lag: a fit every {lag.cadence} samples, applied {lag.delay} after its "
+              f"request, max_step {lag.max_step:g}; min_samples {lag.min_samples_stationary} "
+              f"(stationary) / {lag.min_samples_changing} (changing, restart after each fit, "
+              "adapt_ar off)")
     print(f"{'a1':>7} {'a2':>7} {'r/q':>4} {'change':>6} {'optimum':>8} {'config':>7} "
-          f"{'online':>7} {'ML':>7} {'papers':>7} {'retunes':>7} {'refused':>7} {'tracking':>8}")
+          f"{'online':>7} {'lag':>7} {'ML':>7} {'papers':>7} {'retunes':>7} {'refused':>7} "
+          f"{'tracking':>8} {'lag ret':>7} {'lag ref':>7} {'lag trk':>7}")
+
+    def col(m: dict[str, float], key: str, fmt: str, scale: float = 1.0) -> str:
+        return f"{m[key] / scale:{fmt}}" if key in m else f"{'-':>{fmt.split('.')[0]}}"
+
     for change in CHANGES:
         for a1, a2 in PAIRS:
             for ratio in RATIOS:
-                rows = [run_case(Case(a1, a2, ratio, change, n, args.seed + s))
-                        for s in range(seeds)]
+                rows = [run_case(Case(a1, a2, ratio, change, n, args.seed + s), identifiers,
+                                 lag) for s in range(seeds)]
                 m = {k: float(np.mean([r[k] for r in rows])) for k in rows[0]}
                 opt = m["optimum"]
                 print(f"{a1:7.4f} {a2:7.4f} {ratio:4.1f} {change:>6} {opt:8.4f} "
-                      f"{m['configured'] / opt:7.3f} {m['online'] / opt:7.3f} "
-                      f"{m['ml'] / opt:7.3f} {m['papers'] / opt:7.3f} {m['retunes']:7.1f} "
-                      f"{m['refused']:7.1f} {m['tracking']:8.2f}")
+                      f"{m['configured'] / opt:7.3f} {col(m, 'online', '7.3f', opt)} "
+                      f"{col(m, 'lag', '7.3f', opt)} "
+                      f"{m['ml'] / opt:7.3f} {m['papers'] / opt:7.3f} "
+                      f"{col(m, 'retunes', '7.1f')} {col(m, 'refused', '7.1f')} "
+                      f"{col(m, 'tracking', '8.2f')} {col(m, 'lag_retunes', '7.1f')} "
+                      f"{col(m, 'lag_refused', '7.1f')} {col(m, 'lag_tracking', '7.2f')}",
+                      flush=True)
     print(f"# {time.monotonic() - t0:.0f} s")
 
 

@@ -288,17 +288,30 @@ def _mc_module() -> ModuleType:
 @pytest.mark.parametrize("change", ["none", "r x2"])
 def test_monte_carlo_small(change: str) -> None:
     # Small fixed-seed version of scripts/online_drift_mc.py (240000 samples, pair
-    # (0.6868, -0.0213), r/q = 1, seed 2). Stated: on a stationary record the online-retuned
-    # filter's MSE is within 10 % of the offline ML filter's (the configured gain, ~9 % above
-    # the optimum, is in use for the first 60000 samples); after r doubles halfway it is below
-    # the fixed configured model's and the offline ML fit's of the whole record.
+    # (0.6868, -0.0213), r/q = 1, seed 2), both online rows on the same record. Stated: on a
+    # stationary record the online-retuned filter's MSE is within 10 % of the offline ML
+    # filter's (the configured gain, ~9 % above the optimum, is in use for the first 60000
+    # samples); after r doubles halfway it is below the fixed configured model's and the
+    # offline ML fit's of the whole record.
+    # The lag identifier (a fit every 24000 samples, applied 6000 later; stationary: the whole
+    # record's statistics, first fit applied at 78000; changing: restart after each fit, AR part
+    # held): stationary within 6 % of the ML filter (observed 4.7 %: the configured gain, 8.5 %
+    # above the ML filter, over the first third, and fits on the side a2 > 0 of the fold at
+    # a2 = 0 whose likelihood is within 0.003 units of the ML fit's and whose gain is about 12 %
+    # higher; a run that never retunes stays 8.5 % above and fails); after the change below the
+    # configured model (observed 1.7 % above the optimum against 6.0 %) and the ML fit.
     mc = _mc_module()
     res = mc.run_case(mc.Case(0.6868, -0.0213, 1.0, change, 240000, 2))
-    assert res["optimum"] <= min(res["online"], res["ml"], res["configured"])
+    assert res["optimum"] <= min(res["online"], res["lag"], res["ml"], res["configured"])
     if change == "none":
         assert res["online"] <= 1.10 * res["ml"]
         assert res["online"] < res["configured"]
+        assert res["lag"] <= 1.06 * res["ml"]
+        assert res["lag"] < res["configured"]
     else:
         assert res["online"] < res["configured"]
         assert res["online"] < res["ml"]
+        assert res["lag"] < res["configured"]
+        assert res["lag"] < res["ml"]
     assert res["tracking"] == 1.0 and res["retunes"] > 0
+    assert res["lag_tracking"] == 1.0 and res["lag_retunes"] > 0 and res["lag_refused"] == 0
