@@ -16,6 +16,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import re
+import subprocess
+import sys
+import threading
 from dataclasses import replace
 from pathlib import Path
 
@@ -28,20 +33,26 @@ from gyrodrift.imu.config import (
     ProcessorConfig,
     WaveletStage,
     default_config,
+    drift_filter_config,
+    dumps_config,
 )
 from gyrodrift.replay.faults import FaultSpec
 from gyrodrift.replay.firmware import (
     FLASH_BUDGET_BYTES,
+    LAG_FIT_STACK_BYTES,
     MONITOR_RAM_BUDGET_BYTES,
     RAM_BUDGET_BYTES,
     FirmwareError,
     FirmwareImage,
+    QemuTarget,
     build_firmware,
     cached_firmware,
     instruction_budget,
 )
 from gyrodrift.replay.harness import LOOP_RELATIVE, ReplayOptions, ReplayResult, run_replay
 from gyrodrift.simulation.records import NoiseTerms, simulate_imu
+
+REPO = Path(__file__).resolve().parents[1]
 
 # Every fault kind, a few percent each: over 4000 samples each kind happens dozens of times.
 ALL_FAULTS = FaultSpec(drop=0.01, corrupt=0.01, duplicate=0.01, reorder=0.01, delay=0.01,
@@ -184,6 +195,146 @@ def test_monitor_configuration_equals_host_loop(reidentify: bool) -> None:
     assert_equal_to_host_loop(res)
     loop = res.loop_stats
     assert loop is not None and loop["health"]["stuck_alarms"] == 1
+
+
+def lag_config(gyros: int, enabled: bool = True) -> ProcessorConfig:
+    """The monitor's lag identifier on gz alone (the other channels passed through) or on the
+    three gyros (the AR(2)-Kalman stage alone on each, the accelerometers as by default), at
+    50 Hz samples and loop, with a short schedule so that a 20 s record has several fits: each
+    gyro fitted every 6 s (300 samples), a fit applied 2 s (100 samples) after its request (three
+    gyros: 3 x 2 s within the 6 s), from 2 s of statistics on; guards and steps loose enough
+    that a fit of the AR(2) records below is applied (relative standard errors up to 10, a step
+    of up to 1 in log q, log r and the AR coordinates)."""
+    rate = 50.0
+    if gyros == 1:
+        cfg = drift_filter_config("gz", a1=1.0, a2=-0.25, mean=0.0, q=1e-10, r=1e-8,
+                                  sample_rate_hz=rate)
+        cfg = cfg.with_channel("gz", replace(cfg.channel("gz"), saturation=8.0,
+                                             stuck_samples=50))
+    else:
+        cfg = default_config(sample_rate_hz=rate)
+        for name in ("gx", "gy", "gz"):
+            ch = cfg.channel(name)
+            cfg = cfg.with_channel(name, replace(ch, stages=tuple(
+                s for s in ch.stages if isinstance(s, Ar2KalmanStage))))
+    return cfg.with_monitor(enabled=enabled, octaves=16, reidentify=True, identifier="lag",
+                            retune_s=6.0, fit_delay_s=2.0, min_learn_s=2.0,
+                            identified_max_rel_stderr=10.0, max_step=1.0)
+
+
+def ar2_record(n: int, rate_hz: float, seed: int, white_gx: bool = False) -> Samples:
+    """n samples of AR(2) drift (a1 = 1, a2 = -0.25, q = 1e-10 (rad/s)^2) plus white noise
+    (r = 1e-10) on each gyro (white_gx: gx white noise alone, whose split a fit cannot
+    identify), the accelerometers of the simulated IMU record."""
+    rng = np.random.default_rng(seed)
+    q = r = 1e-10
+    gyro = np.empty((n, 3))
+    for c in range(3):
+        w = rng.normal(0.0, np.sqrt(q), n)
+        x = np.zeros(n)
+        for k in range(n):
+            x[k] = w[k] + (x[k - 1] if k >= 1 else 0.0) - 0.25 * (x[k - 2] if k >= 2 else 0.0)
+        gyro[:, c] = (0.0 if (white_gx and c == 0) else x) + rng.normal(0.0, np.sqrt(r), n)
+    accel = record(n / rate_hz, rate_hz, seed).channels[:n, 3:]
+    return make_samples(np.arange(n) / rate_hz, gyro, accel)
+
+
+@pytest.mark.parametrize("gyros", [1, 3])
+def test_lag_identifier_image_equals_host_loop(gyros: int) -> None:
+    """MCU = host with the monitor's lag identifier: the image runs each fit in thread mode while
+    the tick work keeps stepping, and applies its outcome 100 samples after the request as the
+    host loop (which fits inline, at the request) does: the same outputs, flags and counters
+    (retunes and refusals among them), no fit late. Requests (sample counts): one gyro 300, 600,
+    900, applied at 400, 700, 1000 of 1100 samples; three gyros staggered by 100 (gx 300, gy
+    400, gz 500, then every 300), the 7 due by 1050 samples applied (gx white noise: its 3
+    fits refused, the configured model kept; gy's request at 1000 may still be running when
+    the report is read). The reference processor does not model retunes, so its value check
+    is left out (the host loop is the reference here). The stack the image reserves holds its
+    measured deepest use (the tick work and the link interrupt nested on a fit's frames).
+    Three gyros do not fit the RAM budgets
+    (test_build_refuses_the_lag_identifier_over_the_monitor_budget): their image is run
+    without the budget check."""
+    cfg = lag_config(gyros)
+    image = cached_firmware(cfg, check_budget=gyros == 1)
+    assert image.lag_identifier
+    n = 1100 if gyros == 1 else 1050
+    res = replay(image, cfg, ar2_record(n, 50.0, seed=5, white_gx=gyros == 3),
+                 faults=FaultSpec(seed=1))
+    r = res.report
+    failed = [k for k, v in r["checks"].items() if not v and k != "values_within_tolerance"]
+    assert not failed
+    h = r["host_loop"]
+    assert h["seq_equal"] and h["flags_equal"] and not h["counters_unequal"]
+    assert h["outputs"] == r["accounting"]["outputs_received"] == n
+    assert all(d <= t for d, t in zip(h["max_abs_difference"], h["tolerance"], strict=True))
+    loop = res.loop_stats
+    assert loop is not None
+    fw, health = loop["firmware"], loop["health"]
+    assert fw["monitor_late_fits"] == 0
+    if gyros == 1:
+        assert fw["monitor_fits_run"] == 3
+        assert health["monitor_retunes"] == 3 and health["monitor_refused_retunes"] == 0
+    else:
+        assert fw["monitor_fits_run"] in (7, 8)
+        assert health["monitor_retunes"] == 4 and health["monitor_refused_retunes"] == 3
+    assert 0 < fw["stack_bytes"] <= image.stack_reserved
+    # the fit's cost is measured in thread mode: millions of instructions, not a step's
+    assert r["firmware"]["step_cost"]["fit_instructions_min"] > 1e6
+
+
+def test_build_refuses_the_lag_identifier_over_the_monitor_budget(tmp_path: Path) -> None:
+    """scripts/build-firmware refuses three gyros with the lag identifier, with the reason in one
+    line: the monitor's RAM over the image without it (the fit's stack reserve counted) exceeds
+    the 2 KiB, and by how much; the image's own 8 KiB too."""
+    cfg_path = tmp_path / "lag3.toml"
+    cfg_path.write_text(dumps_config(lag_config(3)))
+    res = subprocess.run([str(REPO / "scripts" / "build-firmware"), str(cfg_path),
+                          str(tmp_path / "out")], capture_output=True, text=True,
+                         env={**os.environ, "PYTHON": sys.executable})
+    assert res.returncode == 2, res.stdout + res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("build-firmware: error: the configuration "
+                                                   "does not fit the MCU budget: ")
+    m = re.search(r"the gyro monitor takes (\d+) B more RAM than the image without it "
+                  r"\(\d+ B; (\d+) B of the (\d+) B is the stack reserved for the lag "
+                  r"identifier's fit\) > (\d+) B by (\d+) B", lines[0])
+    assert m is not None, lines[0]
+    delta, stack, delta_again, budget, over = (int(g) for g in m.groups())
+    assert stack == LAG_FIT_STACK_BYTES and budget == MONITOR_RAM_BUDGET_BYTES
+    assert delta == delta_again > budget and over == delta - budget
+    assert re.search(r"RAM \d+ B \(data \+ bss \+ stack\) > 8192 B", lines[0])
+
+
+def test_a_full_receive_ring_pauses_and_resumes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A receive ring of 64 B (one and a half frames) and the record sent 4 times faster than
+    the loop runs: the ring fills again and again, and the receive interrupt takes the byte
+    aside, pauses and resumes when the loop has read from the ring. Every frame arrives and
+    the image equals the host loop, nothing lost in the driver. QEMU's USART model keeps its
+    interrupt raised while a byte waits in the data register, so a pause that left the byte
+    there made the interrupt re-enter for ever and the image stop (seen when a fit in thread
+    mode let a backlog build up): a watchdog ends QEMU after 60 s, so that such an image fails
+    the test instead of hanging it."""
+    start = QemuTarget.start
+
+    def start_with_watchdog(self: QemuTarget) -> None:
+        start(self)
+        proc = self.proc
+        timer = threading.Timer(60.0, lambda: proc.kill() if proc and proc.poll() is None
+                                else None)
+        timer.daemon = True
+        timer.start()
+
+    monkeypatch.setattr(QemuTarget, "start", start_with_watchdog)
+    cfg = default_config()
+    image = cached_firmware(cfg, ("GYRODRIFT_FW_RX_RING=64",))
+    res = run_replay(record(3.0, 400.0, seed=3),
+                     ReplayOptions(speed=4.0, target="qemu", firmware_image=image,
+                                   processor=cfg, faults=FaultSpec(seed=1),
+                                   loop_realtime=False, harness_realtime=False))
+    assert_equal_to_host_loop(res)
+    loop = res.loop_stats
+    assert loop is not None and loop["firmware"]["rx_stalls"] > 0
+    assert loop["rejected"]["rx_overrun"] == loop["rejected"]["rx_ring_overflow"] == 0
 
 
 @pytest.mark.parametrize("defect", ["GYRODRIFT_FW_INJECT_DROPPED_BYTE",

@@ -1,6 +1,12 @@
-// The reference firmware of the IMU loop: every tick of the loop rate it drains the receive
-// ring, decodes serial frames, runs each input sample through the processor built from the
-// generated configuration header, and queues the output frame for transmission. Bad input
+// The reference firmware of the IMU loop: every tick of the loop rate, in the board's
+// tick-work interrupt (below the link's receive interrupt, above thread mode), it drains the
+// receive ring, decodes serial frames, runs each input sample through the processor built from
+// the generated configuration header, and queues the output frame for transmission. Thread
+// mode runs the background work the processor asks for and sleeps otherwise: the gyro
+// monitor's lag identifier defers each drift-model fit to it (3e7 to 1e8 instructions of
+// software double, under a second of a 168 MHz M4F at 400 Hz) and applies its outcome a fixed
+// number of samples after its request, so the image equals the host loop (which fits inline)
+// sample for sample while no fit is late (monitor_late_fits stays 0). Bad input
 // never stops the loop: every rejected byte and frame is counted by reason, as the host loop
 // (cpp/programs/gyrodrift-loop) counts it. A health request frame (type 0x02) is answered
 // with the counters as health report frames (type 0x82), one counter per frame, under the
@@ -28,7 +34,7 @@ namespace {
 namespace board = gyrodrift::firmware::board;
 namespace serial = gyrodrift::serial;
 
-// Loop counters, named as in the host loop's statistics.
+// Loop counters, named as in the host loop's statistics (written by the tick work only).
 struct Counters {
   std::uint32_t cycles = 0;
   std::uint32_t overruns = 0;          // the work of a cycle ran past the next tick
@@ -91,6 +97,15 @@ fw_config::Processor g_proc(fw_config::kImuConfig, fw_config::make_wavelet);
 serial::SerialFrameParser<256> g_parser;
 Counters g_c;
 StepCost g_cost;
+// The monitor's fits run by thread mode (written there only; one aligned word, read whole).
+volatile std::uint32_t g_fits_run = 0;
+// The fits' own core-clock cycles (thread mode's time without the interrupts'), saturated at
+// 2^32 - 1 (25 s at 168 MHz); aligned words, read whole by the health report.
+volatile std::uint32_t g_fit_cycles_max = 0;
+volatile std::uint32_t g_fit_cycles_min = 0;
+#if defined(GYRODRIFT_FW_MEASURE_FIT_STACK)
+std::uint32_t g_fit_stack = 0;  // the deepest stack a fit used below thread mode's frame
+#endif
 
 void send_blocking(const std::uint8_t* p, std::size_t n) noexcept {
   while (!board::tx_write(p, n)) board::tx_kick();
@@ -150,6 +165,13 @@ void send_health() noexcept {
   r.put(kFirmware, "ticks", g_c.ticks);
   r.put(kFirmware, "rx_stalls", l.rx_stalls);
   r.put(kFirmware, "stack_bytes", board::stack_high_water_bytes());
+  r.put(kFirmware, "monitor_fits_run", g_fits_run);
+  r.put(kFirmware, "monitor_late_fits", g_proc.monitor_late_fits());
+  r.put(kFirmware, "fit_cycles_max", g_fit_cycles_max);
+  r.put(kFirmware, "fit_cycles_min", g_fit_cycles_min);
+#if defined(GYRODRIFT_FW_MEASURE_FIT_STACK)
+  r.put(kFirmware, "fit_stack_bytes", g_fit_stack);
+#endif
   r.put(kFirmware, "core_clock_hz", board::core_clock_hz());
   r.put(kFirmware, "steps_timed", g_cost.n);
   r.put(kFirmware, "step_cycles_max", g_cost.max);
@@ -220,7 +242,56 @@ std::uint32_t serve_link() noexcept {
   return samples;
 }
 
+std::uint32_t g_last_tick = 0;  // the tick of the previous tick work
+bool g_started = false;         // the first tick work only sets g_last_tick
+
+// Thread mode's work, run whenever the tick work leaves time: the monitor's pending fit (none
+// in an image without the lag identifier); returns whether it did any.
+bool background_ready() noexcept { return g_proc.monitor_fit_pending(); }
+bool run_background() noexcept {
+  if (!g_proc.monitor_fit_pending()) return false;
+  const std::uint64_t c0 = board::clock_cycles();
+  const std::uint64_t w0 = board::tick_work_cycles();
+  const std::uint32_t i0 = board::interrupt_cycles();
+#if defined(GYRODRIFT_FW_MEASURE_FIT_STACK)
+  // Measurement build: each fit with interrupts masked on freshly painted stack, so the stack
+  // below thread mode's frame is the fit's own (the loop stalls for the fit meanwhile, and the
+  // ticks it masks make the fit's cycles below wrong in this build).
+  const std::uint32_t used = board::stack_used_by([] { g_proc.run_pending_monitor_fit(); });
+  if (used > g_fit_stack) g_fit_stack = used;
+#else
+  g_proc.run_pending_monitor_fit();
+#endif
+  const std::uint64_t all = board::clock_cycles() - c0;
+  const std::uint64_t others = (board::tick_work_cycles() - w0) + (board::interrupt_cycles() - i0);
+  const std::uint64_t own64 = all > others ? all - others : 0U;
+  const std::uint32_t own = own64 > 0xFFFFFFFFU ? 0xFFFFFFFFU : static_cast<std::uint32_t>(own64);
+  if (own > g_fit_cycles_max) g_fit_cycles_max = own;
+  if (g_fits_run == 0U || own < g_fit_cycles_min) g_fit_cycles_min = own;
+  g_fits_run = g_fits_run + 1U;
+  return true;
+}
+
 }  // namespace
+
+// One tick of the loop (the board's tick-work interrupt).
+void gyrodrift::firmware::tick_work(std::uint32_t tick) noexcept {
+  if (!g_started) {  // the reference that overruns are counted from
+    g_started = true;
+    g_last_tick = tick;
+    return;
+  }
+  if (tick - g_last_tick > 1U) {
+    ++g_c.overruns;
+    g_c.missed_deadlines += tick - g_last_tick - 1U;
+  }
+  g_last_tick = tick;
+  g_c.ticks = tick;
+  ++g_c.cycles;
+  const std::uint32_t n = serve_link();
+  if (n > g_c.max_frames_per_cycle) g_c.max_frames_per_cycle = n;
+  board::tx_kick();
+}
 
 extern "C" [[noreturn]] void firmware_main(void) {
   static_assert(fw_config::kLoopRateHz >= 1.0F, "loop rate below 1 Hz");
@@ -228,22 +299,14 @@ extern "C" [[noreturn]] void firmware_main(void) {
   calibrate_timer();
   // The gyro monitor, when the configuration has one ([monitor] enabled; else a no-op).
   const bool monitor_ok = fw_config::start_monitor(g_proc);
+  g_proc.defer_monitor_fits(true);  // the lag identifier's fits in thread mode (else a no-op)
   send_health();  // start-up announcement
   // A configuration the processor refuses is refused by the build already; should one get
   // here, the loop stops after the announcement (its health shows every sample rejected).
-  while (g_proc.status() != gyrodrift::ImuStatus::ok || !monitor_ok) board::wait_for_tick();
-  std::uint32_t last_tick = board::wait_for_tick();
+  while (g_proc.status() != gyrodrift::ImuStatus::ok || !monitor_ok) board::sleep();
+  // The loop: the tick work from the next tick on, thread mode in the background.
+  board::start_tick_work();
   for (;;) {
-    const std::uint32_t tick = board::wait_for_tick();
-    if (tick - last_tick > 1U) {
-      ++g_c.overruns;
-      g_c.missed_deadlines += tick - last_tick - 1U;
-    }
-    last_tick = tick;
-    g_c.ticks = tick;
-    ++g_c.cycles;
-    const std::uint32_t n = serve_link();
-    if (n > g_c.max_frames_per_cycle) g_c.max_frames_per_cycle = n;
-    board::tx_kick();
+    if (!run_background()) board::sleep(background_ready);
   }
 }

@@ -55,4 +55,19 @@ inline std::uint32_t stack_high_water_bytes() noexcept {
                                     reinterpret_cast<std::uintptr_t>(word));
 }
 
+// Measurement only: the stack `fn` uses below the caller's frame, in bytes. The free RAM below
+// the current stack pointer is painted again (the 64-byte margin), `fn` runs, and the lowest
+// word it overwrote gives its depth. The caller masks interrupts, so that only fn's frames land
+// there; the image's high-water mark (stack_high_water_bytes) from before is lost.
+__attribute__((always_inline)) inline std::uint32_t stack_used_by(void (*fn)()) {
+  std::uint32_t* sp = nullptr;
+  __asm volatile("mov %0, sp" : "=r"(sp));
+  for (volatile std::uint32_t* w = &_ebss; w < sp - 16;) *w++ = kStackPaint;
+  fn();
+  const volatile std::uint32_t* word = &_ebss;
+  while (word < sp - 16 && *word == kStackPaint) ++word;
+  return static_cast<std::uint32_t>(reinterpret_cast<std::uintptr_t>(sp) -
+                                    reinterpret_cast<std::uintptr_t>(word));
+}
+
 }  // namespace gyrodrift::cortex_m_start

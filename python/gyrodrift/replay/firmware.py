@@ -50,6 +50,8 @@ __all__ = [
     "CORE_CLOCK_HZ",
     "CPU_LOAD_GOAL",
     "FLASH_BUDGET_BYTES",
+    "LAG_FIT_STACK_BYTES",
+    "LAG_FLASH_BUDGET_BYTES",
     "MONITOR_FLASH_BUDGET_BYTES",
     "MONITOR_RAM_BUDGET_BYTES",
     "QEMU_MACHINE",
@@ -76,6 +78,14 @@ MONITOR_RAM_BUDGET_BYTES = 2 * 1024
 # math library routines the monitor calls; the STM32F405 has 1 MiB). Without re-identification the
 # monitor's image fits FLASH_BUDGET_BYTES itself.
 MONITOR_FLASH_BUDGET_BYTES = 16 * 1024
+# An image whose monitor re-identifies with the lag identifier may take this much more flash
+# again: the fit in software double (the double arithmetic and math library routines, the
+# likelihood, its BFGS and the guards' Hessian).
+LAG_FLASH_BUDGET_BYTES = 16 * 1024
+# An image whose monitor re-identifies with the lag identifier ([monitor] identifier = "lag")
+# runs the identifier's fits in thread mode: its stack reserve is this much larger than the
+# linker script's (the fit's frames, below which the tick work and the link interrupt nest).
+LAG_FIT_STACK_BYTES = 1792
 CORE_CLOCK_HZ = 168_000_000  # STM32F405 at full speed (and QEMU's netduinoplus2 clock)
 # Assumed cycles per instruction of the M4F running this code from flash (5 wait states with
 # the ART accelerator, FPU loads of 2 cycles): an assumption, not a measurement.
@@ -146,6 +156,7 @@ class FirmwareImage:
     config_text: str = ""
     monitor: bool = False  # built with the gyro monitor ([monitor] enabled)
     reidentify: bool = False  # ... and its re-identification ([monitor] reidentify)
+    lag_identifier: bool = False  # ... by the lag identifier (software double: its fit)
 
     @property
     def flash_bytes(self) -> int:
@@ -158,9 +169,11 @@ class FirmwareImage:
     @property
     def flash_budget_bytes(self) -> int:
         """FLASH_BUDGET_BYTES, plus MONITOR_FLASH_BUDGET_BYTES for an image whose monitor
-        re-identifies the drift model."""
-        return FLASH_BUDGET_BYTES + (MONITOR_FLASH_BUDGET_BYTES
-                                     if self.monitor and self.reidentify else 0)
+        re-identifies the drift model, plus LAG_FLASH_BUDGET_BYTES when it does so with the lag
+        identifier."""
+        reid = self.monitor and self.reidentify
+        return (FLASH_BUDGET_BYTES + (MONITOR_FLASH_BUDGET_BYTES if reid else 0)
+                + (LAG_FLASH_BUDGET_BYTES if reid and self.lag_identifier else 0))
 
     def as_dict(self) -> dict[str, Any]:
         return {"elf": str(self.elf), "flash_bytes": self.flash_bytes,
@@ -182,6 +195,9 @@ def budget_violations(image: FirmwareImage) -> list[str]:
     ['flash 20004 B > 16384 B']
     >>> budget_violations(FirmwareImage(Path("x.elf"), 20000, 4, 5000, 1536, monitor=True,
     ...                                 reidentify=True))
+    []
+    >>> budget_violations(FirmwareImage(Path("x.elf"), 42000, 4, 3800, 3328, monitor=True,
+    ...                                 reidentify=True, lag_identifier=True))
     []
     """
     out = []
@@ -214,7 +230,7 @@ def _tool(name: str) -> str:
 
 
 def _stack_reserved(ld: Path) -> int:
-    m = re.search(r"_stack_size\s*=\s*(0x[0-9A-Fa-f]+|\d+)\s*;", ld.read_text())
+    m = re.search(r"_stack_size\s*=\s*(0x[0-9A-Fa-f]+|\d+)\s*\)?\s*;", ld.read_text())
     if m is None:
         raise FirmwareError(f"{ld}: no _stack_size")
     return int(m.group(1), 0)
@@ -233,14 +249,20 @@ def _section_sizes(elf: Path) -> tuple[int, int, int]:
     return text, sizes.get(".data", 0), sizes.get(".bss", 0)
 
 
-def _forbidden_symbols(elf: Path) -> list[str]:
+def _lag_identifier(config: ProcessorConfig) -> bool:
+    """Whether `config`'s image holds the monitor's lag identifier (its fit in double)."""
+    m = config.monitor
+    return bool(m.enabled and m.reidentify and m.identifier == "lag")
+
+
+def _forbidden_symbols(elf: Path, allow_double: bool = False) -> list[str]:
     out = subprocess.run([_tool("arm-none-eabi-nm"), str(elf)], capture_output=True,
                          text=True, check=True).stdout
     found = []
     for line in out.splitlines():
         name = line.split()[-1] if line.split() else ""
         for pat, why in _FORBIDDEN:
-            if pat.search(name):
+            if pat.search(name) and not (allow_double and why == "software double"):
                 found.append(f"{why}: {name}")
     return sorted(set(found))
 
@@ -285,11 +307,15 @@ def build_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
     pkg_parent = str(Path(__file__).resolve().parents[2])
     pythonpath = os.pathsep.join([pkg_parent, *[p for p in sys.path if p and p != pkg_parent]])
     build = out / "build"
+    lag = _lag_identifier(config)
+    stack = _stack_reserved(src / "board" / "stm32f4" / "stm32f405.ld") + (
+        LAG_FIT_STACK_BYTES if lag else 0)
     configure = [_tool("cmake"), "-S", str(src), "-B", str(build),
                  f"-DCMAKE_TOOLCHAIN_FILE={src / 'cmake' / 'arm-none-eabi.cmake'}",
                  f"-DGYRODRIFT_CONFIG={cfg_path}", f"-DGYRODRIFT_PYTHON={sys.executable}",
                  f"-DGYRODRIFT_PYTHONPATH={pythonpath}",
-                 f"-DGYRODRIFT_FW_DEFINES={';'.join(defines)}"]
+                 f"-DGYRODRIFT_FW_DEFINES={';'.join(defines)}",
+                 f"-DGYRODRIFT_FW_STACK_BYTES={stack if lag else ''}"]
     _tool("arm-none-eabi-g++")
     for cmd in (configure, [_tool("cmake"), "--build", str(build)]):
         res = subprocess.run(cmd, capture_output=True, text=True)
@@ -298,11 +324,10 @@ def build_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
             raise FirmwareError("firmware build failed: " + " | ".join(log[-12:]))
     elf = build / "gyrodrift-firmware.elf"
     text_b, data_b, bss_b = _section_sizes(elf)
-    image = FirmwareImage(elf, text_b, data_b, bss_b,
-                          _stack_reserved(src / "board" / "stm32f4" / "stm32f405.ld"),
-                          tuple(defines), text, bool(config.monitor.enabled),
-                          bool(config.monitor.enabled and config.monitor.reidentify))
-    bad = _forbidden_symbols(elf)
+    image = FirmwareImage(elf, text_b, data_b, bss_b, stack, tuple(defines), text,
+                          bool(config.monitor.enabled),
+                          bool(config.monitor.enabled and config.monitor.reidentify), lag)
+    bad = _forbidden_symbols(elf, allow_double=image.lag_identifier)
     if bad:
         raise FirmwareError(f"{elf}: forbidden symbols ({', '.join(bad)})")
     if check_budget:
@@ -339,7 +364,8 @@ def cached_firmware(config: ProcessorConfig, defines: tuple[str, ...] = (), *,
     >>> image.flash_bytes < 16 * 1024  # doctest: +SKIP
     True
     """
-    key = hashlib.sha256("\n".join([dumps_config(config), *defines, _source_digest()])
+    stack = f"stack +{LAG_FIT_STACK_BYTES if _lag_identifier(config) else 0}"
+    key = hashlib.sha256("\n".join([dumps_config(config), *defines, stack, _source_digest()])
                          .encode()).hexdigest()[:16]
     out = Path(tempfile.gettempdir()) / f"gyrodrift-firmware-{key}"
     meta = out / "image.json"
@@ -362,7 +388,8 @@ def cached_firmware(config: ProcessorConfig, defines: tuple[str, ...] = (), *,
     image = FirmwareImage(out / "build" / "gyrodrift-firmware.elf", m["text"], m["data"],
                           m["bss"], m["stack_reserved"], tuple(m["defines"]),
                           dumps_config(config), bool(config.monitor.enabled),
-                          bool(config.monitor.enabled and config.monitor.reidentify))
+                          bool(config.monitor.enabled and config.monitor.reidentify),
+                          _lag_identifier(config))
     if check_budget and budget_violations(image):
         raise FirmwareError("the configuration does not fit the MCU budget: "
                             + "; ".join(budget_violations(image)))
@@ -481,6 +508,10 @@ def step_cost(firmware: dict[str, int], loop_rate_hz: float, bytes_in: int = 0
         "cpu_load_median": imed * ASSUMED_CPI / cyc_budget,
         "cpu_load_goal": CPU_LOAD_GOAL,
         "instruction_budget": instruction_budget(loop_rate_hz),
+        # the monitor's fits in thread mode (the lag identifier), their own instructions
+        "fits_run": firmware.get("monitor_fits_run", 0),
+        "fit_instructions_max": ins("fit_cycles_max"),
+        "fit_instructions_min": ins("fit_cycles_min"),
     }
 
 

@@ -22,6 +22,7 @@ from gyrodrift.replay.firmware import (
     QEMU_MACHINE,
     FirmwareError,
     FirmwareImage,
+    budget_violations,
     build_firmware,
     instruction_budget,
 )
@@ -90,28 +91,38 @@ def check_firmware(config: ProcessorConfig, out_dir: str | os.PathLike[str], *,
     ...     print(str(exc).split(":")[0])
     configuration refused for the firmware
     """
-    image = build_firmware(config, out_dir, defines=defines)
+    image = build_firmware(config, out_dir, defines=defines, check_budget=False)
     monitor: dict[str, Any] | None = None
+    why: list[str] = []
     if config.monitor.enabled:
         # the gyro monitor's share: the same configuration's image without it
         plain = build_firmware(config.with_monitor(enabled=False),
-                               Path(out_dir) / "without_monitor", defines=defines)
+                               Path(out_dir) / "without_monitor", defines=defines,
+                               check_budget=False)
         monitor = {"ram_bytes_without": plain.ram_bytes,
                    "flash_bytes_without": plain.flash_bytes,
                    "ram_delta_bytes": image.ram_bytes - plain.ram_bytes,
+                   "stack_delta_bytes": image.stack_reserved - plain.stack_reserved,
                    "flash_delta_bytes": image.flash_bytes - plain.flash_bytes,
                    "ram_budget_bytes": MONITOR_RAM_BUDGET_BYTES}
+        delta = monitor["ram_delta_bytes"]
+        if delta > MONITOR_RAM_BUDGET_BYTES:
+            stack = monitor["stack_delta_bytes"]
+            of_which = (f"; {stack} B of the {delta} B is the stack reserved for the lag "
+                        "identifier's fit" if stack else "")
+            why.append(f"the gyro monitor takes {delta} B more RAM than the image without it "
+                       f"({plain.ram_bytes} B{of_which}) > {MONITOR_RAM_BUDGET_BYTES} B by "
+                       f"{delta - MONITOR_RAM_BUDGET_BYTES} B (fewer [monitor] octaves, fewer "
+                       "monitored gyros, or the recursive identifier)")
+    why += budget_violations(image)
+    if why:  # refused before the measuring replay
+        raise FirmwareError("the configuration does not fit the MCU budget: " + "; ".join(why))
     cost = measure_step_cost(image, config)
     budget = instruction_budget(config.timing.loop_hz)
     summary: dict[str, Any] = {"image": image.as_dict(), "step_cost": cost}
     if monitor is not None:
         summary["monitor"] = monitor
     atomic_write_text(Path(out_dir) / "budget.json", json.dumps(summary, indent=1) + "\n")
-    if monitor is not None and monitor["ram_delta_bytes"] > MONITOR_RAM_BUDGET_BYTES:
-        raise FirmwareError(
-            f"the gyro monitor does not fit its RAM budget: {monitor['ram_delta_bytes']} B more "
-            f"than the image without it ({monitor['ram_bytes_without']} B) > "
-            f"{MONITOR_RAM_BUDGET_BYTES} B (fewer [monitor] octaves or fewer monitored gyros)")
     if cost["instructions_max"] > budget:
         raise FirmwareError(
             f"the configuration does not fit the MCU budget: {cost['instructions_max']:.0f} "

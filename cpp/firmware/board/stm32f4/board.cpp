@@ -1,7 +1,13 @@
 // STM32F405 board support for the reference firmware: clock tree, USART1 (interrupt-driven
-// receive into a fixed ring, transmit from another), SysTick at the loop rate, NVIC.
+// receive into a fixed ring, transmit from another), SysTick at the loop rate pending PendSV
+// for the tick work, NVIC and system handler priorities.
 // Register addresses and bits: RM0090 (STM32F405/415/407/417 reference manual), sections
-// RCC (6.3), USART (30.6), and the ARMv7-M ARM for SysTick (B3.3) and the NVIC (B3.4).
+// RCC (6.3), USART (30.6), and the ARMv7-M ARM for SysTick (B3.3), the NVIC (B3.4), the
+// system handler priorities and PendSV (B3.2.4 ICSR, B3.2.12 SHPR3).
+//
+// Priorities (lower number = more urgent): SysTick 0 (counts the tick, pends PendSV), USART1 4
+// (receive and transmit), PendSV 15, the lowest (the tick work: nested by both above), then
+// thread mode (the application's background work, preempted by all of them).
 //
 // Under QEMU's netduinoplus2 board (STM32F405 SoC): USART1 is the first serial port
 // (-serial / serial0), the RCC is not emulated (reads as 0: the PLL never reports lock, so
@@ -16,6 +22,7 @@
 extern "C" {
 void USART1_IRQHandler(void);
 void SysTick_Handler(void);
+void PendSV_Handler(void);
 }
 
 namespace gyrodrift::firmware::board {
@@ -52,6 +59,10 @@ constexpr std::uintptr_t kSystRvr = 0xE000E014U;
 constexpr std::uintptr_t kSystCvr = 0xE000E018U;
 constexpr std::uintptr_t kNvicIser = 0xE000E100U;
 constexpr std::uintptr_t kNvicIpr = 0xE000E400U;
+constexpr std::uintptr_t kScbIcsr = 0xE000ED04U;
+constexpr std::uint32_t kIcsrPendSvSet = 1U << 28;
+constexpr std::uint32_t kIcsrPendStSet = 1U << 26;  // SysTick pending
+constexpr std::uintptr_t kScbShpr3 = 0xE000ED20U;  // bits 23:16 PendSV, 31:24 SysTick
 
 // Core clock: HSE 25 MHz (the Netduino Plus 2 crystal) -> PLL M=25 N=336 P=2 = 168 MHz,
 // APB2 = 84 MHz (USART1), APB1 = 42 MHz.
@@ -84,8 +95,13 @@ std::uint8_t g_tx[kTxRing];
 Ring g_rx_ring;
 Ring g_tx_ring;
 LinkCounters g_link;
+// The byte the receive interrupt took aside when the ring was full (rx_read puts it in).
+std::uint8_t g_rx_held = 0;
+volatile bool g_rx_held_valid = false;
 volatile std::uint32_t g_ticks = 0;
+volatile bool g_tick_work = false;  // SysTick pends the tick work (start_tick_work)
 volatile std::uint32_t g_isr_cycles = 0;
+std::uint64_t g_tick_work_cycles = 0;  // written by the tick work only
 std::uint32_t g_reload = 0;
 
 inline void irq_off() noexcept { __asm volatile("cpsid i" ::: "memory"); }
@@ -126,6 +142,8 @@ void usart_init(std::uint32_t baud) noexcept {
 }
 
 void systick_init(std::uint32_t tick_hz) noexcept {
+  // SysTick 0 (its reset priority), PendSV 0xF0: the lowest of the 16 levels the part has
+  reg(kScbShpr3) = (reg(kScbShpr3) & ~(0xFFU << 16)) | (0xF0U << 16);
   g_reload = kCoreHz / tick_hz - 1U;
   reg(kSystRvr) = g_reload;
   reg(kSystCvr) = 0U;
@@ -153,19 +171,14 @@ void init(std::uint32_t tick_hz, std::uint32_t baud) noexcept {
   irq_on();
 }
 
-std::uint32_t wait_for_tick() noexcept {
-  static std::uint32_t seen = 0;
-  for (;;) {
-    irq_off();  // check and sleep with interrupts masked: a tick cannot slip in between
-    const std::uint32_t now = g_ticks;
-    if (now != seen) {
-      irq_on();
-      seen = now;
-      return now;
-    }
+void start_tick_work() noexcept { g_tick_work = true; }
+
+void sleep(bool (*work_ready)() noexcept) noexcept {
+  irq_off();  // check and sleep with interrupts masked: a request cannot slip in between
+  if (work_ready == nullptr || !work_ready()) {
     __asm volatile("wfi" ::: "memory");  // wakes on a pending interrupt even with PRIMASK set
-    irq_on();                            // the pending interrupt is taken here
   }
+  irq_on();  // the pending interrupt is taken here
 }
 
 std::size_t rx_read(std::uint8_t* dst, std::size_t cap) noexcept {
@@ -178,8 +191,13 @@ std::size_t rx_read(std::uint8_t* dst, std::size_t cap) noexcept {
   }
   g_rx_ring.tail = tail;
   if (n > 0U && (reg(kCr1) & kCr1Rxneie) == 0U) {
-    irq_off();  // room again: resume the receive interrupt (the held byte is taken at once)
-    reg(kCr1) |= kCr1Rxneie;
+    irq_off();  // room again: the byte taken aside first, then resume the receive interrupt
+    if (g_rx_held_valid) {  // (paused, so the ring's head is ours meanwhile)
+      g_rx[g_rx_ring.head & (kRxRing - 1U)] = g_rx_held;
+      g_rx_ring.head = g_rx_ring.head + 1U;
+      g_rx_held_valid = false;
+    }
+    reg(kCr1) |= kCr1Rxneie;  // a byte waiting in the data register is taken at once
     irq_on();
   }
   return n;
@@ -213,17 +231,58 @@ std::uint32_t core_clock_hz() noexcept { return kCoreHz; }
 
 std::uint32_t interrupt_cycles() noexcept { return g_isr_cycles; }
 
+std::uint64_t clock_cycles() noexcept {
+  for (;;) {
+    const std::uint32_t ticks = g_ticks;
+    const std::uint32_t before = reg(kSystCvr);
+    // the counter reloaded but its tick not counted yet (the interrupt masked, or a few
+    // cycles before it is taken): that tick is due
+    const bool due = (reg(kScbIcsr) & kIcsrPendStSet) != 0U;
+    const std::uint32_t now = reg(kSystCvr);
+    // a tick counted, or a reload (the counter counts down) between the reads: again
+    if (ticks != g_ticks || now > before) continue;
+    const std::uint64_t whole = static_cast<std::uint64_t>(ticks) + (due ? 1U : 0U);
+    return whole * (static_cast<std::uint64_t>(g_reload) + 1U) + (g_reload - now);
+  }
+}
+
+std::uint64_t tick_work_cycles() noexcept {
+  irq_off();  // 64 bits written by the tick work: read them whole
+  const std::uint64_t c = g_tick_work_cycles;
+  irq_on();
+  return c;
+}
+
 const LinkCounters& link_counters() noexcept { return g_link; }
 
 std::uint32_t stack_high_water_bytes() noexcept {
   return gyrodrift::cortex_m_start::stack_high_water_bytes();  // painted by startup.cpp
 }
 
+std::uint32_t stack_used_by(void (*fn)()) noexcept {
+  irq_off();
+  const std::uint32_t used = gyrodrift::cortex_m_start::stack_used_by(fn);
+  irq_on();
+  return used;
+}
+
 }  // namespace gyrodrift::firmware::board
 
 using namespace gyrodrift::firmware::board;
 
-extern "C" void SysTick_Handler(void) { g_ticks = g_ticks + 1U; }
+extern "C" void SysTick_Handler(void) {
+  g_ticks = g_ticks + 1U;
+  if (g_tick_work) reg(kScbIcsr) = kIcsrPendSvSet;  // runs once more if already running
+}
+
+extern "C" void PendSV_Handler(void) {
+  const std::uint64_t t0 = clock_cycles();
+  const std::uint32_t isr0 = g_isr_cycles;
+  gyrodrift::firmware::tick_work(g_ticks);
+  const std::uint64_t spent = clock_cycles() - t0;
+  const std::uint32_t nested = g_isr_cycles - isr0;  // the link interrupt's, nested in it
+  g_tick_work_cycles += spent > nested ? spent - nested : 0U;
+}
 
 extern "C" void USART1_IRQHandler(void) {
   const std::uint32_t t0 = stamp();
@@ -237,11 +296,19 @@ extern "C" void USART1_IRQHandler(void) {
       (void)reg(kDr);
       ++g_link.rx_ring_overflow;
 #else
-      // Ring full, default policy: leave the byte in the data register and pause this
-      // interrupt until the application has read from the ring (rx_read resumes it). A
-      // sender that keeps going meanwhile overruns the receiver, which the next SR read
+      // Ring full, default policy: take this byte aside (one byte, put into the ring by
+      // rx_read before anything newer) and pause this interrupt until the application has
+      // read from the ring (rx_read resumes it); the next byte waits in the data register.
+      // A sender that keeps going meanwhile overruns the receiver, which the next SR read
       // counts (rx_overrun); a sender that waits (QEMU's serial back-end) loses nothing.
+      // Reading the data register is what clears the request: QEMU's USART model keeps its
+      // interrupt line raised while a byte waits, whatever RXNEIE says, and the interrupt
+      // would then re-enter forever and starve the ring's reader. RXNEIE goes off first, so
+      // that a byte the emulator delivers right after the read raises no request either.
       reg(kCr1) &= ~kCr1Rxneie;
+      g_rx_held = static_cast<std::uint8_t>(reg(kDr) & 0xFFU);
+      g_rx_held_valid = true;
+      ++g_link.rx_bytes;
       ++g_link.rx_stalls;
 #endif
     } else {
@@ -264,8 +331,9 @@ extern "C" void USART1_IRQHandler(void) {
 
 // errno of the C library's float math routines (logf, expf, ... set it on a domain or range
 // error; the image never reads it): one int of .bss, instead of newlib's reentrancy structure
-// (about 100 bytes of .data) that its own __errno returns a member of. The image is
-// single-threaded and its interrupts call no library routine, so one errno is right.
+// (about 100 bytes of .data) that its own __errno returns a member of. The tick work and
+// thread mode (a background fit's double routines) may both set it; nothing reads it, so one
+// errno shared by them is harmless.
 extern "C" int* __errno(void) {
   static int error_number = 0;
   return &error_number;

@@ -11,6 +11,7 @@ extern "C" {
 [[noreturn]] void Reset_Handler(void);
 [[noreturn]] void Default_Handler(void);
 void SysTick_Handler(void);
+void PendSV_Handler(void);
 void USART1_IRQHandler(void);
 // Two words the host can read with a debugger: which exception stopped the firmware.
 volatile std::uint32_t gyrodrift_fw_fault_ipsr = 0;
@@ -27,6 +28,7 @@ constexpr std::array<Vector, 16U + kIrqCount> make_vectors() {
   v[1] = Reset_Handler;
   for (unsigned i = 2; i < v.size(); ++i) v[i] = Default_Handler;
   v[7] = v[8] = v[9] = v[10] = v[13] = nullptr;  // reserved
+  v[14] = PendSV_Handler;
   v[15] = SysTick_Handler;
   v[16U + kUsart1Irq] = USART1_IRQHandler;
   return v;
