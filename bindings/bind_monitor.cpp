@@ -3,7 +3,7 @@
 //   GyroMonitorSettings(*, rate_hz, octaves, arw_factor, bias_instability_factor,
 //       rate_random_walk_factor, false_alarm_probability, stuck_samples, saturated_samples,
 //       reidentify, block_samples, retune_blocks, min_samples, memory_blocks, max_step,
-//       max_rel_stderr, adapt_ar, identifier, fit_delay_samples, restart_after_fit)
+//       max_rel_stderr, adapt_ar, min_ar_wald, identifier, fit_delay_samples, restart_after_fit)
 //                                             durations in samples (the caller converts seconds);
 //       identifier "recursive" (online_drift_identifier.hpp) or "lag" (lag_drift_identifier.hpp)
 //   GyroMonitorRun(settings, model, reference_avar, reference_edf)      double state
@@ -55,6 +55,7 @@ struct MonitorSettingsPy {
   double max_step = 0.1;
   double max_rel_stderr = 0.5;
   bool adapt_ar = true;  // false: a1, a2 held, q and r tracked
+  double min_ar_wald = static_cast<double>(OnlineDriftSettings<double>{}.min_ar_wald);
   std::string identifier = "recursive";  // or "lag"
   std::int64_t fit_delay_samples = LagDriftSettings<double>{}.fit_delay_samples;
   bool restart_after_fit = LagDriftSettings<double>{}.restart_after_fit;
@@ -82,6 +83,7 @@ struct MonitorSettingsPy {
     }
     if (!(max_step > 0.0) || !std::isfinite(max_step)) bad("max_step: expected a finite number > 0");
     if (!(max_rel_stderr > 0.0) || !std::isfinite(max_rel_stderr)) bad("max_rel_stderr: expected a finite number > 0");
+    if (!(min_ar_wald >= 0.0) || !std::isfinite(min_ar_wald)) bad("min_ar_wald: expected a finite number >= 0");
     if (identifier != "recursive" && identifier != "lag") {
       bad("identifier: expected 'recursive' or 'lag', got '" + identifier + "'");
     }
@@ -110,6 +112,7 @@ struct MonitorSettingsPy {
     s.drift.max_step = static_cast<Scalar>(max_step);
     s.drift.max_rel_stderr = static_cast<Scalar>(max_rel_stderr);
     s.drift.adapt_ar = adapt_ar;
+    s.drift.min_ar_wald = static_cast<Scalar>(min_ar_wald);
     s.identifier = kind();
     s.lag.fit_delay_samples = static_cast<std::uint32_t>(fit_delay_samples);
     s.lag.restart_after_fit = restart_after_fit;
@@ -440,12 +443,12 @@ void bind_monitor(pybind11::module_& m) {
                        double rate_random_walk_factor, double false_alarm_probability, std::int64_t stuck_samples,
                        std::int64_t saturated_samples, bool reidentify, std::int64_t block_samples,
                        std::int64_t retune_blocks, std::int64_t min_samples, double memory_blocks, double max_step,
-                       double max_rel_stderr, bool adapt_ar, std::string identifier, std::int64_t fit_delay_samples,
-                       bool restart_after_fit) {
+                       double max_rel_stderr, bool adapt_ar, double min_ar_wald, std::string identifier,
+                       std::int64_t fit_delay_samples, bool restart_after_fit) {
              S s{rate_hz, octaves, arw_factor, bias_instability_factor, rate_random_walk_factor,
                  false_alarm_probability, stuck_samples, saturated_samples, reidentify, block_samples,
                  retune_blocks, min_samples, memory_blocks, max_step, max_rel_stderr, adapt_ar,
-                 std::move(identifier), fit_delay_samples, restart_after_fit};
+                 min_ar_wald, std::move(identifier), fit_delay_samples, restart_after_fit};
              s.check();
              return s;
            }),
@@ -458,7 +461,7 @@ void bind_monitor(pybind11::module_& m) {
            py::arg("retune_blocks") = d.retune_blocks, py::arg("min_samples") = d.min_samples,
            py::arg("memory_blocks") = d.memory_blocks, py::arg("max_step") = d.max_step,
            py::arg("max_rel_stderr") = d.max_rel_stderr, py::arg("adapt_ar") = d.adapt_ar,
-           py::arg("identifier") = d.identifier, py::arg("fit_delay_samples") = d.fit_delay_samples,
+           py::arg("min_ar_wald") = d.min_ar_wald, py::arg("identifier") = d.identifier, py::arg("fit_delay_samples") = d.fit_delay_samples,
            py::arg("restart_after_fit") = d.restart_after_fit)
       .def_readwrite("rate_hz", &S::rate_hz)
       .def_readwrite("octaves", &S::octaves)
@@ -476,6 +479,7 @@ void bind_monitor(pybind11::module_& m) {
       .def_readwrite("max_step", &S::max_step)
       .def_readwrite("max_rel_stderr", &S::max_rel_stderr)
       .def_readwrite("adapt_ar", &S::adapt_ar)
+      .def_readwrite("min_ar_wald", &S::min_ar_wald)
       .def_readwrite("identifier", &S::identifier)
       .def_readwrite("fit_delay_samples", &S::fit_delay_samples)
       .def_readwrite("restart_after_fit", &S::restart_after_fit);

@@ -275,6 +275,55 @@ def test_emitted_taps_are_the_forced_fir_of_the_reference() -> None:
     assert math.isclose(taps.sum(), 1.0, rel_tol=1e-5)
 
 
+@pytest.mark.parametrize("identifier", ["lag", "recursive"])
+def test_emitted_monitor_header_builds_the_configured_identifier(identifier: str,
+                                                                  tmp_path: Path) -> None:
+    """emit-cpp with the monitor's re-identification on three gyros: the processor type holds
+    the identifier the file names, the settings carry it with fit_delay_s in samples (15 s
+    at 400 Hz: 6000) and restart_after_fit; the header compiles on the host with the
+    firmware's flags and the processor accepts the settings (start_monitor: three gyros x
+    6000 samples within the 60 s x 400 Hz cadence)."""
+    import shutil
+
+    from gyrodrift.imu.firmware_header import emit_cpp
+
+    cfg = default_config()
+    for ch in ("gx", "gy", "gz"):
+        st = Ar2KalmanStage(mean=0.0, steady_state=True, **MODEL)
+        cfg = cfg.with_channel(ch, ChannelConfig(ch, (st,), saturation=8.0))
+    cfg = cfg.with_monitor(enabled=True, reidentify=True, identifier=identifier,
+                           fit_delay_s=15.0, retune_s=60.0, restart_after_fit=True)
+    text = emit_cpp(cfg)
+    shared = {"lag": "LagDriftIdentifier", "recursive": "SharedDriftIdentifier"}[identifier]
+    assert f"using MonitorIdentifier = gyrodrift::{shared}<float, kMonitorSlots>;" in text
+    assert f"  s.identifier = gyrodrift::DriftIdentifierKind::{identifier};" in text
+    assert "  s.lag.fit_delay_samples = 6000U;" in text
+    assert "  s.lag.restart_after_fit = true;" in text
+    (tmp_path / "imu_config.hpp").write_text(text)
+    (tmp_path / "main.cpp").write_text(
+        '#include "imu_config.hpp"\n'
+        "namespace c = gyrodrift_config;\n"
+        f"static_assert(c::Processor::kMonitorIdentifierKind == "
+        f"gyrodrift::DriftIdentifierKind::{identifier});\n"
+        "static c::Processor processor(c::kImuConfig, c::make_wavelet);\n"
+        "int main() {\n"
+        "  if (!c::start_monitor(processor)) return 1;\n"
+        "  processor.defer_monitor_fits(true);  // what an image does with the lag one\n"
+        "  return processor.monitor_fit_pending() ? 2 : 0;\n"
+        "}\n")
+    cxx = shutil.which("g++")
+    assert cxx is not None, "host g++ not found"
+    root = Path(__file__).resolve().parents[1]
+    build = subprocess.run(
+        [cxx, "-std=c++17", "-O0", "-fno-exceptions", "-fno-rtti", "-Wall", "-Wextra",
+         "-Wpedantic", "-Wconversion", "-Werror", "-isystem", "/usr/include/eigen3", "-I",
+         str(root / "include"), "main.cpp", "-o", "main"], cwd=tmp_path, capture_output=True,
+        text=True, timeout=120)
+    assert build.returncode == 0, build.stderr[-3000:]
+    run = subprocess.run([str(tmp_path / "main")], capture_output=True, timeout=30)
+    assert run.returncode == 0
+
+
 def test_committed_cortex_m_header_is_generated(tmp_path: Path) -> None:
     """cpp/cortex_m/generated/gyrodrift_budget_config.hpp is what emit-cpp writes from
     cpp/cortex_m/budget_config.toml (regenerate it after changing the file or the generator)."""

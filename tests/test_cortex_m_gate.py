@@ -107,7 +107,7 @@ FORBIDDEN_SYMBOLS: list[tuple[re.Pattern[str], str]] = [
 # resolution (include/gyrodrift/filters/lag_drift_fit.hpp); its statistics stay float.
 SOFTWARE_DOUBLE_UNITS: dict[str, str] = {
     "use_lag_drift_fit": "the drift-model fit from float lag statistics runs in double",
-    "use_lag_drift_identifier": "the re-identification's fits from float lag statistics run in double",
+    "use_lag_drift_identifier": "the re-identification's fits from float statistics run in double",
 }
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import subprocess
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -29,6 +30,7 @@ from gyrodrift.imu.config import (
 )
 from gyrodrift.imu.monitor import (
     MonitorReference,
+    MonitorTrace,
     model_avar,
     reference_from_config,
     reference_from_model,
@@ -300,6 +302,30 @@ def test_reidentify_ar_false_holds_the_ar_coefficients(rng: np.random.Generator)
     assert free.est_a1[-1] != pytest.approx(1.1, rel=1e-3)
 
 
+def test_lag_fit_status_names_are_the_core_enum() -> None:
+    from gyrodrift._native import core
+    from gyrodrift.imu.monitor import LAG_FIT_STATUS_NAMES
+
+    members = core("drift").LagDriftFitStatus.__members__
+    assert {int(v): k for k, v in members.items()} == dict(enumerate(LAG_FIT_STATUS_NAMES))
+
+
+def test_run_monitor_lag_fit_delay_within_the_retune_interval(rng: np.random.Generator) -> None:
+    """The lag identifier over one gyro: its fit must be applied within one retune interval
+    (fit_delay_s <= retune_s, in samples); the recursive identifier does not look at it."""
+    y = rng.normal(0.0, 1e-4, 4000)
+    ref = reference_from_model(WHITE, RATE_HZ, 8)
+    slow = MonitorConfig(octaves=8, reidentify=True, identifier="lag", retune_s=5.0,
+                         fit_delay_s=5.5)
+    with pytest.raises(ConfigError, match=r"^monitor\.fit_delay_s: 1 gyro x 2200 samples "
+                                          r"exceed retune_s = 2000 samples at 400\.0 Hz"):
+        run_monitor(y, RATE_HZ, ref, settings=slow)
+    tr = run_monitor(y, RATE_HZ, ref, settings=replace(slow, identifier="recursive"))
+    assert tr.identifier == "recursive" and tr.fit_status == ()
+    tr = run_monitor(y, RATE_HZ, ref, settings=replace(slow, fit_delay_s=5.0))
+    assert tr.identifier == "lag" and set(tr.fit_status) == {"too_few_samples"}
+
+
 # ----------------------------------------------------------------------------- configuration
 
 
@@ -419,6 +445,74 @@ def test_loop_with_monitor_counts_alarms_and_keeps_outputs(loop_bin: Path, tmp_p
                     "monitor_retunes", "monitor_refused_retunes"]
     assert stats_on["health"]["stuck_alarms"] == 1
     assert all(stats_off["health"][k] == 0 for k in keys)
+
+
+def _steady_state_outputs(x: np.ndarray, trace: MonitorTrace) -> np.ndarray:
+    """The processor's steady-state AR(2)-Kalman stage over float32 inputs `x`, written out
+    from its equations (ar2_steady_state.hpp) in float32, with the model and gain of the
+    monitor trace's row i (one row per sample) in use at sample i: a retune moves the state by
+    the change of the mean (the filtered rate is kept)."""
+    f = np.float32
+    model = (f(trace.a1[0]), f(trace.a2[0]), f(trace.mean[0]), f(trace.gain0[0]),
+             f(trace.gain1[0]))
+    s0 = s1 = f(0.0)
+    out = np.empty(x.size)
+    for i in range(x.size):
+        now = (f(trace.a1[i]), f(trace.a2[i]), f(trace.mean[i]), f(trace.gain0[i]),
+               f(trace.gain1[i]))
+        if now != model:
+            shift = f(model[2] - now[2])
+            s0, s1, model = f(s0 + shift), f(s1 + shift), now
+        a1, a2, mean, k0, k1 = model
+        x0 = f(f(a1 * s0) + f(a2 * s1))
+        v = f(f(x[i] - mean) - x0)
+        s0, s1 = f(x0 + f(k0 * v)), f(s0 + f(k1 * v))
+        out[i] = float(f(s0 + mean))
+    return out
+
+
+def test_loop_with_the_lag_identifier_equals_the_monitor_run(loop_bin: Path, tmp_path: Path,
+                                                            rng: np.random.Generator) -> None:
+    """[monitor] identifier = "lag" in the loop: the one watched gyro's fits are the ones
+    run_monitor computes over the same float32 samples (the Python side of the same core,
+    inline fits), applied at the same samples. 300 s at 100 Hz of the papers' pair
+    (0.6868, -0.0213), r/q = 1, from a configured model off by 2x-4x: fits every 60 s
+    (5 s delay, each from the samples since the previous one: 55 s, at least the 30 s
+    min_learn_s), steps of at most 0.5.
+    The loop's filtered gz equals the steady-state filter written out in float32 with the
+    trace's model and gain per sample, within 1e-5 of the output's standard deviation
+    (float rounding; retuning one sample late moves outputs by 14 % of it), and its retune
+    counters equal the trace's gain changes and refusals."""
+    from gyrodrift.codecs.wire import decode_stream, encode_frames, make_samples
+
+    rate, n, sig = 100.0, 30000, 1e-5
+    gz = sig * _ar2_record(rng, n, 0.6868, -0.0213, 1.0, 1.0, mean=0.5)
+    cfg = drift_filter_config("gz", a1=0.5, a2=0.1, mean=0.0, q=2.0 * sig**2, r=0.25 * sig**2,
+                              sample_rate_hz=rate).with_monitor(
+        enabled=True, octaves=10, reidentify=True, identifier="lag", retune_s=60.0,
+        fit_delay_s=5.0, min_learn_s=30.0, max_step=0.5, restart_after_fit=True)
+    gyro = np.zeros((n, 3))
+    gyro[:, 2] = gz
+    s = make_samples(np.arange(n) / rate, gyro, np.zeros((n, 3)))
+    got, stats = _run_loop(loop_bin, write_config(cfg, tmp_path / "lag.toml"),
+                           encode_frames(s).tobytes(), n)
+    out = decode_stream(got).samples.channels[:, 2].astype(np.float64)
+    x = np.ascontiguousarray(s.channels[:, 2], dtype=np.float32)
+    trace = run_monitor(x, rate, reference_from_config(cfg, "gz"), settings=cfg.monitor,
+                        report_every_s=1.0 / rate, dtype=np.float32)
+    assert trace.t_s.size == n and trace.identifier == "lag"
+    # fits requested at 60, 120, 180, 240 s, each applied 5 s later (the one at 300 s is
+    # not); from 55 s each, some are refused (not identified): both outcomes are compared
+    assert int(trace.retunes[-1]) + int(trace.refused_retunes[-1]) == 4
+    assert int(trace.retunes[-1]) >= 1
+    # the loop counts the gain changes its filter takes (accepted fits, and fallbacks that put
+    # the configured gain back), and the refusals
+    changed = np.flatnonzero(np.diff(trace.gain0) != 0.0) + 1
+    assert changed.size >= 1 and set(changed.tolist()) <= {6499, 12499, 18499, 24499}
+    assert stats["health"]["monitor_retunes"] == changed.size
+    assert stats["health"]["monitor_refused_retunes"] == int(trace.refused_retunes[-1])
+    want = _steady_state_outputs(x, trace)
+    np.testing.assert_allclose(out, want, rtol=0.0, atol=1e-5 * float(np.std(want)))
 
 
 def test_health_names_fit_the_health_report_frame() -> None:

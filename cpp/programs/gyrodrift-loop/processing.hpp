@@ -87,6 +87,9 @@ class Processing {
     s.drift.adapt_ar = m.reidentify_ar;
     s.drift.max_step = static_cast<float>(m.max_step);
     s.drift.max_rel_stderr = static_cast<float>(m.max_rel_stderr);
+    s.identifier = m.lag_identifier ? DriftIdentifierKind::lag : DriftIdentifierKind::recursive;
+    s.lag.fit_delay_samples = m.fit_delay_samples;
+    s.lag.restart_after_fit = m.restart_after_fit;
     return s;
   }
 

@@ -7,8 +7,9 @@
 // shared_drift_identifier.hpp), no estimate is carried from block to block: every fit
 // maximises the likelihood of the statistics it reads, with the multi-start across the fold at
 // a2 = 0, so it converges to the offline maximum-likelihood fit of the same samples
-// (docs/validation/online-identification.md, "Whole-record statistics" and "A converging
-// identifier"). The same calls as SharedDriftIdentifier where a processor uses them.
+// (docs/validation/online-identification.md, "Whole-record statistics" and "The fit from lag
+// statistics as the monitor's identifier"). The same calls as SharedDriftIdentifier where a
+// processor uses them, and a few more (status, statistics, paused samples, the schedule).
 //
 // Settings. OnlineDriftSettings supplies the shared ones:
 //   - cadence = retune_blocks * block_samples samples of a channel (push() and skip() both
@@ -82,8 +83,9 @@
 // schedule; once: the settings, one LagDriftFitResult<double> and the outcome.
 // sizeof(LagDriftIdentifier<float, 3>) is 1056 B on the Cortex-M4 (1064 on x86-64), <float, 1>
 // 512 B (520): checked in cpp/tests/test_lag_drift_identifier.cpp and
-// cpp/cortex_m/use_lag_drift_identifier.cpp. The fit's stack (about 1.3 KiB on the M4 at L = 8)
-// is the caller's of push() (inline) or of run_pending_fit() (deferred).
+// cpp/cortex_m/use_lag_drift_identifier.cpp. The fit's stack (1288 B for lag_drift_fit alone on
+// the M4 at L = 8; the gate unit's whole high-water mark, one fit and its guards included, is
+// 1972 B) is the caller's of push() (inline) or of run_pending_fit() (deferred).
 // Cost: per sample per channel the statistics' L + 1 products and compensated sums; a fit is
 // about 3.3e7 instructions of software double on a Cortex-M4F at L = 8 (lag_drift_fit.hpp).
 // No heap, no exceptions, deterministic.

@@ -8,9 +8,11 @@ The alarms compare against a reference model: the configuration's (--config: the
 channel's ar2_kalman stage, and the monitor settings of the configuration file), or, without
 --config, the model identified from the first --learn-s seconds of the record (the drift
 model as `gyrodrift fit` identifies it, the Allan variance as `gyrodrift allan` fits it).
---png plots the online estimates over time beside the offline fit (`gyrodrift allan`'s
-default fit) of the whole record and of each half, with the alarms. --fail-on-alarm makes
-the exit code 3 when an alarm was raised.
+--reidentify recursive|lag re-identifies the drift model online with that method (default:
+as the configuration's monitor section says; off without --config). --png plots the online
+estimates over time beside the offline fit (`gyrodrift allan`'s default fit) of the whole
+record and of each half, with the alarms. --fail-on-alarm makes the exit code 3 when an alarm
+was raised.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -30,6 +33,7 @@ from gyrodrift.cli.common import (
     record_from_args,
 )
 from gyrodrift.errors import GyrodriftError
+from gyrodrift.imu.schema import IDENTIFIERS
 from gyrodrift.units import DPH
 
 __all__ = ["ALARM_EXIT", "register", "run"]
@@ -48,8 +52,8 @@ def register(subparsers: Any) -> None:
     >>> p = argparse.ArgumentParser(prog="gyrodrift"); register(p.add_subparsers())
     >>> args = p.parse_args(["monitor", "gyro.npy", "--rate-hz", "100", "--gyro-units",
     ...                      "deg/h"])
-    >>> args.learn_s, args.report_every_s, args.channel, args.fail_on_alarm
-    (600.0, None, None, False)
+    >>> args.learn_s, args.report_every_s, args.channel, args.fail_on_alarm, args.reidentify
+    (600.0, None, None, False, None)
     """
     p = subparsers.add_parser("monitor", help="online noise estimates, drift re-identification "
                               "and health alarms over a record, as the target runs them",
@@ -66,6 +70,15 @@ def register(subparsers: Any) -> None:
                    help="without --config: seconds at the start of the record the reference "
                         f"model is identified from (default {DEFAULT_LEARN_S:g}; the record "
                         "must be longer than this plus one report interval)")
+    p.add_argument("--reidentify", choices=IDENTIFIERS, default=None,
+                   help="re-identify the drift model online and retune the filter gain with "
+                        "this method: recursive (a recursive estimator updated every block; "
+                        "with the configuration's memory_s it follows a change, but it does not "
+                        "settle on the offline maximum-likelihood fit on every record) or lag "
+                        "(whole-record lag statistics and their maximum-likelihood fit every "
+                        "retune_s: converges to the offline fit of the samples seen). Default: "
+                        "the configuration's [monitor] reidentify and identifier; off without "
+                        "--config")
     p.add_argument("--report-every-s", type=float, default=None,
                    help="seconds between two reports (one table row or JSON line each; "
                         "default: the monitor settings' report_interval_s, 10 s unless the "
@@ -128,8 +141,15 @@ def run(args: argparse.Namespace) -> int:
         except GyrodriftError as exc:
             raise CliError(f"{args.config}: {exc}") from exc
     settings = cfg.monitor if cfg is not None else MonitorConfig()
+    if args.reidentify is not None:
+        settings = replace(settings, reidentify=True, identifier=args.reidentify)
     every_s = settings.report_interval_s if args.report_every_s is None else args.report_every_s
     rec = record_from_args(args, mmap=False)
+    if settings.reidentify:  # one gyro: its fit applied within one retune interval
+        try:
+            settings.check_fit_delay(rec.rate_hz, 1)
+        except GyrodriftError as exc:
+            raise CliError(f"{args.config or rec.source}: {exc}") from exc
     channel = _channel(args)
     y = np.asarray(rec.rate_deg_h, dtype=np.float64) * DPH
     duration_s = rec.n / rec.rate_hz
@@ -211,16 +231,23 @@ def _print_text(rec: Any, channel: str, reference: Any, rows: list[dict[str, Any
                 alarms: dict[str, float], trace: Any) -> None:
     where = (f"reference learned from 0..{reference.learn_s:g} s" if reference.source == "learned"
              else "reference from the configuration")
+    lag = trace.identifier == "lag"
+    reid = any(r["status"] != "off" for r in rows)
     print(f"# {rec.source}: {rec.n} samples at {rec.rate_hz:g} Hz, channel {channel}; {where}")
-    print("# N deg/sqrt(h), B deg/h, K deg/h/sqrt(h) with intervals; q, r (deg/h)^2")
+    print("# N deg/sqrt(h), B deg/h, K deg/h/sqrt(h) with intervals; the model in use q, r "
+          "(deg/h)^2; re-identification: " + (trace.identifier if reid else "off")
+          + "; retunes: accepted/refused" + ("; fit: the last fit's status" if lag else ""))
     print(f"{'t (s)':>9} {'N':>28} {'B':>28} {'K':>28} {'a1':>8} {'a2':>8} {'q':>9} "
-          f"{'r':>9} {'gain':>17} {'status':>12}  health")
+          f"{'r':>9} {'gain':>17} {'status':>14} {'retunes':>8}"
+          + (f" {'fit':>15}" if lag else "") + "  health")
     for r in rows:
         gain = f"{r['gain'][0]:.3g},{r['gain'][1]:.3g}"
+        retunes = f"{r.get('retunes', 0)}/{r.get('refused_retunes', 0)}"
+        fit = f" {r['fit_status'] or '-':>15}" if lag else ""
         print(f"{r['t_s']:9.6g} {_fmt_term(r, 'n', 'deg_rt_h'):>28} "
               f"{_fmt_term(r, 'b', 'deg_h'):>28} {_fmt_term(r, 'k', 'deg_h_rt_h'):>28} "
               f"{r['a1']:8.4g} {r['a2']:8.4g} {r['q_deg_h_sq']:9.3g} {r['r_deg_h_sq']:9.3g} "
-              f"{gain:>17} {r['status']:>12}  {','.join(r['health']) or 'ok'}")
+              f"{gain:>17} {r['status']:>14} {retunes:>8}{fit}  {','.join(r['health']) or 'ok'}")
     if not alarms:
         print("health: no alarm raised")
         return

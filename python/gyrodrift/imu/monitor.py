@@ -27,6 +27,7 @@ from gyrodrift.errors import GyrodriftValueError
 from gyrodrift.imu.config import MonitorConfig, ProcessorConfig
 
 __all__ = [
+    "LAG_FIT_STATUS_NAMES",
     "STATUS_NAMES",
     "MonitorReference",
     "MonitorTrace",
@@ -39,10 +40,15 @@ __all__ = [
     "run_monitor",
 ]
 
-#: Names of the re-identification status codes (OnlineDriftStatus), and "off" when the
-#: re-identification is not run.
+#: Names of the re-identification status codes (OnlineDriftStatus, both identifiers), and
+#: "off" when the re-identification is not run.
 STATUS_NAMES = {-1: "off", 0: "unconfigured", 1: "learning", 2: "tracking",
                 3: "not_identified", 4: "fallback"}
+
+#: Names of the lag identifier's fit status codes (LagDriftFitStatus, of the last fit applied;
+#: too_few_samples before the first).
+LAG_FIT_STATUS_NAMES = ("ok", "too_few_samples", "truncation", "not_converged", "non_finite",
+                        "bad_model", "needs_head")
 
 #: Squared differences per block test of the alarms at each octave (HealthAlarmSettings
 #: block_terms, its default): the edf of a model reference is that of such a block.
@@ -94,7 +100,10 @@ class MonitorTrace:
     B is read at. est_*: the running estimate of the re-identification (a1, a2, q, r, mean).
     retunes, refused_retunes: cumulative counts per row. avar: the streaming Allan variance
     per row and octave ((rad/s)^2, NaN before an octave has a term); tau_s: its averaging
-    times.
+    times. identifier: the re-identification's method ("recursive" or "lag"); fit_status:
+    with the lag identifier, the status name of the last fit applied per row
+    (:data:`LAG_FIT_STATUS_NAMES`; empty for the recursive one); paused: with the lag
+    identifier, samples left out of its statistics so far while fits ran (zeros otherwise).
 
     Examples
     --------
@@ -138,6 +147,9 @@ class MonitorTrace:
     refused_retunes: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     avar: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     tau_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    identifier: str = "recursive"
+    fit_status: tuple[str, ...] = ()
+    paused: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def flags(self, row: int) -> list[str]:
         """Names of the alarms raised at report ``row`` (empty when healthy)."""
@@ -410,7 +422,9 @@ def _settings(native: Any, cfg: MonitorConfig, rate_hz: float, octaves: int) -> 
         reidentify=cfg.reidentify, block_samples=n["block_samples"],
         retune_blocks=n["retune_blocks"], min_samples=n["min_samples"],
         memory_blocks=n["memory_blocks"], max_step=cfg.max_step,
-        max_rel_stderr=cfg.identified_max_rel_stderr, adapt_ar=cfg.reidentify_ar)
+        max_rel_stderr=cfg.identified_max_rel_stderr, adapt_ar=cfg.reidentify_ar,
+        identifier=cfg.identifier, fit_delay_samples=n["fit_delay_samples"],
+        restart_after_fit=cfg.restart_after_fit)
 
 
 def run_monitor(y_rad_s: ArrayLike, rate_hz: float, reference: MonitorReference, *,
@@ -433,7 +447,9 @@ def run_monitor(y_rad_s: ArrayLike, rate_hz: float, reference: MonitorReference,
     settings : MonitorConfig, optional
         The configuration file's monitor section (None: its defaults). Its ``octaves`` is
         the streaming curve's length (at least the reference's); ``enabled`` is not looked
-        at (this runs the monitor).
+        at (this runs the monitor); ``reidentify`` and ``identifier`` choose the
+        re-identification (with ``identifier="lag"`` its fits run inline, at their request,
+        as in the host loop; ``fit_delay_s`` must be at most ``retune_s``).
     report_every_s : float, optional
         Report interval, s (None: the settings' report_interval_s). One row per whole
         interval.
@@ -487,6 +503,8 @@ def run_monitor(y_rad_s: ArrayLike, rate_hz: float, reference: MonitorReference,
     native = core("imu")
     if octaves > int(native.MONITOR_MAX_OCTAVES):
         raise GyrodriftValueError(f"octaves: at most {native.MONITOR_MAX_OCTAVES}, got {octaves}")
+    if cfg.reidentify:
+        cfg.check_fit_delay(rate, 1)  # one gyro: its fit applied within a retune interval
     try:
         s = _settings(native, cfg, rate, octaves)
         cls = native.GyroMonitorRun if dt == np.float64 else native.GyroMonitorRunF32
@@ -516,4 +534,8 @@ def run_monitor(y_rad_s: ArrayLike, rate_hz: float, reference: MonitorReference,
         retunes=col("retunes").astype(np.int64),
         refused_retunes=col("refused_retunes").astype(np.int64),
         avar=np.asarray(out["avar"], dtype=np.float64),
-        tau_s=np.ldexp(1.0, np.arange(octaves)) / rate)
+        tau_s=np.ldexp(1.0, np.arange(octaves)) / rate, identifier=cfg.identifier,
+        fit_status=tuple(LAG_FIT_STATUS_NAMES[int(c)] if 0 <= c < len(LAG_FIT_STATUS_NAMES)
+                         else "off" for c in col("fit_status"))
+        if cfg.identifier == "lag" else (),
+        paused=col("paused").astype(np.int64))

@@ -146,9 +146,11 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
     ``mean_deg_h``; the reference's while the re-identification is off) and its
     steady-state ``gain`` [g0, g1]; the re-identification
     ``status`` (and, where the trace has them, ``b_tau_s``, the averaging time B is read at,
-    and the counts ``retunes`` and ``refused_retunes``); ``health``, the names of the raised
-    (latched) alarms, empty when healthy; and ``trips``, for each raised alarm the statistic
-    that tripped it.
+    and the counts ``retunes`` and ``refused_retunes``); its method ``identifier``
+    (``recursive`` or ``lag``) and, with the lag identifier, ``fit_status``, the status of
+    the last fit applied (None otherwise); ``health``, the names of the raised (latched)
+    alarms, empty when healthy; and ``trips``, for each raised alarm the statistic that
+    tripped it.
 
     Examples
     --------
@@ -184,6 +186,9 @@ def trace_rows(trace: MonitorTrace) -> list[dict[str, Any]]:
                     **{name: int(getattr(trace, name)[i]) for name in ("retunes",
                                                                        "refused_retunes")
                        if np.size(getattr(trace, name, ())) == np.size(trace.t_s)},
+                    "identifier": trace.identifier,
+                    "fit_status": (str(trace.fit_status[i])
+                                   if len(trace.fit_status) == np.size(trace.t_s) else None),
                     "health": flags,
                     "trips": {f: dict(trace.trips[f]) for f in flags if f in trace.trips}})
         rows.append(row)
