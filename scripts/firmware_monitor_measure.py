@@ -123,7 +123,8 @@ def main() -> None:
         probe = build_firmware(cfg, out / f"probe{gyros}", check_budget=False,
                                defines=("GYRODRIFT_FW_MEASURE_FIT_STACK",))
         p = run(probe, cfg, samples)
-        c, fw, pf = r["cost"], r["firmware"], p["firmware"]
+        sim = run(image, cfg, simulated(22.0, 50.0, seed=5))  # fits the guards refuse
+        c, fw, pf, cs = r["cost"], r["firmware"], p["firmware"], sim["cost"]
         above = pf.get("stack_bytes", 0) - pf.get("fit_stack_bytes", 0)
         print(f"lag, {gyros} gyros, 50 Hz: fits run {c.get('fits_run')}, late "
               f"{fw.get('monitor_late_fits')}, retunes {r['health'].get('monitor_retunes')}, "
@@ -131,7 +132,12 @@ def main() -> None:
               f"{c.get('fit_instructions_min'):.3g} .. {c.get('fit_instructions_max'):.3g}; "
               f"stack high-water {fw.get('stack_bytes')} B of {image.stack_reserved} B; the "
               f"fit's own stack {pf.get('fit_stack_bytes')} B, thread mode's frames above "
-              f"it {above} B",
+              f"it {above} B; the simulated IMU record: fits run {cs.get('fits_run')}, late "
+              f"{sim['firmware'].get('monitor_late_fits')}, retunes "
+              f"{sim['health'].get('monitor_retunes')}, refused "
+              f"{sim['health'].get('monitor_refused_retunes')}, instructions per fit "
+              f"{cs.get('fit_instructions_min'):.3g} .. {cs.get('fit_instructions_max'):.3g}, "
+              f"stack high-water {sim['firmware'].get('stack_bytes')} B",
               flush=True)
 
 

@@ -20,6 +20,7 @@ import os
 import re
 import subprocess
 import sys
+import threading
 from dataclasses import replace
 from pathlib import Path
 
@@ -43,6 +44,7 @@ from gyrodrift.replay.firmware import (
     RAM_BUDGET_BYTES,
     FirmwareError,
     FirmwareImage,
+    QemuTarget,
     build_firmware,
     cached_firmware,
     instruction_budget,
@@ -301,6 +303,38 @@ def test_build_refuses_the_lag_identifier_over_the_monitor_budget(tmp_path: Path
     assert stack == LAG_FIT_STACK_BYTES and budget == MONITOR_RAM_BUDGET_BYTES
     assert delta == delta_again > budget and over == delta - budget
     assert re.search(r"RAM \d+ B \(data \+ bss \+ stack\) > 8192 B", lines[0])
+
+
+def test_a_full_receive_ring_pauses_and_resumes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A receive ring of 64 B (one and a half frames) and the record sent 4 times faster than
+    the loop runs: the ring fills again and again, and the receive interrupt takes the byte
+    aside, pauses and resumes when the loop has read from the ring. Every frame arrives and
+    the image equals the host loop, nothing lost in the driver. QEMU's USART model keeps its
+    interrupt raised while a byte waits in the data register, so a pause that left the byte
+    there made the interrupt re-enter for ever and the image stop (seen when a fit in thread
+    mode let a backlog build up): a watchdog ends QEMU after 60 s, so that such an image fails
+    the test instead of hanging it."""
+    start = QemuTarget.start
+
+    def start_with_watchdog(self: QemuTarget) -> None:
+        start(self)
+        proc = self.proc
+        timer = threading.Timer(60.0, lambda: proc.kill() if proc and proc.poll() is None
+                                else None)
+        timer.daemon = True
+        timer.start()
+
+    monkeypatch.setattr(QemuTarget, "start", start_with_watchdog)
+    cfg = default_config()
+    image = cached_firmware(cfg, ("GYRODRIFT_FW_RX_RING=64",))
+    res = run_replay(record(3.0, 400.0, seed=3),
+                     ReplayOptions(speed=4.0, target="qemu", firmware_image=image,
+                                   processor=cfg, faults=FaultSpec(seed=1),
+                                   loop_realtime=False, harness_realtime=False))
+    assert_equal_to_host_loop(res)
+    loop = res.loop_stats
+    assert loop is not None and loop["firmware"]["rx_stalls"] > 0
+    assert loop["rejected"]["rx_overrun"] == loop["rejected"]["rx_ring_overflow"] == 0
 
 
 @pytest.mark.parametrize("defect", ["GYRODRIFT_FW_INJECT_DROPPED_BYTE",

@@ -18,6 +18,7 @@ struct LinkCounters {
   std::uint32_t rx_framing = 0;        // framing/noise errors reported by the receiver
   std::uint32_t rx_ring_overflow = 0;  // bytes lost because the receive ring was full
   std::uint32_t rx_stalls = 0;         // receive interrupt paused while the ring was full
+                                       // (one byte held aside meanwhile)
 };
 
 // Clocks, the link at `baud`, the tick at `tick_hz` (counting, no tick work yet); interrupts

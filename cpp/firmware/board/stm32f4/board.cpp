@@ -95,6 +95,9 @@ std::uint8_t g_tx[kTxRing];
 Ring g_rx_ring;
 Ring g_tx_ring;
 LinkCounters g_link;
+// The byte the receive interrupt took aside when the ring was full (rx_read puts it in).
+std::uint8_t g_rx_held = 0;
+volatile bool g_rx_held_valid = false;
 volatile std::uint32_t g_ticks = 0;
 volatile bool g_tick_work = false;  // SysTick pends the tick work (start_tick_work)
 volatile std::uint32_t g_isr_cycles = 0;
@@ -188,8 +191,13 @@ std::size_t rx_read(std::uint8_t* dst, std::size_t cap) noexcept {
   }
   g_rx_ring.tail = tail;
   if (n > 0U && (reg(kCr1) & kCr1Rxneie) == 0U) {
-    irq_off();  // room again: resume the receive interrupt (the held byte is taken at once)
-    reg(kCr1) |= kCr1Rxneie;
+    irq_off();  // room again: the byte taken aside first, then resume the receive interrupt
+    if (g_rx_held_valid) {  // (paused, so the ring's head is ours meanwhile)
+      g_rx[g_rx_ring.head & (kRxRing - 1U)] = g_rx_held;
+      g_rx_ring.head = g_rx_ring.head + 1U;
+      g_rx_held_valid = false;
+    }
+    reg(kCr1) |= kCr1Rxneie;  // a byte waiting in the data register is taken at once
     irq_on();
   }
   return n;
@@ -288,11 +296,19 @@ extern "C" void USART1_IRQHandler(void) {
       (void)reg(kDr);
       ++g_link.rx_ring_overflow;
 #else
-      // Ring full, default policy: leave the byte in the data register and pause this
-      // interrupt until the application has read from the ring (rx_read resumes it). A
-      // sender that keeps going meanwhile overruns the receiver, which the next SR read
+      // Ring full, default policy: take this byte aside (one byte, put into the ring by
+      // rx_read before anything newer) and pause this interrupt until the application has
+      // read from the ring (rx_read resumes it); the next byte waits in the data register.
+      // A sender that keeps going meanwhile overruns the receiver, which the next SR read
       // counts (rx_overrun); a sender that waits (QEMU's serial back-end) loses nothing.
+      // Reading the data register is what clears the request: QEMU's USART model keeps its
+      // interrupt line raised while a byte waits, whatever RXNEIE says, and the interrupt
+      // would then re-enter forever and starve the ring's reader. RXNEIE goes off first, so
+      // that a byte the emulator delivers right after the read raises no request either.
       reg(kCr1) &= ~kCr1Rxneie;
+      g_rx_held = static_cast<std::uint8_t>(reg(kDr) & 0xFFU);
+      g_rx_held_valid = true;
+      ++g_link.rx_bytes;
       ++g_link.rx_stalls;
 #endif
     } else {
