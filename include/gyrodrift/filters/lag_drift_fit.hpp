@@ -110,15 +110,21 @@
 // is kept out of line (GYRODRIFT_NOINLINE) where inlining it would keep its locals on the stack
 // while its caller goes on deeper, and inlined (GYRODRIFT_ALWAYS_INLINE) where a frame of its own
 // would only add to the chain.
+#ifndef GYRODRIFT_NOINLINE
 #if defined(__GNUC__)
 #define GYRODRIFT_NOINLINE __attribute__((noinline))
-#define GYRODRIFT_ALWAYS_INLINE __attribute__((always_inline))
 #elif defined(_MSC_VER)
 #define GYRODRIFT_NOINLINE __declspec(noinline)
-#define GYRODRIFT_ALWAYS_INLINE
 #else
 #define GYRODRIFT_NOINLINE
+#endif
+#endif
+#ifndef GYRODRIFT_ALWAYS_INLINE
+#if defined(__GNUC__)
+#define GYRODRIFT_ALWAYS_INLINE __attribute__((always_inline))
+#else
 #define GYRODRIFT_ALWAYS_INLINE
+#endif
 #endif
 
 namespace gyrodrift {
