@@ -547,8 +547,9 @@ TEST_CASE("float state, no allocation, size") {
   CHECK(id.retunes(2) + id.refused_retunes(2) == 2);
   CHECK(id.retunes(0) >= 1);
   CHECK(std::fabs(id.in_use(0).a1 - 0.9F) < 0.1F);
-  // the statistics are most of a channel's state; the fit's result and outcome exist once
+  // the statistics are most of a channel's state; the settings the fit uses and its outcome
+  // exist once
   CHECK(sizeof(gyrodrift::LagStatisticsNoHead<float, 8>) == 136);
-  CHECK(sizeof(LagDriftIdentifier<float, 1>) == 520);
-  CHECK(sizeof(LagDriftIdentifier<float, 3>) == 1064);
+  CHECK(sizeof(LagDriftIdentifier<float, 1>) == 408);
+  CHECK(sizeof(LagDriftIdentifier<float, 3>) == 920);
 }

@@ -81,10 +81,15 @@
 // (cpp/cortex_m/use_lag_drift_fit.cpp; docs/validation/online-identification.md).
 // Memory: the statistics are read in place (a float pair as Scalar(sum) + Scalar(comp); with
 // the first values kept, those and the last L values copied once); working state on the
-// stack: the grid's four best starts as indices, one finished run at a time, the BFGS state
-// (3 x 3 inverse Hessian and a few 3-vectors) and the impulse response (L + 1 Scalars): on
-// the Cortex-M4 2120 B of stack below the caller at L = 32 (exact), 1320 B at L = 12 and
-// 1288 B at L = 8 (whittle_no_head), software double's routines included; no heap, no
+// stack: the grid's four best starts as indices, the best run and the one running (BFGS works
+// in place on it: 3 x 3 inverse Hessian and a few 3-vectors) and the impulse response (L + 1
+// Scalars). The stack is the sum of the frames on the deepest call chain (the fit, its runs,
+// BFGS, the objective, the likelihood's build, software double's routines), so what is not
+// needed there is kept off it: the grid's values, the estimate's profile, BFGS's update and the
+// result's fields live in functions called when the chain is shallow (GYRODRIFT_NOINLINE),
+// the gradient's evaluations in BFGS's own frame. On the Cortex-M4 1880 B of stack below the
+// caller at L = 32 (exact), 1136 B at L = 12 and 1104 B at L = 8 (whittle_no_head), software
+// double's routines included (cpp/cortex_m/use_lag_drift_fit.cpp's fit_stack); no heap, no
 // exceptions. The statistics must not change during a fit (a target that pushes on while it
 // fits runs the fit on a copy).
 // Scalar is the fit's precision: double. The likelihood must resolve differences of 0.1 on a
@@ -100,6 +105,27 @@
 #include "ar2_model.hpp"
 #include "drift_likelihood.hpp"
 #include "lag_statistics.hpp"
+
+// The fit's stack on the target is the sum of the frames on its deepest call chain: a function
+// is kept out of line (GYRODRIFT_NOINLINE) where inlining it would keep its locals on the stack
+// while its caller goes on deeper, and inlined (GYRODRIFT_ALWAYS_INLINE) where a frame of its own
+// would only add to the chain.
+#ifndef GYRODRIFT_NOINLINE
+#if defined(__GNUC__)
+#define GYRODRIFT_NOINLINE __attribute__((noinline))
+#elif defined(_MSC_VER)
+#define GYRODRIFT_NOINLINE __declspec(noinline)
+#else
+#define GYRODRIFT_NOINLINE
+#endif
+#endif
+#ifndef GYRODRIFT_ALWAYS_INLINE
+#if defined(__GNUC__)
+#define GYRODRIFT_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define GYRODRIFT_ALWAYS_INLINE
+#endif
+#endif
 
 namespace gyrodrift {
 
@@ -435,6 +461,16 @@ class LagLikelihoodForm {
     return std::isfinite(out.loglike) && std::isfinite(out.mean);
   }
 
+  // After build() at (q, r) = (lam, 1 - lam): the profile's log-likelihood alone, as profile();
+  // false when profile() is. Out of line, so that the caller keeps one Scalar on its stack while
+  // it builds the next model.
+  GYRODRIFT_NOINLINE bool profile_loglike(Scalar lam, Scalar& loglike) const noexcept {
+    LagDriftProfile<Scalar> p;
+    if (!profile(lam, p)) return false;
+    loglike = p.loglike;
+    return true;
+  }
+
   // After build(): the pole modulus rho of the steady-state innovation filter, the larger
   // root modulus of z^2 + b1 z + b2 (the eigenvalues of A (I - K H)).
   Scalar pole() const noexcept {
@@ -505,11 +541,11 @@ class LagFitObjective {
       return std::numeric_limits<Scalar>::infinity();
     }
     ++evaluations_;
-    LagDriftProfile<Scalar> p;
-    if (!form_.build(a1, a2, lam, Scalar(1) - lam, kind_) || !form_.profile(lam, p)) {
+    Scalar loglike = Scalar(0);
+    if (!form_.build(a1, a2, lam, Scalar(1) - lam, kind_) || !form_.profile_loglike(lam, loglike)) {
       return std::numeric_limits<Scalar>::infinity();
     }
-    return -p.loglike / static_cast<Scalar>(form_.stats().samples());
+    return -loglike / static_cast<Scalar>(form_.stats().samples());
   }
 
   LagLikelihoodForm<Scalar, StatScalar, Lags, KeepHead>& form() noexcept { return form_; }
@@ -546,19 +582,51 @@ struct BfgsRun {
   bool converged = false;
 };
 
-// BFGS over the D coordinates of u listed in free_idx (the others held), from u0; objective
-// per sample, its n = samples (the stopping rule is in log-likelihood units).
+// BFGS's update of the inverse Hessian estimate h from the step s and the change of the gradient
+// y (sy = s^T y, yy = y^T y, ss = s^T s); the first update scales h to eq. 6.20's first. Out of
+// line: its temporaries are not on the stack while bfgs evaluates the objective.
+template <std::size_t D, class Scalar>
+GYRODRIFT_NOINLINE void bfgs_update(Scalar (&h)[D][D], const Scalar* s, const Scalar* y, Scalar sy, Scalar yy,
+                                    Scalar ss, bool& scaled) noexcept {
+  // Curvature condition; skip the update when it fails (Nocedal & Wright, sec. 6.1).
+  if (!(sy > std::sqrt(std::numeric_limits<Scalar>::epsilon() * ss * yy) && sy > Scalar(0))) return;
+  if (!scaled) {
+    const Scalar gamma = sy / yy;  // eq. 6.20
+    for (std::size_t i = 0; i < D; ++i)
+      for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? gamma : Scalar(0);
+    scaled = true;
+  }
+  // H' = (I - rho s y^T) H (I - rho y s^T) + rho s s^T, rho = 1 / y^T s.
+  const Scalar rho = Scalar(1) / sy;
+  Scalar hy[D];
+  Scalar yhy = Scalar(0);
+  for (std::size_t i = 0; i < D; ++i) {
+    Scalar v = Scalar(0);
+    for (std::size_t j = 0; j < D; ++j) v += h[i][j] * y[j];
+    hy[i] = v;
+    yhy += y[i] * v;
+  }
+  for (std::size_t i = 0; i < D; ++i) {
+    for (std::size_t j = 0; j < D; ++j) {
+      h[i][j] += -rho * (hy[i] * s[j] + s[i] * hy[j]) + (rho * rho * yhy + rho) * s[i] * s[j];
+    }
+  }
+}
+
+// BFGS over the D coordinates of u listed in free_idx (the others held), from run.u and in
+// place (run.u the current point; f, iterations and converged set); objective per sample, its
+// n = samples (the stopping rule is in log-likelihood units).
 template <std::size_t D, class Scalar, class Objective>
-BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_idx)[D],
-                     std::uint32_t max_iterations) noexcept {
-  BfgsRun<Scalar> run;
-  for (int i = 0; i < 3; ++i) run.u[i] = u0[i];
+void bfgs(Objective& obj, BfgsRun<Scalar>& run, const std::size_t (&free_idx)[D],
+          std::uint32_t max_iterations) noexcept {
+  run.iterations = 0;
+  run.converged = false;
   const Scalar n = obj.samples();
   const Scalar fd_step = Scalar(1e-5), armijo = Scalar(1e-4), gain_tol = Scalar(1e-8), stall_tol = Scalar(1e-5),
                max_step = Scalar(1);
-  Scalar u[3] = {u0[0], u0[1], u0[2]};
+  Scalar* const u = run.u;
   // The central-difference gradient at x (x restored).
-  auto gradient = [&](Scalar* x, Scalar* g) noexcept {
+  auto gradient = [&](Scalar* x, Scalar* g) noexcept GYRODRIFT_ALWAYS_INLINE {
     bool ok = true;
     for (std::size_t i = 0; i < D; ++i) {
       const std::size_t c = free_idx[i];
@@ -577,7 +645,7 @@ BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_
   Scalar f = obj(u);
   run.f = f;
   Scalar g[D] = {}, h[D][D] = {};
-  if (!std::isfinite(f) || !gradient(u, g)) return run;
+  if (!std::isfinite(f) || !gradient(u, g)) return;
   for (std::size_t i = 0; i < D; ++i)
     for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? Scalar(1) : Scalar(0);
   bool scaled = false;
@@ -658,34 +726,9 @@ BfgsRun<Scalar> bfgs(Objective& obj, const Scalar* u0, const std::size_t (&free_
       ss += s[i] * s[i];
     }
     f = f_new;
-    // Curvature condition; skip the update when it fails (Nocedal & Wright, sec. 6.1).
-    if (sy > std::sqrt(std::numeric_limits<Scalar>::epsilon() * ss * yy) && sy > Scalar(0)) {
-      if (!scaled) {
-        const Scalar gamma = sy / yy;  // eq. 6.20
-        for (std::size_t i = 0; i < D; ++i)
-          for (std::size_t j = 0; j < D; ++j) h[i][j] = i == j ? gamma : Scalar(0);
-        scaled = true;
-      }
-      // H' = (I - rho s y^T) H (I - rho y s^T) + rho s s^T, rho = 1 / y^T s.
-      const Scalar rho = Scalar(1) / sy;
-      Scalar hy[D];
-      Scalar yhy = Scalar(0);
-      for (std::size_t i = 0; i < D; ++i) {
-        Scalar v = Scalar(0);
-        for (std::size_t j = 0; j < D; ++j) v += h[i][j] * y[j];
-        hy[i] = v;
-        yhy += y[i] * v;
-      }
-      for (std::size_t i = 0; i < D; ++i) {
-        for (std::size_t j = 0; j < D; ++j) {
-          h[i][j] += -rho * (hy[i] * s[j] + s[i] * hy[j]) + (rho * rho * yhy + rho) * s[i] * s[j];
-        }
-      }
-    }
+    bfgs_update(h, s, y, sy, yy, ss, scaled);
   }
-  for (int i = 0; i < 3; ++i) run.u[i] = u[i];
   run.f = f;
-  return run;
 }
 
 template <class Scalar>
@@ -737,6 +780,127 @@ LagDriftFitStatus lag_drift_profile(const LagStatistics<StatScalar, Lags, KeepHe
   return LagDriftFitStatus::ok;
 }
 
+namespace detail {
+
+// The four runs from the grid's best starts and, when they all end on one side of a2 = 0, the
+// run across the fold (lag_drift_fit's header comment); the best one into `chosen`; the BFGS
+// iterations of all runs and their number into `*iterations` and `*runs` unless null. Out of
+// line, so that the grid's state never sits on the stack beside the caller's.
+template <class Scalar, class Objective>
+GYRODRIFT_NOINLINE void lag_fit_runs(Objective& obj, std::uint32_t max_iterations, BfgsRun<Scalar>& chosen,
+                                     std::uint32_t* iterations, std::uint8_t* runs) noexcept {
+  // The grid, in the reference's order; the two best starts on each side of a2 = 0 (the
+  // earlier one wins a tie, as a stable sort), kept as grid indices (the point recomputed
+  // when its run starts), so that little of the fit's state lives beside its runs.
+  int best_i[2][2] = {{-1, -1}, {-1, -1}};  // [side: a2 < 0, a2 > 0][rank], -1: none
+  {
+    Scalar best_f[2][2] = {};
+    for (int i = 0; i < kLagGridPoints; ++i) {
+      Scalar u[3];
+      lag_grid_point(i, u);
+      const Scalar f = obj(u);
+      const int side = u[1] > Scalar(0) ? 1 : 0;
+      if (best_i[side][0] < 0 || f < best_f[side][0]) {
+        best_i[side][1] = best_i[side][0];
+        best_f[side][1] = best_f[side][0];
+        best_i[side][0] = i;
+        best_f[side][0] = f;
+      } else if (best_i[side][1] < 0 || f < best_f[side][1]) {
+        best_i[side][1] = i;
+        best_f[side][1] = f;
+      }
+    }
+  }
+  // Each of the four runs; the best one (the first on a tie) and the sides they ended on.
+  const std::size_t all3[3] = {0, 1, 2};
+  std::uint32_t its = 0;
+  BfgsRun<Scalar> run;
+  int sides[4] = {};
+  for (int m = 0; m < 4; ++m) {
+    for (int i = 0; i < 3; ++i) run.u[i] = Scalar(0);
+    if (best_i[m / 2][m % 2] >= 0) lag_grid_point(best_i[m / 2][m % 2], run.u);
+    bfgs<3>(obj, run, all3, max_iterations);
+    its += run.iterations;
+    sides[m] = sign_of(run.u[1]);
+    if (m == 0 || run.f < chosen.f) chosen = run;
+  }
+  std::uint8_t count = 4;
+  bool one_side = true;
+  for (const int side : sides) one_side = one_side && side == sign_of(chosen.u[1]);
+  if (one_side) {
+    // Across the fold: (u1, u3) with u2 at the mirror of the best one's, then all three.
+    run.u[0] = chosen.u[0];
+    run.u[1] = -chosen.u[1];
+    run.u[2] = chosen.u[2];
+    const std::size_t two[2] = {0, 2};
+    bfgs<2>(obj, run, two, max_iterations);
+    its += run.iterations;
+    bfgs<3>(obj, run, all3, max_iterations);
+    its += run.iterations;
+    count = 6;
+    if (run.f < chosen.f) chosen = run;
+  }
+  if (iterations != nullptr) *iterations = its;
+  if (runs != nullptr) *runs = count;
+}
+
+// The estimate at the chosen run's end: the natural parameters, the profile there (mean, q, r,
+// log-likelihood) and rho^L; the status (non_finite when the run's f or the profile is not
+// finite, the parameters outside the model (with check_ar also a non-stationary AR part); else
+// not_converged, truncation or ok). `model`, `*loglike` and `*truncation` (unless null) are only
+// written when the status is not non_finite.
+template <std::size_t Lags, class Scalar, class Objective>
+GYRODRIFT_NOINLINE LagDriftFitStatus lag_fit_estimate(Objective& obj, LagLikelihoodKind kind, const BfgsRun<Scalar>& chosen,
+                                   bool check_ar, DriftModelParams<Scalar>& model, Scalar* loglike,
+                                   Scalar* truncation) noexcept {
+  Scalar a1, a2, lam;
+  lag_natural(chosen.u, a1, a2, lam);
+  LagDriftProfile<Scalar> p;
+  auto& form = obj.form();
+  const bool ok = std::isfinite(chosen.f) && (!check_ar || ar2_is_stationary(a1, a2)) && lam > Scalar(0) &&
+                  lam < Scalar(1) && form.build(a1, a2, lam, Scalar(1) - lam, kind) && form.profile(lam, p);
+  if (!ok) return LagDriftFitStatus::non_finite;
+  model = DriftModelParams<Scalar>{a1, a2, p.q, p.r, p.mean};
+  if (loglike != nullptr) *loglike = p.loglike;
+  // rho^L by squaring (no pow routine on the target)
+  Scalar power = Scalar(1), base = form.pole();
+  for (std::size_t e = Lags; e > 0; e >>= 1U) {
+    if ((e & 1U) != 0U) power *= base;
+    base *= base;
+  }
+  if (truncation != nullptr) *truncation = power;
+  if (!chosen.converged) return LagDriftFitStatus::not_converged;
+  if (!(power <= static_cast<Scalar>(lag_drift_truncation_tol(kind)))) return LagDriftFitStatus::truncation;
+  return LagDriftFitStatus::ok;
+}
+
+// lag_drift_fit into `res` (its fields as lag_drift_fit's result): the identifier's fit writes
+// them in place.
+template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead>
+void lag_drift_fit_into(const LagStatistics<StatScalar, Lags, KeepHead>& st, LagLikelihoodKind kind,
+                        std::uint32_t max_iterations, LagDriftFitResult<Scalar>& res) noexcept {
+  res = LagDriftFitResult<Scalar>{};
+  if (!lag_kind_available(kind, KeepHead)) {
+    res.status = LagDriftFitStatus::needs_head;
+    return;
+  }
+  if (st.samples() < lag_drift_min_samples(Lags)) {
+    res.status = LagDriftFitStatus::too_few_samples;
+    return;
+  }
+  LagFitObjective<Scalar, StatScalar, Lags, KeepHead> obj(st, kind);
+  if (!obj.form().finite()) {
+    res.status = LagDriftFitStatus::non_finite;
+    return;
+  }
+  BfgsRun<Scalar> chosen;
+  lag_fit_runs(obj, max_iterations, chosen, &res.iterations, &res.runs);
+  res.status = lag_fit_estimate<Lags>(obj, kind, chosen, true, res.model, &res.loglike, &res.truncation);
+  res.evaluations = obj.evaluations() + 1U;
+}
+
+}  // namespace detail
+
 // Maximises the profile log-likelihood from the statistics (header comment: the grid, the two
 // best starts on each side of a2 = 0, BFGS, the run across the fold).
 template <class Scalar, class StatScalar, std::size_t Lags, bool KeepHead>
@@ -744,93 +908,7 @@ LagDriftFitResult<Scalar> lag_drift_fit(const LagStatistics<StatScalar, Lags, Ke
                                         LagLikelihoodKind kind = detail::lag_default_kind(KeepHead),
                                         std::uint32_t max_iterations = kLagDriftMaxIterations) noexcept {
   LagDriftFitResult<Scalar> res;
-  if (!detail::lag_kind_available(kind, KeepHead)) {
-    res.status = LagDriftFitStatus::needs_head;
-    return res;
-  }
-  if (st.samples() < lag_drift_min_samples(Lags)) {
-    res.status = LagDriftFitStatus::too_few_samples;
-    return res;
-  }
-  detail::LagFitObjective<Scalar, StatScalar, Lags, KeepHead> obj(st, kind);
-  if (!obj.form().finite()) {
-    res.status = LagDriftFitStatus::non_finite;
-    return res;
-  }
-  // The grid, in the reference's order; the two best starts on each side of a2 = 0 (the
-  // earlier one wins a tie, as a stable sort), kept as grid indices (the point recomputed
-  // when its run starts), so that little of the fit's state lives beside its runs.
-  Scalar best_f[2][2] = {};
-  int best_i[2][2] = {{-1, -1}, {-1, -1}};  // [side: a2 < 0, a2 > 0][rank], -1: none
-  for (int i = 0; i < detail::kLagGridPoints; ++i) {
-    Scalar u[3];
-    detail::lag_grid_point(i, u);
-    const Scalar f = obj(u);
-    const int side = u[1] > Scalar(0) ? 1 : 0;
-    if (best_i[side][0] < 0 || f < best_f[side][0]) {
-      best_i[side][1] = best_i[side][0];
-      best_f[side][1] = best_f[side][0];
-      best_i[side][0] = i;
-      best_f[side][0] = f;
-    } else if (best_i[side][1] < 0 || f < best_f[side][1]) {
-      best_i[side][1] = i;
-      best_f[side][1] = f;
-    }
-  }
-  // Each of the four runs; the best one (the first on a tie) and the sides they ended on.
-  const std::size_t all3[3] = {0, 1, 2};
-  detail::BfgsRun<Scalar> chosen;
-  int sides[4] = {};
-  for (int m = 0; m < 4; ++m) {
-    Scalar u[3] = {Scalar(0), Scalar(0), Scalar(0)};
-    if (best_i[m / 2][m % 2] >= 0) detail::lag_grid_point(best_i[m / 2][m % 2], u);
-    const detail::BfgsRun<Scalar> run = detail::bfgs<3>(obj, u, all3, max_iterations);
-    res.iterations += run.iterations;
-    sides[m] = detail::sign_of(run.u[1]);
-    if (m == 0 || run.f < chosen.f) chosen = run;
-  }
-  res.runs = 4;
-  bool one_side = true;
-  for (const int side : sides) one_side = one_side && side == detail::sign_of(chosen.u[1]);
-  if (one_side) {
-    // Across the fold: (u1, u3) with u2 at the mirror of the best one's, then all three.
-    Scalar start[3] = {chosen.u[0], -chosen.u[1], chosen.u[2]};
-    const std::size_t two[2] = {0, 2};
-    detail::BfgsRun<Scalar> other = detail::bfgs<2>(obj, start, two, max_iterations);
-    res.iterations += other.iterations;
-    for (int i = 0; i < 3; ++i) start[i] = other.u[i];
-    other = detail::bfgs<3>(obj, start, all3, max_iterations);
-    res.iterations += other.iterations;
-    res.runs = 6;
-    if (other.f < chosen.f) chosen = other;
-  }
-  Scalar a1, a2, lam;
-  detail::lag_natural(chosen.u, a1, a2, lam);
-  LagDriftProfile<Scalar> p;
-  auto& form = obj.form();
-  const bool ok = std::isfinite(chosen.f) && ar2_is_stationary(a1, a2) && lam > Scalar(0) && lam < Scalar(1) &&
-                  form.build(a1, a2, lam, Scalar(1) - lam, kind) && form.profile(lam, p);
-  res.evaluations = obj.evaluations() + 1U;
-  if (!ok) {
-    res.status = LagDriftFitStatus::non_finite;
-    return res;
-  }
-  res.model = DriftModelParams<Scalar>{a1, a2, p.q, p.r, p.mean};
-  res.loglike = p.loglike;
-  // rho^L by squaring (no pow routine on the target)
-  Scalar power = Scalar(1), base = form.pole();
-  for (std::size_t e = Lags; e > 0; e >>= 1U) {
-    if ((e & 1U) != 0U) power *= base;
-    base *= base;
-  }
-  res.truncation = power;
-  if (!chosen.converged) {
-    res.status = LagDriftFitStatus::not_converged;
-  } else if (!(res.truncation <= static_cast<Scalar>(lag_drift_truncation_tol(kind)))) {
-    res.status = LagDriftFitStatus::truncation;
-  } else {
-    res.status = LagDriftFitStatus::ok;
-  }
+  detail::lag_drift_fit_into(st, kind, max_iterations, res);
   return res;
 }
 

@@ -79,13 +79,18 @@
 // Precision: the statistics in Scalar (float on the MCU: compensated sums, lag_statistics.hpp);
 // the fit, the guards and the bounded step in double (software double on the Cortex-M4F; the
 // likelihood must resolve 1e-7 of its value); the model in use and the gain in Scalar.
-// Memory: per channel the statistics (136 B for <float, 8>) and its models, gains, counters and
-// schedule; once: the settings, one LagDriftFitResult<double> and the outcome.
-// sizeof(LagDriftIdentifier<float, 3>) is 1056 B on the Cortex-M4 (1064 on x86-64), <float, 1>
-// 512 B (520): checked in cpp/tests/test_lag_drift_identifier.cpp and
-// cpp/cortex_m/use_lag_drift_identifier.cpp. The fit's stack (1288 B for lag_drift_fit alone on
-// the M4 at L = 8; the gate unit's whole high-water mark, one fit and its guards included, is
-// 1972 B) is the caller's of push() (inline) or of run_pending_fit() (deferred).
+// Memory: per channel the statistics (136 B for <float, 8>) and 120 B for its models, gains,
+// counters (paused and rejected 32-bit, saturating) and schedule; once: the settings the fit,
+// its guards and the bounded step use (not OnlineDriftSettings whole) and the fit's outcome
+// (its model in double, the stepped model and its gain; no LagDriftFitResult is kept).
+// sizeof(LagDriftIdentifier<float, 3>) is 904 B on the Cortex-M4 (920 on x86-64), <float, 1>
+// 392 B (408): checked in cpp/tests/test_lag_drift_identifier.cpp and
+// cpp/cortex_m/use_lag_drift_identifier.cpp. The fit's stack is the caller's of push()
+// (inline) or of run_pending_fit() (deferred): the fit runs first and returns, then the guards
+// (the Hessian's evaluations), then the bounded step and the gain, each out of line
+// (GYRODRIFT_NOINLINE), so that their states never sit on one another's. On the M4 at L = 8,
+// below the caller of run_pending_fit(): 1124 B (adapt_ar; the gate unit's fit_stack), and the
+// gate unit's whole high-water mark, three gyros with their fits and guards, 1412 B.
 // Cost: per sample per channel the statistics' L + 1 products and compensated sums; a fit is
 // about 3.3e7 instructions of software double on a Cortex-M4F at L = 8 (lag_drift_fit.hpp).
 // No heap, no exceptions, deterministic.
@@ -145,9 +150,8 @@ class LagDriftIdentifier {
   LagDriftIdentifier& operator=(const LagDriftIdentifier& o) noexcept {
     if (this == &o) return *this;
     for (std::size_t c = 0; c < Channels; ++c) tracks_[c] = o.tracks_[c];
-    settings_ = o.settings_;
+    guards_ = o.guards_;
     lag_ = o.lag_;
-    fit_ = o.fit_;
     outcome_ = o.outcome_;
     cadence_ = o.cadence_;
     n_ = o.n_;
@@ -171,7 +175,7 @@ class LagDriftIdentifier {
                  const LagDriftSettings<Scalar>& lag, std::size_t* failed = nullptr) noexcept {
     n_ = 0;
     deferred_ = false;
-    settings_ = s;
+    guards_ = Guards{s.min_samples, s.max_step, s.max_rel_stderr, s.min_ar_wald, s.adapt_ar};
     lag_ = lag;
     const std::uint64_t cadence = static_cast<std::uint64_t>(s.block_samples) * s.retune_blocks;
     const bool settings_ok = models != nullptr && n >= 1 && n <= Channels && s.block_samples >= 1 &&
@@ -222,7 +226,8 @@ class LagDriftIdentifier {
       t.estimate = t.configured;
       t.gain[0] = t.cgain[0];
       t.gain[1] = t.cgain[1];
-      t.samples = t.paused = t.rejected = 0;
+      t.samples = 0;
+      t.paused = t.rejected = 0;
       t.next_request = cadence_ + c * cadence_ / n_;
       t.apply_at = 0;
       t.retunes = t.refused = 0;
@@ -247,9 +252,9 @@ class LagDriftIdentifier {
     } else if (t.phase == Phase::collecting) {
       ok = t.stats.push(y);
     } else {
-      ++t.paused;
+      count(t.paused);
     }
-    if (!ok) ++t.rejected;
+    if (!ok) count(t.rejected);
     advance(c);
     return ok;
   }
@@ -261,7 +266,7 @@ class LagDriftIdentifier {
     if (c >= n_) return;
     Track& t = tracks_[c];
     ++t.samples;
-    if (t.phase != Phase::collecting) ++t.paused;
+    if (t.phase != Phase::collecting) count(t.paused);
     advance(c);
   }
 
@@ -288,7 +293,6 @@ class LagDriftIdentifier {
   std::uint32_t late_fits() const noexcept { return late_fits_.load(std::memory_order_relaxed); }
 
   std::size_t channels() const noexcept { return n_; }
-  const OnlineDriftSettings<Scalar>& settings() const noexcept { return settings_; }
   const LagDriftSettings<Scalar>& lag_settings() const noexcept { return lag_; }
   // Samples of a channel between two fits (retune_blocks * block_samples).
   std::uint64_t cadence() const noexcept { return cadence_; }
@@ -305,9 +309,10 @@ class LagDriftIdentifier {
   std::uint32_t refused_retunes(std::size_t c) const noexcept { return track(c).refused; }
   // push() and skip() calls of the channel (the schedule's count).
   std::uint64_t samples(std::size_t c) const noexcept { return track(c).samples; }
-  // Of those, the samples not pushed while the statistics paused for a fit.
+  // Of those, the samples not pushed while the statistics paused for a fit (saturating at
+  // 2^32 - 1, as rejected()).
   std::uint64_t paused(std::size_t c) const noexcept { return track(c).paused; }
-  // Pushed samples the statistics refused (NaN/Inf).
+  // Pushed samples the statistics refused (NaN/Inf; saturating at 2^32 - 1).
   std::uint64_t rejected(std::size_t c) const noexcept { return track(c).rejected; }
   // The status of the last applied fit (too_few_samples before the first).
   LagDriftFitStatus fit_status(std::size_t c) const noexcept { return track(c).fit_status; }
@@ -321,8 +326,6 @@ class LagDriftIdentifier {
   std::uint64_t apply_at(std::size_t c) const noexcept {
     return track(c).phase == Phase::collecting ? 0U : track(c).apply_at;
   }
-  // The last fit's result (shared by the channels: the latest fit of any channel).
-  const LagDriftFitResult<double>& last_fit() const noexcept { return fit_; }
 
  private:
   static constexpr std::size_t kNone = Channels;
@@ -335,22 +338,37 @@ class LagDriftIdentifier {
     DriftModelParams<Scalar> in_use{};
     Scalar gain[2] = {Scalar(0), Scalar(0)};
     Scalar cgain[2] = {Scalar(0), Scalar(0)};  // the configured model's gain
-    std::uint64_t samples = 0;
-    std::uint64_t paused = 0;
-    std::uint64_t rejected = 0;
-    std::uint64_t next_request = 0;
-    std::uint64_t apply_at = 0;
-    std::uint32_t retunes = 0;
-    std::uint32_t refused = 0;
     LagDriftFitStatus fit_status = LagDriftFitStatus::too_few_samples;
     OnlineDriftStatus status = OnlineDriftStatus::unconfigured;
     Phase phase = Phase::collecting;
+    std::uint64_t samples = 0;
+    std::uint64_t next_request = 0;
+    std::uint64_t apply_at = 0;
+    std::uint32_t paused = 0;    // saturating
+    std::uint32_t rejected = 0;  // saturating
+    std::uint32_t retunes = 0;
+    std::uint32_t refused = 0;
   };
 
-  // What a fit decided, applied at its apply point.
+  // One more in a saturating 32-bit count.
+  static void count(std::uint32_t& n) noexcept {
+    if (n != std::numeric_limits<std::uint32_t>::max()) ++n;
+  }
+
+  // The settings the fit, its guards and the bounded step use (OnlineDriftSettings's).
+  struct Guards {
+    std::uint64_t min_samples = 0;
+    Scalar max_step = Scalar(0);
+    Scalar max_rel_stderr = Scalar(0);
+    Scalar min_ar_wald = Scalar(0);
+    bool adapt_ar = true;
+  };
+
+  // What a fit decided, applied at its apply point. Written by the fit only (one at a time,
+  // and the previous outcome applied before the next request).
   struct Outcome {
-    DriftModelParams<Scalar> estimate{};  // the fit's model (in Scalar)
-    DriftModelParams<Scalar> model{};     // the model in use after the bounded step
+    DriftModelParams<double> fit{};    // the fit's model (set when its status has one)
+    DriftModelParams<Scalar> model{};  // the model in use after the bounded step
     Scalar gain[2] = {Scalar(0), Scalar(0)};
     LagDriftFitStatus fit_status = LagDriftFitStatus::non_finite;
     OnlineDriftStatus status = OnlineDriftStatus::fallback;  // tracking: accepted
@@ -379,7 +397,7 @@ class LagDriftIdentifier {
     if (owner_ != kNone) return;  // another channel's fit holds the working state: next sample
     while (t.next_request <= t.samples) t.next_request += cadence_;
     const std::uint64_t floor = lag_drift_min_samples(Lags);
-    const std::uint64_t need = settings_.min_samples > floor ? settings_.min_samples : floor;
+    const std::uint64_t need = guards_.min_samples > floor ? guards_.min_samples : floor;
     if (t.stats.samples() < need) return;  // not a refusal: the channel keeps its model
     owner_ = c;
     t.phase = Phase::waiting;
@@ -404,7 +422,7 @@ class LagDriftIdentifier {
     }
     const Outcome& o = outcome_;
     t.fit_status = o.fit_status;
-    t.estimate = o.estimate;
+    if (has_model(o.fit_status)) t.estimate = to_scalar(o.fit);
     if (o.status == OnlineDriftStatus::tracking) {
       t.in_use = o.model;
       t.gain[0] = o.gain[0];
@@ -433,21 +451,25 @@ class LagDriftIdentifier {
 
   static double atanh_of(double p) noexcept { return 0.5 * std::log((1.0 + p) / (1.0 - p)); }
 
-  // The fit with a1, a2 held at (a1, a2): u3 only.
-  LagDriftFitResult<double> fit_split(const Statistics& st, double a1, double a2) const noexcept {
-    LagDriftFitResult<double> res;
-    const LagLikelihoodKind kind = LagLikelihoodKind::whittle_no_head;
-    if (st.samples() < lag_drift_min_samples(Lags)) {
-      res.status = LagDriftFitStatus::too_few_samples;
-      return res;
-    }
-    Objective obj(st, kind);
-    if (!obj.form().finite()) {
-      res.status = LagDriftFitStatus::non_finite;
-      return res;
-    }
+  // The fit's statuses that come with an estimate.
+  static bool has_model(LagDriftFitStatus st) noexcept {
+    return st == LagDriftFitStatus::ok || st == LagDriftFitStatus::truncation || st == LagDriftFitStatus::not_converged;
+  }
+
+  static DriftModelParams<Scalar> to_scalar(const DriftModelParams<double>& m) noexcept {
+    return DriftModelParams<Scalar>{static_cast<Scalar>(m.a1), static_cast<Scalar>(m.a2), static_cast<Scalar>(m.q),
+                                    static_cast<Scalar>(m.r), static_cast<Scalar>(m.mean)};
+  }
+
+  // The fit with a1, a2 held at (a1, a2): u3 only, a one-dimensional BFGS from the best of the
+  // 11 splits, into `run`.
+  static GYRODRIFT_NOINLINE void split_run(Objective& obj, double a1, double a2, std::uint32_t max_iterations,
+                                           detail::BfgsRun<double>& run) noexcept {
     static constexpr double kSplits[11] = {0.02, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 0.98};
-    double u[3] = {atanh_of(a1 / (1.0 - a2)), atanh_of(a2), 0.0};
+    double* const u = run.u;
+    u[0] = atanh_of(a1 / (1.0 - a2));
+    u[1] = atanh_of(a2);
+    u[2] = 0.0;
     double best_f = std::numeric_limits<double>::infinity(), best_u3 = 0.0;
     for (const double lam : kSplits) {
       u[2] = std::log(lam / (1.0 - lam));
@@ -459,43 +481,35 @@ class LagDriftIdentifier {
     }
     u[2] = best_u3;
     const std::size_t free3[1] = {2};
-    const detail::BfgsRun<double> run = detail::bfgs<1>(obj, u, free3, lag_.max_iterations);
-    res.iterations = run.iterations;
-    res.runs = 1;
-    double fa1, fa2, lam;
-    detail::lag_natural(run.u, fa1, fa2, lam);
-    LagDriftProfile<double> p;
-    auto& form = obj.form();
-    const bool ok = std::isfinite(run.f) && lam > 0.0 && lam < 1.0 && form.build(fa1, fa2, lam, 1.0 - lam, kind) &&
-                    form.profile(lam, p);
-    res.evaluations = obj.evaluations() + 1U;
-    if (!ok) {
-      res.status = LagDriftFitStatus::non_finite;
-      return res;
-    }
-    res.model = DriftModelParams<double>{fa1, fa2, p.q, p.r, p.mean};
-    res.loglike = p.loglike;
-    double power = 1.0, base = form.pole();
-    for (std::size_t e = Lags; e > 0; e >>= 1U) {
-      if ((e & 1U) != 0U) power *= base;
-      base *= base;
-    }
-    res.truncation = power;
-    if (!run.converged) {
-      res.status = LagDriftFitStatus::not_converged;
-    } else if (!(power <= lag_drift_truncation_tol(kind))) {
-      res.status = LagDriftFitStatus::truncation;
+    detail::bfgs<1>(obj, run, free3, max_iterations);
+  }
+
+  // The fit of channel c's statistics (whittle_no_head; with adapt_ar lag_drift_fit's, else the
+  // split alone with the AR part held at the configured model's); its model into outcome_.fit
+  // when the status has one. Out of line: its objective and runs are off the stack before the
+  // guards run.
+  GYRODRIFT_NOINLINE LagDriftFitStatus fit_statistics(std::size_t c) noexcept {
+    const Statistics& st = tracks_[c].stats;
+    const LagLikelihoodKind kind = LagLikelihoodKind::whittle_no_head;
+    if (st.samples() < lag_drift_min_samples(Lags)) return LagDriftFitStatus::too_few_samples;
+    Objective obj(st, kind);
+    if (!obj.form().finite()) return LagDriftFitStatus::non_finite;
+    detail::BfgsRun<double> chosen;
+    if (guards_.adapt_ar) {
+      detail::lag_fit_runs<double>(obj, lag_.max_iterations, chosen, nullptr, nullptr);
     } else {
-      res.status = LagDriftFitStatus::ok;
+      const DriftModelParams<Scalar>& cfg = tracks_[c].configured;
+      split_run(obj, static_cast<double>(cfg.a1), static_cast<double>(cfg.a2), lag_.max_iterations, chosen);
     }
-    return res;
+    return detail::lag_fit_estimate<Lags, double>(obj, kind, chosen, guards_.adapt_ar, outcome_.fit, nullptr,
+                                                  nullptr);
   }
 
   // The guards: Cov(u) of the free coordinates from the central-difference Hessian of f at u;
   // false when it is not positive definite or not finite (the split not identified).
-  bool identified(const Statistics& st, const double* u_fit, double lam) const noexcept {
+  GYRODRIFT_NOINLINE bool identified(const Statistics& st, const double* u_fit, double lam) const noexcept {
     Objective obj(st, LagLikelihoodKind::whittle_no_head);
-    const bool ar = settings_.adapt_ar;
+    const bool ar = guards_.adapt_ar;
     const std::size_t d = ar ? 3U : 1U;
     const std::size_t idx[3] = {ar ? 0U : 2U, 1U, 2U};
     const double h = kLagIdentifierHessianStep;
@@ -528,17 +542,25 @@ class LagDriftIdentifier {
     const double n = static_cast<double>(st.samples());
     for (std::size_t i = 0; i < d; ++i)
       for (std::size_t j = 0; j < d; ++j) hess[i][j] *= n;
+    return identified_from(hess, d, u_fit, lam);
+  }
+
+  // The guards from n times the Hessian of f (d x d) at u_fit. Out of line: the covariance is
+  // not on the stack while the Hessian's evaluations run.
+  GYRODRIFT_NOINLINE bool identified_from(const double (&hess)[3][3], std::size_t d, const double* u_fit,
+                                          double lam) const noexcept {
+    const bool ar = guards_.adapt_ar;
     double cov[3][3] = {};
     if (!invert_spd(hess, d, cov)) return false;
     const double se_u3 = std::sqrt(cov[d - 1][d - 1]);
-    const double lim = static_cast<double>(settings_.max_rel_stderr);
+    const double lim = static_cast<double>(guards_.max_rel_stderr);
     if (!((1.0 - lam) * se_u3 <= lim) || !(lam * se_u3 <= lim)) return false;
     if (!ar) return true;
     const double c00 = cov[0][0], c01 = cov[0][1], c11 = cov[1][1];
     const double det = c00 * c11 - c01 * c01;
     if (!(det > 0.0)) return false;
     const double wald = (c11 * u_fit[0] * u_fit[0] - 2.0 * c01 * u_fit[0] * u_fit[1] + c00 * u_fit[1] * u_fit[1]) / det;
-    return wald >= static_cast<double>(settings_.min_ar_wald);
+    return wald >= static_cast<double>(guards_.min_ar_wald);
   }
 
   // The inverse of the d x d symmetric matrix a (d <= 3) by Cholesky; false unless positive
@@ -576,37 +598,41 @@ class LagDriftIdentifier {
     return true;
   }
 
-  // The fit of channel c and its outcome (guards, bounded step, gain), into fit_ and outcome_.
-  void run_fit(std::size_t c) noexcept {
+  // The fit of channel c and its outcome (guards, bounded step, gain), into outcome_: the fit,
+  // then the rest once its frames are gone.
+  void run_fit(std::size_t c) noexcept { decide(c, fit_statistics(c)); }
+
+  // The outcome of channel c's fit of status `status` (its model in outcome_.fit): the guards,
+  // the bounded step and the gain.
+  GYRODRIFT_NOINLINE void decide(std::size_t c, LagDriftFitStatus status) noexcept {
     const Track& t = tracks_[c];
     Outcome& o = outcome_;
     const DriftModelParams<Scalar>& cfg = t.configured;
-    if (settings_.adapt_ar) {
-      fit_ = lag_drift_fit<double>(t.stats, LagLikelihoodKind::whittle_no_head, lag_.max_iterations);
-    } else {
-      fit_ = fit_split(t.stats, static_cast<double>(cfg.a1), static_cast<double>(cfg.a2));
-    }
-    o.fit_status = fit_.status;
-    o.estimate = t.estimate;
+    o.fit_status = status;
     o.model = cfg;
     o.gain[0] = t.cgain[0];
     o.gain[1] = t.cgain[1];
     o.status = OnlineDriftStatus::fallback;
-    const DriftModelParams<double>& m = fit_.model;
-    const bool have_model = fit_.status == LagDriftFitStatus::ok || fit_.status == LagDriftFitStatus::truncation ||
-                            fit_.status == LagDriftFitStatus::not_converged;
-    if (have_model) {
-      o.estimate = DriftModelParams<Scalar>{static_cast<Scalar>(m.a1), static_cast<Scalar>(m.a2),
-                                            static_cast<Scalar>(m.q), static_cast<Scalar>(m.r),
-                                            static_cast<Scalar>(m.mean)};
-    }
-    if (fit_.status != LagDriftFitStatus::ok || !(m.q > 0.0) || !(m.r > 0.0)) return;
+    const DriftModelParams<double>& m = o.fit;
+    if (status != LagDriftFitStatus::ok || !(m.q > 0.0) || !(m.r > 0.0)) return;
     const double lam = m.q / (m.q + m.r);
     const double u_fit[3] = {atanh_of(m.a1 / (1.0 - m.a2)), atanh_of(m.a2), std::log(lam / (1.0 - lam))};
     if (!identified(t.stats, u_fit, lam)) {
       o.status = OnlineDriftStatus::not_identified;
       return;
     }
+    step_toward(c, u_fit);
+  }
+
+  // An identified fit of channel c (its model in outcome_.fit, u_fit its u): the bounded step
+  // from the model in use and its gain into outcome_ (status tracking), or nothing when the
+  // stepped model or its gain is refused. Out of line: its state is not on the stack while the
+  // guards' evaluations run.
+  GYRODRIFT_NOINLINE void step_toward(std::size_t c, const double* u_fit) noexcept {
+    const Track& t = tracks_[c];
+    Outcome& o = outcome_;
+    const DriftModelParams<Scalar>& cfg = t.configured;
+    const DriftModelParams<double>& m = o.fit;
     // Bounded step from the model in use: (u1, u2, log q, log r), scaled as a whole.
     const DriftModelParams<Scalar>& use = t.in_use;
     const double ua2 = static_cast<double>(use.a2), ua1 = static_cast<double>(use.a1);
@@ -614,16 +640,16 @@ class LagDriftIdentifier {
     double uq = static_cast<double>(use.q);
     if (!(uq > 1e-6 * ur)) uq = 1e-6 * ur;  // a configured white-noise model (q = 0): log q finite
     const double from[4] = {atanh_of(ua1 / (1.0 - ua2)), atanh_of(ua2), std::log(uq), std::log(ur)};
-    const double to[4] = {settings_.adapt_ar ? u_fit[0] : from[0], settings_.adapt_ar ? u_fit[1] : from[1],
+    const double to[4] = {guards_.adapt_ar ? u_fit[0] : from[0], guards_.adapt_ar ? u_fit[1] : from[1],
                           std::log(m.q), std::log(m.r)};
     double step[4], big = 0.0;
     for (int j = 0; j < 4; ++j) {
       step[j] = to[j] - from[j];
       big = std::fabs(step[j]) > big ? std::fabs(step[j]) : big;
     }
-    const double ms = static_cast<double>(settings_.max_step);
+    const double ms = static_cast<double>(guards_.max_step);
     const double scale = big > ms ? ms / big : 1.0;  // the step scaled as a whole
-    DriftModelParams<Scalar> next = o.estimate;  // within max_step: the fit itself
+    DriftModelParams<Scalar> next = to_scalar(m);  // within max_step: the fit itself
     if (big > ms) {
       double v[4];
       for (int j = 0; j < 4; ++j) v[j] = from[j] + scale * step[j];
@@ -633,7 +659,7 @@ class LagDriftIdentifier {
                                       static_cast<Scalar>(std::exp(v[2])), static_cast<Scalar>(std::exp(v[3])),
                                       static_cast<Scalar>(m.mean)};
     }
-    if (!settings_.adapt_ar) {  // exactly the configured AR part
+    if (!guards_.adapt_ar) {  // exactly the configured AR part
       next.a1 = cfg.a1;
       next.a2 = cfg.a2;
     }
@@ -647,11 +673,10 @@ class LagDriftIdentifier {
   }
 
   Track tracks_[Channels]{};
-  OnlineDriftSettings<Scalar> settings_{};
-  LagDriftSettings<Scalar> lag_{};
-  LagDriftFitResult<double> fit_{};
+  Guards guards_{};
   Outcome outcome_{};
   std::uint64_t cadence_ = 0;
+  LagDriftSettings<Scalar> lag_{};
   std::size_t n_ = 0;
   std::size_t owner_ = kNone;  // the channel whose fit holds the working state
   std::atomic<bool> pending_{false};  // a deferred fit waits for run_pending_fit()
