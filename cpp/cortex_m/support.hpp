@@ -32,6 +32,21 @@ inline float input(std::size_t i) noexcept { return gyrodrift_cm_input[i % 64u];
 inline void sink(float value) noexcept { gyrodrift_cm_sink = value; }
 inline void sink(std::int32_t value) noexcept { gyrodrift_cm_sink_i32 = value; }
 
+// Gaussian-like noise: the sum of 12 uniforms from an LCG minus 6 (variance 1), in float (the
+// gate units that simulate a record: deterministic, no library call).
+struct Noise {
+  std::uint32_t s;
+  float uniform() noexcept {
+    s = s * 1664525U + 1013904223U;
+    return static_cast<float>(s >> 8U) * 0x1.0p-24F;
+  }
+  float normal() noexcept {
+    float v = -6.0F;
+    for (int i = 0; i < 12; ++i) v += uniform();
+    return v;
+  }
+};
+
 // Host files through semihosting (support.cpp): a handle >= 0, or -1. For the golden-I/O unit.
 int host_open(const char* path, bool write);
 bool host_read(int fd, void* buf, std::size_t n);   // true when all n bytes were read

@@ -37,6 +37,8 @@
 #endif
 
 namespace {
+
+using gyrodrift::cortex_m::Noise;
 constexpr bool kNoHead = GYRODRIFT_LAG_FIT_NO_HEAD != 0;
 using Stats = gyrodrift::LagStatistics<float, GYRODRIFT_LAG_FIT_LAGS, !kNoHead>;
 constexpr gyrodrift::LagLikelihoodKind kKind =
@@ -72,20 +74,6 @@ void systick_start() noexcept {
 
 // Counts between two readings of the down-counter (modulo 2^24).
 std::uint32_t elapsed(std::uint32_t from, std::uint32_t to) noexcept { return (from - to) & 0xFFFFFFU; }
-
-// Gaussian-like noise: the sum of 12 uniforms from an LCG minus 6 (variance 1), in float.
-struct Noise {
-  std::uint32_t s;
-  float uniform() noexcept {
-    s = s * 1664525U + 1013904223U;
-    return static_cast<float>(s >> 8U) * 0x1.0p-24F;
-  }
-  float normal() noexcept {
-    float v = -6.0F;
-    for (int i = 0; i < 12; ++i) v += uniform();
-    return v;
-  }
-};
 
 #if defined(GYRODRIFT_CM_SEMIHOSTING)
 char* put_text(char* out, const char* text) noexcept {

@@ -20,6 +20,8 @@
 #include "support.hpp"
 
 namespace {
+
+using gyrodrift::cortex_m::Noise;
 using Identifier = gyrodrift::LagDriftIdentifier<float, 3>;
 constexpr std::size_t kSamples = 9216;
 // The state on the Cortex-M4 (x86-64: 920 and 408 B, cpp/tests/test_lag_drift_identifier.cpp):
@@ -33,20 +35,6 @@ Identifier& identifier() noexcept {
   static Identifier id;
   return id;
 }
-
-// Gaussian-like noise: the sum of 12 uniforms from an LCG minus 6 (variance 1), in float.
-struct Noise {
-  std::uint32_t s;
-  float uniform() noexcept {
-    s = s * 1664525U + 1013904223U;
-    return static_cast<float>(s >> 8U) * 0x1.0p-24F;
-  }
-  float normal() noexcept {
-    float v = -6.0F;
-    for (int i = 0; i < 12; ++i) v += uniform();
-    return v;
-  }
-};
 
 struct Drift {
   Noise w, v;
